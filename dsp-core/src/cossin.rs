@@ -22,7 +22,7 @@ const PI_Q29: i64 = 1_686_629_713;
 
 /// Cosine and sine of `phase` (θ = 2π·phase/2³²), both Q31:
 /// `cos θ ≈ c/2³¹`, `sin θ ≈ s/2³¹`, saturated to the `i32` range
-/// (so +1 reads as `i32::MAX`).
+/// (so +1 reads as `i32::MAX` and −1 as `i32::MIN`).
 ///
 /// ```
 /// let (c, s) = dsp_core::cossin::cossin(1 << 30); // +90°
@@ -88,11 +88,11 @@ mod tests {
     #[test]
     fn cossin_edges() {
         assert_eq!(cossin(0), (i32::MAX, 0));
-        let (c, s) = cossin(i32::MIN);
-        assert_eq!((c, s), (-i32::MAX, 0));
+        // −1 is exactly representable in Q31.
+        assert_eq!(cossin(i32::MIN), (i32::MIN, 0));
         let (c, s) = cossin(i32::MAX);
         assert!(c < -i32::MAX + 8 && s.abs() < 8);
         let (c, s) = cossin(-(1 << 30));
-        assert!(c.abs() < 8 && s == -i32::MAX);
+        assert!(c.abs() < 8 && s == i32::MIN);
     }
 }

@@ -21,15 +21,15 @@ pub(crate) fn split_f32(x: f32) -> (u32, i32) {
 pub(crate) fn exp_neg_q31(t_q25: u32) -> u32 {
     const LOG2E_Q30: u64 = 1_549_082_005; // round(log2(e)·2^30)
     const LN2_Q32: u64 = 2_977_044_472; // round(ln(2)·2^32)
-    let u = (t_q25 as u64 * LOG2E_Q30) >> 30; // Q25, < 2^33
-    let k = (u >> 25) as u32;
+    let u = (t_q25 as u64 * LOG2E_Q30) >> 25; // t·log2(e), Q30, < 2^38
+    let k = (u >> 30) as u32;
     if k >= 32 {
         return 0;
     }
-    let f = (u & ((1 << 25) - 1)) as u32;
-    let idx = (f >> (25 - EXP2_BITS)) as usize;
-    let r = (f & ((1 << (25 - EXP2_BITS)) - 1)) as u64; // Q25, < 1/64
-    let w = (r * LN2_Q32) >> 26; // Q31
+    let f = u & ((1 << 30) - 1);
+    let idx = (f >> (30 - EXP2_BITS)) as usize;
+    let r = f & ((1 << (30 - EXP2_BITS)) - 1); // Q30, < 1/64
+    let w = (r * LN2_Q32) >> 31; // r·ln2, Q31
     let w2 = (w * w) >> 31;
     let w3 = (w2 * w) >> 31;
     let p = (1u64 << 31) - w + (w2 >> 1) - w3 / 6; // e^(−w), Q31

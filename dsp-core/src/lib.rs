@@ -49,7 +49,7 @@ pub type Complex32 = Complex<f32>;
 pub mod cossin;
 pub mod demod;
 mod fixed;
-// pub mod invert;
+pub mod invert;
 pub mod lumped;
 pub mod osc;
 pub mod tline;

@@ -101,7 +101,7 @@ impl Oscillator {
     }
 
     /// Next code for an unsigned `bits`-bit DAC (`bits` in 1..=16): mid-scale
-    /// plus `amplitude` (Q15, 32767 = full scale) times the sine, rounded.
+    /// plus `amplitude` (Q15, 2¹⁵ = 1.0) times the sine, rounded.
     pub fn next_dac(&self, state: &mut OscillatorState, bits: u32, amplitude: i16) -> u16 {
         let (_, s) = self.next(state);
         dac_code(s, bits, amplitude)
@@ -109,16 +109,16 @@ impl Oscillator {
 }
 
 /// DAC code of a Q31 sample `s` for an unsigned `bits`-bit DAC
-/// (`bits` in 1..=16) at `amplitude` (Q15):
-/// code = 2^(bits−1) + round(s/2³¹ · amplitude/2¹⁵ · (2^(bits−1) − 1)).
-/// Never exceeds the DAC range (saturates).
+/// (`bits` in 1..=16) at `amplitude` (Q15, 2¹⁵ = 1.0; negative reads as 0):
+/// code = 2^(bits−1) + round(s/2³¹ · amplitude/2¹⁵ · 2^(bits−1)), saturated
+/// to the DAC range 0..2^bits − 1.
 #[inline]
 pub fn dac_code(s: i32, bits: u32, amplitude: i16) -> u16 {
     let bits = bits.clamp(1, 16);
     let half = 1i64 << (bits - 1);
     // s·a is Q46; scale by (half−1), round, back to integer codes.
     let v = (s as i64 * amplitude.max(0) as i64) >> 15; // Q31
-    let code = half + (((v * (half - 1)) + (1 << 30)) >> 31);
+    let code = half + ((v * half + (1 << 30)) >> 31);
     code.clamp(0, (1i64 << bits) - 1) as u16
 }
 
@@ -168,8 +168,10 @@ mod tests {
     fn dac_codes_saturate_and_center() {
         assert_eq!(dac_code(0, 12, 32767), 2048);
         assert_eq!(dac_code(i32::MAX, 12, 32767), 4095);
-        assert_eq!(dac_code(i32::MIN, 12, 32767), 1);
+        assert_eq!(dac_code(i32::MIN, 12, 32767), 0);
+        assert_eq!(dac_code(i32::MAX, 12, 16384), 3072);
         assert_eq!(dac_code(i32::MAX, 16, 32767), 65535);
+        assert_eq!(dac_code(i32::MIN, 16, 32767), 1); // 32767 = 1 − 2⁻¹⁵
         assert_eq!(dac_code(i32::MAX, 12, -5), 2048);
         assert_eq!(dac_code(i32::MIN, 1, 32767), 0);
     }

@@ -7,22 +7,10 @@
 
 use dsp_core::tline::{LineModel, ModelError, N_MAX, X_MAX, X_MIN};
 use num_complex::Complex64;
+
+mod common;
+use common::{continuous_ref, ladder_ref};
 use proptest::prelude::*;
-
-fn ladder_ref(n: u32, x: f64) -> Complex64 {
-    // normalized: R = 1, ωC = x, so ζ = x·z.
-    let (r, y) = (1.0 / n as f64, Complex64::new(0.0, x / n as f64));
-    let mut z = r + 1.0 / y;
-    for _ in 1..n {
-        z = r + 1.0 / (y + 1.0 / z);
-    }
-    z * x
-}
-
-fn continuous_ref(x: f64) -> Complex64 {
-    let g = Complex64::new(0.0, x).sqrt();
-    x / (g * g.tanh())
-}
 
 /// Below this x the inversion uses the small-x asymptote, not the model's Re ζ.
 const X_RE_MIN: f64 = 1e-2;
