@@ -62,6 +62,12 @@ use core::f32::consts::TAU;
 pub const X_MIN: f32 = 6.0e-6;
 /// Largest supported x = ωRC (2π·50 kHz·10 MΩ·1 nF ≈ 3142, rounded up).
 pub const X_MAX: f32 = 3200.0;
+/// Supported electrode resistance R, Ω (inclusive).
+pub const R_RANGE_OHM: (f32, f32) = (1e3, 10e6);
+/// Supported line capacitance C, F (inclusive).
+pub const C_RANGE_FARAD: (f32, f32) = (10e-12, 1e-9);
+/// Supported excitation frequency, Hz (inclusive).
+pub const F_RANGE_HZ: (f32, f32) = (100.0, 50e3);
 /// Largest number of ladder elements.
 pub const N_MAX: u8 = 64;
 
@@ -97,13 +103,15 @@ impl LineModel {
     }
 
     /// Input impedance (Ω) of a line with total electrode resistance
-    /// `r_ohm` (Ω) and capacitance `c_farad` (F) at `f_hz` (Hz).
+    /// `r_ohm` (Ω) and capacitance `c_farad` (F) at `f_hz` (Hz), each within
+    /// its declared range ([`R_RANGE_OHM`], [`C_RANGE_FARAD`], [`F_RANGE_HZ`]).
     pub fn impedance(&self, r_ohm: f32, c_farad: f32, f_hz: f32) -> Result<Complex32, ModelError> {
-        let w = TAU * f_hz;
-        let x = w * r_ohm * c_farad;
-        if !(r_ohm > 0.0 && c_farad > 0.0 && f_hz > 0.0) {
+        let within = |v: f32, (lo, hi): (f32, f32)| v >= lo && v <= hi;
+        if !(within(r_ohm, R_RANGE_OHM) && within(c_farad, C_RANGE_FARAD) && within(f_hz, F_RANGE_HZ)) {
             return Err(ModelError::OutOfRange);
         }
+        let w = TAU * f_hz;
+        let x = (w * r_ohm * c_farad).clamp(X_MIN, X_MAX);
         let z = self.zeta(x)?;
         Ok(z / (w * c_farad))
     }

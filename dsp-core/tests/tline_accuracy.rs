@@ -96,6 +96,14 @@ fn range_edges_are_errors_not_garbage() {
     assert_eq!(LineModel::Ladder(65).zeta(1.0), Err(ModelError::BadElements));
     assert_eq!(LineModel::Continuous.impedance(-1.0, 1e-10, 1e3), Err(ModelError::OutOfRange));
     assert_eq!(LineModel::Continuous.impedance(1e3, 1e-10, 0.0), Err(ModelError::OutOfRange));
+    assert_eq!(LineModel::Continuous.impedance(1e3, 1e-10, 50.1e3), Err(ModelError::OutOfRange));
+    assert_eq!(LineModel::Continuous.impedance(999.0, 1e-10, 1e3), Err(ModelError::OutOfRange));
+    assert_eq!(LineModel::Continuous.impedance(1e3, 1.01e-9, 1e3), Err(ModelError::OutOfRange));
+    // The corners of the physical range evaluate.
+    for (r, c, f) in [(1e3, 10e-12, 100.0), (10e6, 1e-9, 50e3), (1e3, 1e-9, 50e3), (10e6, 10e-12, 100.0)] {
+        assert!(LineModel::Ladder(64).impedance(r, c, f).is_ok());
+        assert!(LineModel::Continuous.impedance(r, c, f).is_ok());
+    }
     // Both ends of the range evaluate.
     for m in [LineModel::Ladder(1), LineModel::Ladder(64), LineModel::Continuous] {
         for x in [X_MIN, X_MAX] {

@@ -1,0 +1,94 @@
+//! The line as a series Cs–Rs meter sees it, and back.
+
+use anyhow::{bail, Result};
+use dsp_core::invert::{InvertError, Inverter, Line};
+use dsp_core::lumped::SeriesRc;
+use dsp_core::tline::LineModel;
+use dsp_core::Complex32;
+
+/// Parse a model name: `continuous` (or `c`, `inf`) or a ladder size `1`..`64`.
+pub fn parse_model(s: &str) -> Result<LineModel, String> {
+    match s.trim() {
+        "continuous" | "c" | "inf" => Ok(LineModel::Continuous),
+        n => match n.parse::<u8>() {
+            Ok(n) if (1..=dsp_core::tline::N_MAX).contains(&n) => Ok(LineModel::Ladder(n)),
+            _ => Err(format!("model '{s}': expected 'continuous' or a ladder size 1..=64")),
+        },
+    }
+}
+
+/// Human name of a model.
+pub fn model_name(m: LineModel) -> String {
+    match m {
+        LineModel::Ladder(1) => "lumped (n=1)".into(),
+        LineModel::Ladder(n) => format!("ladder n={n}"),
+        LineModel::Continuous => "continuous".into(),
+    }
+}
+
+/// What a series meter reads on a line.
+#[derive(Clone, Copy, Debug)]
+pub struct Reading {
+    /// The model evaluated.
+    pub model: LineModel,
+    /// Excitation frequency, Hz.
+    pub f_hz: f64,
+    /// x = ωRC.
+    pub x: f64,
+    /// Line impedance, Ω.
+    pub z: Complex32,
+    /// The meter's series reading.
+    pub series: SeriesRc,
+}
+
+/// Evaluate `model` for a line R (Ω), C (F) at `f_hz`.
+pub fn read(model: LineModel, r_ohm: f64, c_farad: f64, f_hz: f64) -> Result<Reading> {
+    let z = match model.impedance(r_ohm as f32, c_farad as f32, f_hz as f32) {
+        Ok(z) => z,
+        Err(e) => bail!(
+            "cannot evaluate {} at R={r_ohm} Ω, C={c_farad} F, f={f_hz} Hz: {e:?} \
+             (supported: ωRC in [{}, {}], i.e. R 1 kΩ–10 MΩ, C 10 pF–1 nF, f 100 Hz–50 kHz)",
+            model_name(model),
+            dsp_core::tline::X_MIN,
+            dsp_core::tline::X_MAX
+        ),
+    };
+    let series = SeriesRc::from_impedance(z, f_hz as f32).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(Reading {
+        model,
+        f_hz,
+        x: std::f64::consts::TAU * f_hz * r_ohm * c_farad,
+        z,
+        series,
+    })
+}
+
+/// The line behind a series reading Cs (F), Rs (Ω) at `f_hz`; with
+/// `c_hint`, the branch closest to it where two lines fit.
+pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: Option<f64>) -> Result<Line> {
+    let series = SeriesRc {
+        cs_farad: cs_farad as f32,
+        rs_ohm: rs_ohm as f32,
+    };
+    let z: Complex32 = series.impedance(f_hz as f32);
+    let inv = Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let r = match c_hint {
+        Some(c) => inv.invert_near(z, f_hz as f32, c as f32),
+        None => inv.invert(z, f_hz as f32),
+    };
+    r.map_err(|e| match e {
+        InvertError::Ambiguous => anyhow::anyhow!(
+            "two lines fit this reading (ωRC above {:.2} for {}); pass --c-hint with the expected capacitance",
+            inv.x_unique(),
+            model_name(model)
+        ),
+        InvertError::OutOfRange => anyhow::anyhow!(
+            "D = Rs·ωCs = {:.4} is beyond what {} reaches for ωRC ≤ {}: lower the frequency",
+            rs_ohm * std::f64::consts::TAU * f_hz * cs_farad,
+            model_name(model),
+            inv.x_max()
+        ),
+        InvertError::NotCapacitive => anyhow::anyhow!("Cs and Rs must be positive"),
+        other => anyhow::anyhow!("cannot invert: {other:?}"),
+    })
+}
