@@ -62,6 +62,14 @@ fn main() {
     }
     writeln!(s, "];").unwrap();
 
+    // Arm cores with the DSP extension (Cortex-M4/M7/M33...): stable Rust
+    // does not expose Arm target features to cfg, so tell by the target.
+    println!("cargo::rustc-check-cfg=cfg(arm_dsp)");
+    let target = env::var("TARGET").unwrap_or_default();
+    if target.starts_with("thumbv7em") || target.starts_with("thumbv8m.main") {
+        println!("cargo:rustc-cfg=arm_dsp");
+    }
+
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap()).join("tables.rs");
     fs::write(out, s).unwrap();
     println!("cargo:rerun-if-changed=build.rs");

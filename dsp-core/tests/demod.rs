@@ -31,7 +31,7 @@ fn q16(x: f64) -> i16 {
 #[test]
 fn variance_meets_cramer_rao_bound() {
     let o = osc(6000.0);
-    let dm = Demodulator::new(&o);
+    let dm = Demodulator::<N>::new(&o);
     let (a, phi, sigma) = (1000.0f64, 0.7f64, 40.0f64);
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let noise = Normal::new(0.0, sigma).unwrap();
@@ -43,7 +43,7 @@ fn variance_meets_cramer_rao_bound() {
             let x = a * (theta(&o, n) + phi).cos();
             *s = [q16(x + noise.sample(&mut rng)), q16(x + noise.sample(&mut rng))];
         }
-        let p = dm.block(&buf);
+        let p = dm.block(buf.as_slice().try_into().unwrap());
         amps.push(p.v_amplitude() as f64);
         phases.push((p.v.im as f64).atan2(p.v.re as f64));
     }
@@ -68,7 +68,7 @@ fn variance_meets_cramer_rao_bound() {
 fn rejects_dc_and_harmonics() {
     for f in [500.0f32, 2000.0, 6000.0, 20000.0] {
         let o = osc(f);
-        let dm = Demodulator::new(&o);
+        let dm = Demodulator::<N>::new(&o);
         let clean: Vec<[i16; 2]> = (0..N)
             .map(|n| {
                 let t = theta(&o, n);
@@ -82,7 +82,7 @@ fn rejects_dc_and_harmonics() {
                 [q16(8000.0 * t.cos() + 4000.0 + h), q16(3000.0 * (t - 1.0).cos() - 7000.0 + h)]
             })
             .collect();
-        let (a, b) = (dm.block(&clean), dm.block(&dirty));
+        let (a, b) = (dm.block(clean.as_slice().try_into().unwrap()), dm.block(dirty.as_slice().try_into().unwrap()));
         let rel = |x: num_complex::Complex<i64>, y: num_complex::Complex<i64>| {
             let d = ((x.re - y.re) as f64).hypot((x.im - y.im) as f64);
             d / (x.re as f64).hypot(x.im as f64)
@@ -99,7 +99,7 @@ fn recovers_impedance_through_front_end() {
     let z = Complex32::new(150e3, -600e3);
     let fe = FrontEnd::transimpedance(100e3, true);
     let o = osc(2000.0);
-    let dm = Demodulator::new(&o);
+    let dm = Demodulator::<N>::new(&o);
     let (va, zm, zarg) = (10000.0f64, (z.norm() as f64), (z.im as f64).atan2(z.re as f64));
     let ia = va / zm * 100e3;
     let pairs: Vec<[i16; 2]> = (0..N)
@@ -108,37 +108,42 @@ fn recovers_impedance_through_front_end() {
             [q16(va * (t + 0.3).cos()), q16(-ia * (t + 0.3 - zarg).cos())]
         })
         .collect();
-    let got = dm.block(&pairs).impedance(&fe).unwrap();
+    let got = dm.block(pairs.as_slice().try_into().unwrap()).impedance(&fe).unwrap();
     assert!((got - z).norm() / z.norm() < 2e-4, "{got}");
     // No current at all: open sensor.
     let open: Vec<[i16; 2]> = pairs.iter().map(|p| [p[0], 0]).collect();
-    assert_eq!(dm.block(&open).impedance(&fe), None);
+    assert_eq!(dm.block(open.as_slice().try_into().unwrap()).impedance(&fe), None);
 }
 
 #[test]
 fn chunks_equal_one_block() {
     let o = osc(3000.0);
-    let dm = Demodulator::new(&o);
+    let dm = Demodulator::<N>::new(&o);
     let pairs: Vec<[i16; 2]> = (0..N).map(|n| [(n as i32 * 37 % 4001 - 2000) as i16, (n as i32 * 91 % 3001 - 1500) as i16]).collect();
-    let whole = dm.block(&pairs);
+    let whole = dm.block(pairs.as_slice().try_into().unwrap());
     let mut st = DemodState::default();
     for c in pairs.chunks(100) {
-        dm.update(&mut st, c);
+        assert_eq!(dm.update(&mut st, c), c.len());
     }
+    // A full block takes no more pairs.
+    assert_eq!(dm.update(&mut st, &pairs[..10]), 0);
     assert_eq!(dm.finish(&mut st), whole);
     assert_eq!(whole.n, N as u32);
     // finish resets: the next block starts afresh.
-    dm.update(&mut st, &pairs);
+    let mut longer = pairs.clone();
+    longer.extend_from_slice(&pairs[..5]);
+    assert_eq!(dm.update(&mut st, &longer), N);
     assert_eq!(dm.finish(&mut st), whole);
 }
 
 /// Full-scale samples over the longest block cannot overflow the sums.
 #[test]
 fn full_scale_does_not_overflow() {
-    let o = osc(1000.0);
-    let dm = Demodulator::new(&o);
-    let pairs = vec![[i16::MIN, i16::MIN]; 1 << 16];
-    let p = dm.block(&pairs);
+    const BIG: usize = 1 << 16;
+    let o = Oscillator::coherent(1000.0, FS, 16).unwrap();
+    let dm = Box::new(Demodulator::<BIG>::new(&o));
+    let pairs = vec![[i16::MIN, i16::MIN]; BIG];
+    let p = dm.block(pairs.as_slice().try_into().unwrap());
     // DC is rejected exactly over whole periods.
     assert!(p.v.re.abs() < 1 << 16 && p.v.im.abs() < 1 << 16, "{:?}", p.v);
 }

@@ -1,0 +1,112 @@
+//! Instruction counts of the dsp-core kernels on a Cortex-M4, run in QEMU
+//! with `-icount shift=7,align=off,sleep=off` (deterministic: the virtual
+//! clock advances with every instruction executed).
+//!
+//! SysTick runs from the core clock; its ticks per instruction are
+//! calibrated with a loop of known length (`subs`/`bne`, 2 instructions per
+//! turn), so the reported counts do not depend on QEMU's clock settings.
+//! Output lines: `bench <name> <instructions per unit> <unit>`.
+#![no_std]
+#![no_main]
+
+use core::hint::black_box;
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::entry;
+use dsp_core::demod::Demodulator;
+use dsp_core::invert::Inverter;
+use dsp_core::tline::LineModel;
+use dsp_core::{Complex32, Oscillator, OscillatorState};
+use semihosting::println;
+
+const PAIRS: usize = 2048;
+
+/// SysTick ticks spent in `f` (reload 2^24 − 1, counting down).
+fn ticks(syst: &mut SYST, f: impl FnOnce()) -> u32 {
+    syst.clear_current();
+    let a = SYST::get_current();
+    f();
+    let b = SYST::get_current();
+    a.wrapping_sub(b) & 0x00ff_ffff
+}
+
+/// 2·n instructions.
+#[inline(never)]
+fn spin(n: u32) {
+    // SAFETY: a register-only countdown loop.
+    unsafe {
+        core::arch::asm!("1:", "subs {0}, #1", "bne 1b", inout(reg) n => _, options(nomem, nostack));
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| semihosting::process::exit(3));
+    let syst = &mut cp.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(0x00ff_ffff);
+    syst.enable_counter();
+
+    // Ticks per instruction from two spin lengths (overhead cancels).
+    let (t1, t2) = (ticks(syst, || spin(20_000)), ticks(syst, || spin(60_000)));
+    let per_insn = (t2 - t1) as f32 / 80_000.0;
+    let empty = ticks(syst, || black_box(()));
+    let insns = |t: u32| ((t.saturating_sub(empty)) as f32 / per_insn) as u32;
+    println!("calib ticks_per_insn={}", per_insn);
+
+    // Demodulation of one block of sample pairs.
+    let osc = Oscillator::coherent(6000.0, 200e3, 11).unwrap_or_else(|_| semihosting::process::exit(4));
+    let mut st = OscillatorState::default();
+    let mut buf = [[0i16; 2]; PAIRS];
+    for p in buf.iter_mut() {
+        let (c, s) = osc.next(&mut st);
+        *p = [(c >> 17) as i16, (s >> 18) as i16];
+    }
+    let dm = Demodulator::<PAIRS>::new(&osc);
+    let t = ticks(syst, || {
+        black_box(dm.block(black_box(&buf)));
+    });
+    let n = insns(t);
+    // The assembly inner loop must match the portable one bit for bit.
+    let mut reference = [0u32; PAIRS];
+    let mut ph = 0u32;
+    for r in reference.iter_mut() {
+        *r = dsp_core::tables::DEMOD_REF[(ph >> 21) as usize];
+        ph = ph.wrapping_add(osc.ftw());
+    }
+    let (fast, slow) = (dm.block(&buf), dsp_core::demod::portable([0; 4], &buf, &reference));
+    if [fast.v.re, -fast.v.im, fast.i.re, -fast.i.im] != slow {
+        println!("FAIL demod assembly differs from portable");
+        semihosting::process::exit(1);
+    }
+    println!("check demod_asm_equals_portable ok");
+    println!("bench demod_block {} insn/block", n);
+    println!("bench demod_pair {}.{:02} insn/pair", n / PAIRS as u32, (n % PAIRS as u32) * 100 / PAIRS as u32);
+
+    // Model evaluations and inversions, averaged over a few x.
+    let xs = [0.05f32, 0.5, 2.0, 5.0];
+    for (name, model) in [("ladder30", LineModel::Ladder(30)), ("continuous", LineModel::Continuous)] {
+        let mut total = 0;
+        for &x in &xs {
+            total += insns(ticks(syst, || {
+                black_box(black_box(model).zeta(black_box(x)).ok());
+            }));
+        }
+        println!("bench eval_{} {} insn/eval", name, total / xs.len() as u32);
+        let inv = Inverter::new(model);
+        let mut total = 0;
+        let mut worst = 0;
+        for &x in &xs {
+            let zeta = model.zeta(x).unwrap_or_default();
+            let (w, c) = (core::f32::consts::TAU * 6000.0, 200e-12f32);
+            let z: Complex32 = zeta / (w * c);
+            let t = insns(ticks(syst, || {
+                black_box(inv.invert(black_box(z), 6000.0).ok());
+            }));
+            total += t;
+            worst = worst.max(t);
+        }
+        println!("bench invert_{} {} insn/inversion", name, total / xs.len() as u32);
+        println!("bench invert_{}_worst {} insn/inversion", name, worst);
+    }
+    semihosting::process::exit(0)
+}
