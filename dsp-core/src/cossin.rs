@@ -14,6 +14,11 @@
 //!
 //! whose truncation error is below δ³/6 ≈ 4.9·10⁻⁹ of full scale; with the
 //! Q31 table rounding the total error is < 1·10⁻⁸ (tested against f64).
+//!
+//! Overflow: the intermediates c₀ − δ·s₀/2 and s₀ + δ·c₀/2 are narrowed to
+//! i32. Their excursion grows with |δ|, so checking every table entry at
+//! both extreme remainders covers all phases; the test
+//! `intermediates_fit_i32` does exactly that.
 
 use crate::tables::{SIN_BITS, SIN_Q31};
 
@@ -35,15 +40,17 @@ pub fn cossin(phase: i32) -> (i32, i32) {
     let p = phase as u32;
     // Nearest table index and the signed remainder, |rem| ≤ 2^(SHIFT-1).
     let idx = (p.wrapping_add(1 << (SHIFT - 1)) >> SHIFT) as usize & MASK;
-    let rem = p.wrapping_sub((idx as u32) << SHIFT) as i32 as i64;
-    // δ in radians, Q31: rem·2π/2³² ·2³¹ = rem·π.
-    let d = (rem * PI_Q29) >> 29;
-    let s0 = SIN_Q31[idx] as i64;
-    let c0 = SIN_Q31[(idx + (1 << (SIN_BITS - 2))) & MASK] as i64;
-    let t = c0 - ((d * s0) >> 32);
-    let u = s0 + ((d * c0) >> 32);
-    let s = s0 + ((d * t) >> 31);
-    let c = c0 - ((d * u) >> 31);
+    let rem = p.wrapping_sub((idx as u32) << SHIFT) as i32;
+    // δ in radians, Q31: rem·2π/2³² ·2³¹ = rem·π; |δ| < 2^23, so i32.
+    let d = ((rem as i64 * PI_Q29) >> 29) as i32;
+    let s0 = SIN_Q31[idx];
+    let c0 = SIN_Q31[(idx + (1 << (SIN_BITS - 2))) & MASK];
+    // All products are i32 × i32 (one SMULL each on Cortex-M4).
+    let mul = |a: i32, b: i32, sh: u32| (a as i64 * b as i64) >> sh;
+    let t = (c0 as i64 - mul(d, s0, 32)) as i32; // fits: see `intermediates_fit_i32`
+    let u = (s0 as i64 + mul(d, c0, 32)) as i32;
+    let s = s0 as i64 + mul(d, t, 31);
+    let c = c0 as i64 - mul(d, u, 31);
     (sat32(c), sat32(s))
 }
 
@@ -83,6 +90,24 @@ mod tests {
         let rms = (ss / n as f64).sqrt();
         assert!(max < 1.0e-8, "max error {max:e}");
         assert!(rms < 3.0e-9, "rms error {rms:e}");
+    }
+
+    /// Exhaustive proof that the i32 intermediates cannot overflow.
+    #[test]
+    fn intermediates_fit_i32() {
+        const SHIFT: u32 = 32 - SIN_BITS;
+        const MASK: usize = (1 << SIN_BITS) - 1;
+        for idx in 0..=MASK {
+            for rem in [-(1i64 << (SHIFT - 1)), (1 << (SHIFT - 1)) - 1] {
+                let d = (rem * PI_Q29) >> 29;
+                let s0 = SIN_Q31[idx] as i64;
+                let c0 = SIN_Q31[(idx + (1 << (SIN_BITS - 2))) & MASK] as i64;
+                let t = c0 - ((d * s0) >> 32);
+                let u = s0 + ((d * c0) >> 32);
+                assert!(d.abs() < 1 << 23);
+                assert!(i32::try_from(t).is_ok() && i32::try_from(u).is_ok(), "idx {idx} rem {rem}");
+            }
+        }
     }
 
     #[test]

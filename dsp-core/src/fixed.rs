@@ -19,21 +19,30 @@ pub(crate) fn split_f32(x: f32) -> (u32, i32) {
 /// 0 ≤ w < ln2/64, whose truncation error is < w⁴/24 < 6·10⁻¹⁰. Total absolute
 /// error < 3·10⁻⁹ (tested).
 pub(crate) fn exp_neg_q31(t_q25: u32) -> u32 {
-    const LOG2E_Q30: u64 = 1_549_082_005; // round(log2(e)·2^30)
-    const LN2_Q32: u64 = 2_977_044_472; // round(ln(2)·2^32)
-    let u = (t_q25 as u64 * LOG2E_Q30) >> 25; // t·log2(e), Q30, < 2^38
+    const LOG2E_Q30: u32 = 1_549_082_005; // round(log2(e)·2^30)
+    const LN2_Q32: u32 = 2_977_044_472; // round(ln(2)·2^32)
+    // All products are u32 × u32 → u64 (one UMULL each on Cortex-M4).
+    let mul = |a: u32, b: u32| a as u64 * b as u64;
+    let u = mul(t_q25, LOG2E_Q30) >> 25; // t·log2(e), Q30, < 2^38
     let k = (u >> 30) as u32;
     if k >= 32 {
         return 0;
     }
-    let f = u & ((1 << 30) - 1);
+    let f = (u & ((1 << 30) - 1)) as u32;
     let idx = (f >> (30 - EXP2_BITS)) as usize;
     let r = f & ((1 << (30 - EXP2_BITS)) - 1); // Q30, < 1/64
-    let w = (r * LN2_Q32) >> 31; // r·ln2, Q31
-    let w2 = (w * w) >> 31;
-    let w3 = (w2 * w) >> 31;
-    let p = (1u64 << 31) - w + (w2 >> 1) - w3 / 6; // e^(−w), Q31
-    (((EXP2_NEG_Q31[idx] as u64 * p) >> 31) >> k) as u32
+    let w = (mul(r, LN2_Q32) >> 31) as u32; // r·ln2, Q31, < 2^25
+    let w2 = (mul(w, w) >> 31) as u32;
+    let w3 = (mul(w2, w) >> 31) as u32;
+    let p = (1u32 << 31) - w + (w2 >> 1) - w3 / 6; // e^(−w), Q31
+    ((mul(EXP2_NEG_Q31[idx], p) >> 31) >> k) as u32
+}
+
+/// Correctly rounded √x (IEEE 754): `libm`'s software square root, which
+/// gives the same bits as a hardware `vsqrt` and works on every target.
+#[inline]
+pub(crate) fn sqrtf(x: f32) -> f32 {
+    libm::sqrtf(x)
 }
 
 #[cfg(test)]

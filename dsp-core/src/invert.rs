@@ -226,6 +226,12 @@ impl Inverter {
 
     /// Root of D(x) = d on the monotone grid stretch [i0, i1]; returns x and
     /// ζ(x).
+    ///
+    /// The first guess is inverse cubic interpolation of u = ln x against D
+    /// through the four grid points around the root (no model evaluation);
+    /// then secant steps on g(u) = D(eᵘ) − d, kept inside the bracketing
+    /// grid cell (regula falsi when a secant step would leave it). Typically
+    /// two or three model evaluations.
     fn root(&self, d: f32, i0: usize, i1: usize) -> Result<(f32, Complex32), InvertError> {
         let up = self.d[i1] >= self.d[i0];
         // Bracketing cell by bisection over the grid (no model evaluations).
@@ -238,37 +244,60 @@ impl Inverter {
                 b = m;
             }
         }
-        // Illinois regula falsi in u = ln x on g(u) = D(e^u) − d.
+        let k0 = a.saturating_sub(1).max(i0);
+        let k0 = (k0 + 3).min(i1).saturating_sub(3).max(i0);
+        let k1 = (k0 + 3).min(i1);
+        let mut u = 0.0;
+        for j in k0..=k1 {
+            let mut w = self.u[j];
+            for m in k0..=k1 {
+                if m != j {
+                    w *= (d - self.d[m]) / (self.d[j] - self.d[m]);
+                }
+            }
+            u += w;
+        }
+        // Bracket in u with g < 0 at `lo` side and g > 0 at `hi` side.
         let (mut ua, mut ga, mut ub, mut gb) = (self.u[a], self.d[a] - d, self.u[b], self.d[b] - d);
-        let mut side = 0i8;
-        let mut best = (libm::expf(ua), Complex32::new(0.0, -1.0), f32::INFINITY);
+        if !(u > ua && u < ub) {
+            u = ua - ga * (ub - ua) / (gb - ga);
+        }
+        let (mut up_, mut gp) = if ga.abs() < gb.abs() { (ua, ga) } else { (ub, gb) };
+        let mut best = (libm::expf(u), Complex32::new(0.0, -1.0), f32::INFINITY);
+        // Which bracket end the last regula-falsi step kept (Illinois).
+        let mut kept = 0i8;
         for _ in 0..12 {
-            let u = if gb != ga { ub - gb * (ub - ua) / (gb - ga) } else { 0.5 * (ua + ub) };
             let x = libm::expf(u);
             let zeta = self.model.zeta(x)?;
             let g = dissipation(zeta) - d;
-            if libm::fabsf(g) < best.2 {
-                best = (x, zeta, libm::fabsf(g));
+            if g.abs() < best.2 {
+                best = (x, zeta, g.abs());
             }
-            if g == 0.0 || libm::fabsf(ub - ua) < 2e-7 {
+            // D is known to ~1e-7 relative in f32: nothing finer is real.
+            if g.abs() <= 2e-7 * d || (ub - ua) < 1e-7 {
                 break;
             }
             if (g > 0.0) == (gb > 0.0) {
-                ub = u;
-                gb = g;
-                if side == 1 {
+                (ub, gb) = (u, g);
+                if kept == -1 {
                     ga *= 0.5;
                 }
-                side = 1;
+                kept = -1;
             } else {
-                ua = u;
-                ga = g;
-                if side == -1 {
+                (ua, ga) = (u, g);
+                if kept == 1 {
                     gb *= 0.5;
                 }
-                side = -1;
+                kept = 1;
             }
-            if libm::fabsf(g) <= 1e-7 * d {
+            let secant = u - g * (u - up_) / (g - gp);
+            (up_, gp) = (u, g);
+            u = if secant > ua && secant < ub && g != gp {
+                secant
+            } else {
+                ua - ga * (ub - ua) / (gb - ga)
+            };
+            if (u - up_).abs() < 1e-7 {
                 break;
             }
         }

@@ -83,7 +83,7 @@ fn main() -> ! {
     println!("bench demod_pair {}.{:02} insn/pair", n / PAIRS as u32, (n % PAIRS as u32) * 100 / PAIRS as u32);
 
     // Model evaluations and inversions, averaged over a few x.
-    let xs = [0.05f32, 0.5, 2.0, 5.0];
+    let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
     for (name, model) in [("ladder30", LineModel::Ladder(30)), ("continuous", LineModel::Continuous)] {
         let mut total = 0;
         for &x in &xs {
