@@ -21,7 +21,11 @@ fn main() {
     let n = 1usize << SIN_BITS;
     writeln!(s, "/// log2 of the number of sine table intervals per turn.").unwrap();
     writeln!(s, "pub const SIN_BITS: u32 = {SIN_BITS};").unwrap();
-    writeln!(s, "/// sin(2π·i/2^SIN_BITS) in Q31 (i32::MAX stands for +1), i = 0..=2^SIN_BITS.").unwrap();
+    writeln!(
+        s,
+        "/// sin(2π·i/2^SIN_BITS) in Q31 (i32::MAX stands for +1), i = 0..=2^SIN_BITS."
+    )
+    .unwrap();
     writeln!(s, "pub static SIN_Q31: [i32; {}] = [", n + 1).unwrap();
     for i in 0..=n {
         let v = (2.0 * PI * i as f64 / n as f64).sin() * 2f64.powi(31);
@@ -33,7 +37,11 @@ fn main() {
     // Demodulation reference: cos in the low half word, sin in the high
     // half word, both Q15 scaled by 32767.
     let n = 1usize << REF_BITS;
-    writeln!(s, "/// log2 of the number of demodulation reference entries per turn.").unwrap();
+    writeln!(
+        s,
+        "/// log2 of the number of demodulation reference entries per turn."
+    )
+    .unwrap();
     writeln!(s, "pub const REF_BITS: u32 = {REF_BITS};").unwrap();
     writeln!(
         s,
@@ -54,7 +62,11 @@ fn main() {
     let n = 1usize << EXP2_BITS;
     writeln!(s, "/// log2 of the number of entries of [`EXP2_NEG_Q31`].").unwrap();
     writeln!(s, "pub const EXP2_BITS: u32 = {EXP2_BITS};").unwrap();
-    writeln!(s, "/// 2^(-i/2^EXP2_BITS) in unsigned Q31 (2^31 = 1.0), i = 0..2^EXP2_BITS.").unwrap();
+    writeln!(
+        s,
+        "/// 2^(-i/2^EXP2_BITS) in unsigned Q31 (2^31 = 1.0), i = 0..2^EXP2_BITS."
+    )
+    .unwrap();
     writeln!(s, "pub static EXP2_NEG_Q31: [u32; {n}] = [").unwrap();
     for i in 0..n {
         let v = (2f64.powf(-(i as f64) / n as f64) * 2f64.powi(31)).round() as u64;

@@ -105,7 +105,10 @@ mod tests {
                 let t = c0 - ((d * s0) >> 32);
                 let u = s0 + ((d * c0) >> 32);
                 assert!(d.abs() < 1 << 23);
-                assert!(i32::try_from(t).is_ok() && i32::try_from(u).is_ok(), "idx {idx} rem {rem}");
+                assert!(
+                    i32::try_from(t).is_ok() && i32::try_from(u).is_ok(),
+                    "idx {idx} rem {rem}"
+                );
             }
         }
     }

@@ -76,7 +76,11 @@ impl FrontEnd {
     /// A transimpedance stage of `r_feedback_ohm` with equal ADC channel
     /// gains; `inverting` for the usual inverting op-amp stage.
     pub fn transimpedance(r_feedback_ohm: f32, inverting: bool) -> Self {
-        let g = if inverting { -r_feedback_ohm } else { r_feedback_ohm };
+        let g = if inverting {
+            -r_feedback_ohm
+        } else {
+            r_feedback_ohm
+        };
         Self {
             gain: Complex32::new(g, 0.0),
         }

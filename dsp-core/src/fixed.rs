@@ -21,7 +21,7 @@ pub(crate) fn split_f32(x: f32) -> (u32, i32) {
 pub(crate) fn exp_neg_q31(t_q25: u32) -> u32 {
     const LOG2E_Q30: u32 = 1_549_082_005; // round(log2(e)·2^30)
     const LN2_Q32: u32 = 2_977_044_472; // round(ln(2)·2^32)
-    // All products are u32 × u32 → u64 (one UMULL each on Cortex-M4).
+                                        // All products are u32 × u32 → u64 (one UMULL each on Cortex-M4).
     let mul = |a: u32, b: u32| a as u64 * b as u64;
     let u = mul(t_q25, LOG2E_Q30) >> 25; // t·log2(e), Q30, < 2^38
     let k = (u >> 30) as u32;

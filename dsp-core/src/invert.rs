@@ -191,7 +191,11 @@ impl Inverter {
         let d = z.re / -z.im;
         let line = |x: f32, zeta: Complex32| {
             let c = libm::hypotf(zeta.re, zeta.im) / (w * zabs);
-            Line { r_ohm: x / (w * c), c_farad: c, x }
+            Line {
+                r_ohm: x / (w * c),
+                c_farad: c,
+                x,
+            }
         };
         if d <= self.d[0] {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.

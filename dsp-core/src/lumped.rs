@@ -57,13 +57,20 @@ mod tests {
 
     #[test]
     fn round_trip_and_errors() {
-        let m = SeriesRc { cs_farad: 200e-12, rs_ohm: 240e3 };
+        let m = SeriesRc {
+            cs_farad: 200e-12,
+            rs_ohm: 240e3,
+        };
         let z = m.impedance(2e3);
         let back = SeriesRc::from_impedance(z, 2e3).unwrap();
         assert!((back.cs_farad / m.cs_farad - 1.0).abs() < 1e-6);
         assert!((back.rs_ohm / m.rs_ohm - 1.0).abs() < 1e-6);
         assert!((m.dissipation(2e3) - 0.603_185_8).abs() < 1e-5);
-        let bad = [Complex32::new(1.0, 0.0), Complex32::new(-1.0, -1.0), Complex32::new(f32::NAN, -1.0)];
+        let bad = [
+            Complex32::new(1.0, 0.0),
+            Complex32::new(-1.0, -1.0),
+            Complex32::new(f32::NAN, -1.0),
+        ];
         for z in bad {
             assert_eq!(SeriesRc::from_impedance(z, 1e3), Err(LumpedError::NotCapacitive));
         }

@@ -125,8 +125,7 @@ pub fn dac_code(s: i32, bits: u32, amplitude: i16) -> u16 {
 fn check(freq_hz: f32, sample_rate_hz: f32) -> Result<(), FreqError> {
     let ok = freq_hz.is_finite()
         && sample_rate_hz.is_finite()
-        && freq_hz >= Oscillator::F_MIN_HZ
-        && freq_hz <= Oscillator::F_MAX_HZ
+        && (Oscillator::F_MIN_HZ..=Oscillator::F_MAX_HZ).contains(&freq_hz)
         && 2.0 * freq_hz < sample_rate_hz;
     if ok {
         Ok(())

@@ -210,9 +210,18 @@ fn continuous_zeta(x: f32) -> Complex32 {
         // (≤ 2.3 % of the result), so its f32 rounding (6·10⁻⁸) is harmless.
         let u = (x * x * 1073741824.0) as i32;
         // Horner in Q31 with i32 × i32 products (one SMULL each).
-        let h = |c: &[i32]| c.iter().rev().fold(0i32, |acc, &k| k + ((acc as i64 * u as i64) >> 30) as i32);
+        let h = |c: &[i32]| {
+            c.iter()
+                .rev()
+                .fold(0i32, |acc, &k| k + ((acc as i64 * u as i64) >> 30) as i32)
+        };
         // Re ζ / x = 1/3 − 2u/945 + 2u²/93555 − 4u³/18243225
-        let re = h(&[q31(1.0 / 3.0), q31(-2.0 / 945.0), q31(2.0 / 93555.0), q31(-4.0 / 18243225.0)]);
+        let re = h(&[
+            q31(1.0 / 3.0),
+            q31(-2.0 / 945.0),
+            q31(2.0 / 93555.0),
+            q31(-4.0 / 18243225.0),
+        ]);
         // −Im ζ − 1 = u/45 − u²/4725 + 1382u³/638512875 − 3617u⁴/162820783125
         let im = h(&[
             0,
@@ -228,7 +237,7 @@ fn continuous_zeta(x: f32) -> Complex32 {
     // a < 40: Q25 fits in u32 (exact for a ≥ 2^-1: f32 has 24 mantissa bits).
     let a_q25 = (a * 33554432.0) as u32;
     let e = exp_neg_q31(a_q25.saturating_mul(2)) as i64; // E = e^(−2a), Q31
-    // Phase of a: a/(2π)·2^32 = a_q25 · (2^7/(2π)); K = round(2^7/(2π)·2^26).
+                                                         // Phase of a: a/(2π)·2^32 = a_q25 · (2^7/(2π)); K = round(2^7/(2π)·2^26).
     const K_Q26: u32 = 1_367_130_551;
     let ph = ((a_q25 as u64 * K_Q26 as u64) >> 26) as u32 as i32;
     let (ca, sa) = cossin(ph);

@@ -79,10 +79,16 @@ fn rejects_dc_and_harmonics() {
             .map(|n| {
                 let t = theta(&o, n);
                 let h: f64 = (2..=7).map(|k| 1500.0 * (k as f64 * t + k as f64).cos()).sum();
-                [q16(8000.0 * t.cos() + 4000.0 + h), q16(3000.0 * (t - 1.0).cos() - 7000.0 + h)]
+                [
+                    q16(8000.0 * t.cos() + 4000.0 + h),
+                    q16(3000.0 * (t - 1.0).cos() - 7000.0 + h),
+                ]
             })
             .collect();
-        let (a, b) = (dm.block(clean.as_slice().try_into().unwrap()), dm.block(dirty.as_slice().try_into().unwrap()));
+        let (a, b) = (
+            dm.block(clean.as_slice().try_into().unwrap()),
+            dm.block(dirty.as_slice().try_into().unwrap()),
+        );
         let rel = |x: num_complex::Complex<i64>, y: num_complex::Complex<i64>| {
             let d = ((x.re - y.re) as f64).hypot((x.im - y.im) as f64);
             d / (x.re as f64).hypot(x.im as f64)
@@ -108,7 +114,10 @@ fn recovers_impedance_through_front_end() {
             [q16(va * (t + 0.3).cos()), q16(-ia * (t + 0.3 - zarg).cos())]
         })
         .collect();
-    let got = dm.block(pairs.as_slice().try_into().unwrap()).impedance(&fe).unwrap();
+    let got = dm
+        .block(pairs.as_slice().try_into().unwrap())
+        .impedance(&fe)
+        .unwrap();
     assert!((got - z).norm() / z.norm() < 2e-4, "{got}");
     // No current at all: open sensor.
     let open: Vec<[i16; 2]> = pairs.iter().map(|p| [p[0], 0]).collect();
@@ -119,7 +128,14 @@ fn recovers_impedance_through_front_end() {
 fn chunks_equal_one_block() {
     let o = osc(3000.0);
     let dm = Demodulator::<N>::new(&o);
-    let pairs: Vec<[i16; 2]> = (0..N).map(|n| [(n as i32 * 37 % 4001 - 2000) as i16, (n as i32 * 91 % 3001 - 1500) as i16]).collect();
+    let pairs: Vec<[i16; 2]> = (0..N)
+        .map(|n| {
+            [
+                (n as i32 * 37 % 4001 - 2000) as i16,
+                (n as i32 * 91 % 3001 - 1500) as i16,
+            ]
+        })
+        .collect();
     let whole = dm.block(pairs.as_slice().try_into().unwrap());
     let mut st = DemodState::default();
     for c in pairs.chunks(100) {

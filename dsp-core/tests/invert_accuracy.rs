@@ -87,7 +87,9 @@ fn unique_branch_needs_no_hint_and_ambiguous_band_says_so() {
     let inv = Inverter::new(LineModel::Continuous);
     for x in log_grid(1e-4, 6.0, 200) {
         let r = x / (TAU * f * c);
-        let got = inv.invert(z_of(LineModel::Continuous, r, c, f), f as f32).unwrap();
+        let got = inv
+            .invert(z_of(LineModel::Continuous, r, c, f), f as f32)
+            .unwrap();
         assert!((got.c_farad as f64 / c - 1.0).abs() < 1e-3, "x={x}");
     }
     let r = 9.0 / (TAU * f * c);
@@ -121,9 +123,17 @@ fn beyond_range_and_bad_input_are_clear_errors() {
     let z = z_of(LineModel::Ladder(1), 20.0 / (TAU * f * c), c, f);
     assert_eq!(inv.invert(z, f as f32), Err(InvertError::OutOfRange));
     let inv = Inverter::new(LineModel::Continuous);
-    for z in [Complex32::new(1.0, 0.0), Complex32::new(-1.0, -1.0), Complex32::new(f32::NAN, -1.0), Complex32::new(0.0, 0.0)] {
+    for z in [
+        Complex32::new(1.0, 0.0),
+        Complex32::new(-1.0, -1.0),
+        Complex32::new(f32::NAN, -1.0),
+        Complex32::new(0.0, 0.0),
+    ] {
         assert_eq!(inv.invert(z, 1e3), Err(InvertError::NotCapacitive), "{z}");
     }
-    assert_eq!(inv.invert(Complex32::new(1.0, -1.0), -1.0), Err(InvertError::BadFrequency));
+    assert_eq!(
+        inv.invert(Complex32::new(1.0, -1.0), -1.0),
+        Err(InvertError::BadFrequency)
+    );
     assert!(Inverter::with_x_max(LineModel::Ladder(0), 10.0).is_err());
 }

@@ -22,10 +22,17 @@ const BH7: [f64; 7] = [
 fn worst_spur_dbc(x: &[f64]) -> f64 {
     let w = |n: usize| {
         let t = std::f64::consts::TAU * n as f64 / N as f64;
-        BH7.iter().enumerate().map(|(k, a)| a * (k as f64 * t).cos()).sum::<f64>()
+        BH7.iter()
+            .enumerate()
+            .map(|(k, a)| a * (k as f64 * t).cos())
+            .sum::<f64>()
     };
     let mean = x.iter().sum::<f64>() / N as f64;
-    let mut buf: Vec<Complex64> = x.iter().enumerate().map(|(n, v)| Complex64::new((v - mean) * w(n), 0.0)).collect();
+    let mut buf: Vec<Complex64> = x
+        .iter()
+        .enumerate()
+        .map(|(n, v)| Complex64::new((v - mean) * w(n), 0.0))
+        .collect();
     FftPlanner::new().plan_fft_forward(N).process(&mut buf);
     let mag: Vec<f64> = buf[..N / 2].iter().map(|c| c.norm()).collect();
     let k0 = (0..N / 2).max_by(|&a, &b| mag[a].total_cmp(&mag[b])).unwrap();

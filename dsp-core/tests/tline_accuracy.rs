@@ -44,7 +44,10 @@ fn ladder_within_1e4_over_whole_range() {
         }
     }
     let rms = (ss / cnt as f64).sqrt();
-    println!("ladder: rms {rms:.2e}, max {max:.2e} at n={}, x={:.4e}", worst.0, worst.1);
+    println!(
+        "ladder: rms {rms:.2e}, max {max:.2e} at n={}, x={:.4e}",
+        worst.0, worst.1
+    );
     assert!(max < 1e-4, "max {max:e} at {worst:?}");
     assert!(rms < 1e-5, "rms {rms:e}");
 }
@@ -89,18 +92,44 @@ fn real_part_accurate_for_inversion() {
 
 #[test]
 fn range_edges_are_errors_not_garbage() {
-    assert_eq!(LineModel::Continuous.zeta(X_MIN * 0.99), Err(ModelError::OutOfRange));
-    assert_eq!(LineModel::Continuous.zeta(X_MAX * 1.01), Err(ModelError::OutOfRange));
+    assert_eq!(
+        LineModel::Continuous.zeta(X_MIN * 0.99),
+        Err(ModelError::OutOfRange)
+    );
+    assert_eq!(
+        LineModel::Continuous.zeta(X_MAX * 1.01),
+        Err(ModelError::OutOfRange)
+    );
     assert_eq!(LineModel::Continuous.zeta(f32::NAN), Err(ModelError::OutOfRange));
     assert_eq!(LineModel::Ladder(0).zeta(1.0), Err(ModelError::BadElements));
     assert_eq!(LineModel::Ladder(65).zeta(1.0), Err(ModelError::BadElements));
-    assert_eq!(LineModel::Continuous.impedance(-1.0, 1e-10, 1e3), Err(ModelError::OutOfRange));
-    assert_eq!(LineModel::Continuous.impedance(1e3, 1e-10, 0.0), Err(ModelError::OutOfRange));
-    assert_eq!(LineModel::Continuous.impedance(1e3, 1e-10, 50.1e3), Err(ModelError::OutOfRange));
-    assert_eq!(LineModel::Continuous.impedance(999.0, 1e-10, 1e3), Err(ModelError::OutOfRange));
-    assert_eq!(LineModel::Continuous.impedance(1e3, 1.01e-9, 1e3), Err(ModelError::OutOfRange));
+    assert_eq!(
+        LineModel::Continuous.impedance(-1.0, 1e-10, 1e3),
+        Err(ModelError::OutOfRange)
+    );
+    assert_eq!(
+        LineModel::Continuous.impedance(1e3, 1e-10, 0.0),
+        Err(ModelError::OutOfRange)
+    );
+    assert_eq!(
+        LineModel::Continuous.impedance(1e3, 1e-10, 50.1e3),
+        Err(ModelError::OutOfRange)
+    );
+    assert_eq!(
+        LineModel::Continuous.impedance(999.0, 1e-10, 1e3),
+        Err(ModelError::OutOfRange)
+    );
+    assert_eq!(
+        LineModel::Continuous.impedance(1e3, 1.01e-9, 1e3),
+        Err(ModelError::OutOfRange)
+    );
     // The corners of the physical range evaluate.
-    for (r, c, f) in [(1e3, 10e-12, 100.0), (10e6, 1e-9, 50e3), (1e3, 1e-9, 50e3), (10e6, 10e-12, 100.0)] {
+    for (r, c, f) in [
+        (1e3, 10e-12, 100.0),
+        (10e6, 1e-9, 50e3),
+        (1e3, 1e-9, 50e3),
+        (10e6, 10e-12, 100.0),
+    ] {
         assert!(LineModel::Ladder(64).impedance(r, c, f).is_ok());
         assert!(LineModel::Continuous.impedance(r, c, f).is_ok());
     }

@@ -1,14 +1,18 @@
 //! `host-sim`: command-line entry point.
 
 use anyhow::Result;
-use std::process::ExitCode;
 use clap::{Parser, Subcommand};
+use dsp_core::tline::LineModel;
 use host_sim::meter::{self, model_name, parse_model};
 use host_sim::si;
-use dsp_core::tline::LineModel;
+use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "host-sim", version, about = "DE sensing skin: line model, inversion and simulations on the dsp-core the boards run")]
+#[command(
+    name = "host-sim",
+    version,
+    about = "DE sensing skin: line model, inversion and simulations on the dsp-core the boards run"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -71,7 +75,10 @@ fn run(cli: Cli) -> Result<()> {
                 println!("model,freq_hz,x,cs_pf,rs_ohm,d,cs_error_pct");
             } else {
                 println!("line: R = {}, C = {}", si::fmt(r, "Ω"), si::fmt(c, "F"));
-                println!("{:<14} {:>11} {:>8} {:>11} {:>11} {:>8} {:>9}", "model", "f", "ωRC", "Cs", "Rs", "D", "Cs/C−1");
+                println!(
+                    "{:<14} {:>11} {:>8} {:>11} {:>11} {:>8} {:>9}",
+                    "model", "f", "ωRC", "Cs", "Rs", "D", "Cs/C−1"
+                );
             }
             for &fh in &f {
                 for &m in &model {
@@ -80,7 +87,13 @@ fn run(cli: Cli) -> Result<()> {
                     let d = rd.series.dissipation(fh as f32);
                     let err = 100.0 * (cs / c - 1.0);
                     if csv {
-                        println!("{},{fh},{:.6},{:.4},{:.1},{d:.6},{err:.4}", model_name(m), rd.x, cs * 1e12, rs);
+                        println!(
+                            "{},{fh},{:.6},{:.4},{:.1},{d:.6},{err:.4}",
+                            model_name(m),
+                            rd.x,
+                            cs * 1e12,
+                            rs
+                        );
                     } else {
                         println!(
                             "{:<14} {:>11} {:>8.4} {:>11} {:>11} {:>8.4} {:>8.3}%",
@@ -96,11 +109,20 @@ fn run(cli: Cli) -> Result<()> {
                 }
             }
         }
-        Cmd::Invert { cs, rs, f, model, c_hint } => {
+        Cmd::Invert {
+            cs,
+            rs,
+            f,
+            model,
+            c_hint,
+        } => {
             let line = meter::invert(model, cs, rs, f, c_hint)?;
             println!("model: {}", model_name(model));
             println!("C   = {}", si::fmt(line.c_farad as f64, "F"));
-            println!("R   = {}  (top + bottom electrode)", si::fmt(line.r_ohm as f64, "Ω"));
+            println!(
+                "R   = {}  (top + bottom electrode)",
+                si::fmt(line.r_ohm as f64, "Ω")
+            );
             println!("ωRC = {:.5}", line.x);
         }
     }

@@ -12,7 +12,9 @@ pub fn parse_model(s: &str) -> Result<LineModel, String> {
         "continuous" | "c" | "inf" => Ok(LineModel::Continuous),
         n => match n.parse::<u8>() {
             Ok(n) if (1..=dsp_core::tline::N_MAX).contains(&n) => Ok(LineModel::Ladder(n)),
-            _ => Err(format!("model '{s}': expected 'continuous' or a ladder size 1..=64")),
+            _ => Err(format!(
+                "model '{s}': expected 'continuous' or a ladder size 1..=64"
+            )),
         },
     }
 }
@@ -71,7 +73,8 @@ pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: O
         rs_ohm: rs_ohm as f32,
     };
     let z: Complex32 = series.impedance(f_hz as f32);
-    let inv = Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let inv =
+        Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e:?}"))?;
     let r = match c_hint {
         Some(c) => inv.invert_near(z, f_hz as f32, c as f32),
         None => inv.invert(z, f_hz as f32),

@@ -57,9 +57,19 @@ pub fn fmt(v: f64, unit: &str) -> String {
         (1e-12, "p"),
         (1e-15, "f"),
     ];
-    let (scale, pre) = P.iter().find(|(s, _)| v.abs() >= *s * 0.999_995).copied().unwrap_or((1e-15, "f"));
+    let (scale, pre) = P
+        .iter()
+        .find(|(s, _)| v.abs() >= *s * 0.999_995)
+        .copied()
+        .unwrap_or((1e-15, "f"));
     let m = v / scale;
-    let digits = if m.abs() >= 100.0 { 2 } else if m.abs() >= 10.0 { 3 } else { 4 };
+    let digits = if m.abs() >= 100.0 {
+        2
+    } else if m.abs() >= 10.0 {
+        3
+    } else {
+        4
+    };
     format!("{m:.digits$} {pre}{unit}")
 }
 

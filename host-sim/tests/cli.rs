@@ -3,7 +3,10 @@
 use std::process::Command;
 
 fn run(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim")).args(args).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .unwrap();
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
@@ -13,23 +16,62 @@ fn run(args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn model_then_invert_round_trips() {
-    let (ok, out, err) = run(&["model", "--r", "700k", "--c", "200p", "--f", "6k", "--model", "continuous", "--csv"]);
+    let (ok, out, err) = run(&[
+        "model",
+        "--r",
+        "700k",
+        "--c",
+        "200p",
+        "--f",
+        "6k",
+        "--model",
+        "continuous",
+        "--csv",
+    ]);
     assert!(ok, "{err}");
     let row: Vec<&str> = out.lines().nth(1).unwrap().split(',').collect();
     assert_eq!(row[0], "continuous");
     let (cs, rs): (f64, f64) = (row[3].parse().unwrap(), row[4].parse().unwrap());
     assert!(cs < 140.0 && cs > 130.0, "{cs}");
-    let (ok, out, err) = run(&["invert", "--cs", &format!("{cs}p"), "--rs", &format!("{rs}"), "--f", "6k", "--c-hint", "200p"]);
+    let (ok, out, err) = run(&[
+        "invert",
+        "--cs",
+        &format!("{cs}p"),
+        "--rs",
+        &format!("{rs}"),
+        "--f",
+        "6k",
+        "--c-hint",
+        "200p",
+    ]);
     assert!(ok, "{err}");
     assert!(out.contains("C   = 200.0"), "{out}");
-    assert!(out.contains("R   = 700.0") || out.contains("R   = 699.9"), "{out}");
+    assert!(
+        out.contains("R   = 700.0") || out.contains("R   = 699.9"),
+        "{out}"
+    );
 }
 
 #[test]
 fn lumped_meter_underreads_more_at_higher_frequency() {
-    let (ok, out, _) = run(&["model", "--r", "700k", "--c", "200p", "--f", "500,2k,6k", "--model", "30", "--csv"]);
+    let (ok, out, _) = run(&[
+        "model",
+        "--r",
+        "700k",
+        "--c",
+        "200p",
+        "--f",
+        "500,2k,6k",
+        "--model",
+        "30",
+        "--csv",
+    ]);
     assert!(ok);
-    let errs: Vec<f64> = out.lines().skip(1).map(|l| l.split(',').nth(6).unwrap().parse().unwrap()).collect();
+    let errs: Vec<f64> = out
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(6).unwrap().parse().unwrap())
+        .collect();
     assert_eq!(errs.len(), 3);
     assert!(errs[0] > -1.0 && errs[1] < -5.0 && errs[2] < -30.0, "{errs:?}");
 }
@@ -38,7 +80,9 @@ fn lumped_meter_underreads_more_at_higher_frequency() {
 fn clear_errors() {
     let (ok, _, err) = run(&["model", "--r", "700x", "--c", "200p", "--f", "6k"]);
     assert!(!ok && err.contains("unknown SI prefix"), "{err}");
-    let (ok, _, err) = run(&["model", "--r", "700k", "--c", "200p", "--f", "6k", "--model", "65"]);
+    let (ok, _, err) = run(&[
+        "model", "--r", "700k", "--c", "200p", "--f", "6k", "--model", "65",
+    ]);
     assert!(!ok && err.contains("ladder size 1..=64"), "{err}");
     let (ok, _, err) = run(&["model", "--r", "700k", "--c", "200p", "--f", "80k"]);
     assert!(!ok && err.contains("supported"), "{err}");

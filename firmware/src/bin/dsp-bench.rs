@@ -73,18 +73,28 @@ fn main() -> ! {
         *r = dsp_core::tables::DEMOD_REF[(ph >> 21) as usize];
         ph = ph.wrapping_add(osc.ftw());
     }
-    let (fast, slow) = (dm.block(&buf), dsp_core::demod::portable([0; 4], &buf, &reference));
+    let (fast, slow) = (
+        dm.block(&buf),
+        dsp_core::demod::portable([0; 4], &buf, &reference),
+    );
     if [fast.v.re, -fast.v.im, fast.i.re, -fast.i.im] != slow {
         println!("FAIL demod assembly differs from portable");
         semihosting::process::exit(1);
     }
     println!("check demod_asm_equals_portable ok");
     println!("bench demod_block {} insn/block", n);
-    println!("bench demod_pair {}.{:02} insn/pair", n / PAIRS as u32, (n % PAIRS as u32) * 100 / PAIRS as u32);
+    println!(
+        "bench demod_pair {}.{:02} insn/pair",
+        n / PAIRS as u32,
+        (n % PAIRS as u32) * 100 / PAIRS as u32
+    );
 
     // Model evaluations and inversions, averaged over a few x.
     let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
-    for (name, model) in [("ladder30", LineModel::Ladder(30)), ("continuous", LineModel::Continuous)] {
+    for (name, model) in [
+        ("ladder30", LineModel::Ladder(30)),
+        ("continuous", LineModel::Continuous),
+    ] {
         let mut total = 0;
         for &x in &xs {
             total += insns(ticks(syst, || {

@@ -1,0 +1,159 @@
+//! Firmware images in QEMU: build them, run them under a watchdog, read
+//! their semihosting output.
+//!
+//! QEMU: `qemu-system-arm -machine lm3s6965evb -cpu cortex-m4`, semihosting
+//! on stdout, and `-icount shift=7,align=off,sleep=off` so the virtual clock
+//! (and everything timed by it) is a deterministic function of the
+//! instructions executed. Only stdout is compared (QEMU prints "Timer with
+//! period zero" on stderr).
+
+use anyhow::{bail, Context, Result};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+use wait_timeout::ChildExt;
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// Target triple of the QEMU and board builds.
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+
+/// Build firmware binary `bin` in release mode with `features`; returns
+/// the ELF path.
+pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.current_dir(root().join("firmware"))
+        .args(["build", "--release", "--target", TARGET, "--bin", bin]);
+    if !features.is_empty() {
+        cmd.args(["--features", &features.join(",")]);
+    }
+    let st = cmd.status().context("running cargo build for the firmware")?;
+    if !st.success() {
+        bail!("firmware build of {bin} failed");
+    }
+    Ok(root()
+        .join("firmware/target")
+        .join(TARGET)
+        .join("release")
+        .join(bin))
+}
+
+/// What a QEMU run printed and how it ended.
+#[derive(Debug)]
+pub struct Run {
+    /// Semihosting output.
+    pub stdout: String,
+    /// QEMU's own messages.
+    pub stderr: String,
+    /// Exit code passed to `semihosting::process::exit` (None: killed).
+    pub code: Option<i32>,
+}
+
+impl Run {
+    /// Fail with the output shown unless the image exited with 0.
+    pub fn ok(self) -> Result<Self> {
+        match self.code {
+            Some(0) => Ok(self),
+            Some(c) => bail!("firmware exited with code {c} (a panic or hard fault?)\n--- stdout ---\n{}\n--- stderr ---\n{}", self.stdout, self.stderr),
+            None => bail!("firmware hung: killed by the watchdog\n--- stdout ---\n{}", self.stdout),
+        }
+    }
+}
+
+/// Run `elf` in QEMU; kill it after `watchdog`.
+pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
+    let mut child = Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            "lm3s6965evb",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=7,align=off,sleep=off"])
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .context("starting qemu-system-arm (apt-get install -y qemu-system-arm)")?;
+    let mut out = child.stdout.take().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let t_out = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = out.read_to_string(&mut s);
+        s
+    });
+    let t_err = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err.read_to_string(&mut s);
+        s
+    });
+    let code = match child.wait_timeout(watchdog)? {
+        Some(st) => st.code(),
+        None => {
+            child.kill()?;
+            child.wait()?;
+            None
+        }
+    };
+    Ok(Run {
+        stdout: t_out.join().unwrap_or_default(),
+        stderr: t_err.join().unwrap_or_default(),
+        code,
+    })
+}
+
+/// One `bench <name> <value> <unit>` line of the instruction-count bench.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bench {
+    /// Benchmark name.
+    pub name: String,
+    /// Instructions per unit.
+    pub value: f64,
+    /// The unit.
+    pub unit: String,
+}
+
+/// Parse the bench lines of a run.
+pub fn parse_bench(stdout: &str) -> Vec<Bench> {
+    stdout
+        .lines()
+        .filter_map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next()? == "bench").then_some(())?;
+            Some(Bench {
+                name: w.next()?.to_string(),
+                value: w.next()?.parse().ok()?,
+                unit: w.next()?.to_string(),
+            })
+        })
+        .collect()
+}
+
+/// Build and run the dsp-core instruction-count benchmark.
+pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
+    let elf = build_firmware("dsp-bench", &["qemu"])?;
+    let run = run_qemu(&elf, Duration::from_secs(120))?.ok()?;
+    let b = parse_bench(&run.stdout);
+    Ok((run, b))
+}
+
+/// The budgets from the dsp-core issue: (bench name, max instructions).
+pub const DSP_BUDGETS: [(&str, f64); 4] = [
+    ("demod_pair", 12.0),
+    ("eval_ladder30", 1000.0),
+    ("invert_continuous", 5000.0),
+    ("invert_continuous_worst", 5000.0),
+];

@@ -1,0 +1,30 @@
+//! The dsp-core kernels on a Cortex-M4 in QEMU: the assembly inner loop
+//! equals the portable one, and the instruction budgets hold.
+
+#[test]
+fn dsp_kernels_on_cortex_m4_within_budget() {
+    let (run, benches) = qemu_tests::dsp_bench().unwrap();
+    assert!(
+        run.stdout.contains("check demod_asm_equals_portable ok"),
+        "{}",
+        run.stdout
+    );
+    for (name, max) in qemu_tests::DSP_BUDGETS {
+        let b = benches
+            .iter()
+            .find(|b| b.name == name)
+            .unwrap_or_else(|| panic!("no bench {name}:\n{}", run.stdout));
+        println!("{name}: {} {} (budget {max})", b.value, b.unit);
+        assert!(b.value <= max, "{name}: {} > {max}", b.value);
+    }
+}
+
+#[test]
+fn watchdog_catches_a_hang_and_exit_codes_pass_through() {
+    // A firmware image that never exits must be killed and reported.
+    let elf = qemu_tests::build_firmware("dsp-bench", &["qemu"]).unwrap();
+    let run = qemu_tests::run_qemu(&elf, std::time::Duration::from_millis(1)).unwrap();
+    assert_eq!(run.code, None, "{run:?}");
+    let err = run.ok().unwrap_err().to_string();
+    assert!(err.contains("watchdog"), "{err}");
+}

@@ -1,0 +1,231 @@
+//! `cargo xtask <command>`: the project's automation, one place for what
+//! the README and CI run.
+//!
+//! * `setup`: install what a fresh Debian machine lacks (QEMU, ngspice)
+//!   and the Rust targets of `rust-toolchain.toml`.
+//! * `test`: set-up, then formatting, clippy, every host test, the board
+//!   firmware build and the QEMU integration tests.
+//! * `bench`: instruction counts on Cortex-M4 in QEMU (`-icount`), and with
+//!   `--host` the criterion benchmarks.
+//! * `run`: the main job (see the README).
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use std::path::Path;
+use std::process::Command;
+
+#[derive(Parser)]
+#[command(name = "xtask")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Install QEMU and ngspice when missing (apt-get), and the Rust targets.
+    Setup,
+    /// Everything CI runs: fmt, clippy, host tests, firmware build, QEMU tests.
+    Test,
+    /// Instruction counts on Cortex-M4 (QEMU -icount); --host adds criterion.
+    Bench {
+        /// Also run the criterion benchmarks on the host.
+        #[arg(long)]
+        host: bool,
+    },
+    /// The main job: the instrument at work, results under out/.
+    Run,
+}
+
+fn main() -> Result<()> {
+    let root = qemu_tests::root();
+    std::env::set_current_dir(&root)?;
+    match Cli::parse().cmd {
+        Cmd::Setup => setup(),
+        Cmd::Test => {
+            setup()?;
+            cargo(&root, &["fmt", "--all", "--check"])?;
+            cargo(&root.join("firmware"), &["fmt", "--all", "--check"])?;
+            cargo(&root, &["clippy", "--all-targets", "--", "-D", "warnings"])?;
+            for features in [None, Some("qemu")] {
+                let mut a = vec!["clippy", "--release", "--target", qemu_tests::TARGET, "--bins"];
+                if let Some(f) = features {
+                    a.extend(["--features", f]);
+                }
+                a.extend(["--", "-D", "warnings"]);
+                cargo(&root.join("firmware"), &a)?;
+            }
+            // Host tests in release: the Monte-Carlo and sweep tests are
+            // large; overflow checks stay on through the dev-profile run of
+            // the fixed-point unit tests below.
+            cargo(&root, &["test", "--release", "--workspace"])?;
+            cargo(&root, &["test", "-p", "dsp-core", "--lib"])?;
+            cargo(&root, &["test", "--doc", "-p", "dsp-core"])?;
+            // dsp-core on every core we support: M4F (DSP + FPU) and M3.
+            for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
+                cargo(&root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
+            }
+            // The board image must build and link even with no board here.
+            board_build(&root)?;
+            Ok(())
+        }
+        Cmd::Bench { host } => {
+            setup()?;
+            bench()?;
+            if host {
+                cargo(&root, &["bench", "-p", "dsp-core", "--bench", "dsp"])?;
+            }
+            Ok(())
+        }
+        Cmd::Run => {
+            setup()?;
+            run_main(&root)
+        }
+    }
+}
+
+/// The main job: what a series meter reads on the reference sensor across
+/// frequency and models, written to out/, then the Cortex-M4 counts.
+fn run_main(root: &Path) -> Result<()> {
+    let out = root.join("out");
+    std::fs::create_dir_all(&out)?;
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let freqs = "100,200,500,1k,2k,4k,6k,10k,20k,50k";
+    let args = [
+        "run",
+        "--release",
+        "-q",
+        "-p",
+        "host-sim",
+        "--",
+        "model",
+        "--r",
+        "712k",
+        "--c",
+        "210p",
+        "--f",
+        freqs,
+    ];
+    let o = Command::new(&cargo).args(args).arg("--csv").output()?;
+    if !o.status.success() {
+        bail!("host-sim failed: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    std::fs::write(out.join("model_sweep.csv"), &o.stdout)?;
+    let st = Command::new(&cargo).args(args).status()?;
+    if !st.success() {
+        bail!("host-sim failed");
+    }
+    println!("\nwrote {}", out.join("model_sweep.csv").display());
+    bench()
+}
+
+/// Build every board binary for the STM32G474.
+fn board_build(root: &Path) -> Result<()> {
+    let fw = root.join("firmware");
+    if has_board_bins(&fw)? {
+        cargo(
+            &fw,
+            &["build", "--release", "--target", qemu_tests::TARGET, "--bins"],
+        )?;
+    }
+    Ok(())
+}
+
+fn has_board_bins(fw: &Path) -> Result<bool> {
+    let toml = std::fs::read_to_string(fw.join("Cargo.toml"))?;
+    Ok(toml
+        .split("[[bin]]")
+        .skip(1)
+        .any(|b| !b.contains("required-features")))
+}
+
+fn bench() -> Result<()> {
+    let (_, benches) = qemu_tests::dsp_bench()?;
+    println!("\nCortex-M4 instruction counts (QEMU lm3s6965evb, -icount shift=7,align=off,sleep=off)\n");
+    println!("| kernel | instructions | budget |");
+    println!("|---|---:|---:|");
+    for b in &benches {
+        let budget = qemu_tests::DSP_BUDGETS
+            .iter()
+            .find(|(n, _)| *n == b.name)
+            .map(|(_, v)| format!("≤ {v}"))
+            .unwrap_or_else(|| "–".into());
+        println!("| {} | {} {} | {} |", b.name, b.value, b.unit, budget);
+    }
+    for (name, max) in qemu_tests::DSP_BUDGETS {
+        match benches.iter().find(|b| b.name == name) {
+            Some(b) if b.value <= max => {}
+            Some(b) => bail!("{name}: {} over the budget {max}", b.value),
+            None => bail!("{name}: not reported"),
+        }
+    }
+    Ok(())
+}
+
+fn cargo(dir: &Path, args: &[&str]) -> Result<()> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    eprintln!("$ (cd {}) cargo {}", dir.display(), args.join(" "));
+    let st = Command::new(cargo)
+        .current_dir(dir)
+        .args(args)
+        .status()
+        .context("running cargo")?;
+    if !st.success() {
+        bail!("cargo {} failed", args.join(" "));
+    }
+    Ok(())
+}
+
+/// Install missing system packages with apt-get (as root, or via sudo).
+fn setup() -> Result<()> {
+    let need: Vec<&str> = [("qemu-system-arm", "qemu-system-arm"), ("ngspice", "ngspice")]
+        .into_iter()
+        .filter(|(bin, _)| !on_path(bin))
+        .map(|(_, pkg)| pkg)
+        .collect();
+    if !need.is_empty() {
+        eprintln!("installing {}", need.join(" "));
+        let sudo = if is_root() { vec![] } else { vec!["sudo"] };
+        let run = |args: &[&str]| -> Result<()> {
+            let mut all: Vec<&str> = sudo.clone();
+            all.extend_from_slice(args);
+            let st = Command::new(all[0])
+                .args(&all[1..])
+                .env("DEBIAN_FRONTEND", "noninteractive")
+                .status()
+                .with_context(|| format!("running {}", all.join(" ")))?;
+            if !st.success() {
+                bail!("{} failed", all.join(" "));
+            }
+            Ok(())
+        };
+        run(&["apt-get", "update"])?;
+        let mut args = vec!["apt-get", "install", "-y", "--no-install-recommends"];
+        args.extend(&need);
+        run(&args)?;
+    }
+    // rust-toolchain.toml lists the targets; make sure rustup has them.
+    let st = Command::new("rustup")
+        .args(["target", "add", "thumbv7em-none-eabihf", "thumbv7m-none-eabi"])
+        .status();
+    if let Ok(st) = st {
+        if !st.success() {
+            bail!("rustup target add failed");
+        }
+    }
+    Ok(())
+}
+
+fn on_path(bin: &str) -> bool {
+    std::env::var_os("PATH")
+        .map(|p| std::env::split_paths(&p).any(|d| d.join(bin).is_file()))
+        .unwrap_or(false)
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
+}
