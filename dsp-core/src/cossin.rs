@@ -4,7 +4,7 @@
 //! phase `p` stands for the angle θ = 2π·p/2³², so `i32::MIN` is −π and
 //! wrapping addition is modulo 2π.
 //!
-//! Method: the table [`SIN_Q31`](crate::tables::SIN_Q31) holds sin at 1024
+//! Method: the table [`SIN_Q31`] holds sin at 1024
 //! points per turn; the phase is rounded to the nearest entry θ₀ and the
 //! remainder δ (|δ| ≤ π/1024) is applied by a second-order Taylor step,
 //!

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! The reference cos θₙ, sin θₙ (Q15, from
-//! [`DEMOD_REF`](crate::tables::DEMOD_REF)) is laid out once per frequency
+//! [`DEMOD_REF`]) is laid out once per frequency
 //! in the [`Demodulator`] itself (`N` words, 4·N bytes), so the inner loop is
 //! two loads and four 16×16→64 multiply-accumulates per pair (`SMLALxy` on
 //! Cortex-M4).

@@ -42,7 +42,7 @@
 //! # Continuous kernel
 //! For x ≤ 1 the series ζ = −j + x/3 − jx²/45 − 2x³/945 + … (to x⁸,
 //! truncation < 10⁻⁸) in Q31/Q30 Horner form. For x > 1, with
-//! a = √(x/2), E = e^(−2a) ([`exp_neg_q31`](crate::fixed)) and the
+//! a = √(x/2), E = e^(−2a) (fixed-point, table of 2^(−i/64) and a Taylor step) and the
 //! table sine:
 //!
 //! ```text

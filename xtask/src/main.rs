@@ -47,6 +47,23 @@ fn main() -> Result<()> {
             cargo(&root, &["fmt", "--all", "--check"])?;
             cargo(&root.join("firmware"), &["fmt", "--all", "--check"])?;
             cargo(&root, &["clippy", "--all-targets", "--", "-D", "warnings"])?;
+            // rustdoc on every public item, no broken links.
+            let st = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+                .args([
+                    "doc",
+                    "--no-deps",
+                    "-p",
+                    "dsp-core",
+                    "-p",
+                    "host-sim",
+                    "-p",
+                    "qemu-tests",
+                ])
+                .env("RUSTDOCFLAGS", "-D warnings")
+                .status()?;
+            if !st.success() {
+                bail!("cargo doc reported warnings");
+            }
             for features in [None, Some("qemu")] {
                 let mut a = vec!["clippy", "--release", "--target", qemu_tests::TARGET, "--bins"];
                 if let Some(f) = features {
