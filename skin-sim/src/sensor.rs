@@ -1,0 +1,226 @@
+//! The sensor on a fine grid, read through the two tabs at one end.
+//!
+//! [`SEGMENTS`] segments from the read end (ξ = 0) to the far end (ξ = 1);
+//! segment i has top and bottom electrode resistances r_t,i, r_b,i (in
+//! series for the current, which flows out along one electrode and back
+//! along the other), capacitance c_i and leakage conductance g_i. The grid
+//! is much finer than any estimator's model, so tests never check a model
+//! against itself.
+//!
+//! Optional non-ideal effects ([`Effects`], all off by default):
+//! contact resistance at the tabs, parasitic (cable) capacitance at the
+//! meter, electrode resistance varying linearly along the sensor,
+//! dielectric leakage, and stretch varying linearly along the sensor.
+
+use crate::electrode::{ElectrodeParams, ElectrodeState};
+use crate::profile::Profile;
+use num_complex::Complex64;
+
+/// Number of grid segments.
+pub const SEGMENTS: usize = 240;
+
+/// Optional non-ideal effects.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Effects {
+    /// Contact resistance of each tab, Ω. Two tabs are in the capacitance
+    /// path; an end-to-end electrode resistance includes two as well.
+    pub contact_resistance_ohm: f64,
+    /// Parasitic capacitance in parallel with the sensor at the meter, F.
+    pub parasitic_capacitance_farad: f64,
+    /// Electrode resistance per length ∝ 1 + g·(2ξ − 1), |g| < 1 (g > 0:
+    /// more resistive towards the far end). Total resistance unchanged.
+    pub resistance_gradient: f64,
+    /// Total dielectric leakage resistance (distributed with the
+    /// capacitance), Ω; 0 means none.
+    pub leakage_resistance_ohm: f64,
+    /// Local stretch ∝ 1 + u·(2ξ − 1), |u| < 1 (u > 0: the far end
+    /// stretches more). Mean stretch unchanged.
+    pub stretch_nonuniformity: f64,
+}
+
+/// Sensor parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorParams {
+    /// Capacitance at rest (prestretched, 0 mm), F.
+    pub c_rest_farad: f64,
+    /// Active length at rest, mm: C = c_rest·(1 + s/length) (uniaxial
+    /// stretch of an incompressible film).
+    pub rest_length_mm: f64,
+    /// Top electrode.
+    pub top: ElectrodeParams,
+    /// Bottom electrode.
+    pub bottom: ElectrodeParams,
+    /// Non-ideal effects.
+    pub effects: Effects,
+}
+
+impl SensorParams {
+    /// The reference sensor: 100 mm, 210 pF, ≈350 + 362 kΩ, no effects.
+    pub const REFERENCE: Self = Self {
+        c_rest_farad: 210e-12,
+        rest_length_mm: 100.0,
+        top: ElectrodeParams::TOP,
+        bottom: ElectrodeParams::BOTTOM,
+        effects: Effects {
+            contact_resistance_ohm: 0.0,
+            parasitic_capacitance_farad: 0.0,
+            resistance_gradient: 0.0,
+            leakage_resistance_ohm: 0.0,
+            stretch_nonuniformity: 0.0,
+        },
+    };
+
+    /// True capacitance at a uniform stretch `s` (mm), F.
+    pub fn capacitance(&self, s: f64) -> f64 {
+        self.c_rest_farad * (1.0 + s / self.rest_length_mm)
+    }
+}
+
+/// What the simulated sensor truly is at one instant.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Truth {
+    /// Time, s.
+    pub t: f64,
+    /// Mean stretch, mm.
+    pub stretch_mm: f64,
+    /// Stretch rate, mm/s.
+    pub rate_mm_s: f64,
+    /// Line capacitance Σc_i, F.
+    pub c_farad: f64,
+    /// Line resistance Σ(r_t,i + r_b,i), without contacts, Ω.
+    pub r_line_ohm: f64,
+    /// End-to-end top electrode resistance, as measured through its two
+    /// tabs (includes two contacts), Ω.
+    pub r_top_ohm: f64,
+    /// End-to-end bottom electrode resistance, Ω.
+    pub r_bottom_ohm: f64,
+}
+
+/// A sensor in time.
+#[derive(Clone, Debug)]
+pub struct Sensor {
+    /// Parameters.
+    pub params: SensorParams,
+    top: ElectrodeState,
+    bottom: ElectrodeState,
+    t: f64,
+    stretch: f64,
+    rate: f64,
+}
+
+impl Sensor {
+    /// A sensor at t = 0 in the electrodes' steady state (cycled long
+    /// enough, as the paper waited 15 min before recording).
+    pub fn settled(params: SensorParams) -> Self {
+        Self {
+            params,
+            top: ElectrodeState::default(),
+            bottom: ElectrodeState::default(),
+            t: 0.0,
+            stretch: 0.0,
+            rate: 0.0,
+        }
+    }
+
+    /// A sensor at t = 0 that has rested long (resistance excess present).
+    pub fn rested(params: SensorParams) -> Self {
+        Self {
+            top: ElectrodeState::rested(&params.top),
+            bottom: ElectrodeState::rested(&params.bottom),
+            ..Self::settled(params)
+        }
+    }
+
+    /// Current time, s.
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Follow `profile` up to time `t` (s) in steps of at most 1 ms.
+    pub fn advance(&mut self, profile: &Profile, t: f64) {
+        const DT: f64 = 1e-3;
+        while self.t < t {
+            let dt = DT.min(t - self.t);
+            // The rate over the step, from the profile's stretch change.
+            let (s0, _) = profile.at(self.t);
+            let (s1, _) = profile.at(self.t + dt);
+            let rate = (s1 - s0) / dt;
+            self.params.top.step(&mut self.top, rate, dt);
+            self.params.bottom.step(&mut self.bottom, rate, dt);
+            self.t += dt;
+            self.stretch = s1;
+            self.rate = rate;
+        }
+    }
+
+    /// Local stretch of segment i, mm.
+    fn local_stretch(&self, i: usize) -> f64 {
+        let xi = (i as f64 + 0.5) / SEGMENTS as f64;
+        self.stretch * (1.0 + self.params.effects.stretch_nonuniformity * (2.0 * xi - 1.0))
+    }
+
+    /// Weight of segment i's electrode resistance (mean 1).
+    fn r_weight(&self, i: usize) -> f64 {
+        let xi = (i as f64 + 0.5) / SEGMENTS as f64;
+        1.0 + self.params.effects.resistance_gradient * (2.0 * xi - 1.0)
+    }
+
+    /// Segment i: (r_t + r_b, c, g).
+    fn segment(&self, i: usize) -> (f64, f64, f64) {
+        let p = &self.params;
+        let s = self.local_stretch(i);
+        let w = self.r_weight(i) / SEGMENTS as f64;
+        let r = w * (p.top.resistance(&self.top, s) + p.bottom.resistance(&self.bottom, s));
+        let c = p.capacitance(s) / SEGMENTS as f64;
+        let g = if p.effects.leakage_resistance_ohm > 0.0 {
+            c / (p.capacitance(self.stretch) * p.effects.leakage_resistance_ohm)
+        } else {
+            0.0
+        };
+        (r, c, g)
+    }
+
+    /// The truth now.
+    pub fn truth(&self) -> Truth {
+        let p = &self.params;
+        let (mut c, mut rt, mut rb) = (0.0, 0.0, 0.0);
+        for i in 0..SEGMENTS {
+            let s = self.local_stretch(i);
+            let w = self.r_weight(i) / SEGMENTS as f64;
+            rt += w * p.top.resistance(&self.top, s);
+            rb += w * p.bottom.resistance(&self.bottom, s);
+            c += p.capacitance(s) / SEGMENTS as f64;
+        }
+        let rc = 2.0 * p.effects.contact_resistance_ohm;
+        Truth {
+            t: self.t,
+            stretch_mm: self.stretch,
+            rate_mm_s: self.rate,
+            c_farad: c,
+            r_line_ohm: rt + rb,
+            r_top_ohm: rt + rc,
+            r_bottom_ohm: rb + rc,
+        }
+    }
+
+    /// Impedance seen through the two tabs at the read end at `f_hz`, Ω.
+    pub fn impedance(&self, f_hz: f64) -> Complex64 {
+        let w = core::f64::consts::TAU * f_hz;
+        let fx = &self.params.effects;
+        // Midpoint segments (r/2, shunt c ‖ g, r/2): second-order accurate
+        // in the segment length. The far half resistor carries no current.
+        let (r, c, g) = self.segment(SEGMENTS - 1);
+        let mut z = Complex64::new(0.5 * r, 0.0) + Complex64::new(g, w * c).inv();
+        for i in (0..SEGMENTS - 1).rev() {
+            let (r, c, g) = self.segment(i);
+            let beyond = z + 0.5 * r;
+            z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * c) + beyond.inv()).inv();
+        }
+        let z = z + 2.0 * fx.contact_resistance_ohm;
+        if fx.parasitic_capacitance_farad > 0.0 {
+            (z.inv() + Complex64::new(0.0, w * fx.parasitic_capacitance_farad)).inv()
+        } else {
+            z
+        }
+    }
+}

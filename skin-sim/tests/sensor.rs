@@ -1,0 +1,104 @@
+//! The simulated sensor and front end against independent references.
+
+use dsp_core::demod::Demodulator;
+use dsp_core::Oscillator;
+use num_complex::Complex64;
+use skin_sim::frontend::FrontEndParams;
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::{Effects, Sensor, SensorParams};
+
+/// Continuous uniform line, f64: Z = √(R/(jωC))·coth √(jωRC).
+fn line(r: f64, c: f64, f: f64) -> Complex64 {
+    let w = std::f64::consts::TAU * f;
+    let g = Complex64::new(0.0, w * r * c).sqrt();
+    r / (g * g.tanh())
+}
+
+fn rel(a: Complex64, b: Complex64) -> f64 {
+    (a - b).norm() / b.norm()
+}
+
+#[test]
+fn uniform_grid_is_the_continuous_line() {
+    let mut s = Sensor::settled(SensorParams::REFERENCE);
+    for (t, stretch) in [(0.0, 0.0), (4.0, 30.0)] {
+        s.advance(&Profile::Constant(stretch), t);
+        let tr = s.truth();
+        for f in [100.0, 500.0, 2e3, 6e3, 20e3, 50e3] {
+            let e = rel(s.impedance(f), line(tr.r_line_ohm, tr.c_farad, f));
+            // Midpoint discretization error grows like x/n² (x = ωRC).
+            let x = std::f64::consts::TAU * f * tr.r_line_ohm * tr.c_farad;
+            assert!(e < 5e-6 * x.max(1.0), "f={f}, x={x}: {e}");
+        }
+    }
+}
+
+#[test]
+fn truth_follows_stretch() {
+    let p = SensorParams::REFERENCE;
+    let mut s = Sensor::settled(p);
+    s.advance(&Profile::Constant(30.0), 1.0);
+    let tr = s.truth();
+    assert!((tr.c_farad / p.capacitance(30.0) - 1.0).abs() < 1e-12);
+    assert!((tr.r_line_ohm / (p.top.r_static(30.0) + p.bottom.r_static(30.0)) - 1.0).abs() < 1e-9);
+    assert_eq!(tr.r_top_ohm + tr.r_bottom_ohm, tr.r_line_ohm);
+}
+
+#[test]
+fn effects_have_their_signatures() {
+    let base = SensorParams::REFERENCE;
+    let with = |e: Effects| {
+        let mut p = base;
+        p.effects = e;
+        let mut s = Sensor::settled(p);
+        s.advance(&Profile::Constant(10.0), 1.0);
+        s
+    };
+    let plain = with(Effects::default());
+    let (z0, t0) = (plain.impedance(2e3), plain.truth());
+    // Contacts: 2·Rc in series; recorded electrodes include two each.
+    let s = with(Effects { contact_resistance_ohm: 5e3, ..Effects::default() });
+    assert!(rel(s.impedance(2e3), z0 + 10e3) < 1e-12);
+    assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm + 10e3);
+    assert_eq!(s.truth().r_line_ohm, t0.r_line_ohm);
+    // Parasitic capacitance in parallel at the meter.
+    let s = with(Effects { parasitic_capacitance_farad: 15e-12, ..Effects::default() });
+    let w = std::f64::consts::TAU * 2e3;
+    assert!(rel(s.impedance(2e3), (z0.inv() + Complex64::new(0.0, w * 15e-12)).inv()) < 1e-12);
+    // Gradient: same total R and C, different impedance.
+    let s = with(Effects { resistance_gradient: 0.5, ..Effects::default() });
+    assert!((s.truth().r_line_ohm / t0.r_line_ohm - 1.0).abs() < 1e-12);
+    assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
+    // Nonuniform stretch: the same mean capacitance (C linear in stretch).
+    let s = with(Effects { stretch_nonuniformity: 0.5, ..Effects::default() });
+    assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-12);
+    // Leakage: lowers the impedance at low frequency most.
+    let s = with(Effects { leakage_resistance_ohm: 200e6, ..Effects::default() });
+    let lo = rel(s.impedance(100.0), plain.impedance(100.0));
+    let hi = rel(s.impedance(20e3), plain.impedance(20e3));
+    assert!(lo > 0.005 && lo > 10.0 * hi, "{lo} {hi}");
+}
+
+#[test]
+fn front_end_block_demodulates_to_the_impedance() {
+    let fe = FrontEndParams::REFERENCE;
+    let mut s = Sensor::settled(SensorParams::REFERENCE);
+    s.advance(&Profile::Constant(15.0), 1.0);
+    let mut rng = Rng::new(1);
+    for f in [500.0f32, 2e3, 6e3] {
+        let osc = Oscillator::coherent(f, fe.sample_rate_hz as f32, 11).unwrap();
+        let z = s.impedance(osc.freq_hz(fe.sample_rate_hz as f32) as f64);
+        let mut buf = [[0i16; 2]; 2048];
+        assert!(!fe.block(&osc, z, &mut rng, &mut buf));
+        let dm = Demodulator::<2048>::new(&osc);
+        let zm = dm.block(&buf).impedance(&fe.dsp_front_end()).unwrap();
+        let e = rel(Complex64::new(zm.re as f64, zm.im as f64), z);
+        assert!(e < 2e-3, "f={f}: {e}");
+    }
+    // Too much gain: the current channel clips, and says so.
+    let hot = FrontEndParams { tia_ohm: 1e6, ..fe };
+    let osc = Oscillator::coherent(6e3, 200e3, 11).unwrap();
+    let mut buf = [[0i16; 2]; 2048];
+    assert!(hot.block(&osc, s.impedance(6e3), &mut rng, &mut buf));
+}
