@@ -2,7 +2,14 @@
 //! the boards run, driven from the command line and from tests.
 //!
 //! * [`meter`]: what a series Cs–Rs meter reads on a line, and the inverse.
+//! * [`chain`]: the measurement chain on the simulated sensor (ADC +
+//!   demodulator, or an ideal LCR meter).
+//! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
+//! * [`plot`]: SVG figures.
 //! * [`si`]: SI-prefixed numbers for the command line.
 
+pub mod chain;
+pub mod experiments;
 pub mod meter;
+pub mod plot;
 pub mod si;

@@ -3,8 +3,13 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use dsp_core::tline::LineModel;
+use host_sim::chain::{self, Meter};
+use host_sim::experiments::{self as exp, Ctx};
 use host_sim::meter::{self, model_name, parse_model};
 use host_sim::si;
+use skin_sim::profile::Profile;
+use skin_sim::sensor::{Effects, Sensor};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -56,6 +61,194 @@ enum Cmd {
         #[arg(long, value_parser = si::parse)]
         c_hint: Option<f64>,
     },
+    /// Every paper experiment: CSV, SVG figures and summary.md in --out.
+    Paper(RunArgs),
+    /// Static frequency sweep at 0, 15, 30 mm (Fig. 7).
+    Sweep(RunArgs),
+    /// Electrode resistance settling and in steady state (Fig. 8, 9).
+    Resistance(RunArgs),
+    /// Lumped capacitance at 500 Hz, 2 kHz, 6 kHz, 10 and 20 mm/s (Fig. 10).
+    Capacitance(RunArgs),
+    /// Paper's simulation with n = 1, 2, 4, 30 vs. measurement (Fig. 13, 14).
+    Elements(RunArgs),
+    /// Lumped vs. line-corrected error against the truth, 20 mm/s, ADC chain.
+    Accuracy(RunArgs),
+    /// Write a data set in the interchange format, optionally with non-ideal effects.
+    Dataset {
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Seed of the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[command(flatten)]
+        effects: EffectArgs,
+    },
+    /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
+    Trace {
+        /// trapezoid:RATE, ramp:RATE:AMPLITUDE, step:TIME:AMPLITUDE,
+        /// const:STRETCH, or a CSV file with time_s,stretch_mm.
+        #[arg(long)]
+        profile: String,
+        /// Duration, s.
+        #[arg(long, value_parser = si::parse, default_value = "10")]
+        duration: f64,
+        /// Excitation frequency.
+        #[arg(long, value_parser = si::parse, default_value = "2k")]
+        f: f64,
+        /// 'adc' (front end, ADC, dsp-core) or 'lcr' (ideal series meter).
+        #[arg(long, default_value = "adc")]
+        meter: String,
+        /// Output CSV (default: stdout).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Seed of the noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[command(flatten)]
+        effects: EffectArgs,
+    },
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Output folder.
+    #[arg(long, default_value = "out/paper")]
+    out: PathBuf,
+    /// Seed of all noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Trapezoid periods per dynamic run.
+    #[arg(long, default_value_t = 2)]
+    periods: u32,
+}
+
+/// Non-ideal effects of the simulated sensor (all off by default).
+#[derive(clap::Args, Clone, Copy)]
+struct EffectArgs {
+    /// Contact resistance of each tab, e.g. 5k.
+    #[arg(long, value_parser = si::parse, default_value = "0")]
+    contact_resistance: f64,
+    /// Parasitic capacitance at the meter, e.g. 10p.
+    #[arg(long, value_parser = si::parse, default_value = "0")]
+    parasitic_capacitance: f64,
+    /// Electrode resistance gradient along the sensor, -1..1.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    resistance_gradient: f64,
+    /// Total dielectric leakage resistance, e.g. 500meg (0: none).
+    #[arg(long, value_parser = si::parse, default_value = "0")]
+    leakage_resistance: f64,
+    /// Stretch nonuniformity along the sensor, -1..1.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    stretch_nonuniformity: f64,
+}
+
+impl EffectArgs {
+    fn effects(&self) -> Result<Effects> {
+        let e = Effects {
+            contact_resistance_ohm: self.contact_resistance,
+            parasitic_capacitance_farad: self.parasitic_capacitance,
+            resistance_gradient: self.resistance_gradient,
+            leakage_resistance_ohm: self.leakage_resistance,
+            stretch_nonuniformity: self.stretch_nonuniformity,
+        };
+        anyhow::ensure!(
+            e.contact_resistance_ohm >= 0.0,
+            "--contact-resistance must be ≥ 0"
+        );
+        anyhow::ensure!(
+            e.parasitic_capacitance_farad >= 0.0,
+            "--parasitic-capacitance must be ≥ 0"
+        );
+        anyhow::ensure!(
+            e.leakage_resistance_ohm >= 0.0,
+            "--leakage-resistance must be ≥ 0"
+        );
+        anyhow::ensure!(
+            e.resistance_gradient.abs() < 1.0,
+            "--resistance-gradient must be in (-1, 1)"
+        );
+        anyhow::ensure!(
+            e.stretch_nonuniformity.abs() < 1.0,
+            "--stretch-nonuniformity must be in (-1, 1)"
+        );
+        Ok(e)
+    }
+}
+
+/// Parse a profile argument; `points` keeps a CSV profile's table alive.
+fn parse_profile<'a>(spec: &str, points: &'a mut Vec<(f64, f64)>) -> Result<Profile<'a>> {
+    let num = |s: &str| si::parse(s).map_err(|e| anyhow::anyhow!("profile '{spec}': {e}"));
+    let parts: Vec<&str> = spec.split(':').collect();
+    Ok(match parts.as_slice() {
+        ["trapezoid", rate] => {
+            let r = num(rate)?;
+            anyhow::ensure!(r > 0.0, "profile '{spec}': rate must be > 0");
+            Profile::paper(r)
+        }
+        ["ramp", rate, amp] => {
+            let r = num(rate)?;
+            anyhow::ensure!(r > 0.0, "profile '{spec}': rate must be > 0");
+            Profile::Ramp {
+                rate: r,
+                amplitude: num(amp)?,
+            }
+        }
+        ["step", at, amp] => Profile::Step {
+            at: num(at)?,
+            amplitude: num(amp)?,
+        },
+        ["const", s] => Profile::Constant(num(s)?),
+        _ => {
+            *points = read_profile_csv(std::path::Path::new(spec))?;
+            Profile::Table(points)
+        }
+    })
+}
+
+/// A profile table: columns time_s and stretch_mm, increasing times.
+fn read_profile_csv(path: &std::path::Path) -> Result<Vec<(f64, f64)>> {
+    use anyhow::Context;
+    let name = path.display();
+    let mut rd = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .from_path(path)
+        .with_context(|| format!("{name}: cannot open (expected a profile kind or a CSV file)"))?;
+    let head = rd
+        .headers()
+        .with_context(|| format!("{name}: no header row"))?
+        .clone();
+    let col = |n: &str| {
+        head.iter()
+            .position(|h| h.trim() == n)
+            .ok_or_else(|| anyhow::anyhow!("{name}: missing column {n}"))
+    };
+    let (ct, cs) = (col("time_s")?, col("stretch_mm")?);
+    let mut pts: Vec<(f64, f64)> = vec![];
+    for rec in rd.records() {
+        let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let field = |c: usize, n: &str| -> Result<f64> {
+            let v = rec.get(c).unwrap_or("").trim();
+            match v.parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => anyhow::bail!("{name}:{line}: column {n}: '{v}' is not a finite number"),
+            }
+        };
+        let (t, s) = (field(ct, "time_s")?, field(cs, "stretch_mm")?);
+        if let Some(&(tp, _)) = pts.last() {
+            anyhow::ensure!(t > tp, "{name}:{line}: column time_s: {t} does not increase");
+        }
+        pts.push((t, s));
+    }
+    anyhow::ensure!(!pts.is_empty(), "{name}: no rows");
+    Ok(pts)
+}
+
+fn ctx(a: &RunArgs, total_s: f64) -> Result<Ctx> {
+    let mut c = Ctx::new(&a.out, a.seed)?.with_progress(total_s);
+    c.periods = a.periods;
+    Ok(c)
 }
 
 fn main() -> ExitCode {
@@ -124,6 +317,63 @@ fn run(cli: Cli) -> Result<()> {
                 si::fmt(line.r_ohm as f64, "Ω")
             );
             println!("ωRC = {:.5}", line.x);
+        }
+        Cmd::Paper(a) => {
+            let c = ctx(&a, 600.0 + 9.0 * 10.0 * a.periods as f64)?;
+            let (md, _) = exp::paper(&c)?;
+            println!("{md}");
+            println!("wrote CSV, SVG and summary.md to {}", a.out.display());
+        }
+        Cmd::Sweep(a) => println!("{}", exp::sweep(&ctx(&a, 0.0)?)?),
+        Cmd::Resistance(a) => println!("{}", exp::resistance(&ctx(&a, 600.0)?)?),
+        Cmd::Capacitance(a) => println!("{}", exp::capacitance(&ctx(&a, 60.0 * a.periods as f64)?)?.0),
+        Cmd::Elements(a) => {
+            let c = ctx(&a, 60.0 * a.periods as f64)?;
+            let (_, runs) = exp::capacitance(&c)?;
+            println!("{}", exp::elements(&c, &runs)?);
+        }
+        Cmd::Accuracy(a) => println!("{}", exp::accuracy(&ctx(&a, 30.0 * a.periods as f64)?)?.0),
+        Cmd::Dataset { out, seed, effects } => {
+            let params = exp::with_effects(effects.effects()?);
+            let pb = Ctx::new(&out, seed)?.with_progress(180.0).progress;
+            exp::dataset(&out, params, seed, pb)?;
+            println!("wrote a data set to {}", out.display());
+        }
+        Cmd::Trace {
+            profile,
+            duration,
+            f,
+            meter,
+            out,
+            seed,
+            effects,
+        } => {
+            let mut points = vec![];
+            let p = parse_profile(&profile, &mut points)?;
+            let m = match meter.as_str() {
+                "adc" => Meter::ADC,
+                "lcr" => Meter::LCR,
+                other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
+            };
+            anyhow::ensure!(duration > 0.0, "--duration must be > 0");
+            anyhow::ensure!((100.0..=50e3).contains(&f), "--f must be within 100 Hz..50 kHz");
+            let params = exp::with_effects(effects.effects()?);
+            let mut s = Sensor::settled(params);
+            let setup = chain::Setup {
+                freq_hz: f,
+                meter: m,
+                model: LineModel::Continuous,
+                prior_farad: exp::rest_calibration(params),
+                seed,
+            };
+            let rs = chain::run(&mut s, &p, setup, duration, |_| {});
+            match out {
+                Some(path) => {
+                    exp::write_trace(&path, &rs, true)?;
+                    println!("wrote {} readings to {}", rs.len(), path.display());
+                }
+                None => exp::write_trace_to(std::io::stdout().lock(), &rs, true)?,
+            }
         }
     }
     Ok(())

@@ -54,7 +54,7 @@ impl ElectrodeParams {
         static_drop: 0.22,
         knee_mm: 15.0,
         span_mm: 30.0,
-        breakdown_per_mm: 0.35,
+        breakdown_per_mm: 0.45,
         tau_breakdown_s: 0.12,
         tau_recovery_s: 1.4,
         recovery_gain: 0.6,
@@ -66,7 +66,7 @@ impl ElectrodeParams {
     /// more responsive, as the paper's two electrodes differ).
     pub const BOTTOM: Self = Self {
         r_rest_ohm: 362e3,
-        breakdown_per_mm: 0.40,
+        breakdown_per_mm: 0.50,
         tau_recovery_s: 1.6,
         ..Self::TOP
     };
@@ -138,7 +138,12 @@ mod tests {
     use crate::profile::Profile;
 
     /// Simulate `secs` of `profile`; returns (t, s, R) every 10 ms.
-    fn run(p: &ElectrodeParams, profile: Profile, secs: f64, st: &mut ElectrodeState) -> [(f64, f64, f64); 1000] {
+    fn run(
+        p: &ElectrodeParams,
+        profile: Profile,
+        secs: f64,
+        st: &mut ElectrodeState,
+    ) -> [(f64, f64, f64); 1000] {
         let mut out = [(0.0, 0.0, 0.0); 1000];
         let dt = 1e-3;
         let steps = (secs / dt) as usize;
@@ -161,7 +166,11 @@ mod tests {
         for (k, rate) in [10.0, 20.0].into_iter().enumerate() {
             let mut st = ElectrodeState::default();
             let tr = run(&p, Profile::paper(rate), 10.0, &mut st);
-            let (i, &(t, s, r)) = tr.iter().enumerate().max_by(|a, b| a.1 .2.total_cmp(&b.1 .2)).unwrap();
+            let (i, &(t, s, r)) = tr
+                .iter()
+                .enumerate()
+                .max_by(|a, b| a.1 .2.total_cmp(&b.1 .2))
+                .unwrap();
             peaks[k] = r;
             assert!(s < 30.0 - 1.0, "peak at {s} mm, t = {t}");
             assert!(i > 0 && t < 30.0 / rate);
@@ -173,7 +182,10 @@ mod tests {
             assert!(at(9.9) > at(stop + 0.3), "transient recovery at rest");
         }
         assert!(peaks[1] > 1.2 * peaks[0], "{peaks:?}");
-        assert!(peaks[0] > 1.3 * p.r_rest_ohm && peaks[1] < 2.5 * p.r_rest_ohm, "{peaks:?}");
+        assert!(
+            peaks[0] > 1.3 * p.r_rest_ohm && peaks[1] < 2.5 * p.r_rest_ohm,
+            "{peaks:?}"
+        );
     }
 
     #[test]

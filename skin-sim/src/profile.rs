@@ -126,10 +126,16 @@ mod tests {
 
     #[test]
     fn ramp_step_table() {
-        let r = Profile::Ramp { rate: 5.0, amplitude: 10.0 };
+        let r = Profile::Ramp {
+            rate: 5.0,
+            amplitude: 10.0,
+        };
         assert_eq!(r.at(1.0), (5.0, 5.0));
         assert_eq!(r.at(3.0), (10.0, 0.0));
-        let s = Profile::Step { at: 1.0, amplitude: 7.0 };
+        let s = Profile::Step {
+            at: 1.0,
+            amplitude: 7.0,
+        };
         assert_eq!((s.at(0.99).0, s.at(1.0).0), (0.0, 7.0));
         let pts = [(0.0, 0.0), (2.0, 10.0), (3.0, 10.0)];
         let t = Profile::Table(&pts);

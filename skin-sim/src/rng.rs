@@ -56,7 +56,10 @@ impl Rng {
         let u1 = 1.0 - self.uniform(); // (0, 1]
         let u2 = self.uniform();
         let r = libm::sqrt(-2.0 * libm::log(u1));
-        let (s, c) = (libm::sin(core::f64::consts::TAU * u2), libm::cos(core::f64::consts::TAU * u2));
+        let (s, c) = (
+            libm::sin(core::f64::consts::TAU * u2),
+            libm::cos(core::f64::consts::TAU * u2),
+        );
         self.spare = Some(r * s);
         r * c
     }

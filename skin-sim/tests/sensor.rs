@@ -58,23 +58,43 @@ fn effects_have_their_signatures() {
     let plain = with(Effects::default());
     let (z0, t0) = (plain.impedance(2e3), plain.truth());
     // Contacts: 2·Rc in series; recorded electrodes include two each.
-    let s = with(Effects { contact_resistance_ohm: 5e3, ..Effects::default() });
+    let s = with(Effects {
+        contact_resistance_ohm: 5e3,
+        ..Effects::default()
+    });
     assert!(rel(s.impedance(2e3), z0 + 10e3) < 1e-12);
     assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm + 10e3);
     assert_eq!(s.truth().r_line_ohm, t0.r_line_ohm);
     // Parasitic capacitance in parallel at the meter.
-    let s = with(Effects { parasitic_capacitance_farad: 15e-12, ..Effects::default() });
+    let s = with(Effects {
+        parasitic_capacitance_farad: 15e-12,
+        ..Effects::default()
+    });
     let w = std::f64::consts::TAU * 2e3;
-    assert!(rel(s.impedance(2e3), (z0.inv() + Complex64::new(0.0, w * 15e-12)).inv()) < 1e-12);
+    assert!(
+        rel(
+            s.impedance(2e3),
+            (z0.inv() + Complex64::new(0.0, w * 15e-12)).inv()
+        ) < 1e-12
+    );
     // Gradient: same total R and C, different impedance.
-    let s = with(Effects { resistance_gradient: 0.5, ..Effects::default() });
+    let s = with(Effects {
+        resistance_gradient: 0.5,
+        ..Effects::default()
+    });
     assert!((s.truth().r_line_ohm / t0.r_line_ohm - 1.0).abs() < 1e-12);
     assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
     // Nonuniform stretch: the same mean capacitance (C linear in stretch).
-    let s = with(Effects { stretch_nonuniformity: 0.5, ..Effects::default() });
+    let s = with(Effects {
+        stretch_nonuniformity: 0.5,
+        ..Effects::default()
+    });
     assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-12);
     // Leakage: lowers the impedance at low frequency most.
-    let s = with(Effects { leakage_resistance_ohm: 200e6, ..Effects::default() });
+    let s = with(Effects {
+        leakage_resistance_ohm: 200e6,
+        ..Effects::default()
+    });
     let lo = rel(s.impedance(100.0), plain.impedance(100.0));
     let hi = rel(s.impedance(20e3), plain.impedance(20e3));
     assert!(lo > 0.005 && lo > 10.0 * hi, "{lo} {hi}");

@@ -91,6 +91,7 @@ fn main() -> Result<()> {
             bench()?;
             if host {
                 cargo(&root, &["bench", "-p", "dsp-core", "--bench", "dsp"])?;
+                cargo(&root, &["bench", "-p", "host-sim", "--bench", "paper"])?;
             }
             Ok(())
         }
@@ -101,38 +102,19 @@ fn main() -> Result<()> {
     }
 }
 
-/// The main job: what a series meter reads on the reference sensor across
-/// frequency and models, written to out/, then the Cortex-M4 counts.
+/// The main job: host-sim's paper run on the simulated skin (CSV, SVG,
+/// summary in out/paper), then the Cortex-M4 instruction counts. The
+/// firmware in QEMU takes over once it exists.
 fn run_main(root: &Path) -> Result<()> {
-    let out = root.join("out");
-    std::fs::create_dir_all(&out)?;
+    let out = root.join("out/paper");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let freqs = "100,200,500,1k,2k,4k,6k,10k,20k,50k";
-    let args = [
-        "run",
-        "--release",
-        "-q",
-        "-p",
-        "host-sim",
-        "--",
-        "model",
-        "--r",
-        "712k",
-        "--c",
-        "210p",
-        "--f",
-        freqs,
-    ];
-    let o = Command::new(&cargo).args(args).arg("--csv").output()?;
-    if !o.status.success() {
-        bail!("host-sim failed: {}", String::from_utf8_lossy(&o.stderr));
-    }
-    std::fs::write(out.join("model_sweep.csv"), &o.stdout)?;
-    let st = Command::new(&cargo).args(args).status()?;
+    let st = Command::new(&cargo)
+        .args(["run", "--release", "-q", "-p", "host-sim", "--", "paper", "--out"])
+        .arg(&out)
+        .status()?;
     if !st.success() {
-        bail!("host-sim failed");
+        bail!("host-sim paper failed");
     }
-    println!("\nwrote {}", out.join("model_sweep.csv").display());
     bench()
 }
 

@@ -1,0 +1,288 @@
+//! The measurement chain: a simulated sensor read at one excitation
+//! frequency, either through the front end, ADC and dsp-core demodulator
+//! (the firmware's code path) or by an ideal series LCR meter (the paper's
+//! instrument). Both report the lumped Cs–Rs and the line-corrected C and R.
+
+use dsp_core::demod::Demodulator;
+use dsp_core::invert::{InvertError, Inverter};
+use dsp_core::lumped::SeriesRc;
+use dsp_core::tline::LineModel;
+use dsp_core::{Complex32, Oscillator};
+use skin_sim::frontend::FrontEndParams;
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::Sensor;
+
+/// Upper end of the inversion range used by the chain (x = ωRC). Beyond
+/// the peak of D(x) at x ≈ 8.3 the falling branch still has a usable slope
+/// up to here, and the previous reading's C selects the branch.
+pub const X_MAX: f32 = 16.0;
+/// A corrected reading that moves farther than this (relative) from the
+/// previous one is rejected as a branch error (a real sensor changes C by
+/// well under 1 % per 10 ms block).
+pub const MAX_JUMP: f32 = 0.15;
+
+/// Demodulation block, log2 of pairs (2048 pairs: 10.24 ms at 200 kSa/s).
+pub const BLOCK_LOG2: u32 = 11;
+const BLOCK: usize = 1 << BLOCK_LOG2;
+
+/// How the impedance is measured.
+#[derive(Clone, Copy, Debug)]
+pub enum Meter {
+    /// Front end, ADC, and dsp-core's demodulator, block by block.
+    Adc(FrontEndParams),
+    /// An ideal series Cs–Rs meter, sampled every `interval_s`, with
+    /// Gaussian reading noise of `rel` (relative) plus `abs_farad` on Cs and
+    /// `rel` on Rs (the example data set: 0.02 % + 0.02 pF).
+    Lcr {
+        /// Sampling interval, s.
+        interval_s: f64,
+        /// Relative noise (1 σ).
+        rel: f64,
+        /// Absolute capacitance noise (1 σ), F.
+        abs_farad: f64,
+    },
+}
+
+impl Meter {
+    /// The paper's LCR meter: 50 readings/s, 0.02 % + 0.02 pF.
+    pub const LCR: Meter = Meter::Lcr {
+        interval_s: 0.02,
+        rel: 2e-4,
+        abs_farad: 0.02e-12,
+    };
+    /// The reference front end and ADC.
+    pub const ADC: Meter = Meter::Adc(FrontEndParams::REFERENCE);
+}
+
+/// One reading with the truth beside it.
+#[derive(Clone, Copy, Debug)]
+pub struct Reading {
+    /// Time, s.
+    pub t: f64,
+    /// Stretch, mm.
+    pub stretch_mm: f64,
+    /// True line capacitance, F.
+    pub c_true: f64,
+    /// True line resistance (both electrodes, no contacts), Ω.
+    pub r_line: f64,
+    /// End-to-end top electrode resistance, Ω.
+    pub r_top: f64,
+    /// End-to-end bottom electrode resistance, Ω.
+    pub r_bottom: f64,
+    /// Excitation frequency actually used, Hz.
+    pub freq_hz: f64,
+    /// Lumped series capacitance, F.
+    pub cs: f64,
+    /// Lumped series resistance, Ω.
+    pub rs: f64,
+    /// Line-corrected capacitance, F (NaN when the inversion failed).
+    pub c_corr: f64,
+    /// Line-corrected resistance, Ω (NaN when the inversion failed).
+    pub r_corr: f64,
+    /// The ADC clipped during this reading.
+    pub clipped: bool,
+}
+
+/// Consecutive rejected readings after which the prior replaces the
+/// tracked capacitance (so a wrong branch cannot lock in).
+pub const RELOCK_AFTER: u32 = 5;
+
+/// How the chain is set up.
+#[derive(Clone, Copy, Debug)]
+pub struct Setup {
+    /// Excitation frequency, Hz.
+    pub freq_hz: f64,
+    /// How the impedance is measured.
+    pub meter: Meter,
+    /// Line model of the correction.
+    pub model: LineModel,
+    /// Prior capacitance (F), e.g. the rest value of the static
+    /// calibration: picks the branch until a reading is tracked.
+    pub prior_farad: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+/// Line correction with branch tracking: the previous corrected C picks
+/// the branch where two lines fit; readings that jump more than
+/// [`MAX_JUMP`] are rejected, and after [`RELOCK_AFTER`] rejections in a
+/// row the prior takes over again.
+pub struct Tracker {
+    inverter: Inverter,
+    prior: f32,
+    hint: f32,
+    rejected: u32,
+}
+
+impl Tracker {
+    /// A tracker for `model` starting from `prior_farad`.
+    pub fn new(model: LineModel, prior_farad: f64) -> Self {
+        Self {
+            inverter: Inverter::with_x_max(model, X_MAX).expect("valid model"),
+            prior: prior_farad as f32,
+            hint: prior_farad as f32,
+            rejected: 0,
+        }
+    }
+
+    /// Corrected (C, R) for impedance `z` at `f`, or NaN when rejected.
+    pub fn correct(&mut self, z: Complex32, f: f32) -> (f64, f64) {
+        match self.inverter.invert_near(z, f, self.hint) {
+            Ok(line) if (line.c_farad / self.hint - 1.0).abs() <= MAX_JUMP => {
+                self.hint = line.c_farad;
+                self.rejected = 0;
+                (line.c_farad as f64, line.r_ohm as f64)
+            }
+            Ok(_) | Err(InvertError::Ambiguous) | Err(_) => {
+                self.rejected += 1;
+                if self.rejected >= RELOCK_AFTER {
+                    self.hint = self.prior;
+                    self.rejected = 0;
+                }
+                (f64::NAN, f64::NAN)
+            }
+        }
+    }
+}
+
+/// Read `sensor` following `profile` from its current time until `t_end`;
+/// `tick` is called with the time of every reading (progress).
+pub fn run(
+    sensor: &mut Sensor,
+    profile: &Profile,
+    setup: Setup,
+    t_end: f64,
+    mut tick: impl FnMut(f64),
+) -> Vec<Reading> {
+    let Setup {
+        freq_hz,
+        meter,
+        model,
+        prior_farad,
+        seed,
+    } = setup;
+    let mut rng = Rng::new(seed);
+    let mut tracker = Tracker::new(model, prior_farad);
+    let mut out = Vec::new();
+    let mut correct = |z: Complex32, f: f32| tracker.correct(z, f);
+    match meter {
+        Meter::Adc(fe) => {
+            let fs = fe.sample_rate_hz as f32;
+            let Ok(osc) = Oscillator::coherent(freq_hz as f32, fs, BLOCK_LOG2) else {
+                return out;
+            };
+            let f = osc.freq_hz(fs) as f64;
+            let dm = Demodulator::<BLOCK>::new(&osc);
+            let dt = BLOCK as f64 / fe.sample_rate_hz;
+            let mut buf = vec![[0i16; 2]; BLOCK];
+            let front = fe.dsp_front_end();
+            let mut t = sensor.time();
+            while t + dt <= t_end + 1e-12 {
+                sensor.advance(profile, t + 0.5 * dt);
+                let truth = sensor.truth();
+                let clipped = fe.block(&osc, sensor.impedance(f), &mut rng, &mut buf);
+                let z = dm
+                    .block(buf.as_slice().try_into().expect("block length"))
+                    .impedance(&front);
+                let (cs, rs) = z
+                    .and_then(|z| SeriesRc::from_impedance(z, f as f32).ok())
+                    .map_or((f64::NAN, f64::NAN), |m| (m.cs_farad as f64, m.rs_ohm as f64));
+                let (c_corr, r_corr) = z.map_or((f64::NAN, f64::NAN), |z| correct(z, f as f32));
+                out.push(reading(&truth, f, cs, rs, c_corr, r_corr, clipped));
+                t += dt;
+                sensor.advance(profile, t);
+                tick(t);
+            }
+        }
+        Meter::Lcr {
+            interval_s,
+            rel,
+            abs_farad,
+        } => {
+            let w = std::f64::consts::TAU * freq_hz;
+            let mut t = sensor.time();
+            while t <= t_end + 1e-12 {
+                sensor.advance(profile, t);
+                let truth = sensor.truth();
+                let z = sensor.impedance(freq_hz);
+                let cs = -1.0 / (w * z.im) * (1.0 + rel * rng.gaussian()) + abs_farad * rng.gaussian();
+                let rs = z.re * (1.0 + rel * rng.gaussian());
+                let zm = SeriesRc {
+                    cs_farad: cs as f32,
+                    rs_ohm: rs as f32,
+                }
+                .impedance(freq_hz as f32);
+                let (c_corr, r_corr) = correct(zm, freq_hz as f32);
+                out.push(reading(&truth, freq_hz, cs, rs, c_corr, r_corr, false));
+                tick(t);
+                t += interval_s;
+            }
+        }
+    }
+    out
+}
+
+fn reading(
+    tr: &skin_sim::sensor::Truth,
+    f: f64,
+    cs: f64,
+    rs: f64,
+    c_corr: f64,
+    r_corr: f64,
+    clipped: bool,
+) -> Reading {
+    Reading {
+        t: tr.t,
+        stretch_mm: tr.stretch_mm,
+        c_true: tr.c_farad,
+        r_line: tr.r_line_ohm,
+        r_top: tr.r_top_ohm,
+        r_bottom: tr.r_bottom_ohm,
+        freq_hz: f,
+        cs,
+        rs,
+        c_corr,
+        r_corr,
+        clipped,
+    }
+}
+
+/// RMS and max of |e| over the finite values, and how many were not finite.
+pub fn rms_max(e: impl IntoIterator<Item = f64>) -> (f64, f64, usize) {
+    let (mut ss, mut mx, mut n, mut bad) = (0.0, 0.0f64, 0usize, 0usize);
+    for v in e {
+        if v.is_finite() {
+            ss += v * v;
+            mx = mx.max(v.abs());
+            n += 1;
+        } else {
+            bad += 1;
+        }
+    }
+    (if n > 0 { (ss / n as f64).sqrt() } else { f64::NAN }, mx, bad)
+}
+
+/// How far a capacitance reading dips below where it should only rise or
+/// rest, over the readings of one trapezoid period starting at rest: the
+/// larger of (reading at the start of the stretch − its minimum during the
+/// stretch) and (final resting value − minimum after the release starts),
+/// in F; 0 when the reading never dips.
+pub fn undershoot(rs: &[Reading], value: impl Fn(&Reading) -> f64) -> f64 {
+    let Some(first) = rs.first() else { return 0.0 };
+    // Stretch phase: from the first moving reading until max stretch.
+    let smax = rs.iter().map(|r| r.stretch_mm).fold(f64::MIN, f64::max);
+    let end_stretch = rs.iter().position(|r| r.stretch_mm >= smax - 1e-9).unwrap_or(0);
+    let start = value(first);
+    let dip1 = rs[..=end_stretch].iter().map(&value).fold(start, f64::min);
+    // Release: from the first reading below max stretch after the hold.
+    let rel_start = rs[end_stretch..]
+        .iter()
+        .position(|r| r.stretch_mm < smax - 1e-9)
+        .map(|k| k + end_stretch);
+    let dip2 = rel_start.map_or(0.0, |k| {
+        let last = value(&rs[rs.len() - 1]);
+        last - rs[k..].iter().map(&value).fold(last, f64::min)
+    });
+    (start - dip1).max(dip2).max(0.0)
+}

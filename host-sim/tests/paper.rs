@@ -1,0 +1,115 @@
+//! The paper's experiments on the simulated skin: the effects the paper
+//! reports must appear (and only where it reports them), and the line
+//! correction must remove them.
+
+use host_sim::experiments::{self as exp, Ctx};
+
+fn ctx(dir: &tempfile::TempDir) -> Ctx {
+    let mut c = Ctx::new(dir.path(), 3).unwrap();
+    c.periods = 1;
+    c
+}
+
+#[test]
+fn undershoot_at_2_and_6_khz_not_at_500_hz_and_correction_removes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = ctx(&dir);
+    let (_, acc) = exp::accuracy(&c).unwrap();
+    assert_eq!(acc.len(), 3);
+    let [f500, f2k, f6k] = [&acc[0], &acc[1], &acc[2]];
+    // [rms pF, max pF, rms %, max %, undershoot pF]
+    // The lumped meter: no visible undershoot at 500 Hz (< 1 % of C),
+    // clear ones at 2 and 6 kHz, and ≥ 10 % RMS error at 6 kHz.
+    assert!(f500.lumped[4] < 2.1, "500 Hz undershoot {:?}", f500.lumped);
+    assert!(f2k.lumped[4] > 10.0, "2 kHz undershoot {:?}", f2k.lumped);
+    assert!(f6k.lumped[4] > 20.0, "6 kHz undershoot {:?}", f6k.lumped);
+    assert!(f6k.lumped[2] >= 10.0, "{:?}", f6k.lumped);
+    // The line-corrected reading stays on the truth: ≤ 0.5 % RMS at 6 kHz,
+    // no undershoot, and hardly any rejected readings.
+    for a in &acc {
+        assert!(a.corrected[2] <= 0.5, "{a:?}");
+        assert!(a.corrected[4] < 1.0, "{a:?}");
+        assert!(a.corrected_missing * 100 <= a.readings, "{a:?}");
+    }
+    assert!(f500.corrected[2] < 0.1 && f2k.corrected[2] < 0.1, "{acc:?}");
+    for f in ["500", "2000", "6000"] {
+        assert!(dir.path().join(format!("adc_20mmps_{f}hz.csv")).is_file());
+    }
+    assert!(dir.path().join("accuracy_20mmps.svg").is_file());
+}
+
+#[test]
+fn paper_runs_everything_and_writes_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = ctx(&dir);
+    let (md, _) = exp::paper(&c).unwrap();
+    for name in [
+        "summary.md",
+        "sweep.csv",
+        "calibration.csv",
+        "resistance_settling.csv",
+        "resistance_10mmps.csv",
+        "resistance_20mmps.csv",
+        "trace_10mmps_500hz.csv",
+        "trace_20mmps_6000hz.csv",
+        "fig7_sweep.svg",
+        "fig8_9_resistance.svg",
+        "fig10_capacitance.svg",
+        "fig13_14_elements.svg",
+        "accuracy_20mmps.svg",
+    ] {
+        let p = dir.path().join(name);
+        assert!(
+            p.is_file() && std::fs::metadata(&p).unwrap().len() > 100,
+            "{name}"
+        );
+    }
+    for section in ["Fig. 7", "Fig. 8", "Fig. 10", "Fig. 13", "20 mm/s trapezoid"] {
+        assert!(md.contains(section), "{section}");
+    }
+    // Fig. 7: the lumped capacitance falls with frequency at every stretch.
+    let sweep = std::fs::read_to_string(dir.path().join("sweep.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = sweep
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    for s in [0.0, 15.0, 30.0] {
+        let cs: Vec<f64> = rows.iter().filter(|r| r[0] == s).map(|r| r[2]).collect();
+        assert!(
+            cs.len() > 10 && cs.windows(2).all(|w| w[1] < w[0] + 0.1),
+            "{s}: {cs:?}"
+        );
+        assert!(cs[cs.len() - 1] < 0.8 * cs[0]);
+    }
+}
+
+#[test]
+fn elements_converge_to_the_measurement() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = ctx(&dir);
+    let (_, runs) = exp::capacitance(&c).unwrap();
+    let md = exp::elements(&c, &runs).unwrap();
+    // RMS sim − meas for n = 1, 2, 4, 30 must fall with n (Fig. 13).
+    let rms: Vec<f64> = md
+        .lines()
+        .filter(|l| {
+            l.starts_with("| 1 |")
+                || l.starts_with("| 2 |")
+                || l.starts_with("| 4 |")
+                || l.starts_with("| 30 |")
+        })
+        .map(|l| {
+            l.split('|')
+                .nth(2)
+                .unwrap()
+                .trim()
+                .trim_end_matches(" pF")
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    assert_eq!(rms.len(), 4, "{md}");
+    assert!(rms.windows(2).all(|w| w[1] < w[0]), "{rms:?}");
+    assert!(rms[3] < 1.0, "{rms:?}");
+}
