@@ -153,6 +153,13 @@ impl Inverter {
         self.x_max
     }
 
+    /// The peak of D(x) in range: (x, D) at the largest dissipation factor
+    /// (the top of the grid when D rises all the way). Near it the
+    /// inversion is ill-conditioned: dD/dx = 0.
+    pub fn peak(&self) -> (f32, f32) {
+        (libm::expf(self.u[self.peak]), self.d[self.peak])
+    }
+
     /// Largest x up to which one impedance fits only one line in range:
     /// `x_max` if D(x) rises all the way, else the x on the rising branch
     /// where D equals D(x_max). Frequency policies keep x below this.

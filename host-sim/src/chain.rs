@@ -84,6 +84,12 @@ pub struct Reading {
     pub clipped: bool,
 }
 
+/// Readings whose D lies within this fraction below the peak of D(x) are
+/// ill-conditioned (D hardly depends on x there): the tracker holds the
+/// previous C instead of amplifying the noise (about 20 σ of D for the
+/// reference front end at 6 kHz).
+pub const ILL_CONDITIONED: f32 = 2e-3;
+
 /// Consecutive rejected readings after which the prior replaces the
 /// tracked capacitance (so a wrong branch cannot lock in).
 pub const RELOCK_AFTER: u32 = 5;
@@ -128,6 +134,16 @@ impl Tracker {
 
     /// Corrected (C, R) for impedance `z` at `f`, or NaN when rejected.
     pub fn correct(&mut self, z: Complex32, f: f32) -> (f64, f64) {
+        let (x_peak, d_peak) = self.inverter.peak();
+        let d = z.re / -z.im;
+        if self.rejected == 0
+            && d <= d_peak * (1.0 + ILL_CONDITIONED)
+            && d >= d_peak * (1.0 - ILL_CONDITIONED)
+        {
+            // Hold C; R as the peak's x implies.
+            let c = self.hint;
+            return (c as f64, (x_peak / (std::f32::consts::TAU * f * c)) as f64);
+        }
         match self.inverter.invert_near(z, f, self.hint) {
             Ok(line) if (line.c_farad / self.hint - 1.0).abs() <= MAX_JUMP => {
                 self.hint = line.c_farad;

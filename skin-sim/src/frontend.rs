@@ -6,11 +6,15 @@
 //! stage, −R_f·i(t), with i(t) = Re{A·e^(jθₙ)/Z} for the sensor impedance Z
 //! (quasi-static: the sensor changes slowly against one block). Both are
 //! quantized by a `bits`-bit bipolar ADC of full scale ±`full_scale_volt`,
-//! with Gaussian noise, and clipped at the rails (reported).
+//! with (Irwin–Hall) Gaussian noise, and clipped at the rails (reported).
+//!
+//! The synthesis uses dsp-core's integer `cossin` and `f32` arithmetic (IEEE
+//! basic operations), so a block costs a few dozen instructions per pair
+//! and gives the same codes on the host and in QEMU.
 
 use crate::rng::Rng;
 use dsp_core::demod::FrontEnd;
-use dsp_core::Oscillator;
+use dsp_core::{Oscillator, OscillatorState};
 use num_complex::Complex64;
 
 /// Front-end parameters.
@@ -54,24 +58,35 @@ impl FrontEndParams {
     /// impedance `z` (Ω) excited by `osc` from phase 0. Returns true if any
     /// sample clipped.
     pub fn block(&self, osc: &Oscillator, z: Complex64, rng: &mut Rng, out: &mut [[i16; 2]]) -> bool {
-        let half = (1i32 << (self.adc_bits - 1)) as f64;
-        let lsb = self.full_scale_volt / half;
-        let y = Complex64::new(self.excitation_volt, 0.0) / z; // current phasor, A
-        let w = core::f64::consts::TAU * osc.ftw() as f64 / 4_294_967_296.0;
+        let half = (1i32 << (self.adc_bits.clamp(2, 16) - 1)) as f32;
+        let lsb = (self.full_scale_volt as f32) / half;
+        // Current phasor (A) through the transimpedance, in LSB per unit cos/sin.
+        let y = Complex64::new(self.excitation_volt, 0.0) / z;
+        let k = (-self.tia_ohm / lsb as f64) as f32;
+        let (ir, ii) = (k * y.re as f32, k * y.im as f32);
+        let va = (self.excitation_volt * self.v_gain) as f32 / lsb;
+        let noise = self.noise_lsb as f32;
+        let q = 1.0 / 2_147_483_648.0f32;
         let mut clipped = false;
-        let mut adc = |volt: f64, rng: &mut Rng| {
-            let code = libm::round(volt / lsb + self.noise_lsb * rng.gaussian());
+        let mut adc = |x: f32| {
+            // Round half away from zero, then clip to the ADC range.
+            let code = if x >= 0.0 {
+                (x + 0.5) as i32
+            } else {
+                (x - 0.5) as i32
+            } as f32;
             if code > half - 1.0 || code < -half {
                 clipped = true;
             }
             code.clamp(-half, half - 1.0) as i16
         };
-        for (n, o) in out.iter_mut().enumerate() {
-            let th = w * n as f64;
-            let (s, c) = (libm::sin(th), libm::cos(th));
-            let v = self.excitation_volt * c * self.v_gain;
-            let i = y.re * c - y.im * s;
-            *o = [adc(v, rng), adc(-self.tia_ohm * i, rng)];
+        let mut st = OscillatorState::default();
+        for o in out.iter_mut() {
+            let (c, s) = osc.next(&mut st);
+            let (c, s) = (c as f32 * q, s as f32 * q);
+            let v = va * c + noise * rng.gaussian_fast();
+            let i = ir * c - ii * s + noise * rng.gaussian_fast();
+            *o = [adc(v), adc(i)];
         }
         clipped
     }
