@@ -15,6 +15,7 @@
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
 //! | [`invert`] | true line C and R from one measured impedance |
+//! | [`track`] | the line over successive blocks: branch choice, plausibility, holds |
 //!
 //! Everything is `no_std`, allocation-free and deterministic: the fixed-point
 //! kernels use integer arithmetic only, and the few `f32` operations at the
@@ -54,6 +55,7 @@ pub mod invert;
 pub mod lumped;
 pub mod osc;
 pub mod tline;
+pub mod track;
 
 /// Generated lookup tables (see `build.rs`).
 #[allow(clippy::unreadable_literal)]

@@ -4,23 +4,14 @@
 //! instrument). Both report the lumped Cs–Rs and the line-corrected C and R.
 
 use dsp_core::demod::Demodulator;
-use dsp_core::invert::{InvertError, Inverter};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
+use dsp_core::track::Tracker;
 use dsp_core::{Complex32, Oscillator};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
 use skin_sim::sensor::Sensor;
-
-/// Upper end of the inversion range used by the chain (x = ωRC). Beyond
-/// the peak of D(x) at x ≈ 8.3 the falling branch still has a usable slope
-/// up to here, and the previous reading's C selects the branch.
-pub const X_MAX: f32 = 16.0;
-/// A corrected reading that moves farther than this (relative) from the
-/// previous one is rejected as a branch error (a real sensor changes C by
-/// well under 1 % per 10 ms block).
-pub const MAX_JUMP: f32 = 0.15;
 
 /// Demodulation block, log2 of pairs (2048 pairs: 10.24 ms at 200 kSa/s).
 pub const BLOCK_LOG2: u32 = 11;
@@ -84,16 +75,6 @@ pub struct Reading {
     pub clipped: bool,
 }
 
-/// Readings whose D lies within this fraction below the peak of D(x) are
-/// ill-conditioned (D hardly depends on x there): the tracker holds the
-/// previous C instead of amplifying the noise (about 20 σ of D for the
-/// reference front end at 6 kHz).
-pub const ILL_CONDITIONED: f32 = 2e-3;
-
-/// Consecutive rejected readings after which the prior replaces the
-/// tracked capacitance (so a wrong branch cannot lock in).
-pub const RELOCK_AFTER: u32 = 5;
-
 /// How the chain is set up.
 #[derive(Clone, Copy, Debug)]
 pub struct Setup {
@@ -108,58 +89,6 @@ pub struct Setup {
     pub prior_farad: f64,
     /// Seed of the noise.
     pub seed: u64,
-}
-
-/// Line correction with branch tracking: the previous corrected C picks
-/// the branch where two lines fit; readings that jump more than
-/// [`MAX_JUMP`] are rejected, and after [`RELOCK_AFTER`] rejections in a
-/// row the prior takes over again.
-pub struct Tracker {
-    inverter: Inverter,
-    prior: f32,
-    hint: f32,
-    rejected: u32,
-}
-
-impl Tracker {
-    /// A tracker for `model` starting from `prior_farad`.
-    pub fn new(model: LineModel, prior_farad: f64) -> Self {
-        Self {
-            inverter: Inverter::with_x_max(model, X_MAX).expect("valid model"),
-            prior: prior_farad as f32,
-            hint: prior_farad as f32,
-            rejected: 0,
-        }
-    }
-
-    /// Corrected (C, R) for impedance `z` at `f`, or NaN when rejected.
-    pub fn correct(&mut self, z: Complex32, f: f32) -> (f64, f64) {
-        let (x_peak, d_peak) = self.inverter.peak();
-        let d = z.re / -z.im;
-        if self.rejected == 0
-            && d <= d_peak * (1.0 + ILL_CONDITIONED)
-            && d >= d_peak * (1.0 - ILL_CONDITIONED)
-        {
-            // Hold C; R as the peak's x implies.
-            let c = self.hint;
-            return (c as f64, (x_peak / (std::f32::consts::TAU * f * c)) as f64);
-        }
-        match self.inverter.invert_near(z, f, self.hint) {
-            Ok(line) if (line.c_farad / self.hint - 1.0).abs() <= MAX_JUMP => {
-                self.hint = line.c_farad;
-                self.rejected = 0;
-                (line.c_farad as f64, line.r_ohm as f64)
-            }
-            Ok(_) | Err(InvertError::Ambiguous) | Err(_) => {
-                self.rejected += 1;
-                if self.rejected >= RELOCK_AFTER {
-                    self.hint = self.prior;
-                    self.rejected = 0;
-                }
-                (f64::NAN, f64::NAN)
-            }
-        }
-    }
 }
 
 /// Read `sensor` following `profile` from its current time until `t_end`;
@@ -179,9 +108,12 @@ pub fn run(
         seed,
     } = setup;
     let mut rng = Rng::new(seed);
-    let mut tracker = Tracker::new(model, prior_farad);
+    let mut tracker = Tracker::new(model, Tracker::X_MAX, prior_farad as f32).expect("valid model");
     let mut out = Vec::new();
-    let mut correct = |z: Complex32, f: f32| tracker.correct(z, f);
+    let mut correct = |z: Complex32, f: f32| match tracker.update(z, f) {
+        Ok(t) => (t.line.c_farad as f64, t.line.r_ohm as f64),
+        Err(_) => (f64::NAN, f64::NAN),
+    };
     match meter {
         Meter::Adc(fe) => {
             let fs = fe.sample_rate_hz as f32;

@@ -1,0 +1,115 @@
+//! Tracking the line over successive blocks: the branch choice and the
+//! plausibility checks a running sensor needs around [`Inverter`].
+//!
+//! * The previous block's C picks the branch where two lines fit (see
+//!   [`invert`](crate::invert)); before the first block, a prior (the rest
+//!   capacitance of the static calibration) does.
+//! * A result that moves C by more than [`Tracker::MAX_JUMP`] from the
+//!   previous one is rejected: a real sensor changes C by well under 1 % per
+//!   block, so such a jump is a branch error or a fault.
+//! * After [`Tracker::RELOCK_AFTER`] rejections in a row the prior takes
+//!   over again, so a wrong branch cannot lock in.
+//! * Where D lies within [`Tracker::ILL_CONDITIONED`] of the peak of D(x),
+//!   D hardly depends on x: the tracker holds the previous C (and says so)
+//!   rather than amplify the noise.
+
+use crate::invert::{InvertError, Inverter, Line};
+use crate::tline::{LineModel, ModelError};
+use crate::Complex32;
+use core::f32::consts::TAU;
+
+/// Tracker configuration and state (small: the inverter's grid and four
+/// numbers).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tracker {
+    inverter: Inverter,
+    prior: f32,
+    hint: f32,
+    rejected: u32,
+}
+
+/// One tracked result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tracked {
+    /// The line.
+    pub line: Line,
+    /// True if C was held from the previous block (ill-conditioned D).
+    pub held: bool,
+}
+
+impl Tracker {
+    /// Largest accepted relative change of C between blocks.
+    pub const MAX_JUMP: f32 = 0.15;
+    /// Rejections in a row after which the prior replaces the tracked C.
+    pub const RELOCK_AFTER: u32 = 5;
+    /// Relative distance from the peak of D within which C is held.
+    pub const ILL_CONDITIONED: f32 = 1e-3;
+    /// Default upper end of x = ωRC: the falling branch of D beyond its peak
+    /// (x ≈ 8.3) is still usable up to here with a tracked prior.
+    pub const X_MAX: f32 = 16.0;
+
+    /// A tracker for `model` over x ≤ `x_max`, starting from `prior_farad`.
+    pub fn new(model: LineModel, x_max: f32, prior_farad: f32) -> Result<Self, ModelError> {
+        Ok(Self {
+            inverter: Inverter::with_x_max(model, x_max)?,
+            prior: prior_farad,
+            hint: prior_farad,
+            rejected: 0,
+        })
+    }
+
+    /// The inverter in use.
+    pub fn inverter(&self) -> &Inverter {
+        &self.inverter
+    }
+
+    /// The currently tracked capacitance, F.
+    pub fn capacitance(&self) -> f32 {
+        self.hint
+    }
+
+    /// Forget the tracked value and start again from the prior.
+    pub fn reset(&mut self) {
+        self.hint = self.prior;
+        self.rejected = 0;
+    }
+
+    /// The line behind impedance `z` (Ω) at `f_hz`. Errors are those of
+    /// [`Inverter`], plus [`InvertError::Ambiguous`] for a rejected jump.
+    pub fn update(&mut self, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
+        let (x_peak, d_peak) = self.inverter.peak();
+        if z.im < 0.0 && z.re >= 0.0 && self.rejected == 0 {
+            let d = z.re / -z.im;
+            if (d - d_peak).abs() <= d_peak * Self::ILL_CONDITIONED {
+                let c = self.hint;
+                let line = Line {
+                    r_ohm: x_peak / (TAU * f_hz * c),
+                    c_farad: c,
+                    x: x_peak,
+                };
+                return Ok(Tracked { line, held: true });
+            }
+        }
+        let r = self.inverter.invert_near(z, f_hz, self.hint).and_then(|line| {
+            if (line.c_farad / self.hint - 1.0).abs() <= Self::MAX_JUMP {
+                Ok(line)
+            } else {
+                Err(InvertError::Ambiguous)
+            }
+        });
+        match r {
+            Ok(line) => {
+                self.hint = line.c_farad;
+                self.rejected = 0;
+                Ok(Tracked { line, held: false })
+            }
+            Err(e) => {
+                self.rejected += 1;
+                if self.rejected >= Self::RELOCK_AFTER {
+                    self.reset();
+                }
+                Err(e)
+            }
+        }
+    }
+}

@@ -1,0 +1,61 @@
+//! The branch tracker: follows a line through the peak of D(x), rejects
+//! implausible jumps, relocks, and holds where D is ill-conditioned.
+
+mod common;
+use common::zeta_ref;
+use dsp_core::tline::LineModel;
+use dsp_core::track::Tracker;
+use dsp_core::Complex32;
+use std::f64::consts::TAU;
+
+fn z(x: f64, c: f64, f: f64) -> Complex32 {
+    let z = zeta_ref(LineModel::Continuous, x) / (TAU * f * c);
+    Complex32::new(z.re as f32, z.im as f32)
+}
+
+#[test]
+fn follows_the_line_through_the_peak_of_d_and_back() {
+    let f = 6e3;
+    let mut t = Tracker::new(LineModel::Continuous, Tracker::X_MAX, 209e-12).unwrap();
+    // x rises from 3 to 14 and falls back while C creeps up, as during a
+    // fast stretch: 400 blocks.
+    let (mut worst, mut held) = (0f64, 0);
+    for k in 0..=400 {
+        let u = k as f64 / 400.0;
+        let x = 3.0 + 11.0 * (std::f64::consts::PI * u).sin();
+        let c = 210e-12 * (1.0 + 0.3 * u);
+        let r = t.update(z(x, c, f), f as f32).unwrap();
+        let e = (r.line.c_farad as f64 / c - 1.0).abs();
+        if r.held {
+            held += 1;
+            assert!(e < 0.01, "held block at x={x}: {e}");
+        } else {
+            worst = worst.max(e);
+        }
+    }
+    assert!(worst < 1e-3, "{worst}");
+    // x crosses the hold band (|D − D_peak| ≤ 0.1 % of D_peak, x ≈ 7.7–8.9)
+    // twice at ~0.09 per block here: a few dozen held blocks at most.
+    assert!(held > 0 && held < 40, "{held}");
+}
+
+#[test]
+fn rejects_jumps_and_relocks_on_the_prior() {
+    let f = 2e3;
+    let mut t = Tracker::new(LineModel::Continuous, Tracker::X_MAX, 210e-12).unwrap();
+    assert!(t.update(z(1.0, 210e-12, f), f as f32).is_ok());
+    // A 40 % jump in C is not a sensor: rejected, the tracked value stays.
+    for _ in 0..Tracker::RELOCK_AFTER - 1 {
+        assert!(t.update(z(1.0, 294e-12, f), f as f32).is_err());
+        assert_eq!(t.capacitance(), t.capacitance());
+    }
+    assert!((t.capacitance() / 210e-12 - 1.0).abs() < 1e-4);
+    // ...and after RELOCK_AFTER rejections the prior takes over again, so a
+    // sensor that really changed (reconnected) is picked up once it is near.
+    assert!(t.update(z(1.0, 294e-12, f), f as f32).is_err());
+    assert_eq!(t.capacitance(), 210e-12);
+    assert!(t.update(z(1.0, 230e-12, f), f as f32).is_ok());
+    // Garbage is an error, not a panic.
+    assert!(t.update(Complex32::new(1.0, 1.0), f as f32).is_err());
+    assert!(t.update(Complex32::new(f32::NAN, -1.0), f as f32).is_err());
+}
