@@ -1,0 +1,150 @@
+//! One sensor channel: from the demodulated phasors of a block to a
+//! record, with fault checks, line tracking and the frequency policy.
+
+use crate::calib::CalTable;
+use crate::config::freq_hz;
+use crate::faults::{Flags, Thresholds};
+use crate::policy::{Policy, PolicyState};
+use dsp_core::demod::{FrontEnd, Phasors};
+use dsp_core::lumped::SeriesRc;
+use dsp_core::tline::LineModel;
+use dsp_core::track::Tracker;
+
+/// What every channel shares.
+#[derive(Clone, Copy, Debug)]
+pub struct Settings<'a, const N: usize> {
+    /// Frequency policy.
+    pub policy: Policy,
+    /// Fault thresholds.
+    pub thresholds: Thresholds,
+    /// Front end (transimpedance) for Z = k·V/I.
+    pub front_end: FrontEnd,
+    /// Stretch calibration.
+    pub calibration: &'a CalTable<N>,
+}
+
+/// One measurement record.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Record {
+    /// Time of the block's middle, s.
+    pub t_s: f32,
+    /// Channel.
+    pub channel: u8,
+    /// Excitation frequency, Hz.
+    pub freq_hz: f32,
+    /// Lumped series capacitance, F (0 when not measured).
+    pub cs_farad: f32,
+    /// Lumped series resistance, Ω.
+    pub rs_ohm: f32,
+    /// Line-corrected capacitance, F (0 when not available).
+    pub c_farad: f32,
+    /// Line-corrected electrode resistance (both electrodes), Ω.
+    pub r_ohm: f32,
+    /// Stretch from the calibration, mm.
+    pub stretch_mm: f32,
+    /// Flags.
+    pub flags: Flags,
+}
+
+/// State of one channel.
+#[derive(Clone, Copy, Debug)]
+pub struct Channel {
+    /// Frequency policy state.
+    pub policy: PolicyState,
+    tracker: Tracker,
+    last_t: Option<f32>,
+}
+
+impl Channel {
+    /// A channel whose sensor rests at `prior_farad` (its calibration).
+    pub fn new(prior_farad: f32) -> Self {
+        let tracker = match Tracker::new(LineModel::Continuous, Tracker::X_MAX, prior_farad) {
+            Ok(t) => t,
+            Err(_) => unreachable!("the continuous model is always valid"),
+        };
+        Self {
+            policy: PolicyState::new(),
+            tracker,
+            last_t: None,
+        }
+    }
+
+    /// Frequency index to excite the next block with.
+    pub fn freq_index(&self) -> usize {
+        self.policy.index
+    }
+
+    /// Turn the phasors of the block just measured at the current frequency
+    /// into a record, and update the policy.
+    pub fn process<const N: usize>(
+        &mut self,
+        s: &Settings<N>,
+        channel: u8,
+        t_s: f32,
+        ph: &Phasors,
+        clipped: bool,
+    ) -> Record {
+        let f = freq_hz(self.policy.index);
+        let dt = self.last_t.map_or(0.0, |t0| t_s - t0);
+        self.last_t = Some(t_s);
+        let mut rec = Record {
+            t_s,
+            channel,
+            freq_hz: f,
+            ..Record::default()
+        };
+        if self.policy.settling > 0 {
+            self.policy.settling -= 1;
+            rec.flags.set(Flags::SETTLING);
+            return rec;
+        }
+        if clipped {
+            rec.flags.set(Flags::CLIPPED);
+        }
+        let th = &s.thresholds;
+        let z = match ph.impedance(&s.front_end) {
+            Some(z) if ph.i_amplitude() >= th.open_counts && ph.v_amplitude() >= th.no_excitation_counts => z,
+            _ => {
+                rec.flags.set(Flags::OPEN);
+                return rec;
+            }
+        };
+        match SeriesRc::from_impedance(z, f) {
+            Ok(m) if z.norm() >= th.short_ohm => {
+                rec.cs_farad = m.cs_farad;
+                rec.rs_ohm = m.rs_ohm;
+            }
+            _ => {
+                rec.flags.set(Flags::SHORTED);
+                return rec;
+            }
+        }
+        if clipped {
+            // A clipped block's phasors are biased: report the lumped
+            // reading, keep the tracker and the policy as they were.
+            return rec;
+        }
+        match self.tracker.update(z, f) {
+            Ok(t) => {
+                rec.c_farad = t.line.c_farad;
+                rec.r_ohm = t.line.r_ohm;
+                rec.stretch_mm = s.calibration.stretch(t.line.c_farad);
+                if t.held {
+                    rec.flags.set(Flags::HELD);
+                }
+                if t.line.r_ohm > th.r_max_ohm {
+                    rec.flags.set(Flags::RANGE);
+                    s.policy.fallback(&mut self.policy);
+                } else if !t.held {
+                    s.policy
+                        .update(&mut self.policy, t.line.r_ohm, t.line.c_farad, dt);
+                }
+            }
+            Err(_) => {
+                rec.flags.set(Flags::RANGE);
+                s.policy.fallback(&mut self.policy);
+            }
+        }
+        rec
+    }
+}

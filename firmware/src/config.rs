@@ -1,0 +1,30 @@
+//! Fixed configuration of the front end.
+
+/// Pair sample rate of the ADC (voltage and current together), Hz.
+pub const SAMPLE_RATE_HZ: f32 = 200_000.0;
+/// log2 of the pairs in one demodulation block.
+pub const BLOCK_LOG2: u32 = 10;
+/// Pairs in one demodulation block (5.12 ms at 200 kSa/s).
+pub const BLOCK: usize = 1 << BLOCK_LOG2;
+/// Pairs discarded after each multiplexer switch (analog settling, 0.32 ms).
+pub const SETTLE_PAIRS: usize = 64;
+/// Sensor channels behind the analog multiplexer.
+pub const CHANNELS: usize = 8;
+/// Block duration, s.
+pub const BLOCK_S: f32 = BLOCK as f32 / SAMPLE_RATE_HZ;
+/// One slot per channel: settling plus a block, s.
+pub const SLOT_S: f32 = (BLOCK + SETTLE_PAIRS) as f32 / SAMPLE_RATE_HZ;
+
+/// The excitation frequencies, as whole periods per block (k·f_s/N):
+/// 586, 977, 1953, 3906, 5859 Hz. Ascending.
+pub const PERIODS: [u32; 5] = [3, 5, 10, 20, 30];
+
+/// Frequency of set entry `i`, Hz.
+pub fn freq_hz(i: usize) -> f32 {
+    PERIODS[i] as f32 * SAMPLE_RATE_HZ / BLOCK as f32
+}
+
+/// Oscillator tuning word of set entry `i`.
+pub fn ftw(i: usize) -> u32 {
+    PERIODS[i] << (32 - BLOCK_LOG2)
+}

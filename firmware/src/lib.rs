@@ -1,0 +1,22 @@
+//! The DE sensing-skin firmware: hardware-free logic (this library, tested
+//! on the host) and the RTIC applications in `src/bin/` (target only).
+//!
+//! | module | what it does |
+//! |---|---|
+//! | [`config`] | sample rate, block, channels, the excitation frequency set |
+//! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
+//! | [`calib`] | stretch from capacitance through a calibration table in flash |
+//! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
+//! | [`channel`] | one sensor channel: demodulated block → record |
+//!
+//! Everything here is `no_std`, allocation-free and free of hardware, in
+//! the style of quartiq's stabilizer: the binaries only move samples.
+#![no_std]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod calib;
+pub mod channel;
+pub mod config;
+pub mod faults;
+pub mod policy;

@@ -1,0 +1,130 @@
+//! Adaptive excitation frequency.
+//!
+//! The rule: remember the peak electrode resistance seen recently, R̂ (a
+//! peak detector that decays by `decay_per_s` per second), and use the
+//! highest frequency f of the set for which x̂ = 2π·f·R̂·C ≤ `x_limit`,
+//! where C is the current line capacitance. x̂ bounds the *model error
+//! amplification* of the line inversion, κ = |d ln C / d ln D|: the
+//! relative capacitance error per relative error of the measured
+//! dissipation factor (noise, or any deviation of the sensor from the
+//! uniform-line model). For the continuous line κ = 0.14, 0.45, 0.86, 1.43,
+//! 2.4, 4.7, 13.5 at x = 1…7, and infinite at the peak of D (x ≈ 8.3). The
+//! default x ≤ 4 keeps κ ≤ 1.5.
+//!
+//! * Down: at once, the first block in which x̂ at the current frequency
+//!   exceeds `x_limit` (resistance peaks come fast).
+//! * Up: only when x̂ at the higher frequency stays below
+//!   `x_limit·(1 − hysteresis)` and `hold_s` has passed since the last
+//!   switch; then one step at a time.
+//! * After every switch `settle_blocks` blocks are discarded.
+//!
+//! Higher frequencies mean shorter periods, more periods per block, and
+//! less 50/60 Hz pickup, so the policy sits as high as the bound allows.
+
+use crate::config::{freq_hz, PERIODS};
+use core::f32::consts::TAU;
+
+/// Policy parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Policy {
+    /// Largest x = 2π·f·R̂·C allowed at the remembered peak resistance.
+    pub x_limit: f32,
+    /// Relative margin below `x_limit` required before switching up.
+    pub hysteresis: f32,
+    /// Fraction by which the remembered peak decays per second.
+    pub decay_per_s: f32,
+    /// Minimum time between switches up, s.
+    pub hold_s: f32,
+    /// Blocks discarded after a switch.
+    pub settle_blocks: u8,
+}
+
+impl Policy {
+    /// Defaults: x ≤ 4, 5 % hysteresis (the decaying peak memory is the
+    /// main hysteresis: in time), the peak memory halves in ~1.4 s, 0.5 s
+    /// between switches up, one block of settling.
+    pub const DEFAULT: Self = Self {
+        x_limit: 4.0,
+        hysteresis: 0.05,
+        decay_per_s: 0.5,
+        hold_s: 0.5,
+        settle_blocks: 1,
+    };
+}
+
+/// Policy state of one channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PolicyState {
+    /// Index into the frequency set.
+    pub index: usize,
+    /// Remembered peak resistance R̂, Ω.
+    pub r_peak: f32,
+    /// Time since the last switch, s.
+    pub since_switch_s: f32,
+    /// Blocks still to discard.
+    pub settling: u8,
+}
+
+impl PolicyState {
+    /// Start at the highest frequency with no memory.
+    pub fn new() -> Self {
+        Self {
+            index: PERIODS.len() - 1,
+            r_peak: 0.0,
+            since_switch_s: 0.0,
+            settling: 1,
+        }
+    }
+}
+
+impl Default for PolicyState {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Policy {
+    /// x at frequency index `i` for resistance `r` and capacitance `c`.
+    pub fn x(i: usize, r: f32, c: f32) -> f32 {
+        TAU * freq_hz(i) * r * c
+    }
+
+    /// Update with a measured line (R Ω, C F) after `dt_s` seconds; returns
+    /// true if the frequency changed.
+    pub fn update(&self, st: &mut PolicyState, r_ohm: f32, c_farad: f32, dt_s: f32) -> bool {
+        st.since_switch_s += dt_s;
+        let decayed = st.r_peak * (1.0 - self.decay_per_s * dt_s).max(0.0);
+        st.r_peak = decayed.max(r_ohm);
+        let mut target = st.index;
+        while target > 0 && Self::x(target, st.r_peak, c_farad) > self.x_limit {
+            target -= 1;
+        }
+        if target == st.index
+            && st.index + 1 < PERIODS.len()
+            && st.since_switch_s >= self.hold_s
+            && Self::x(st.index + 1, st.r_peak, c_farad) <= self.x_limit * (1.0 - self.hysteresis)
+        {
+            target = st.index + 1;
+        }
+        if target != st.index {
+            st.index = target;
+            st.since_switch_s = 0.0;
+            st.settling = self.settle_blocks;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The frequency to use after a fault that left no measurement: the
+    /// lowest, which tolerates the most resistance.
+    pub fn fallback(&self, st: &mut PolicyState) -> bool {
+        let changed = st.index != 0;
+        if changed {
+            st.index = 0;
+            st.since_switch_s = 0.0;
+            st.settling = self.settle_blocks;
+        }
+        changed
+    }
+}

@@ -1,0 +1,140 @@
+//! The firmware's hardware-free logic on the host: frequency policy,
+//! calibration, and a channel fed by the simulated sensor.
+
+use dsp_core::demod::Demodulator;
+use dsp_core::Oscillator;
+use firmware::calib::REFERENCE;
+use firmware::channel::{Channel, Settings};
+use firmware::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
+use firmware::faults::{Flags, Thresholds};
+use firmware::policy::{Policy, PolicyState};
+use skin_sim::frontend::FrontEndParams;
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::{Sensor, SensorParams};
+
+#[test]
+fn frequency_set_is_coherent_and_ascending() {
+    assert!(PERIODS.windows(2).all(|w| w[0] < w[1]));
+    for i in 0..PERIODS.len() {
+        let o = Oscillator::from_ftw(ftw(i));
+        assert_eq!(o.periods_per_block(10), PERIODS[i]);
+        assert!((o.freq_hz(200e3) - freq_hz(i)).abs() < 1e-3);
+    }
+}
+
+#[test]
+fn policy_drops_at_once_and_climbs_back_with_hysteresis() {
+    let p = Policy::DEFAULT;
+    let mut st = PolicyState::new();
+    let c = 210e-12;
+    // At rest (712 kΩ) the highest frequency with x ≤ 4 is 3906 Hz.
+    for _ in 0..200 {
+        p.update(&mut st, 712e3, c, 0.04);
+    }
+    assert_eq!(freq_hz(st.index).round(), 3906.0);
+    // A resistance peak to 1.4 MΩ: down in the same block.
+    assert!(p.update(&mut st, 1.4e6, c, 0.04));
+    assert!(Policy::x(st.index, 1.4e6, c) <= p.x_limit);
+    assert_eq!(st.settling, p.settle_blocks);
+    let low = st.index;
+    // Back at rest: not immediately (peak memory, hold), but within seconds.
+    let mut t = 0.0;
+    while st.index == low && t < 10.0 {
+        p.update(&mut st, 712e3, c, 0.04);
+        t += 0.04;
+    }
+    assert!(st.index > low && t > 0.5 && t < 5.0, "climbed after {t} s");
+    // Never above the bound with the remembered peak.
+    assert!(Policy::x(st.index, st.r_peak, c) <= p.x_limit);
+    // A very high resistance falls back to the lowest frequency.
+    p.update(&mut st, 20e6, c, 0.04);
+    assert_eq!(st.index, 0);
+}
+
+#[test]
+fn calibration_inverts_the_reference_table() {
+    assert_eq!(REFERENCE.stretch(210e-12), 0.0);
+    assert!((REFERENCE.stretch(241.5e-12) - 15.0).abs() < 1e-3);
+    assert!((REFERENCE.stretch(273e-12) - 30.0).abs() < 1e-3);
+    assert!((REFERENCE.stretch(213.15e-12) - 1.5).abs() < 1e-3);
+    assert!(REFERENCE.stretch(200e-12) < 0.0 && REFERENCE.stretch(280e-12) > 30.0);
+}
+
+/// Run one channel on a simulated sensor; returns the records.
+fn run(
+    params: SensorParams,
+    fe: FrontEndParams,
+    profile: Profile,
+    secs: f32,
+) -> Vec<firmware::channel::Record> {
+    let settings = Settings {
+        policy: Policy::DEFAULT,
+        thresholds: Thresholds::DEFAULT,
+        front_end: fe.dsp_front_end(),
+        calibration: &REFERENCE,
+    };
+    let mut ch = Channel::new(REFERENCE.rest_capacitance());
+    let mut s = Sensor::settled(params);
+    let mut rng = Rng::new(5);
+    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut out = vec![];
+    let mut t = 0.0f32;
+    while t < secs {
+        let i = ch.freq_index();
+        let osc = Oscillator::from_ftw(ftw(i));
+        s.advance(&profile, t as f64);
+        let clipped = fe.block(&osc, s.impedance(freq_hz(i) as f64), &mut rng, &mut buf);
+        let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+        out.push(ch.process(&settings, 0, t, &ph, clipped));
+        t += SLOT_S;
+    }
+    out
+}
+
+#[test]
+fn channel_tracks_a_stretch_and_flags_faults() {
+    let fe = FrontEndParams::REFERENCE;
+    let recs = run(
+        SensorParams::REFERENCE,
+        fe,
+        Profile::Ramp {
+            rate: 5.0,
+            amplitude: 15.0,
+        },
+        4.0,
+    );
+    let last = recs.last().unwrap();
+    assert!(last.flags.valid(), "{last:?}");
+    assert!((last.stretch_mm - 15.0).abs() < 0.2, "{last:?}");
+    assert!(recs[0].flags.has(Flags::SETTLING));
+    // Open sensor: no current.
+    let mut open = SensorParams::REFERENCE;
+    open.effects.parasitic_capacitance_farad = 0.0;
+    open.c_rest_farad = 1e-15;
+    let recs = run(open, fe, Profile::Constant(0.0), 0.3);
+    assert!(
+        recs[2..].iter().all(|r| r.flags.has(Flags::OPEN)),
+        "{:?}",
+        recs[3]
+    );
+    // Clipping: far too much transimpedance gain.
+    let hot = FrontEndParams { tia_ohm: 2e6, ..fe };
+    let recs = run(SensorParams::REFERENCE, hot, Profile::Constant(0.0), 0.3);
+    assert!(
+        recs[2..].iter().all(|r| r.flags.has(Flags::CLIPPED)),
+        "{:?}",
+        recs[3]
+    );
+    // Electrodes at 10 MΩ: out of range, at the lowest frequency.
+    let mut broken = SensorParams::REFERENCE;
+    broken.top.r_rest_ohm = 5e6;
+    broken.bottom.r_rest_ohm = 5e6;
+    let recs = run(broken, fe, Profile::Constant(0.0), 0.5);
+    let tail = &recs[recs.len() - 3..];
+    assert!(
+        tail.iter()
+            .all(|r| r.flags.has(Flags::RANGE) && r.freq_hz < 600.0),
+        "{tail:?}"
+    );
+}
