@@ -16,9 +16,9 @@ use skin_sim::sensor::{Sensor, SensorParams};
 #[test]
 fn frequency_set_is_coherent_and_ascending() {
     assert!(PERIODS.windows(2).all(|w| w[0] < w[1]));
-    for i in 0..PERIODS.len() {
+    for (i, &k) in PERIODS.iter().enumerate() {
         let o = Oscillator::from_ftw(ftw(i));
-        assert_eq!(o.periods_per_block(10), PERIODS[i]);
+        assert_eq!(o.periods_per_block(10), k);
         assert!((o.freq_hz(200e3) - freq_hz(i)).abs() < 1e-3);
     }
 }
