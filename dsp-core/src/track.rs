@@ -1,14 +1,14 @@
 //! Tracking the line over successive blocks: the branch choice and the
 //! plausibility checks a running sensor needs around [`Inverter`].
 //!
-//! * The previous block's C picks the branch where two lines fit (see
-//!   [`invert`](crate::invert)); before the first block, a prior (the rest
-//!   capacitance of the static calibration) does.
-//! * A result that moves C by more than [`Tracker::MAX_JUMP`] from the
-//!   previous one is rejected: a real sensor changes C by well under 1 % per
-//!   block, so such a jump is a branch error or a fault.
-//! * After [`Tracker::RELOCK_AFTER`] rejections in a row the prior takes
-//!   over again, so a wrong branch cannot lock in.
+//! * Unlocked (at the start, or after [`Tracker::RELOCK_AFTER`] rejections
+//!   in a row) the tracker accepts the inversion as it is where it is
+//!   unique, and lets a prior (the rest capacitance of the static
+//!   calibration) pick the branch where two lines fit; then it locks.
+//! * Locked, the previous block's C picks the branch (see
+//!   [`invert`](crate::invert)), and a result that moves C by more than
+//!   [`Tracker::MAX_JUMP`] is rejected: a real sensor changes C by well
+//!   under 1 % per block, so such a jump is a branch error or a fault.
 //! * Where D lies within [`Tracker::ILL_CONDITIONED`] of the peak of D(x),
 //!   D hardly depends on x: the tracker holds the previous C (and says so)
 //!   rather than amplify the noise.
@@ -25,6 +25,7 @@ pub struct Tracker {
     inverter: Inverter,
     prior: f32,
     hint: f32,
+    locked: bool,
     rejected: u32,
 }
 
@@ -54,6 +55,7 @@ impl Tracker {
             inverter: Inverter::with_x_max(model, x_max)?,
             prior: prior_farad,
             hint: prior_farad,
+            locked: false,
             rejected: 0,
         })
     }
@@ -68,17 +70,23 @@ impl Tracker {
         self.hint
     }
 
-    /// Forget the tracked value and start again from the prior.
+    /// Forget the tracked value and start again, unlocked, from the prior.
     pub fn reset(&mut self) {
         self.hint = self.prior;
+        self.locked = false;
         self.rejected = 0;
+    }
+
+    /// True once a value is tracked.
+    pub fn locked(&self) -> bool {
+        self.locked
     }
 
     /// The line behind impedance `z` (Ω) at `f_hz`. Errors are those of
     /// [`Inverter`], plus [`InvertError::Ambiguous`] for a rejected jump.
     pub fn update(&mut self, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
         let (x_peak, d_peak) = self.inverter.peak();
-        if z.im < 0.0 && z.re >= 0.0 && self.rejected == 0 {
+        if self.locked && z.im < 0.0 && z.re >= 0.0 && self.rejected == 0 {
             let d = z.re / -z.im;
             if (d - d_peak).abs() <= d_peak * Self::ILL_CONDITIONED {
                 let c = self.hint;
@@ -90,16 +98,21 @@ impl Tracker {
                 return Ok(Tracked { line, held: true });
             }
         }
-        let r = self.inverter.invert_near(z, f_hz, self.hint).and_then(|line| {
-            if (line.c_farad / self.hint - 1.0).abs() <= Self::MAX_JUMP {
-                Ok(line)
-            } else {
-                Err(InvertError::Ambiguous)
-            }
-        });
+        let r = if self.locked {
+            self.inverter.invert_near(z, f_hz, self.hint).and_then(|line| {
+                if (line.c_farad / self.hint - 1.0).abs() <= Self::MAX_JUMP {
+                    Ok(line)
+                } else {
+                    Err(InvertError::Ambiguous)
+                }
+            })
+        } else {
+            self.inverter.invert_near(z, f_hz, self.prior)
+        };
         match r {
             Ok(line) => {
                 self.hint = line.c_farad;
+                self.locked = true;
                 self.rejected = 0;
                 Ok(Tracked { line, held: false })
             }

@@ -110,7 +110,7 @@ impl Channel {
             }
         };
         match SeriesRc::from_impedance(z, f) {
-            Ok(m) if z.norm() >= th.short_ohm => {
+            Ok(m) if z.norm_sqr() >= th.short_ohm * th.short_ohm => {
                 rec.cs_farad = m.cs_farad;
                 rec.rs_ohm = m.rs_ohm;
             }

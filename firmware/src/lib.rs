@@ -8,15 +8,21 @@
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`channel`] | one sensor channel: demodulated block → record |
+//! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
+//! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //!
 //! Everything here is `no_std`, allocation-free and free of hardware, in
 //! the style of quartiq's stabilizer: the binaries only move samples.
 #![no_std]
 #![deny(missing_docs)]
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod calib;
 pub mod channel;
 pub mod config;
 pub mod faults;
 pub mod policy;
+#[cfg(all(target_os = "none", feature = "qemu"))]
+pub mod qemu;
+#[cfg(feature = "qemu")]
+pub mod scenario;

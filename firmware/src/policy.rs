@@ -13,9 +13,10 @@
 //!
 //! * Down: at once, the first block in which x̂ at the current frequency
 //!   exceeds `x_limit` (resistance peaks come fast).
-//! * Up: only when x̂ at the higher frequency stays below
-//!   `x_limit·(1 − hysteresis)` and `hold_s` has passed since the last
-//!   switch; then one step at a time.
+//! * Up: only when `hold_s` has passed since the last switch, to the
+//!   highest frequency whose x̂ stays below `x_limit·(1 − hysteresis)`.
+//! * A channel starts at the lowest frequency, where every inversion is
+//!   unique whatever the sensor, and climbs after its first good block.
 //! * After every switch `settle_blocks` blocks are discarded.
 //!
 //! Higher frequencies mean shorter periods, more periods per block, and
@@ -66,12 +67,12 @@ pub struct PolicyState {
 }
 
 impl PolicyState {
-    /// Start at the highest frequency with no memory.
+    /// Start at the lowest frequency with no memory, free to climb.
     pub fn new() -> Self {
         Self {
-            index: PERIODS.len() - 1,
+            index: 0,
             r_peak: 0.0,
-            since_switch_s: 0.0,
+            since_switch_s: f32::MAX,
             settling: 1,
         }
     }
@@ -92,19 +93,19 @@ impl Policy {
     /// Update with a measured line (R Ω, C F) after `dt_s` seconds; returns
     /// true if the frequency changed.
     pub fn update(&self, st: &mut PolicyState, r_ohm: f32, c_farad: f32, dt_s: f32) -> bool {
-        st.since_switch_s += dt_s;
+        st.since_switch_s = (st.since_switch_s + dt_s).min(f32::MAX);
         let decayed = st.r_peak * (1.0 - self.decay_per_s * dt_s).max(0.0);
         st.r_peak = decayed.max(r_ohm);
         let mut target = st.index;
         while target > 0 && Self::x(target, st.r_peak, c_farad) > self.x_limit {
             target -= 1;
         }
-        if target == st.index
-            && st.index + 1 < PERIODS.len()
-            && st.since_switch_s >= self.hold_s
-            && Self::x(st.index + 1, st.r_peak, c_farad) <= self.x_limit * (1.0 - self.hysteresis)
-        {
-            target = st.index + 1;
+        if target == st.index && st.since_switch_s >= self.hold_s {
+            while target + 1 < PERIODS.len()
+                && Self::x(target + 1, st.r_peak, c_farad) <= self.x_limit * (1.0 - self.hysteresis)
+            {
+                target += 1;
+            }
         }
         if target != st.index {
             st.index = target;

@@ -28,7 +28,11 @@ fn policy_drops_at_once_and_climbs_back_with_hysteresis() {
     let p = Policy::DEFAULT;
     let mut st = PolicyState::new();
     let c = 210e-12;
-    // At rest (712 kΩ) the highest frequency with x ≤ 4 is 3906 Hz.
+    // Start low, climb after the first good block: at rest (712 kΩ) the
+    // highest frequency with x ≤ 4 is 3906 Hz.
+    assert_eq!(st.index, 0);
+    assert!(p.update(&mut st, 712e3, c, 0.04));
+    assert_eq!(freq_hz(st.index).round(), 3906.0);
     for _ in 0..200 {
         p.update(&mut st, 712e3, c, 0.04);
     }
@@ -118,14 +122,16 @@ fn channel_tracks_a_stretch_and_flags_faults() {
         "{:?}",
         recs[3]
     );
-    // Clipping: far too much transimpedance gain.
+    // Clipping: far too much transimpedance gain. The lowest frequency
+    // (the start) still fits the ADC; from the first climb on, every block
+    // clips and says so, and the clipped blocks do not move the policy.
     let hot = FrontEndParams { tia_ohm: 2e6, ..fe };
     let recs = run(SensorParams::REFERENCE, hot, Profile::Constant(0.0), 0.3);
-    assert!(
-        recs[2..].iter().all(|r| r.flags.has(Flags::CLIPPED)),
-        "{:?}",
-        recs[3]
-    );
+    let first = recs.iter().position(|r| r.flags.has(Flags::CLIPPED)).unwrap();
+    assert!(first <= 3, "{first}");
+    assert!(recs[first..]
+        .iter()
+        .all(|r| r.flags.has(Flags::CLIPPED) && r.freq_hz == recs[first].freq_hz));
     // Electrodes at 10 MΩ: out of range, at the lowest frequency.
     let mut broken = SensorParams::REFERENCE;
     broken.top.r_rest_ohm = 5e6;

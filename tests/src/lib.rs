@@ -7,6 +7,8 @@
 //! instructions executed. Only stdout is compared (QEMU prints "Timer with
 //! period zero" on stderr).
 
+pub mod records;
+
 use anyhow::{bail, Context, Result};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -48,7 +50,9 @@ pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
 /// What a QEMU run printed and how it ended.
 #[derive(Debug)]
 pub struct Run {
-    /// Semihosting output.
+    /// Semihosting output, raw bytes (defmt frames for defmt images).
+    pub raw: Vec<u8>,
+    /// Semihosting output as text (lossy).
     pub stdout: String,
     /// QEMU's own messages.
     pub stderr: String,
@@ -69,6 +73,17 @@ impl Run {
 
 /// Run `elf` in QEMU; kill it after `watchdog`.
 pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
+    run_qemu_args(elf, &[], watchdog)
+}
+
+/// Run `elf` in QEMU with semihosting arguments `args`; kill it after
+/// `watchdog`.
+pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Run> {
+    let mut sh = String::from("enable=on,target=native");
+    for a in args {
+        sh.push_str(",arg=");
+        sh.push_str(a);
+    }
     let mut child = Command::new("qemu-system-arm")
         .args([
             "-machine",
@@ -79,7 +94,7 @@ pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
             "-monitor",
             "none",
         ])
-        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-semihosting-config", &sh])
         .args(["-icount", "shift=7,align=off,sleep=off"])
         .arg("-kernel")
         .arg(elf)
@@ -91,8 +106,8 @@ pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
     let mut out = child.stdout.take().unwrap();
     let mut err = child.stderr.take().unwrap();
     let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = out.read_to_string(&mut s);
+        let mut s = Vec::new();
+        let _ = out.read_to_end(&mut s);
         s
     });
     let t_err = std::thread::spawn(move || {
@@ -108,8 +123,10 @@ pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
             None
         }
     };
+    let raw = t_out.join().unwrap_or_default();
     Ok(Run {
-        stdout: t_out.join().unwrap_or_default(),
+        stdout: String::from_utf8_lossy(&raw).into_owned(),
+        raw,
         stderr: t_err.join().unwrap_or_default(),
         code,
     })
@@ -157,3 +174,25 @@ pub const DSP_BUDGETS: [(&str, f64); 4] = [
     ("invert_continuous", 5000.0),
     ("invert_continuous_worst", 5000.0),
 ];
+
+/// Decode the defmt frames of a QEMU run (semihosting stdout bytes) with
+/// the ELF's defmt table; one string per frame.
+pub fn decode_defmt(elf: &Path, raw: &[u8]) -> Result<Vec<String>> {
+    let bytes = std::fs::read(elf).with_context(|| format!("reading {}", elf.display()))?;
+    let table = defmt_decoder::Table::parse(&bytes)
+        .map_err(|e| anyhow::anyhow!("{}: defmt table: {e}", elf.display()))?
+        .ok_or_else(|| anyhow::anyhow!("{}: no defmt data", elf.display()))?;
+    let mut dec = table.new_stream_decoder();
+    dec.received(raw);
+    let mut out = vec![];
+    loop {
+        match dec.decode() {
+            Ok(frame) => out.push(frame.display_message().to_string()),
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                bail!("malformed defmt stream after {} frames", out.len())
+            }
+        }
+    }
+    Ok(out)
+}

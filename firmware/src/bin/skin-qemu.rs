@@ -1,0 +1,210 @@
+//! The sensing-skin firmware on QEMU's lm3s6965evb (Cortex-M4), with the
+//! simulated front end of [`firmware::scenario`] in place of the board's
+//! multiplexer, DAC and ADC/DMA.
+//!
+//! * `dma_done` (hardware task, bound to the GPIOA interrupt, pended by
+//!   `idle` with `rtic::pend` as the board's DMA-complete interrupt would
+//!   fire): the block for the selected channel and frequency is ready.
+//! * `process` (software task): demodulate, correct, check faults, update
+//!   the frequency policy, pick the next channel (round robin), log the
+//!   record with defmt.
+//!
+//! Records (defmt over semihosting, decoded on the host):
+//! `rec t_ms channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags`, and
+//! in QEMU also `truth t_ms channel c_pF r_ohm stretch_mm` for the tests.
+//! The scenario is the first semihosting argument (`-semihosting-config
+//! enable=on,arg=paper20`).
+#![no_std]
+#![no_main]
+
+use dsp_core::demod::Demodulator;
+use dsp_core::Oscillator;
+use firmware::calib::{CalTable, REFERENCE};
+use firmware::channel::{Channel, Settings};
+use firmware::config::{ftw, BLOCK, CHANNELS, SLOT_S};
+use firmware::faults::Thresholds;
+use firmware::policy::Policy;
+use firmware::qemu;
+use firmware::scenario::{Scenario, Skin};
+
+/// A block as the DMA leaves it.
+pub struct Block {
+    /// `[voltage, current]` ADC pairs.
+    pub pairs: [[i16; 2]; BLOCK],
+    /// A sample hit an ADC rail.
+    pub clipped: bool,
+    /// Channel the multiplexer selected.
+    pub channel: u8,
+    /// Frequency index the DAC played.
+    pub fidx: usize,
+    /// Start time of the block, s.
+    pub t_s: f32,
+}
+
+fn scenario() -> Scenario {
+    let Ok(args) = semihosting::experimental::env::args::<128>() else {
+        return Scenario::Paper20;
+    };
+    let name = (&args).next().and_then(Result::ok).unwrap_or("paper20");
+    Scenario::parse(name).unwrap_or_else(|| {
+        defmt::println!("unknown scenario {=str}", name);
+        qemu::exit(2)
+    })
+}
+
+#[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
+mod app {
+    use super::*;
+    use lm3s6965::Interrupt;
+
+    #[shared]
+    struct Shared {
+        block: Block,
+        /// (channel, frequency index) of the next block.
+        next: (u8, usize),
+        done: bool,
+    }
+
+    #[local]
+    struct Local {
+        skin: Skin,
+        scenario: Scenario,
+        channels: [Channel; CHANNELS],
+        demod: Demodulator<BLOCK>,
+        demod_fidx: usize,
+        settings: Settings<'static, 11>,
+        end_slot: u32,
+    }
+
+    #[init]
+    fn init(_: init::Context) -> (Shared, Local) {
+        let scenario = scenario();
+        let skin = Skin::new(scenario);
+        let cal: &'static CalTable<11> = &REFERENCE;
+        let settings = Settings {
+            policy: Policy::DEFAULT,
+            thresholds: Thresholds::DEFAULT,
+            front_end: skin.front_end().dsp_front_end(),
+            calibration: cal,
+        };
+        let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
+        let fidx = channels[0].freq_index();
+        defmt::println!(
+            "start {=u8} channels, scenario {}",
+            CHANNELS as u8,
+            defmt::Debug2Format(&scenario)
+        );
+        (
+            Shared {
+                block: Block {
+                    pairs: [[0; 2]; BLOCK],
+                    clipped: false,
+                    channel: 0,
+                    fidx,
+                    t_s: 0.0,
+                },
+                next: (0, fidx),
+                done: false,
+            },
+            Local {
+                skin,
+                scenario,
+                channels,
+                demod: Demodulator::new(&Oscillator::from_ftw(ftw(fidx))),
+                demod_fidx: fidx,
+                settings,
+                end_slot: (scenario.duration_s() / SLOT_S) as u32,
+            },
+        )
+    }
+
+    #[idle(shared = [done])]
+    fn idle(mut cx: idle::Context) -> ! {
+        loop {
+            if cx.shared.done.lock(|d| *d) {
+                defmt::println!("end");
+                qemu::exit(0);
+            }
+            rtic::pend(Interrupt::GPIOA);
+        }
+    }
+
+    /// DMA complete: the simulated front end filled a block.
+    #[task(binds = GPIOA, priority = 2, shared = [block, next], local = [skin, scenario, slot: u32 = 0])]
+    fn dma_done(mut cx: dma_done::Context) {
+        let slot = *cx.local.slot;
+        *cx.local.slot += 1;
+        if slot == 10 {
+            match cx.local.scenario {
+                Scenario::Panic => panic!("injected panic at block {}", slot),
+                Scenario::Hang => loop {
+                    cortex_m::asm::nop();
+                },
+                _ => {}
+            }
+        }
+        let (ch, fidx) = cx.shared.next.lock(|n| *n);
+        let t_s = slot as f32 * SLOT_S;
+        let skin = cx.local.skin;
+        let truth = cx.shared.block.lock(|b| {
+            let (clipped, truth) = skin.block(ch as usize, fidx, t_s, &mut b.pairs);
+            b.clipped = clipped;
+            b.channel = ch;
+            b.fidx = fidx;
+            b.t_s = t_s;
+            truth
+        });
+        defmt::println!(
+            "truth {=u32} {=u8} {=f32} {=f32} {=f32}",
+            (t_s * 1000.0) as u32,
+            ch,
+            (truth.c_farad * 1e12) as f32,
+            truth.r_line_ohm as f32,
+            truth.stretch_mm as f32
+        );
+        if process::spawn(slot).is_err() {
+            defmt::println!("overrun {=u32}", slot);
+        }
+    }
+
+    /// Demodulate, correct and log one block; choose the next one.
+    #[task(priority = 1, shared = [block, next, done], local = [channels, demod, demod_fidx, settings, end_slot])]
+    async fn process(mut cx: process::Context, slot: u32) {
+        let local = cx.local;
+        let (ph, clipped, ch, fidx, t_s) = cx.shared.block.lock(|b| {
+            if *local.demod_fidx != b.fidx {
+                *local.demod = Demodulator::new(&Oscillator::from_ftw(ftw(b.fidx)));
+                *local.demod_fidx = b.fidx;
+            }
+            (local.demod.block(&b.pairs), b.clipped, b.channel, b.fidx, b.t_s)
+        });
+        let channel = &mut local.channels[ch as usize];
+        // The policy's frequency for this channel was used for this block.
+        debug_assert_eq!(channel.freq_index(), fidx);
+        let rec = channel.process(
+            local.settings,
+            ch,
+            t_s + 0.5 * firmware::config::BLOCK_S,
+            &ph,
+            clipped,
+        );
+        defmt::println!(
+            "rec {=u32} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u8}",
+            (t_s * 1000.0) as u32,
+            rec.channel,
+            rec.freq_hz,
+            rec.cs_farad * 1e12,
+            rec.rs_ohm,
+            rec.c_farad * 1e12,
+            rec.r_ohm,
+            rec.stretch_mm,
+            rec.flags.0
+        );
+        let next = ((ch as usize + 1) % CHANNELS) as u8;
+        let next_fidx = local.channels[next as usize].freq_index();
+        cx.shared.next.lock(|n| *n = (next, next_fidx));
+        if slot + 1 >= *local.end_slot {
+            cx.shared.done.lock(|d| *d = true);
+        }
+    }
+}

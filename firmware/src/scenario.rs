@@ -1,0 +1,151 @@
+//! The simulated skin of the QEMU runs: eight sensors, their stretch
+//! profiles, the front end, and injected faults. It stands in for the
+//! multiplexer, the DAC and the ADC/DMA of the board, producing the same
+//! blocks of `[voltage, current]` pairs the board's DMA would.
+
+use crate::config::{freq_hz, ftw, BLOCK, CHANNELS};
+use dsp_core::Oscillator;
+use skin_sim::frontend::FrontEndParams;
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::{Sensor, SensorParams, Truth};
+
+/// A test scenario, chosen by name on the semihosting command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scenario {
+    /// Channel 0 stretched slowly (1 mm/s ramp); the rest at rest.
+    Slow,
+    /// Channel 0 on the paper's 20 mm/s trapezoid; the rest at rest.
+    Paper20,
+    /// Eight different sensors, each on its own slow trapezoid.
+    Eight,
+    /// Faults from 1 s to 2 s: channel 1 open, channel 2 clipping,
+    /// channel 3 electrodes at 10 MΩ.
+    Faults,
+    /// Panic after a few blocks (the harness must report it).
+    Panic,
+    /// Hang after a few blocks (the watchdog must catch it).
+    Hang,
+}
+
+impl Scenario {
+    /// Parse a scenario name.
+    pub fn parse(name: &str) -> Option<Self> {
+        Some(match name {
+            "slow" => Self::Slow,
+            "paper20" => Self::Paper20,
+            "eight" => Self::Eight,
+            "faults" => Self::Faults,
+            "panic" => Self::Panic,
+            "hang" => Self::Hang,
+            _ => return None,
+        })
+    }
+
+    /// Simulated duration, s.
+    pub fn duration_s(&self) -> f32 {
+        match self {
+            Self::Slow => 6.0,
+            Self::Paper20 => 10.0,
+            Self::Eight => 4.0,
+            Self::Faults => 3.5,
+            Self::Panic | Self::Hang => 1.0,
+        }
+    }
+}
+
+/// Fault window of the `faults` scenario, s.
+pub const FAULT_WINDOW: (f32, f32) = (1.0, 2.0);
+
+/// The simulated skin.
+pub struct Skin {
+    scenario: Scenario,
+    sensors: [Sensor; CHANNELS],
+    broken: Sensor,
+    front_end: FrontEndParams,
+    rng: Rng,
+}
+
+/// Sensor parameters of channel `ch` in `scenario`.
+fn params(scenario: Scenario, ch: usize) -> SensorParams {
+    let mut p = SensorParams::REFERENCE;
+    if scenario == Scenario::Eight {
+        // Sensors of 150–290 pF and 0.65–1.35× the reference electrodes.
+        p.c_rest_farad = (150.0 + 20.0 * ch as f64) * 1e-12;
+        let k = 0.65 + 0.1 * ch as f64;
+        p.top.r_rest_ohm *= k;
+        p.bottom.r_rest_ohm *= k;
+    }
+    p
+}
+
+impl Skin {
+    /// The skin of `scenario` at t = 0.
+    pub fn new(scenario: Scenario) -> Self {
+        let sensors = core::array::from_fn(|ch| Sensor::settled(params(scenario, ch)));
+        let mut broken = SensorParams::REFERENCE;
+        broken.top.r_rest_ohm = 5e6;
+        broken.bottom.r_rest_ohm = 5e6;
+        Self {
+            scenario,
+            sensors,
+            broken: Sensor::settled(broken),
+            front_end: FrontEndParams::REFERENCE,
+            rng: Rng::new(0x5eed),
+        }
+    }
+
+    /// The front end (for the transimpedance the firmware divides by).
+    pub fn front_end(&self) -> &FrontEndParams {
+        &self.front_end
+    }
+
+    /// Stretch profile of channel `ch`.
+    pub fn profile(&self, ch: usize) -> Profile<'static> {
+        match (self.scenario, ch) {
+            (Scenario::Slow, 0) => Profile::Ramp {
+                rate: 1.0,
+                amplitude: 10.0,
+            },
+            (Scenario::Paper20, 0) => Profile::paper(20.0),
+            (Scenario::Eight, c) => Profile::Trapezoid {
+                rate: 2.0 + c as f64,
+                amplitude: 5.0 + 2.0 * c as f64,
+                period: 8.0,
+            },
+            (_, c) => Profile::Constant(2.0 * c as f64),
+        }
+    }
+
+    /// Fill `out` with the block of channel `ch` excited at frequency index
+    /// `fidx`, for the block starting at `t_s`; returns (clipped, truth).
+    pub fn block(&mut self, ch: usize, fidx: usize, t_s: f32, out: &mut [[i16; 2]; BLOCK]) -> (bool, Truth) {
+        let t_mid = (t_s + 0.5 * crate::config::BLOCK_S) as f64;
+        let profile = self.profile(ch);
+        self.sensors[ch].advance(&profile, t_mid);
+        let in_fault = self.scenario == Scenario::Faults && t_s >= FAULT_WINDOW.0 && t_s < FAULT_WINDOW.1;
+        let f = freq_hz(fidx) as f64;
+        let osc = Oscillator::from_ftw(ftw(fidx));
+        let mut fe = self.front_end;
+        let (z, truth) = match (in_fault, ch) {
+            // Disconnected: only a picofarad of stray capacitance remains.
+            (true, 1) => (
+                num_complex::Complex64::new(0.0, -1.0 / (core::f64::consts::TAU * f * 1e-15)),
+                Truth::default(),
+            ),
+            // A gain fault: far too much transimpedance.
+            (true, 2) => {
+                fe.tia_ohm *= 20.0;
+                (self.sensors[ch].impedance(f), self.sensors[ch].truth())
+            }
+            // Electrodes broken to 10 MΩ.
+            (true, 3) => {
+                self.broken.advance(&Profile::Constant(0.0), t_mid);
+                (self.broken.impedance(f), self.broken.truth())
+            }
+            _ => (self.sensors[ch].impedance(f), self.sensors[ch].truth()),
+        };
+        let clipped = fe.block(&osc, z, &mut self.rng, out);
+        (clipped, truth)
+    }
+}

@@ -1,0 +1,146 @@
+//! The firmware in QEMU (lm3s6965evb, Cortex-M4) on the simulated skin:
+//! adaptive frequency, eight channels, faults, panics and hangs.
+
+use dsp_core::lumped::SeriesRc;
+use dsp_core::tline::LineModel;
+use qemu_tests::records::{flags, run_scenario, Rec};
+use std::time::Duration;
+
+fn channel(recs: &[Rec], ch: u8) -> Vec<Rec> {
+    recs.iter().filter(|r| r.channel == ch).copied().collect()
+}
+
+fn rel_err(r: &Rec) -> f64 {
+    let t = r.truth.expect("truth");
+    (r.c_pf / t.c_pf - 1.0).abs()
+}
+
+#[test]
+fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent() {
+    let (run, recs) = run_scenario("paper20").unwrap();
+    let run = run.ok().unwrap();
+    assert!(run.stdout.contains("end"), "{}", run.stdout);
+    let ch0 = channel(&recs, 0);
+    assert!(ch0.len() > 200, "{}", ch0.len());
+    // Within 1 % of the truth throughout (only the one-block settling
+    // records after a frequency switch carry no value).
+    let measured: Vec<&Rec> = ch0.iter().filter(|r| r.flags & flags::SETTLING == 0).collect();
+    assert!(measured.len() > 9 * ch0.len() / 10);
+    for r in &measured {
+        assert!(r.valid(), "{r:?}");
+        assert!(rel_err(r) < 0.01, "{r:?}");
+    }
+    // At the resistance peak the firmware runs at a low frequency...
+    let peak = ch0
+        .iter()
+        .max_by(|a, b| a.truth.unwrap().r_ohm.total_cmp(&b.truth.unwrap().r_ohm))
+        .unwrap();
+    assert!(peak.freq_hz < 2000.0, "{peak:?}");
+    // ...where a fixed 6 kHz lumped meter would under-read by tens of pF.
+    let t = peak.truth.unwrap();
+    let z = LineModel::Continuous
+        .impedance(t.r_ohm as f32, (t.c_pf * 1e-12) as f32, 5859.375)
+        .unwrap();
+    let cs6k = SeriesRc::from_impedance(z, 5859.375).unwrap().cs_farad as f64 * 1e12;
+    assert!(t.c_pf - cs6k > 50.0, "6 kHz lumped {cs6k} vs {}", t.c_pf);
+    // ...and raises it again afterwards (during the hold at 30 mm).
+    let hold: Vec<&Rec> = ch0.iter().filter(|r| (2500..5000).contains(&r.t_ms)).collect();
+    assert!(hold.iter().any(|r| r.freq_hz > 3000.0), "never climbed back");
+    assert!(hold.iter().any(|r| r.freq_hz < 3000.0), "no adaptation at all?");
+    // The lowering happens as the resistance rises: before the peak.
+    let first_low = ch0.iter().find(|r| r.freq_hz < 2000.0).unwrap();
+    assert!(first_low.t_ms <= peak.t_ms, "{first_low:?} vs peak {peak:?}");
+}
+
+#[test]
+fn slow_stretch_keeps_the_high_frequency() {
+    let (run, recs) = run_scenario("slow").unwrap();
+    run.ok().unwrap();
+    let ch0 = channel(&recs, 0);
+    // After the first blocks, a 1 mm/s stretch never needs a lower frequency.
+    let later: Vec<&Rec> = ch0.iter().filter(|r| r.t_ms > 500).collect();
+    assert!(later.len() > 100);
+    assert!(
+        later.iter().all(|r| r.freq_hz > 3900.0),
+        "{:?}",
+        later.iter().find(|r| r.freq_hz <= 3900.0)
+    );
+    assert!(later.iter().filter(|r| r.valid()).all(|r| rel_err(r) < 0.005));
+    let last = later.last().unwrap();
+    assert!(
+        (last.stretch_mm - last.truth.unwrap().stretch_mm).abs() < 0.2,
+        "{last:?}"
+    );
+}
+
+#[test]
+fn eight_different_sensors_all_reported_none_starved() {
+    let (run, recs) = run_scenario("eight").unwrap();
+    run.ok().unwrap();
+    let counts: Vec<usize> = (0..8).map(|c| channel(&recs, c).len()).collect();
+    let (lo, hi) = (*counts.iter().min().unwrap(), *counts.iter().max().unwrap());
+    assert!(lo > 50 && hi - lo <= 1, "{counts:?}");
+    for c in 0..8 {
+        let ch = channel(&recs, c);
+        let valid: Vec<&Rec> = ch.iter().filter(|r| r.valid()).collect();
+        assert!(valid.len() > ch.len() * 9 / 10, "channel {c}");
+        let worst = valid.iter().map(|r| rel_err(r)).fold(0.0, f64::max);
+        assert!(worst < 0.01, "channel {c}: {worst}");
+        // Different sensors: their capacitances differ.
+        assert!((valid[0].truth.unwrap().c_pf - (150.0 + 20.0 * c as f64)).abs() < 15.0);
+    }
+}
+
+#[test]
+fn faults_raise_the_right_flag_and_clear_without_a_reset() {
+    let (run, recs) = run_scenario("faults").unwrap();
+    let run = run.ok().unwrap();
+    assert_eq!(run.stdout.matches("start").count(), 1, "a reset happened");
+    for (ch, flag) in [(1u8, flags::OPEN), (2, flags::CLIPPED), (3, flags::RANGE)] {
+        let c = channel(&recs, ch);
+        let inside: Vec<&Rec> = c.iter().filter(|r| (1050..1950).contains(&r.t_ms)).collect();
+        assert!(!inside.is_empty());
+        // The fault's flag, or settling right after the switch it caused.
+        assert!(
+            inside.iter().all(|r| r.flags & (flag | flags::SETTLING) != 0),
+            "channel {ch}: {:?}",
+            inside.iter().find(|r| r.flags & (flag | flags::SETTLING) == 0)
+        );
+        assert!(inside.iter().filter(|r| r.flags & flag != 0).count() * 10 >= inside.len() * 8);
+        let before: Vec<&Rec> = c.iter().filter(|r| (300..1000).contains(&r.t_ms)).collect();
+        assert!(
+            before.iter().all(|r| r.flags & flag == 0 && r.valid()),
+            "channel {ch} before"
+        );
+        // The measurement resumes once the fault clears.
+        let after: Vec<&Rec> = c.iter().filter(|r| r.t_ms >= 2800).collect();
+        assert!(
+            !after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01),
+            "channel {ch} after: {:?}",
+            after.first()
+        );
+    }
+    // Channel 0 never noticed: no fault flags at all (settling after its
+    // own frequency switches is not a fault).
+    let fault_bits = flags::CLIPPED | flags::OPEN | flags::SHORTED | flags::RANGE;
+    assert!(channel(&recs, 0).iter().all(|r| r.flags & fault_bits == 0));
+}
+
+#[test]
+fn panic_fails_with_a_clear_message() {
+    let (run, _) = run_scenario("panic").unwrap();
+    assert_eq!(run.code, Some(101));
+    let err = run.ok().unwrap_err().to_string();
+    assert!(
+        err.contains("101") && err.contains("PANIC") && err.contains("injected panic"),
+        "{err}"
+    );
+}
+
+#[test]
+fn hang_is_caught_by_the_watchdog() {
+    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    let run = qemu_tests::run_qemu_args(&elf, &["hang"], Duration::from_secs(20)).unwrap();
+    assert_eq!(run.code, None);
+    assert!(run.ok().unwrap_err().to_string().contains("watchdog"));
+}
