@@ -16,6 +16,7 @@ use dsp_core::demod::Demodulator;
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::{Complex32, Oscillator, OscillatorState};
+use firmware::qemu;
 use semihosting::println;
 
 const PAIRS: usize = 2048;
@@ -40,7 +41,7 @@ fn spin(n: u32) {
 
 #[entry]
 fn main() -> ! {
-    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| semihosting::process::exit(3));
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| qemu::exit(3));
     let syst = &mut cp.SYST;
     syst.set_clock_source(SystClkSource::Core);
     syst.set_reload(0x00ff_ffff);
@@ -54,7 +55,7 @@ fn main() -> ! {
     println!("calib ticks_per_insn={}", per_insn);
 
     // Demodulation of one block of sample pairs.
-    let osc = Oscillator::coherent(6000.0, 200e3, 11).unwrap_or_else(|_| semihosting::process::exit(4));
+    let osc = Oscillator::coherent(6000.0, 200e3, 11).unwrap_or_else(|_| qemu::exit(4));
     let mut st = OscillatorState::default();
     let mut buf = [[0i16; 2]; PAIRS];
     for p in buf.iter_mut() {
@@ -79,7 +80,7 @@ fn main() -> ! {
     );
     if [fast.v.re, -fast.v.im, fast.i.re, -fast.i.im] != slow {
         println!("FAIL demod assembly differs from portable");
-        semihosting::process::exit(1);
+        qemu::exit(1);
     }
     println!("check demod_asm_equals_portable ok");
     println!("bench demod_block {} insn/block", n);
@@ -118,5 +119,5 @@ fn main() -> ! {
         println!("bench invert_{} {} insn/inversion", name, total / xs.len() as u32);
         println!("bench invert_{}_worst {} insn/inversion", name, worst);
     }
-    semihosting::process::exit(0)
+    qemu::exit(0)
 }
