@@ -17,6 +17,8 @@ use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::{Complex32, Oscillator, OscillatorState};
 use firmware::qemu;
+// The device crate provides the interrupt vectors cortex-m-rt expects.
+use lm3s6965 as _;
 use semihosting::println;
 
 const PAIRS: usize = 2048;
