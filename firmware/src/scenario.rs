@@ -17,6 +17,9 @@ pub enum Scenario {
     Slow,
     /// Channel 0 on the paper's 20 mm/s trapezoid; the rest at rest.
     Paper20,
+    /// The main job: channel 0 at 20 mm/s, channel 1 at 10 mm/s (the
+    /// paper's trapezoids, two periods), the rest held at 0–14 mm.
+    Paper,
     /// Eight different sensors, each on its own slow trapezoid.
     Eight,
     /// Faults from 1 s to 2 s: channel 1 open, channel 2 clipping,
@@ -34,6 +37,7 @@ impl Scenario {
         Some(match name {
             "slow" => Self::Slow,
             "paper20" => Self::Paper20,
+            "paper" => Self::Paper,
             "eight" => Self::Eight,
             "faults" => Self::Faults,
             "panic" => Self::Panic,
@@ -47,6 +51,7 @@ impl Scenario {
         match self {
             Self::Slow => 6.0,
             Self::Paper20 => 10.0,
+            Self::Paper => 20.0,
             Self::Eight => 4.0,
             Self::Faults => 3.5,
             Self::Panic | Self::Hang => 1.0,
@@ -107,7 +112,8 @@ impl Skin {
                 rate: 1.0,
                 amplitude: 10.0,
             },
-            (Scenario::Paper20, 0) => Profile::paper(20.0),
+            (Scenario::Paper20 | Scenario::Paper, 0) => Profile::paper(20.0),
+            (Scenario::Paper, 1) => Profile::paper(10.0),
             (Scenario::Eight, c) => Profile::Trapezoid {
                 rate: 2.0 + c as f64,
                 amplitude: 5.0 + 2.0 * c as f64,

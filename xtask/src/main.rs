@@ -14,6 +14,8 @@ use clap::{Parser, Subcommand};
 use std::path::Path;
 use std::process::Command;
 
+mod main_job;
+
 #[derive(Parser)]
 #[command(name = "xtask")]
 struct Cli {
@@ -77,6 +79,8 @@ fn main() -> Result<()> {
             // the fixed-point unit tests below.
             cargo(&root, &["test", "--release", "--workspace"])?;
             cargo(&root, &["test", "-p", "dsp-core", "--lib"])?;
+            // The firmware's hardware-free logic, on the host.
+            cargo(&root.join("firmware"), &["test", "--lib", "--tests"])?;
             cargo(&root, &["test", "--doc", "-p", "dsp-core"])?;
             // dsp-core on every core we support: M4F (DSP + FPU) and M3.
             for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
@@ -102,15 +106,16 @@ fn main() -> Result<()> {
     }
 }
 
-/// The main job: host-sim's paper run on the simulated skin (CSV, SVG,
-/// summary in out/paper), then the Cortex-M4 instruction counts. The
-/// firmware in QEMU takes over once it exists.
+/// The main job: the firmware in QEMU on the simulated skin under the
+/// paper's stretching (out/firmware: CSV, SVG, summary), then host-sim's
+/// reproduction of the paper (out/paper), then the Cortex-M4 counts.
 fn run_main(root: &Path) -> Result<()> {
-    let out = root.join("out/paper");
+    let md = main_job::run(&root.join("out/firmware"))?;
+    println!("{md}");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let st = Command::new(&cargo)
         .args(["run", "--release", "-q", "-p", "host-sim", "--", "paper", "--out"])
-        .arg(&out)
+        .arg(root.join("out/paper"))
         .status()?;
     if !st.success() {
         bail!("host-sim paper failed");
