@@ -7,6 +7,7 @@
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
+//! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`channel`] | one sensor channel: demodulated block → record |
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
@@ -21,6 +22,7 @@ pub mod calib;
 pub mod channel;
 pub mod config;
 pub mod faults;
+pub mod mux;
 pub mod policy;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;

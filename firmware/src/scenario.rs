@@ -4,7 +4,9 @@
 //! blocks of `[voltage, current]` pairs the board's DMA would.
 
 use crate::config::{freq_hz, ftw, BLOCK, CHANNELS};
+use core::sync::atomic::{AtomicU8, Ordering};
 use dsp_core::Oscillator;
+use embedded_hal::digital::{ErrorType, OutputPin};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -57,6 +59,32 @@ impl Scenario {
             Self::Panic | Self::Hang => 1.0,
         }
     }
+}
+
+/// The simulated multiplexer's address lines (bit i = line Ai).
+pub static MUX_LINES: AtomicU8 = AtomicU8::new(0);
+
+/// A simulated GPIO output driving one multiplexer address line.
+pub struct SimPin(u8);
+
+impl ErrorType for SimPin {
+    type Error = core::convert::Infallible;
+}
+
+impl OutputPin for SimPin {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        MUX_LINES.fetch_and(!(1 << self.0), Ordering::Relaxed);
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        MUX_LINES.fetch_or(1 << self.0, Ordering::Relaxed);
+        Ok(())
+    }
+}
+
+/// The three simulated address lines A0..A2.
+pub fn mux_pins() -> [SimPin; 3] {
+    [SimPin(0), SimPin(1), SimPin(2)]
 }
 
 /// Fault window of the `faults` scenario, s.
@@ -123,9 +151,11 @@ impl Skin {
         }
     }
 
-    /// Fill `out` with the block of channel `ch` excited at frequency index
-    /// `fidx`, for the block starting at `t_s`; returns (clipped, truth).
-    pub fn block(&mut self, ch: usize, fidx: usize, t_s: f32, out: &mut [[i16; 2]; BLOCK]) -> (bool, Truth) {
+    /// Fill `out` with the block of the channel the multiplexer's address
+    /// lines select, excited at frequency index `fidx`, for the block
+    /// starting at `t_s`; returns (channel, clipped, truth).
+    pub fn block(&mut self, fidx: usize, t_s: f32, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
+        let ch = (MUX_LINES.load(Ordering::Relaxed) as usize) % CHANNELS;
         let t_mid = (t_s + 0.5 * crate::config::BLOCK_S) as f64;
         let profile = self.profile(ch);
         self.sensors[ch].advance(&profile, t_mid);
@@ -152,6 +182,6 @@ impl Skin {
             _ => (self.sensors[ch].impedance(f), self.sensors[ch].truth()),
         };
         let clipped = fe.block(&osc, z, &mut self.rng, out);
-        (clipped, truth)
+        (ch as u8, clipped, truth)
     }
 }

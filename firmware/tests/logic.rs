@@ -144,3 +144,39 @@ fn channel_tracks_a_stretch_and_flags_faults() {
         "{tail:?}"
     );
 }
+
+/// A pin that records its level into a shared byte.
+struct FakePin<'a> {
+    bit: u8,
+    levels: &'a std::cell::Cell<u8>,
+}
+
+impl embedded_hal::digital::ErrorType for FakePin<'_> {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_hal::digital::OutputPin for FakePin<'_> {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        self.levels.set(self.levels.get() & !(1 << self.bit));
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        self.levels.set(self.levels.get() | 1 << self.bit);
+        Ok(())
+    }
+}
+
+#[test]
+fn mux_drives_the_address_lines() {
+    let levels = std::cell::Cell::new(0u8);
+    let pins = [0, 1, 2].map(|bit| FakePin { bit, levels: &levels });
+    let mut mux = firmware::mux::Mux::new(pins);
+    assert_eq!(firmware::mux::Mux::<FakePin, 3>::CHANNELS, 8);
+    for ch in [5u8, 0, 7, 3, 12] {
+        assert!(mux.select(ch).unwrap());
+        assert_eq!(levels.get(), ch % 8);
+        assert_eq!(mux.selected(), Some(ch % 8));
+    }
+    // Selecting the same channel again needs no settling.
+    assert!(!mux.select(4).unwrap());
+}

@@ -23,9 +23,10 @@ use firmware::calib::{CalTable, REFERENCE};
 use firmware::channel::{Channel, Settings};
 use firmware::config::{ftw, BLOCK, CHANNELS, SLOT_S};
 use firmware::faults::Thresholds;
+use firmware::mux::Mux;
 use firmware::policy::Policy;
 use firmware::qemu;
-use firmware::scenario::{Scenario, Skin};
+use firmware::scenario::{mux_pins, Scenario, SimPin, Skin};
 
 /// A block as the DMA leaves it.
 pub struct Block {
@@ -68,6 +69,7 @@ mod app {
     #[local]
     struct Local {
         skin: Skin,
+        mux: Mux<SimPin, 3>,
         scenario: Scenario,
         channels: [Channel; CHANNELS],
         demod: Demodulator<BLOCK>,
@@ -108,6 +110,7 @@ mod app {
             },
             Local {
                 skin,
+                mux: Mux::new(mux_pins()),
                 scenario,
                 channels,
                 demod: Demodulator::new(&Oscillator::from_ftw(ftw(fidx))),
@@ -130,7 +133,7 @@ mod app {
     }
 
     /// DMA complete: the simulated front end filled a block.
-    #[task(binds = GPIOA, priority = 2, shared = [block, next], local = [skin, scenario, slot: u32 = 0])]
+    #[task(binds = GPIOA, priority = 2, shared = [block, next], local = [skin, mux, scenario, slot: u32 = 0])]
     fn dma_done(mut cx: dma_done::Context) {
         let slot = *cx.local.slot;
         *cx.local.slot += 1;
@@ -145,14 +148,17 @@ mod app {
         }
         let (ch, fidx) = cx.shared.next.lock(|n| *n);
         let t_s = slot as f32 * SLOT_S;
+        // Select the channel; the slot's first SETTLE_PAIRS pairs let the
+        // analog path settle (discarded by the DMA layout on the board).
+        let Ok(_) = cx.local.mux.select(ch);
         let skin = cx.local.skin;
-        let truth = cx.shared.block.lock(|b| {
-            let (clipped, truth) = skin.block(ch as usize, fidx, t_s, &mut b.pairs);
+        let (ch, truth) = cx.shared.block.lock(|b| {
+            let (ch, clipped, truth) = skin.block(fidx, t_s, &mut b.pairs);
             b.clipped = clipped;
             b.channel = ch;
             b.fidx = fidx;
             b.t_s = t_s;
-            truth
+            (ch, truth)
         });
         defmt::println!(
             "truth {=u32} {=u8} {=f32} {=f32} {=f32}",
