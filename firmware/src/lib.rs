@@ -18,6 +18,8 @@
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
+#[cfg(all(target_os = "none", feature = "board"))]
+pub mod board;
 pub mod calib;
 pub mod channel;
 pub mod config;
