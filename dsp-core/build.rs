@@ -48,7 +48,7 @@ fn main() {
         "/// Packed reference: bits 0..16 = round(32767·cos θ), bits 16..32 = round(32767·sin θ), θ = 2π·i/2^REF_BITS."
     )
     .unwrap();
-    writeln!(s, "pub static DEMOD_REF: [u32; {n}] = [").unwrap();
+    writeln!(s, "pub const DEMOD_REF: [u32; {n}] = [").unwrap();
     for i in 0..n {
         let th = 2.0 * PI * i as f64 / n as f64;
         let c = (th.cos() * 32767.0).round() as i16;

@@ -90,12 +90,21 @@ impl FrontEnd {
 impl<const N: usize> Demodulator<N> {
     /// Demodulator for blocks of `N` pairs at an oscillator's frequency.
     pub fn new(osc: &crate::Oscillator) -> Self {
+        Self::from_ftw(osc.ftw())
+    }
+
+    /// Demodulator for the tuning word `ftw`, computable at compile time:
+    /// `static D: Demodulator<1024> = Demodulator::from_ftw(FTW);` puts the
+    /// reference in flash instead of RAM.
+    pub const fn from_ftw(ftw: u32) -> Self {
         const SHIFT: u32 = 32 - REF_BITS;
         let mut reference = [0u32; N];
         let mut phase = 0u32;
-        for r in reference.iter_mut() {
-            *r = DEMOD_REF[(phase >> SHIFT) as usize];
-            phase = phase.wrapping_add(osc.ftw());
+        let mut n = 0;
+        while n < N {
+            reference[n] = DEMOD_REF[(phase >> SHIFT) as usize];
+            phase = phase.wrapping_add(ftw);
+            n += 1;
         }
         Self { reference }
     }

@@ -18,15 +18,47 @@ use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
 use core::f32::consts::TAU;
 
-/// Tracker configuration and state (small: the inverter's grid and four
-/// numbers).
+/// Tracker configuration: the inverter and its grid (≈280 bytes), shared by
+/// every channel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tracker {
     inverter: Inverter,
+}
+
+/// Tracker state of one channel (16 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackState {
     prior: f32,
     hint: f32,
     locked: bool,
     rejected: u32,
+}
+
+impl TrackState {
+    /// A channel whose sensor rests at `prior_farad` (its calibration).
+    pub const fn new(prior_farad: f32) -> Self {
+        Self {
+            prior: prior_farad,
+            hint: prior_farad,
+            locked: false,
+            rejected: 0,
+        }
+    }
+
+    /// The currently tracked capacitance, F.
+    pub fn capacitance(&self) -> f32 {
+        self.hint
+    }
+
+    /// True once a value is tracked.
+    pub fn locked(&self) -> bool {
+        self.locked
+    }
+
+    /// Forget the tracked value and start again, unlocked, from the prior.
+    pub fn reset(&mut self) {
+        *self = Self::new(self.prior);
+    }
 }
 
 /// One tracked result.
@@ -49,14 +81,10 @@ impl Tracker {
     /// (x ≈ 8.3) is still usable up to here with a tracked prior.
     pub const X_MAX: f32 = 16.0;
 
-    /// A tracker for `model` over x ≤ `x_max`, starting from `prior_farad`.
-    pub fn new(model: LineModel, x_max: f32, prior_farad: f32) -> Result<Self, ModelError> {
+    /// A tracker for `model` over x ≤ `x_max`.
+    pub fn new(model: LineModel, x_max: f32) -> Result<Self, ModelError> {
         Ok(Self {
             inverter: Inverter::with_x_max(model, x_max)?,
-            prior: prior_farad,
-            hint: prior_farad,
-            locked: false,
-            rejected: 0,
         })
     }
 
@@ -65,31 +93,14 @@ impl Tracker {
         &self.inverter
     }
 
-    /// The currently tracked capacitance, F.
-    pub fn capacitance(&self) -> f32 {
-        self.hint
-    }
-
-    /// Forget the tracked value and start again, unlocked, from the prior.
-    pub fn reset(&mut self) {
-        self.hint = self.prior;
-        self.locked = false;
-        self.rejected = 0;
-    }
-
-    /// True once a value is tracked.
-    pub fn locked(&self) -> bool {
-        self.locked
-    }
-
     /// The line behind impedance `z` (Ω) at `f_hz`. Errors are those of
     /// [`Inverter`], plus [`InvertError::Ambiguous`] for a rejected jump.
-    pub fn update(&mut self, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
+    pub fn update(&self, st: &mut TrackState, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
         let (x_peak, d_peak) = self.inverter.peak();
-        if self.locked && z.im < 0.0 && z.re >= 0.0 && self.rejected == 0 {
+        if st.locked && z.im < 0.0 && z.re >= 0.0 && st.rejected == 0 {
             let d = z.re / -z.im;
             if (d - d_peak).abs() <= d_peak * Self::ILL_CONDITIONED {
-                let c = self.hint;
+                let c = st.hint;
                 let line = Line {
                     r_ohm: x_peak / (TAU * f_hz * c),
                     c_farad: c,
@@ -98,28 +109,28 @@ impl Tracker {
                 return Ok(Tracked { line, held: true });
             }
         }
-        let r = if self.locked {
-            self.inverter.invert_near(z, f_hz, self.hint).and_then(|line| {
-                if (line.c_farad / self.hint - 1.0).abs() <= Self::MAX_JUMP {
+        let r = if st.locked {
+            self.inverter.invert_near(z, f_hz, st.hint).and_then(|line| {
+                if (line.c_farad / st.hint - 1.0).abs() <= Self::MAX_JUMP {
                     Ok(line)
                 } else {
                     Err(InvertError::Ambiguous)
                 }
             })
         } else {
-            self.inverter.invert_near(z, f_hz, self.prior)
+            self.inverter.invert_near(z, f_hz, st.prior)
         };
         match r {
             Ok(line) => {
-                self.hint = line.c_farad;
-                self.locked = true;
-                self.rejected = 0;
+                st.hint = line.c_farad;
+                st.locked = true;
+                st.rejected = 0;
                 Ok(Tracked { line, held: false })
             }
             Err(e) => {
-                self.rejected += 1;
-                if self.rejected >= Self::RELOCK_AFTER {
-                    self.reset();
+                st.rejected += 1;
+                if st.rejected >= Self::RELOCK_AFTER {
+                    st.reset();
                 }
                 Err(e)
             }

@@ -8,7 +8,7 @@ use crate::policy::{Policy, PolicyState};
 use dsp_core::demod::{FrontEnd, Phasors};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
-use dsp_core::track::Tracker;
+use dsp_core::track::{TrackState, Tracker};
 
 /// What every channel shares.
 #[derive(Clone, Copy, Debug)]
@@ -21,6 +21,17 @@ pub struct Settings<'a, const N: usize> {
     pub front_end: FrontEnd,
     /// Stretch calibration.
     pub calibration: &'a CalTable<N>,
+    /// Line tracking (the inverter's grid, shared by all channels).
+    pub tracker: Tracker,
+}
+
+/// The line tracker every channel uses: the continuous line over
+/// x ≤ [`Tracker::X_MAX`].
+pub fn tracker() -> Tracker {
+    match Tracker::new(LineModel::Continuous, Tracker::X_MAX) {
+        Ok(t) => t,
+        Err(_) => unreachable!("the continuous model is always valid"),
+    }
 }
 
 /// One measurement record.
@@ -51,20 +62,16 @@ pub struct Record {
 pub struct Channel {
     /// Frequency policy state.
     pub policy: PolicyState,
-    tracker: Tracker,
+    track: TrackState,
     last_t: Option<f32>,
 }
 
 impl Channel {
     /// A channel whose sensor rests at `prior_farad` (its calibration).
-    pub fn new(prior_farad: f32) -> Self {
-        let tracker = match Tracker::new(LineModel::Continuous, Tracker::X_MAX, prior_farad) {
-            Ok(t) => t,
-            Err(_) => unreachable!("the continuous model is always valid"),
-        };
+    pub const fn new(prior_farad: f32) -> Self {
         Self {
             policy: PolicyState::new(),
-            tracker,
+            track: TrackState::new(prior_farad),
             last_t: None,
         }
     }
@@ -124,7 +131,7 @@ impl Channel {
             // reading, keep the tracker and the policy as they were.
             return rec;
         }
-        match self.tracker.update(z, f) {
+        match s.tracker.update(&mut self.track, z, f) {
             Ok(t) => {
                 rec.c_farad = t.line.c_farad;
                 rec.r_ohm = t.line.r_ohm;

@@ -25,6 +25,17 @@ pub fn freq_hz(i: usize) -> f32 {
 }
 
 /// Oscillator tuning word of set entry `i`.
-pub fn ftw(i: usize) -> u32 {
+pub const fn ftw(i: usize) -> u32 {
     PERIODS[i] << (32 - BLOCK_LOG2)
 }
+
+/// The demodulators of the frequency set, computed at compile time: their
+/// references (4 KiB each) live in flash, and a frequency switch costs
+/// nothing.
+pub static DEMODULATORS: [dsp_core::demod::Demodulator<BLOCK>; PERIODS.len()] = [
+    dsp_core::demod::Demodulator::from_ftw(ftw(0)),
+    dsp_core::demod::Demodulator::from_ftw(ftw(1)),
+    dsp_core::demod::Demodulator::from_ftw(ftw(2)),
+    dsp_core::demod::Demodulator::from_ftw(ftw(3)),
+    dsp_core::demod::Demodulator::from_ftw(ftw(4)),
+];

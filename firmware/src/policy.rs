@@ -68,7 +68,7 @@ pub struct PolicyState {
 
 impl PolicyState {
     /// Start at the lowest frequency with no memory, free to climb.
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
             index: 0,
             r_peak: 0.0,

@@ -77,6 +77,7 @@ fn run(
         thresholds: Thresholds::DEFAULT,
         front_end: fe.dsp_front_end(),
         calibration: &REFERENCE,
+        tracker: firmware::channel::tracker(),
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     let mut s = Sensor::settled(params);

@@ -6,7 +6,7 @@
 use dsp_core::demod::Demodulator;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
-use dsp_core::track::Tracker;
+use dsp_core::track::{TrackState, Tracker};
 use dsp_core::{Complex32, Oscillator};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
@@ -108,9 +108,10 @@ pub fn run(
         seed,
     } = setup;
     let mut rng = Rng::new(seed);
-    let mut tracker = Tracker::new(model, Tracker::X_MAX, prior_farad as f32).expect("valid model");
+    let tracker = Tracker::new(model, Tracker::X_MAX).expect("valid model");
+    let mut state = TrackState::new(prior_farad as f32);
     let mut out = Vec::new();
-    let mut correct = |z: Complex32, f: f32| match tracker.update(z, f) {
+    let mut correct = |z: Complex32, f: f32| match tracker.update(&mut state, z, f) {
         Ok(t) => (t.line.c_farad as f64, t.line.r_ohm as f64),
         Err(_) => (f64::NAN, f64::NAN),
     };

@@ -199,3 +199,33 @@ pub fn decode_defmt(elf: &Path, raw: &[u8]) -> Result<Vec<String>> {
     }
     Ok(out)
 }
+
+/// Flash and static RAM of a firmware image, bytes: flash holds every
+/// allocated section below the RAM origin plus the initial values of
+/// `.data`; RAM holds `.data`, `.bss` and `.uninit`.
+pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
+    use object::{Object, ObjectSection, SectionFlags};
+    let data = std::fs::read(elf)?;
+    let file = object::File::parse(&*data)?;
+    let (mut flash, mut ram) = (0, 0);
+    for sec in file.sections() {
+        let alloc = matches!(sec.flags(), SectionFlags::Elf { sh_flags } if sh_flags & 2 != 0);
+        if !alloc || sec.size() == 0 {
+            continue;
+        }
+        let name = sec.name().unwrap_or("");
+        if sec.address() >= 0x2000_0000 {
+            ram += sec.size();
+            if name == ".data" {
+                flash += sec.size();
+            }
+        } else {
+            flash += sec.size();
+        }
+    }
+    Ok((flash, ram))
+}
+
+/// The firmware issue's board budgets with 8 channels: flash and static RAM,
+/// bytes.
+pub const BOARD_BUDGET: (u64, u64) = (64 * 1024, 16 * 1024);

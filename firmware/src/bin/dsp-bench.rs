@@ -152,6 +152,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         thresholds: firmware::faults::Thresholds::DEFAULT,
         front_end: dsp_core::demod::FrontEnd::transimpedance(100e3, true),
         calibration: &REFERENCE,
+        tracker: firmware::channel::tracker(),
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     ch.policy.index = fidx;

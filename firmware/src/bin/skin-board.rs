@@ -20,11 +20,11 @@
 #![no_std]
 #![no_main]
 
-use dsp_core::demod::{Demodulator, FrontEnd};
+use dsp_core::demod::FrontEnd;
 use dsp_core::osc::{Oscillator, OscillatorState};
 use firmware::calib::{CalTable, REFERENCE};
 use firmware::channel::{Channel, Settings};
-use firmware::config::{ftw, BLOCK, CHANNELS, SETTLE_PAIRS, SLOT_S};
+use firmware::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_S};
 use firmware::faults::Thresholds;
 use firmware::mux::Mux;
 use firmware::policy::Policy;
@@ -257,8 +257,6 @@ mod app {
         adc_buf: DmaBuf,
         dac_buf: &'static mut [u16; 2 * SLOT],
         mux: BoardMux,
-        demod: Demodulator<BLOCK>,
-        demod_fidx: usize,
         settings: Settings<'static, 11>,
     }
 
@@ -279,20 +277,18 @@ mod app {
         let dac_buf: &'static mut [u16; 2 * SLOT] = cx.local.dac;
         front_end(&dp, adc_buf as u32, dac_buf.as_ptr() as u32);
         defmt::println!("start {=u8} channels", CHANNELS as u8);
-        let fidx = channels[0].freq_index();
         (
             Shared { slot: None, channels },
             Local {
                 adc_buf: DmaBuf(adc_buf),
                 dac_buf,
                 mux,
-                demod: Demodulator::new(&Oscillator::from_ftw(ftw(fidx))),
-                demod_fidx: fidx,
                 settings: Settings {
                     policy: Policy::DEFAULT,
                     thresholds: Thresholds::DEFAULT,
                     front_end: FrontEnd::transimpedance(100e3, true),
                     calibration: cal,
+                    tracker: firmware::channel::tracker(),
                 },
             },
         )
@@ -342,7 +338,7 @@ mod app {
     }
 
     /// Demodulate, correct and log one block, straight from the DMA buffer.
-    #[task(priority = 1, shared = [slot, channels], local = [adc_buf, demod, demod_fidx, settings])]
+    #[task(priority = 1, shared = [slot, channels], local = [adc_buf, settings])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let Some(Slot {
@@ -368,11 +364,7 @@ mod app {
         let clipped = pairs
             .iter()
             .any(|&[v, i]| v <= 0 || v >= 4095 || i <= 0 || i >= 4095);
-        if *local.demod_fidx != fidx {
-            *local.demod = Demodulator::new(&Oscillator::from_ftw(ftw(fidx)));
-            *local.demod_fidx = fidx;
-        }
-        let ph = local.demod.block(pairs);
+        let ph = DEMODULATORS[fidx].block(pairs);
         let settings = &*local.settings;
         let rec = cx.shared.channels.lock(|c| {
             let channel = &mut c[ch as usize];

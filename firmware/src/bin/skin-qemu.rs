@@ -17,11 +17,9 @@
 #![no_std]
 #![no_main]
 
-use dsp_core::demod::Demodulator;
-use dsp_core::Oscillator;
 use firmware::calib::{CalTable, REFERENCE};
 use firmware::channel::{Channel, Settings};
-use firmware::config::{ftw, BLOCK, CHANNELS, SLOT_S};
+use firmware::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_S};
 use firmware::faults::Thresholds;
 use firmware::mux::Mux;
 use firmware::policy::Policy;
@@ -72,8 +70,6 @@ mod app {
         mux: Mux<SimPin, 3>,
         scenario: Scenario,
         channels: [Channel; CHANNELS],
-        demod: Demodulator<BLOCK>,
-        demod_fidx: usize,
         settings: Settings<'static, 11>,
         end_slot: u32,
     }
@@ -88,6 +84,7 @@ mod app {
             thresholds: Thresholds::DEFAULT,
             front_end: skin.front_end().dsp_front_end(),
             calibration: cal,
+            tracker: firmware::channel::tracker(),
         };
         let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
         let fidx = channels[0].freq_index();
@@ -113,8 +110,6 @@ mod app {
                 mux: Mux::new(mux_pins()),
                 scenario,
                 channels,
-                demod: Demodulator::new(&Oscillator::from_ftw(ftw(fidx))),
-                demod_fidx: fidx,
                 settings,
                 end_slot: (scenario.duration_s() / SLOT_S) as u32,
             },
@@ -174,15 +169,17 @@ mod app {
     }
 
     /// Demodulate, correct and log one block; choose the next one.
-    #[task(priority = 1, shared = [block, next, done], local = [channels, demod, demod_fidx, settings, end_slot])]
+    #[task(priority = 1, shared = [block, next, done], local = [channels, settings, end_slot])]
     async fn process(mut cx: process::Context, slot: u32) {
         let local = cx.local;
         let (ph, clipped, ch, fidx, t_s) = cx.shared.block.lock(|b| {
-            if *local.demod_fidx != b.fidx {
-                *local.demod = Demodulator::new(&Oscillator::from_ftw(ftw(b.fidx)));
-                *local.demod_fidx = b.fidx;
-            }
-            (local.demod.block(&b.pairs), b.clipped, b.channel, b.fidx, b.t_s)
+            (
+                DEMODULATORS[b.fidx].block(&b.pairs),
+                b.clipped,
+                b.channel,
+                b.fidx,
+                b.t_s,
+            )
         });
         let channel = &mut local.channels[ch as usize];
         // The policy's frequency for this channel was used for this block.
