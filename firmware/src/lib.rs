@@ -24,6 +24,8 @@ pub mod calib;
 pub mod channel;
 pub mod config;
 pub mod faults;
+#[cfg(target_os = "none")]
+pub mod log;
 pub mod mux;
 pub mod policy;
 #[cfg(all(target_os = "none", feature = "qemu"))]

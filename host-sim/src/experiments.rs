@@ -153,49 +153,68 @@ pub fn sweep_freqs() -> Vec<f64> {
     (0..=24).map(|k| 500.0 * (60f64).powf(k as f64 / 24.0)).collect()
 }
 
-/// Fig. 7: static frequency sweep at 0, 15 and 30 mm.
-pub fn sweep(ctx: &Ctx) -> Result<String> {
+/// One stretch of the static sweep: stretch (mm), the sensor, (f Hz, Cs pF).
+type SweepAt = (f64, Sensor, Vec<(f64, f64)>);
+
+/// Write `sweep.csv`: the LCR meter over [`sweep_freqs`] on the static
+/// sensor at 0, 15 and 30 mm (with a `c_true_pf` column if `truth`).
+fn write_sweep(ctx: &Ctx, truth: bool) -> Result<Vec<SweepAt>> {
     let mut rng = Rng::new(ctx.seed ^ 7);
     let mut w = csv::Writer::from_path(ctx.path("sweep.csv"))?;
-    w.write_record([
+    let mut head = vec![
         "stretch_mm",
         "freq_hz",
         "cs_pf",
         "rs_ohm",
         "r_top_ohm",
         "r_bottom_ohm",
-        "c_true_pf",
-    ])?;
-    let mut series = vec![];
-    let mut md = String::from("### Static frequency sweep (Fig. 7)\n\n| stretch | C true | Cs 500 Hz | Cs 6 kHz | 6 kHz vs 500 Hz |\n|---:|---:|---:|---:|---:|\n");
+    ];
+    if truth {
+        head.push("c_true_pf");
+    }
+    w.write_record(&head)?;
+    let mut out = vec![];
     for s_mm in [0.0, 15.0, 30.0] {
         let s = static_sensor(ctx.sensor, s_mm);
         let tr = s.truth();
         let mut pts = vec![];
         for f in sweep_freqs() {
             let (cs, rs) = lcr(&s, f, &mut rng);
-            w.write_record([
+            let mut row = vec![
                 format!("{s_mm}"),
                 format!("{f:.1}"),
                 format!("{:.4}", pf(cs)),
                 format!("{rs:.0}"),
                 format!("{:.0}", tr.r_top_ohm),
                 format!("{:.0}", tr.r_bottom_ohm),
-                format!("{:.4}", pf(tr.c_farad)),
-            ])?;
+            ];
+            if truth {
+                row.push(format!("{:.4}", pf(tr.c_farad)));
+            }
+            w.write_record(&row)?;
             pts.push((f, pf(cs)));
         }
+        out.push((s_mm, s, pts));
+    }
+    w.flush()?;
+    Ok(out)
+}
+
+/// Fig. 7: static frequency sweep at 0, 15 and 30 mm.
+pub fn sweep(ctx: &Ctx) -> Result<String> {
+    let mut series = vec![];
+    let mut md = String::from("### Static frequency sweep (Fig. 7)\n\n| stretch | C true | Cs 500 Hz | Cs 6 kHz | 6 kHz vs 500 Hz |\n|---:|---:|---:|---:|---:|\n");
+    for (s_mm, s, pts) in write_sweep(ctx, true)? {
         let at = |f: f64| pf(-1.0 / (std::f64::consts::TAU * f * s.impedance(f).im));
         let (c500, c6k) = (at(500.0), at(6000.0));
         writeln!(
             md,
             "| {s_mm} mm | {:.2} pF | {c500:.2} pF | {c6k:.2} pF | {:+.1} % |",
-            pf(tr.c_farad),
+            pf(s.truth().c_farad),
             100.0 * (c6k / c500 - 1.0)
         )?;
         series.push(Series::new(format!("{s_mm} mm"), pts));
     }
-    w.flush()?;
     figure(
         &ctx.path("fig7_sweep.svg"),
         "Lumped capacitance of the static sensor vs. excitation frequency (Fig. 7)",
@@ -657,32 +676,7 @@ pub fn dataset(dir: &Path, params: SensorParams, seed: u64, progress: ProgressBa
     std::fs::create_dir_all(dir)?;
     calibration(&ctx)?;
     // The sweep at 0, 15, 30 mm, without the truth column.
-    let mut rng = Rng::new(seed ^ 7);
-    let mut w = csv::Writer::from_path(dir.join("sweep.csv"))?;
-    w.write_record([
-        "stretch_mm",
-        "freq_hz",
-        "cs_pf",
-        "rs_ohm",
-        "r_top_ohm",
-        "r_bottom_ohm",
-    ])?;
-    for s_mm in [0.0, 15.0, 30.0] {
-        let s = static_sensor(params, s_mm);
-        let tr = s.truth();
-        for f in sweep_freqs() {
-            let (cs, rs) = lcr(&s, f, &mut rng);
-            w.write_record([
-                format!("{s_mm}"),
-                format!("{f:.1}"),
-                format!("{:.4}", pf(cs)),
-                format!("{rs:.0}"),
-                format!("{:.0}", tr.r_top_ohm),
-                format!("{:.0}", tr.r_bottom_ohm),
-            ])?;
-        }
-    }
-    w.flush()?;
+    write_sweep(&ctx, false)?;
     for Run {
         rate,
         freq_hz: f,

@@ -1,19 +1,8 @@
 //! The data-set writer and the trace command: the interchange format, and
 //! clear errors for bad arguments and unreadable files.
 
-use std::process::Command;
-
-fn run(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::run;
 
 /// Parse a CSV file of numbers, skipping `#` comments.
 fn table(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {

@@ -128,34 +128,19 @@ fn run_main(root: &Path) -> Result<()> {
 fn board_build(root: &Path) -> Result<()> {
     let fw = root.join("firmware");
     let t = qemu_tests::TARGET;
+    let image = [
+        "--release",
+        "--target",
+        t,
+        "--features",
+        "board",
+        "--bin",
+        "skin-board",
+    ];
+    cargo(&fw, &[&["build"][..], &image].concat())?;
     cargo(
         &fw,
-        &[
-            "build",
-            "--release",
-            "--target",
-            t,
-            "--features",
-            "board",
-            "--bin",
-            "skin-board",
-        ],
-    )?;
-    cargo(
-        &fw,
-        &[
-            "clippy",
-            "--release",
-            "--target",
-            t,
-            "--features",
-            "board",
-            "--bin",
-            "skin-board",
-            "--",
-            "-D",
-            "warnings",
-        ],
+        &[&["clippy"][..], &image, &["--", "-D", "warnings"]].concat(),
     )
 }
 

@@ -376,18 +376,7 @@ mod app {
             Some(channel.process(settings, ch, t_s + 0.5 * firmware::config::BLOCK_S, &ph, clipped))
         });
         if let Some(rec) = rec {
-            defmt::println!(
-                "rec {=u32} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u8}",
-                (t_s * 1000.0) as u32,
-                rec.channel,
-                rec.freq_hz,
-                rec.cs_farad * 1e12,
-                rec.rs_ohm,
-                rec.c_farad * 1e12,
-                rec.r_ohm,
-                rec.stretch_mm,
-                rec.flags.0
-            );
+            firmware::log::record(t_s, &rec);
         }
     }
 }

@@ -191,18 +191,7 @@ mod app {
             &ph,
             clipped,
         );
-        defmt::println!(
-            "rec {=u32} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u8}",
-            (t_s * 1000.0) as u32,
-            rec.channel,
-            rec.freq_hz,
-            rec.cs_farad * 1e12,
-            rec.rs_ohm,
-            rec.c_farad * 1e12,
-            rec.r_ohm,
-            rec.stretch_mm,
-            rec.flags.0
-        );
+        firmware::log::record(t_s, &rec);
         let next = ((ch as usize + 1) % CHANNELS) as u8;
         let next_fidx = local.channels[next as usize].freq_index();
         cx.shared.next.lock(|n| *n = (next, next_fidx));
