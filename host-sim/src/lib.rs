@@ -4,11 +4,13 @@
 //! * [`meter`]: what a series Cs–Rs meter reads on a line, and the inverse.
 //! * [`chain`]: the measurement chain on the simulated sensor (ADC +
 //!   demodulator, or an ideal LCR meter).
+//! * [`dataset`]: reading measured data sets, with the format's checks.
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
 //! * [`si`]: SI-prefixed numbers for the command line.
 
 pub mod chain;
+pub mod dataset;
 pub mod experiments;
 pub mod meter;
 pub mod plot;

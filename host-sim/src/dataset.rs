@@ -1,0 +1,243 @@
+//! Reading measured data sets in the interchange format
+//! (`shared/data-format.md`): CSV with one header row, `#` comments
+//! anywhere, columns in any order, unknown columns ignored.
+//!
+//! A reader rejects, naming the file, line and column: a field of a known
+//! column that is not a finite number, a missing required column, a
+//! negative resistance or capacitance, a non-increasing `time_s`, and a
+//! trace whose `freq_hz` is not constant. It never drops rows.
+
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+
+/// Which file of a data set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// `calibration.csv`: static stretch–capacitance points.
+    Calibration,
+    /// `sweep.csv`: static frequency sweeps.
+    Sweep,
+    /// `trace_*.csv`: a dynamic recording at one frequency.
+    Trace,
+}
+
+impl Kind {
+    /// Columns the file must have.
+    pub fn required(self) -> &'static [&'static str] {
+        match self {
+            Kind::Calibration => &["stretch_mm", "freq_hz", "cs_pf", "r_top_ohm", "r_bottom_ohm"],
+            Kind::Sweep => &["stretch_mm", "freq_hz", "cs_pf"],
+            Kind::Trace => &[
+                "time_s",
+                "stretch_mm",
+                "r_top_ohm",
+                "r_bottom_ohm",
+                "freq_hz",
+                "cs_pf",
+            ],
+        }
+    }
+}
+
+/// The known columns, in this order in [`Row::values`].
+pub const COLUMNS: [&str; 7] = [
+    "time_s",
+    "stretch_mm",
+    "freq_hz",
+    "cs_pf",
+    "rs_ohm",
+    "r_top_ohm",
+    "r_bottom_ohm",
+];
+
+/// One row: the known columns present in the file (NaN where absent), and
+/// the line it came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Row {
+    /// Values in [`COLUMNS`] order; NaN for a column the file lacks.
+    pub values: [f64; 7],
+    /// Line number in the file (1-based).
+    pub line: u64,
+}
+
+impl Row {
+    /// time_s.
+    pub fn time_s(&self) -> f64 {
+        self.values[0]
+    }
+    /// stretch_mm.
+    pub fn stretch_mm(&self) -> f64 {
+        self.values[1]
+    }
+    /// freq_hz.
+    pub fn freq_hz(&self) -> f64 {
+        self.values[2]
+    }
+    /// cs_pf.
+    pub fn cs_pf(&self) -> f64 {
+        self.values[3]
+    }
+    /// rs_ohm (NaN if not recorded).
+    pub fn rs_ohm(&self) -> f64 {
+        self.values[4]
+    }
+    /// r_top_ohm.
+    pub fn r_top_ohm(&self) -> f64 {
+        self.values[5]
+    }
+    /// r_bottom_ohm.
+    pub fn r_bottom_ohm(&self) -> f64 {
+        self.values[6]
+    }
+}
+
+/// One file of a data set.
+#[derive(Clone, Debug)]
+pub struct Table {
+    /// Where it came from.
+    pub path: PathBuf,
+    /// Which kind of file.
+    pub kind: Kind,
+    /// Every data row, in file order.
+    pub rows: Vec<Row>,
+}
+
+/// Read and check one file.
+pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot open"))?;
+    // Comments may stand anywhere; drop them but keep each kept line's
+    // physical number for the messages.
+    let kept: Vec<(u64, &str)> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim_start().starts_with('#'))
+        .map(|(i, l)| (i as u64 + 1, l))
+        .collect();
+    let physical = |csv_line: u64| {
+        kept.get(csv_line.saturating_sub(1) as usize)
+            .map_or(csv_line, |k| k.0)
+    };
+    let joined = kept.iter().map(|k| k.1).collect::<Vec<_>>().join("\n");
+    let mut rd = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(joined.as_bytes());
+    let head = rd
+        .headers()
+        .with_context(|| format!("{name}: cannot read the header row"))?
+        .clone();
+    let head_line = physical(1);
+    let index: Vec<Option<usize>> = COLUMNS
+        .iter()
+        .map(|c| head.iter().position(|h| h == *c))
+        .collect();
+    for req in kind.required() {
+        if !head.iter().any(|h| h == *req) {
+            bail!(
+                "{name}:{head_line}: missing required column '{req}' (header: {})",
+                head.iter().collect::<Vec<_>>().join(",")
+            );
+        }
+    }
+    let mut rows: Vec<Row> = vec![];
+    for rec in rd.records() {
+        let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
+        let line = physical(rec.position().map_or(0, |p| p.line()));
+        let mut values = [f64::NAN; 7];
+        for (k, col) in COLUMNS.iter().enumerate() {
+            let Some(i) = index[k] else { continue };
+            let field = rec.get(i).unwrap_or("");
+            let v: f64 = match field.parse::<f64>() {
+                Ok(v) if v.is_finite() => v,
+                _ => bail!(
+                    "{name}:{line}:{}: column '{col}': '{field}' is not a finite number",
+                    i + 1
+                ),
+            };
+            let nonneg = matches!(*col, "cs_pf" | "rs_ohm" | "r_top_ohm" | "r_bottom_ohm");
+            if nonneg && v < 0.0 {
+                bail!("{name}:{line}:{}: column '{col}': negative value {v}", i + 1);
+            }
+            values[k] = v;
+        }
+        let row = Row { values, line };
+        if let (Some(prev), Some(i)) = (rows.last(), index[0]) {
+            if row.time_s() <= prev.time_s() {
+                bail!(
+                    "{name}:{line}:{}: column 'time_s': {} does not increase (line {}: {})",
+                    i + 1,
+                    row.time_s(),
+                    prev.line,
+                    prev.time_s()
+                );
+            }
+        }
+        if kind == Kind::Trace {
+            if let (Some(first), Some(i)) = (rows.first(), index[2]) {
+                if row.freq_hz() != first.freq_hz() {
+                    bail!(
+                        "{name}:{line}:{}: column 'freq_hz': {} differs from {} (line {}); a trace holds one frequency",
+                        i + 1,
+                        row.freq_hz(),
+                        first.freq_hz(),
+                        first.line
+                    );
+                }
+            }
+        }
+        rows.push(row);
+    }
+    if rows.is_empty() {
+        bail!("{name}: no data rows");
+    }
+    Ok(Table {
+        path: path.to_path_buf(),
+        kind,
+        rows,
+    })
+}
+
+/// A data set: the calibration, the sweep if present, and the traces.
+#[derive(Clone, Debug)]
+pub struct DataSet {
+    /// `calibration.csv`.
+    pub calibration: Table,
+    /// `sweep.csv`, if present.
+    pub sweep: Option<Table>,
+    /// `trace_*.csv`, sorted by file name.
+    pub traces: Vec<Table>,
+}
+
+/// Read a data set folder.
+pub fn read_dir(dir: &Path) -> Result<DataSet> {
+    let cal = dir.join("calibration.csv");
+    if !cal.is_file() {
+        bail!("{}: missing calibration.csv", dir.display());
+    }
+    let calibration = read_table(&cal, Kind::Calibration)?;
+    let sweep_path = dir.join("sweep.csv");
+    let sweep = if sweep_path.is_file() {
+        Some(read_table(&sweep_path, Kind::Sweep)?)
+    } else {
+        None
+    };
+    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("{}: cannot list", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let n = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            n.starts_with("trace_") && n.ends_with(".csv")
+        })
+        .collect();
+    names.sort();
+    let traces = names
+        .iter()
+        .map(|p| read_table(p, Kind::Trace))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(DataSet {
+        calibration,
+        sweep,
+        traces,
+    })
+}

@@ -1,0 +1,111 @@
+//! The data-set reader: the example data set in shared/, our own writer's
+//! output, and every rejection the format requires, with file:line:column.
+
+use host_sim::dataset::{read_dir, read_table, Kind};
+use std::path::{Path, PathBuf};
+
+fn example() -> Option<PathBuf> {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/example-dataset");
+    p.is_dir().then_some(p)
+}
+
+#[test]
+fn reads_the_example_data_set_completely() {
+    let Some(dir) = example() else {
+        eprintln!("SKIPPED: ../shared/example-dataset not present");
+        return;
+    };
+    let ds = read_dir(&dir).unwrap();
+    assert_eq!(ds.calibration.rows.len(), 11);
+    assert_eq!(ds.sweep.as_ref().unwrap().rows.len(), 39);
+    assert_eq!(ds.traces.len(), 6);
+    for t in &ds.traces {
+        assert_eq!(t.rows.len(), 1500, "{}", t.path.display());
+        assert!(t.rows.iter().all(|r| r.rs_ohm() > 0.0 && r.cs_pf() > 0.0));
+    }
+    let r = &ds.traces[0].rows[0];
+    assert_eq!((r.time_s(), r.stretch_mm(), r.freq_hz()), (0.0, 0.0, 2000.0));
+}
+
+#[test]
+fn reads_what_host_sim_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("set");
+    host_sim::experiments::dataset(
+        &d,
+        host_sim::experiments::with_effects(Default::default()),
+        3,
+        indicatif::ProgressBar::hidden(),
+    )
+    .unwrap();
+    let ds = read_dir(&d).unwrap();
+    assert_eq!(ds.traces.len(), 6);
+    assert!(ds.traces.iter().all(|t| t.rows.len() > 1000));
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn rejections_name_file_line_column_and_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let head = "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf\n";
+    let cases = [
+        // (body, expected pieces of the message)
+        (
+            format!("{head}0,0,1,1,500,200\n# a comment\n0.1,abc,1,1,500,200\n"),
+            vec![":4:2:", "stretch_mm", "'abc'"],
+        ),
+        (
+            format!("{head}0,0,1,1,500,inf\n"),
+            vec![":2:6:", "cs_pf", "not a finite number"],
+        ),
+        (
+            format!("{head}0,0,-5,1,500,200\n"),
+            vec![":2:3:", "r_top_ohm", "negative"],
+        ),
+        (
+            format!("{head}0,0,1,1,500,200\n0,0,1,1,500,200\n"),
+            vec![":3:1:", "time_s", "does not increase"],
+        ),
+        (
+            format!("{head}0,0,1,1,500,200\n0.1,0,1,1,600,200\n"),
+            vec![":3:5:", "freq_hz", "one frequency"],
+        ),
+        (
+            "time_s,stretch_mm,freq_hz,cs_pf\n0,0,500,200\n".to_string(),
+            vec![":1:", "missing required column 'r_top_ohm'"],
+        ),
+        (format!("{head}0,0,1,1,500\n"), vec![":2:6:", "cs_pf", "''"]),
+    ];
+    for (k, (body, want)) in cases.iter().enumerate() {
+        let p = write(d, &format!("trace_{k}.csv"), body);
+        let err = read_table(&p, Kind::Trace).unwrap_err().to_string();
+        assert!(err.contains(&format!("trace_{k}.csv")), "{err}");
+        for w in want {
+            assert!(err.contains(w), "case {k}: '{w}' not in: {err}");
+        }
+    }
+    // Unknown columns are ignored; extra rs_ohm is read.
+    let p = write(
+        d,
+        "ok.csv",
+        &format!(
+            "note,{}",
+            "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm\nx,0,0,1,1,500,200,3\n"
+        ),
+    );
+    let t = read_table(&p, Kind::Trace).unwrap();
+    assert_eq!(t.rows[0].rs_ohm(), 3.0);
+    // A data set without a calibration says so.
+    let err = read_dir(d).unwrap_err().to_string();
+    assert!(err.contains("missing calibration.csv"), "{err}");
+    assert!(read_table(&d.join("nope.csv"), Kind::Sweep)
+        .unwrap_err()
+        .to_string()
+        .contains("nope.csv: cannot open"));
+}
