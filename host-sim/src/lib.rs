@@ -2,6 +2,7 @@
 //! the boards run, driven from the command line and from tests.
 //!
 //! * [`meter`]: what a series Cs–Rs meter reads on a line, and the inverse.
+//! * [`baseline`]: the baseline model of a measured data set and its residual.
 //! * [`chain`]: the measurement chain on the simulated sensor (ADC +
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
@@ -9,6 +10,7 @@
 //! * [`plot`]: SVG figures.
 //! * [`si`]: SI-prefixed numbers for the command line.
 
+pub mod baseline;
 pub mod chain;
 pub mod dataset;
 pub mod experiments;

@@ -84,6 +84,18 @@ enum Cmd {
         #[command(flatten)]
         effects: EffectArgs,
     },
+    /// Baseline model of a measured data set (uniform line, de-biased
+    /// calibration, recorded R) and its residual per trace, with the noise floor.
+    Residual {
+        /// Data set folder (interchange format).
+        dir: PathBuf,
+        /// Line model: ladder size 1..64 or 'continuous'.
+        #[arg(long, value_parser = parse_model, default_value = "continuous")]
+        model: LineModel,
+        /// Use the calibration's Cs as the true C (the paper's shortcut).
+        #[arg(long)]
+        raw_calibration: bool,
+    },
     /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
     Trace {
         /// trapezoid:RATE, ramp:RATE:AMPLITUDE, step:TIME:AMPLITUDE,
@@ -338,6 +350,27 @@ fn run(cli: Cli) -> Result<()> {
             let pb = Ctx::new(&out, seed)?.with_progress(180.0).progress;
             exp::dataset(&out, params, seed, pb)?;
             println!("wrote a data set to {}", out.display());
+        }
+        Cmd::Residual {
+            dir,
+            model,
+            raw_calibration,
+        } => {
+            let ds = host_sim::dataset::read_dir(&dir)?;
+            let b = host_sim::baseline::Baseline::from_calibration(&ds.calibration, model, !raw_calibration)?;
+            println!("| trace | rows | residual RMS | max | noise floor | RMS / noise |");
+            println!("|---|---:|---:|---:|---:|---:|");
+            for r in host_sim::baseline::residuals(&ds, &b) {
+                println!(
+                    "| {} | {} | {:.3} pF | {:.3} pF | {:.3} pF | {:.2} |",
+                    r.file,
+                    r.n,
+                    r.rms_pf,
+                    r.max_pf,
+                    r.noise_pf,
+                    r.rms_pf / r.noise_pf
+                );
+            }
         }
         Cmd::Trace {
             profile,

@@ -1,0 +1,62 @@
+//! The baseline model and its residual: the independent example data set
+//! is explained down to its noise once the calibration's bias is taken
+//! out; an undeclared effect leaves a residual far above the noise.
+
+use dsp_core::tline::LineModel;
+use host_sim::baseline::{residuals, Baseline};
+use host_sim::dataset::read_dir;
+use std::path::Path;
+
+#[test]
+fn example_data_set_is_explained_down_to_the_noise() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/example-dataset");
+    if !dir.is_dir() {
+        eprintln!("SKIPPED: ../shared/example-dataset not present");
+        return;
+    }
+    let ds = read_dir(&dir).unwrap();
+    let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();
+    for r in residuals(&ds, &b) {
+        println!("{}: rms {:.3} pF, noise {:.3} pF", r.file, r.rms_pf, r.noise_pf);
+        assert!(r.rms_pf <= 1.5 * r.noise_pf, "{r:?}");
+    }
+    // The paper's shortcut (calibration Cs taken as the true C) is not.
+    let raw = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, false).unwrap();
+    let worst = residuals(&ds, &raw)
+        .iter()
+        .map(|r| r.rms_pf / r.noise_pf)
+        .fold(0.0, f64::max);
+    assert!(worst > 5.0, "{worst}");
+}
+
+#[test]
+fn an_undeclared_effect_leaves_a_residual() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = dir.path().join("clean");
+    let fx = dir.path().join("parasitic");
+    let hidden = || indicatif::ProgressBar::hidden();
+    host_sim::experiments::dataset(
+        &clean,
+        host_sim::experiments::with_effects(Default::default()),
+        5,
+        hidden(),
+    )
+    .unwrap();
+    let effects = skin_sim::sensor::Effects {
+        parasitic_capacitance_farad: 10e-12,
+        ..Default::default()
+    };
+    host_sim::experiments::dataset(&fx, host_sim::experiments::with_effects(effects), 5, hidden()).unwrap();
+    let ratio = |d: &Path| {
+        let ds = read_dir(d).unwrap();
+        let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();
+        residuals(&ds, &b)
+            .iter()
+            .map(|r| r.rms_pf / r.noise_pf)
+            .fold(0.0, f64::max)
+    };
+    let (c, p) = (ratio(&clean), ratio(&fx));
+    println!("residual / noise: clean {c:.2}, 10 pF parasitic {p:.2}");
+    assert!(c < 1.5, "{c}");
+    assert!(p > 5.0, "{p}");
+}
