@@ -158,8 +158,9 @@ fn quadratic_fit(pts: &[(f64, f64)]) -> [f64; 3] {
         for r in 0..3 {
             if r != col && m[col][col] != 0.0 {
                 let f = m[r][col] / m[col][col];
-                for k in col..4 {
-                    m[r][k] -= f * m[col][k];
+                let pivot = m[col];
+                for (v, p) in m[r].iter_mut().zip(pivot).skip(col) {
+                    *v -= f * p;
                 }
             }
         }
