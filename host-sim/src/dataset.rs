@@ -27,17 +27,32 @@ impl Kind {
         match self {
             Kind::Calibration => &["stretch_mm", "freq_hz", "cs_pf", "r_top_ohm", "r_bottom_ohm"],
             Kind::Sweep => &["stretch_mm", "freq_hz", "cs_pf"],
-            Kind::Trace => &[
-                "time_s",
-                "stretch_mm",
-                "r_top_ohm",
-                "r_bottom_ohm",
-                "freq_hz",
-                "cs_pf",
-            ],
+            // Every trace column but the optional rs_ohm.
+            Kind::Trace => TRACE_HEADER.split_last().map_or(&[], |(_, req)| req),
         }
     }
 }
+
+/// Header of the static files (`calibration.csv`, `sweep.csv`) as this
+/// project writes them.
+pub const STATIC_HEADER: [&str; 6] = [
+    "stretch_mm",
+    "freq_hz",
+    "cs_pf",
+    "rs_ohm",
+    "r_top_ohm",
+    "r_bottom_ohm",
+];
+/// Header of trace files as this project writes them.
+pub const TRACE_HEADER: [&str; 7] = [
+    "time_s",
+    "stretch_mm",
+    "r_top_ohm",
+    "r_bottom_ohm",
+    "freq_hz",
+    "cs_pf",
+    "rs_ohm",
+];
 
 /// The known columns, in this order in [`Row::values`].
 pub const COLUMNS: [&str; 7] = [

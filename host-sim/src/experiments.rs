@@ -3,6 +3,7 @@
 //! readers ignore), an SVG figure, and a markdown summary.
 
 use crate::chain::{self, rms_max, undershoot, Meter, Reading};
+use crate::dataset::{STATIC_HEADER, TRACE_HEADER};
 use crate::plot::{figure, Panel, Series};
 use anyhow::{Context, Result};
 use dsp_core::lumped::SeriesRc;
@@ -78,15 +79,7 @@ pub fn write_trace(path: &Path, rs: &[Reading], truth: bool) -> Result<()> {
 /// [`write_trace`] to any writer.
 pub fn write_trace_to(out: impl std::io::Write, rs: &[Reading], truth: bool) -> Result<()> {
     let mut w = csv::Writer::from_writer(out);
-    let mut head = vec![
-        "time_s",
-        "stretch_mm",
-        "r_top_ohm",
-        "r_bottom_ohm",
-        "freq_hz",
-        "cs_pf",
-        "rs_ohm",
-    ];
+    let mut head = TRACE_HEADER.to_vec();
     if truth {
         head.extend([
             "c_true_pf",
@@ -161,14 +154,7 @@ type SweepAt = (f64, Sensor, Vec<(f64, f64)>);
 fn write_sweep(ctx: &Ctx, truth: bool) -> Result<Vec<SweepAt>> {
     let mut rng = Rng::new(ctx.seed ^ 7);
     let mut w = csv::Writer::from_path(ctx.path("sweep.csv"))?;
-    let mut head = vec![
-        "stretch_mm",
-        "freq_hz",
-        "cs_pf",
-        "rs_ohm",
-        "r_top_ohm",
-        "r_bottom_ohm",
-    ];
+    let mut head = STATIC_HEADER.to_vec();
     if truth {
         head.push("c_true_pf");
     }
@@ -481,14 +467,7 @@ fn interp(pts: &[(f64, f64)], x: f64) -> f64 {
 pub fn calibration(ctx: &Ctx) -> Result<Vec<(f64, f64)>> {
     let mut rng = Rng::new(ctx.seed ^ 11);
     let mut w = csv::Writer::from_path(ctx.path("calibration.csv"))?;
-    w.write_record([
-        "stretch_mm",
-        "freq_hz",
-        "cs_pf",
-        "rs_ohm",
-        "r_top_ohm",
-        "r_bottom_ohm",
-    ])?;
+    w.write_record(STATIC_HEADER)?;
     let mut cal = vec![];
     for k in 0..=10 {
         let s_mm = 3.0 * k as f64;
