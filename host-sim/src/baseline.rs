@@ -57,15 +57,30 @@ impl Baseline {
             }
             points.push((r.stretch_mm(), c));
         }
-        points.sort_by(|a, b| a.0.total_cmp(&b.0));
         if points.len() < 3 {
             bail!(
                 "{}: a calibration needs at least three stretch points",
                 cal.path.display()
             );
         }
+        Ok(Self {
+            model,
+            ..Self::from_points(points)?
+        })
+    }
+
+    /// From (stretch mm, true C F) points (at least three), continuous line.
+    pub fn from_points(mut points: Vec<(f64, f64)>) -> Result<Self> {
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if points.len() < 3 {
+            bail!("a calibration needs at least three stretch points");
+        }
         let fit = quadratic_fit(&points);
-        Ok(Self { model, points, fit })
+        Ok(Self {
+            model: LineModel::Continuous,
+            points,
+            fit,
+        })
     }
 
     /// True C (F) at `stretch` mm, from the quadratic fit.
@@ -93,8 +108,10 @@ pub struct Residual {
     pub rms_pf: f64,
     /// Largest |measured − model|, pF.
     pub max_pf: f64,
-    /// Noise floor: RMS of successive differences / √2, pF (white noise
-    /// passes, slow model errors mostly cancel).
+    /// Noise floor, pF: the median absolute second difference of the
+    /// residual, scaled to σ for Gaussian noise (×1.4826/√6). White noise
+    /// passes, smooth model errors cancel, and sparse jumps (motion stops)
+    /// do not move a median.
     pub noise_pf: f64,
 }
 
@@ -111,7 +128,9 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
             let n = e.len();
             let rms = (e.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
             let max = e.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let d2 = e.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64;
+            let mut d2: Vec<f64> = e.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
+            d2.sort_by(f64::total_cmp);
+            let mad = d2.get(d2.len() / 2).copied().unwrap_or(f64::NAN);
             Residual {
                 file: t
                     .path
@@ -120,7 +139,7 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
                 n,
                 rms_pf: rms,
                 max_pf: max,
-                noise_pf: (d2 / 2.0).sqrt(),
+                noise_pf: mad * 1.4826 / 6f64.sqrt(),
             }
         })
         .collect()

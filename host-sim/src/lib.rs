@@ -6,6 +6,7 @@
 //! * [`chain`]: the measurement chain on the simulated sensor (ADC +
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
+//! * [`effects`]: candidate effects with fitted parameters (first two).
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
 //! * [`si`]: SI-prefixed numbers for the command line.
@@ -13,6 +14,7 @@
 pub mod baseline;
 pub mod chain;
 pub mod dataset;
+pub mod effects;
 pub mod experiments;
 pub mod meter;
 pub mod plot;
