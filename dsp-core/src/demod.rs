@@ -109,6 +109,11 @@ impl<const N: usize> Demodulator<N> {
         Self { reference }
     }
 
+    /// The reference words, one per pair of a block (see the type's docs).
+    pub fn reference(&self) -> &[u32; N] {
+        &self.reference
+    }
+
     /// Accumulate a chunk of `[voltage, current]` sample pairs. Chunks of one
     /// block may arrive in any sizes (DMA halves, say); pairs beyond the
     /// block's `N` are not used. Returns the number of pairs consumed.

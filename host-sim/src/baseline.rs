@@ -22,6 +22,34 @@ pub fn series_cs(model: LineModel, r: f64, c: f64, f: f64) -> Option<f64> {
         .map(|m| m.cs_farad as f64)
 }
 
+/// The calibration's (stretch mm, true C F) points: each C solves
+/// `series(R, C, f) = Cs measured` for the point's recorded R and frequency
+/// (fixed-point iteration on the ratio Cs/C, smooth and close to 1), where
+/// `series` is what the meter reads under the model named `what`.
+pub fn debiased_points(
+    cal: &Table,
+    what: &str,
+    series: impl Fn(f64, f64, f64) -> Option<f64>,
+) -> Result<Vec<(f64, f64)>> {
+    let mut points = vec![];
+    for r in &cal.rows {
+        let (cs, rl, f) = (r.cs_pf() * 1e-12, r.r_top_ohm() + r.r_bottom_ohm(), r.freq_hz());
+        let mut c = cs;
+        for _ in 0..40 {
+            match series(rl, c, f) {
+                Some(m) if m.is_finite() && m > 0.0 => c *= cs / m,
+                _ => bail!(
+                    "{}:{}: the model ({what}) cannot explain this point",
+                    cal.path.display(),
+                    r.line
+                ),
+            }
+        }
+        points.push((r.stretch_mm(), c));
+    }
+    Ok(points)
+}
+
 /// The baseline model.
 #[derive(Clone, Debug)]
 pub struct Baseline {
@@ -38,25 +66,14 @@ pub struct Baseline {
 impl Baseline {
     /// From a calibration table; `debias` takes the meter's own bias out.
     pub fn from_calibration(cal: &Table, model: LineModel, debias: bool) -> Result<Self> {
-        let mut points = vec![];
-        for r in &cal.rows {
-            let cs = r.cs_pf() * 1e-12;
-            let rl = r.r_top_ohm() + r.r_bottom_ohm();
-            let mut c = cs;
-            if debias {
-                for _ in 0..30 {
-                    let Some(m) = series_cs(model, rl, c, r.freq_hz()) else {
-                        bail!(
-                            "{}:{}: the line model cannot be evaluated here",
-                            cal.path.display(),
-                            r.line
-                        );
-                    };
-                    c = cs * c / m;
-                }
-            }
-            points.push((r.stretch_mm(), c));
-        }
+        let points = if debias {
+            debiased_points(cal, &format!("{model:?}"), |r, c, f| series_cs(model, r, c, f))?
+        } else {
+            cal.rows
+                .iter()
+                .map(|r| (r.stretch_mm(), r.cs_pf() * 1e-12))
+                .collect()
+        };
         if points.len() < 3 {
             bail!(
                 "{}: a calibration needs at least three stretch points",

@@ -12,7 +12,7 @@
 
 use crate::baseline::residuals;
 use crate::dataset::{DataSet, Row, Table};
-use anyhow::{bail, Result};
+use anyhow::Result;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
 
@@ -61,23 +61,9 @@ impl Effect {
 /// C(stretch) from the calibration under `effect`: each point's true C
 /// solves effect.series_cs(R, C, f) = Cs measured; least-squares quadratic.
 pub fn calibrate(cal: &Table, effect: Effect) -> Result<crate::baseline::Baseline> {
-    let mut points = vec![];
-    for r in &cal.rows {
-        let (cs, rl, f) = (r.cs_pf() * 1e-12, r.r_top_ohm() + r.r_bottom_ohm(), r.freq_hz());
-        let mut c = cs;
-        for _ in 0..40 {
-            let m = effect.series_cs(rl, c, f);
-            if !(m.is_finite() && m > 0.0) {
-                bail!(
-                    "{}:{}: the model with {effect:?} cannot explain this point",
-                    cal.path.display(),
-                    r.line
-                );
-            }
-            c *= cs / m;
-        }
-        points.push((r.stretch_mm(), c));
-    }
+    let points = crate::baseline::debiased_points(cal, &format!("{effect:?}"), |r, c, f| {
+        Some(effect.series_cs(r, c, f))
+    })?;
     crate::baseline::Baseline::from_points(points)
 }
 

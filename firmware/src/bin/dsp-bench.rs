@@ -70,15 +70,9 @@ fn main() -> ! {
     });
     let n = insns(t);
     // The assembly inner loop must match the portable one bit for bit.
-    let mut reference = [0u32; PAIRS];
-    let mut ph = 0u32;
-    for r in reference.iter_mut() {
-        *r = dsp_core::tables::DEMOD_REF[(ph >> 21) as usize];
-        ph = ph.wrapping_add(osc.ftw());
-    }
     let (fast, slow) = (
         dm.block(&buf),
-        dsp_core::demod::portable([0; 4], &buf, &reference),
+        dsp_core::demod::portable([0; 4], &buf, dm.reference()),
     );
     if [fast.v.re, -fast.v.im, fast.i.re, -fast.i.im] != slow {
         println!("FAIL demod assembly differs from portable");
