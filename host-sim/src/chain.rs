@@ -25,6 +25,12 @@ pub enum Meter {
     /// An ideal series Cs–Rs meter, sampled every `interval_s`, with
     /// Gaussian reading noise of `rel` (relative) plus `abs_farad` on Cs and
     /// `rel` on Rs (the example data set: 0.02 % + 0.02 pF).
+    ///
+    /// Its reading at t is the mean admittance over the integration window
+    /// [t + offset − window, t + offset]: `window_s` is the meter's lag,
+    /// `offset_s` the misalignment of the capacitance channel against the
+    /// stretch and resistance columns recorded in another run (> 0: the
+    /// capacitance is late). Both 0 for an instantaneous, aligned meter.
     Lcr {
         /// Sampling interval, s.
         interval_s: f64,
@@ -32,16 +38,39 @@ pub enum Meter {
         rel: f64,
         /// Absolute capacitance noise (1 σ), F.
         abs_farad: f64,
+        /// Integration window, s.
+        window_s: f64,
+        /// Time offset of the capacitance channel, s.
+        offset_s: f64,
     },
 }
 
 impl Meter {
     /// The paper's LCR meter: 50 readings/s, 0.02 % + 0.02 pF.
-    pub const LCR: Meter = Meter::Lcr {
-        interval_s: 0.02,
-        rel: 2e-4,
-        abs_farad: 0.02e-12,
-    };
+    pub const LCR: Meter = Meter::lcr(0.0, 0.0);
+
+    /// The paper's LCR meter with an integration window and a time offset
+    /// of the capacitance channel (s).
+    pub const fn lcr(window_s: f64, offset_s: f64) -> Meter {
+        Meter::Lcr {
+            interval_s: 0.02,
+            rel: 2e-4,
+            abs_farad: 0.02e-12,
+            window_s,
+            offset_s,
+        }
+    }
+
+    /// How far before a reading's time the meter looks, s (≥ 0): the
+    /// sensor must be at or before `t − lookback` when a run starts at t.
+    pub fn lookback_s(&self) -> f64 {
+        match *self {
+            Meter::Lcr {
+                window_s, offset_s, ..
+            } => (window_s - offset_s).max(0.0),
+            Meter::Adc(_) => 0.0,
+        }
+    }
     /// The reference front end and ADC.
     pub const ADC: Meter = Meter::Adc(FrontEndParams::REFERENCE);
 }
@@ -91,12 +120,14 @@ pub struct Setup {
     pub seed: u64,
 }
 
-/// Read `sensor` following `profile` from its current time until `t_end`;
-/// `tick` is called with the time of every reading (progress).
+/// Read `sensor` following `profile` from `t_start` until `t_end` (s);
+/// `tick` is called with the time of every reading (progress). The sensor
+/// should be at or before `t_start − meter.lookback_s()`.
 pub fn run(
     sensor: &mut Sensor,
     profile: &Profile,
     setup: Setup,
+    t_start: f64,
     t_end: f64,
     mut tick: impl FnMut(f64),
 ) -> Vec<Reading> {
@@ -126,6 +157,7 @@ pub fn run(
             let dt = BLOCK as f64 / fe.sample_rate_hz;
             let mut buf = vec![[0i16; 2]; BLOCK];
             let front = fe.dsp_front_end();
+            sensor.advance(profile, t_start);
             let mut t = sensor.time();
             while t + dt <= t_end + 1e-12 {
                 sensor.advance(profile, t + 0.5 * dt);
@@ -148,13 +180,31 @@ pub fn run(
             interval_s,
             rel,
             abs_farad,
+            window_s,
+            offset_s,
         } => {
             let w = std::f64::consts::TAU * freq_hz;
-            let mut t = sensor.time();
+            // The meter's view of the sensor runs on its own clock.
+            let mut seen = (window_s > 0.0 || offset_s != 0.0).then(|| sensor.clone());
+            let mut t = t_start;
             while t <= t_end + 1e-12 {
                 sensor.advance(profile, t);
                 let truth = sensor.truth();
-                let z = sensor.impedance(freq_hz);
+                let z = match seen.as_mut() {
+                    None => sensor.impedance(freq_hz),
+                    Some(m) => {
+                        // Mean admittance over the window, midpoints of
+                        // ≤ 2 ms sub-intervals.
+                        let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 100);
+                        let mut y = num_complex::Complex64::default();
+                        for j in 0..k {
+                            let tau = t + offset_s - window_s + window_s * (j as f64 + 0.5) / k as f64;
+                            m.advance(profile, tau);
+                            y += m.impedance(freq_hz).inv();
+                        }
+                        (y / k as f64).inv()
+                    }
+                };
                 let cs = -1.0 / (w * z.im) * (1.0 + rel * rng.gaussian()) + abs_farad * rng.gaussian();
                 let rs = z.re * (1.0 + rel * rng.gaussian());
                 let zm = SeriesRc {

@@ -30,6 +30,8 @@ pub struct Ctx {
     pub seed: u64,
     /// Trapezoid periods per dynamic run.
     pub periods: u32,
+    /// The LCR meter of the dynamic runs.
+    pub lcr: Meter,
     /// Progress bar over simulated seconds (hidden when not a terminal).
     pub progress: ProgressBar,
 }
@@ -44,6 +46,7 @@ impl Ctx {
             sensor: SensorParams::REFERENCE,
             seed,
             periods: 2,
+            lcr: Meter::LCR,
             progress: ProgressBar::hidden(),
         })
     }
@@ -316,7 +319,8 @@ pub fn resistance(ctx: &Ctx) -> Result<String> {
 pub fn dynamic(ctx: &Ctx, rate: f64, f: f64, meter: Meter, seed: u64) -> Vec<Reading> {
     let mut s = Sensor::settled(ctx.sensor);
     let p = Profile::paper(rate);
-    s.advance(&p, 20.0); // reach the periodic steady state first
+    // Reach the periodic steady state first.
+    s.advance(&p, 20.0 - meter.lookback_s());
     let t_end = 20.0 + 10.0 * ctx.periods as f64;
     let mut last = 20.0;
     let pb = ctx.progress.clone();
@@ -327,7 +331,7 @@ pub fn dynamic(ctx: &Ctx, rate: f64, f: f64, meter: Meter, seed: u64) -> Vec<Rea
         prior_farad: rest_calibration(ctx.sensor),
         seed,
     };
-    let mut rs = chain::run(&mut s, &p, setup, t_end, |t| {
+    let mut rs = chain::run(&mut s, &p, setup, 20.0, t_end, |t| {
         if t - last >= 1.0 {
             pb.inc(1);
             last += 1.0;
@@ -361,7 +365,7 @@ pub fn lcr_runs(ctx: &Ctx) -> Vec<Run> {
             jobs.push(Box::new(move || Run {
                 rate,
                 freq_hz: f,
-                readings: dynamic(ctx, rate, f, Meter::LCR, seed),
+                readings: dynamic(ctx, rate, f, ctx.lcr, seed),
             }));
         }
     }
@@ -644,10 +648,12 @@ pub fn accuracy(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
 
 /// Write a data set in the interchange format (calibration, sweep and six
 /// traces) for `params`, read by the LCR meter; no truth columns.
-pub fn dataset(dir: &Path, params: SensorParams, seed: u64, progress: ProgressBar) -> Result<()> {
+/// The recording's meter is `lcr` (its window and time offset).
+pub fn dataset(dir: &Path, params: SensorParams, lcr: Meter, seed: u64, progress: ProgressBar) -> Result<()> {
     let ctx = Ctx {
         out: dir.to_path_buf(),
         sensor: params,
+        lcr,
         seed,
         periods: 3,
         progress,

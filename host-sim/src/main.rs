@@ -153,9 +153,29 @@ struct EffectArgs {
     /// Stretch nonuniformity along the sensor, -1..1.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     stretch_nonuniformity: f64,
+    /// Dielectric dispersion, fraction of C lost per decade above 1 kHz.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    dispersion: f64,
+    /// LCR meter: integration window (its lag), e.g. 50m.
+    #[arg(long, value_parser = si::parse, default_value = "0")]
+    meter_window: f64,
+    /// LCR meter: time offset of the capacitance channel against the
+    /// stretch and resistance columns (> 0: late), e.g. 30m or -30m.
+    #[arg(long, value_parser = si::parse, default_value = "0", allow_hyphen_values = true)]
+    time_offset: f64,
 }
 
 impl EffectArgs {
+    /// The LCR meter with this recording's window and offset.
+    fn lcr(&self) -> Result<Meter> {
+        anyhow::ensure!(
+            (0.0..=1.0).contains(&self.meter_window),
+            "--meter-window must be within 0..1 s"
+        );
+        anyhow::ensure!(self.time_offset.abs() <= 1.0, "--time-offset must be within ±1 s");
+        Ok(Meter::lcr(self.meter_window, self.time_offset))
+    }
+
     fn effects(&self) -> Result<Effects> {
         let e = Effects {
             contact_resistance_ohm: self.contact_resistance,
@@ -163,6 +183,7 @@ impl EffectArgs {
             resistance_gradient: self.resistance_gradient,
             leakage_resistance_ohm: self.leakage_resistance,
             stretch_nonuniformity: self.stretch_nonuniformity,
+            dispersion_per_decade: self.dispersion,
         };
         anyhow::ensure!(
             e.contact_resistance_ohm >= 0.0,
@@ -183,6 +204,10 @@ impl EffectArgs {
         anyhow::ensure!(
             e.stretch_nonuniformity.abs() < 1.0,
             "--stretch-nonuniformity must be in (-1, 1)"
+        );
+        anyhow::ensure!(
+            e.dispersion_per_decade.abs() < 0.2,
+            "--dispersion must be in (-0.2, 0.2)"
         );
         Ok(e)
     }
@@ -348,7 +373,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Dataset { out, seed, effects } => {
             let params = exp::with_effects(effects.effects()?);
             let pb = Ctx::new(&out, seed)?.with_progress(180.0).progress;
-            exp::dataset(&out, params, seed, pb)?;
+            exp::dataset(&out, params, effects.lcr()?, seed, pb)?;
             println!("wrote a data set to {}", out.display());
         }
         Cmd::Residual {
@@ -385,7 +410,7 @@ fn run(cli: Cli) -> Result<()> {
             let p = parse_profile(&profile, &mut points)?;
             let m = match meter.as_str() {
                 "adc" => Meter::ADC,
-                "lcr" => Meter::LCR,
+                "lcr" => effects.lcr()?,
                 other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
             };
             anyhow::ensure!(duration > 0.0, "--duration must be > 0");
@@ -399,7 +424,7 @@ fn run(cli: Cli) -> Result<()> {
                 prior_farad: exp::rest_calibration(params),
                 seed,
             };
-            let rs = chain::run(&mut s, &p, setup, duration, |_| {});
+            let rs = chain::run(&mut s, &p, setup, 0.0, duration, |_| {});
             match out {
                 Some(path) => {
                     exp::write_trace(&path, &rs, true)?;

@@ -11,6 +11,7 @@ fn set(dir: &std::path::Path, name: &str, fx: Effects) -> host_sim::dataset::Dat
     host_sim::experiments::dataset(
         &d,
         host_sim::experiments::with_effects(fx),
+        host_sim::chain::Meter::LCR,
         11,
         indicatif::ProgressBar::hidden(),
     )

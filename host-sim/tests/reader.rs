@@ -34,6 +34,7 @@ fn reads_what_host_sim_writes() {
     host_sim::experiments::dataset(
         &d,
         host_sim::experiments::with_effects(Default::default()),
+        host_sim::chain::Meter::LCR,
         3,
         indicatif::ProgressBar::hidden(),
     )

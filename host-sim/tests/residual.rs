@@ -38,6 +38,7 @@ fn an_undeclared_effect_leaves_a_residual() {
     host_sim::experiments::dataset(
         &clean,
         host_sim::experiments::with_effects(Default::default()),
+        host_sim::chain::Meter::LCR,
         5,
         hidden(),
     )
@@ -46,7 +47,14 @@ fn an_undeclared_effect_leaves_a_residual() {
         parasitic_capacitance_farad: 10e-12,
         ..Default::default()
     };
-    host_sim::experiments::dataset(&fx, host_sim::experiments::with_effects(effects), 5, hidden()).unwrap();
+    host_sim::experiments::dataset(
+        &fx,
+        host_sim::experiments::with_effects(effects),
+        host_sim::chain::Meter::LCR,
+        5,
+        hidden(),
+    )
+    .unwrap();
     let ratio = |d: &Path| {
         let ds = read_dir(d).unwrap();
         let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();

@@ -36,6 +36,12 @@ pub struct Effects {
     /// Local stretch ∝ 1 + u·(2ξ − 1), |u| < 1 (u > 0: the far end
     /// stretches more). Mean stretch unchanged.
     pub stretch_nonuniformity: f64,
+    /// Dielectric dispersion: the permittivity, and so every c_i, falls by
+    /// this fraction per decade of frequency above 1 kHz (rises below):
+    /// c_i(f) = c_i·(1 − κ·log10(f / 1 kHz)). The truth stays the 1 kHz
+    /// value. Not in `identify`'s library: the tests use it as the
+    /// unexplained effect.
+    pub dispersion_per_decade: f64,
 }
 
 /// Sensor parameters.
@@ -67,6 +73,7 @@ impl SensorParams {
             resistance_gradient: 0.0,
             leakage_resistance_ohm: 0.0,
             stretch_nonuniformity: 0.0,
+            dispersion_per_decade: 0.0,
         },
     };
 
@@ -207,14 +214,19 @@ impl Sensor {
     pub fn impedance(&self, f_hz: f64) -> Complex64 {
         let w = core::f64::consts::TAU * f_hz;
         let fx = &self.params.effects;
+        let k = if fx.dispersion_per_decade != 0.0 {
+            1.0 - fx.dispersion_per_decade * libm::log10(f_hz / 1e3)
+        } else {
+            1.0
+        };
         // Midpoint segments (r/2, shunt c ‖ g, r/2): second-order accurate
         // in the segment length. The far half resistor carries no current.
         let (r, c, g) = self.segment(SEGMENTS - 1);
-        let mut z = Complex64::new(0.5 * r, 0.0) + Complex64::new(g, w * c).inv();
+        let mut z = Complex64::new(0.5 * r, 0.0) + Complex64::new(g, w * k * c).inv();
         for i in (0..SEGMENTS - 1).rev() {
             let (r, c, g) = self.segment(i);
             let beyond = z + 0.5 * r;
-            z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * c) + beyond.inv()).inv();
+            z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
         }
         let z = z + 2.0 * fx.contact_resistance_ohm;
         if fx.parasitic_capacitance_farad > 0.0 {

@@ -98,6 +98,18 @@ fn effects_have_their_signatures() {
     let lo = rel(s.impedance(100.0), plain.impedance(100.0));
     let hi = rel(s.impedance(20e3), plain.impedance(20e3));
     assert!(lo > 0.005 && lo > 10.0 * hi, "{lo} {hi}");
+    // Dispersion: the series capacitance far below the line's corner
+    // frequency scales by 1 − κ·log10(f / 1 kHz); the truth does not move.
+    let s = with(Effects {
+        dispersion_per_decade: 0.02,
+        ..Effects::default()
+    });
+    assert_eq!(s.truth(), plain.truth());
+    let cs = |s: &Sensor, f: f64| -1.0 / (std::f64::consts::TAU * f * s.impedance(f).im);
+    for (f, k) in [(100.0, 1.02), (1e3, 1.0)] {
+        let ratio = cs(&s, f) / cs(&plain, f);
+        assert!((ratio / k - 1.0).abs() < 2e-4, "{f} Hz: {ratio} vs {k}");
+    }
 }
 
 #[test]
