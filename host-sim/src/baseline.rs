@@ -164,7 +164,7 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
 
 /// Least-squares c0 + c1·x + c2·x² through `pts` (normal equations,
 /// centred and scaled for conditioning).
-fn quadratic_fit(pts: &[(f64, f64)]) -> [f64; 3] {
+pub(crate) fn quadratic_fit(pts: &[(f64, f64)]) -> [f64; 3] {
     let n = pts.len() as f64;
     let xm = pts.iter().map(|p| p.0).sum::<f64>() / n;
     let xs = pts

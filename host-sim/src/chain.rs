@@ -194,13 +194,17 @@ pub fn run(
                     None => sensor.impedance(freq_hz),
                     Some(m) => {
                         // Mean admittance over the window, midpoints of
-                        // ≤ 2 ms sub-intervals.
-                        let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 100);
+                        // ≤ 2 ms sub-intervals. Windows overlap: a copy
+                        // integrates this one while `m` waits at the start
+                        // of the next.
+                        let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 500);
+                        let start = t + offset_s - window_s;
+                        m.advance(profile, start);
+                        let mut v = m.clone();
                         let mut y = num_complex::Complex64::default();
                         for j in 0..k {
-                            let tau = t + offset_s - window_s + window_s * (j as f64 + 0.5) / k as f64;
-                            m.advance(profile, tau);
-                            y += m.impedance(freq_hz).inv();
+                            v.advance(profile, start + window_s * (j as f64 + 0.5) / k as f64);
+                            y += v.impedance(freq_hz).inv();
                         }
                         (y / k as f64).inv()
                     }

@@ -6,7 +6,8 @@
 //! * [`chain`]: the measurement chain on the simulated sensor (ADC +
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
-//! * [`effects`]: candidate effects with fitted parameters (first two).
+//! * [`model`]: the forward model with the candidate effects (f64).
+//! * [`identify`]: trace a residual to an effect by model selection.
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
 //! * [`si`]: SI-prefixed numbers for the command line.
@@ -14,8 +15,9 @@
 pub mod baseline;
 pub mod chain;
 pub mod dataset;
-pub mod effects;
 pub mod experiments;
+pub mod identify;
 pub mod meter;
+pub mod model;
 pub mod plot;
 pub mod si;

@@ -1,6 +1,6 @@
 //! `host-sim`: command-line entry point.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use dsp_core::tline::LineModel;
 use host_sim::chain::{self, Meter};
@@ -95,6 +95,18 @@ enum Cmd {
         /// Use the calibration's Cs as the true C (the paper's shortcut).
         #[arg(long)]
         raw_calibration: bool,
+    },
+    /// Trace the residual of a measured data set to the effect the uniform
+    /// line lacks: report.md, report.json and residuals.svg in --out.
+    Identify {
+        /// Data set folder (interchange format).
+        dir: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "out/identify")]
+        out: PathBuf,
+        /// Leave the static sweep out of the model.
+        #[arg(long)]
+        no_sweep: bool,
     },
     /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
     Trace {
@@ -375,6 +387,25 @@ fn run(cli: Cli) -> Result<()> {
             let pb = Ctx::new(&out, seed)?.with_progress(180.0).progress;
             exp::dataset(&out, params, effects.lcr()?, seed, pb)?;
             println!("wrote a data set to {}", out.display());
+        }
+        Cmd::Identify { dir, out, no_sweep } => {
+            use host_sim::identify;
+            let ds = host_sim::dataset::read_dir(&dir)?;
+            let options = identify::Options {
+                sweep: !no_sweep,
+                ..Default::default()
+            };
+            let report = identify::identify(&ds, options)?;
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            identify::plot(&report, &ds, &out.join("residuals.svg"))?;
+            let md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
+            std::fs::write(out.join("report.md"), &md)?;
+            std::fs::write(
+                out.join("report.json"),
+                serde_json::to_string_pretty(&report.json())? + "\n",
+            )?;
+            println!("{md}");
+            println!("wrote {}/report.md, report.json, residuals.svg", out.display());
         }
         Cmd::Residual {
             dir,

@@ -1,0 +1,63 @@
+//! The forward model of `identify` against the simulated sensor (a
+//! 240-segment grid, independent code): for every static effect, the model
+//! given the sensor's recorded resistances and true capacitance reproduces
+//! the meter's series capacitance well below the meter's noise.
+
+use host_sim::model::{Effect, Line, Model, Params, Shape};
+use skin_sim::profile::Profile;
+use skin_sim::sensor::{Effects, Sensor, SensorParams};
+
+fn shape(fx: Effects) -> Shape {
+    // The sensor's static curves, as its calibration records them.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("calibration.csv");
+    let mut csv = String::from("stretch_mm,freq_hz,cs_pf,r_top_ohm,r_bottom_ohm\n");
+    for k in 0..=10 {
+        let s = 3.0 * k as f64;
+        let t = static_sensor(fx, s).truth();
+        csv += &format!("{s},500,{},{},{}\n", 210.0 * (1.0 + s / 100.0), t.r_top_ohm, t.r_bottom_ohm);
+    }
+    std::fs::write(&p, csv).unwrap();
+    let t = host_sim::dataset::read_table(&p, host_sim::dataset::Kind::Calibration).unwrap();
+    Shape::from_calibration(&t).unwrap()
+}
+
+fn static_sensor(fx: Effects, s: f64) -> Sensor {
+    let mut x = Sensor::settled(SensorParams {
+        effects: fx,
+        ..SensorParams::REFERENCE
+    });
+    x.advance(&Profile::Constant(s), 1.0);
+    x
+}
+
+#[test]
+fn model_matches_the_simulated_sensor_for_every_static_effect() {
+    let cases: [(Effects, Effect, f64); 6] = [
+        (Effects { contact_resistance_ohm: 25e3, ..Default::default() }, Effect::ContactResistance, 25e3),
+        (Effects { parasitic_capacitance_farad: 8e-12, ..Default::default() }, Effect::ParasiticCapacitance, 8.0),
+        (Effects { resistance_gradient: 0.4, ..Default::default() }, Effect::ResistanceGradient, 0.4),
+        (Effects { resistance_gradient: -0.6, ..Default::default() }, Effect::ResistanceGradient, -0.6),
+        (Effects { leakage_resistance_ohm: 20e6, ..Default::default() }, Effect::DielectricLeakage, 50.0),
+        (Effects { stretch_nonuniformity: 0.4, ..Default::default() }, Effect::NonuniformStretch, 0.4),
+    ];
+    for (fx, e, v) in cases {
+        // The local curves, for a nonuniform stretch, are undone from the
+        // calibration's means.
+        let sh = shape(fx);
+        let sh = if e == Effect::NonuniformStretch { sh.local(v) } else { sh };
+        let m = Model { line: Line::Continuous, params: Params::NONE.with(e, v), shape: &sh };
+        let mut worst = 0.0f64;
+        for s in [0.0, 15.0, 30.0] {
+            let x = static_sensor(fx, s);
+            let t = x.truth();
+            for f in [500.0, 2e3, 6e3, 30e3] {
+                let cs_sim = Model::series(x.impedance(f), f);
+                let cs = m.cs(t.r_top_ohm + t.r_bottom_ohm, t.c_farad, s, f).unwrap();
+                worst = worst.max(((cs - cs_sim) * 1e12).abs());
+            }
+        }
+        println!("{}: worst |model − sensor| {worst:.4} pF", e.id());
+        assert!(worst < 0.01, "{}: {worst} pF", e.id());
+    }
+}
