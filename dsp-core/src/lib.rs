@@ -14,6 +14,7 @@
 //! | [`demod`] | synchronous I/Q demodulation of (voltage, current) sample pairs, i64 sums |
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
+//! | [`fixture`] | de-embedding contacts and parasitic capacitance found by `identify` |
 //! | [`invert`] | true line C and R from one measured impedance |
 //! | [`track`] | the line over successive blocks: branch choice, plausibility, holds |
 //!
@@ -51,6 +52,7 @@ pub type Complex32 = Complex<f32>;
 pub mod cossin;
 pub mod demod;
 mod fixed;
+pub mod fixture;
 pub mod invert;
 pub mod lumped;
 pub mod osc;

@@ -6,6 +6,7 @@ use crate::config::freq_hz;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
 use dsp_core::demod::{FrontEnd, Phasors};
+use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
@@ -23,6 +24,9 @@ pub struct Settings<'a, const N: usize> {
     pub calibration: &'a CalTable<N>,
     /// Line tracking (the inverter's grid, shared by all channels).
     pub tracker: Tracker,
+    /// Wiring de-embedded before the line inversion (contacts, parasitic
+    /// capacitance), as `host-sim identify` found it.
+    pub fixture: Fixture,
 }
 
 /// The line tracker every channel uses: the continuous line over
@@ -64,6 +68,8 @@ pub struct Channel {
     pub policy: PolicyState,
     track: TrackState,
     last_t: Option<f32>,
+    /// The frequency is fixed (recording a data set at one frequency).
+    pinned: bool,
 }
 
 impl Channel {
@@ -73,7 +79,17 @@ impl Channel {
             policy: PolicyState::new(),
             track: TrackState::new(prior_farad),
             last_t: None,
+            pinned: false,
         }
+    }
+
+    /// A channel held at frequency index `index` whatever the policy
+    /// says, as a data-set recording at one frequency needs.
+    pub const fn pinned(prior_farad: f32, index: usize) -> Self {
+        let mut c = Self::new(prior_farad);
+        c.policy.index = index;
+        c.pinned = true;
+        c
     }
 
     /// Frequency index to excite the next block with.
@@ -131,6 +147,12 @@ impl Channel {
             // reading, keep the tracker and the policy as they were.
             return rec;
         }
+        // The lumped reading stays what the meter saw; the line is what is
+        // left behind the wiring.
+        let Ok(z) = s.fixture.remove(z, f) else {
+            rec.flags.set(Flags::OPEN);
+            return rec;
+        };
         match s.tracker.update(&mut self.track, z, f) {
             Ok(t) => {
                 rec.c_farad = t.line.c_farad;
@@ -141,15 +163,19 @@ impl Channel {
                 }
                 if t.line.r_ohm > th.r_max_ohm {
                     rec.flags.set(Flags::RANGE);
-                    s.policy.fallback(&mut self.policy);
-                } else if !t.held {
+                    if !self.pinned {
+                        s.policy.fallback(&mut self.policy);
+                    }
+                } else if !t.held && !self.pinned {
                     s.policy
                         .update(&mut self.policy, t.line.r_ohm, t.line.c_farad, dt);
                 }
             }
             Err(_) => {
                 rec.flags.set(Flags::RANGE);
-                s.policy.fallback(&mut self.policy);
+                if !self.pinned {
+                    s.policy.fallback(&mut self.policy);
+                }
             }
         }
         rec

@@ -10,7 +10,7 @@ use embedded_hal::digital::{ErrorType, OutputPin};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Sensor, SensorParams, Truth};
+use skin_sim::sensor::{Effects, Sensor, SensorParams, Truth};
 
 /// A test scenario, chosen by name on the semihosting command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,6 +27,13 @@ pub enum Scenario {
     /// Faults from 1 s to 2 s: channel 1 open, channel 2 clipping,
     /// channel 3 electrodes at 10 MΩ.
     Faults,
+    /// A data-set recording of sensors with an undeclared effect
+    /// ([`HIDDEN`]): channels 0–2 on the 20 mm/s trapezoid at a fixed
+    /// 586 Hz, 1953 Hz and 5859 Hz; channels 3–7 held at 0, 7.5, 15, 22.5
+    /// and 30 mm at 586 Hz (the static calibration).
+    Identify,
+    /// As `paper` (adaptive frequency), with the undeclared effect.
+    Hidden,
     /// Panic after a few blocks (the harness must report it).
     Panic,
     /// Hang after a few blocks (the watchdog must catch it).
@@ -42,10 +49,23 @@ impl Scenario {
             "paper" => Self::Paper,
             "eight" => Self::Eight,
             "faults" => Self::Faults,
+            "identify" => Self::Identify,
+            "hidden" => Self::Hidden,
             "panic" => Self::Panic,
             "hang" => Self::Hang,
             _ => return None,
         })
+    }
+
+    /// The frequency index channel `ch` is held at, if any.
+    pub fn pinned(&self, ch: usize) -> Option<usize> {
+        match (self, ch) {
+            (Self::Identify, 0) => Some(0),
+            (Self::Identify, 1) => Some(2),
+            (Self::Identify, 2) => Some(4),
+            (Self::Identify, _) => Some(0),
+            _ => None,
+        }
     }
 
     /// Simulated duration, s.
@@ -53,7 +73,7 @@ impl Scenario {
         match self {
             Self::Slow => 6.0,
             Self::Paper20 => 10.0,
-            Self::Paper => 20.0,
+            Self::Paper | Self::Identify | Self::Hidden => 20.0,
             Self::Eight => 4.0,
             Self::Faults => 3.5,
             Self::Panic | Self::Hang => 1.0,
@@ -87,6 +107,17 @@ pub fn mux_pins() -> [SimPin; 3] {
     [SimPin(0), SimPin(1), SimPin(2)]
 }
 
+/// The undeclared effect of the `identify` and `hidden` scenarios: 12 pF
+/// of cable capacitance in parallel with every sensor at the front end.
+pub const HIDDEN: Effects = Effects {
+    contact_resistance_ohm: 0.0,
+    parasitic_capacitance_farad: 12e-12,
+    resistance_gradient: 0.0,
+    leakage_resistance_ohm: 0.0,
+    stretch_nonuniformity: 0.0,
+    dispersion_per_decade: 0.0,
+};
+
 /// Fault window of the `faults` scenario, s.
 pub const FAULT_WINDOW: (f32, f32) = (1.0, 2.0);
 
@@ -108,6 +139,9 @@ fn params(scenario: Scenario, ch: usize) -> SensorParams {
         let k = 0.65 + 0.1 * ch as f64;
         p.top.r_rest_ohm *= k;
         p.bottom.r_rest_ohm *= k;
+    }
+    if matches!(scenario, Scenario::Identify | Scenario::Hidden) {
+        p.effects = HIDDEN;
     }
     p
 }
@@ -140,8 +174,10 @@ impl Skin {
                 rate: 1.0,
                 amplitude: 10.0,
             },
-            (Scenario::Paper20 | Scenario::Paper, 0) => Profile::paper(20.0),
-            (Scenario::Paper, 1) => Profile::paper(10.0),
+            (Scenario::Paper20 | Scenario::Paper | Scenario::Hidden, 0) => Profile::paper(20.0),
+            (Scenario::Paper | Scenario::Hidden, 1) => Profile::paper(10.0),
+            (Scenario::Identify, 0..=2) => Profile::paper(20.0),
+            (Scenario::Identify, c) => Profile::Constant(7.5 * (c - 3) as f64),
             (Scenario::Eight, c) => Profile::Trapezoid {
                 rate: 2.0 + c as f64,
                 amplitude: 5.0 + 2.0 * c as f64,

@@ -78,6 +78,7 @@ fn run(
         front_end: fe.dsp_front_end(),
         calibration: &REFERENCE,
         tracker: firmware::channel::tracker(),
+        fixture: dsp_core::fixture::Fixture::NONE,
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     let mut s = Sensor::settled(params);

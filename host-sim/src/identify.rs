@@ -98,7 +98,11 @@ impl Fit {
         if self.effects.is_empty() {
             format!("baseline ({})", self.line)
         } else {
-            self.effects.iter().map(|e| e.id()).collect::<Vec<_>>().join(" + ")
+            self.effects
+                .iter()
+                .map(|e| e.id())
+                .collect::<Vec<_>>()
+                .join(" + ")
         }
     }
 }
@@ -144,7 +148,10 @@ impl Report {
         if !self.unexplained {
             return None;
         }
-        self.singles.iter().chain(&self.pairs).min_by(|a, b| a.bic.total_cmp(&b.bic))
+        self.singles
+            .iter()
+            .chain(&self.pairs)
+            .min_by(|a, b| a.bic.total_cmp(&b.bic))
     }
 }
 
@@ -346,13 +353,22 @@ impl Problem<'_> {
             };
             let ev = self.eval(p.with(e, v))?;
             let rj = self.weighted(&ev);
-            jac.push(rj.iter().zip(&r0).map(|(a, b)| sign * (a - b) / h).collect::<Vec<f64>>());
+            jac.push(
+                rj.iter()
+                    .zip(&r0)
+                    .map(|(a, b)| sign * (a - b) / h)
+                    .collect::<Vec<f64>>(),
+            );
         }
         let s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
         let sigma = (0..k)
             .map(|i| {
                 let a: Vec<Vec<f64>> = (0..k)
-                    .map(|j| (0..k).map(|l| jac[j].iter().zip(&jac[l]).map(|(x, y)| x * y).sum()).collect())
+                    .map(|j| {
+                        (0..k)
+                            .map(|l| jac[j].iter().zip(&jac[l]).map(|(x, y)| x * y).sum())
+                            .collect()
+                    })
                     .collect();
                 let mut unit = vec![0.0; k];
                 unit[i] = 1.0;
@@ -417,7 +433,11 @@ pub fn noise_sigma(e: &[f64]) -> f64 {
 /// Run `identify` on a data set.
 pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let prep = Prepared::new(ds, options.sweep)?;
-    let rows: usize = prep.files.iter().map(|f| f.used.iter().filter(|u| **u).count()).sum();
+    let rows: usize = prep
+        .files
+        .iter()
+        .map(|f| f.used.iter().filter(|u| **u).count())
+        .sum();
     anyhow::ensure!(rows > 0, "the data set has no trace rows to explain");
     // Baselines, unweighted first, to estimate the noise.
     let mut baselines = vec![];
@@ -450,7 +470,11 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         .iter()
         .zip(&resid0)
         .map(|(f, r)| {
-            let v = if f.kind == Kind::Trace { noise_sigma(r) } else { median };
+            let v = if f.kind == Kind::Trace {
+                noise_sigma(r)
+            } else {
+                median
+            };
             if v.is_finite() && v > 0.0 {
                 v
             } else {
@@ -458,8 +482,14 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
             }
         })
         .collect();
-    let noise_floor_pf =
-        (prep.files.iter().zip(&noise).map(|(f, s)| f.used.iter().filter(|u| **u).count() as f64 * s * s).sum::<f64>() / rows as f64).sqrt();
+    let noise_floor_pf = (prep
+        .files
+        .iter()
+        .zip(&noise)
+        .map(|(f, s)| f.used.iter().filter(|u| **u).count() as f64 * s * s)
+        .sum::<f64>()
+        / rows as f64)
+        .sqrt();
     let problem = |line| Problem {
         prep: &prep,
         line,
@@ -482,7 +512,12 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let explained = |f: &Fit| f.rms_pf <= options.explained * noise_floor_pf;
     let mut report = Report {
         baselines: fits,
-        noise_pf: prep.files.iter().map(|f| f.name.clone()).zip(noise.iter().copied()).collect(),
+        noise_pf: prep
+            .files
+            .iter()
+            .map(|f| f.name.clone())
+            .zip(noise.iter().copied())
+            .collect(),
         noise_floor_pf,
         singles: vec![],
         pairs: vec![],
@@ -558,7 +593,14 @@ pub fn params_text(f: &Fit) -> String {
     f.effects
         .iter()
         .zip(&f.sigma)
-        .map(|(&e, s)| format!("{} = {} ± {}", e.param(), param_value(e, f.params.get(e)), param_value(e, *s)))
+        .map(|(&e, s)| {
+            format!(
+                "{} = {} ± {}",
+                e.param(),
+                param_value(e, f.params.get(e)),
+                param_value(e, *s)
+            )
+        })
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -582,18 +624,22 @@ impl Report {
             (params, sigma)
         };
         let fin = self.final_fit();
-        let effects: Vec<serde_json::Value> = self.accepted.iter().flat_map(|f| {
-            let (params, sigma) = fit_json(f);
-            f.effects.iter().map(move |&e| {
-                json!({
-                    "id": e.id(),
-                    "params": {e.param(): params[e.param()]},
-                    "uncertainty": {e.param(): sigma[e.param()]},
-                    "static": e.is_static(),
-                    "rms_pf_after": f.rms_pf,
+        let effects: Vec<serde_json::Value> = self
+            .accepted
+            .iter()
+            .flat_map(|f| {
+                let (params, sigma) = fit_json(f);
+                f.effects.iter().map(move |&e| {
+                    json!({
+                        "id": e.id(),
+                        "params": {e.param(): params[e.param()]},
+                        "uncertainty": {e.param(): sigma[e.param()]},
+                        "static": e.is_static(),
+                        "rms_pf_after": f.rms_pf,
+                    })
                 })
             })
-        }).collect();
+            .collect();
         let stats = |f: &Fit| {
             json!({
                 "model": f.label(),
@@ -681,7 +727,10 @@ impl Report {
             self.noise_floor_pf,
             self.rows
         );
-        let _ = writeln!(md, "| file | noise | RMS before | max before | RMS after | max after | RMS % before | RMS % after |");
+        let _ = writeln!(
+            md,
+            "| file | noise | RMS before | max before | RMS after | max after | RMS % before | RMS % after |"
+        );
         let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|");
         for ((x, y), (_, n)) in b.files.iter().zip(&f.files).zip(&self.noise_pf) {
             let _ = writeln!(
@@ -698,9 +747,16 @@ impl Report {
         if let Some(p) = plot {
             let _ = writeln!(md, "![residual before and after]({p})\n");
         }
-        let _ = writeln!(md, "## Baselines\n\n| model | RMS | max | BIC |\n|---|---:|---:|---:|");
+        let _ = writeln!(
+            md,
+            "## Baselines\n\n| model | RMS | max | BIC |\n|---|---:|---:|---:|"
+        );
         for x in &self.baselines {
-            let _ = writeln!(md, "| {} | {:.3} pF | {:.3} pF | {:.0} |", x.line, x.rms_pf, x.max_pf, x.bic);
+            let _ = writeln!(
+                md,
+                "| {} | {:.3} pF | {:.3} pF | {:.0} |",
+                x.line, x.rms_pf, x.max_pf, x.bic
+            );
         }
         if !self.singles.is_empty() {
             let _ = writeln!(
@@ -747,7 +803,12 @@ pub fn plot(report: &Report, ds: &DataSet, path: &std::path::Path) -> Result<()>
             }
             Panel {
                 title: file.name.clone(),
-                x_label: if file.kind == Kind::Trace { "time (s)" } else { "frequency (Hz)" }.into(),
+                x_label: if file.kind == Kind::Trace {
+                    "time (s)"
+                } else {
+                    "frequency (Hz)"
+                }
+                .into(),
                 y_label: "measured − model (pF)".into(),
                 log_x: file.kind != Kind::Trace,
                 series,

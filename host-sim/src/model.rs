@@ -344,7 +344,10 @@ impl Model<'_> {
     /// Nonuniform line of total R (Ω), C (F), G (S) at mean stretch s.
     fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64) -> Complex64 {
         let p = &self.params;
-        let (grad, u) = (p.get(Effect::ResistanceGradient), p.get(Effect::NonuniformStretch));
+        let (grad, u) = (
+            p.get(Effect::ResistanceGradient),
+            p.get(Effect::NonuniformStretch),
+        );
         let n = match self.line {
             Line::Continuous => SEGMENTS,
             Line::Ladder(n) => n.max(1) as usize,
@@ -472,7 +475,10 @@ impl File {
     fn finish(mut self) -> Self {
         if self.kind == Kind::Trace {
             self.corner = corners(&self.t, &self.s);
-            let (a, b) = (self.t[0] + edge_start_s(), self.t[self.t.len() - 1] - edge_end_s());
+            let (a, b) = (
+                self.t[0] + edge_start_s(),
+                self.t[self.t.len() - 1] - edge_end_s(),
+            );
             self.used = self.t.iter().map(|&t| t >= a && t <= b).collect();
         } else {
             self.used = vec![true; self.cs.len()];
@@ -594,8 +600,16 @@ pub fn interp(t: &[f64], y: &[f64], corner: &[bool], x: f64) -> f64 {
     // Tangent at i from the points i, i + dir, i + 2·dir (one-sided), or
     // the secant to i + dir when there is no third point on that side.
     let one_sided = |i: usize, fwd: bool| {
-        let (a, b) = if fwd { (i + 1, i + 2) } else { (i.wrapping_sub(1), i.wrapping_sub(2)) };
-        let b_ok = if fwd { b < n && !is_corner(a) } else { i >= 2 && !is_corner(a) };
+        let (a, b) = if fwd {
+            (i + 1, i + 2)
+        } else {
+            (i.wrapping_sub(1), i.wrapping_sub(2))
+        };
+        let b_ok = if fwd {
+            b < n && !is_corner(a)
+        } else {
+            i >= 2 && !is_corner(a)
+        };
         let da = (y[a] - y[i]) / (t[a] - t[i]);
         if b_ok {
             let db = (y[b] - y[i]) / (t[b] - t[i]);
@@ -617,7 +631,9 @@ pub fn interp(t: &[f64], y: &[f64], corner: &[bool], x: f64) -> f64 {
     let u = (x - t[k]) / h;
     let (m0, m1) = (tangent(k, true) * h, tangent(k + 1, false) * h);
     let (u2, u3) = (u * u, u * u * u);
-    (2.0 * u3 - 3.0 * u2 + 1.0) * y[k] + (u3 - 2.0 * u2 + u) * m0 + (-2.0 * u3 + 3.0 * u2) * y[k + 1]
+    (2.0 * u3 - 3.0 * u2 + 1.0) * y[k]
+        + (u3 - 2.0 * u2 + u) * m0
+        + (-2.0 * u3 + 3.0 * u2) * y[k + 1]
         + (u3 - u2) * m1
 }
 
@@ -642,11 +658,7 @@ pub fn corners(t: &[f64], s: &[f64]) -> Vec<bool> {
 /// admittance on a grid eight times finer than the rows, integrated over
 /// each reading's window [t + δ − T, t + δ]; with an offset alone, the
 /// model at t + δ directly.
-fn timed(
-    file: &File,
-    p: &Params,
-    at: impl Fn(f64, f64, f64) -> Option<Complex64>,
-) -> Vec<f64> {
+fn timed(file: &File, p: &Params, at: impl Fn(f64, f64, f64) -> Option<Complex64>) -> Vec<f64> {
     let n = file.t.len();
     let (t0, t1) = (file.t[0], file.t[n - 1]);
     let window = p.get(Effect::MeterLag) * 1e-3;
@@ -769,7 +781,11 @@ mod tests {
         let y: Vec<f64> = t.iter().map(|&x| if x < 0.1 { 20.0 * x } else { 2.0 }).collect();
         for x in [0.05, 0.07, 0.09, 0.11, 0.13, 0.15] {
             let want = if x < 0.1 { 20.0 * x } else { 2.0 };
-            assert!((interp(&t, &y, x) - want).abs() < 1e-9, "{x}: {}", interp(&t, &y, x));
+            assert!(
+                (interp(&t, &y, x) - want).abs() < 1e-9,
+                "{x}: {}",
+                interp(&t, &y, x)
+            );
         }
         // Smooth data: close to the function (error O(h³) here).
         let y: Vec<f64> = t.iter().map(|&x| (5.0 * x).exp()).collect();

@@ -79,3 +79,42 @@ fn clear_errors() {
     assert!(!ok && err.contains("lower the frequency"), "{err}");
     assert!(!err.contains("backtrace"), "{err}");
 }
+
+#[test]
+fn identify_writes_the_reports_and_rejects_bad_data_with_its_place() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    let out = tmp.path().join("id");
+    let d = ds.to_str().unwrap();
+    let (ok, _, err) = run(&["dataset", "--out", d, "--seed", "3", "--meter-window", "60m"]);
+    assert!(ok, "{err}");
+    let (ok, stdout, err) = run(&["identify", d, "--out", out.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("explained by meter_lag"), "{stdout}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(j["effects"][0]["id"], "meter_lag");
+    let w = j["effects"][0]["params"]["window_ms"].as_f64().unwrap();
+    assert!((w - 60.0).abs() < 1.0, "{w}");
+    assert_eq!(j["unexplained"], false);
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("| **all** |") && md.contains("residuals.svg"), "{md}");
+    assert!(std::fs::metadata(out.join("residuals.svg")).unwrap().len() > 10_000);
+    // A malformed row: file, line, column and reason; nothing written.
+    let trace = ds.join("trace_20mmps_2000hz.csv");
+    let text = std::fs::read_to_string(&trace).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut fields: Vec<&str> = lines[7].split(',').collect();
+    fields[1] = "1.2.3";
+    lines[7] = fields.join(",");
+    std::fs::write(&trace, lines.join("\n")).unwrap();
+    let bad = tmp.path().join("bad");
+    let (ok, _, err) = run(&["identify", d, "--out", bad.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("trace_20mmps_2000hz.csv:8:"), "{err}");
+    assert!(!bad.exists());
+    // A missing data set.
+    let (ok, _, err) = run(&["identify", tmp.path().join("nothing").to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("nothing"), "{err}");
+}

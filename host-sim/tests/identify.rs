@@ -40,7 +40,7 @@ fn hidden(effect: Effect, v: f64) -> (Effects, Meter) {
 /// Random strength of `effect` in its unit: log-uniform magnitude over a
 /// range from barely to clearly detectable, random sign where it has one.
 fn strength(effect: Effect, rng: &mut Rng) -> f64 {
-    let (lo, hi, signed) = match effect {
+    let (lo, hi, signed): (f64, f64, bool) = match effect {
         Effect::ContactResistance => (2e3, 50e3, false),
         Effect::ParasiticCapacitance => (0.5, 20.0, false),
         Effect::ResistanceGradient => (0.05, 0.6, true),
@@ -75,20 +75,31 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
         let r = run(&tmp.path().join(format!("s{seed}")), fx, meter, seed);
         let nf = r.noise_floor_pf;
         let (b, f) = (r.baseline().rms_pf, r.final_fit().rms_pf);
-        let named: Vec<&str> = r.accepted.iter().flat_map(|a| a.effects.iter().map(|e| e.id())).collect();
+        let named: Vec<&str> = r
+            .accepted
+            .iter()
+            .flat_map(|a| a.effects.iter().map(|e| e.id()))
+            .collect();
         let fitted = r.accepted.as_ref().map_or(f64::NAN, |a| a.params.get(effect));
         println!(
             "| {seed} | {} | {v:.4} | {:.1} | {} | {fitted:.4} | {:.2} | {:.1} |",
             effect.id(),
             b / nf,
-            if r.unexplained { "UNEXPLAINED".into() } else { named.join("+") },
+            if r.unexplained {
+                "UNEXPLAINED".into()
+            } else {
+                named.join("+")
+            },
             f / nf,
             b / f
         );
         if b <= 1.5 * nf {
             // Not detectable: must not be dressed up as an effect.
             if r.accepted.is_some() || r.unexplained {
-                bad.push(format!("seed {seed}: undetectable {} reported as {named:?}", effect.id()));
+                bad.push(format!(
+                    "seed {seed}: undetectable {} reported as {named:?}",
+                    effect.id()
+                ));
             }
             continue;
         }
@@ -104,8 +115,14 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
         }
     }
     println!("detectable {detectable}/50, right effect named in {right}");
-    assert!(detectable >= 35, "only {detectable} detectable sets: strengths too weak");
-    assert!(right as f64 >= 0.9 * detectable as f64, "right effect in {right}/{detectable}");
+    assert!(
+        detectable >= 35,
+        "only {detectable} detectable sets: strengths too weak"
+    );
+    assert!(
+        right as f64 >= 0.9 * detectable as f64,
+        "right effect in {right}/{detectable}"
+    );
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
@@ -113,8 +130,17 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
 fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
     let tmp = tempfile::tempdir().unwrap();
     for seed in [21, 22, 23] {
-        let r = run(&tmp.path().join(format!("clean{seed}")), Effects::default(), Meter::LCR, seed);
-        assert!(!r.unexplained && r.accepted.is_none(), "seed {seed}: {}", r.verdict());
+        let r = run(
+            &tmp.path().join(format!("clean{seed}")),
+            Effects::default(),
+            Meter::LCR,
+            seed,
+        );
+        assert!(
+            !r.unexplained && r.accepted.is_none(),
+            "seed {seed}: {}",
+            r.verdict()
+        );
     }
     // Dielectric dispersion: the permittivity falls with frequency. No
     // candidate is this mechanism.

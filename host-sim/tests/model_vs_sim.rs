@@ -15,7 +15,12 @@ fn shape(fx: Effects) -> Shape {
     for k in 0..=10 {
         let s = 3.0 * k as f64;
         let t = static_sensor(fx, s).truth();
-        csv += &format!("{s},500,{},{},{}\n", 210.0 * (1.0 + s / 100.0), t.r_top_ohm, t.r_bottom_ohm);
+        csv += &format!(
+            "{s},500,{},{},{}\n",
+            210.0 * (1.0 + s / 100.0),
+            t.r_top_ohm,
+            t.r_bottom_ohm
+        );
     }
     std::fs::write(&p, csv).unwrap();
     let t = host_sim::dataset::read_table(&p, host_sim::dataset::Kind::Calibration).unwrap();
@@ -34,19 +39,69 @@ fn static_sensor(fx: Effects, s: f64) -> Sensor {
 #[test]
 fn model_matches_the_simulated_sensor_for_every_static_effect() {
     let cases: [(Effects, Effect, f64); 6] = [
-        (Effects { contact_resistance_ohm: 25e3, ..Default::default() }, Effect::ContactResistance, 25e3),
-        (Effects { parasitic_capacitance_farad: 8e-12, ..Default::default() }, Effect::ParasiticCapacitance, 8.0),
-        (Effects { resistance_gradient: 0.4, ..Default::default() }, Effect::ResistanceGradient, 0.4),
-        (Effects { resistance_gradient: -0.6, ..Default::default() }, Effect::ResistanceGradient, -0.6),
-        (Effects { leakage_resistance_ohm: 20e6, ..Default::default() }, Effect::DielectricLeakage, 50.0),
-        (Effects { stretch_nonuniformity: 0.4, ..Default::default() }, Effect::NonuniformStretch, 0.4),
+        (
+            Effects {
+                contact_resistance_ohm: 25e3,
+                ..Default::default()
+            },
+            Effect::ContactResistance,
+            25e3,
+        ),
+        (
+            Effects {
+                parasitic_capacitance_farad: 8e-12,
+                ..Default::default()
+            },
+            Effect::ParasiticCapacitance,
+            8.0,
+        ),
+        (
+            Effects {
+                resistance_gradient: 0.4,
+                ..Default::default()
+            },
+            Effect::ResistanceGradient,
+            0.4,
+        ),
+        (
+            Effects {
+                resistance_gradient: -0.6,
+                ..Default::default()
+            },
+            Effect::ResistanceGradient,
+            -0.6,
+        ),
+        (
+            Effects {
+                leakage_resistance_ohm: 20e6,
+                ..Default::default()
+            },
+            Effect::DielectricLeakage,
+            50.0,
+        ),
+        (
+            Effects {
+                stretch_nonuniformity: 0.4,
+                ..Default::default()
+            },
+            Effect::NonuniformStretch,
+            0.4,
+        ),
     ];
     for (fx, e, v) in cases {
         // The local curves, for a nonuniform stretch, are undone from the
         // calibration's means.
         let sh = shape(fx);
-        let sh = if e == Effect::NonuniformStretch { sh.local(v) } else { sh };
-        let m = Model { line: Line::Continuous, params: Params::NONE.with(e, v), shape: &sh };
+        let sh = if e == Effect::NonuniformStretch {
+            sh.local(v)
+        } else {
+            sh
+        };
+        let m = Model {
+            line: Line::Continuous,
+            params: Params::NONE.with(e, v),
+            shape: &sh,
+        };
         let mut worst = 0.0f64;
         for s in [0.0, 15.0, 30.0] {
             let x = static_sensor(fx, s);

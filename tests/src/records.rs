@@ -60,6 +60,11 @@ pub struct Truth {
     pub r_ohm: f64,
     /// True stretch, mm.
     pub stretch_mm: f64,
+    /// End-to-end top electrode resistance, as the rig's ohmmeter reads
+    /// it through the tabs, Ω.
+    pub r_top_ohm: f64,
+    /// End-to-end bottom electrode resistance, Ω.
+    pub r_bottom_ohm: f64,
 }
 
 impl Rec {
@@ -89,6 +94,8 @@ pub fn parse(lines: &[String]) -> Result<Vec<Rec>> {
                         c_pf: num(3)?,
                         r_ohm: num(4)?,
                         stretch_mm: num(5)?,
+                        r_top_ohm: num(6)?,
+                        r_bottom_ohm: num(7)?,
                     },
                 );
             }
@@ -181,10 +188,77 @@ pub fn write_csv(dir: &Path, recs: &[Rec]) -> Result<Vec<std::path::PathBuf>> {
     Ok(files)
 }
 
+/// Write the records of the `identify` scenario as a data set of the
+/// interchange format (`shared/data-format.md`), as a rig would record it:
+/// the firmware's lumped Cs at a fixed frequency per channel, the stretch
+/// from the rig's encoder and the end-to-end electrode resistances from
+/// its ohmmeter (here the simulation's truth). Channels in `traces` give
+/// `trace_ch{c}_{f}hz.csv`; each channel in `statics` gives one
+/// calibration point (the mean of its valid records). Returns the number
+/// of trace rows written.
+pub fn write_dataset(dir: &Path, recs: &[Rec], traces: &[u8], statics: &[u8]) -> Result<usize> {
+    std::fs::create_dir_all(dir)?;
+    let good = |r: &&Rec| r.valid() && r.cs_pf > 0.0 && r.truth.is_some();
+    let mut cal = std::io::BufWriter::new(std::fs::File::create(dir.join("calibration.csv"))?);
+    writeln!(cal, "# firmware lumped Cs, mean of each static channel's records")?;
+    writeln!(cal, "stretch_mm,freq_hz,cs_pf,r_top_ohm,r_bottom_ohm")?;
+    for &ch in statics {
+        let rs: Vec<&Rec> = recs.iter().filter(|r| r.channel == ch).filter(good).collect();
+        if rs.is_empty() {
+            bail!("static channel {ch} has no valid record");
+        }
+        let n = rs.len() as f64;
+        let mean = |g: fn(&Rec) -> f64| rs.iter().map(|r| g(r)).sum::<f64>() / n;
+        let t = |g: fn(&Truth) -> f64| rs.iter().filter_map(|r| r.truth.as_ref().map(g)).sum::<f64>() / n;
+        writeln!(
+            cal,
+            "{:.4},{},{:.4},{:.0},{:.0}",
+            t(|t| t.stretch_mm),
+            rs[0].freq_hz,
+            mean(|r| r.cs_pf),
+            t(|t| t.r_top_ohm),
+            t(|t| t.r_bottom_ohm)
+        )?;
+    }
+    cal.flush()?;
+    let mut rows = 0;
+    for &ch in traces {
+        let rs: Vec<&Rec> = recs.iter().filter(|r| r.channel == ch).filter(good).collect();
+        let Some(first) = rs.first() else {
+            bail!("trace channel {ch} has no valid record");
+        };
+        let path = dir.join(format!("trace_ch{ch}_{:.0}hz.csv", first.freq_hz));
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
+        writeln!(w, "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm")?;
+        for r in rs {
+            let Some(t) = r.truth else { continue };
+            writeln!(
+                w,
+                "{:.5},{:.4},{:.0},{:.0},{},{:.4},{:.0}",
+                (r.t_ms as f64 + 2.56) / 1e3,
+                t.stretch_mm,
+                t.r_top_ohm,
+                t.r_bottom_ohm,
+                r.freq_hz,
+                r.cs_pf,
+                r.rs_ohm
+            )?;
+            rows += 1;
+        }
+        w.flush()?;
+    }
+    Ok(rows)
+}
+
 /// Build the QEMU firmware, run `scenario`, decode its records.
 pub fn run_scenario(scenario: &str) -> Result<(crate::Run, Vec<Rec>)> {
+    run_scenario_args(&[scenario])
+}
+
+/// [`run_scenario`] with further semihosting arguments after the name.
+pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<Rec>)> {
     let elf = crate::build_firmware("skin-qemu", &["qemu"])?;
-    let run = crate::run_qemu_args(&elf, &[scenario], std::time::Duration::from_secs(600))?;
+    let run = crate::run_qemu_args(&elf, args, std::time::Duration::from_secs(600))?;
     let lines = crate::decode_defmt(&elf, &run.raw)?;
     let recs = parse(&lines)?;
     Ok((

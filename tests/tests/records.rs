@@ -11,9 +11,9 @@ fn lines(s: &str) -> Vec<String> {
 fn parses_pairs_and_splits_by_channel_and_frequency() {
     let log = lines(
         "start 8 channels\n\
-         truth 0 0 210.0 712000 0.0\n\
+         truth 0 0 210.0 712000 0.0 350000 362000\n\
          rec 0 0 585.9375 0 0 0 0 0 16\n\
-         truth 5 1 214.2 712000 2.0\n\
+         truth 5 1 214.2 712000 2.0 350000 362000\n\
          rec 5 1 585.9375 213.3 240000 214.21 711000 2.01 0\n\
          rec 10 1 1953.125 200.1 230000 214.25 712500 2.02 32\n\
          rec 15 2 585.9375 0 0 0 0 0 2\n",

@@ -147,6 +147,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         front_end: dsp_core::demod::FrontEnd::transimpedance(100e3, true),
         calibration: &REFERENCE,
         tracker: firmware::channel::tracker(),
+        fixture: dsp_core::fixture::Fixture::NONE,
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     ch.policy.index = fidx;

@@ -289,6 +289,7 @@ mod app {
                     front_end: FrontEnd::transimpedance(100e3, true),
                     calibration: cal,
                     tracker: firmware::channel::tracker(),
+                    fixture: dsp_core::fixture::Fixture::NONE,
                 },
             },
         )

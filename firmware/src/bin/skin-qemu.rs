@@ -11,12 +11,15 @@
 //!
 //! Records (defmt over semihosting, decoded on the host):
 //! `rec t_ms channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags`, and
-//! in QEMU also `truth t_ms channel c_pF r_ohm stretch_mm` for the tests.
+//! in QEMU also `truth t_ms channel c_pF r_ohm stretch_mm r_top_ohm
+//! r_bottom_ohm` (the rig's view: end-to-end electrode resistances).
 //! The scenario is the first semihosting argument (`-semihosting-config
-//! enable=on,arg=paper20`).
+//! enable=on,arg=paper20`); the optional second and third are the wiring
+//! calibration `host-sim identify` found (parasitic pF, contact Ω per tab).
 #![no_std]
 #![no_main]
 
+use dsp_core::fixture::Fixture;
 use firmware::calib::{CalTable, REFERENCE};
 use firmware::channel::{Channel, Settings};
 use firmware::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_S};
@@ -40,15 +43,33 @@ pub struct Block {
     pub t_s: f32,
 }
 
-fn scenario() -> Scenario {
+/// The scenario (first argument) and the wiring calibration (optional
+/// second and third: parasitic capacitance in pF and contact resistance
+/// per tab in Ω, as `host-sim identify` reports them).
+fn arguments() -> (Scenario, Fixture) {
     let Ok(args) = semihosting::experimental::env::args::<128>() else {
-        return Scenario::Paper20;
+        return (Scenario::Paper20, Fixture::NONE);
     };
-    let name = (&args).next().and_then(Result::ok).unwrap_or("paper20");
-    Scenario::parse(name).unwrap_or_else(|| {
+    let mut it = &args;
+    let name = it.next().and_then(Result::ok).unwrap_or("paper20");
+    let scenario = Scenario::parse(name).unwrap_or_else(|| {
         defmt::println!("unknown scenario {=str}", name);
         qemu::exit(2)
-    })
+    });
+    let mut number = |what: &str| match it.next() {
+        None => 0.0,
+        Some(Ok(v)) => match v.parse::<f32>() {
+            Ok(x) if x.is_finite() && x >= 0.0 => x,
+            _ => {
+                defmt::println!("bad {=str} '{=str}': expected a number ≥ 0", what, v);
+                qemu::exit(2)
+            }
+        },
+        Some(Err(_)) => qemu::exit(2),
+    };
+    let cp_pf = number("parasitic capacitance (pF)");
+    let rc_ohm = number("contact resistance (Ω)");
+    (scenario, Fixture::from_effects(rc_ohm, cp_pf * 1e-12))
 }
 
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
@@ -76,7 +97,7 @@ mod app {
 
     #[init]
     fn init(_: init::Context) -> (Shared, Local) {
-        let scenario = scenario();
+        let (scenario, fixture) = arguments();
         let skin = Skin::new(scenario);
         let cal: &'static CalTable<11> = &REFERENCE;
         let settings = Settings {
@@ -85,13 +106,19 @@ mod app {
             front_end: skin.front_end().dsp_front_end(),
             calibration: cal,
             tracker: firmware::channel::tracker(),
+            fixture,
         };
-        let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
+        let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
+            Some(i) => Channel::pinned(cal.rest_capacitance(), i),
+            None => Channel::new(cal.rest_capacitance()),
+        });
         let fidx = channels[0].freq_index();
         defmt::println!(
-            "start {=u8} channels, scenario {}",
+            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm",
             CHANNELS as u8,
-            defmt::Debug2Format(&scenario)
+            defmt::Debug2Format(&scenario),
+            fixture.parallel_farad * 1e12,
+            fixture.series_ohm
         );
         (
             Shared {
@@ -156,12 +183,14 @@ mod app {
             (ch, truth)
         });
         defmt::println!(
-            "truth {=u32} {=u8} {=f32} {=f32} {=f32}",
+            "truth {=u32} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32}",
             (t_s * 1000.0) as u32,
             ch,
             (truth.c_farad * 1e12) as f32,
             truth.r_line_ohm as f32,
-            truth.stretch_mm as f32
+            truth.stretch_mm as f32,
+            truth.r_top_ohm as f32,
+            truth.r_bottom_ohm as f32
         );
         if process::spawn(slot).is_err() {
             defmt::println!("overrun {=u32}", slot);
