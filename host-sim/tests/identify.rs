@@ -162,6 +162,10 @@ fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
 #[test]
 fn the_example_data_set_is_clean() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/example-dataset");
+    if !dir.exists() {
+        eprintln!("SKIPPED: ../shared/example-dataset not present");
+        return;
+    }
     let r = identify(&read_dir(&dir).unwrap(), Options::default()).unwrap();
     println!("{}", r.verdict());
     assert!(!r.unexplained && r.accepted.is_none(), "{}", r.verdict());
