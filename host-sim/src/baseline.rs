@@ -23,20 +23,21 @@ pub fn series_cs(model: LineModel, r: f64, c: f64, f: f64) -> Option<f64> {
 }
 
 /// The calibration's (stretch mm, true C F) points: each C solves
-/// `series(R, C, f) = Cs measured` for the point's recorded R and frequency
-/// (fixed-point iteration on the ratio Cs/C, smooth and close to 1), where
-/// `series` is what the meter reads under the model named `what`.
+/// `series(row, C) = Cs measured` for the row's recorded R, stretch and
+/// frequency (fixed-point iteration on the ratio Cs/C, smooth and close to
+/// 1), where `series` is what the meter reads (F) under the model named
+/// `what`.
 pub fn debiased_points(
     cal: &Table,
     what: &str,
-    series: impl Fn(f64, f64, f64) -> Option<f64>,
+    series: impl Fn(&Row, f64) -> Option<f64>,
 ) -> Result<Vec<(f64, f64)>> {
     let mut points = vec![];
     for r in &cal.rows {
-        let (cs, rl, f) = (r.cs_pf() * 1e-12, r.r_top_ohm() + r.r_bottom_ohm(), r.freq_hz());
+        let cs = r.cs_pf() * 1e-12;
         let mut c = cs;
         for _ in 0..40 {
-            match series(rl, c, f) {
+            match series(r, c) {
                 Some(m) if m.is_finite() && m > 0.0 => c *= cs / m,
                 _ => bail!(
                     "{}:{}: the model ({what}) cannot explain this point",
@@ -67,7 +68,9 @@ impl Baseline {
     /// From a calibration table; `debias` takes the meter's own bias out.
     pub fn from_calibration(cal: &Table, model: LineModel, debias: bool) -> Result<Self> {
         let points = if debias {
-            debiased_points(cal, &format!("{model:?}"), |r, c, f| series_cs(model, r, c, f))?
+            debiased_points(cal, &format!("{model:?}"), |r, c| {
+                series_cs(model, r.r_top_ohm() + r.r_bottom_ohm(), c, r.freq_hz())
+            })?
         } else {
             cal.rows
                 .iter()
@@ -145,9 +148,6 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
             let n = e.len();
             let rms = (e.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
             let max = e.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let mut d2: Vec<f64> = e.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
-            d2.sort_by(f64::total_cmp);
-            let mad = d2.get(d2.len() / 2).copied().unwrap_or(f64::NAN);
             Residual {
                 file: t
                     .path
@@ -156,10 +156,19 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
                 n,
                 rms_pf: rms,
                 max_pf: max,
-                noise_pf: mad * 1.4826 / 6f64.sqrt(),
+                noise_pf: noise_sigma(&e),
             }
         })
         .collect()
+}
+
+/// Robust noise σ of a residual series (its unit): the median absolute
+/// second difference ×1.4826/√6. White noise passes, smooth model errors
+/// cancel, and sparse jumps do not move a median.
+pub fn noise_sigma(e: &[f64]) -> f64 {
+    let mut d2: Vec<f64> = e.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
+    d2.sort_by(f64::total_cmp);
+    d2.get(d2.len() / 2).copied().unwrap_or(f64::NAN) * 1.4826 / 6f64.sqrt()
 }
 
 /// Least-squares c0 + c1·x + c2·x² through `pts` (normal equations,

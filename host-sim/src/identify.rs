@@ -5,8 +5,8 @@
 //!    n = 30 ladder for comparison), the recorded resistances, the
 //!    calibration de-biased under the same model ([`crate::model`]).
 //! 2. Residual (measured − model) per file; noise floor per file from the
-//!    median absolute second difference of the baseline residual (white
-//!    noise passes, smooth model errors cancel).
+//!    median absolute second difference of the baseline residual
+//!    ([`noise_sigma`]).
 //! 3. Every candidate effect of the library is fitted alone (grid over its
 //!    range, then Levenberg–Marquardt, weighted by each file's noise).
 //!    Models are compared by BIC = n·ln(S/n) + k·ln n (S: noise-weighted
@@ -18,6 +18,7 @@
 //!    (RMS ≤ [`Options::explained`] × noise floor). Otherwise the data set
 //!    is reported as unexplained, with the best attempt kept apart.
 
+use crate::baseline::noise_sigma;
 use crate::dataset::{DataSet, Kind};
 use crate::model::{Effect, Line, Params, Prepared};
 use anyhow::{Context, Result};
@@ -172,13 +173,17 @@ struct Problem<'a> {
 
 impl Problem<'_> {
     fn eval(&self, params: Params) -> Option<Evaluated> {
-        let pred = self.prep.predict(self.line, params).ok()?;
+        self.evaluate(&self.prep.predict(self.line, params).ok()?)
+    }
+
+    /// Residuals and weighted sum of squares of predictions `pred` (pF).
+    fn evaluate(&self, pred: &[Vec<f64>]) -> Option<Evaluated> {
         let mut s = 0.0;
         let residual: Vec<Vec<f64>> = self
             .prep
             .files
             .iter()
-            .zip(&pred)
+            .zip(pred)
             .zip(&self.w)
             .map(|((f, p), w)| {
                 f.cs.iter()
@@ -260,6 +265,42 @@ impl Problem<'_> {
         }
     }
 
+    /// JᵀJ and Jᵀr of the noise-weighted residual r at `p` (evaluated as
+    /// `at`), with J by one-sided differences of 10⁻⁴ of each effect's
+    /// range (stepping inwards at the upper bound).
+    fn normal_equations(
+        &self,
+        effects: &[Effect],
+        p: Params,
+        at: &Evaluated,
+    ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+        let r0 = self.weighted(at);
+        let mut jac = Vec::with_capacity(effects.len());
+        for &e in effects {
+            let (lo, hi) = e.bounds();
+            let h = 1e-4 * (hi - lo);
+            let (v, sign) = if p.get(e) + h <= hi {
+                (p.get(e) + h, 1.0)
+            } else {
+                (p.get(e) - h, -1.0)
+            };
+            let rj = self.weighted(&self.eval(p.with(e, v))?);
+            jac.push(
+                rj.iter()
+                    .zip(&r0)
+                    .map(|(a, b)| sign * (a - b) / h)
+                    .collect::<Vec<f64>>(),
+            );
+        }
+        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
+        let a = jac
+            .iter()
+            .map(|x| jac.iter().map(|y| dot(x, y)).collect())
+            .collect();
+        let g = jac.iter().map(|x| dot(x, &r0)).collect();
+        Some((a, g))
+    }
+
     /// Fit `effects` starting from `start` (the others held): a grid over
     /// the range of each effect not yet set in `start` (`scan`), then
     /// projected Levenberg–Marquardt on all of them.
@@ -279,38 +320,16 @@ impl Problem<'_> {
             p = p.with(e, at);
         }
         let k = effects.len();
-        let step = |e: Effect| {
-            let (lo, hi) = e.bounds();
-            1e-4 * (hi - lo)
-        };
         let clamp = |e: Effect, v: f64| {
             let (lo, hi) = e.bounds();
             v.clamp(lo, hi)
         };
         let mut lambda = 1e-3;
-        let mut jac: Vec<Vec<f64>> = vec![];
+        // JᵀJ at the current `p`, kept for the uncertainty when the last
+        // iteration leaves `p` where it was.
+        let mut jtj_at_p = None;
         for _ in 0..40 {
-            let r0 = self.weighted(&best);
-            jac.clear();
-            for &e in effects {
-                let h = step(e);
-                let (v, sign) = if p.get(e) + h <= e.bounds().1 {
-                    (p.get(e) + h, 1.0)
-                } else {
-                    (p.get(e) - h, -1.0)
-                };
-                let ev = self.eval(p.with(e, v))?;
-                let rj = self.weighted(&ev);
-                jac.push(rj.iter().zip(&r0).map(|(a, b)| sign * (a - b) / h).collect());
-            }
-            let mut a = vec![vec![0.0; k]; k];
-            let mut g = vec![0.0; k];
-            for i in 0..k {
-                for j in 0..k {
-                    a[i][j] = jac[i].iter().zip(&jac[j]).map(|(x, y)| x * y).sum();
-                }
-                g[i] = jac[i].iter().zip(&r0).map(|(x, y)| x * y).sum();
-            }
+            let (a, g) = self.normal_equations(effects, p, &best)?;
             let mut improved = false;
             while lambda < 1e10 {
                 let mut m = a.clone();
@@ -338,41 +357,24 @@ impl Problem<'_> {
                 }
             }
             if !improved {
+                // `p` is unchanged only if no step was accepted.
+                if lambda >= 1e10 {
+                    jtj_at_p = Some(a);
+                }
                 break;
             }
         }
         // Uncertainty: s²·(JᵀJ)⁻¹, s² = S/(n − k), at the optimum.
-        let r0 = self.weighted(&best);
-        let mut jac = vec![];
-        for &e in effects {
-            let h = step(e);
-            let (v, sign) = if p.get(e) + h <= e.bounds().1 {
-                (p.get(e) + h, 1.0)
-            } else {
-                (p.get(e) - h, -1.0)
-            };
-            let ev = self.eval(p.with(e, v))?;
-            let rj = self.weighted(&ev);
-            jac.push(
-                rj.iter()
-                    .zip(&r0)
-                    .map(|(a, b)| sign * (a - b) / h)
-                    .collect::<Vec<f64>>(),
-            );
-        }
+        let a = match jtj_at_p {
+            Some(a) => a,
+            None => self.normal_equations(effects, p, &best)?.0,
+        };
         let s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
         let sigma = (0..k)
             .map(|i| {
-                let a: Vec<Vec<f64>> = (0..k)
-                    .map(|j| {
-                        (0..k)
-                            .map(|l| jac[j].iter().zip(&jac[l]).map(|(x, y)| x * y).sum())
-                            .collect()
-                    })
-                    .collect();
                 let mut unit = vec![0.0; k];
                 unit[i] = 1.0;
-                solve(a, unit).map_or(f64::INFINITY, |col| (s2 * col[i]).max(0.0).sqrt())
+                solve(a.clone(), unit).map_or(f64::INFINITY, |col| (s2 * col[i]).max(0.0).sqrt())
             })
             .collect();
         Some(self.fit_of(effects.to_vec(), p, sigma, best))
@@ -423,14 +425,6 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
-/// Robust noise σ of a residual series (pF): median absolute second
-/// difference ×1.4826/√6.
-pub fn noise_sigma(e: &[f64]) -> f64 {
-    let mut d2: Vec<f64> = e.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
-    d2.sort_by(f64::total_cmp);
-    d2.get(d2.len() / 2).copied().unwrap_or(f64::NAN) * 1.4826 / 6f64.sqrt()
-}
-
 /// Run `identify` on a data set.
 pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let prep = Prepared::new(ds, options.sweep)?;
@@ -456,33 +450,23 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         .zip(&baselines[0].1)
         .map(|(f, p)| f.cs.iter().zip(p).map(|(m, p)| m - p).collect())
         .collect();
-    let mut trace_noise: Vec<f64> = prep
-        .files
-        .iter()
-        .zip(&resid0)
-        .filter(|(f, _)| f.kind == Kind::Trace)
-        .map(|(_, r)| noise_sigma(r))
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .collect();
-    trace_noise.sort_by(f64::total_cmp);
-    let median = trace_noise.get(trace_noise.len() / 2).copied().unwrap_or(1e-3);
-    let noise: Vec<f64> = prep
+    let raw: Vec<f64> = prep
         .files
         .iter()
         .zip(&resid0)
         .map(|(f, r)| {
-            let v = if f.kind == Kind::Trace {
+            if f.kind == Kind::Trace {
                 noise_sigma(r)
             } else {
-                median
-            };
-            if v.is_finite() && v > 0.0 {
-                v
-            } else {
-                median
+                f64::NAN
             }
         })
         .collect();
+    let usable = |v: f64| v.is_finite() && v > 0.0;
+    let mut trace_noise: Vec<f64> = raw.iter().copied().filter(|&v| usable(v)).collect();
+    trace_noise.sort_by(f64::total_cmp);
+    let median = trace_noise.get(trace_noise.len() / 2).copied().unwrap_or(1e-3);
+    let noise: Vec<f64> = raw.iter().map(|&v| if usable(v) { v } else { median }).collect();
     let noise_floor_pf = (prep
         .files
         .iter()
@@ -499,9 +483,9 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     };
     let fits: Vec<Fit> = baselines
         .iter()
-        .map(|(line, _)| {
+        .map(|(line, pred)| {
             let p = problem(*line);
-            let ev = p.eval(Params::NONE).context("baseline")?;
+            let ev = p.evaluate(pred).context("baseline")?;
             Ok(p.fit_of(vec![], Params::NONE, vec![], ev))
         })
         .collect::<Result<_>>()?;

@@ -124,11 +124,6 @@ impl Effect {
     pub fn is_static(self) -> bool {
         !matches!(self, Effect::MeterLag | Effect::TimeOffset)
     }
-
-    /// Affects traces only through time.
-    pub fn is_temporal(self) -> bool {
-        !self.is_static()
-    }
 }
 
 /// Parameters of every effect (0: absent), in each effect's unit.
@@ -403,11 +398,8 @@ impl Model<'_> {
 pub struct Prepared {
     /// Static curves.
     pub shape: Shape,
-    /// Calibration points: (stretch mm, R_rec Ω, f Hz, Cs F).
-    cal: Vec<(f64, f64, f64, f64)>,
-    /// Calibration file, for messages.
-    cal_path: std::path::PathBuf,
-    cal_lines: Vec<u64>,
+    /// The static calibration.
+    calibration: Table,
     /// Files whose residual is modelled: the traces, then the sweep.
     pub files: Vec<File>,
 }
@@ -496,55 +488,18 @@ impl Prepared {
         }
         Ok(Self {
             shape: Shape::from_calibration(&ds.calibration)?,
-            cal: ds
-                .calibration
-                .rows
-                .iter()
-                .map(|r| {
-                    (
-                        r.stretch_mm(),
-                        r.r_top_ohm() + r.r_bottom_ohm(),
-                        r.freq_hz(),
-                        r.cs_pf() * 1e-12,
-                    )
-                })
-                .collect(),
-            cal_path: ds.calibration.path.clone(),
-            cal_lines: ds.calibration.rows.iter().map(|r| r.line).collect(),
+            calibration: ds.calibration.clone(),
             files,
         })
     }
 
-    /// The model with `line` and `params` on this data set.
-    pub fn model(&self, line: Line, params: Params) -> Model<'_> {
-        Model {
-            line,
-            params,
-            shape: &self.shape,
-        }
-    }
-
     /// C(s) = c0 + c1·s + c2·s² (F) from the calibration de-biased under
-    /// `m`: each point's true C solves m.cs(R, C, s, f) = Cs measured
-    /// (fixed-point iteration on the ratio Cs/C, smooth and close to 1).
+    /// `m` ([`crate::baseline::debiased_points`] with `m.cs`).
     pub fn calibrate(&self, m: &Model) -> Result<[f64; 3]> {
-        let mut pts = Vec::with_capacity(self.cal.len());
-        for (k, &(s, r, f, cs)) in self.cal.iter().enumerate() {
-            let mut c = cs;
-            for _ in 0..40 {
-                match m.cs(r, c, s, f) {
-                    Some(v) if v.is_finite() && v > 0.0 => c *= cs / v,
-                    _ => bail!(
-                        "{}:{}: the model ({} with {:?}) cannot explain this point",
-                        self.cal_path.display(),
-                        self.cal_lines[k],
-                        m.line,
-                        m.params
-                    ),
-                }
-            }
-            pts.push((s, c));
-        }
+        let what = format!("{} with {:?}", m.line, m.params);
+        let pts = crate::baseline::debiased_points(&self.calibration, &what, |r, c| {
+            m.cs(r.r_top_ohm() + r.r_bottom_ohm(), c, r.stretch_mm(), r.freq_hz())
+        })?;
         Ok(crate::baseline::quadratic_fit(&pts))
     }
 
