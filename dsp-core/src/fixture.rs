@@ -1,5 +1,6 @@
 //! De-embedding the sensor's wiring: the static effects `identify` finds
-//! (`host-sim identify`), written as a calibration the firmware applies
+//! (`host-sim identify`; `instrument::effects::EffectSet::fixture` turns
+//! them into a [`Fixture`]), written as a calibration the firmware applies
 //! before the line inversion, as an impedance analyzer's open/short
 //! compensation does.
 //!
@@ -42,15 +43,6 @@ impl Fixture {
         parallel_farad: 0.0,
         series_ohm: 0.0,
     };
-
-    /// A fixture from `identify`'s parameters: per-tab contact resistance
-    /// (Ω) and parasitic capacitance (F).
-    pub fn from_effects(contact_per_tab_ohm: f32, parasitic_farad: f32) -> Self {
-        Self {
-            parallel_farad: parasitic_farad,
-            series_ohm: 2.0 * contact_per_tab_ohm,
-        }
-    }
 
     /// The line's impedance (Ω) behind the wiring, from the measured
     /// impedance `z` (Ω) at `f_hz`.

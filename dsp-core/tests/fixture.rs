@@ -58,13 +58,6 @@ fn removes_parasitic_capacitance_and_contacts_across_the_range() {
 fn no_fixture_is_the_identity_and_too_much_capacitance_is_an_error() {
     let z = Complex32::new(2.0e5, -1.3e5);
     assert_eq!(Fixture::NONE.remove(z, 6e3), Ok(z));
-    assert_eq!(
-        Fixture::from_effects(25e3, 8e-12),
-        Fixture {
-            parallel_farad: 8e-12,
-            series_ohm: 50e3
-        }
-    );
     // A 200 pF capacitor read as if 300 pF were parasitic: nothing left.
     let zc = Complex32::new(0.0, (-1.0 / (TAU * 1e3 * 200e-12)) as f32);
     let fx = Fixture {

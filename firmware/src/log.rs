@@ -3,7 +3,7 @@
 //!
 //! `rec t_ms channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags`
 
-use crate::channel::Record;
+use instrument::channel::Record;
 
 /// Log `rec` for the block that started at `t_s` (s).
 pub fn record(t_s: f32, rec: &Record) {

@@ -3,14 +3,15 @@
 //! multiplexer, the DAC and the ADC/DMA of the board, producing the same
 //! blocks of `[voltage, current]` pairs the board's DMA would.
 
-use crate::config::{freq_hz, ftw, BLOCK, CHANNELS};
 use core::sync::atomic::{AtomicU8, Ordering};
 use dsp_core::Oscillator;
 use embedded_hal::digital::{ErrorType, OutputPin};
+use instrument::config::{freq_hz, ftw, BLOCK, CHANNELS};
+use instrument::effects::{Effect, EffectSet};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Effects, Sensor, SensorParams, Truth};
+use skin_sim::sensor::{Sensor, SensorParams, Truth};
 
 /// A test scenario, chosen by name on the semihosting command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,14 +110,7 @@ pub fn mux_pins() -> [SimPin; 3] {
 
 /// The undeclared effect of the `identify` and `hidden` scenarios: 12 pF
 /// of cable capacitance in parallel with every sensor at the front end.
-pub const HIDDEN: Effects = Effects {
-    contact_resistance_ohm: 0.0,
-    parasitic_capacitance_farad: 12e-12,
-    resistance_gradient: 0.0,
-    leakage_resistance_ohm: 0.0,
-    stretch_nonuniformity: 0.0,
-    dispersion_per_decade: 0.0,
-};
+pub const HIDDEN: EffectSet = EffectSet::NONE.with(Effect::ParasiticCapacitance, 12e-12);
 
 /// Fault window of the `faults` scenario, s.
 pub const FAULT_WINDOW: (f32, f32) = (1.0, 2.0);
@@ -192,7 +186,7 @@ impl Skin {
     /// starting at `t_s`; returns (channel, clipped, truth).
     pub fn block(&mut self, fidx: usize, t_s: f32, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
         let ch = (MUX_LINES.load(Ordering::Relaxed) as usize) % CHANNELS;
-        let t_mid = (t_s + 0.5 * crate::config::BLOCK_S) as f64;
+        let t_mid = (t_s + 0.5 * instrument::config::BLOCK_S) as f64;
         let profile = self.profile(ch);
         self.sensors[ch].advance(&profile, t_mid);
         let in_fault = self.scenario == Scenario::Faults && t_s >= FAULT_WINDOW.0 && t_s < FAULT_WINDOW.1;

@@ -8,6 +8,7 @@ use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
 use dsp_core::{Complex32, Oscillator};
+use instrument::effects::{Effect, EffectSet};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -47,17 +48,18 @@ pub enum Meter {
 
 impl Meter {
     /// The paper's LCR meter: 50 readings/s, 0.02 % + 0.02 pF.
-    pub const LCR: Meter = Meter::lcr(0.0, 0.0);
+    pub const LCR: Meter = Meter::lcr(&EffectSet::NONE);
 
-    /// The paper's LCR meter with an integration window and a time offset
-    /// of the capacitance channel (s).
-    pub const fn lcr(window_s: f64, offset_s: f64) -> Meter {
+    /// The paper's LCR meter with the recording's effects of `effects`
+    /// (the catalogue's [`Effect::MeterLag`] window and
+    /// [`Effect::TimeOffset`] of the capacitance channel).
+    pub const fn lcr(effects: &EffectSet) -> Meter {
         Meter::Lcr {
             interval_s: 0.02,
             rel: 2e-4,
             abs_farad: 0.02e-12,
-            window_s,
-            offset_s,
+            window_s: effects.get(Effect::MeterLag),
+            offset_s: effects.get(Effect::TimeOffset),
         }
     }
 

@@ -9,9 +9,10 @@ use anyhow::{Context, Result};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use indicatif::{ProgressBar, ProgressStyle};
+use instrument::effects::EffectSet;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Effects, Sensor, SensorParams};
+use skin_sim::sensor::{Sensor, SensorParams};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -678,7 +679,7 @@ pub fn dataset(dir: &Path, params: SensorParams, lcr: Meter, seed: u64, progress
 }
 
 /// Sensor parameters with `effects` switched on.
-pub fn with_effects(effects: Effects) -> SensorParams {
+pub fn with_effects(effects: EffectSet) -> SensorParams {
     SensorParams {
         effects,
         ..SensorParams::REFERENCE

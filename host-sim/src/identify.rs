@@ -94,7 +94,7 @@ pub struct Fit {
 }
 
 impl Fit {
-    /// A label such as "contact_resistance + meter_lag".
+    /// A label: the effects' ids joined by " + ".
     pub fn label(&self) -> String {
         if self.effects.is_empty() {
             format!("baseline ({})", self.line)
@@ -277,7 +277,7 @@ impl Problem<'_> {
         let r0 = self.weighted(at);
         let mut jac = Vec::with_capacity(effects.len());
         for &e in effects {
-            let (lo, hi) = e.bounds();
+            let (lo, hi) = e.info().search;
             let h = 1e-4 * (hi - lo);
             let (v, sign) = if p.get(e) + h <= hi {
                 (p.get(e) + h, 1.0)
@@ -321,7 +321,7 @@ impl Problem<'_> {
         }
         let k = effects.len();
         let clamp = |e: Effect, v: f64| {
-            let (lo, hi) = e.bounds();
+            let (lo, hi) = e.info().search;
             v.clamp(lo, hi)
         };
         let mut lambda = 1e-3;
@@ -385,7 +385,7 @@ impl Problem<'_> {
 /// (factor 2) across its range, both signs where allowed, since some
 /// effects act quadratically and a linear grid would miss small values.
 fn grid(e: Effect) -> Vec<f64> {
-    let (lo, hi) = e.bounds();
+    let (lo, hi) = e.info().search;
     let mut v = vec![0.0];
     let levels = if lo < 0.0 { 7 } else { 12 };
     for k in 0..levels {
@@ -516,9 +516,8 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     }
     // Every single effect, in parallel.
     let mut singles: Vec<Fit> = std::thread::scope(|sc| {
-        let hs: Vec<_> = Effect::ALL
-            .iter()
-            .map(|&e| {
+        let hs: Vec<_> = Effect::library()
+            .map(|e| {
                 let prob = &prob;
                 sc.spawn(move || prob.fit(&[e], Params::NONE, &[e]))
             })
@@ -539,10 +538,9 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     if options.max_effects >= 2 && strong(&best, &base) {
         let first = best.effects[0];
         let mut pairs: Vec<Fit> = std::thread::scope(|sc| {
-            let hs: Vec<_> = Effect::ALL
-                .iter()
-                .filter(|&&e| e != first)
-                .map(|&e| {
+            let hs: Vec<_> = Effect::library()
+                .filter(|&e| e != first)
+                .map(|e| {
                     let prob = &prob;
                     let start = best.params;
                     sc.spawn(move || prob.fit(&[first, e], start, &[e]))
@@ -564,12 +562,12 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
 }
 
 fn param_value(e: Effect, v: f64) -> String {
-    match e {
-        Effect::ContactResistance => format!("{:.0} Ω", v),
-        Effect::ParasiticCapacitance => format!("{v:.3} pF"),
-        Effect::DielectricLeakage => format!("{v:.2} nS"),
-        Effect::MeterLag | Effect::TimeOffset => format!("{v:.2} ms"),
-        Effect::ResistanceGradient | Effect::NonuniformStretch => format!("{v:.4}"),
+    let i = e.info();
+    let text = format!("{:.*}", i.display_decimals, i.display(v));
+    if i.display_unit.is_empty() {
+        text
+    } else {
+        format!("{text} {}", i.display_unit)
     }
 }
 
@@ -581,7 +579,7 @@ pub fn params_text(f: &Fit) -> String {
         .map(|(&e, s)| {
             format!(
                 "{} = {} ± {}",
-                e.param(),
+                e.info().key,
                 param_value(e, f.params.get(e)),
                 param_value(e, *s)
             )
@@ -598,13 +596,13 @@ impl Report {
             let params: serde_json::Map<String, serde_json::Value> = f
                 .effects
                 .iter()
-                .map(|&e| (e.param().to_string(), json!(f.params.get(e))))
+                .map(|&e| (e.info().key.to_string(), json!(e.info().display(f.params.get(e)))))
                 .collect();
             let sigma: serde_json::Map<String, serde_json::Value> = f
                 .effects
                 .iter()
                 .zip(&f.sigma)
-                .map(|(&e, s)| (e.param().to_string(), json!(s)))
+                .map(|(&e, s)| (e.info().key.to_string(), json!(e.info().display(*s))))
                 .collect();
             (params, sigma)
         };
@@ -617,8 +615,8 @@ impl Report {
                 f.effects.iter().map(move |&e| {
                     json!({
                         "id": e.id(),
-                        "params": {e.param(): params[e.param()]},
-                        "uncertainty": {e.param(): sigma[e.param()]},
+                        "params": {e.info().key: params[e.info().key]},
+                        "uncertainty": {e.info().key: sigma[e.info().key]},
                         "static": e.is_static(),
                         "rms_pf_after": f.rms_pf,
                     })

@@ -7,8 +7,9 @@ use host_sim::chain::{self, Meter};
 use host_sim::experiments::{self as exp, Ctx};
 use host_sim::meter::{self, model_name, parse_model};
 use host_sim::si;
+use instrument::effects::{Effect, EffectSet};
 use skin_sim::profile::Profile;
-use skin_sim::sensor::{Effects, Sensor};
+use skin_sim::sensor::Sensor;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -147,81 +148,58 @@ struct RunArgs {
     periods: u32,
 }
 
-/// Non-ideal effects of the simulated sensor (all off by default).
-#[derive(clap::Args, Clone, Copy)]
-struct EffectArgs {
-    /// Contact resistance of each tab, e.g. 5k.
-    #[arg(long, value_parser = si::parse, default_value = "0")]
-    contact_resistance: f64,
-    /// Parasitic capacitance at the meter, e.g. 10p.
-    #[arg(long, value_parser = si::parse, default_value = "0")]
-    parasitic_capacitance: f64,
-    /// Electrode resistance gradient along the sensor, -1..1.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    resistance_gradient: f64,
-    /// Total dielectric leakage resistance, e.g. 500meg (0: none).
-    #[arg(long, value_parser = si::parse, default_value = "0")]
-    leakage_resistance: f64,
-    /// Stretch nonuniformity along the sensor, -1..1.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    stretch_nonuniformity: f64,
-    /// Dielectric dispersion, fraction of C lost per decade above 1 kHz.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    dispersion: f64,
-    /// LCR meter: integration window (its lag), e.g. 50m.
-    #[arg(long, value_parser = si::parse, default_value = "0")]
-    meter_window: f64,
-    /// LCR meter: time offset of the capacitance channel against the
-    /// stretch and resistance columns (> 0: late), e.g. 30m or -30m.
-    #[arg(long, value_parser = si::parse, default_value = "0", allow_hyphen_values = true)]
-    time_offset: f64,
+/// Non-ideal effects of the simulated sensor and its recording, all off by
+/// default: one flag per effect of the catalogue (`instrument::effects`),
+/// named for its id (`--contact-resistance 5k`), SI units with prefixes,
+/// checked against the effect's physical limits.
+#[derive(Clone, Copy, Default)]
+struct EffectArgs(EffectSet);
+
+/// The command-line flag of `e`: its id with `-` for `_`.
+fn flag(e: Effect) -> String {
+    e.id().replace('_', "-")
 }
 
-impl EffectArgs {
-    /// The LCR meter with this recording's window and offset.
-    fn lcr(&self) -> Result<Meter> {
-        anyhow::ensure!(
-            (0.0..=1.0).contains(&self.meter_window),
-            "--meter-window must be within 0..1 s"
-        );
-        anyhow::ensure!(self.time_offset.abs() <= 1.0, "--time-offset must be within ±1 s");
-        Ok(Meter::lcr(self.meter_window, self.time_offset))
+impl clap::FromArgMatches for EffectArgs {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut set = EffectSet::NONE;
+        for e in Effect::ALL {
+            if let Some(&v) = m.get_one::<f64>(e.id()) {
+                set.set(e, v).map_err(|err| {
+                    clap::Error::raw(
+                        clap::error::ErrorKind::ValueValidation,
+                        format!("--{}: {err}\n", flag(e)),
+                    )
+                })?;
+            }
+        }
+        Ok(Self(set))
     }
 
-    fn effects(&self) -> Result<Effects> {
-        let e = Effects {
-            contact_resistance_ohm: self.contact_resistance,
-            parasitic_capacitance_farad: self.parasitic_capacitance,
-            resistance_gradient: self.resistance_gradient,
-            leakage_resistance_ohm: self.leakage_resistance,
-            stretch_nonuniformity: self.stretch_nonuniformity,
-            dispersion_per_decade: self.dispersion,
-        };
-        anyhow::ensure!(
-            e.contact_resistance_ohm >= 0.0,
-            "--contact-resistance must be ≥ 0"
-        );
-        anyhow::ensure!(
-            e.parasitic_capacitance_farad >= 0.0,
-            "--parasitic-capacitance must be ≥ 0"
-        );
-        anyhow::ensure!(
-            e.leakage_resistance_ohm >= 0.0,
-            "--leakage-resistance must be ≥ 0"
-        );
-        anyhow::ensure!(
-            e.resistance_gradient.abs() < 1.0,
-            "--resistance-gradient must be in (-1, 1)"
-        );
-        anyhow::ensure!(
-            e.stretch_nonuniformity.abs() < 1.0,
-            "--stretch-nonuniformity must be in (-1, 1)"
-        );
-        anyhow::ensure!(
-            e.dispersion_per_decade.abs() < 0.2,
-            "--dispersion must be in (-0.2, 0.2)"
-        );
-        Ok(e)
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for EffectArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        Effect::ALL.into_iter().fold(cmd, |cmd, e| {
+            let i = e.info();
+            let scope = if e.is_static() { "sensor" } else { "LCR meter" };
+            cmd.arg(
+                clap::Arg::new(i.id)
+                    .long(flag(e))
+                    .value_parser(si::parse)
+                    .allow_hyphen_values(true)
+                    .value_name(if i.unit.is_empty() { "RATIO" } else { i.unit })
+                    .help(format!("{scope}: {}", i.doc)),
+            )
+        })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
     }
 }
 
@@ -383,9 +361,9 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Accuracy(a) => println!("{}", exp::accuracy(&ctx(&a, 30.0 * a.periods as f64)?)?.0),
         Cmd::Dataset { out, seed, effects } => {
-            let params = exp::with_effects(effects.effects()?);
+            let params = exp::with_effects(effects.0);
             let pb = Ctx::new(&out, seed)?.with_progress(180.0).progress;
-            exp::dataset(&out, params, effects.lcr()?, seed, pb)?;
+            exp::dataset(&out, params, Meter::lcr(&effects.0), seed, pb)?;
             println!("wrote a data set to {}", out.display());
         }
         Cmd::Identify { dir, out, no_sweep } => {
@@ -441,12 +419,12 @@ fn run(cli: Cli) -> Result<()> {
             let p = parse_profile(&profile, &mut points)?;
             let m = match meter.as_str() {
                 "adc" => Meter::ADC,
-                "lcr" => effects.lcr()?,
+                "lcr" => Meter::lcr(&effects.0),
                 other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
             };
             anyhow::ensure!(duration > 0.0, "--duration must be > 0");
             anyhow::ensure!((100.0..=50e3).contains(&f), "--f must be within 100 Hz..50 kHz");
-            let params = exp::with_effects(effects.effects()?);
+            let params = exp::with_effects(effects.0);
             let mut s = Sensor::settled(params);
             let setup = chain::Setup {
                 freq_hz: f,

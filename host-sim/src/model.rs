@@ -7,16 +7,16 @@
 //! and the frequency f (Hz):
 //!
 //! ```text
-//! R_line = R_rec − 4·R_c                          (contact_resistance)
+//! R_line = R_rec − 4·R_c                          (ContactResistance)
 //! Z      = line(R_line, C, G, weights) + 2·R_c
-//! Z      = 1 / (1/Z + jω·C_p)                     (parasitic_capacitance)
+//! Z      = 1 / (1/Z + jω·C_p)                     (ParasiticCapacitance)
 //! Cs     = −1 / (ω·Im Z)
 //! ```
 //!
 //! `line` is the uniform continuous line √(z/y)·coth √(zy) with z = R and
-//! y = G + jωC (G: `dielectric_leakage`), or a ladder of n elements (each
+//! y = G + jωC (G: [`Effect::DielectricLeakage`]), or a ladder of n elements (each
 //! series R/n then shunt C/n), as in `dsp_core::tline`. Nonuniform lines
-//! (`resistance_gradient`, `nonuniform_stretch`) cascade [`SEGMENTS`] exact
+//! ([`Effect::ResistanceGradient`], [`Effect::NonuniformStretch`]) cascade [`SEGMENTS`] exact
 //! uniform pieces (continuous) or weight the ladder's elements, with the
 //! electrode resistance per length ∝ (1 + g·(2ξ − 1))·ρ(s(ξ)) and the
 //! capacitance per length ∝ C_cal(s(ξ)), s(ξ) = s·(1 + u·(2ξ − 1)), ξ = 0 at
@@ -25,8 +25,8 @@
 //! own static curves say, keeping the recorded totals.
 //!
 //! Time effects act on trace files only: the meter's reading at t is the
-//! mean admittance over [t + δ − T, t + δ] (`meter_lag`: window T;
-//! `time_offset`: δ > 0 when the capacitance channel is late), with the
+//! mean admittance over [t + δ − T, t + δ] ([`Effect::MeterLag`]: window T;
+//! [`Effect::TimeOffset`]: δ > 0 when the capacitance channel is late), with the
 //! stretch and resistance columns interpolated (Akima) between rows.
 
 use crate::dataset::{DataSet, Kind, Row, Table};
@@ -37,121 +37,18 @@ use std::f64::consts::TAU;
 /// Pieces of a nonuniform continuous line.
 pub const SEGMENTS: usize = 32;
 
-/// A candidate effect of the library.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Effect {
-    /// Contact resistance of each tab, inside the recorded end-to-end
-    /// electrode resistances (two tabs each) and in series with the line
-    /// (two tabs), Ω.
-    ContactResistance,
-    /// Capacitance in parallel with the sensor at the meter (cable,
-    /// fixture), pF.
-    ParasiticCapacitance,
-    /// Electrode resistance per length ∝ 1 + g·(2ξ − 1), ξ = 0 at the read
-    /// end: g > 0 is more resistive away from the tabs. Dimensionless.
-    ResistanceGradient,
-    /// Dielectric leakage conductance, distributed with the capacitance, nS.
-    DielectricLeakage,
-    /// The meter's integration window: a reading is the mean over the
-    /// preceding window, ms.
-    MeterLag,
-    /// The capacitance channel's time offset against the stretch and
-    /// resistance columns (> 0: late), ms.
-    TimeOffset,
-    /// Stretch ∝ 1 + u·(2ξ − 1) along the sensor (u > 0: the far end
-    /// stretches more). Dimensionless.
-    NonuniformStretch,
+pub use instrument::effects::{Effect, EffectSet};
+
+/// Parameters of every effect (0: absent), SI: the catalogue's
+/// [`EffectSet`].
+pub type Params = EffectSet;
+
+fn has_time(p: &Params) -> bool {
+    p.has(Effect::MeterLag) || p.has(Effect::TimeOffset)
 }
 
-impl Effect {
-    /// The library.
-    pub const ALL: [Effect; 7] = [
-        Effect::ContactResistance,
-        Effect::ParasiticCapacitance,
-        Effect::ResistanceGradient,
-        Effect::DielectricLeakage,
-        Effect::MeterLag,
-        Effect::TimeOffset,
-        Effect::NonuniformStretch,
-    ];
-
-    /// Identifier in reports.
-    pub fn id(self) -> &'static str {
-        match self {
-            Effect::ContactResistance => "contact_resistance",
-            Effect::ParasiticCapacitance => "parasitic_capacitance",
-            Effect::ResistanceGradient => "resistance_gradient",
-            Effect::DielectricLeakage => "dielectric_leakage",
-            Effect::MeterLag => "meter_lag",
-            Effect::TimeOffset => "time_offset",
-            Effect::NonuniformStretch => "nonuniform_stretch",
-        }
-    }
-
-    /// The effect named `id`.
-    pub fn from_id(id: &str) -> Option<Effect> {
-        Effect::ALL.into_iter().find(|e| e.id() == id)
-    }
-
-    /// Name of its parameter with the unit, as in the JSON report.
-    pub fn param(self) -> &'static str {
-        match self {
-            Effect::ContactResistance => "contact_resistance_ohm",
-            Effect::ParasiticCapacitance => "parasitic_capacitance_pf",
-            Effect::ResistanceGradient => "gradient_ratio",
-            Effect::DielectricLeakage => "leakage_conductance_ns",
-            Effect::MeterLag => "window_ms",
-            Effect::TimeOffset => "offset_ms",
-            Effect::NonuniformStretch => "nonuniformity_ratio",
-        }
-    }
-
-    /// The range searched for its parameter, in the parameter's unit.
-    pub fn bounds(self) -> (f64, f64) {
-        match self {
-            Effect::ContactResistance => (0.0, 100e3),
-            Effect::ParasiticCapacitance => (0.0, 50.0),
-            Effect::ResistanceGradient => (-0.9, 0.9),
-            Effect::DielectricLeakage => (0.0, 1000.0),
-            Effect::MeterLag => (0.0, 250.0),
-            Effect::TimeOffset => (-150.0, 150.0),
-            Effect::NonuniformStretch => (-0.9, 0.9),
-        }
-    }
-
-    /// A property of the sensor and its wiring that a static calibration
-    /// can hold (rather than of one recording).
-    pub fn is_static(self) -> bool {
-        !matches!(self, Effect::MeterLag | Effect::TimeOffset)
-    }
-}
-
-/// Parameters of every effect (0: absent), in each effect's unit.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Params(pub [f64; 7]);
-
-impl Params {
-    /// No effect.
-    pub const NONE: Params = Params([0.0; 7]);
-
-    /// The parameter of `e`.
-    pub fn get(&self, e: Effect) -> f64 {
-        self.0[e as usize]
-    }
-
-    /// With the parameter of `e` set to `v`.
-    pub fn with(mut self, e: Effect, v: f64) -> Self {
-        self.0[e as usize] = v;
-        self
-    }
-
-    fn has_time(&self) -> bool {
-        self.get(Effect::MeterLag) != 0.0 || self.get(Effect::TimeOffset) != 0.0
-    }
-
-    fn nonuniform(&self) -> bool {
-        self.get(Effect::ResistanceGradient) != 0.0 || self.get(Effect::NonuniformStretch) != 0.0
-    }
+fn nonuniform(p: &Params) -> bool {
+    p.has(Effect::ResistanceGradient) || p.has(Effect::NonuniformStretch)
 }
 
 /// Line model of the baseline.
@@ -311,8 +208,8 @@ impl Model<'_> {
         if !(r > 0.0 && c > 0.0 && w > 0.0) {
             return None;
         }
-        let g = p.get(Effect::DielectricLeakage) * 1e-9;
-        let mut z = if !p.nonuniform() {
+        let g = p.get(Effect::DielectricLeakage);
+        let mut z = if !nonuniform(p) {
             match self.line {
                 Line::Continuous => continuous(r, Complex64::new(g, w * c)),
                 Line::Ladder(n) => {
@@ -329,7 +226,7 @@ impl Model<'_> {
             self.nonuniform(r, c, g, s, w)
         };
         z += 2.0 * rc;
-        let cp = p.get(Effect::ParasiticCapacitance) * 1e-12;
+        let cp = p.get(Effect::ParasiticCapacitance);
         if cp != 0.0 {
             z = (z.inv() + Complex64::new(0.0, w * cp)).inv();
         }
@@ -432,12 +329,12 @@ pub struct File {
 /// Rows left out at the start of a trace (s): the longest window plus the
 /// largest negative offset searched.
 pub fn edge_start_s() -> f64 {
-    (Effect::MeterLag.bounds().1 - Effect::TimeOffset.bounds().0) * 1e-3
+    Effect::MeterLag.info().search.1 - Effect::TimeOffset.info().search.0
 }
 
 /// Rows left out at the end of a trace (s): the largest positive offset.
 pub fn edge_end_s() -> f64 {
-    Effect::TimeOffset.bounds().1 * 1e-3
+    Effect::TimeOffset.info().search.1
 }
 
 fn file_of(t: &Table) -> File {
@@ -520,7 +417,7 @@ impl Prepared {
             .files
             .iter()
             .map(|file| {
-                if file.kind == Kind::Trace && params.has_time() {
+                if file.kind == Kind::Trace && has_time(&params) {
                     timed(file, &params, at)
                 } else {
                     (0..file.cs.len())
@@ -616,8 +513,8 @@ pub fn corners(t: &[f64], s: &[f64]) -> Vec<bool> {
 fn timed(file: &File, p: &Params, at: impl Fn(f64, f64, f64) -> Option<Complex64>) -> Vec<f64> {
     let n = file.t.len();
     let (t0, t1) = (file.t[0], file.t[n - 1]);
-    let window = p.get(Effect::MeterLag) * 1e-3;
-    let offset = p.get(Effect::TimeOffset) * 1e-3;
+    let window = p.get(Effect::MeterLag);
+    let offset = p.get(Effect::TimeOffset);
     let f = file.f[0];
     let inputs = |tau: f64| {
         (

@@ -2,10 +2,10 @@
 //! `1.5M`, `10meg` (SPICE style), optionally followed by a unit (`200pF`).
 
 /// Parse a number with an optional SI prefix and an optional unit suffix
-/// (`F`, `Ω`, `ohm`, `Hz`, `s`). Rejects non-finite values.
+/// (`F`, `Ω`, `ohm`, `Hz`, `S`, `s`). Rejects non-finite values.
 pub fn parse(s: &str) -> Result<f64, String> {
     let t = s.trim();
-    let t = ["ohm", "Ohm", "Ω", "Hz", "hz", "F", "s"]
+    let t = ["ohm", "Ohm", "Ω", "Hz", "hz", "F", "S", "s"]
         .iter()
         .find_map(|u| t.strip_suffix(u))
         .unwrap_or(t);

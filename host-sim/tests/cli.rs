@@ -86,7 +86,7 @@ fn identify_writes_the_reports_and_rejects_bad_data_with_its_place() {
     let ds = tmp.path().join("ds");
     let out = tmp.path().join("id");
     let d = ds.to_str().unwrap();
-    let (ok, _, err) = run(&["dataset", "--out", d, "--seed", "3", "--meter-window", "60m"]);
+    let (ok, _, err) = run(&["dataset", "--out", d, "--seed", "3", "--meter-lag", "60m"]);
     assert!(ok, "{err}");
     let (ok, stdout, err) = run(&["identify", d, "--out", out.to_str().unwrap()]);
     assert!(ok, "{err}");

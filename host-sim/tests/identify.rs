@@ -15,39 +15,29 @@ use host_sim::chain::Meter;
 use host_sim::dataset::read_dir;
 use host_sim::experiments::{dataset, with_effects};
 use host_sim::identify::{identify, Options, Report};
-use host_sim::model::Effect;
+use host_sim::model::{Effect, EffectSet};
 use indicatif::ProgressBar;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::Effects;
 use std::path::Path;
 
 /// A hidden effect: the sensor's effects, the meter, and the truth.
-fn hidden(effect: Effect, v: f64) -> (Effects, Meter) {
-    let mut fx = Effects::default();
-    let mut meter = Meter::LCR;
-    match effect {
-        Effect::ContactResistance => fx.contact_resistance_ohm = v,
-        Effect::ParasiticCapacitance => fx.parasitic_capacitance_farad = v * 1e-12,
-        Effect::ResistanceGradient => fx.resistance_gradient = v,
-        Effect::DielectricLeakage => fx.leakage_resistance_ohm = 1e9 / v,
-        Effect::MeterLag => meter = Meter::lcr(v * 1e-3, 0.0),
-        Effect::TimeOffset => meter = Meter::lcr(0.0, v * 1e-3),
-        Effect::NonuniformStretch => fx.stretch_nonuniformity = v,
-    }
-    (fx, meter)
+fn hidden(effect: Effect, v: f64) -> (EffectSet, Meter) {
+    let fx = EffectSet::NONE.with(effect, v);
+    (fx, Meter::lcr(&fx))
 }
 
-/// Random strength of `effect` in its unit: log-uniform magnitude over a
+/// Random strength of `effect` (SI): log-uniform magnitude over a
 /// range from barely to clearly detectable, random sign where it has one.
 fn strength(effect: Effect, rng: &mut Rng) -> f64 {
     let (lo, hi, signed): (f64, f64, bool) = match effect {
         Effect::ContactResistance => (2e3, 50e3, false),
-        Effect::ParasiticCapacitance => (0.5, 20.0, false),
+        Effect::ParasiticCapacitance => (0.5e-12, 20e-12, false),
         Effect::ResistanceGradient => (0.05, 0.6, true),
-        Effect::DielectricLeakage => (5.0, 100.0, false),
-        Effect::MeterLag => (10.0, 150.0, false),
-        Effect::TimeOffset => (5.0, 80.0, true),
+        Effect::DielectricLeakage => (5e-9, 100e-9, false),
+        Effect::MeterLag => (10e-3, 150e-3, false),
+        Effect::TimeOffset => (5e-3, 80e-3, true),
         Effect::NonuniformStretch => (0.05, 0.5, true),
+        Effect::DielectricDispersion => unreachable!("not in the library"),
     };
     let m = lo * (hi / lo).powf(rng.uniform());
     if signed && rng.uniform() < 0.5 {
@@ -57,7 +47,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
     }
 }
 
-fn run(dir: &Path, fx: Effects, meter: Meter, seed: u64) -> Report {
+fn run(dir: &Path, fx: EffectSet, meter: Meter, seed: u64) -> Report {
     dataset(dir, with_effects(fx), meter, seed, ProgressBar::hidden()).unwrap();
     identify(&read_dir(dir).unwrap(), Options::default()).unwrap()
 }
@@ -67,9 +57,11 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
     let tmp = tempfile::tempdir().unwrap();
     let (mut detectable, mut right, mut bad) = (0, 0, vec![]);
     println!("| seed | hidden | value | baseline/noise | named | fitted | after/noise | drop |");
+    let library: Vec<Effect> = Effect::library().collect();
+    let n = library.len();
     for seed in 0..50u64 {
         let mut rng = Rng::new(1000 + seed);
-        let effect = Effect::ALL[(rng.uniform() * 7.0) as usize % 7];
+        let effect = library[(rng.uniform() * n as f64) as usize % n];
         let v = strength(effect, &mut rng);
         let (fx, meter) = hidden(effect, v);
         let r = run(&tmp.path().join(format!("s{seed}")), fx, meter, seed);
@@ -80,7 +72,9 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
             .iter()
             .flat_map(|a| a.effects.iter().map(|e| e.id()))
             .collect();
-        let fitted = r.accepted.as_ref().map_or(f64::NAN, |a| a.params.get(effect));
+        let show = |v: f64| effect.info().display(v);
+        let fitted = show(r.accepted.as_ref().map_or(f64::NAN, |a| a.params.get(effect)));
+        let v = show(v);
         println!(
             "| {seed} | {} | {v:.4} | {:.1} | {} | {fitted:.4} | {:.2} | {:.1} |",
             effect.id(),
@@ -132,7 +126,7 @@ fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
     for seed in [21, 22, 23] {
         let r = run(
             &tmp.path().join(format!("clean{seed}")),
-            Effects::default(),
+            EffectSet::NONE,
             Meter::LCR,
             seed,
         );
@@ -145,10 +139,7 @@ fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
     // Dielectric dispersion: the permittivity falls with frequency. No
     // candidate is this mechanism.
     for (seed, k) in [(31, 0.005), (32, 0.01), (33, -0.01)] {
-        let fx = Effects {
-            dispersion_per_decade: k,
-            ..Effects::default()
-        };
+        let fx = EffectSet::NONE.with(Effect::DielectricDispersion, k);
         let r = run(&tmp.path().join(format!("disp{seed}")), fx, Meter::LCR, seed);
         println!("dispersion {k}: {}", r.verdict());
         assert!(r.unexplained, "dispersion {k}: {}", r.verdict());
@@ -182,7 +173,7 @@ fn the_example_data_set_is_clean() {
 #[test]
 fn a_found_effect_reports_its_parameter_and_uncertainty() {
     let tmp = tempfile::tempdir().unwrap();
-    let (fx, meter) = hidden(Effect::ParasiticCapacitance, 8.0);
+    let (fx, meter) = hidden(Effect::ParasiticCapacitance, 8e-12);
     let r = run(&tmp.path().join("p"), fx, meter, 7);
     let j = r.json();
     let e = &j["effects"][0];

@@ -4,11 +4,11 @@
 //! the meter's series capacitance below the meter's noise (0.01 pF; 0.03
 //! pF for a nonuniform stretch).
 
-use host_sim::model::{Effect, Line, Model, Params, Shape};
+use host_sim::model::{Effect, EffectSet, Line, Model, Params, Shape};
 use skin_sim::profile::Profile;
-use skin_sim::sensor::{Effects, Sensor, SensorParams};
+use skin_sim::sensor::{Sensor, SensorParams};
 
-fn shape(fx: Effects) -> Shape {
+fn shape(fx: EffectSet) -> Shape {
     // The sensor's static curves, as its calibration records them.
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("calibration.csv");
@@ -28,7 +28,7 @@ fn shape(fx: Effects) -> Shape {
     Shape::from_calibration(&t).unwrap()
 }
 
-fn static_sensor(fx: Effects, s: f64) -> Sensor {
+fn static_sensor(fx: EffectSet, s: f64) -> Sensor {
     let mut x = Sensor::settled(SensorParams {
         effects: fx,
         ..SensorParams::REFERENCE
@@ -39,57 +39,16 @@ fn static_sensor(fx: Effects, s: f64) -> Sensor {
 
 #[test]
 fn model_matches_the_simulated_sensor_for_every_static_effect() {
-    let cases: [(Effects, Effect, f64); 6] = [
-        (
-            Effects {
-                contact_resistance_ohm: 25e3,
-                ..Default::default()
-            },
-            Effect::ContactResistance,
-            25e3,
-        ),
-        (
-            Effects {
-                parasitic_capacitance_farad: 8e-12,
-                ..Default::default()
-            },
-            Effect::ParasiticCapacitance,
-            8.0,
-        ),
-        (
-            Effects {
-                resistance_gradient: 0.4,
-                ..Default::default()
-            },
-            Effect::ResistanceGradient,
-            0.4,
-        ),
-        (
-            Effects {
-                resistance_gradient: -0.6,
-                ..Default::default()
-            },
-            Effect::ResistanceGradient,
-            -0.6,
-        ),
-        (
-            Effects {
-                leakage_resistance_ohm: 20e6,
-                ..Default::default()
-            },
-            Effect::DielectricLeakage,
-            50.0,
-        ),
-        (
-            Effects {
-                stretch_nonuniformity: 0.4,
-                ..Default::default()
-            },
-            Effect::NonuniformStretch,
-            0.4,
-        ),
+    let cases = [
+        (Effect::ContactResistance, 25e3),
+        (Effect::ParasiticCapacitance, 8e-12),
+        (Effect::ResistanceGradient, 0.4),
+        (Effect::ResistanceGradient, -0.6),
+        (Effect::DielectricLeakage, 50e-9),
+        (Effect::NonuniformStretch, 0.4),
     ];
-    for (fx, e, v) in cases {
+    for (e, v) in cases {
+        let fx = EffectSet::NONE.with(e, v);
         // The local curves, for a nonuniform stretch, are undone from the
         // calibration's means.
         let sh = shape(fx);

@@ -37,16 +37,14 @@ fn an_undeclared_effect_leaves_a_residual() {
     let hidden = || indicatif::ProgressBar::hidden();
     host_sim::experiments::dataset(
         &clean,
-        host_sim::experiments::with_effects(Default::default()),
+        host_sim::experiments::with_effects(instrument::effects::EffectSet::NONE),
         host_sim::chain::Meter::LCR,
         5,
         hidden(),
     )
     .unwrap();
-    let effects = skin_sim::sensor::Effects {
-        parasitic_capacitance_farad: 10e-12,
-        ..Default::default()
-    };
+    let effects =
+        instrument::effects::EffectSet::NONE.with(instrument::effects::Effect::ParasiticCapacitance, 10e-12);
     host_sim::experiments::dataset(
         &fx,
         host_sim::experiments::with_effects(effects),

@@ -7,42 +7,21 @@
 //! is much finer than any estimator's model, so tests never check a model
 //! against itself.
 //!
-//! Optional non-ideal effects ([`Effects`], all off by default):
-//! contact resistance at the tabs, parasitic (cable) capacitance at the
-//! meter, electrode resistance varying linearly along the sensor,
-//! dielectric leakage, and stretch varying linearly along the sensor.
+//! Optional non-ideal effects of the sensor and its wiring, from the
+//! catalogue ([`instrument::effects`], all off by default): contact
+//! resistance at the tabs, parasitic (cable) capacitance at the meter,
+//! electrode resistance varying linearly along the sensor, dielectric
+//! leakage, stretch varying linearly along the sensor, and dielectric
+//! dispersion. The recording's effects (meter lag, time offset) belong to
+//! the meter that reads the sensor (host-sim's chain).
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
 use crate::profile::Profile;
+use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
 
 /// Number of grid segments.
 pub const SEGMENTS: usize = 240;
-
-/// Optional non-ideal effects.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Effects {
-    /// Contact resistance of each tab, Ω. Two tabs are in the capacitance
-    /// path; an end-to-end electrode resistance includes two as well.
-    pub contact_resistance_ohm: f64,
-    /// Parasitic capacitance in parallel with the sensor at the meter, F.
-    pub parasitic_capacitance_farad: f64,
-    /// Electrode resistance per length ∝ 1 + g·(2ξ − 1), |g| < 1 (g > 0:
-    /// more resistive towards the far end). Total resistance unchanged.
-    pub resistance_gradient: f64,
-    /// Total dielectric leakage resistance (distributed with the
-    /// capacitance), Ω; 0 means none.
-    pub leakage_resistance_ohm: f64,
-    /// Local stretch ∝ 1 + u·(2ξ − 1), |u| < 1 (u > 0: the far end
-    /// stretches more). Mean stretch unchanged.
-    pub stretch_nonuniformity: f64,
-    /// Dielectric dispersion: the permittivity, and so every c_i, falls by
-    /// this fraction per decade of frequency above 1 kHz (rises below):
-    /// c_i(f) = c_i·(1 − κ·log10(f / 1 kHz)). The truth stays the 1 kHz
-    /// value. Not in `identify`'s library: the tests use it as the
-    /// unexplained effect.
-    pub dispersion_per_decade: f64,
-}
 
 /// Sensor parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,8 +35,8 @@ pub struct SensorParams {
     pub top: ElectrodeParams,
     /// Bottom electrode.
     pub bottom: ElectrodeParams,
-    /// Non-ideal effects.
-    pub effects: Effects,
+    /// Non-ideal effects (SI, [`instrument::effects`]).
+    pub effects: EffectSet,
 }
 
 impl SensorParams {
@@ -67,14 +46,7 @@ impl SensorParams {
         rest_length_mm: 100.0,
         top: ElectrodeParams::TOP,
         bottom: ElectrodeParams::BOTTOM,
-        effects: Effects {
-            contact_resistance_ohm: 0.0,
-            parasitic_capacitance_farad: 0.0,
-            resistance_gradient: 0.0,
-            leakage_resistance_ohm: 0.0,
-            stretch_nonuniformity: 0.0,
-            dispersion_per_decade: 0.0,
-        },
+        effects: EffectSet::NONE,
     };
 
     /// True capacitance at a uniform stretch `s` (mm), F.
@@ -163,13 +135,13 @@ impl Sensor {
     /// Local stretch of segment i, mm.
     fn local_stretch(&self, i: usize) -> f64 {
         let xi = (i as f64 + 0.5) / SEGMENTS as f64;
-        self.stretch * (1.0 + self.params.effects.stretch_nonuniformity * (2.0 * xi - 1.0))
+        self.stretch * (1.0 + self.params.effects.get(Effect::NonuniformStretch) * (2.0 * xi - 1.0))
     }
 
     /// Weight of segment i's electrode resistance (mean 1).
     fn r_weight(&self, i: usize) -> f64 {
         let xi = (i as f64 + 0.5) / SEGMENTS as f64;
-        1.0 + self.params.effects.resistance_gradient * (2.0 * xi - 1.0)
+        1.0 + self.params.effects.get(Effect::ResistanceGradient) * (2.0 * xi - 1.0)
     }
 
     /// Segment i: (r_t + r_b, c, g).
@@ -179,11 +151,8 @@ impl Sensor {
         let w = self.r_weight(i) / SEGMENTS as f64;
         let r = w * (p.top.resistance(&self.top, s) + p.bottom.resistance(&self.bottom, s));
         let c = p.capacitance(s) / SEGMENTS as f64;
-        let g = if p.effects.leakage_resistance_ohm > 0.0 {
-            c / (p.capacitance(self.stretch) * p.effects.leakage_resistance_ohm)
-        } else {
-            0.0
-        };
+        // The leakage conductance is distributed with the capacitance.
+        let g = p.effects.get(Effect::DielectricLeakage) * c / p.capacitance(self.stretch);
         (r, c, g)
     }
 
@@ -198,7 +167,7 @@ impl Sensor {
             rb += w * p.bottom.resistance(&self.bottom, s);
             c += p.capacitance(s) / SEGMENTS as f64;
         }
-        let rc = 2.0 * p.effects.contact_resistance_ohm;
+        let rc = 2.0 * p.effects.get(Effect::ContactResistance);
         Truth {
             t: self.t,
             stretch_mm: self.stretch,
@@ -214,8 +183,9 @@ impl Sensor {
     pub fn impedance(&self, f_hz: f64) -> Complex64 {
         let w = core::f64::consts::TAU * f_hz;
         let fx = &self.params.effects;
-        let k = if fx.dispersion_per_decade != 0.0 {
-            1.0 - fx.dispersion_per_decade * libm::log10(f_hz / 1e3)
+        let dispersion = fx.get(Effect::DielectricDispersion);
+        let k = if dispersion != 0.0 {
+            1.0 - dispersion * libm::log10(f_hz / 1e3)
         } else {
             1.0
         };
@@ -228,9 +198,11 @@ impl Sensor {
             let beyond = z + 0.5 * r;
             z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
         }
-        let z = z + 2.0 * fx.contact_resistance_ohm;
-        if fx.parasitic_capacitance_farad > 0.0 {
-            (z.inv() + Complex64::new(0.0, w * fx.parasitic_capacitance_farad)).inv()
+        // The wiring: contacts in series, cable capacitance at the meter.
+        let (series, shunt) = fx.wiring();
+        let z = z + series;
+        if shunt > 0.0 {
+            (z.inv() + Complex64::new(0.0, w * shunt)).inv()
         } else {
             z
         }

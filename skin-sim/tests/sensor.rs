@@ -2,11 +2,12 @@
 
 use dsp_core::demod::Demodulator;
 use dsp_core::Oscillator;
+use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Effects, Sensor, SensorParams};
+use skin_sim::sensor::{Sensor, SensorParams};
 
 /// Continuous uniform line, f64: Z = √(R/(jωC))·coth √(jωRC).
 fn line(r: f64, c: f64, f: f64) -> Complex64 {
@@ -48,28 +49,22 @@ fn truth_follows_stretch() {
 #[test]
 fn effects_have_their_signatures() {
     let base = SensorParams::REFERENCE;
-    let with = |e: Effects| {
+    let with = |e: EffectSet| {
         let mut p = base;
         p.effects = e;
         let mut s = Sensor::settled(p);
         s.advance(&Profile::Constant(10.0), 1.0);
         s
     };
-    let plain = with(Effects::default());
+    let plain = with(EffectSet::NONE);
     let (z0, t0) = (plain.impedance(2e3), plain.truth());
     // Contacts: 2·Rc in series; recorded electrodes include two each.
-    let s = with(Effects {
-        contact_resistance_ohm: 5e3,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::ContactResistance, 5e3));
     assert!(rel(s.impedance(2e3), z0 + 10e3) < 1e-12);
     assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm + 10e3);
     assert_eq!(s.truth().r_line_ohm, t0.r_line_ohm);
     // Parasitic capacitance in parallel at the meter.
-    let s = with(Effects {
-        parasitic_capacitance_farad: 15e-12,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::ParasiticCapacitance, 15e-12));
     let w = std::f64::consts::TAU * 2e3;
     assert!(
         rel(
@@ -78,32 +73,20 @@ fn effects_have_their_signatures() {
         ) < 1e-12
     );
     // Gradient: same total R and C, different impedance.
-    let s = with(Effects {
-        resistance_gradient: 0.5,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::ResistanceGradient, 0.5));
     assert!((s.truth().r_line_ohm / t0.r_line_ohm - 1.0).abs() < 1e-12);
     assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
     // Nonuniform stretch: the same mean capacitance (C linear in stretch).
-    let s = with(Effects {
-        stretch_nonuniformity: 0.5,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::NonuniformStretch, 0.5));
     assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-12);
     // Leakage: lowers the impedance at low frequency most.
-    let s = with(Effects {
-        leakage_resistance_ohm: 200e6,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::DielectricLeakage, 1.0 / 200e6));
     let lo = rel(s.impedance(100.0), plain.impedance(100.0));
     let hi = rel(s.impedance(20e3), plain.impedance(20e3));
     assert!(lo > 0.005 && lo > 10.0 * hi, "{lo} {hi}");
     // Dispersion: the series capacitance far below the line's corner
     // frequency scales by 1 − κ·log10(f / 1 kHz); the truth does not move.
-    let s = with(Effects {
-        dispersion_per_decade: 0.02,
-        ..Effects::default()
-    });
+    let s = with(EffectSet::NONE.with(Effect::DielectricDispersion, 0.02));
     assert_eq!(s.truth(), plain.truth());
     let cs = |s: &Sensor, f: f64| -1.0 / (std::f64::consts::TAU * f * s.impedance(f).im);
     for (f, k) in [(100.0, 1.02), (1e3, 1.0)] {

@@ -41,12 +41,20 @@ fn identified_wiring_calibrates_the_firmware() {
         report.verdict()
     );
     let cp = found.params.get(Effect::ParasiticCapacitance);
-    assert!((cp - 12.0).abs() < 0.5, "{cp} pF");
+    assert!((cp - 12e-12).abs() < 0.5e-12, "{cp} F");
     // 3. The firmware without and with the wiring calibration.
     let (run, before) = run_scenario_args(&["hidden"]).unwrap();
     assert_eq!(run.code, Some(0), "{}", run.stdout);
-    let cp_arg = format!("{cp:.3}");
-    let (run, after) = run_scenario_args(&["hidden", &cp_arg, "0"]).unwrap();
+    // The static effects found, as the firmware's id=value arguments.
+    let wiring: Vec<String> = found
+        .effects
+        .iter()
+        .filter(|e| e.is_static())
+        .map(|&e| format!("{}={:e}", e.id(), found.params.get(e)))
+        .collect();
+    let mut args = vec!["hidden"];
+    args.extend(wiring.iter().map(String::as_str));
+    let (run, after) = run_scenario_args(&args).unwrap();
     assert_eq!(run.code, Some(0), "{}", run.stdout);
     let (b, a) = (error(&before, &[0, 1]), error(&after, &[0, 1]));
     println!(

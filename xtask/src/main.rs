@@ -92,8 +92,6 @@ fn main() -> Result<()> {
             // the fixed-point unit tests below.
             cargo(&root, &["test", "--release", "--workspace"])?;
             cargo(&root, &["test", "-p", "dsp-core", "--lib"])?;
-            // The firmware's hardware-free logic, on the host.
-            cargo(&root.join("firmware"), &["test", "--lib", "--tests"])?;
             cargo(&root, &["test", "--doc", "-p", "dsp-core"])?;
             // dsp-core on every core we support: M4F (DSP + FPU) and M3.
             for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {

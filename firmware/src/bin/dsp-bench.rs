@@ -123,9 +123,9 @@ fn main() -> ! {
 /// tracking, policy and calibration (`Channel::process`); and the rebuild of
 /// the demodulation reference after a frequency change.
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
-    use firmware::calib::REFERENCE;
-    use firmware::channel::{Channel, Settings};
-    use firmware::config::{ftw, BLOCK};
+    use instrument::calib::REFERENCE;
+    use instrument::channel::{Channel, Settings};
+    use instrument::config::{ftw, BLOCK};
     let fidx = 2;
     let osc = Oscillator::from_ftw(ftw(fidx));
     // A plausible block: 1 V excitation, a 210 pF / 712 kΩ line at 1953 Hz.
@@ -142,11 +142,11 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         *p = [(1240.0 * c) as i16, (-1000.0 * (yr * c - yi * s)) as i16];
     }
     let settings = Settings {
-        policy: firmware::policy::Policy::DEFAULT,
-        thresholds: firmware::faults::Thresholds::DEFAULT,
+        policy: instrument::policy::Policy::DEFAULT,
+        thresholds: instrument::faults::Thresholds::DEFAULT,
         front_end: dsp_core::demod::FrontEnd::transimpedance(100e3, true),
         calibration: &REFERENCE,
-        tracker: firmware::channel::tracker(),
+        tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());

@@ -22,12 +22,12 @@
 
 use dsp_core::demod::FrontEnd;
 use dsp_core::osc::{Oscillator, OscillatorState};
-use firmware::calib::{CalTable, REFERENCE};
-use firmware::channel::{Channel, Settings};
-use firmware::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_S};
-use firmware::faults::Thresholds;
-use firmware::mux::Mux;
-use firmware::policy::Policy;
+use instrument::calib::{CalTable, REFERENCE};
+use instrument::channel::{Channel, Settings};
+use instrument::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_S};
+use instrument::faults::Thresholds;
+use instrument::mux::Mux;
+use instrument::policy::Policy;
 use stm32g4::stm32g474 as pac;
 // Logging, panics and faults: `firmware::board`, linked with the library.
 
@@ -288,7 +288,7 @@ mod app {
                     thresholds: Thresholds::DEFAULT,
                     front_end: FrontEnd::transimpedance(100e3, true),
                     calibration: cal,
-                    tracker: firmware::channel::tracker(),
+                    tracker: instrument::channel::tracker(),
                     fixture: dsp_core::fixture::Fixture::NONE,
                 },
             },
@@ -374,7 +374,13 @@ mod app {
                 // the policy switched since; skip, the next slot catches up.
                 return None;
             }
-            Some(channel.process(settings, ch, t_s + 0.5 * firmware::config::BLOCK_S, &ph, clipped))
+            Some(channel.process(
+                settings,
+                ch,
+                t_s + 0.5 * instrument::config::BLOCK_S,
+                &ph,
+                clipped,
+            ))
         });
         if let Some(rec) = rec {
             firmware::log::record(t_s, &rec);

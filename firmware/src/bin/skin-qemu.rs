@@ -14,20 +14,23 @@
 //! in QEMU also `truth t_ms channel c_pF r_ohm stretch_mm r_top_ohm
 //! r_bottom_ohm` (the rig's view: end-to-end electrode resistances).
 //! The scenario is the first semihosting argument (`-semihosting-config
-//! enable=on,arg=paper20`); the optional second and third are the wiring
-//! calibration `host-sim identify` found (parasitic pF, contact Ω per tab).
+//! enable=on,arg=paper20`); the optional further ones are the static
+//! effects `host-sim identify` found, as `id=value` in SI units
+//! (`<id>=1.2e-11`, ids from [`instrument::effects`]): the firmware de-embeds the wiring
+//! they describe ([`instrument::effects::EffectSet::fixture`]).
 #![no_std]
 #![no_main]
 
 use dsp_core::fixture::Fixture;
-use firmware::calib::{CalTable, REFERENCE};
-use firmware::channel::{Channel, Settings};
-use firmware::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_S};
-use firmware::faults::Thresholds;
-use firmware::mux::Mux;
-use firmware::policy::Policy;
 use firmware::qemu;
 use firmware::scenario::{mux_pins, Scenario, SimPin, Skin};
+use instrument::calib::{CalTable, REFERENCE};
+use instrument::channel::{Channel, Settings};
+use instrument::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_S};
+use instrument::effects::EffectSet;
+use instrument::faults::Thresholds;
+use instrument::mux::Mux;
+use instrument::policy::Policy;
 
 /// A block as the DMA leaves it.
 pub struct Block {
@@ -44,8 +47,7 @@ pub struct Block {
 }
 
 /// The scenario (first argument) and the wiring calibration (optional
-/// second and third: parasitic capacitance in pF and contact resistance
-/// per tab in Ω, as `host-sim identify` reports them).
+/// further arguments: `id=value` of the catalogue's static effects, SI).
 fn arguments() -> (Scenario, Fixture) {
     let Ok(args) = semihosting::experimental::env::args::<128>() else {
         return (Scenario::Paper20, Fixture::NONE);
@@ -56,20 +58,22 @@ fn arguments() -> (Scenario, Fixture) {
         defmt::println!("unknown scenario {=str}", name);
         qemu::exit(2)
     });
-    let mut number = |what: &str| match it.next() {
-        None => 0.0,
-        Some(Ok(v)) => match v.parse::<f32>() {
-            Ok(x) if x.is_finite() && x >= 0.0 => x,
-            _ => {
-                defmt::println!("bad {=str} '{=str}': expected a number ≥ 0", what, v);
+    let mut effects = EffectSet::NONE;
+    for arg in it {
+        let Ok(arg) = arg else { qemu::exit(2) };
+        match effects.apply(arg) {
+            Ok(e) if e.is_static() => {}
+            Ok(_) => {
+                defmt::println!("'{=str}': not a static effect of the sensor", arg);
                 qemu::exit(2)
             }
-        },
-        Some(Err(_)) => qemu::exit(2),
-    };
-    let cp_pf = number("parasitic capacitance (pF)");
-    let rc_ohm = number("contact resistance (Ω)");
-    (scenario, Fixture::from_effects(rc_ohm, cp_pf * 1e-12))
+            Err(err) => {
+                defmt::println!("bad effect '{=str}': {}", arg, defmt::Display2Format(&err));
+                qemu::exit(2)
+            }
+        }
+    }
+    (scenario, effects.fixture())
 }
 
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
@@ -105,7 +109,7 @@ mod app {
             thresholds: Thresholds::DEFAULT,
             front_end: skin.front_end().dsp_front_end(),
             calibration: cal,
-            tracker: firmware::channel::tracker(),
+            tracker: instrument::channel::tracker(),
             fixture,
         };
         let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
@@ -216,7 +220,7 @@ mod app {
         let rec = channel.process(
             local.settings,
             ch,
-            t_s + 0.5 * firmware::config::BLOCK_S,
+            t_s + 0.5 * instrument::config::BLOCK_S,
             &ph,
             clipped,
         );

@@ -1,13 +1,13 @@
-//! The firmware's hardware-free logic on the host: frequency policy,
+//! The measurement chain on the host: frequency policy,
 //! calibration, and a channel fed by the simulated sensor.
 
 use dsp_core::demod::Demodulator;
 use dsp_core::Oscillator;
-use firmware::calib::REFERENCE;
-use firmware::channel::{Channel, Settings};
-use firmware::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
-use firmware::faults::{Flags, Thresholds};
-use firmware::policy::{Policy, PolicyState};
+use instrument::calib::REFERENCE;
+use instrument::channel::{Channel, Settings};
+use instrument::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
+use instrument::faults::{Flags, Thresholds};
+use instrument::policy::{Policy, PolicyState};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -71,13 +71,13 @@ fn run(
     fe: FrontEndParams,
     profile: Profile,
     secs: f32,
-) -> Vec<firmware::channel::Record> {
+) -> Vec<instrument::channel::Record> {
     let settings = Settings {
         policy: Policy::DEFAULT,
         thresholds: Thresholds::DEFAULT,
         front_end: fe.dsp_front_end(),
         calibration: &REFERENCE,
-        tracker: firmware::channel::tracker(),
+        tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
     };
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
@@ -116,7 +116,6 @@ fn channel_tracks_a_stretch_and_flags_faults() {
     assert!(recs[0].flags.has(Flags::SETTLING));
     // Open sensor: no current.
     let mut open = SensorParams::REFERENCE;
-    open.effects.parasitic_capacitance_farad = 0.0;
     open.c_rest_farad = 1e-15;
     let recs = run(open, fe, Profile::Constant(0.0), 0.3);
     assert!(
@@ -172,8 +171,8 @@ impl embedded_hal::digital::OutputPin for FakePin<'_> {
 fn mux_drives_the_address_lines() {
     let levels = std::cell::Cell::new(0u8);
     let pins = [0, 1, 2].map(|bit| FakePin { bit, levels: &levels });
-    let mut mux = firmware::mux::Mux::new(pins);
-    assert_eq!(firmware::mux::Mux::<FakePin, 3>::CHANNELS, 8);
+    let mut mux = instrument::mux::Mux::new(pins);
+    assert_eq!(instrument::mux::Mux::<FakePin, 3>::CHANNELS, 8);
     for ch in [5u8, 0, 7, 3, 12] {
         assert!(mux.select(ch).unwrap());
         assert_eq!(levels.get(), ch % 8);

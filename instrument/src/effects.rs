@@ -1,0 +1,461 @@
+//! The effect catalogue: every non-ideal effect the project knows, listed
+//! once, in SI units, with what the rest of the code needs to know about it.
+//!
+//! The simulated sensor (`skin-sim`), the fitting model of `host-sim
+//! identify`, the command-line flags of `host-sim dataset`/`trace`, the
+//! identify report and the firmware's wiring calibration all derive from
+//! this list. The generator and the fitting model implement the physics
+//! twice on purpose (each checks the other); the names, units and ranges
+//! are this file's alone.
+//!
+//! Adding an effect: a [`Effect`] variant, its [`Info`] in [`Effect::info`],
+//! then its physics in `skin_sim::sensor` (the generator) and
+//! `host_sim::model` (the fitting model); see the README's contributor
+//! section.
+
+/// How an effect enters the physics of the measurement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Entry {
+    /// A resistance at each tab: two in series with the line (the
+    /// capacitance path), and two inside each end-to-end electrode
+    /// resistance measured through the tabs.
+    SeriesPerTab,
+    /// An admittance in parallel with the sensor at the meter.
+    ShuntAtMeter,
+    /// A change of the line's distribution along the sensor (series or
+    /// shunt per length).
+    AlongLine,
+    /// A frequency dependence of the dielectric.
+    Dielectric,
+    /// The timing of the recording (the meter's integration, the alignment
+    /// of its columns).
+    Time,
+}
+
+/// Whose property an effect is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scope {
+    /// The sensor and its wiring: static, so a device calibration can hold
+    /// it.
+    Sensor,
+    /// One recording (its meter, its alignment): not a property of the
+    /// device.
+    Recording,
+}
+
+/// What the code knows about one effect.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Info {
+    /// Identifier in reports, on the command line (with `-` for `_`) and in
+    /// device arguments.
+    pub id: &'static str,
+    /// Key of its parameter in reports, with the display unit.
+    pub key: &'static str,
+    /// What the parameter is, with its SI unit.
+    pub doc: &'static str,
+    /// SI unit of the parameter ("" for a ratio).
+    pub unit: &'static str,
+    /// Display unit in reports ("" for a ratio).
+    pub display_unit: &'static str,
+    /// Display value = SI value × `display_scale`.
+    pub display_scale: f64,
+    /// Decimals shown in reports, in the display unit.
+    pub display_decimals: usize,
+    /// The physically possible values (SI): what a generator accepts.
+    pub limits: (f64, f64),
+    /// The limits themselves are excluded (a ratio at ±1 would leave no
+    /// resistance or no stretch at one end).
+    pub open: bool,
+    /// The range `identify` searches (SI).
+    pub search: (f64, f64),
+    /// Whose property it is.
+    pub scope: Scope,
+    /// How it enters the physics.
+    pub entry: Entry,
+    /// In `identify`'s library (false: only the generator has it, as an
+    /// effect the library must report as unexplained).
+    pub fitted: bool,
+}
+
+impl Info {
+    /// Is `v` (SI) a physically possible value?
+    pub fn valid(&self, v: f64) -> bool {
+        let (lo, hi) = self.limits;
+        v.is_finite()
+            && if self.open {
+                lo < v && v < hi
+            } else {
+                lo <= v && v <= hi
+            }
+    }
+
+    /// The display value of `v` (SI).
+    pub fn display(&self, v: f64) -> f64 {
+        v * self.display_scale
+    }
+}
+
+/// The number of effects in the catalogue.
+pub const COUNT: usize = 8;
+
+/// An effect of the catalogue.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Effect {
+    /// Contact resistance of each tab, Ω.
+    ContactResistance,
+    /// Capacitance in parallel with the sensor at the meter (cable,
+    /// fixture), F.
+    ParasiticCapacitance,
+    /// Electrode resistance per length ∝ 1 + g·(2ξ − 1), ξ = 0 at the read
+    /// end: g > 0 is more resistive away from the tabs; total unchanged.
+    ResistanceGradient,
+    /// Dielectric leakage conductance, distributed with the capacitance, S.
+    DielectricLeakage,
+    /// The meter's integration window: a reading is the mean admittance
+    /// over the preceding window, s.
+    MeterLag,
+    /// The capacitance channel's time offset against the stretch and
+    /// resistance columns (> 0: late), s.
+    TimeOffset,
+    /// Local stretch ∝ 1 + u·(2ξ − 1) along the sensor (u > 0: the far end
+    /// stretches more); mean unchanged.
+    NonuniformStretch,
+    /// Dielectric dispersion: the permittivity, and so the capacitance,
+    /// falls by this fraction per decade of frequency above 1 kHz (rises
+    /// below); the truth is the 1 kHz value.
+    DielectricDispersion,
+}
+
+impl Effect {
+    /// The catalogue, in the order of [`EffectSet`].
+    pub const ALL: [Effect; COUNT] = [
+        Effect::ContactResistance,
+        Effect::ParasiticCapacitance,
+        Effect::ResistanceGradient,
+        Effect::DielectricLeakage,
+        Effect::MeterLag,
+        Effect::TimeOffset,
+        Effect::NonuniformStretch,
+        Effect::DielectricDispersion,
+    ];
+
+    /// Its entry in the catalogue.
+    pub const fn info(self) -> &'static Info {
+        match self {
+            Effect::ContactResistance => &Info {
+                id: "contact_resistance",
+                key: "contact_resistance_ohm",
+                doc: "contact resistance of each tab, Ω",
+                unit: "Ω",
+                display_unit: "Ω",
+                display_scale: 1.0,
+                display_decimals: 0,
+                limits: (0.0, f64::INFINITY),
+                open: false,
+                search: (0.0, 100e3),
+                scope: Scope::Sensor,
+                entry: Entry::SeriesPerTab,
+                fitted: true,
+            },
+            Effect::ParasiticCapacitance => &Info {
+                id: "parasitic_capacitance",
+                key: "parasitic_capacitance_pf",
+                doc: "capacitance in parallel at the meter (cable, fixture), F",
+                unit: "F",
+                display_unit: "pF",
+                display_scale: 1e12,
+                display_decimals: 3,
+                limits: (0.0, f64::INFINITY),
+                open: false,
+                search: (0.0, 50e-12),
+                scope: Scope::Sensor,
+                entry: Entry::ShuntAtMeter,
+                fitted: true,
+            },
+            Effect::ResistanceGradient => &Info {
+                id: "resistance_gradient",
+                key: "gradient_ratio",
+                doc: "electrode resistance gradient along the sensor, -1..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-1.0, 1.0),
+                open: true,
+                search: (-0.9, 0.9),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            Effect::DielectricLeakage => &Info {
+                id: "dielectric_leakage",
+                key: "leakage_conductance_ns",
+                doc: "dielectric leakage conductance (distributed), S",
+                unit: "S",
+                display_unit: "nS",
+                display_scale: 1e9,
+                display_decimals: 2,
+                limits: (0.0, f64::INFINITY),
+                open: false,
+                search: (0.0, 1000e-9),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            Effect::MeterLag => &Info {
+                id: "meter_lag",
+                key: "window_ms",
+                doc: "the meter's integration window, s",
+                unit: "s",
+                display_unit: "ms",
+                display_scale: 1e3,
+                display_decimals: 2,
+                limits: (0.0, 1.0),
+                open: false,
+                search: (0.0, 0.25),
+                scope: Scope::Recording,
+                entry: Entry::Time,
+                fitted: true,
+            },
+            Effect::TimeOffset => &Info {
+                id: "time_offset",
+                key: "offset_ms",
+                doc: "time offset of the capacitance channel (> 0: late), s",
+                unit: "s",
+                display_unit: "ms",
+                display_scale: 1e3,
+                display_decimals: 2,
+                limits: (-1.0, 1.0),
+                open: true,
+                search: (-0.15, 0.15),
+                scope: Scope::Recording,
+                entry: Entry::Time,
+                fitted: true,
+            },
+            Effect::NonuniformStretch => &Info {
+                id: "nonuniform_stretch",
+                key: "nonuniformity_ratio",
+                doc: "stretch nonuniformity along the sensor, -1..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-1.0, 1.0),
+                open: true,
+                search: (-0.9, 0.9),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            Effect::DielectricDispersion => &Info {
+                id: "dielectric_dispersion",
+                key: "dispersion_per_decade",
+                doc: "fraction of C lost per decade of frequency above 1 kHz",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-0.2, 0.2),
+                open: false,
+                search: (-0.2, 0.2),
+                scope: Scope::Sensor,
+                entry: Entry::Dielectric,
+                fitted: false,
+            },
+        }
+    }
+
+    /// Its identifier.
+    pub const fn id(self) -> &'static str {
+        self.info().id
+    }
+
+    /// The effect whose id is `id`.
+    pub fn from_id(id: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.id() == id)
+    }
+
+    /// The effects `identify` fits.
+    pub fn library() -> impl Iterator<Item = Effect> {
+        Effect::ALL.into_iter().filter(|e| e.info().fitted)
+    }
+
+    /// A property of the sensor and its wiring (a device calibration can
+    /// hold it).
+    pub const fn is_static(self) -> bool {
+        matches!(self.info().scope, Scope::Sensor)
+    }
+}
+
+/// A value for every effect of the catalogue, SI (0: absent).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EffectSet(pub [f64; COUNT]);
+
+/// Why a value cannot be set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EffectError {
+    /// No effect has this id.
+    Unknown,
+    /// The value is outside the effect's physical limits.
+    OutOfLimits(Effect),
+    /// Not `id=value` with a number.
+    Syntax,
+}
+
+impl core::fmt::Display for EffectError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            EffectError::Unknown => write!(f, "no effect of the catalogue has this id"),
+            EffectError::OutOfLimits(e) => {
+                let i = e.info();
+                let (a, b) = if i.open { ('(', ')') } else { ('[', ']') };
+                write!(
+                    f,
+                    "{} must be within {a}{}, {}{b} {}",
+                    i.id, i.limits.0, i.limits.1, i.unit
+                )
+            }
+            EffectError::Syntax => write!(f, "expected id=value (SI units)"),
+        }
+    }
+}
+
+impl core::error::Error for EffectError {}
+
+impl EffectSet {
+    /// No effect.
+    pub const NONE: EffectSet = EffectSet([0.0; COUNT]);
+
+    /// The value of `e`, SI.
+    pub const fn get(&self, e: Effect) -> f64 {
+        self.0[e as usize]
+    }
+
+    /// With `e` set to `v` (SI).
+    pub const fn with(mut self, e: Effect, v: f64) -> Self {
+        self.0[e as usize] = v;
+        self
+    }
+
+    /// Set `e` to `v` (SI), checking the physical limits.
+    pub fn set(&mut self, e: Effect, v: f64) -> Result<(), EffectError> {
+        if !e.info().valid(v) {
+            return Err(EffectError::OutOfLimits(e));
+        }
+        self.0[e as usize] = v;
+        Ok(())
+    }
+
+    /// Is `e` present?
+    pub fn has(&self, e: Effect) -> bool {
+        self.get(e) != 0.0
+    }
+
+    /// Is any effect present?
+    pub fn any(&self) -> bool {
+        self.0.iter().any(|&v| v != 0.0)
+    }
+
+    /// Apply one `id=value` argument (value in SI, a plain number).
+    pub fn apply(&mut self, arg: &str) -> Result<Effect, EffectError> {
+        let (id, v) = arg.split_once('=').ok_or(EffectError::Syntax)?;
+        let e = Effect::from_id(id.trim()).ok_or(EffectError::Unknown)?;
+        let v: f64 = v.trim().parse().map_err(|_| EffectError::Syntax)?;
+        self.set(e, v)?;
+        Ok(e)
+    }
+
+    /// Only the effects of the sensor and its wiring (what a device
+    /// calibration holds).
+    pub fn statics(&self) -> Self {
+        let mut s = *self;
+        for e in Effect::ALL {
+            if !e.is_static() {
+                s.0[e as usize] = 0.0;
+            }
+        }
+        s
+    }
+
+    /// The wiring as the meter sees it: (resistance in series with the
+    /// line, Ω; capacitance in parallel at the meter, F), from the effects
+    /// that enter as [`Entry::SeriesPerTab`] (two tabs in the path) and
+    /// [`Entry::ShuntAtMeter`].
+    pub fn wiring(&self) -> (f64, f64) {
+        let (mut series, mut shunt) = (0.0, 0.0);
+        for e in Effect::ALL {
+            match e.info().entry {
+                Entry::SeriesPerTab => series += 2.0 * self.get(e),
+                Entry::ShuntAtMeter => shunt += self.get(e),
+                _ => {}
+            }
+        }
+        (series, shunt)
+    }
+
+    /// The wiring as a de-embedding calibration for the firmware
+    /// ([`EffectSet::wiring`] in `f32`).
+    pub fn fixture(&self) -> dsp_core::fixture::Fixture {
+        let (series, shunt) = self.wiring();
+        dsp_core::fixture::Fixture {
+            parallel_farad: shunt as f32,
+            series_ohm: series as f32,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_unique_and_ordered() {
+        for (i, e) in Effect::ALL.iter().enumerate() {
+            assert_eq!(*e as usize, i);
+            assert_eq!(Effect::from_id(e.id()), Some(*e));
+            for f in &Effect::ALL[i + 1..] {
+                assert_ne!(e.id(), f.id());
+                assert_ne!(e.info().key, f.info().key);
+            }
+            let i = e.info();
+            assert!(i.limits.0 <= i.search.0 && i.search.1 <= i.limits.1, "{}", i.id);
+            assert!(i.valid(0.0), "{}: 0 means absent", i.id);
+        }
+        assert_eq!(Effect::from_id("nothing"), None);
+    }
+
+    #[test]
+    fn arguments_are_checked_against_the_limits() {
+        let mut s = EffectSet::NONE;
+        assert_eq!(
+            s.apply("parasitic_capacitance=12e-12"),
+            Ok(Effect::ParasiticCapacitance)
+        );
+        assert_eq!(s.get(Effect::ParasiticCapacitance), 12e-12);
+        assert_eq!(
+            s.apply("contact_resistance=-1"),
+            Err(EffectError::OutOfLimits(Effect::ContactResistance))
+        );
+        assert_eq!(
+            s.apply("resistance_gradient=1"),
+            Err(EffectError::OutOfLimits(Effect::ResistanceGradient))
+        );
+        assert_eq!(
+            s.apply("resistance_gradient=0.99"),
+            Ok(Effect::ResistanceGradient)
+        );
+        assert_eq!(s.apply("x=1"), Err(EffectError::Unknown));
+        assert_eq!(s.apply("contact_resistance"), Err(EffectError::Syntax));
+        assert_eq!(
+            s.apply("contact_resistance=NaN"),
+            Err(EffectError::OutOfLimits(Effect::ContactResistance))
+        );
+        s.set(Effect::ContactResistance, 5e3).unwrap();
+        s.set(Effect::MeterLag, 0.05).unwrap();
+        assert_eq!(s.wiring(), (10e3, 12e-12));
+        let f = s.fixture();
+        assert_eq!((f.series_ohm, f.parallel_farad), (10e3, 12e-12));
+        assert!(!s.statics().has(Effect::MeterLag));
+        assert!(s.statics().has(Effect::ResistanceGradient));
+    }
+}

@@ -1,0 +1,29 @@
+//! The DE sensing-skin instrument, free of hardware: what the firmware
+//! runs, the simulators drive and the host tools read back, defined once.
+//!
+//! | module | what it holds |
+//! |---|---|
+//! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
+//! | [`config`] | sample rate, block, channels, the excitation frequency set |
+//! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
+//! | [`calib`] | stretch from capacitance through a calibration table in flash |
+//! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
+//! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
+//! | [`channel`] | one sensor channel: demodulated block → record |
+//!
+//! The firmware (board and QEMU) runs this code; host-sim's time-domain
+//! chain runs the same [`channel::Channel`] on the simulated skin. It is
+//! `no_std`, allocation-free and free of hardware, in the style of quartiq's
+//! stabilizer: the binaries only move samples. Units SI (Ω, F, S, Hz, s)
+//! unless a name says otherwise.
+#![no_std]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod calib;
+pub mod channel;
+pub mod config;
+pub mod effects;
+pub mod faults;
+pub mod mux;
+pub mod policy;
