@@ -1,27 +1,31 @@
 //! The measurement chain: a simulated sensor read at one excitation
-//! frequency, either through the front end, ADC and dsp-core demodulator
-//! (the firmware's code path) or by an ideal series LCR meter (the paper's
-//! instrument). Both report the lumped Cs–Rs and the line-corrected C and R.
+//! frequency, either through the front end, the ADC and the firmware's own
+//! channel (`instrument::channel::Channel::process`: demodulation, fault
+//! checks, line tracking; pinned to the nearest frequency of the firmware's
+//! set, in its blocks and slots) or by an ideal series LCR meter (the
+//! paper's instrument). Both report the lumped Cs–Rs and the line-corrected
+//! C and R.
 
-use dsp_core::demod::Demodulator;
+use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
 use dsp_core::{Complex32, Oscillator};
+use instrument::calib;
+use instrument::channel::{self, Channel, Settings};
+use instrument::config::{self, PERIODS};
 use instrument::effects::{Effect, EffectSet};
+use instrument::faults::Thresholds;
+use instrument::policy::Policy;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
 use skin_sim::sensor::Sensor;
 
-/// Demodulation block, log2 of pairs (2048 pairs: 10.24 ms at 200 kSa/s).
-pub const BLOCK_LOG2: u32 = 11;
-const BLOCK: usize = 1 << BLOCK_LOG2;
-
 /// How the impedance is measured.
 #[derive(Clone, Copy, Debug)]
 pub enum Meter {
-    /// Front end, ADC, and dsp-core's demodulator, block by block.
+    /// Front end, ADC, and the firmware's channel, slot by slot.
     Adc(FrontEndParams),
     /// An ideal series Cs–Rs meter, sampled every `interval_s`, with
     /// Gaussian reading noise of `rel` (relative) plus `abs_farad` on Cs and
@@ -150,30 +154,56 @@ pub fn run(
     };
     match meter {
         Meter::Adc(fe) => {
-            let fs = fe.sample_rate_hz as f32;
-            let Ok(osc) = Oscillator::coherent(freq_hz as f32, fs, BLOCK_LOG2) else {
-                return out;
+            // The firmware's channel, pinned to the frequency of its set
+            // nearest to the one asked for: blocks of config::BLOCK pairs
+            // after SETTLE_PAIRS of settling, one slot each.
+            let fs = fe.sample_rate_hz;
+            let index = (0..PERIODS.len())
+                .min_by(|&a, &b| {
+                    let d = |i: usize| (config::freq_hz(i) as f64 / freq_hz).ln().abs();
+                    d(a).total_cmp(&d(b))
+                })
+                .unwrap_or(0);
+            let f = config::freq_hz(index) as f64;
+            let osc = Oscillator::from_ftw(config::ftw(index));
+            let settings = Settings {
+                policy: Policy::DEFAULT,
+                thresholds: Thresholds::DEFAULT,
+                front_end: fe.dsp_front_end(),
+                calibration: &calib::REFERENCE,
+                tracker: channel::tracker(),
+                fixture: Fixture::NONE,
             };
-            let f = osc.freq_hz(fs) as f64;
-            let dm = Demodulator::<BLOCK>::new(&osc);
-            let dt = BLOCK as f64 / fe.sample_rate_hz;
-            let mut buf = vec![[0i16; 2]; BLOCK];
-            let front = fe.dsp_front_end();
+            let mut ch = Channel::pinned(prior_farad as f32, index);
+            let slot = (config::BLOCK + config::SETTLE_PAIRS) as f64 / fs;
+            let settle = config::SETTLE_PAIRS as f64 / fs;
+            let block = config::BLOCK as f64 / fs;
+            let mut buf = [[0i16; 2]; config::BLOCK];
             sensor.advance(profile, t_start);
             let mut t = sensor.time();
-            while t + dt <= t_end + 1e-12 {
-                sensor.advance(profile, t + 0.5 * dt);
+            while t + slot <= t_end + 1e-12 {
+                let mid = t + settle + 0.5 * block;
+                sensor.advance(profile, mid);
                 let truth = sensor.truth();
                 let clipped = fe.block(&osc, sensor.impedance(f), &mut rng, &mut buf);
-                let z = dm
-                    .block(buf.as_slice().try_into().expect("block length"))
-                    .impedance(&front);
-                let (cs, rs) = z
-                    .and_then(|z| SeriesRc::from_impedance(z, f as f32).ok())
-                    .map_or((f64::NAN, f64::NAN), |m| (m.cs_farad as f64, m.rs_ohm as f64));
-                let (c_corr, r_corr) = z.map_or((f64::NAN, f64::NAN), |z| correct(z, f as f32));
-                out.push(reading(&truth, f, cs, rs, c_corr, r_corr, clipped));
-                t += dt;
+                let ph = config::DEMODULATORS[index].block(&buf);
+                let rec = ch.process(&settings, 0, mid as f32, &ph, clipped);
+                let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
+                let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {
+                    (rec.c_farad as f64, rec.r_ohm as f64)
+                } else {
+                    (f64::NAN, f64::NAN)
+                };
+                out.push(reading(
+                    &truth,
+                    f,
+                    measured(rec.cs_farad),
+                    measured(rec.rs_ohm),
+                    c_corr,
+                    r_corr,
+                    clipped,
+                ));
+                t += slot;
                 sensor.advance(profile, t);
                 tick(t);
             }

@@ -583,7 +583,8 @@ fn errors(rs: &[Reading], v: impl Fn(&Reading) -> f64 + Copy) -> ([f64; 5], usiz
 
 /// The number that matters: capacitance error against the truth on the
 /// 20 mm/s trapezoid, through the firmware's code path (front end, ADC,
-/// demodulator), lumped vs. line-corrected, at 500 Hz, 2 kHz, 6 kHz.
+/// the firmware's channel), lumped vs. line-corrected, at the firmware's
+/// frequencies nearest to 500 Hz, 2 kHz and 6 kHz (586, 1953, 5859 Hz).
 pub fn accuracy(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     let mut jobs: Vec<Job<(f64, Vec<Reading>)>> = vec![];
     for f in FREQS {
@@ -592,7 +593,7 @@ pub fn accuracy(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     }
     let runs = parallel(jobs);
     let mut md = String::from(
-        "### Capacitance error against the truth, 20 mm/s trapezoid, ADC + dsp-core chain\n\n\
+        "### Capacitance error against the truth, 20 mm/s trapezoid, front end + ADC + the firmware's channel\n\n\
          | f | reading | RMS | max | RMS | max | undershoot | rejected |\n|---:|---|---:|---:|---:|---:|---:|---:|\n",
     );
     let mut out = vec![];
@@ -641,7 +642,7 @@ pub fn accuracy(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     }
     figure(
         &ctx.path("accuracy_20mmps.svg"),
-        "Lumped vs. line-corrected capacitance, 20 mm/s (ADC + dsp-core)",
+        "Lumped vs. line-corrected capacitance, 20 mm/s (ADC + the firmware's channel)",
         &panels,
     )?;
     Ok((md, out))
