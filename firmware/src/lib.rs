@@ -6,7 +6,6 @@
 //! | module | what it does |
 //! |---|---|
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
-//! | `log` | (target) the record wire format over defmt |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //! | `board` | (board target) the same for the STM32G474 |
 #![no_std]
@@ -15,8 +14,6 @@
 
 #[cfg(all(target_os = "none", feature = "board"))]
 pub mod board;
-#[cfg(target_os = "none")]
-pub mod log;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;
 #[cfg(feature = "qemu")]

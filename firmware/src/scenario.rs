@@ -183,10 +183,12 @@ impl Skin {
 
     /// Fill `out` with the block of the channel the multiplexer's address
     /// lines select, excited at frequency index `fidx`, for the block
-    /// starting at `t_s`; returns (channel, clipped, truth).
-    pub fn block(&mut self, fidx: usize, t_s: f32, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
+    /// whose middle is at `t_us` (µs since start); returns (channel,
+    /// clipped, truth).
+    pub fn block(&mut self, fidx: usize, t_us: u64, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
         let ch = (MUX_LINES.load(Ordering::Relaxed) as usize) % CHANNELS;
-        let t_mid = (t_s + 0.5 * instrument::config::BLOCK_S) as f64;
+        let t_mid = t_us as f64 * 1e-6;
+        let t_s = t_mid as f32;
         let profile = self.profile(ch);
         self.sensors[ch].advance(&profile, t_mid);
         let in_fault = self.scenario == Scenario::Faults && t_s >= FAULT_WINDOW.0 && t_s < FAULT_WINDOW.1;

@@ -69,7 +69,7 @@ impl Baseline {
     pub fn from_calibration(cal: &Table, model: LineModel, debias: bool) -> Result<Self> {
         let points = if debias {
             debiased_points(cal, &format!("{model:?}"), |r, c| {
-                series_cs(model, r.r_top_ohm() + r.r_bottom_ohm(), c, r.freq_hz())
+                series_cs(model, r.r_rec(), c, r.freq_hz())
             })?
         } else {
             cal.rows
@@ -112,8 +112,7 @@ impl Baseline {
     /// Predicted Cs (pF) of a trace row.
     pub fn predict_pf(&self, row: &Row) -> f64 {
         let c = self.capacitance(row.stretch_mm());
-        series_cs(self.model, row.r_top_ohm() + row.r_bottom_ohm(), c, row.freq_hz())
-            .map_or(f64::NAN, |cs| cs * 1e12)
+        series_cs(self.model, row.r_rec(), c, row.freq_hz()).map_or(f64::NAN, |cs| cs * 1e12)
     }
 }
 

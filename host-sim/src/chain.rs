@@ -187,7 +187,7 @@ pub fn run(
                 let truth = sensor.truth();
                 let clipped = fe.block(&osc, sensor.impedance(f), &mut rng, &mut buf);
                 let ph = config::DEMODULATORS[index].block(&buf);
-                let rec = ch.process(&settings, 0, mid as f32, &ph, clipped);
+                let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped);
                 let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
                 let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {
                     (rec.c_farad as f64, rec.r_ohm as f64)

@@ -22,14 +22,42 @@ pub enum Kind {
 }
 
 impl Kind {
-    /// Columns the file must have.
+    /// Columns the file must have, besides the electrode resistances
+    /// ([`Kind::needs_resistance`]).
     pub fn required(self) -> &'static [&'static str] {
         match self {
-            Kind::Calibration => &["stretch_mm", "freq_hz", "cs_pf", "r_top_ohm", "r_bottom_ohm"],
-            Kind::Sweep => &["stretch_mm", "freq_hz", "cs_pf"],
-            // Every trace column but the optional rs_ohm.
-            Kind::Trace => TRACE_HEADER.split_last().map_or(&[], |(_, req)| req),
+            Kind::Calibration | Kind::Sweep => &["stretch_mm", "freq_hz", "cs_pf"],
+            Kind::Trace => &["time_s", "stretch_mm", "freq_hz", "cs_pf"],
         }
+    }
+
+    /// The file must carry the electrode resistances: `r_top_ohm` and
+    /// `r_bottom_ohm`, or an instrument's own line estimate `r_line_ohm`.
+    pub fn needs_resistance(self) -> bool {
+        self != Kind::Sweep
+    }
+}
+
+/// Where a table's electrode resistance comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Resistance {
+    /// The four-terminal end-to-end resistances `r_top_ohm + r_bottom_ohm`
+    /// (tabs at both ends of each electrode).
+    FourTerminal,
+    /// The instrument's own line estimate `r_line_ohm` (a recording from a
+    /// two-tab instrument such as this project's firmware).
+    InstrumentLine,
+    /// None (a sweep).
+    None,
+}
+
+impl std::fmt::Display for Resistance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Resistance::FourTerminal => "four-terminal r_top_ohm + r_bottom_ohm",
+            Resistance::InstrumentLine => "the instrument's line estimate r_line_ohm",
+            Resistance::None => "none",
+        })
     }
 }
 
@@ -55,7 +83,7 @@ pub const TRACE_HEADER: [&str; 7] = [
 ];
 
 /// The known columns, in this order in [`Row::values`].
-pub const COLUMNS: [&str; 7] = [
+pub const COLUMNS: [&str; 8] = [
     "time_s",
     "stretch_mm",
     "freq_hz",
@@ -63,6 +91,7 @@ pub const COLUMNS: [&str; 7] = [
     "rs_ohm",
     "r_top_ohm",
     "r_bottom_ohm",
+    "r_line_ohm",
 ];
 
 /// One row: the known columns present in the file (NaN where absent), and
@@ -70,7 +99,7 @@ pub const COLUMNS: [&str; 7] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
     /// Values in [`COLUMNS`] order; NaN for a column the file lacks.
-    pub values: [f64; 7],
+    pub values: [f64; 8],
     /// Line number in the file (1-based).
     pub line: u64,
 }
@@ -104,6 +133,21 @@ impl Row {
     pub fn r_bottom_ohm(&self) -> f64 {
         self.values[6]
     }
+    /// r_line_ohm (NaN if not recorded).
+    pub fn r_line_ohm(&self) -> f64 {
+        self.values[7]
+    }
+    /// The recorded electrode resistance the analyses use, Ω: R_top +
+    /// R_bottom where recorded, else the instrument's line estimate (see
+    /// [`Table::resistance`]).
+    pub fn r_rec(&self) -> f64 {
+        let four = self.r_top_ohm() + self.r_bottom_ohm();
+        if four.is_finite() {
+            four
+        } else {
+            self.r_line_ohm()
+        }
+    }
 }
 
 /// One file of a data set.
@@ -113,6 +157,8 @@ pub struct Table {
     pub path: PathBuf,
     /// Which kind of file.
     pub kind: Kind,
+    /// Where its electrode resistance comes from.
+    pub resistance: Resistance,
     /// Every data row, in file order.
     pub rows: Vec<Row>,
 }
@@ -147,19 +193,33 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
         .iter()
         .map(|c| head.iter().position(|h| h == *c))
         .collect();
+    let has = |c: &str| head.iter().any(|h| h == c);
+    let header = || head.iter().collect::<Vec<_>>().join(",");
     for req in kind.required() {
-        if !head.iter().any(|h| h == *req) {
+        if !has(req) {
             bail!(
                 "{name}:{head_line}: missing required column '{req}' (header: {})",
-                head.iter().collect::<Vec<_>>().join(",")
+                header()
             );
         }
     }
+    let resistance = if !kind.needs_resistance() {
+        Resistance::None
+    } else if has("r_top_ohm") && has("r_bottom_ohm") {
+        Resistance::FourTerminal
+    } else if has("r_line_ohm") {
+        Resistance::InstrumentLine
+    } else {
+        bail!(
+            "{name}:{head_line}: missing required columns 'r_top_ohm' and 'r_bottom_ohm' (or an instrument's 'r_line_ohm') (header: {})",
+            header()
+        );
+    };
     let mut rows: Vec<Row> = vec![];
     for rec in rd.records() {
         let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
         let line = physical(rec.position().map_or(0, |p| p.line()));
-        let mut values = [f64::NAN; 7];
+        let mut values = [f64::NAN; 8];
         for (k, col) in COLUMNS.iter().enumerate() {
             let Some(i) = index[k] else { continue };
             let field = rec.get(i).unwrap_or("");
@@ -170,7 +230,10 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
                     i + 1
                 ),
             };
-            let nonneg = matches!(*col, "cs_pf" | "rs_ohm" | "r_top_ohm" | "r_bottom_ohm");
+            let nonneg = matches!(
+                *col,
+                "cs_pf" | "rs_ohm" | "r_top_ohm" | "r_bottom_ohm" | "r_line_ohm"
+            );
             if nonneg && v < 0.0 {
                 bail!("{name}:{line}:{}: column '{col}': negative value {v}", i + 1);
             }
@@ -209,6 +272,7 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
     Ok(Table {
         path: path.to_path_buf(),
         kind,
+        resistance,
         rows,
     })
 }

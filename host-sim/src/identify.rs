@@ -129,6 +129,9 @@ pub struct Report {
     pub unexplained: bool,
     /// Rows modelled.
     pub rows: usize,
+    /// Which electrode resistance the model used (the calibration's; the
+    /// traces' where they differ).
+    pub resistance: String,
     /// Options used.
     pub options: Options,
 }
@@ -425,6 +428,15 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
+/// Which electrode resistance a data set gives the model.
+fn resistance_of(ds: &DataSet) -> String {
+    let cal = ds.calibration.resistance;
+    match ds.traces.iter().find(|t| t.resistance != cal) {
+        None => cal.to_string(),
+        Some(t) => format!("{cal} (calibration), {} ({})", t.resistance, t.path.display()),
+    }
+}
+
 /// Run `identify` on a data set.
 pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let prep = Prepared::new(ds, options.sweep)?;
@@ -509,6 +521,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         accepted: None,
         unexplained: false,
         rows,
+        resistance: resistance_of(ds),
         options,
     };
     if explained(&base) {
@@ -657,6 +670,7 @@ impl Report {
             "best_attempt": self.best_attempt().map(stats),
             "candidates": candidates,
             "rows": self.rows,
+            "resistance": self.resistance,
             "criterion": {
                 "bic": "n·ln(S/n) + k·ln(n)",
                 "explained_within_noise": self.options.explained,
@@ -704,11 +718,12 @@ impl Report {
         let _ = writeln!(md, "## Error before and after\n");
         let _ = writeln!(
             md,
-            "Before: {}. After: {}. Noise floor: {:.3} pF ({} rows).\n",
+            "Before: {}. After: {}. Noise floor: {:.3} pF ({} rows). Electrode resistance: {}.\n",
             b.label(),
             f.label(),
             self.noise_floor_pf,
-            self.rows
+            self.rows,
+            self.resistance
         );
         let _ = writeln!(
             md,

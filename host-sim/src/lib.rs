@@ -10,6 +10,7 @@
 //! * [`identify`]: trace a residual to an effect by model selection.
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
+//! * [`recording`]: firmware recordings (the wire format) → data sets.
 //! * [`si`]: SI-prefixed numbers for the command line.
 
 pub mod baseline;
@@ -20,4 +21,5 @@ pub mod identify;
 pub mod meter;
 pub mod model;
 pub mod plot;
+pub mod recording;
 pub mod si;

@@ -109,6 +109,28 @@ enum Cmd {
         #[arg(long)]
         no_sweep: bool,
     },
+    /// A firmware recording (a decoded log with `rec`/`truth` lines, or raw
+    /// defmt bytes with --elf) → a data set in the interchange format:
+    /// traces per channel and frequency, calibration from the static
+    /// channels, faults.csv.
+    Decode {
+        /// The recording.
+        input: PathBuf,
+        /// The firmware ELF, when `input` is raw defmt.
+        #[arg(long)]
+        elf: Option<PathBuf>,
+        /// Output folder.
+        #[arg(long, default_value = "out/recording")]
+        out: PathBuf,
+        /// Channels that become traces, comma separated (default: the
+        /// moving ones).
+        #[arg(long, value_delimiter = ',')]
+        traces: Option<Vec<u8>>,
+        /// Channels that become calibration points (default: the static
+        /// ones, stretch spread below 0.5 mm).
+        #[arg(long, value_delimiter = ',')]
+        statics: Option<Vec<u8>>,
+    },
     /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
     Trace {
         /// trapezoid:RATE, ramp:RATE:AMPLITUDE, step:TIME:AMPLITUDE,
@@ -385,6 +407,26 @@ fn run(cli: Cli) -> Result<()> {
             println!("{md}");
             println!("wrote {}/report.md, report.json, residuals.svg", out.display());
         }
+        Cmd::Decode {
+            input,
+            elf,
+            out,
+            traces,
+            statics,
+        } => {
+            use host_sim::recording;
+            let recs = recording::read(&input, elf.as_deref())?;
+            let w = recording::write_dataset(&out, &recs, &recording::Roles { traces, statics })?;
+            println!(
+                "{} records → {} trace files ({} rows), {} calibration points, {} faults in {}",
+                recs.len(),
+                w.traces.len(),
+                w.rows,
+                w.calibration_points,
+                w.faults,
+                out.display()
+            );
+        }
         Cmd::Residual {
             dir,
             model,
@@ -392,6 +434,7 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             let ds = host_sim::dataset::read_dir(&dir)?;
             let b = host_sim::baseline::Baseline::from_calibration(&ds.calibration, model, !raw_calibration)?;
+            println!("electrode resistance: {}\n", ds.calibration.resistance);
             println!("| trace | rows | residual RMS | max | noise floor | RMS / noise |");
             println!("|---|---:|---:|---:|---:|---:|");
             for r in host_sim::baseline::residuals(&ds, &b) {

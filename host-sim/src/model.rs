@@ -90,11 +90,7 @@ impl Shape {
                 cal.path.display()
             );
         }
-        let mut r: Vec<(f64, f64)> = cal
-            .rows
-            .iter()
-            .map(|x| (x.stretch_mm(), x.r_top_ohm() + x.r_bottom_ohm()))
-            .collect();
+        let mut r: Vec<(f64, f64)> = cal.rows.iter().map(|x| (x.stretch_mm(), x.r_rec())).collect();
         r.sort_by(|a, b| a.0.total_cmp(&b.0));
         Ok(Self {
             c: crate::baseline::quadratic_fit(&pts),
@@ -351,7 +347,7 @@ fn file_of(t: &Table) -> File {
             vec![]
         },
         s: col(Row::stretch_mm),
-        r: t.rows.iter().map(|r| r.r_top_ohm() + r.r_bottom_ohm()).collect(),
+        r: t.rows.iter().map(|r| r.r_rec()).collect(),
         f: col(Row::freq_hz),
         cs: col(Row::cs_pf),
         corner: vec![],
@@ -395,7 +391,7 @@ impl Prepared {
     pub fn calibrate(&self, m: &Model) -> Result<[f64; 3]> {
         let what = format!("{} with {:?}", m.line, m.params);
         let pts = crate::baseline::debiased_points(&self.calibration, &what, |r, c| {
-            m.cs(r.r_top_ohm() + r.r_bottom_ohm(), c, r.stretch_mm(), r.freq_hz())
+            m.cs(r.r_rec(), c, r.stretch_mm(), r.freq_hz())
         })?;
         Ok(crate::baseline::quadratic_fit(&pts))
     }

@@ -79,7 +79,7 @@ fn rejections_name_file_line_column_and_reason() {
         ),
         (
             "time_s,stretch_mm,freq_hz,cs_pf\n0,0,500,200\n".to_string(),
-            vec![":1:", "missing required column 'r_top_ohm'"],
+            vec![":1:", "missing required columns 'r_top_ohm' and 'r_bottom_ohm'"],
         ),
         (format!("{head}0,0,1,1,500\n"), vec![":2:6:", "cs_pf", "''"]),
     ];
@@ -102,6 +102,19 @@ fn rejections_name_file_line_column_and_reason() {
     );
     let t = read_table(&p, Kind::Trace).unwrap();
     assert_eq!(t.rows[0].rs_ohm(), 3.0);
+    // A two-tab instrument's recording: its line estimate stands in for
+    // the four-terminal resistances, and the table says so.
+    let p = write(
+        d,
+        "line.csv",
+        "time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf\n0,0,700000,500,200\n",
+    );
+    let t = read_table(&p, Kind::Trace).unwrap();
+    assert_eq!(t.resistance, host_sim::dataset::Resistance::InstrumentLine);
+    assert_eq!(t.rows[0].r_rec(), 700000.0);
+    let t = read_table(&d.join("ok.csv"), Kind::Trace).unwrap();
+    assert_eq!(t.resistance, host_sim::dataset::Resistance::FourTerminal);
+    assert_eq!(t.rows[0].r_rec(), 2.0);
     // A data set without a calibration says so.
     let err = read_dir(d).unwrap_err().to_string();
     assert!(err.contains("missing calibration.csv"), "{err}");

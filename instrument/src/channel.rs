@@ -41,8 +41,8 @@ pub fn tracker() -> Tracker {
 /// One measurement record.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Record {
-    /// Time of the block's middle, s.
-    pub t_s: f32,
+    /// Time of the block's middle since start, µs.
+    pub t_us: u64,
     /// Channel.
     pub channel: u8,
     /// Excitation frequency, Hz.
@@ -67,7 +67,7 @@ pub struct Channel {
     /// Frequency policy state.
     pub policy: PolicyState,
     track: TrackState,
-    last_t: Option<f32>,
+    last_t_us: Option<u64>,
     /// The frequency is fixed (recording a data set at one frequency).
     pinned: bool,
 }
@@ -78,7 +78,7 @@ impl Channel {
         Self {
             policy: PolicyState::new(),
             track: TrackState::new(prior_farad),
-            last_t: None,
+            last_t_us: None,
             pinned: false,
         }
     }
@@ -103,15 +103,19 @@ impl Channel {
         &mut self,
         s: &Settings<N>,
         channel: u8,
-        t_s: f32,
+        t_us: u64,
         ph: &Phasors,
         clipped: bool,
     ) -> Record {
         let f = freq_hz(self.policy.index);
-        let dt = self.last_t.map_or(0.0, |t0| t_s - t0);
-        self.last_t = Some(t_s);
+        // Seconds since this channel's last block (f32 is exact enough for
+        // a difference, whatever the uptime).
+        let dt = self
+            .last_t_us
+            .map_or(0.0, |t0| t_us.saturating_sub(t0) as f32 * 1e-6);
+        self.last_t_us = Some(t_us);
         let mut rec = Record {
-            t_s,
+            t_us,
             channel,
             freq_hz: f,
             ..Record::default()

@@ -1,13 +1,17 @@
 //! Fixed configuration of the front end.
 
 /// Pair sample rate of the ADC (voltage and current together), Hz.
-pub const SAMPLE_RATE_HZ: f32 = 200_000.0;
+pub const SAMPLE_RATE: u32 = 200_000;
+/// [`SAMPLE_RATE`] as `f32`, Hz.
+pub const SAMPLE_RATE_HZ: f32 = SAMPLE_RATE as f32;
 /// log2 of the pairs in one demodulation block.
 pub const BLOCK_LOG2: u32 = 10;
 /// Pairs in one demodulation block (5.12 ms at 200 kSa/s).
 pub const BLOCK: usize = 1 << BLOCK_LOG2;
 /// Pairs discarded after each multiplexer switch (analog settling, 0.32 ms).
 pub const SETTLE_PAIRS: usize = 64;
+/// Pairs in one slot: settling, then the block.
+pub const SLOT_PAIRS: usize = SETTLE_PAIRS + BLOCK;
 /// Sensor channels behind the analog multiplexer.
 pub const CHANNELS: usize = 8;
 /// Block duration, s.

@@ -10,6 +10,8 @@
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`channel`] | one sensor channel: demodulated block → record |
+//! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
+//! | [`wire`] | the record wire format: its writer (defmt) and its parser |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain
 //! chain runs the same [`channel::Channel`] on the simulated skin. It is
@@ -20,6 +22,9 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+#[cfg(test)]
+extern crate std;
+
 pub mod calib;
 pub mod channel;
 pub mod config;
@@ -27,3 +32,5 @@ pub mod effects;
 pub mod faults;
 pub mod mux;
 pub mod policy;
+pub mod sequencer;
+pub mod wire;

@@ -92,7 +92,7 @@ fn run(
         s.advance(&profile, t as f64);
         let clipped = fe.block(&osc, s.impedance(freq_hz(i) as f64), &mut rng, &mut buf);
         let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
-        out.push(ch.process(&settings, 0, t, &ph, clipped));
+        out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped));
         t += SLOT_S;
     }
     out

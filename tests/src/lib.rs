@@ -178,26 +178,23 @@ pub const DSP_BUDGETS: [(&str, f64); 5] = [
     ("block_load_permille", 100.0),
 ];
 
-/// Decode the defmt frames of a QEMU run (semihosting stdout bytes) with
-/// the ELF's defmt table; one string per frame.
-pub fn decode_defmt(elf: &Path, raw: &[u8]) -> Result<Vec<String>> {
-    let bytes = std::fs::read(elf).with_context(|| format!("reading {}", elf.display()))?;
-    let table = defmt_decoder::Table::parse(&bytes)
-        .map_err(|e| anyhow::anyhow!("{}: defmt table: {e}", elf.display()))?
-        .ok_or_else(|| anyhow::anyhow!("{}: no defmt data", elf.display()))?;
-    let mut dec = table.new_stream_decoder();
-    dec.received(raw);
-    let mut out = vec![];
-    loop {
-        match dec.decode() {
-            Ok(frame) => out.push(frame.display_message().to_string()),
-            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
-            Err(defmt_decoder::DecodeError::Malformed) => {
-                bail!("malformed defmt stream after {} frames", out.len())
-            }
-        }
-    }
-    Ok(out)
+/// The `host-sim` command built beside this test executable (the
+/// workspace test run builds it; `cargo build -p host-sim` in the same
+/// profile otherwise).
+pub fn host_sim_bin() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> → target/<profile>/host-sim
+    let bin = exe
+        .parent()
+        .and_then(Path::parent)
+        .map(|d| d.join(format!("host-sim{}", std::env::consts::EXE_SUFFIX)))
+        .expect("target directory");
+    assert!(
+        bin.is_file(),
+        "{} is missing: build it first (cargo build -p host-sim, in the profile of this test)",
+        bin.display()
+    );
+    bin
 }
 
 /// Flash and static RAM of a firmware image, bytes: flash holds every

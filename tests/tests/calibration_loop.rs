@@ -8,7 +8,8 @@
 use host_sim::dataset::read_dir;
 use host_sim::identify::{identify, Options};
 use host_sim::model::Effect;
-use qemu_tests::records::{run_scenario_args, write_dataset, Rec};
+use host_sim::recording::{write_dataset, Roles};
+use qemu_tests::records::{run_scenario_args, Rec};
 
 /// RMS and max of the corrected C against the truth (pF) on the channels'
 /// valid records.
@@ -28,8 +29,12 @@ fn identified_wiring_calibrates_the_firmware() {
     // 1. Record a data set with the firmware.
     let (run, recs) = run_scenario_args(&["identify"]).unwrap();
     assert_eq!(run.code, Some(0), "{}", run.stdout);
-    let rows = write_dataset(tmp.path(), &recs, &[0, 1, 2], &[3, 4, 5, 6, 7]).unwrap();
-    assert!(rows > 1000, "{rows} trace rows");
+    let roles = Roles {
+        traces: Some(vec![0, 1, 2]),
+        statics: Some(vec![3, 4, 5, 6, 7]),
+    };
+    let w = write_dataset(tmp.path(), &recs, &roles).unwrap();
+    assert!(w.rows > 1000 && w.calibration_points == 5, "{w:?}");
     // 2. Identify the effect.
     let report = identify(&read_dir(tmp.path()).unwrap(), Options::default()).unwrap();
     println!("{}", report.markdown("firmware recording", None));

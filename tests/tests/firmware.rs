@@ -3,7 +3,8 @@
 
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
-use qemu_tests::records::{flags, run_scenario, Rec};
+use instrument::faults::Flags;
+use qemu_tests::records::{run_scenario, Rec};
 use std::time::Duration;
 
 fn channel(recs: &[Rec], ch: u8) -> Vec<Rec> {
@@ -24,7 +25,7 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     assert!(ch0.len() > 200, "{}", ch0.len());
     // Within 1 % of the truth throughout (only the one-block settling
     // records after a frequency switch carry no value).
-    let measured: Vec<&Rec> = ch0.iter().filter(|r| r.flags & flags::SETTLING == 0).collect();
+    let measured: Vec<&Rec> = ch0.iter().filter(|r| !r.flags.has(Flags::SETTLING)).collect();
     assert!(measured.len() > 9 * ch0.len() / 10);
     for r in &measured {
         assert!(r.valid(), "{r:?}");
@@ -44,12 +45,12 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     let cs6k = SeriesRc::from_impedance(z, 5859.375).unwrap().cs_farad as f64 * 1e12;
     assert!(t.c_pf - cs6k > 50.0, "6 kHz lumped {cs6k} vs {}", t.c_pf);
     // ...and raises it again afterwards (during the hold at 30 mm).
-    let hold: Vec<&Rec> = ch0.iter().filter(|r| (2500..5000).contains(&r.t_ms)).collect();
+    let hold: Vec<&Rec> = ch0.iter().filter(|r| (2.5..5.0).contains(&r.t_s)).collect();
     assert!(hold.iter().any(|r| r.freq_hz > 3000.0), "never climbed back");
     assert!(hold.iter().any(|r| r.freq_hz < 3000.0), "no adaptation at all?");
     // The lowering happens as the resistance rises: before the peak.
     let first_low = ch0.iter().find(|r| r.freq_hz < 2000.0).unwrap();
-    assert!(first_low.t_ms <= peak.t_ms, "{first_low:?} vs peak {peak:?}");
+    assert!(first_low.t_s <= peak.t_s, "{first_low:?} vs peak {peak:?}");
 }
 
 #[test]
@@ -58,7 +59,7 @@ fn slow_stretch_keeps_the_high_frequency() {
     run.ok().unwrap();
     let ch0 = channel(&recs, 0);
     // After the first blocks, a 1 mm/s stretch never needs a lower frequency.
-    let later: Vec<&Rec> = ch0.iter().filter(|r| r.t_ms > 500).collect();
+    let later: Vec<&Rec> = ch0.iter().filter(|r| r.t_s > 0.5).collect();
     assert!(later.len() > 100);
     assert!(
         later.iter().all(|r| r.freq_hz > 3900.0),
@@ -96,24 +97,24 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
     let (run, recs) = run_scenario("faults").unwrap();
     let run = run.ok().unwrap();
     assert_eq!(run.stdout.matches("start").count(), 1, "a reset happened");
-    for (ch, flag) in [(1u8, flags::OPEN), (2, flags::CLIPPED), (3, flags::RANGE)] {
+    for (ch, flag) in [(1u8, Flags::OPEN), (2, Flags::CLIPPED), (3, Flags::RANGE)] {
         let c = channel(&recs, ch);
-        let inside: Vec<&Rec> = c.iter().filter(|r| (1050..1950).contains(&r.t_ms)).collect();
+        let inside: Vec<&Rec> = c.iter().filter(|r| (1.05..1.95).contains(&r.t_s)).collect();
         assert!(!inside.is_empty());
         // The fault's flag, or settling right after the switch it caused.
         assert!(
-            inside.iter().all(|r| r.flags & (flag | flags::SETTLING) != 0),
+            inside.iter().all(|r| r.flags.has(flag | Flags::SETTLING)),
             "channel {ch}: {:?}",
-            inside.iter().find(|r| r.flags & (flag | flags::SETTLING) == 0)
+            inside.iter().find(|r| !r.flags.has(flag | Flags::SETTLING))
         );
-        assert!(inside.iter().filter(|r| r.flags & flag != 0).count() * 10 >= inside.len() * 8);
-        let before: Vec<&Rec> = c.iter().filter(|r| (300..1000).contains(&r.t_ms)).collect();
+        assert!(inside.iter().filter(|r| r.flags.has(flag)).count() * 10 >= inside.len() * 8);
+        let before: Vec<&Rec> = c.iter().filter(|r| (0.3..1.0).contains(&r.t_s)).collect();
         assert!(
-            before.iter().all(|r| r.flags & flag == 0 && r.valid()),
+            before.iter().all(|r| !r.flags.has(flag) && r.valid()),
             "channel {ch} before"
         );
         // The measurement resumes once the fault clears.
-        let after: Vec<&Rec> = c.iter().filter(|r| r.t_ms >= 2800).collect();
+        let after: Vec<&Rec> = c.iter().filter(|r| r.t_s >= 2.8).collect();
         assert!(
             !after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01),
             "channel {ch} after: {:?}",
@@ -122,8 +123,8 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
     }
     // Channel 0 never noticed: no fault flags at all (settling after its
     // own frequency switches is not a fault).
-    let fault_bits = flags::CLIPPED | flags::OPEN | flags::SHORTED | flags::RANGE;
-    assert!(channel(&recs, 0).iter().all(|r| r.flags & fault_bits == 0));
+    let fault_bits = Flags::CLIPPED | Flags::OPEN | Flags::SHORTED | Flags::RANGE;
+    assert!(channel(&recs, 0).iter().all(|r| !r.flags.has(fault_bits)));
 }
 
 #[test]

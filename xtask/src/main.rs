@@ -37,19 +37,6 @@ enum Cmd {
     },
     /// The main job: the instrument at work, results under out/.
     Run,
-    /// Firmware recording → CSV interchange format (one trace per channel
-    /// and frequency): a decoded log (probe-rs / defmt-print output) or raw
-    /// defmt bytes with the ELF.
-    Decode {
-        /// Decoded text log with `rec ...` lines, or raw defmt bytes with --elf.
-        input: std::path::PathBuf,
-        /// The firmware ELF, when `input` is raw defmt.
-        #[arg(long)]
-        elf: Option<std::path::PathBuf>,
-        /// Output folder.
-        #[arg(long, default_value = "out/recording")]
-        out: std::path::PathBuf,
-    },
 }
 
 fn main() -> Result<()> {
@@ -69,6 +56,10 @@ fn main() -> Result<()> {
                     "--no-deps",
                     "-p",
                     "dsp-core",
+                    "-p",
+                    "instrument",
+                    "-p",
+                    "skin-sim",
                     "-p",
                     "host-sim",
                     "-p",
@@ -113,36 +104,6 @@ fn main() -> Result<()> {
         Cmd::Run => {
             setup()?;
             run_main(&root)
-        }
-        Cmd::Decode { input, elf, out } => {
-            let bytes = std::fs::read(&input).with_context(|| format!("reading {}", input.display()))?;
-            let lines: Vec<String> = match elf {
-                Some(elf) => qemu_tests::decode_defmt(&elf, &bytes)?,
-                None => String::from_utf8_lossy(&bytes)
-                    .lines()
-                    // probe-rs prefixes lines with a timestamp/level; keep from "rec"/"truth".
-                    .filter_map(|l| {
-                        ["rec ", "truth "]
-                            .iter()
-                            .find_map(|k| l.find(k).map(|i| l[i..].to_string()))
-                    })
-                    .collect(),
-            };
-            let recs = qemu_tests::records::parse(&lines)?;
-            if recs.is_empty() {
-                bail!(
-                    "{}: no records (expected 'rec ...' lines, or raw defmt with --elf)",
-                    input.display()
-                );
-            }
-            let files = qemu_tests::records::write_csv(&out, &recs)?;
-            println!(
-                "{} records → {} trace files in {}",
-                recs.len(),
-                files.len(),
-                out.display()
-            );
-            Ok(())
         }
     }
 }

@@ -6,7 +6,8 @@ use anyhow::{Context, Result};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use host_sim::plot::{figure, Panel, Series};
-use qemu_tests::records::{self, Rec};
+use host_sim::recording::{self, Rec, Roles};
+use qemu_tests::records;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -39,7 +40,8 @@ pub fn run(out: &Path) -> Result<String> {
     let (run, recs) = records::run_scenario("paper")?;
     let run = run.ok()?;
     std::fs::write(out.join("firmware.log"), &run.stdout)?;
-    let files = records::write_csv(out, &recs)?;
+    let written = recording::write_dataset(out, &recs, &Roles::default())?;
+    let files = written.traces;
     let mut md = String::from(
         "# The firmware in QEMU on the simulated skin\n\n\
          Channel 0: the paper's 20 mm/s trapezoid; channel 1: 10 mm/s; channels 2–7 held at 4–14 mm.\n\
@@ -65,7 +67,7 @@ pub fn run(out: &Path) -> Result<String> {
             valid.len()
         )?;
         if ch < 2 {
-            let t = |r: &Rec| r.t_ms as f64 / 1e3;
+            let t = |r: &Rec| r.t_s;
             panels.push(Panel {
                 title: format!(
                     "channel {ch}: capacitance ({} mm/s)",
@@ -118,7 +120,13 @@ pub fn run(out: &Path) -> Result<String> {
         &panels,
     )
     .context("plot")?;
-    writeln!(md, "\nWrote {} trace files (one per channel and frequency), faults.csv, firmware.log, firmware_paper.svg.", files.len())?;
+    writeln!(
+        md,
+        "\nWrote the recording as a data set (`host-sim decode`): {} trace files (one per moving channel and frequency), \
+         calibration.csv ({} points from the held channels), faults.csv; and firmware.log, firmware_paper.svg.",
+        files.len(),
+        written.calibration_points
+    )?;
     std::fs::write(out.join("summary.md"), &md)?;
     Ok(md)
 }

@@ -157,7 +157,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     for k in 0..4 {
         total += insns(ticks(syst, || {
             let ph = dm.block(black_box(&buf));
-            black_box(ch.process(&settings, 0, k as f32 * 0.04, &ph, false));
+            black_box(ch.process(&settings, 0, k as u64 * 40_000, &ph, false));
         }));
     }
     let per_block = total / 4;

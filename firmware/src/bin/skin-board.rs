@@ -24,15 +24,17 @@ use dsp_core::demod::FrontEnd;
 use dsp_core::osc::{Oscillator, OscillatorState};
 use instrument::calib::{CalTable, REFERENCE};
 use instrument::channel::{Channel, Settings};
-use instrument::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_S};
+use instrument::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_PAIRS};
 use instrument::faults::Thresholds;
 use instrument::mux::Mux;
 use instrument::policy::Policy;
+use instrument::sequencer::{Sequencer, Slot};
 use stm32g4::stm32g474 as pac;
 // Logging, panics and faults: `firmware::board`, linked with the library.
+use firmware as _;
 
 /// Pairs per slot: settling, then the block.
-const SLOT: usize = SETTLE_PAIRS + BLOCK;
+const SLOT: usize = SLOT_PAIRS;
 /// Excitation amplitude: 1 V of the DAC's ±1.65 V, Q15.
 const AMPLITUDE: i16 = 19_859;
 
@@ -237,18 +239,16 @@ fn front_end(dp: &pac::Peripherals, adc_buf: u32, dac_buf: u32) {
 mod app {
     use super::*;
 
-    /// A finished slot: which DMA half holds it, and what was played.
+    /// A finished slot and the DMA half that holds it.
     #[derive(Clone, Copy)]
-    pub struct Slot {
+    pub struct Finished {
         pub half: usize,
-        pub channel: u8,
-        pub fidx: usize,
-        pub t_s: f32,
+        pub slot: Slot,
     }
 
     #[shared]
     struct Shared {
-        slot: Option<Slot>,
+        slot: Option<Finished>,
         channels: [Channel; CHANNELS],
     }
 
@@ -257,6 +257,7 @@ mod app {
         adc_buf: DmaBuf,
         dac_buf: &'static mut [u16; 2 * SLOT],
         mux: BoardMux,
+        seq: Sequencer,
         settings: Settings<'static, 11>,
     }
 
@@ -266,13 +267,14 @@ mod app {
         clocks(&dp);
         let cal: &'static CalTable<11> = &REFERENCE;
         let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
-        // Slots 0 and 1 play channels 0 and 1 at their start frequencies.
+        // Slots 0 and 1 play their channels at their start frequencies.
+        let (seq, slots) = Sequencer::start(|c| channels[c as usize].freq_index());
         let (first, second) = cx.local.dac.split_at_mut(SLOT);
         // (reborrowed below as dac_buf once filled)
-        fill_dac(first, channels[0].freq_index());
-        fill_dac(second, channels[1].freq_index());
+        fill_dac(first, slots[0].fidx);
+        fill_dac(second, slots[1].fidx);
         let mut mux = Mux::new([AnyPin::A0(PinB), AnyPin::A1(PinB), AnyPin::A2(PinB)]);
-        let Ok(_) = mux.select(0);
+        let Ok(_) = mux.select(slots[0].channel);
         let adc_buf: *const u32 = cx.local.adc.as_ptr();
         let dac_buf: &'static mut [u16; 2 * SLOT] = cx.local.dac;
         front_end(&dp, adc_buf as u32, dac_buf.as_ptr() as u32);
@@ -283,6 +285,7 @@ mod app {
                 adc_buf: DmaBuf(adc_buf),
                 dac_buf,
                 mux,
+                seq,
                 settings: Settings {
                     policy: Policy::DEFAULT,
                     thresholds: Thresholds::DEFAULT,
@@ -302,8 +305,9 @@ mod app {
         }
     }
 
-    /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dac_buf, mux, count: u32 = 0, fidx_of: [usize; 4] = [0; 4]])]
+    /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins
+    /// ([`instrument::sequencer`]).
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dac_buf, mux, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         // SAFETY: reading and clearing DMA1's channel-1 flags only.
         #[allow(unsafe_code)]
@@ -313,28 +317,27 @@ mod app {
             dma.ifcr().write(|w| w.bits(1));
             usize::from(isr & 1 << 1 != 0) // TCIF1: the second half is done
         };
-        let k = *cx.local.count;
-        *cx.local.count += 1;
-        let ch = (k as usize % CHANNELS) as u8;
+        let seq = &mut *cx.local.seq;
+        let step = cx
+            .shared
+            .channels
+            .lock(|c| seq.complete(|ch| c[ch as usize].freq_index()));
         // The slot that begins now: select its channel (within its settling).
-        let Ok(_) = cx.local.mux.select(((k + 1) as usize % CHANNELS) as u8);
-        // Hand slot k (in DMA half `half`) to the processing task.
-        let fidx = cx.local.fidx_of[k as usize % 4];
+        let Ok(_) = cx.local.mux.select(step.select);
+        // Hand the finished slot (in DMA half `half`) to the processing task.
         cx.shared.slot.lock(|s| {
-            *s = Some(Slot {
+            *s = Some(Finished {
                 half,
-                channel: ch,
-                fidx,
-                t_s: k as f32 * SLOT_S,
+                slot: step.done,
             })
         });
-        // Slot k + 2 reuses this half of the DAC buffer: its channel's frequency.
-        let next2 = (k as usize + 2) % CHANNELS;
-        let f2 = cx.shared.channels.lock(|c| c[next2].freq_index());
-        cx.local.fidx_of[(k as usize + 2) % 4] = f2;
-        fill_dac(&mut cx.local.dac_buf[half * SLOT..(half + 1) * SLOT], f2);
+        // The slot after next reuses this half of the DAC buffer.
+        fill_dac(
+            &mut cx.local.dac_buf[half * SLOT..(half + 1) * SLOT],
+            step.prepare.fidx,
+        );
         if process::spawn().is_err() {
-            defmt::println!("overrun {=u32}", k);
+            defmt::println!("overrun {=u64}", step.done.index);
         }
     }
 
@@ -342,15 +345,10 @@ mod app {
     #[task(priority = 1, shared = [slot, channels], local = [adc_buf, settings])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
-        let Some(Slot {
-            half,
-            channel: ch,
-            fidx,
-            t_s,
-        }) = cx.shared.slot.lock(|s| s.take())
-        else {
+        let Some(Finished { half, slot }) = cx.shared.slot.lock(|s| s.take()) else {
             return;
         };
+        let (ch, fidx) = (slot.channel, slot.fidx);
         // SAFETY: the DMA finished this half and writes the other one for
         // the next 5.44 ms; processing takes well under 0.1 ms.
         #[allow(unsafe_code)]
@@ -374,16 +372,11 @@ mod app {
                 // the policy switched since; skip, the next slot catches up.
                 return None;
             }
-            Some(channel.process(
-                settings,
-                ch,
-                t_s + 0.5 * instrument::config::BLOCK_S,
-                &ph,
-                clipped,
-            ))
+            Some(channel.process(settings, ch, slot.block_mid_us(), &ph, clipped))
         });
-        if let Some(rec) = rec {
-            firmware::log::record(t_s, &rec);
+        match rec {
+            Some(rec) => defmt::println!("{}", rec),
+            None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), ch),
         }
     }
 }

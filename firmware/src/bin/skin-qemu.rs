@@ -4,15 +4,16 @@
 //!
 //! * `dma_done` (hardware task, bound to the GPIOA interrupt, pended by
 //!   `idle` with `rtic::pend` as the board's DMA-complete interrupt would
-//!   fire): the block for the selected channel and frequency is ready.
+//!   fire): a slot is complete. The board's own sequencer
+//!   ([`instrument::sequencer`]) says which slot, channel and frequency it
+//!   was, which channel to select next and which frequency to prepare.
 //! * `process` (software task): demodulate, correct, check faults, update
-//!   the frequency policy, pick the next channel (round robin), log the
-//!   record with defmt.
+//!   the frequency policy, log the record with defmt.
 //!
-//! Records (defmt over semihosting, decoded on the host):
-//! `rec t_ms channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags`, and
-//! in QEMU also `truth t_ms channel c_pF r_ohm stretch_mm r_top_ohm
-//! r_bottom_ohm` (the rig's view: end-to-end electrode resistances).
+//! Records (defmt over semihosting, decoded on the host) are the wire
+//! format of [`instrument::wire`]: a `rec` line per block and, in QEMU, a
+//! `truth` line beside it (the rig's view: end-to-end electrode
+//! resistances).
 //! The scenario is the first semihosting argument (`-semihosting-config
 //! enable=on,arg=paper20`); the optional further ones are the static
 //! effects `host-sim identify` found, as `id=value` in SI units
@@ -26,11 +27,13 @@ use firmware::qemu;
 use firmware::scenario::{mux_pins, Scenario, SimPin, Skin};
 use instrument::calib::{CalTable, REFERENCE};
 use instrument::channel::{Channel, Settings};
-use instrument::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_S};
+use instrument::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_PAIRS};
 use instrument::effects::EffectSet;
 use instrument::faults::Thresholds;
 use instrument::mux::Mux;
 use instrument::policy::Policy;
+use instrument::sequencer::{pairs_us, Sequencer, Slot};
+use instrument::wire;
 
 /// A block as the DMA leaves it.
 pub struct Block {
@@ -38,12 +41,8 @@ pub struct Block {
     pub pairs: [[i16; 2]; BLOCK],
     /// A sample hit an ADC rail.
     pub clipped: bool,
-    /// Channel the multiplexer selected.
-    pub channel: u8,
-    /// Frequency index the DAC played.
-    pub fidx: usize,
-    /// Start time of the block, s.
-    pub t_s: f32,
+    /// The slot it completes (channel, frequency played).
+    pub slot: Slot,
 }
 
 /// The scenario (first argument) and the wiring calibration (optional
@@ -84,8 +83,7 @@ mod app {
     #[shared]
     struct Shared {
         block: Block,
-        /// (channel, frequency index) of the next block.
-        next: (u8, usize),
+        channels: [Channel; CHANNELS],
         done: bool,
     }
 
@@ -94,9 +92,9 @@ mod app {
         skin: Skin,
         mux: Mux<SimPin, 3>,
         scenario: Scenario,
-        channels: [Channel; CHANNELS],
+        seq: Sequencer,
         settings: Settings<'static, 11>,
-        end_slot: u32,
+        end_slot: u64,
     }
 
     #[init]
@@ -116,7 +114,11 @@ mod app {
             Some(i) => Channel::pinned(cal.rest_capacitance(), i),
             None => Channel::new(cal.rest_capacitance()),
         });
-        let fidx = channels[0].freq_index();
+        // As on the board: slots 0 and 1 are planned, slot 0's channel
+        // selected; the simulated DMA then completes one slot per pend.
+        let (seq, first) = Sequencer::start(|c| channels[c as usize].freq_index());
+        let mut mux = Mux::new(mux_pins());
+        let Ok(_) = mux.select(first[0].channel);
         defmt::println!(
             "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm",
             CHANNELS as u8,
@@ -129,20 +131,18 @@ mod app {
                 block: Block {
                     pairs: [[0; 2]; BLOCK],
                     clipped: false,
-                    channel: 0,
-                    fidx,
-                    t_s: 0.0,
+                    slot: first[0],
                 },
-                next: (0, fidx),
+                channels,
                 done: false,
             },
             Local {
                 skin,
-                mux: Mux::new(mux_pins()),
+                mux,
                 scenario,
-                channels,
+                seq,
                 settings,
-                end_slot: (scenario.duration_s() / SLOT_S) as u32,
+                end_slot: (scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS),
             },
         )
     }
@@ -158,77 +158,74 @@ mod app {
         }
     }
 
-    /// DMA complete: the simulated front end filled a block.
-    #[task(binds = GPIOA, priority = 2, shared = [block, next], local = [skin, mux, scenario, slot: u32 = 0])]
+    /// DMA complete: the simulated front end filled the slot that ends now
+    /// (the channel the multiplexer selects, at the frequency the sequencer
+    /// prepared for it), as the board's DMA half-transfer would.
+    #[task(binds = GPIOA, priority = 2, shared = [block, channels], local = [skin, mux, scenario, seq])]
     fn dma_done(mut cx: dma_done::Context) {
-        let slot = *cx.local.slot;
-        *cx.local.slot += 1;
-        if slot == 10 {
+        let step = {
+            let seq = &mut *cx.local.seq;
+            cx.shared
+                .channels
+                .lock(|c| seq.complete(|ch| c[ch as usize].freq_index()))
+        };
+        let done = step.done;
+        if done.index == 10 {
             match cx.local.scenario {
-                Scenario::Panic => panic!("injected panic at block {}", slot),
+                Scenario::Panic => panic!("injected panic at block {}", done.index),
                 Scenario::Hang => loop {
                     cortex_m::asm::nop();
                 },
                 _ => {}
             }
         }
-        let (ch, fidx) = cx.shared.next.lock(|n| *n);
-        let t_s = slot as f32 * SLOT_S;
-        // Select the channel; the slot's first SETTLE_PAIRS pairs let the
-        // analog path settle (discarded by the DMA layout on the board).
-        let Ok(_) = cx.local.mux.select(ch);
-        let skin = cx.local.skin;
+        let t_us = done.block_mid_us();
+        let skin = &mut *cx.local.skin;
         let (ch, truth) = cx.shared.block.lock(|b| {
-            let (ch, clipped, truth) = skin.block(fidx, t_s, &mut b.pairs);
+            let (ch, clipped, truth) = skin.block(done.fidx, t_us, &mut b.pairs);
             b.clipped = clipped;
-            b.channel = ch;
-            b.fidx = fidx;
-            b.t_s = t_s;
+            b.slot = Slot { channel: ch, ..done };
             (ch, truth)
         });
-        defmt::println!(
-            "truth {=u32} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32}",
-            (t_s * 1000.0) as u32,
-            ch,
-            (truth.c_farad * 1e12) as f32,
-            truth.r_line_ohm as f32,
-            truth.stretch_mm as f32,
-            truth.r_top_ohm as f32,
-            truth.r_bottom_ohm as f32
-        );
-        if process::spawn(slot).is_err() {
-            defmt::println!("overrun {=u32}", slot);
+        // The slot that begins now: its channel settles in its first pairs.
+        let Ok(_) = cx.local.mux.select(step.select);
+        let truth = wire::Truth {
+            t_us,
+            channel: ch,
+            c_farad: truth.c_farad as f32,
+            r_line_ohm: truth.r_line_ohm as f32,
+            stretch_mm: truth.stretch_mm as f32,
+            r_top_ohm: truth.r_top_ohm as f32,
+            r_bottom_ohm: truth.r_bottom_ohm as f32,
+        };
+        defmt::println!("{}", truth);
+        if process::spawn().is_err() {
+            defmt::println!("overrun {=u64}", done.index);
         }
     }
 
-    /// Demodulate, correct and log one block; choose the next one.
-    #[task(priority = 1, shared = [block, next, done], local = [channels, settings, end_slot])]
-    async fn process(mut cx: process::Context, slot: u32) {
+    /// Demodulate, correct and log one block.
+    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot])]
+    async fn process(mut cx: process::Context) {
         let local = cx.local;
-        let (ph, clipped, ch, fidx, t_s) = cx.shared.block.lock(|b| {
-            (
-                DEMODULATORS[b.fidx].block(&b.pairs),
-                b.clipped,
-                b.channel,
-                b.fidx,
-                b.t_s,
-            )
+        let (ph, clipped, slot) = cx
+            .shared
+            .block
+            .lock(|b| (DEMODULATORS[b.slot.fidx].block(&b.pairs), b.clipped, b.slot));
+        let settings = &*local.settings;
+        let rec = cx.shared.channels.lock(|c| {
+            let channel = &mut c[slot.channel as usize];
+            // Played at another frequency than the policy now wants (the
+            // policy switched after the slot was prepared): skip it, as the
+            // board does.
+            (channel.freq_index() == slot.fidx)
+                .then(|| channel.process(settings, slot.channel, slot.block_mid_us(), &ph, clipped))
         });
-        let channel = &mut local.channels[ch as usize];
-        // The policy's frequency for this channel was used for this block.
-        debug_assert_eq!(channel.freq_index(), fidx);
-        let rec = channel.process(
-            local.settings,
-            ch,
-            t_s + 0.5 * instrument::config::BLOCK_S,
-            &ph,
-            clipped,
-        );
-        firmware::log::record(t_s, &rec);
-        let next = ((ch as usize + 1) % CHANNELS) as u8;
-        let next_fidx = local.channels[next as usize].freq_index();
-        cx.shared.next.lock(|n| *n = (next, next_fidx));
-        if slot + 1 >= *local.end_slot {
+        match rec {
+            Some(rec) => defmt::println!("{}", rec),
+            None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
+        }
+        if slot.index + 1 >= *local.end_slot {
             cx.shared.done.lock(|d| *d = true);
         }
     }

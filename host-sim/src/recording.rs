@@ -1,0 +1,491 @@
+//! Firmware recordings: the `rec` and `truth` lines of
+//! [`instrument::wire`] (from a decoded log, or raw defmt bytes with the
+//! firmware's ELF) turned into a data set of the interchange format
+//! (`shared/data-format.md`) that `residual` and `identify` read.
+//!
+//! A data set from a recording:
+//! * `trace_ch{C}_{F}hz.csv`: one file per moving channel and excitation
+//!   frequency (a trace holds one frequency; the firmware's policy changes
+//!   it), every record with a lumped measurement: `time_s` (the block's
+//!   middle), `stretch_mm`, `freq_hz`, `cs_pf`, `rs_ohm`, the firmware's own
+//!   `c_line_pf`, `r_line_ohm` and `flags`; with a truth line (QEMU), the
+//!   rig's view too: the true stretch and the end-to-end electrode
+//!   resistances `r_top_ohm`, `r_bottom_ohm`, and `*_true` columns.
+//! * `calibration.csv`: one point per static channel (stretch spread below
+//!   [`STATIC_SPREAD_MM`]), the mean of its valid records at the frequency
+//!   it was read at most.
+//! * `faults.csv`: every record flagged invalid, with its flags.
+//!
+//! Without truth lines (a board) the stretch is the firmware's calibrated
+//! one and the resistance its line estimate `r_line_ohm`: the analyses say
+//! so ([`crate::dataset::Table::resistance`]).
+
+use anyhow::{bail, Context, Result};
+use instrument::faults::Flags;
+use instrument::wire::{self, Line, WireError};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// A channel whose stretch moves less than this (mm) is static: a
+/// calibration point.
+pub const STATIC_SPREAD_MM: f64 = 0.5;
+
+/// The simulated truth of one block (QEMU), in the units of the data sets.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Truth {
+    /// True line capacitance, pF.
+    pub c_pf: f64,
+    /// True line resistance, Ω.
+    pub r_ohm: f64,
+    /// True stretch, mm.
+    pub stretch_mm: f64,
+    /// End-to-end top electrode resistance, as the rig's ohmmeter reads it
+    /// through the tabs, Ω.
+    pub r_top_ohm: f64,
+    /// End-to-end bottom electrode resistance, Ω.
+    pub r_bottom_ohm: f64,
+}
+
+/// One record, with the truth of its block when the recording has one.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Rec {
+    /// Middle of the block, s since start.
+    pub t_s: f64,
+    /// Channel.
+    pub channel: u8,
+    /// Excitation frequency, Hz.
+    pub freq_hz: f64,
+    /// Lumped Cs, pF (0: not measured).
+    pub cs_pf: f64,
+    /// Lumped Rs, Ω.
+    pub rs_ohm: f64,
+    /// Line-corrected C, pF (0: not available).
+    pub c_pf: f64,
+    /// Line-corrected R (both electrodes), Ω.
+    pub r_ohm: f64,
+    /// Stretch from the firmware's calibration, mm.
+    pub stretch_mm: f64,
+    /// Flags.
+    pub flags: Flags,
+    /// The simulated truth of the same block (QEMU only).
+    pub truth: Option<Truth>,
+}
+
+impl Rec {
+    /// True if C can be trusted.
+    pub fn valid(&self) -> bool {
+        self.flags.valid()
+    }
+
+    /// The record carries a lumped measurement (not open, shorted,
+    /// settling or clipped).
+    pub fn measured(&self) -> bool {
+        self.cs_pf > 0.0
+            && !(self.flags.has(Flags::OPEN)
+                || self.flags.has(Flags::SHORTED)
+                || self.flags.has(Flags::SETTLING)
+                || self.flags.has(Flags::CLIPPED))
+    }
+
+    /// The stretch the rig saw (truth) or else the firmware's, mm.
+    pub fn stretch(&self) -> f64 {
+        self.truth.map_or(self.stretch_mm, |t| t.stretch_mm)
+    }
+}
+
+/// The record and truth lines of a decoded text log: everything from the
+/// keyword on (a probe prefixes lines with a timestamp and a level), with
+/// the line numbers of the log (1-based).
+pub fn log_lines(text: &str) -> Vec<(usize, String)> {
+    text.lines()
+        .enumerate()
+        .filter_map(|(i, l)| {
+            [wire::REC, wire::TRUTH].iter().find_map(|k| {
+                let at = l.find(&format!("{k} "))?;
+                // The keyword starts the line or follows a space.
+                (at == 0 || l[..at].ends_with(' ')).then(|| (i + 1, l[at..].to_string()))
+            })
+        })
+        .collect()
+}
+
+/// Decode raw defmt bytes with the ELF's defmt table; one string per frame,
+/// numbered from 1.
+pub fn decode_defmt(elf: &Path, raw: &[u8]) -> Result<Vec<(usize, String)>> {
+    let bytes = read_regular(elf, 64 << 20)?;
+    let table = defmt_decoder::Table::parse(&bytes)
+        .map_err(|e| anyhow::anyhow!("{}: defmt table: {e}", elf.display()))?
+        .ok_or_else(|| anyhow::anyhow!("{}: no defmt data", elf.display()))?;
+    let mut dec = table.new_stream_decoder();
+    dec.received(raw);
+    let mut out = vec![];
+    loop {
+        match dec.decode() {
+            Ok(frame) => out.push((out.len() + 1, frame.display_message().to_string())),
+            Err(defmt_decoder::DecodeError::UnexpectedEof) => break,
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                bail!("malformed defmt stream after {} frames", out.len())
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Read a regular file of at most `limit` bytes.
+fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot open", path.display()))?;
+    if !meta.is_file() {
+        bail!("{}: not a regular file", path.display());
+    }
+    if meta.len() > limit {
+        bail!(
+            "{}: {} bytes, more than the {limit} read",
+            path.display(),
+            meta.len()
+        );
+    }
+    std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))
+}
+
+/// Parse record and truth lines (numbered as in their source; other lines
+/// are skipped), pairing each record with the truth line of its block.
+/// `source` names the input in errors.
+pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
+    let mut out = vec![];
+    let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
+    for (n, l) in lines {
+        let line = match wire::parse(l) {
+            Ok(line) => line,
+            Err(WireError::NotARecord) => continue,
+            Err(e) => bail!("{source}:{n}: {e}: '{}'", clip(l)),
+        };
+        match line {
+            Line::Truth(t) => {
+                truth.insert((t.t_us, t.channel), t);
+            }
+            Line::Rec(r) => {
+                let t = truth.remove(&(r.t_us, r.channel)).map(|t| Truth {
+                    c_pf: t.c_farad as f64 * 1e12,
+                    r_ohm: t.r_line_ohm as f64,
+                    stretch_mm: t.stretch_mm as f64,
+                    r_top_ohm: t.r_top_ohm as f64,
+                    r_bottom_ohm: t.r_bottom_ohm as f64,
+                });
+                if let Some(prev) = out.iter().rev().find(|p: &&Rec| p.channel == r.channel) {
+                    if r.t_us as f64 * 1e-6 <= prev.t_s {
+                        bail!("{source}:{n}: channel {} goes back in time", r.channel);
+                    }
+                }
+                out.push(Rec {
+                    t_s: r.t_us as f64 * 1e-6,
+                    channel: r.channel,
+                    freq_hz: r.freq_hz as f64,
+                    cs_pf: r.cs_farad as f64 * 1e12,
+                    rs_ohm: r.rs_ohm as f64,
+                    c_pf: r.c_farad as f64 * 1e12,
+                    r_ohm: r.r_ohm as f64,
+                    stretch_mm: r.stretch_mm as f64,
+                    flags: r.flags,
+                    truth: t,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A line for an error message: at most 120 characters.
+fn clip(l: &str) -> String {
+    if l.chars().count() > 120 {
+        l.chars().take(117).collect::<String>() + "..."
+    } else {
+        l.to_string()
+    }
+}
+
+/// Read a recording: a decoded text log, or raw defmt bytes with `elf`.
+pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<Rec>> {
+    let bytes = read_regular(input, 1 << 30)?;
+    let name = input.display().to_string();
+    let lines = match elf {
+        Some(elf) => decode_defmt(elf, &bytes)?,
+        None => log_lines(&String::from_utf8_lossy(&bytes)),
+    };
+    let recs = parse(&name, &lines)?;
+    if recs.is_empty() {
+        bail!(
+            "{name}: no records (expected '{} ...' lines, or raw defmt with --elf)",
+            wire::REC
+        );
+    }
+    Ok(recs)
+}
+
+/// Which channels a recording's data set uses.
+#[derive(Clone, Debug, Default)]
+pub struct Roles {
+    /// Channels whose records become traces (None: the moving ones).
+    pub traces: Option<Vec<u8>>,
+    /// Channels whose records become calibration points (None: the
+    /// static ones).
+    pub statics: Option<Vec<u8>>,
+}
+
+/// What [`write_dataset`] wrote.
+#[derive(Clone, Debug, Default)]
+pub struct Written {
+    /// Trace files.
+    pub traces: Vec<PathBuf>,
+    /// Trace rows in all.
+    pub rows: usize,
+    /// Calibration points.
+    pub calibration_points: usize,
+    /// Records listed in `faults.csv`.
+    pub faults: usize,
+}
+
+/// Write `recs` as a data set in `dir` (see the module documentation).
+pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut channels: BTreeMap<u8, Vec<&Rec>> = BTreeMap::new();
+    for r in recs {
+        channels.entry(r.channel).or_default().push(r);
+    }
+    let spread = |rs: &[&Rec]| {
+        let s = rs.iter().filter(|r| r.valid()).map(|r| r.stretch());
+        let (lo, hi) = s.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+        if lo <= hi {
+            hi - lo
+        } else {
+            f64::NAN
+        }
+    };
+    let is_static = |ch: u8, rs: &[&Rec]| match &roles.statics {
+        Some(list) => list.contains(&ch),
+        // A channel with no valid record has no stretch to judge (its
+        // records are all in faults.csv).
+        None => spread(rs) < STATIC_SPREAD_MM,
+    };
+    let is_trace = |ch: u8, rs: &[&Rec]| match &roles.traces {
+        Some(list) => list.contains(&ch),
+        None => !is_static(ch, rs),
+    };
+    let truth = recs.iter().any(|r| r.truth.is_some());
+    let mut out = Written::default();
+    // Faults.
+    let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
+    writeln!(faults, "time_s,channel,freq_hz,flags")?;
+    for r in recs.iter().filter(|r| !r.valid()) {
+        writeln!(faults, "{:.6},{},{},{}", r.t_s, r.channel, r.freq_hz, r.flags.0)?;
+        out.faults += 1;
+    }
+    faults.flush()?;
+    // Calibration: one point per static channel.
+    let mut cal = std::io::BufWriter::new(std::fs::File::create(dir.join("calibration.csv"))?);
+    writeln!(
+        cal,
+        "# firmware recording: each static channel's valid records at its most used frequency, averaged"
+    )?;
+    let rcols = if truth {
+        "r_top_ohm,r_bottom_ohm"
+    } else {
+        "r_line_ohm"
+    };
+    writeln!(cal, "stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}")?;
+    for (&ch, rs) in &channels {
+        if !is_static(ch, rs) {
+            continue;
+        }
+        let good: Vec<&&Rec> = rs.iter().filter(|r| r.valid() && r.measured()).collect();
+        let mut count: BTreeMap<u64, usize> = BTreeMap::new();
+        for r in &good {
+            *count.entry(r.freq_hz.to_bits()).or_default() += 1;
+        }
+        let Some((&f, _)) = count.iter().max_by_key(|(_, n)| **n) else {
+            bail!("static channel {ch} has no valid record");
+        };
+        let at: Vec<&&&Rec> = good.iter().filter(|r| r.freq_hz.to_bits() == f).collect();
+        let n = at.len() as f64;
+        let mean = |g: &dyn Fn(&Rec) -> f64| at.iter().map(|r| g(r)).sum::<f64>() / n;
+        let r_text = if truth {
+            let t = |g: fn(&Truth) -> f64| mean(&|r: &Rec| r.truth.as_ref().map_or(f64::NAN, g));
+            format!("{:.0},{:.0}", t(|t| t.r_top_ohm), t(|t| t.r_bottom_ohm))
+        } else {
+            format!("{:.0}", mean(&|r| r.r_ohm))
+        };
+        writeln!(
+            cal,
+            "{:.4},{},{:.4},{:.0},{r_text}",
+            mean(&|r| r.stretch()),
+            f64::from_bits(f),
+            mean(&|r| r.cs_pf),
+            mean(&|r| r.rs_ohm)
+        )?;
+        out.calibration_points += 1;
+    }
+    cal.flush()?;
+    // Traces: one file per trace channel and frequency.
+    let mut groups: BTreeMap<(u8, u64), Vec<&Rec>> = BTreeMap::new();
+    for (&ch, rs) in &channels {
+        if is_trace(ch, rs) {
+            for r in rs.iter().filter(|r| r.measured()) {
+                groups.entry((ch, r.freq_hz.round() as u64)).or_default().push(r);
+            }
+        }
+    }
+    for ((ch, f), rs) in groups {
+        let path = dir.join(format!("trace_ch{ch}_{f}hz.csv"));
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
+        if truth {
+            writeln!(
+                w,
+                "# firmware channel {ch} at {f} Hz; stretch and electrode resistances from the rig (simulated truth)"
+            )?;
+            writeln!(w, "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,r_line_ohm,flags,c_true_pf,r_true_ohm,stretch_true_mm")?;
+        } else {
+            writeln!(
+                w,
+                "# firmware channel {ch} at {f} Hz; stretch from the firmware's calibration, resistance its line estimate"
+            )?;
+            writeln!(
+                w,
+                "time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,flags"
+            )?;
+        }
+        for r in rs {
+            match r.truth {
+                Some(t) if truth => writeln!(
+                    w,
+                    "{:.6},{:.4},{:.0},{:.0},{},{:.4},{:.0},{:.4},{:.0},{},{:.4},{:.0},{:.4}",
+                    r.t_s,
+                    t.stretch_mm,
+                    t.r_top_ohm,
+                    t.r_bottom_ohm,
+                    r.freq_hz,
+                    r.cs_pf,
+                    r.rs_ohm,
+                    r.c_pf,
+                    r.r_ohm,
+                    r.flags.0,
+                    t.c_pf,
+                    t.r_ohm,
+                    t.stretch_mm
+                )?,
+                None if truth => bail!(
+                    "record of channel {ch} at {:.6} s has no truth line where the others have one",
+                    r.t_s
+                ),
+                _ => writeln!(
+                    w,
+                    "{:.6},{:.4},{:.0},{},{:.4},{:.0},{:.4},{}",
+                    r.t_s, r.stretch_mm, r.r_ohm, r.freq_hz, r.cs_pf, r.rs_ohm, r.c_pf, r.flags.0
+                )?,
+            }
+            out.rows += 1;
+        }
+        w.flush()?;
+        out.traces.push(path);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines(s: &str) -> Vec<(usize, String)> {
+        log_lines(s)
+    }
+
+    #[test]
+    fn parses_pairs_and_splits_by_channel_and_frequency() {
+        let log = "start 8 channels\n\
+             truth 2880 0 210.0 712000 0.0 350000 362000\n\
+             rec 2880 0 585.9375 0 0 0 0 0 16\n\
+             truth 8320 1 214.2 712000 2.0 350000 362000\n\
+             rec 8320 1 585.9375 213.3 240000 214.21 711000 2.01 0\n\
+             12:00:01 INFO truth 13760 1 214.2 712000 4.0 350000 362000\n\
+             12:00:01 INFO rec 13760 1 1953.125 200.1 230000 214.25 712500 4.02 32\n\
+             truth 19200 2 214.2 712000 0.0 350000 362000\n\
+             rec 19200 2 585.9375 0 0 0 0 0 2\n";
+        let recs = parse("log", &lines(log)).unwrap();
+        assert_eq!(recs.len(), 4);
+        assert!((recs[1].truth.unwrap().c_pf - 214.2).abs() < 1e-4);
+        assert!((recs[1].t_s - 8.32e-3).abs() < 1e-12);
+        assert!(recs[1].valid() && recs[2].valid() && !recs[3].valid() && !recs[0].valid());
+        assert!(recs[2].flags.has(Flags::HELD));
+        let dir = tempfile::tempdir().unwrap();
+        let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
+        let names: Vec<String> = w
+            .traces
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        // Channel 1 moves (a trace at two frequencies); channel 0 (settling
+        // only) and channel 2 (open) have no valid record: channel 0 is no
+        // calibration point, and the open one is listed as a fault.
+        assert_eq!(names, ["trace_ch1_586hz.csv", "trace_ch1_1953hz.csv"]);
+        let text = std::fs::read_to_string(&w.traces[0]).unwrap();
+        let row: Vec<&str> = text.lines().nth(2).unwrap().split(',').collect();
+        assert_eq!(
+            (row[0], row[4], row[5], row[7]),
+            ("0.008320", "585.9375", "213.3000", "214.2100")
+        );
+        let faults = std::fs::read_to_string(dir.path().join("faults.csv")).unwrap();
+        assert_eq!(faults.lines().count(), 3, "{faults}");
+        assert_eq!(w.faults, 2);
+    }
+
+    #[test]
+    fn a_board_recording_without_truth_reads_back_with_the_line_estimate() {
+        // Channel 0 moves; channels 1-3 are held at 0, 10, 20 mm.
+        let mut log = String::new();
+        for k in 0..40u64 {
+            for ch in 0..4u64 {
+                let t = (k * 4 + ch) * 5440 + 2880;
+                let s = if ch == 0 {
+                    0.5 * k as f64
+                } else {
+                    10.0 * (ch - 1) as f64
+                };
+                let c = 210.0 * (1.0 + s / 100.0);
+                log += &format!(
+                    "rec {t} {ch} 1953.125 {:.3} 90000 {c:.3} 712000 {s:.3} 0\n",
+                    c - 2.0
+                );
+            }
+        }
+        let recs = parse("board.log", &lines(&log)).unwrap();
+        assert!(recs.iter().all(|r| r.truth.is_none()));
+        let dir = tempfile::tempdir().unwrap();
+        let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
+        assert_eq!((w.calibration_points, w.traces.len(), w.rows), (3, 1, 40));
+        let ds = crate::dataset::read_dir(dir.path()).unwrap();
+        use crate::dataset::Resistance;
+        assert_eq!(ds.calibration.resistance, Resistance::InstrumentLine);
+        assert_eq!(ds.traces[0].resistance, Resistance::InstrumentLine);
+        assert_eq!(ds.traces[0].rows[3].r_rec(), 712000.0);
+        assert_eq!(ds.calibration.rows[2].stretch_mm(), 20.0);
+    }
+
+    #[test]
+    fn malformed_records_are_errors_with_their_position() {
+        let err = parse("log", &lines("rec 0 0 585.9 1 2 3\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:1") && err.contains("7 fields"), "{err}");
+        let err = parse("log", &lines("start\nrec 0 0 585.9 1 2 3 4 x 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:2") && err.contains("field 9"), "{err}");
+        let err = parse("log", &lines("rec 9 0 1 1 2 3 4 5 0\nrec 9 0 1 1 2 3 4 5 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:2") && err.contains("back in time"), "{err}");
+        // Not a keyword inside a word.
+        assert!(lines("prec 0 0\n").is_empty());
+    }
+}

@@ -1,0 +1,212 @@
+//! The record wire format, written and parsed here and nowhere else.
+//!
+//! The firmware logs one line per block (defmt: `defmt::println!("{}",
+//! record)` with the `defmt` feature), and in QEMU one truth line per block
+//! beside it; the host reads them back with [`parse`]:
+//!
+//! ```text
+//! rec   t_us channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags
+//! truth t_us channel c_pF r_line_ohm stretch_mm r_top_ohm r_bottom_ohm
+//! ```
+//!
+//! `t_us` is the middle of the block in µs since start (an integer, exact
+//! for 584 000 years); a truth line belongs to the record with the same
+//! `t_us` and `channel`. Capacitances are in pF on the wire, F in
+//! [`Record`]. `flags` are the bits of [`crate::faults::Flags`].
+
+use crate::channel::Record;
+use crate::faults::Flags;
+
+/// The first word of a record line.
+pub const REC: &str = "rec";
+/// The first word of a truth line.
+pub const TRUTH: &str = "truth";
+
+/// What the simulated skin truly was during one block (QEMU only): the
+/// rig's view of the sensor.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Truth {
+    /// Middle of the block, µs.
+    pub t_us: u64,
+    /// Channel.
+    pub channel: u8,
+    /// Line capacitance, F.
+    pub c_farad: f32,
+    /// Line resistance (both electrodes, no contacts), Ω.
+    pub r_line_ohm: f32,
+    /// Stretch, mm.
+    pub stretch_mm: f32,
+    /// End-to-end top electrode resistance through its tabs, Ω.
+    pub r_top_ohm: f32,
+    /// End-to-end bottom electrode resistance, Ω.
+    pub r_bottom_ohm: f32,
+}
+
+/// One parsed line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Line {
+    /// A `rec` line.
+    Rec(Record),
+    /// A `truth` line.
+    Truth(Truth),
+}
+
+/// Why a line is not a record or truth line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WireError {
+    /// Neither `rec` nor `truth` (other log output).
+    NotARecord,
+    /// The number of fields differs from the format's.
+    FieldCount {
+        /// Fields the line has, its keyword included.
+        found: usize,
+        /// Fields the format has.
+        expected: usize,
+    },
+    /// Field `index` (0 = the keyword) does not parse, or is not finite.
+    Field(usize),
+}
+
+impl core::fmt::Display for WireError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            WireError::NotARecord => write!(f, "not a '{REC}' or '{TRUTH}' line"),
+            WireError::FieldCount { found, expected } => {
+                write!(f, "{found} fields where the format has {expected}")
+            }
+            WireError::Field(i) => write!(f, "field {} is not a finite number of its type", i + 1),
+        }
+    }
+}
+
+impl core::error::Error for WireError {}
+
+/// Fields of a `rec` line, its keyword included.
+pub const REC_FIELDS: usize = 10;
+/// Fields of a `truth` line, its keyword included.
+pub const TRUTH_FIELDS: usize = 8;
+
+/// Parse one line (surrounding text before the keyword, such as a probe's
+/// timestamp, must be cut by the caller).
+pub fn parse(line: &str) -> Result<Line, WireError> {
+    let mut words = line.split_whitespace();
+    let kind = words.next().ok_or(WireError::NotARecord)?;
+    let expected = match kind {
+        REC => REC_FIELDS,
+        TRUTH => TRUTH_FIELDS,
+        _ => return Err(WireError::NotARecord),
+    };
+    let mut w = [""; REC_FIELDS];
+    let mut found = 1;
+    for word in words {
+        if found < REC_FIELDS {
+            w[found] = word;
+        }
+        found += 1;
+    }
+    if found != expected {
+        return Err(WireError::FieldCount { found, expected });
+    }
+    let int = |i: usize| w[i].parse::<u64>().map_err(|_| WireError::Field(i));
+    let byte = |i: usize| w[i].parse::<u8>().map_err(|_| WireError::Field(i));
+    let num = |i: usize| match w[i].parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(WireError::Field(i)),
+    };
+    Ok(match kind {
+        REC => Line::Rec(Record {
+            t_us: int(1)?,
+            channel: byte(2)?,
+            freq_hz: num(3)?,
+            cs_farad: num(4)? * 1e-12,
+            rs_ohm: num(5)?,
+            c_farad: num(6)? * 1e-12,
+            r_ohm: num(7)?,
+            stretch_mm: num(8)?,
+            flags: Flags(byte(9)?),
+        }),
+        _ => Line::Truth(Truth {
+            t_us: int(1)?,
+            channel: byte(2)?,
+            c_farad: num(3)? * 1e-12,
+            r_line_ohm: num(4)?,
+            stretch_mm: num(5)?,
+            r_top_ohm: num(6)?,
+            r_bottom_ohm: num(7)?,
+        }),
+    })
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Record {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(
+            f,
+            "rec {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u8}",
+            self.t_us,
+            self.channel,
+            self.freq_hz,
+            self.cs_farad * 1e12,
+            self.rs_ohm,
+            self.c_farad * 1e12,
+            self.r_ohm,
+            self.stretch_mm,
+            self.flags.0
+        )
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Truth {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(
+            f,
+            "truth {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32}",
+            self.t_us,
+            self.channel,
+            self.c_farad * 1e12,
+            self.r_line_ohm,
+            self.stretch_mm,
+            self.r_top_ohm,
+            self.r_bottom_ohm
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lines_parse_and_bad_ones_say_why() {
+        let Ok(Line::Rec(r)) = parse("rec 2560 3 1953.125 201.5 123456 209.9 700000 -0.1 32") else {
+            panic!("not a record")
+        };
+        assert_eq!((r.t_us, r.channel, r.flags), (2560, 3, Flags(32)));
+        assert!((r.cs_farad - 201.5e-12).abs() < 1e-16 && (r.c_farad - 209.9e-12).abs() < 1e-16);
+        assert_eq!((r.rs_ohm, r.r_ohm, r.stretch_mm), (123456.0, 700000.0, -0.1));
+        let Ok(Line::Truth(t)) = parse("truth 2560 3 210 711000 0 355500 355500") else {
+            panic!("not a truth line")
+        };
+        assert_eq!((t.t_us, t.channel, t.r_top_ohm), (2560, 3, 355500.0));
+        assert_eq!(parse("start 8 channels"), Err(WireError::NotARecord));
+        assert_eq!(parse(""), Err(WireError::NotARecord));
+        assert_eq!(
+            parse("rec 1 2 3 4 5 6 7 8 9 10"),
+            Err(WireError::FieldCount {
+                found: 11,
+                expected: 10
+            })
+        );
+        assert_eq!(
+            parse("truth 1 2 3"),
+            Err(WireError::FieldCount {
+                found: 4,
+                expected: 8
+            })
+        );
+        assert_eq!(parse("rec 1 2 NaN 4 5 6 7 8 9"), Err(WireError::Field(3)));
+        assert_eq!(parse("rec -1 2 3 4 5 6 7 8 9"), Err(WireError::Field(1)));
+        assert_eq!(parse("rec 1 300 3 4 5 6 7 8 9"), Err(WireError::Field(2)));
+    }
+}

@@ -1,0 +1,49 @@
+//! A firmware recording, decoded by the user's tool (`host-sim decode`),
+//! is a complete data set: `residual` and `identify` read it.
+
+use std::process::Command;
+
+#[test]
+fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() {
+    let (run, recs) = qemu_tests::records::run_scenario("paper").unwrap();
+    let run = run.ok().unwrap();
+    assert!(recs.len() > 3000, "{} records", recs.len());
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("firmware.log");
+    std::fs::write(&log, &run.stdout).unwrap();
+    let ds = tmp.path().join("ds");
+    let host_sim = qemu_tests::host_sim_bin();
+    let out = Command::new(&host_sim)
+        .arg("decode")
+        .arg(&log)
+        .arg("--out")
+        .arg(&ds)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Channels 2-7 are held: six calibration points; channels 0 and 1 move.
+    assert!(text.contains("6 calibration points"), "{text}");
+    let set = host_sim::dataset::read_dir(&ds).unwrap();
+    assert_eq!(set.calibration.rows.len(), 6);
+    assert!(set.traces.len() >= 4, "{} traces", set.traces.len());
+    for sub in [&["residual"][..], &["identify", "--out"][..]] {
+        let mut cmd = Command::new(&host_sim);
+        cmd.args(sub);
+        if sub.len() == 2 {
+            cmd.arg(tmp.path().join("id"));
+        }
+        let out = cmd.arg(&ds).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{sub:?}: {}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    assert!(tmp.path().join("id/report.json").is_file());
+}
