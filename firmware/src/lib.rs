@@ -7,12 +7,15 @@
 //! |---|---|
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
-//! | `board` | (board target) the same for the STM32G474 |
+//! | `board` | (feature `board`) the STM32G474's hardware, one module per peripheral; its logging, panics and faults on the target |
 #![no_std]
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
-#[cfg(all(target_os = "none", feature = "board"))]
+#[cfg(test)]
+extern crate std;
+
+#[cfg(feature = "board")]
 pub mod board;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;

@@ -1,6 +1,8 @@
 //! Stretch from capacitance: a calibration table (capacitance → stretch)
 //! stored in flash, inverted by linear interpolation.
 
+use crate::design;
+
 /// A monotone table of (capacitance F, stretch mm) points, ascending in
 /// capacitance.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -9,23 +11,19 @@ pub struct CalTable<const N: usize> {
     pub points: [(f32, f32); N],
 }
 
-/// The reference sensor's static calibration: C = 210 pF·(1 + s/100 mm)
-/// every 3 mm from 0 to 30 mm (the line-corrected C, so no low-frequency
-/// bias; see host-sim's `calibration`).
-pub const REFERENCE: CalTable<11> = CalTable {
-    points: [
-        (210.0e-12, 0.0),
-        (216.3e-12, 3.0),
-        (222.6e-12, 6.0),
-        (228.9e-12, 9.0),
-        (235.2e-12, 12.0),
-        (241.5e-12, 15.0),
-        (247.8e-12, 18.0),
-        (254.1e-12, 21.0),
-        (260.4e-12, 24.0),
-        (266.7e-12, 27.0),
-        (273.0e-12, 30.0),
-    ],
+/// The reference sensor's static calibration ([`crate::design`]: C =
+/// C_rest·(1 + s/length)) every 3 mm from 0 to 30 mm (the line-corrected
+/// C, so no low-frequency bias; see host-sim's `calibration`).
+pub const REFERENCE: CalTable<11> = {
+    let mut points = [(0.0f32, 0.0f32); 11];
+    let mut k = 0;
+    while k < 11 {
+        let s = 3.0 * k as f64;
+        let c = design::SENSOR_C_REST_FARAD * (1.0 + s / design::SENSOR_REST_LENGTH_MM);
+        points[k] = (c as f32, s as f32);
+        k += 1;
+    }
+    CalTable { points }
 };
 
 impl<const N: usize> CalTable<N> {

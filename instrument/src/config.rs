@@ -1,8 +1,8 @@
 //! Fixed configuration of the front end.
 
-/// Pair sample rate of the ADC (voltage and current together), Hz.
-pub const SAMPLE_RATE: u32 = 200_000;
-/// [`SAMPLE_RATE`] as `f32`, Hz.
+use crate::design::SAMPLE_RATE;
+
+/// The pair sample rate ([`crate::design::SAMPLE_RATE`]) as `f32`, Hz.
 pub const SAMPLE_RATE_HZ: f32 = SAMPLE_RATE as f32;
 /// log2 of the pairs in one demodulation block.
 pub const BLOCK_LOG2: u32 = 10;

@@ -2,6 +2,8 @@
 //! fault: it flags the record and keeps measuring; the flag clears with the
 //! cause.
 
+use crate::design;
+
 /// Bit set of flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Flags(pub u8);
@@ -36,6 +38,10 @@ impl Flags {
     }
 }
 
+/// The designed excitation at the voltage ADC, counts (amplitude).
+const EXCITATION_COUNTS: f32 = (design::EXCITATION_VOLT * design::V_GAIN * design::ADC_OFFSET_CODE as f64
+    / design::ADC_HALF_SCALE_VOLT) as f32;
+
 /// Thresholds of the fault checks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Thresholds {
@@ -51,13 +57,14 @@ pub struct Thresholds {
 }
 
 impl Thresholds {
-    /// Defaults for a 12-bit ADC and the reference front end (1 V, 100 kΩ
-    /// transimpedance, ±1.65 V): the smallest real current, a 150 pF sensor
-    /// at 586 Hz, gives ≈70 counts; the noise floor of a 1024-pair block is
-    /// ≈0.05 counts, so 4 counts separates them widely.
+    /// Defaults for the front end of [`crate::design`] (12-bit ADC of
+    /// ±1.65 V, 1 V excitation, 100 kΩ transimpedance): the smallest real
+    /// current, a 150 pF sensor at 586 Hz, gives ≈70 counts; the noise
+    /// floor of a 1024-pair block is ≈0.05 counts, so 4 counts separates
+    /// them widely. No excitation: below a sixth of the designed one.
     pub const DEFAULT: Self = Self {
         open_counts: 4.0,
-        no_excitation_counts: 200.0,
+        no_excitation_counts: EXCITATION_COUNTS / 6.0,
         short_ohm: 1_000.0,
         r_max_ohm: 5.0e6,
     };

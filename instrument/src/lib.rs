@@ -4,7 +4,8 @@
 //! | module | what it holds |
 //! |---|---|
 //! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
-//! | [`config`] | sample rate, block, channels, the excitation frequency set |
+//! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor |
+//! | [`config`] | block, slot, channels, the excitation frequency set |
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
@@ -28,6 +29,7 @@ extern crate std;
 pub mod calib;
 pub mod channel;
 pub mod config;
+pub mod design;
 pub mod effects;
 pub mod faults;
 pub mod mux;

@@ -16,7 +16,8 @@
 //! slots later; with [`CHANNELS`] > 2 that is before the channel's next
 //! slot.
 
-use crate::config::{BLOCK, CHANNELS, SAMPLE_RATE, SETTLE_PAIRS, SLOT_PAIRS};
+use crate::config::{BLOCK, CHANNELS, SETTLE_PAIRS, SLOT_PAIRS};
+use crate::design::SAMPLE_RATE;
 
 /// Duration of `pairs` ADC pairs, µs (exact for the configured rate).
 pub const fn pairs_us(pairs: usize) -> u64 {

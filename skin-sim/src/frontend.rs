@@ -15,6 +15,7 @@
 use crate::rng::Rng;
 use dsp_core::demod::FrontEnd;
 use dsp_core::{Oscillator, OscillatorState};
+use instrument::design;
 use num_complex::Complex64;
 
 /// Front-end parameters.
@@ -37,15 +38,16 @@ pub struct FrontEndParams {
 }
 
 impl FrontEndParams {
-    /// The reference front end: 200 kSa/s, 1 V excitation, 100 kΩ
-    /// transimpedance, 12-bit ±1.65 V ADC, 0.7 LSB rms noise.
+    /// The reference front end, as designed ([`instrument::design`]:
+    /// 200 kSa/s, 1 V excitation, 100 kΩ transimpedance, 12-bit ±1.65 V
+    /// ADC), with 0.7 LSB rms noise.
     pub const REFERENCE: Self = Self {
-        sample_rate_hz: 200e3,
-        excitation_volt: 1.0,
-        v_gain: 1.0,
-        tia_ohm: 100e3,
-        adc_bits: 12,
-        full_scale_volt: 1.65,
+        sample_rate_hz: design::SAMPLE_RATE as f64,
+        excitation_volt: design::EXCITATION_VOLT,
+        v_gain: design::V_GAIN,
+        tia_ohm: design::TIA_OHM,
+        adc_bits: design::ADC_BITS,
+        full_scale_volt: design::ADC_HALF_SCALE_VOLT,
         noise_lsb: 0.7,
     };
 

@@ -17,6 +17,7 @@
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
 use crate::profile::Profile;
+use instrument::design;
 use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
 
@@ -42,8 +43,8 @@ pub struct SensorParams {
 impl SensorParams {
     /// The reference sensor: 100 mm, 210 pF, ≈350 + 362 kΩ, no effects.
     pub const REFERENCE: Self = Self {
-        c_rest_farad: 210e-12,
-        rest_length_mm: 100.0,
+        c_rest_farad: design::SENSOR_C_REST_FARAD,
+        rest_length_mm: design::SENSOR_REST_LENGTH_MM,
         top: ElectrodeParams::TOP,
         bottom: ElectrodeParams::BOTTOM,
         effects: EffectSet::NONE,

@@ -144,7 +144,10 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let settings = Settings {
         policy: instrument::policy::Policy::DEFAULT,
         thresholds: instrument::faults::Thresholds::DEFAULT,
-        front_end: dsp_core::demod::FrontEnd::transimpedance(100e3, true),
+        front_end: dsp_core::demod::FrontEnd::transimpedance(
+            (instrument::design::TIA_OHM / instrument::design::V_GAIN) as f32,
+            true,
+        ),
         calibration: &REFERENCE,
         tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,

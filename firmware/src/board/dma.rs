@@ -1,0 +1,130 @@
+//! DMA1: channel 1 moves the packed ADC pairs into a circular buffer of
+//! two slots; channel 2 feeds the DAC from a matching buffer. Channel 1's
+//! half- and full-transfer interrupts pace the firmware.
+
+use super::pac::{dma1, dmamux};
+
+/// DMAMUX request of ADC1 (RM0440 table 91).
+pub const REQ_ADC1: u8 = 5;
+/// DMAMUX request of DAC1 channel 1.
+pub const REQ_DAC1_CH1: u8 = 6;
+
+/// DMAMUX channel 0 (DMA1 channel 1) ← ADC1, channel 1 (DMA1 channel 2)
+/// ← DAC1 channel 1.
+#[allow(unsafe_code)]
+pub fn requests(mux: &dmamux::RegisterBlock) {
+    // SAFETY: both are request lines of the G474's DMAMUX (1..=115); the
+    // PAC gives the field no range.
+    mux.ccr(0).write(|w| unsafe { w.dmareq_id().bits(REQ_ADC1) });
+    mux.ccr(1).write(|w| unsafe { w.dmareq_id().bits(REQ_DAC1_CH1) });
+}
+
+/// Channel 1: `words` 32-bit words from the ADC common data register
+/// `from` to `to`, circular, with half-transfer, transfer-complete and
+/// transfer-error interrupts.
+#[allow(unsafe_code)]
+pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
+    let ch = dma.ch(0);
+    // SAFETY: any address is a valid value of these registers; the caller
+    // gives the data register and a 'static buffer.
+    ch.par().write(|w| unsafe { w.pa().bits(from) });
+    ch.mar().write(|w| unsafe { w.ma().bits(to) });
+    ch.ndtr().write(|w| w.ndt().set(words));
+    ch.cr().write(|w| {
+        w.dir()
+            .from_peripheral()
+            .psize()
+            .bits32()
+            .msize()
+            .bits32()
+            .minc()
+            .set_bit()
+            .circ()
+            .set_bit()
+            .htie()
+            .set_bit()
+            .tcie()
+            .set_bit()
+            .teie()
+            .set_bit()
+            .en()
+            .set_bit()
+    });
+}
+
+/// Channel 2: `codes` 16-bit DAC codes from `from` to the DAC's 12-bit
+/// right-aligned holding register `to`, circular; the peripheral side is
+/// written as 32-bit words (a 16-bit write to a DAC register is not
+/// supported, RM0440 22.7).
+#[allow(unsafe_code)]
+pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
+    let ch = dma.ch(1);
+    // SAFETY: as in `adc_channel`.
+    ch.par().write(|w| unsafe { w.pa().bits(to) });
+    ch.mar().write(|w| unsafe { w.ma().bits(from) });
+    ch.ndtr().write(|w| w.ndt().set(codes));
+    ch.cr().write(|w| {
+        w.dir()
+            .from_memory()
+            .psize()
+            .bits32()
+            .msize()
+            .bits16()
+            .minc()
+            .set_bit()
+            .circ()
+            .set_bit()
+            .en()
+            .set_bit()
+    });
+}
+
+/// What channel 1's interrupt found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// The first half (slot) is complete.
+    FirstHalf,
+    /// The second half is complete.
+    SecondHalf,
+    /// Both halves completed since the last interrupt was served: a slot
+    /// was lost (the interrupt came too late).
+    Overrun,
+    /// A transfer error: the channel stopped.
+    Error,
+    /// No event (a spurious interrupt).
+    None,
+}
+
+impl Event {
+    /// From channel 1's flags: transfer error, half transfer, transfer
+    /// complete.
+    pub fn from_flags(teif: bool, htif: bool, tcif: bool) -> Self {
+        match (teif, htif, tcif) {
+            (true, _, _) => Event::Error,
+            (false, true, true) => Event::Overrun,
+            (false, true, false) => Event::FirstHalf,
+            (false, false, true) => Event::SecondHalf,
+            (false, false, false) => Event::None,
+        }
+    }
+
+    /// The DMA half that completed, if one did unambiguously.
+    pub fn half(self) -> Option<usize> {
+        match self {
+            Event::FirstHalf => Some(0),
+            Event::SecondHalf => Some(1),
+            _ => None,
+        }
+    }
+}
+
+/// Read and clear channel 1's flags.
+pub fn take_event(dma: &dma1::RegisterBlock) -> Event {
+    let isr = dma.isr().read();
+    dma.ifcr().write(|w| w.cgif1().clear());
+    Event::from_flags(
+        isr.teif1().bit_is_set(),
+        isr.htif1().bit_is_set(),
+        isr.tcif1().bit_is_set(),
+    )
+}

@@ -1,0 +1,33 @@
+//! The STM32G474 (Nucleo-G474RE) hardware, one module per peripheral.
+//!
+//! Each register write is a small function over the peripheral's register
+//! block, written with the PAC's field writers: the host tests
+//! (`board/tests.rs`) apply them to register blocks in RAM and
+//! check the values against RM0440. The `init` sequences (target only) add
+//! the waits and the order the reference manual requires.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`clocks`] | HSI16 → PLL → 170 MHz, range-1 boost, flash wait states, peripheral clocks |
+//! | [`pins`] | analog inputs, the multiplexer's address lines (embedded-hal `OutputPin`) |
+//! | [`adc`] | ADC1 + ADC2 in dual regular simultaneous mode, paced by TIM6 |
+//! | [`dac`] | DAC1 channel 1, paced by TIM6, fed by DMA |
+//! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events |
+//! | [`timer`] | TIM6 at the sample rate |
+//!
+//! The front end's values (sample rate, clock, amplitude) come from
+//! `instrument::design`.
+
+pub use stm32g4::stm32g474 as pac;
+
+pub mod adc;
+pub mod clocks;
+pub mod dac;
+pub mod dma;
+pub mod pins;
+#[cfg(target_os = "none")]
+mod runtime;
+pub mod timer;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,86 @@
+//! Pins: PA0 (ADC1_IN1), PA1 (ADC2_IN2) and PA4 (DAC1_OUT1) analog; PB0,
+//! PB1, PB2 push-pull outputs driving the multiplexer's address lines
+//! A0..A2 (embedded-hal `OutputPin`).
+
+use super::pac::{gpioa, gpiob};
+
+/// PA0, PA1, PA4 analog.
+pub fn analog(gpioa: &gpioa::RegisterBlock) {
+    gpioa
+        .moder()
+        .modify(|_, w| w.moder0().analog().moder1().analog().moder4().analog());
+}
+
+/// PB0..PB2 outputs.
+pub fn mux_outputs(gpiob: &gpiob::RegisterBlock) {
+    gpiob
+        .moder()
+        .modify(|_, w| w.moder0().output().moder1().output().moder2().output());
+}
+
+/// Multiplexer address line on GPIOB pin `N`.
+pub struct PinB<const N: u8>;
+
+impl<const N: u8> embedded_hal::digital::ErrorType for PinB<N> {
+    type Error = core::convert::Infallible;
+}
+
+#[cfg(target_os = "none")]
+impl<const N: u8> embedded_hal::digital::OutputPin for PinB<N> {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        // SAFETY: BSRR is write-only and atomic per bit; this pin is owned
+        // by the multiplexer alone.
+        #[allow(unsafe_code)]
+        unsafe {
+            (*super::pac::GPIOB::ptr())
+                .bsrr()
+                .write(|w| w.bits(1 << (N + 16)));
+        }
+        Ok(())
+    }
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        // SAFETY: as above.
+        #[allow(unsafe_code)]
+        unsafe {
+            (*super::pac::GPIOB::ptr()).bsrr().write(|w| w.bits(1 << N));
+        }
+        Ok(())
+    }
+}
+
+/// One of the three address lines.
+pub enum AnyPin {
+    /// PB0
+    A0(PinB<0>),
+    /// PB1
+    A1(PinB<1>),
+    /// PB2
+    A2(PinB<2>),
+}
+
+impl embedded_hal::digital::ErrorType for AnyPin {
+    type Error = core::convert::Infallible;
+}
+
+#[cfg(target_os = "none")]
+impl embedded_hal::digital::OutputPin for AnyPin {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        match self {
+            AnyPin::A0(p) => p.set_low(),
+            AnyPin::A1(p) => p.set_low(),
+            AnyPin::A2(p) => p.set_low(),
+        }
+    }
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        match self {
+            AnyPin::A0(p) => p.set_high(),
+            AnyPin::A1(p) => p.set_high(),
+            AnyPin::A2(p) => p.set_high(),
+        }
+    }
+}
+
+/// The three address lines.
+pub fn mux_pins() -> [AnyPin; 3] {
+    [AnyPin::A0(PinB), AnyPin::A1(PinB), AnyPin::A2(PinB)]
+}
