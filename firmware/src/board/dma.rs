@@ -19,17 +19,22 @@ pub fn requests(mux: &dmamux::RegisterBlock) {
     mux.ccr(1).write(|w| unsafe { w.dmareq_id().bits(REQ_DAC1_CH1) });
 }
 
+/// A channel's peripheral and memory addresses and its transfer count.
+#[allow(unsafe_code)]
+fn addresses(ch: &dma1::CH, peripheral: u32, memory: u32, count: u16) {
+    // SAFETY: any address is a valid value of these registers; the callers
+    // give a data register and a 'static buffer.
+    ch.par().write(|w| unsafe { w.pa().bits(peripheral) });
+    ch.mar().write(|w| unsafe { w.ma().bits(memory) });
+    ch.ndtr().write(|w| w.ndt().set(count));
+}
+
 /// Channel 1: `words` 32-bit words from the ADC common data register
 /// `from` to `to`, circular, with half-transfer, transfer-complete and
 /// transfer-error interrupts.
-#[allow(unsafe_code)]
 pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
     let ch = dma.ch(0);
-    // SAFETY: any address is a valid value of these registers; the caller
-    // gives the data register and a 'static buffer.
-    ch.par().write(|w| unsafe { w.pa().bits(from) });
-    ch.mar().write(|w| unsafe { w.ma().bits(to) });
-    ch.ndtr().write(|w| w.ndt().set(words));
+    addresses(ch, from, to, words);
     ch.cr().write(|w| {
         w.dir()
             .from_peripheral()
@@ -56,13 +61,9 @@ pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
 /// right-aligned holding register `to`, circular; the peripheral side is
 /// written as 32-bit words (a 16-bit write to a DAC register is not
 /// supported, RM0440 22.7).
-#[allow(unsafe_code)]
 pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
     let ch = dma.ch(1);
-    // SAFETY: as in `adc_channel`.
-    ch.par().write(|w| unsafe { w.pa().bits(to) });
-    ch.mar().write(|w| unsafe { w.ma().bits(from) });
-    ch.ndtr().write(|w| w.ndt().set(codes));
+    addresses(ch, to, from, codes);
     ch.cr().write(|w| {
         w.dir()
             .from_memory()
