@@ -37,6 +37,14 @@ pub enum FixtureError {
     NothingLeft,
 }
 
+impl core::fmt::Display for FixtureError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("the parasitic capacitance explains the whole reading: no line is left behind it")
+    }
+}
+
+impl core::error::Error for FixtureError {}
+
 impl Fixture {
     /// No wiring effects.
     pub const NONE: Fixture = Fixture {

@@ -48,8 +48,36 @@ pub enum InvertError {
     /// D fits two lines in range (see the module docs); use
     /// [`Inverter::invert_near`].
     Ambiguous,
+    /// The line found differs from the tracked one by more than a sensor
+    /// changes in one block ([`crate::track::Tracker::MAX_JUMP`]): a
+    /// branch error or a fault, rejected by the tracker.
+    Jump,
     /// The model could not be evaluated.
     Model(ModelError),
+}
+
+impl core::fmt::Display for InvertError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            InvertError::NotCapacitive => f.write_str("not an R-C line (Re Z < 0, Im Z ≥ 0 or not finite)"),
+            InvertError::BadFrequency => f.write_str("the frequency is not finite and positive"),
+            InvertError::OutOfRange => f.write_str("ωRC is beyond the inversion range: lower the frequency"),
+            InvertError::Ambiguous => {
+                f.write_str("two lines fit this reading: give the expected capacitance")
+            }
+            InvertError::Jump => f.write_str("the line jumped further than a sensor changes in one block"),
+            InvertError::Model(e) => write!(f, "model: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for InvertError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            InvertError::Model(e) => Some(e),
+            _ => None,
+        }
+    }
 }
 
 impl From<ModelError> for InvertError {

@@ -16,6 +16,17 @@ pub enum LumpedError {
     BadFrequency,
 }
 
+impl core::fmt::Display for LumpedError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            LumpedError::NotCapacitive => "not a lossy capacitor (Im Z ≥ 0, Re Z < 0 or not finite)",
+            LumpedError::BadFrequency => "the frequency is not finite and positive",
+        })
+    }
+}
+
+impl core::error::Error for LumpedError {}
+
 /// Series capacitance and resistance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SeriesRc {

@@ -19,6 +19,17 @@ pub enum FreqError {
     BadBlock,
 }
 
+impl core::fmt::Display for FreqError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            FreqError::OutOfRange => "frequency outside the oscillator's range or not below Nyquist",
+            FreqError::BadBlock => "the block holds no whole period, or is longer than 2^16 samples",
+        })
+    }
+}
+
+impl core::error::Error for FreqError {}
+
 /// Oscillator configuration: the phase increment per sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Oscillator {

@@ -90,6 +90,20 @@ pub enum ModelError {
     OutOfRange,
 }
 
+impl core::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            ModelError::BadElements => write!(f, "a ladder needs 1 to {N_MAX} elements"),
+            ModelError::OutOfRange => write!(
+                f,
+                "ωRC outside [{X_MIN:e}, {X_MAX}] or an input not finite and positive"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}
+
 impl LineModel {
     /// Normalized impedance ζ = ωC·Z at x = ωRC (dimensionless).
     pub fn zeta(&self, x: f32) -> Result<Complex32, ModelError> {

@@ -94,7 +94,7 @@ impl Tracker {
     }
 
     /// The line behind impedance `z` (Ω) at `f_hz`. Errors are those of
-    /// [`Inverter`], plus [`InvertError::Ambiguous`] for a rejected jump.
+    /// [`Inverter`], plus [`InvertError::Jump`] for a rejected jump.
     pub fn update(&self, st: &mut TrackState, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
         let (x_peak, d_peak) = self.inverter.peak();
         if st.locked && z.im < 0.0 && z.re >= 0.0 && st.rejected == 0 {
@@ -114,7 +114,7 @@ impl Tracker {
                 if (line.c_farad / st.hint - 1.0).abs() <= Self::MAX_JUMP {
                     Ok(line)
                 } else {
-                    Err(InvertError::Ambiguous)
+                    Err(InvertError::Jump)
                 }
             })
         } else {

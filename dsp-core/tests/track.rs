@@ -3,6 +3,7 @@
 
 mod common;
 use common::zeta_ref;
+use dsp_core::invert::InvertError;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
 use dsp_core::Complex32;
@@ -59,11 +60,16 @@ fn rejects_jumps_and_relocks_on_the_prior() {
     let t = Tracker::new(LineModel::Continuous, Tracker::X_MAX).unwrap();
     let mut st = TrackState::new(210e-12);
     assert!(t.update(&mut st, z(1.0, 210e-12, f), f as f32).is_ok());
-    // A 40 % jump in C is not a sensor: rejected, the tracked value stays.
+    // A 40 % jump in C is not a sensor: rejected as a jump (not as an
+    // ambiguity), the tracked value stays.
+    let before = st.capacitance();
     for _ in 0..Tracker::RELOCK_AFTER - 1 {
-        assert!(t.update(&mut st, z(1.0, 294e-12, f), f as f32).is_err());
-        assert_eq!(st.capacitance(), st.capacitance());
+        let r = t.update(&mut st, z(1.0, 294e-12, f), f as f32);
+        assert!(matches!(r, Err(InvertError::Jump)), "{r:?}");
+        assert_eq!(st.capacitance(), before);
     }
+    // Every error says what went wrong.
+    assert!(InvertError::Jump.to_string().contains("jumped"));
     assert!((st.capacitance() / 210e-12 - 1.0).abs() < 1e-4);
     // ...and after RELOCK_AFTER rejections the tracker unlocks, so a sensor
     // that really changed (another one plugged in) is picked up.

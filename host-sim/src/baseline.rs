@@ -10,6 +10,8 @@
 //! ratio Cs/C, which is smooth and close to 1).
 
 use crate::dataset::{DataSet, Row, Table};
+pub use crate::numerics::noise_sigma;
+use crate::numerics::quadratic_fit;
 use anyhow::{bail, Result};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
@@ -159,75 +161,4 @@ pub fn residuals(ds: &DataSet, baseline: &Baseline) -> Vec<Residual> {
             }
         })
         .collect()
-}
-
-/// Robust noise σ of a residual series (its unit): the median absolute
-/// second difference ×1.4826/√6. White noise passes, smooth model errors
-/// cancel, and sparse jumps do not move a median.
-pub fn noise_sigma(e: &[f64]) -> f64 {
-    let mut d2: Vec<f64> = e.windows(3).map(|w| (w[2] - 2.0 * w[1] + w[0]).abs()).collect();
-    d2.sort_by(f64::total_cmp);
-    d2.get(d2.len() / 2).copied().unwrap_or(f64::NAN) * 1.4826 / 6f64.sqrt()
-}
-
-/// Least-squares c0 + c1·x + c2·x² through `pts` (normal equations,
-/// centred and scaled for conditioning).
-pub(crate) fn quadratic_fit(pts: &[(f64, f64)]) -> [f64; 3] {
-    let n = pts.len() as f64;
-    let xm = pts.iter().map(|p| p.0).sum::<f64>() / n;
-    let xs = pts
-        .iter()
-        .map(|p| (p.0 - xm).abs())
-        .fold(0.0, f64::max)
-        .max(1e-12);
-    let ym = pts.iter().map(|p| p.1).sum::<f64>() / n;
-    // Fit y − ym = a + b·u + c·u², u = (x − xm)/xs.
-    let mut m = [[0.0f64; 4]; 3];
-    for &(x, y) in pts {
-        let u = (x - xm) / xs;
-        let row = [1.0, u, u * u];
-        for i in 0..3 {
-            for j in 0..3 {
-                m[i][j] += row[i] * row[j];
-            }
-            m[i][3] += row[i] * (y - ym);
-        }
-    }
-    // Gaussian elimination with partial pivoting.
-    for col in 0..3 {
-        let piv = (col..3)
-            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
-            .unwrap_or(col);
-        m.swap(col, piv);
-        for r in 0..3 {
-            if r != col && m[col][col] != 0.0 {
-                let f = m[r][col] / m[col][col];
-                let pivot = m[col];
-                for (v, p) in m[r].iter_mut().zip(pivot).skip(col) {
-                    *v -= f * p;
-                }
-            }
-        }
-    }
-    let s = |i: usize| if m[i][i] != 0.0 { m[i][3] / m[i][i] } else { 0.0 };
-    let (a, b, c) = (s(0), s(1), s(2));
-    // Back to x: y = ym + a + b(x − xm)/xs + c(x − xm)²/xs².
-    let (b1, c1) = (b / xs, c / (xs * xs));
-    [ym + a - b1 * xm + c1 * xm * xm, b1 - 2.0 * c1 * xm, c1]
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quadratic_fit_recovers_an_exact_quadratic() {
-        let f = |x: f64| 210e-12 + 2.1e-12 * x - 0.01e-12 * x * x;
-        let pts: Vec<(f64, f64)> = (0..=10).map(|k| (3.0 * k as f64, f(3.0 * k as f64))).collect();
-        let [a, b, c] = quadratic_fit(&pts);
-        for x in [0.0, 7.5, 30.0] {
-            let got = a + x * (b + x * c);
-            assert!((got / f(x) - 1.0).abs() < 1e-12, "{x}: {got} vs {}", f(x));
-        }
-    }
 }

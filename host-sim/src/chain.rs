@@ -6,6 +6,7 @@
 //! paper's instrument). Both report the lumped Cs–Rs and the line-corrected
 //! C and R.
 
+use crate::numerics::series_cs;
 use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
@@ -215,7 +216,6 @@ pub fn run(
             window_s,
             offset_s,
         } => {
-            let w = std::f64::consts::TAU * freq_hz;
             // The meter's view of the sensor runs on its own clock.
             let mut seen = (window_s > 0.0 || offset_s != 0.0).then(|| sensor.clone());
             let mut t = t_start;
@@ -241,7 +241,7 @@ pub fn run(
                         (y / k as f64).inv()
                     }
                 };
-                let cs = -1.0 / (w * z.im) * (1.0 + rel * rng.gaussian()) + abs_farad * rng.gaussian();
+                let cs = series_cs(z, freq_hz) * (1.0 + rel * rng.gaussian()) + abs_farad * rng.gaussian();
                 let rs = z.re * (1.0 + rel * rng.gaussian());
                 let zm = SeriesRc {
                     cs_farad: cs as f32,
@@ -281,21 +281,6 @@ fn reading(
         r_corr,
         clipped,
     }
-}
-
-/// RMS and max of |e| over the finite values, and how many were not finite.
-pub fn rms_max(e: impl IntoIterator<Item = f64>) -> (f64, f64, usize) {
-    let (mut ss, mut mx, mut n, mut bad) = (0.0, 0.0f64, 0usize, 0usize);
-    for v in e {
-        if v.is_finite() {
-            ss += v * v;
-            mx = mx.max(v.abs());
-            n += 1;
-        } else {
-            bad += 1;
-        }
-    }
-    (if n > 0 { (ss / n as f64).sqrt() } else { f64::NAN }, mx, bad)
 }
 
 /// How far a capacitance reading dips below where it should only rise or

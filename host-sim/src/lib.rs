@@ -7,6 +7,7 @@
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
 //! * [`model`]: the forward model with the candidate effects (f64).
+//! * [`numerics`]: the shared numerical helpers (solve, fits, interpolation, statistics).
 //! * [`identify`]: trace a residual to an effect by model selection.
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
@@ -20,6 +21,7 @@ pub mod experiments;
 pub mod identify;
 pub mod meter;
 pub mod model;
+pub mod numerics;
 pub mod plot;
 pub mod recording;
 pub mod si;

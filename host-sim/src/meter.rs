@@ -55,7 +55,7 @@ pub fn read(model: LineModel, r_ohm: f64, c_farad: f64, f_hz: f64) -> Result<Rea
             dsp_core::tline::X_MAX
         ),
     };
-    let series = SeriesRc::from_impedance(z, f_hz as f32).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let series = SeriesRc::from_impedance(z, f_hz as f32).map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(Reading {
         model,
         f_hz,
@@ -74,7 +74,7 @@ pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: O
     };
     let z: Complex32 = series.impedance(f_hz as f32);
     let inv =
-        Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e}"))?;
     let r = match c_hint {
         Some(c) => inv.invert_near(z, f_hz as f32, c as f32),
         None => inv.invert(z, f_hz as f32),
@@ -92,6 +92,6 @@ pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: O
             inv.x_max()
         ),
         InvertError::NotCapacitive => anyhow::anyhow!("Cs and Rs must be positive"),
-        other => anyhow::anyhow!("cannot invert: {other:?}"),
+        other => anyhow::anyhow!("cannot invert: {other}"),
     })
 }

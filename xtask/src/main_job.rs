@@ -5,6 +5,7 @@
 use anyhow::{Context, Result};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
+use host_sim::numerics::rms_max;
 use host_sim::plot::{figure, Panel, Series};
 use host_sim::recording::{self, Rec, Roles};
 use qemu_tests::records;
@@ -21,16 +22,6 @@ fn lumped_6k(r: &Rec) -> Option<f64> {
     SeriesRc::from_impedance(z, f)
         .ok()
         .map(|m| m.cs_farad as f64 * 1e12)
-}
-
-fn rms_max(v: impl Iterator<Item = f64>) -> (f64, f64, usize) {
-    let (mut ss, mut mx, mut n) = (0.0, 0.0f64, 0);
-    for e in v {
-        ss += e * e;
-        mx = mx.max(e.abs());
-        n += 1;
-    }
-    ((ss / n.max(1) as f64).sqrt(), mx, n)
 }
 
 /// Run the `paper` scenario and write everything to `out`.

@@ -1,0 +1,250 @@
+//! The weighted least-squares problem of `identify`: a model's
+//! predictions against the data, weighted by each file's noise, fitted by
+//! a grid over each effect's search range and then projected
+//! Levenberg–Marquardt; 1σ from the covariance.
+
+use super::{FileError, Fit};
+use crate::model::{Effect, Line, Params, Prepared};
+use crate::numerics::solve;
+
+/// Noise-weighted residuals and statistics of `pred` against the data.
+pub(super) struct Evaluated {
+    pub(super) s: f64,
+    pub(super) residual: Vec<Vec<f64>>,
+}
+
+/// The problem: data, weights, line.
+pub(super) struct Problem<'a> {
+    pub(super) prep: &'a Prepared,
+    pub(super) line: Line,
+    /// 1/σ per file.
+    pub(super) w: Vec<f64>,
+    pub(super) rows: usize,
+}
+
+impl Problem<'_> {
+    pub(super) fn eval(&self, params: Params) -> Option<Evaluated> {
+        self.evaluate(&self.prep.predict(self.line, params).ok()?)
+    }
+
+    /// Residuals and weighted sum of squares of predictions `pred` (pF).
+    pub(super) fn evaluate(&self, pred: &[Vec<f64>]) -> Option<Evaluated> {
+        let mut s = 0.0;
+        let residual: Vec<Vec<f64>> = self
+            .prep
+            .files
+            .iter()
+            .zip(pred)
+            .zip(&self.w)
+            .map(|((f, p), w)| {
+                f.cs.iter()
+                    .zip(p)
+                    .zip(&f.used)
+                    .map(|((m, p), &u)| {
+                        let e = m - p;
+                        if u {
+                            s += (e * w) * (e * w);
+                        }
+                        e
+                    })
+                    .collect()
+            })
+            .collect();
+        s.is_finite().then_some(Evaluated { s, residual })
+    }
+
+    /// Weighted residual vector (for the Jacobian).
+    pub(super) fn weighted(&self, ev: &Evaluated) -> Vec<f64> {
+        ev.residual
+            .iter()
+            .zip(&self.w)
+            .zip(&self.prep.files)
+            .flat_map(|((r, w), f)| r.iter().zip(&f.used).filter(|x| *x.1).map(move |(e, _)| e * w))
+            .collect()
+    }
+
+    pub(super) fn bic(&self, s: f64, k: usize) -> f64 {
+        let n = self.rows as f64;
+        n * (s / n).ln() + k as f64 * n.ln()
+    }
+
+    /// Summarize a model.
+    pub(super) fn fit_of(&self, effects: Vec<Effect>, params: Params, sigma: Vec<f64>, ev: Evaluated) -> Fit {
+        let (mut ss, mut mx, mut ssp, mut mxp, mut n) = (0.0, 0.0f64, 0.0, 0.0f64, 0usize);
+        let files = self
+            .prep
+            .files
+            .iter()
+            .zip(&ev.residual)
+            .map(|(f, r)| {
+                let (mut a, mut b, mut c, mut d) = (0.0, 0.0f64, 0.0, 0.0f64);
+                let mut rows = 0usize;
+                for ((e, m), _) in r.iter().zip(&f.cs).zip(&f.used).filter(|x| *x.1) {
+                    rows += 1;
+                    let pct = 100.0 * e / m;
+                    a += e * e;
+                    b = b.max(e.abs());
+                    c += pct * pct;
+                    d = d.max(pct.abs());
+                }
+                (ss, mx, ssp, mxp, n) = (ss + a, mx.max(b), ssp + c, mxp.max(d), n + rows);
+                let k = rows.max(1) as f64;
+                FileError {
+                    file: f.name.clone(),
+                    rows,
+                    rms_pf: (a / k).sqrt(),
+                    max_pf: b,
+                    rms_pct: (c / k).sqrt(),
+                    max_pct: d,
+                }
+            })
+            .collect();
+        let k = n.max(1) as f64;
+        Fit {
+            line: self.line,
+            bic: self.bic(ev.s, effects.len()),
+            effects,
+            params,
+            sigma,
+            s: ev.s,
+            rms_pf: (ss / k).sqrt(),
+            max_pf: mx,
+            rms_pct: (ssp / k).sqrt(),
+            max_pct: mxp,
+            files,
+            residual: ev.residual,
+        }
+    }
+
+    /// JᵀJ and Jᵀr of the noise-weighted residual r at `p` (evaluated as
+    /// `at`), with J by one-sided differences of 10⁻⁴ of each effect's
+    /// range (stepping inwards at the upper bound).
+    pub(super) fn normal_equations(
+        &self,
+        effects: &[Effect],
+        p: Params,
+        at: &Evaluated,
+    ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
+        let r0 = self.weighted(at);
+        let mut jac = Vec::with_capacity(effects.len());
+        for &e in effects {
+            let (lo, hi) = e.info().search;
+            let h = 1e-4 * (hi - lo);
+            let (v, sign) = if p.get(e) + h <= hi {
+                (p.get(e) + h, 1.0)
+            } else {
+                (p.get(e) - h, -1.0)
+            };
+            let rj = self.weighted(&self.eval(p.with(e, v))?);
+            jac.push(
+                rj.iter()
+                    .zip(&r0)
+                    .map(|(a, b)| sign * (a - b) / h)
+                    .collect::<Vec<f64>>(),
+            );
+        }
+        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
+        let a = jac
+            .iter()
+            .map(|x| jac.iter().map(|y| dot(x, y)).collect())
+            .collect();
+        let g = jac.iter().map(|x| dot(x, &r0)).collect();
+        Some((a, g))
+    }
+
+    /// Fit `effects` starting from `start` (the others held): a grid over
+    /// the range of each effect not yet set in `start` (`scan`), then
+    /// projected Levenberg–Marquardt on all of them.
+    pub(super) fn fit(&self, effects: &[Effect], start: Params, scan: &[Effect]) -> Option<Fit> {
+        let mut p = start;
+        let mut best = self.eval(p)?;
+        for &e in scan {
+            let mut at = p.get(e);
+            for v in grid(e) {
+                if let Some(ev) = self.eval(p.with(e, v)) {
+                    if ev.s < best.s {
+                        best = ev;
+                        at = v;
+                    }
+                }
+            }
+            p = p.with(e, at);
+        }
+        let k = effects.len();
+        let clamp = |e: Effect, v: f64| {
+            let (lo, hi) = e.info().search;
+            v.clamp(lo, hi)
+        };
+        let mut lambda = 1e-3;
+        // JᵀJ at the current `p`, kept for the uncertainty when the last
+        // iteration leaves `p` where it was.
+        let mut jtj_at_p = None;
+        for _ in 0..40 {
+            let (a, g) = self.normal_equations(effects, p, &best)?;
+            let mut improved = false;
+            while lambda < 1e10 {
+                let mut m = a.clone();
+                for (i, row) in m.iter_mut().enumerate() {
+                    row[i] += lambda * a[i][i].max(1e-300);
+                }
+                let Some(d) = solve(m, g.iter().map(|v| -v).collect()) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let mut q = p;
+                for (i, &e) in effects.iter().enumerate() {
+                    q = q.with(e, clamp(e, p.get(e) + d[i]));
+                }
+                match self.eval(q) {
+                    Some(ev) if ev.s < best.s => {
+                        let rel = (best.s - ev.s) / best.s;
+                        p = q;
+                        best = ev;
+                        lambda = (lambda / 4.0).max(1e-9);
+                        improved = rel > 1e-9;
+                        break;
+                    }
+                    _ => lambda *= 4.0,
+                }
+            }
+            if !improved {
+                // `p` is unchanged only if no step was accepted.
+                if lambda >= 1e10 {
+                    jtj_at_p = Some(a);
+                }
+                break;
+            }
+        }
+        // Uncertainty: s²·(JᵀJ)⁻¹, s² = S/(n − k), at the optimum.
+        let a = match jtj_at_p {
+            Some(a) => a,
+            None => self.normal_equations(effects, p, &best)?.0,
+        };
+        let s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
+        let sigma = (0..k)
+            .map(|i| {
+                let mut unit = vec![0.0; k];
+                unit[i] = 1.0;
+                solve(a.clone(), unit).map_or(f64::INFINITY, |col| (s2 * col[i]).max(0.0).sqrt())
+            })
+            .collect();
+        Some(self.fit_of(effects.to_vec(), p, sigma, best))
+    }
+}
+
+/// Starting points for an effect's parameter: 0 and log-spaced magnitudes
+/// (factor 2) across its range, both signs where allowed, since some
+/// effects act quadratically and a linear grid would miss small values.
+pub(super) fn grid(e: Effect) -> Vec<f64> {
+    let (lo, hi) = e.info().search;
+    let mut v = vec![0.0];
+    let levels = if lo < 0.0 { 7 } else { 12 };
+    for k in 0..levels {
+        let m = 0.5f64.powi(k);
+        v.push(hi * m);
+        if lo < 0.0 {
+            v.push(lo * m);
+        }
+    }
+    v
+}

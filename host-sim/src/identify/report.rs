@@ -1,0 +1,209 @@
+//! The verdict and the reports of `identify`: markdown for people, JSON
+//! for tools, parameters in each effect's display unit.
+
+use super::{Fit, Report};
+use crate::model::Effect;
+
+fn param_value(e: Effect, v: f64) -> String {
+    let i = e.info();
+    let text = format!("{:.*}", i.display_decimals, i.display(v));
+    if i.display_unit.is_empty() {
+        text
+    } else {
+        format!("{text} {}", i.display_unit)
+    }
+}
+
+/// Parameters of a fit as "name = value ± σ".
+pub fn params_text(f: &Fit) -> String {
+    f.effects
+        .iter()
+        .zip(&f.sigma)
+        .map(|(&e, s)| {
+            format!(
+                "{} = {} ± {}",
+                e.info().key,
+                param_value(e, f.params.get(e)),
+                param_value(e, *s)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+impl Report {
+    /// The JSON report.
+    pub fn json(&self) -> serde_json::Value {
+        use serde_json::json;
+        let fit_json = |f: &Fit| {
+            let params: serde_json::Map<String, serde_json::Value> = f
+                .effects
+                .iter()
+                .map(|&e| (e.info().key.to_string(), json!(e.info().display(f.params.get(e)))))
+                .collect();
+            let sigma: serde_json::Map<String, serde_json::Value> = f
+                .effects
+                .iter()
+                .zip(&f.sigma)
+                .map(|(&e, s)| (e.info().key.to_string(), json!(e.info().display(*s))))
+                .collect();
+            (params, sigma)
+        };
+        let fin = self.final_fit();
+        let effects: Vec<serde_json::Value> = self
+            .accepted
+            .iter()
+            .flat_map(|f| {
+                let (params, sigma) = fit_json(f);
+                f.effects.iter().map(move |&e| {
+                    json!({
+                        "id": e.id(),
+                        "params": {e.info().key: params[e.info().key]},
+                        "uncertainty": {e.info().key: sigma[e.info().key]},
+                        "static": e.is_static(),
+                        "rms_pf_after": f.rms_pf,
+                    })
+                })
+            })
+            .collect();
+        let stats = |f: &Fit| {
+            json!({
+                "model": f.label(),
+                "rms_pf": f.rms_pf, "max_pf": f.max_pf,
+                "rms_pct": f.rms_pct, "max_pct": f.max_pct,
+                "bic": f.bic,
+                "files": f.files,
+            })
+        };
+        let candidates: Vec<serde_json::Value> = self
+            .singles
+            .iter()
+            .chain(&self.pairs)
+            .map(|f| {
+                let (params, sigma) = fit_json(f);
+                json!({
+                    "ids": f.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
+                    "params": params, "uncertainty": sigma,
+                    "rms_pf": f.rms_pf, "bic": f.bic,
+                    "delta_bic": f.bic - self.baseline().bic,
+                })
+            })
+            .collect();
+        json!({
+            "baseline": stats(self.baseline()),
+            "baselines": self.baselines.iter().map(stats).collect::<Vec<_>>(),
+            "effects": effects,
+            "final": stats(fin),
+            "noise_floor_pf": self.noise_floor_pf,
+            "noise_pf": self.noise_pf.iter().map(|(f, s)| json!({"file": f, "sigma_pf": s})).collect::<Vec<_>>(),
+            "unexplained": self.unexplained,
+            "best_attempt": self.best_attempt().map(stats),
+            "candidates": candidates,
+            "rows": self.rows,
+            "resistance": self.resistance,
+            "criterion": {
+                "bic": "n·ln(S/n) + k·ln(n)",
+                "explained_within_noise": self.options.explained,
+                "bic_margin": self.options.bic_margin,
+            },
+        })
+    }
+
+    /// A short verdict line.
+    pub fn verdict(&self) -> String {
+        let nf = self.noise_floor_pf;
+        match (&self.accepted, self.unexplained) {
+            (Some(f), _) => format!(
+                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF",
+                f.label(),
+                params_text(f),
+                self.baseline().rms_pf,
+                f.rms_pf,
+                nf
+            ),
+            (None, false) => format!(
+                "clean: the {} explains the data (RMS {:.3} pF, noise floor {:.3} pF)",
+                self.baseline().line,
+                self.baseline().rms_pf,
+                nf
+            ),
+            (None, true) => format!(
+                "unexplained: RMS {:.3} pF is {:.1}× the noise floor ({:.3} pF), and no candidate brings it within {}× (best attempt: {} at {:.3} pF)",
+                self.baseline().rms_pf,
+                self.baseline().rms_pf / nf,
+                nf,
+                self.options.explained,
+                self.best_attempt().map_or("none".into(), Fit::label),
+                self.best_attempt().map_or(f64::NAN, |f| f.rms_pf)
+            ),
+        }
+    }
+
+    /// The markdown report; `plot` is the residual figure's file name.
+    pub fn markdown(&self, data: &str, plot: Option<&str>) -> String {
+        use std::fmt::Write as _;
+        let mut md = format!("# identify: {data}\n\n**{}**\n\n", self.verdict());
+        let b = self.baseline();
+        let f = self.final_fit();
+        let _ = writeln!(md, "## Error before and after\n");
+        let _ = writeln!(
+            md,
+            "Before: {}. After: {}. Noise floor: {:.3} pF ({} rows). Electrode resistance: {}.\n",
+            b.label(),
+            f.label(),
+            self.noise_floor_pf,
+            self.rows,
+            self.resistance
+        );
+        let _ = writeln!(
+            md,
+            "| file | noise | RMS before | max before | RMS after | max after | RMS % before | RMS % after |"
+        );
+        let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|");
+        for ((x, y), (_, n)) in b.files.iter().zip(&f.files).zip(&self.noise_pf) {
+            let _ = writeln!(
+                md,
+                "| {} | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} % | {:.3} % |",
+                x.file, n, x.rms_pf, x.max_pf, y.rms_pf, y.max_pf, x.rms_pct, y.rms_pct
+            );
+        }
+        let _ = writeln!(
+            md,
+            "| **all** | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} % | {:.3} % |\n",
+            self.noise_floor_pf, b.rms_pf, b.max_pf, f.rms_pf, f.max_pf, b.rms_pct, f.rms_pct
+        );
+        if let Some(p) = plot {
+            let _ = writeln!(md, "![residual before and after]({p})\n");
+        }
+        let _ = writeln!(
+            md,
+            "## Baselines\n\n| model | RMS | max | BIC |\n|---|---:|---:|---:|"
+        );
+        for x in &self.baselines {
+            let _ = writeln!(
+                md,
+                "| {} | {:.3} pF | {:.3} pF | {:.0} |",
+                x.line, x.rms_pf, x.max_pf, x.bic
+            );
+        }
+        if !self.singles.is_empty() {
+            let _ = writeln!(
+                md,
+                "\n## Candidates\n\nModel selection by BIC = n·ln(S/n) + k·ln n; an effect is accepted when it lowers BIC by more than {} and leaves the RMS within {}× the noise floor.\n\n| effects | parameters (± 1σ) | RMS | RMS / noise | ΔBIC vs baseline |\n|---|---|---:|---:|---:|",
+                self.options.bic_margin, self.options.explained
+            );
+            for x in self.singles.iter().chain(&self.pairs) {
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {:.3} pF | {:.2} | {:.0} |",
+                    x.label(),
+                    params_text(x),
+                    x.rms_pf,
+                    x.rms_pf / self.noise_floor_pf,
+                    x.bic - b.bic
+                );
+            }
+        }
+        md
+    }
+}

@@ -1,0 +1,241 @@
+//! The forward model of a measured data set, with the candidate effects the
+//! uniform line lacks, in f64.
+//!
+//! What a series Cs–Rs meter reads on the sensor, given the recorded
+//! end-to-end electrode resistances R_rec = R_top + R_bottom (Ω), the true
+//! capacitance C (F) from the de-biased calibration, the stretch s (mm)
+//! and the frequency f (Hz):
+//!
+//! ```text
+//! R_line = R_rec − 4·R_c                          (ContactResistance)
+//! Z      = line(R_line, C, G, weights) + 2·R_c
+//! Z      = 1 / (1/Z + jω·C_p)                     (ParasiticCapacitance)
+//! Cs     = −1 / (ω·Im Z)
+//! ```
+//!
+//! `line` is the uniform continuous line √(z/y)·coth √(zy) with z = R and
+//! y = G + jωC (G: [`Effect::DielectricLeakage`]), or a ladder of n elements (each
+//! series R/n then shunt C/n), as in `dsp_core::tline`. Nonuniform lines
+//! ([`Effect::ResistanceGradient`], [`Effect::NonuniformStretch`]) cascade [`SEGMENTS`] exact
+//! uniform pieces (continuous) or weight the ladder's elements, with the
+//! electrode resistance per length ∝ (1 + g·(2ξ − 1))·ρ(s(ξ)) and the
+//! capacitance per length ∝ C_cal(s(ξ)), s(ξ) = s·(1 + u·(2ξ − 1)), ξ = 0 at
+//! the read end. ρ(s) is the calibration's static R(s) and C_cal(s) its
+//! (raw) quadratic, so a nonuniform stretch reshapes both as the sensor's
+//! own static curves say, keeping the recorded totals.
+//!
+//! Time effects act on trace files only: the meter's reading at t is the
+//! mean admittance over [t + δ − T, t + δ] ([`Effect::MeterLag`]: window T;
+//! [`Effect::TimeOffset`]: δ > 0 when the capacitance channel is late), with the
+//! stretch and resistance columns interpolated between rows (corner-aware
+//! cubic Hermite, [`crate::numerics::interp`]).
+
+//!
+//! | module | what |
+//! |---|---|
+//! | [`shape`] | the sensor's static C(s) and R(s), and their local curves under a nonuniform stretch |
+//! | `line` | uniform line pieces: the continuous line and a piece in front of a load |
+//! | [`prepared`] | a data set prepared for fast evaluation, and its predictions |
+//! | `timed` | the meter's window and offset on a trace |
+
+mod line;
+pub mod prepared;
+pub mod shape;
+mod timed;
+
+pub use prepared::{edge_end_s, edge_start_s, File, Prepared};
+pub use shape::Shape;
+
+use crate::numerics::series_cs;
+use line::{continuous, piece};
+use num_complex::Complex64;
+use std::f64::consts::TAU;
+
+/// Pieces of a nonuniform continuous line.
+pub const SEGMENTS: usize = 32;
+
+pub use instrument::effects::{Effect, EffectSet};
+
+/// Parameters of every effect (0: absent), SI: the catalogue's
+/// [`EffectSet`].
+pub type Params = EffectSet;
+
+pub(crate) fn has_time(p: &Params) -> bool {
+    p.has(Effect::MeterLag) || p.has(Effect::TimeOffset)
+}
+
+pub(crate) fn nonuniform(p: &Params) -> bool {
+    p.has(Effect::ResistanceGradient) || p.has(Effect::NonuniformStretch)
+}
+
+/// Line model of the baseline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Line {
+    /// The continuous limit.
+    Continuous,
+    /// A ladder of n elements (the paper used n = 30).
+    Ladder(u8),
+}
+
+impl std::fmt::Display for Line {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Line::Continuous => write!(f, "continuous line"),
+            Line::Ladder(n) => write!(f, "{n}-element ladder"),
+        }
+    }
+}
+
+/// The forward model: a line model, the effects' parameters, and the
+/// sensor's static shape.
+#[derive(Clone, Debug)]
+pub struct Model<'a> {
+    /// Line model.
+    pub line: Line,
+    /// Effect parameters.
+    pub params: Params,
+    /// The sensor's local static curves (for a nonuniform stretch u:
+    /// [`Shape::local`]).
+    pub shape: &'a Shape,
+}
+
+impl Model<'_> {
+    /// The sensor's impedance at the meter (Ω) for recorded R_rec (Ω),
+    /// true C (F) at stretch `s` (mm), frequency `f` (Hz); None if the
+    /// contact resistance leaves no line.
+    pub fn impedance(&self, r_rec: f64, c: f64, s: f64, f: f64) -> Option<Complex64> {
+        let p = &self.params;
+        let w = TAU * f;
+        let rc = p.get(Effect::ContactResistance);
+        let r = r_rec - 4.0 * rc;
+        if !(r > 0.0 && c > 0.0 && w > 0.0) {
+            return None;
+        }
+        let g = p.get(Effect::DielectricLeakage);
+        let mut z = if !nonuniform(p) {
+            match self.line {
+                Line::Continuous => continuous(r, Complex64::new(g, w * c)),
+                Line::Ladder(n) => {
+                    let n = n.max(1) as usize;
+                    let (rn, yn) = (r / n as f64, Complex64::new(g, w * c) / n as f64);
+                    let mut z = yn.inv();
+                    for _ in 1..n {
+                        z = (yn + (z + rn).inv()).inv();
+                    }
+                    z + rn
+                }
+            }
+        } else {
+            self.nonuniform(r, c, g, s, w)
+        };
+        z += 2.0 * rc;
+        let cp = p.get(Effect::ParasiticCapacitance);
+        if cp != 0.0 {
+            z = (z.inv() + Complex64::new(0.0, w * cp)).inv();
+        }
+        Some(z)
+    }
+
+    /// Nonuniform line of total R (Ω), C (F), G (S) at mean stretch s.
+    fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64) -> Complex64 {
+        let p = &self.params;
+        let (grad, u) = (
+            p.get(Effect::ResistanceGradient),
+            p.get(Effect::NonuniformStretch),
+        );
+        let n = match self.line {
+            Line::Continuous => SEGMENTS,
+            Line::Ladder(n) => n.max(1) as usize,
+        };
+        let mut rw = [0.0f64; 64];
+        let mut cw = [0.0f64; 64];
+        // Each piece takes the mean of the profiles over its length
+        // (Simpson's rule), so the totals are right to fourth order.
+        let at = |xi: f64| {
+            let sl = s * (1.0 + u * (2.0 * xi - 1.0));
+            let (rho, cl) = if u != 0.0 {
+                (self.shape.r_at(sl), self.shape.c_at(sl))
+            } else {
+                (1.0, 1.0)
+            };
+            ((1.0 + grad * (2.0 * xi - 1.0)).max(0.0) * rho, cl)
+        };
+        for i in 0..n {
+            let (a, m, b) = (
+                at(i as f64 / n as f64),
+                at((i as f64 + 0.5) / n as f64),
+                at((i + 1) as f64 / n as f64),
+            );
+            rw[i] = (a.0 + 4.0 * m.0 + b.0) / 6.0;
+            cw[i] = (a.1 + 4.0 * m.1 + b.1) / 6.0;
+        }
+        let (rs, cs) = (rw[..n].iter().sum::<f64>(), cw[..n].iter().sum::<f64>());
+        let mut z: Option<Complex64> = None;
+        for i in (0..n).rev() {
+            let (ri, ci) = (r * rw[i] / rs, c * cw[i] / cs);
+            let yi = Complex64::new(g * ci / c, w * ci);
+            z = Some(match self.line {
+                Line::Continuous => piece(ri, yi, z),
+                Line::Ladder(_) => ri + z.map_or(yi.inv(), |z| (yi + z.inv()).inv()),
+            });
+        }
+        z.unwrap_or_default()
+    }
+
+    /// Series Cs (F) from an impedance at `f`
+    /// ([`crate::numerics::series_cs`]).
+    pub fn series(z: Complex64, f: f64) -> f64 {
+        series_cs(z, f)
+    }
+
+    /// Series Cs (F) the meter reads on one static point.
+    pub fn cs(&self, r_rec: f64, c: f64, s: f64, f: f64) -> Option<f64> {
+        self.impedance(r_rec, c, s, f).map(|z| Self::series(z, f))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shape() -> Shape {
+        Shape {
+            c: [210.0, 2.1, 0.0],
+            r: vec![(0.0, 711e3), (15.0, 711e3), (30.0, 560e3)],
+        }
+    }
+
+    #[test]
+    fn ladder_approaches_the_continuous_line_and_pieces_cascade_exactly() {
+        let sh = shape();
+        let m = |line, params| Model {
+            line,
+            params,
+            shape: &sh,
+        };
+        let (r, c, f) = (711e3, 210e-12, 6e3);
+        // The same topologies as dsp-core's fixed-point kernels (1e-4).
+        for (line, core) in [
+            (Line::Continuous, dsp_core::tline::LineModel::Continuous),
+            (Line::Ladder(1), dsp_core::tline::LineModel::Ladder(1)),
+            (Line::Ladder(30), dsp_core::tline::LineModel::Ladder(30)),
+            (Line::Ladder(64), dsp_core::tline::LineModel::Ladder(64)),
+        ] {
+            for f in [100.0, 2e3, 6e3, 30e3] {
+                let z = m(line, Params::NONE).impedance(r, c, 0.0, f).unwrap();
+                let zq = core.impedance(r as f32, c as f32, f as f32).unwrap();
+                let e = (z - Complex64::new(zq.re as f64, zq.im as f64)).norm() / z.norm();
+                assert!(e < 2e-4, "{line} {f} Hz: {e}");
+            }
+        }
+        let zc = m(Line::Continuous, Params::NONE).impedance(r, c, 0.0, f).unwrap();
+        // A "nonuniform" line with an infinitesimal gradient is the uniform
+        // line cut into exact pieces.
+        let p = Params::NONE.with(Effect::ResistanceGradient, 1e-12);
+        let zn = m(Line::Continuous, p).impedance(r, c, 0.0, f).unwrap();
+        assert!((zn - zc).norm() / zc.norm() < 1e-12, "{zn} vs {zc}");
+        let zl = m(Line::Ladder(30), p).impedance(r, c, 0.0, f).unwrap();
+        let z30 = m(Line::Ladder(30), Params::NONE).impedance(r, c, 0.0, f).unwrap();
+        assert!((zl - z30).norm() / z30.norm() < 1e-12);
+    }
+}

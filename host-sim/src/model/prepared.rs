@@ -1,0 +1,148 @@
+//! A data set prepared for fast model evaluation, and its predictions.
+
+use super::{has_time, timed::timed, Effect, Line, Model, Params, Shape};
+use crate::dataset::{DataSet, Kind, Row, Table};
+use crate::numerics::{corners, quadratic_fit};
+use anyhow::Result;
+
+/// A data set prepared for fast model evaluation.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// Static curves.
+    pub shape: Shape,
+    /// The static calibration.
+    calibration: Table,
+    /// Files whose residual is modelled: the traces, then the sweep.
+    pub files: Vec<File>,
+}
+
+/// One modelled file.
+#[derive(Clone, Debug)]
+pub struct File {
+    /// File name.
+    pub name: String,
+    /// A dynamic trace (time effects apply) or a static sweep.
+    pub kind: Kind,
+    /// Time, s (traces).
+    pub t: Vec<f64>,
+    /// Stretch, mm.
+    pub s: Vec<f64>,
+    /// R_top + R_bottom, Ω.
+    pub r: Vec<f64>,
+    /// Frequency, Hz.
+    pub f: Vec<f64>,
+    /// Measured Cs, pF.
+    pub cs: Vec<f64>,
+    /// Rows where the stretch profile turns (traces).
+    pub corner: Vec<bool>,
+    /// Rows that enter the statistics: all but those at a trace's ends
+    /// whose meter window, at the largest lag and offset searched, would
+    /// reach outside the recording (no model can predict them).
+    pub used: Vec<bool>,
+}
+
+/// Rows left out at the start of a trace (s): the longest window plus the
+/// largest negative offset searched.
+pub fn edge_start_s() -> f64 {
+    Effect::MeterLag.info().search.1 - Effect::TimeOffset.info().search.0
+}
+
+/// Rows left out at the end of a trace (s): the largest positive offset.
+pub fn edge_end_s() -> f64 {
+    Effect::TimeOffset.info().search.1
+}
+
+fn file_of(t: &Table) -> File {
+    let col = |g: fn(&Row) -> f64| t.rows.iter().map(g).collect::<Vec<f64>>();
+    File {
+        name: t
+            .path
+            .file_name()
+            .map_or(String::new(), |f| f.to_string_lossy().into_owned()),
+        kind: t.kind,
+        t: if t.kind == Kind::Trace {
+            col(Row::time_s)
+        } else {
+            vec![]
+        },
+        s: col(Row::stretch_mm),
+        r: t.rows.iter().map(|r| r.r_rec()).collect(),
+        f: col(Row::freq_hz),
+        cs: col(Row::cs_pf),
+        corner: vec![],
+        used: vec![],
+    }
+    .finish()
+}
+
+impl File {
+    fn finish(mut self) -> Self {
+        if self.kind == Kind::Trace {
+            self.corner = corners(&self.t, &self.s);
+            let (a, b) = (
+                self.t[0] + edge_start_s(),
+                self.t[self.t.len() - 1] - edge_end_s(),
+            );
+            self.used = self.t.iter().map(|&t| t >= a && t <= b).collect();
+        } else {
+            self.used = vec![true; self.cs.len()];
+        }
+        self
+    }
+}
+
+impl Prepared {
+    /// Prepare `ds`; the sweep is modelled too when `sweep` is set.
+    pub fn new(ds: &DataSet, sweep: bool) -> Result<Self> {
+        let mut files: Vec<File> = ds.traces.iter().map(file_of).collect();
+        if let (true, Some(sw)) = (sweep, &ds.sweep) {
+            files.push(file_of(sw));
+        }
+        Ok(Self {
+            shape: Shape::from_calibration(&ds.calibration)?,
+            calibration: ds.calibration.clone(),
+            files,
+        })
+    }
+
+    /// C(s) = c0 + c1·s + c2·s² (F) from the calibration de-biased under
+    /// `m` ([`crate::baseline::debiased_points`] with `m.cs`).
+    pub fn calibrate(&self, m: &Model) -> Result<[f64; 3]> {
+        let what = format!("{} with {:?}", m.line, m.params);
+        let pts = crate::baseline::debiased_points(&self.calibration, &what, |r, c| {
+            m.cs(r.r_rec(), c, r.stretch_mm(), r.freq_hz())
+        })?;
+        Ok(quadratic_fit(&pts))
+    }
+
+    /// Predicted Cs (pF) of every row of every file under `line` and
+    /// `params`, after de-biasing the calibration under the same model.
+    pub fn predict(&self, line: Line, params: Params) -> Result<Vec<Vec<f64>>> {
+        let u = params.get(Effect::NonuniformStretch);
+        let local = (u != 0.0).then(|| self.shape.local(u));
+        let m = Model {
+            line,
+            params,
+            shape: local.as_ref().unwrap_or(&self.shape),
+        };
+        let [a, b, c2] = self.calibrate(&m)?;
+        let cap = |s: f64| a + s * (b + s * c2);
+        let at = |r: f64, s: f64, f: f64| m.impedance(r, cap(s), s, f);
+        Ok(self
+            .files
+            .iter()
+            .map(|file| {
+                if file.kind == Kind::Trace && has_time(&params) {
+                    timed(file, &params, at)
+                } else {
+                    (0..file.cs.len())
+                        .map(|k| {
+                            at(file.r[k], file.s[k], file.f[k])
+                                .map_or(f64::NAN, |z| Model::series(z, file.f[k]) * 1e12)
+                        })
+                        .collect()
+                }
+            })
+            .collect())
+    }
+}

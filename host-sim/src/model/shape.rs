@@ -1,0 +1,91 @@
+//! The sensor's own static curves, from its calibration.
+
+use crate::dataset::Table;
+use crate::numerics::{interp, quadratic_fit};
+use anyhow::{bail, Result};
+
+/// The sensor's own static curves, from the calibration: the shape of
+/// C(s) and R(s) along a nonuniformly stretched sensor.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    /// Raw C(s) quadratic (any unit: only ratios are used).
+    pub(crate) c: [f64; 3],
+    /// (stretch mm, R_top + R_bottom Ω), ascending.
+    pub(crate) r: Vec<(f64, f64)>,
+}
+
+impl Shape {
+    /// From a calibration table (at least two stretch points).
+    pub fn from_calibration(cal: &Table) -> Result<Self> {
+        let mut pts: Vec<(f64, f64)> = cal.rows.iter().map(|r| (r.stretch_mm(), r.cs_pf())).collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if pts.len() < 3 {
+            bail!(
+                "{}: a calibration needs at least three stretch points",
+                cal.path.display()
+            );
+        }
+        let mut r: Vec<(f64, f64)> = cal.rows.iter().map(|x| (x.stretch_mm(), x.r_rec())).collect();
+        r.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(Self {
+            c: quadratic_fit(&pts),
+            r,
+        })
+    }
+
+    /// The local curves of a sensor stretched nonuniformly by `u`: the
+    /// calibration recorded each curve's mean along the sensor, so the
+    /// local ones are found by undoing that mean. C: exact for the
+    /// quadratic (c2 → c2/(1 + u²/3)). R: fixed-point iteration
+    /// ρ ← ρ·R_cal/mean_ξ ρ(s(1 + u(2ξ − 1))) at the calibration points.
+    pub fn local(&self, u: f64) -> Shape {
+        let [a, b, c2] = self.c;
+        let mut out = Shape {
+            c: [a, b, c2 / (1.0 + u * u / 3.0)],
+            r: self.r.clone(),
+        };
+        for _ in 0..6 {
+            let next: Vec<(f64, f64)> = self
+                .r
+                .iter()
+                .zip(&out.r)
+                .map(|(&(s, r_cal), &(_, rho))| {
+                    const K: usize = 32;
+                    let mean = (0..K)
+                        .map(|i| out.r_at(s * (1.0 + u * (2.0 * (i as f64 + 0.5) / K as f64 - 1.0))))
+                        .sum::<f64>()
+                        / K as f64;
+                    (s, rho * r_cal / mean)
+                })
+                .collect();
+            out.r = next;
+        }
+        out
+    }
+
+    pub(crate) fn c_at(&self, s: f64) -> f64 {
+        let [a, b, c] = self.c;
+        (a + s * (b + s * c)).max(1e-9 * a.abs())
+    }
+
+    /// Static R at `s`: Akima through the calibration points inside
+    /// their range; outside it, the least-squares quadratic through the
+    /// four end points (the curve's smooth continuation); at least 5 % of
+    /// the largest.
+    pub(crate) fn r_at(&self, s: f64) -> f64 {
+        let r = &self.r;
+        let n = r.len();
+        let v = if s < r[0].0 {
+            let q = quadratic_fit(&r[..n.min(4)]);
+            q[0] + s * (q[1] + s * q[2])
+        } else if s > r[n - 1].0 {
+            let q = quadratic_fit(&r[n.saturating_sub(4)..]);
+            q[0] + s * (q[1] + s * q[2])
+        } else {
+            let (t, y): (Vec<f64>, Vec<f64>) = r.iter().copied().unzip();
+            interp(&t, &y, &[], s)
+        };
+        let top = r.iter().map(|p| p.1).fold(0.0, f64::max);
+        v.max(0.05 * top)
+    }
+}
