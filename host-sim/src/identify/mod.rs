@@ -21,9 +21,9 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`fit`] | the weighted least-squares problem and its solver (grid, Levenberg–Marquardt, uncertainty) |
-//! | [`report`] | the verdict, the markdown and JSON reports |
-//! | [`plot`] | the residual figure |
+//! | `fit` | the weighted least-squares problem and its solver (grid, Levenberg–Marquardt, uncertainty) |
+//! | `report` | the verdict, the markdown and JSON reports |
+//! | `plot` | the residual figure ([`plot()`]) |
 
 mod fit;
 mod plot;
