@@ -430,10 +430,11 @@ fn run(cli: Cli) -> Result<()> {
             let recs = recording::read(&input, elf.as_deref())?;
             let w = recording::write_dataset(&out, &recs, &recording::Roles { traces, statics })?;
             println!(
-                "{} records → {} trace files ({} rows), {} calibration points, {} faults in {}",
+                "{} records → {} trace files ({} rows), {} fragments (runs shorter than a trace), {} calibration points, {} faults in {}",
                 recs.len(),
                 w.traces.len(),
                 w.rows,
+                w.fragments.len(),
                 w.calibration_points,
                 w.faults,
                 out.display()

@@ -14,12 +14,16 @@
 //! * `calibration.csv`: one point per static channel (stretch spread below
 //!   [`STATIC_SPREAD_MM`]), the mean of its valid records at the frequency
 //!   it was read at most.
+//! * `fragment_ch{C}_{F}hz.csv`: a run too short to be modelled as a trace
+//!   (fewer than [`MIN_TRACE_ROWS`] records, such as the one start-up block
+//!   at the lowest frequency), same columns: kept, but not a trace.
 //! * `faults.csv`: every record flagged invalid, with its flags.
 //!
 //! Without truth lines (a board) the stretch is the firmware's calibrated
 //! one and the resistance its line estimate `r_line_ohm`: the analyses say
 //! so ([`crate::dataset::Table::resistance`]).
 
+use crate::model::prepared::MIN_TRACE_ROWS;
 use anyhow::{bail, Context, Result};
 use instrument::faults::Flags;
 use instrument::wire::{self, Line, WireError};
@@ -237,6 +241,8 @@ pub struct Roles {
 pub struct Written {
     /// Trace files.
     pub traces: Vec<PathBuf>,
+    /// Fragment files (runs too short for a trace).
+    pub fragments: Vec<PathBuf>,
     /// Trace rows in all.
     pub rows: usize,
     /// Calibration points.
@@ -337,7 +343,12 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
         }
     }
     for ((ch, f), rs) in groups {
-        let path = dir.join(format!("trace_ch{ch}_{f}hz.csv"));
+        let kind = if rs.len() >= MIN_TRACE_ROWS {
+            "trace"
+        } else {
+            "fragment"
+        };
+        let path = dir.join(format!("{kind}_ch{ch}_{f}hz.csv"));
         let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
         if truth {
             writeln!(
@@ -384,10 +395,16 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
                     r.t_s, r.stretch_mm, r.r_ohm, r.freq_hz, r.cs_pf, r.rs_ohm, r.c_pf, r.flags.0
                 )?,
             }
-            out.rows += 1;
+            if kind == "trace" {
+                out.rows += 1;
+            }
         }
         w.flush()?;
-        out.traces.push(path);
+        if kind == "trace" {
+            out.traces.push(path);
+        } else {
+            out.fragments.push(path);
+        }
     }
     Ok(out)
 }
@@ -420,15 +437,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
         let names: Vec<String> = w
-            .traces
+            .fragments
             .iter()
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
-        // Channel 1 moves (a trace at two frequencies); channel 0 (settling
-        // only) and channel 2 (open) have no valid record: channel 0 is no
+        // Channel 1 moves (one record at each of two frequencies: runs too
+        // short for a trace, kept as fragments); channel 0 (settling only)
+        // and channel 2 (open) have no valid record: channel 0 is no
         // calibration point, and the open one is listed as a fault.
-        assert_eq!(names, ["trace_ch1_586hz.csv", "trace_ch1_1953hz.csv"]);
-        let text = std::fs::read_to_string(&w.traces[0]).unwrap();
+        assert!(w.traces.is_empty() && w.rows == 0);
+        assert_eq!(names, ["fragment_ch1_586hz.csv", "fragment_ch1_1953hz.csv"]);
+        let text = std::fs::read_to_string(&w.fragments[0]).unwrap();
         let row: Vec<&str> = text.lines().nth(2).unwrap().split(',').collect();
         assert_eq!(
             (row[0], row[4], row[5], row[7]),
