@@ -176,6 +176,16 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
                     r_top_ohm: t.r_top_ohm as f64,
                     r_bottom_ohm: t.r_bottom_ohm as f64,
                 });
+                if r.freq_hz <= 0.0 {
+                    bail!("{source}:{n}: frequency {} Hz is not positive", r.freq_hz);
+                }
+                let values = [r.cs_farad, r.rs_ohm, r.c_farad, r.r_ohm];
+                if values.iter().any(|&v| v < 0.0) {
+                    bail!(
+                        "{source}:{n}: a negative capacitance or resistance: '{}'",
+                        clip(l)
+                    );
+                }
                 if let Some(prev) = out.iter().rev().find(|p: &&Rec| p.channel == r.channel) {
                     if r.t_us as f64 * 1e-6 <= prev.t_s {
                         bail!("{source}:{n}: channel {} goes back in time", r.channel);
@@ -504,6 +514,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("log:2") && err.contains("back in time"), "{err}");
+        let err = parse("log", &lines("rec 9 0 -585.9 1 2 3 4 5 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:1") && err.contains("not positive"), "{err}");
+        let err = parse("log", &lines("rec 9 0 585.9 1 2 -3 4 5 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:1") && err.contains("negative"), "{err}");
         // Not a keyword inside a word.
         assert!(lines("prec 0 0\n").is_empty());
     }
