@@ -17,10 +17,17 @@ fn dataset(dir: &Path) {
     .unwrap();
 }
 
+/// The header and the data rows of a CSV file (comments left out).
+fn table(file: &Path) -> (String, Vec<String>) {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#')).map(String::from);
+    let head = lines.next().unwrap();
+    (head, lines.collect())
+}
+
 /// Replace the rows of `file` (keeping its header) by `rows`.
 fn rewrite(file: &Path, rows: impl Iterator<Item = String>) {
-    let text = std::fs::read_to_string(file).unwrap();
-    let head = text.lines().find(|l| !l.starts_with('#')).unwrap().to_string();
+    let (head, _) = table(file);
     let body: Vec<String> = std::iter::once(head).chain(rows).collect();
     std::fs::write(file, body.join("\n") + "\n").unwrap();
 }
@@ -40,15 +47,8 @@ fn a_two_row_trace_is_an_error_naming_the_file() {
     let tmp = tempfile::tempdir().unwrap();
     dataset(tmp.path());
     let trace = first_trace(tmp.path());
-    let text = std::fs::read_to_string(&trace).unwrap();
-    let rows: Vec<String> = text
-        .lines()
-        .filter(|l| !l.starts_with('#'))
-        .skip(1)
-        .take(2)
-        .map(String::from)
-        .collect();
-    rewrite(&trace, rows.into_iter());
+    let (_, rows) = table(&trace);
+    rewrite(&trace, rows.into_iter().take(2));
     let err = identify(&read_dir(tmp.path()).unwrap(), Options::default())
         .unwrap_err()
         .to_string();
@@ -64,23 +64,11 @@ fn rows_a_nanosecond_apart_keep_the_window_grid_bounded() {
     let tmp = tempfile::tempdir().unwrap();
     dataset(tmp.path());
     let trace = first_trace(tmp.path());
-    let text = std::fs::read_to_string(&trace).unwrap();
-    let head: Vec<&str> = text
-        .lines()
-        .find(|l| !l.starts_with('#'))
-        .unwrap()
-        .split(',')
-        .collect();
+    let (head, rows) = table(&trace);
+    let head: Vec<&str> = head.split(',').collect();
     let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
     let (tc, fc) = (col("time_s"), col("freq_hz"));
-    let row: Vec<String> = text
-        .lines()
-        .filter(|l| !l.starts_with('#'))
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .map(String::from)
-        .collect();
+    let row: Vec<String> = rows[0].split(',').map(String::from).collect();
     // 200 rows 1 ns apart, at the file's frequency.
     let rows = (0..200).map(|k| {
         let mut r = row.clone();
