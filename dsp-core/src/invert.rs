@@ -14,7 +14,8 @@
 //!
 //! # Two branches
 //! D(x) is not monotone: for the continuous line it rises to a peak of
-//! 1.057 at x ≈ 8.3 and falls back towards 1 (ladders behave alike), so
+//! 1.057 at x ≈ 7.71 and falls back towards 1 (ladders behave alike: the
+//! 30-element one peaks at x ≈ 8.3), so
 //! between the peak and [`Inverter::x_max`] one impedance fits two lines
 //! whose capacitances differ by tens of percent. [`Inverter::invert`]
 //! reports [`InvertError::Ambiguous`] there; [`Inverter::invert_near`] picks
@@ -214,7 +215,20 @@ impl Inverter {
         self.solve(z, f_hz, Some(c_hint_farad))
     }
 
+    /// [`Self::solve_unchecked`], with every returned line finite and
+    /// positive: an impedance whose ω|Z| is beyond `f32` would give C = 0
+    /// and R = ∞, which is no reading.
     fn solve(&self, z: Complex32, f_hz: f32, hint: Option<f32>) -> Result<Line, InvertError> {
+        let line = self.solve_unchecked(z, f_hz, hint)?;
+        let finite = |v: f32| v.is_finite() && v > 0.0;
+        if finite(line.c_farad) && finite(line.r_ohm) && finite(line.x) {
+            Ok(line)
+        } else {
+            Err(InvertError::OutOfRange)
+        }
+    }
+
+    fn solve_unchecked(&self, z: Complex32, f_hz: f32, hint: Option<f32>) -> Result<Line, InvertError> {
         if !(f_hz.is_finite() && f_hz > 0.0) {
             return Err(InvertError::BadFrequency);
         }

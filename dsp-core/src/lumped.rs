@@ -10,7 +10,8 @@ use core::f32::consts::TAU;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LumpedError {
     /// Im Z ≥ 0 or Re Z < 0: not a lossy capacitor (e.g. a short or an
-    /// inductive or active reading), or a non-finite value.
+    /// inductive or active reading), a non-finite value, or a capacitance
+    /// beyond `f32`.
     NotCapacitive,
     /// The frequency is not finite and positive.
     BadFrequency,
@@ -45,8 +46,13 @@ impl SeriesRc {
         if !(z.re.is_finite() && z.im.is_finite() && z.im < 0.0 && z.re >= 0.0) {
             return Err(LumpedError::NotCapacitive);
         }
+        // |Im Z| so small that Cs leaves f32: no reading.
+        let cs_farad = -1.0 / (TAU * f_hz * z.im);
+        if !cs_farad.is_finite() {
+            return Err(LumpedError::NotCapacitive);
+        }
         Ok(Self {
-            cs_farad: -1.0 / (TAU * f_hz * z.im),
+            cs_farad,
             rs_ohm: z.re,
         })
     }
@@ -81,6 +87,8 @@ mod tests {
             Complex32::new(1.0, 0.0),
             Complex32::new(-1.0, -1.0),
             Complex32::new(f32::NAN, -1.0),
+            // Cs = 1/(ω·1e-45) is beyond f32.
+            Complex32::new(1.0, -1e-45),
         ];
         for z in bad {
             assert_eq!(SeriesRc::from_impedance(z, 1e3), Err(LumpedError::NotCapacitive));

@@ -98,8 +98,12 @@ impl Oscillator {
     }
 
     /// Whole periods in a block of 2^`block_log2` samples, if the
-    /// oscillator is coherent with such blocks.
+    /// oscillator is coherent with such blocks; 0 for `block_log2`
+    /// outside 1..=32 (no whole period fits, or the count overflows).
     pub const fn periods_per_block(&self, block_log2: u32) -> u32 {
+        if block_log2 == 0 || block_log2 > 32 {
+            return 0;
+        }
         self.ftw >> (32 - block_log2)
     }
 
@@ -172,6 +176,16 @@ mod tests {
         }
         assert_eq!(st.phase, 0);
         assert_eq!(o.periods_per_block(11), 20);
+        // Outside 1..=32: no whole period, not a panic.
+        assert_eq!(
+            (
+                o.periods_per_block(0),
+                o.periods_per_block(33),
+                o.periods_per_block(u32::MAX)
+            ),
+            (0, 0, 0)
+        );
+        assert_eq!(o.periods_per_block(32), o.ftw);
     }
 
     #[test]

@@ -78,7 +78,7 @@ impl Tracker {
     /// Relative distance from the peak of D within which C is held.
     pub const ILL_CONDITIONED: f32 = 1e-3;
     /// Default upper end of x = ωRC: the falling branch of D beyond its peak
-    /// (x ≈ 8.3) is still usable up to here with a tracked prior.
+    /// (x ≈ 7.71) is still usable up to here with a tracked prior.
     pub const X_MAX: f32 = 16.0;
 
     /// A tracker for `model` over x ≤ `x_max`.
@@ -96,6 +96,9 @@ impl Tracker {
     /// The line behind impedance `z` (Ω) at `f_hz`. Errors are those of
     /// [`Inverter`], plus [`InvertError::Jump`] for a rejected jump.
     pub fn update(&self, st: &mut TrackState, z: Complex32, f_hz: f32) -> Result<Tracked, InvertError> {
+        if !(f_hz.is_finite() && f_hz > 0.0) {
+            return Err(InvertError::BadFrequency);
+        }
         let (x_peak, d_peak) = self.inverter.peak();
         if st.locked && z.im < 0.0 && z.re >= 0.0 && st.rejected == 0 {
             let d = z.re / -z.im;

@@ -137,3 +137,25 @@ fn beyond_range_and_bad_input_are_clear_errors() {
     );
     assert!(Inverter::with_x_max(LineModel::Ladder(0), 10.0).is_err());
 }
+
+#[test]
+fn overflowing_impedances_are_errors_not_zero_capacitance() {
+    // ω|Z| beyond f32 (a capacitance of ~1e-40 F read at 50 kHz): the
+    // result would be C = 0, R = ∞; it is no reading.
+    let inv = Inverter::new(LineModel::Continuous);
+    for z in [
+        Complex32::new(1e30, -3e38),
+        Complex32::new(0.0, -3e38),
+        Complex32::new(3e38, -3e38),
+    ] {
+        for f in [100.0, 50e3] {
+            let r = inv.invert(z, f);
+            assert!(
+                matches!(r, Err(InvertError::OutOfRange | InvertError::NotCapacitive)),
+                "{z} at {f} Hz: {r:?}"
+            );
+            let r = inv.invert_near(z, f, 200e-12);
+            assert!(r.is_err(), "{z} at {f} Hz: {r:?}");
+        }
+    }
+}

@@ -77,6 +77,13 @@ fn rejects_jumps_and_relocks_on_the_prior() {
     assert!(!st.locked());
     let r = t.update(&mut st, z(1.0, 294e-12, f), f as f32).unwrap();
     assert!((r.line.c_farad / 294e-12 - 1.0).abs() < 1e-4 && st.locked());
+    // A bad frequency is an error on every path, the held one included.
+    for f in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        assert_eq!(
+            t.update(&mut st, z(1.0, 294e-12, 2e3), f).err(),
+            Some(InvertError::BadFrequency)
+        );
+    }
     // Garbage is an error, not a panic.
     assert!(t.update(&mut st, Complex32::new(1.0, 1.0), f as f32).is_err());
     assert!(t

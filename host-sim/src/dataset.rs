@@ -3,9 +3,11 @@
 //! anywhere, columns in any order, unknown columns ignored.
 //!
 //! A reader rejects, naming the file, line and column: a field of a known
-//! column that is not a finite number, a missing required column, a
-//! negative resistance or capacitance, a non-increasing `time_s`, and a
-//! trace whose `freq_hz` is not constant. It never drops rows.
+//! column that is not a finite number, a row whose field count differs
+//! from the header's, a missing required column, a negative resistance or
+//! capacitance, a non-increasing `time_s`, a trace whose `freq_hz` is not
+//! constant, and a byte that is not UTF-8. It reads regular files only,
+//! of at most [`MAX_FILE_BYTES`], and never drops rows.
 
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -163,10 +165,49 @@ pub struct Table {
     pub rows: Vec<Row>,
 }
 
+/// The largest data file read, bytes (a million-row trace is ~60 MB).
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
+/// A field as quoted in an error: at most 40 characters.
+fn quote(field: &str) -> String {
+    if field.chars().count() > 40 {
+        format!(
+            "'{}…' ({} characters)",
+            field.chars().take(40).collect::<String>(),
+            field.chars().count()
+        )
+    } else {
+        format!("'{field}'")
+    }
+}
+
+/// The text of a regular file of at most [`MAX_FILE_BYTES`]; a byte that
+/// is not UTF-8 is an error with its line and column.
+fn read_text(path: &Path) -> Result<String> {
+    let name = path.display().to_string();
+    let meta = std::fs::metadata(path).with_context(|| format!("{name}: cannot open"))?;
+    if !meta.is_file() {
+        bail!("{name}: not a regular file (a data set holds regular files only)");
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        bail!(
+            "{name}: {} bytes, more than the {MAX_FILE_BYTES} a data file may have",
+            meta.len()
+        );
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let ok = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = ok.iter().filter(|&&b| b == b'\n').count() + 1;
+        let col = ok.len() - ok.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1) + 1;
+        anyhow::anyhow!("{name}:{line}:{col}: not UTF-8 text")
+    })
+}
+
 /// Read and check one file.
 pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot open"))?;
+    let text = read_text(path)?;
     // Comments may stand anywhere; drop them but keep each kept line's
     // physical number for the messages.
     let kept: Vec<(u64, &str)> = text
@@ -219,6 +260,13 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
     for rec in rd.records() {
         let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
         let line = physical(rec.position().map_or(0, |p| p.line()));
+        if rec.len() != head.len() {
+            bail!(
+                "{name}:{line}: {} fields where the header (line {head_line}) has {}",
+                rec.len(),
+                head.len()
+            );
+        }
         let mut values = [f64::NAN; 8];
         for (k, col) in COLUMNS.iter().enumerate() {
             let Some(i) = index[k] else { continue };
@@ -226,8 +274,9 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
             let v: f64 = match field.parse::<f64>() {
                 Ok(v) if v.is_finite() => v,
                 _ => bail!(
-                    "{name}:{line}:{}: column '{col}': '{field}' is not a finite number",
-                    i + 1
+                    "{name}:{line}:{}: column '{col}': {} is not a finite number",
+                    i + 1,
+                    quote(field)
                 ),
             };
             let nonneg = matches!(
@@ -291,7 +340,7 @@ pub struct DataSet {
 /// Read a data set folder.
 pub fn read_dir(dir: &Path) -> Result<DataSet> {
     let cal = dir.join("calibration.csv");
-    if !cal.is_file() {
+    if !cal.exists() {
         bail!("{}: missing calibration.csv", dir.display());
     }
     let calibration = read_table(&cal, Kind::Calibration)?;

@@ -13,6 +13,10 @@ use skin_sim::sensor::Sensor;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The longest `trace`, s: an hour of simulated skin (3.6 million 1 ms
+/// steps) still ends in minutes.
+const MAX_TRACE_S: f64 = 3600.0;
+
 #[derive(Parser)]
 #[command(
     name = "host-sim",
@@ -301,6 +305,14 @@ fn ctx(a: &RunArgs, total_s: f64) -> Result<Ctx> {
 }
 
 fn main() -> ExitCode {
+    // A reader that stops early (`| head`) ends the program quietly, as it
+    // does any Unix filter, instead of a panic in the next print.
+    #[cfg(unix)]
+    // SAFETY: restoring the default action of one signal at start-up,
+    // before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -418,10 +430,11 @@ fn run(cli: Cli) -> Result<()> {
             let recs = recording::read(&input, elf.as_deref())?;
             let w = recording::write_dataset(&out, &recs, &recording::Roles { traces, statics })?;
             println!(
-                "{} records → {} trace files ({} rows), {} calibration points, {} faults in {}",
+                "{} records → {} trace files ({} rows), {} fragments (runs shorter than a trace), {} calibration points, {} faults in {}",
                 recs.len(),
                 w.traces.len(),
                 w.rows,
+                w.fragments.len(),
                 w.calibration_points,
                 w.faults,
                 out.display()
@@ -465,7 +478,10 @@ fn run(cli: Cli) -> Result<()> {
                 "lcr" => Meter::lcr(&effects.0),
                 other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
             };
-            anyhow::ensure!(duration > 0.0, "--duration must be > 0");
+            anyhow::ensure!(
+                duration > 0.0 && duration <= MAX_TRACE_S,
+                "--duration must be within 0..{MAX_TRACE_S} s (the simulated sensor steps by 1 ms)"
+            );
             anyhow::ensure!((100.0..=50e3).contains(&f), "--f must be within 100 Hz..50 kHz");
             let params = exp::with_effects(effects.0);
             let mut s = Sensor::settled(params);

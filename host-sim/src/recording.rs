@@ -14,12 +14,16 @@
 //! * `calibration.csv`: one point per static channel (stretch spread below
 //!   [`STATIC_SPREAD_MM`]), the mean of its valid records at the frequency
 //!   it was read at most.
+//! * `fragment_ch{C}_{F}hz.csv`: a run too short to be modelled as a trace
+//!   (fewer than [`MIN_TRACE_ROWS`] records, such as the one start-up block
+//!   at the lowest frequency), same columns: kept, but not a trace.
 //! * `faults.csv`: every record flagged invalid, with its flags.
 //!
 //! Without truth lines (a board) the stretch is the firmware's calibrated
 //! one and the resistance its line estimate `r_line_ohm`: the analyses say
 //! so ([`crate::dataset::Table::resistance`]).
 
+use crate::model::prepared::MIN_TRACE_ROWS;
 use anyhow::{bail, Context, Result};
 use instrument::faults::Flags;
 use instrument::wire::{self, Line, WireError};
@@ -172,6 +176,16 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
                     r_top_ohm: t.r_top_ohm as f64,
                     r_bottom_ohm: t.r_bottom_ohm as f64,
                 });
+                if r.freq_hz <= 0.0 {
+                    bail!("{source}:{n}: frequency {} Hz is not positive", r.freq_hz);
+                }
+                let values = [r.cs_farad, r.rs_ohm, r.c_farad, r.r_ohm];
+                if values.iter().any(|&v| v < 0.0) {
+                    bail!(
+                        "{source}:{n}: a negative capacitance or resistance: '{}'",
+                        clip(l)
+                    );
+                }
                 if let Some(prev) = out.iter().rev().find(|p: &&Rec| p.channel == r.channel) {
                     if r.t_us as f64 * 1e-6 <= prev.t_s {
                         bail!("{source}:{n}: channel {} goes back in time", r.channel);
@@ -237,6 +251,8 @@ pub struct Roles {
 pub struct Written {
     /// Trace files.
     pub traces: Vec<PathBuf>,
+    /// Fragment files (runs too short for a trace).
+    pub fragments: Vec<PathBuf>,
     /// Trace rows in all.
     pub rows: usize,
     /// Calibration points.
@@ -337,7 +353,12 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
         }
     }
     for ((ch, f), rs) in groups {
-        let path = dir.join(format!("trace_ch{ch}_{f}hz.csv"));
+        let kind = if rs.len() >= MIN_TRACE_ROWS {
+            "trace"
+        } else {
+            "fragment"
+        };
+        let path = dir.join(format!("{kind}_ch{ch}_{f}hz.csv"));
         let mut w = std::io::BufWriter::new(std::fs::File::create(&path)?);
         if truth {
             writeln!(
@@ -384,10 +405,16 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
                     r.t_s, r.stretch_mm, r.r_ohm, r.freq_hz, r.cs_pf, r.rs_ohm, r.c_pf, r.flags.0
                 )?,
             }
-            out.rows += 1;
+            if kind == "trace" {
+                out.rows += 1;
+            }
         }
         w.flush()?;
-        out.traces.push(path);
+        if kind == "trace" {
+            out.traces.push(path);
+        } else {
+            out.fragments.push(path);
+        }
     }
     Ok(out)
 }
@@ -420,15 +447,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
         let names: Vec<String> = w
-            .traces
+            .fragments
             .iter()
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
-        // Channel 1 moves (a trace at two frequencies); channel 0 (settling
-        // only) and channel 2 (open) have no valid record: channel 0 is no
+        // Channel 1 moves (one record at each of two frequencies: runs too
+        // short for a trace, kept as fragments); channel 0 (settling only)
+        // and channel 2 (open) have no valid record: channel 0 is no
         // calibration point, and the open one is listed as a fault.
-        assert_eq!(names, ["trace_ch1_586hz.csv", "trace_ch1_1953hz.csv"]);
-        let text = std::fs::read_to_string(&w.traces[0]).unwrap();
+        assert!(w.traces.is_empty() && w.rows == 0);
+        assert_eq!(names, ["fragment_ch1_586hz.csv", "fragment_ch1_1953hz.csv"]);
+        let text = std::fs::read_to_string(&w.fragments[0]).unwrap();
         let row: Vec<&str> = text.lines().nth(2).unwrap().split(',').collect();
         assert_eq!(
             (row[0], row[4], row[5], row[7]),
@@ -485,6 +514,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("log:2") && err.contains("back in time"), "{err}");
+        let err = parse("log", &lines("rec 9 0 -585.9 1 2 3 4 5 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:1") && err.contains("not positive"), "{err}");
+        let err = parse("log", &lines("rec 9 0 585.9 1 2 -3 4 5 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("log:1") && err.contains("negative"), "{err}");
         // Not a keyword inside a word.
         assert!(lines("prec 0 0\n").is_empty());
     }

@@ -4,6 +4,37 @@ mod common;
 use common::run;
 
 #[test]
+fn a_reader_that_stops_early_is_no_panic() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    // A long table; the reader takes one line and closes the pipe.
+    let freqs: Vec<String> = (1..=2000).map(|k| format!("{}", 100 + 20 * k)).collect();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args([
+            "model",
+            "--r",
+            "700k",
+            "--c",
+            "200p",
+            "--csv",
+            "--f",
+            &freqs.join(","),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("model"), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[test]
 fn model_then_invert_round_trips() {
     let (ok, out, err) = run(&[
         "model",

@@ -131,6 +131,12 @@ fn bad_arguments_and_files_give_clear_errors() {
     );
     let (ok, _, err) = run(&["trace", "--profile", "trapezoid:-5"]);
     assert!(!ok && err.contains("rate must be > 0"), "{err}");
+    // An endless trace is refused at once.
+    let (ok, _, err) = run(&["trace", "--profile", "const:3", "--duration", "1e9"]);
+    assert!(
+        !ok && err.contains("--duration must be within 0..3600 s"),
+        "{err}"
+    );
     let (ok, _, err) = run(&["trace", "--profile", "const:3", "--meter", "scope"]);
     assert!(!ok && err.contains("expected 'adc' or 'lcr'"), "{err}");
     let (ok, _, err) = run(&[

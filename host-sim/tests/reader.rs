@@ -81,7 +81,21 @@ fn rejections_name_file_line_column_and_reason() {
             "time_s,stretch_mm,freq_hz,cs_pf\n0,0,500,200\n".to_string(),
             vec![":1:", "missing required columns 'r_top_ohm' and 'r_bottom_ohm'"],
         ),
-        (format!("{head}0,0,1,1,500\n"), vec![":2:6:", "cs_pf", "''"]),
+        // A missing or an extra field shifts nothing: the row is rejected.
+        (format!("{head}0,0,1,1,500\n"), vec![":2:", "5 fields", "has 6"]),
+        (
+            format!("{head}0,0,1,1,500,200,7\n"),
+            vec![":2:", "7 fields", "has 6"],
+        ),
+        (
+            format!("{head}# note\n0,0,1,1,500,200\n0.1,0,1,1,500,200,x\n"),
+            vec![":4:", "7 fields"],
+        ),
+        // A huge field is quoted in part.
+        (
+            format!("{head}0,{},1,1,500,200\n", "9".repeat(100_000) + "x"),
+            vec![":2:2:", "(100001 characters)"],
+        ),
     ];
     for (k, (body, want)) in cases.iter().enumerate() {
         let p = write(d, &format!("trace_{k}.csv"), body);
@@ -115,6 +129,26 @@ fn rejections_name_file_line_column_and_reason() {
     let t = read_table(&d.join("ok.csv"), Kind::Trace).unwrap();
     assert_eq!(t.resistance, host_sim::dataset::Resistance::FourTerminal);
     assert_eq!(t.rows[0].r_rec(), 2.0);
+    // Only regular files: a FIFO or a link to a device is refused at once
+    // (it would hang or exhaust memory), and bytes that are not UTF-8 are
+    // located.
+    let fifo = d.join("trace_fifo.csv");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if made.map(|s| s.success()).unwrap_or(false) {
+        let err = read_table(&fifo, Kind::Trace).unwrap_err().to_string();
+        assert!(err.contains("not a regular file"), "{err}");
+    }
+    let zero = d.join("zero.csv");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let err = read_table(&zero, Kind::Trace).unwrap_err().to_string();
+    assert!(err.contains("not a regular file"), "{err}");
+    let bin = d.join("bin.csv");
+    std::fs::write(&bin, [head.as_bytes(), b"0,0,1,1,5\xff0,200\n"].concat()).unwrap();
+    let err = read_table(&bin, Kind::Trace).unwrap_err().to_string();
+    assert!(err.contains("bin.csv:2:10: not UTF-8"), "{err}");
+    for p in [fifo, zero, bin] {
+        let _ = std::fs::remove_file(p);
+    }
     // A data set without a calibration says so.
     let err = read_dir(d).unwrap_err().to_string();
     assert!(err.contains("missing calibration.csv"), "{err}");

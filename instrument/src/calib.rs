@@ -27,20 +27,29 @@ pub const REFERENCE: CalTable<11> = {
 };
 
 impl<const N: usize> CalTable<N> {
+    /// A table needs two points: a smaller one is a compile-time error
+    /// wherever it is used.
+    const TWO_POINTS: () = assert!(N >= 2, "a calibration table needs at least two points");
+
     /// Stretch (mm) for capacitance `c` (F), extrapolating linearly beyond
-    /// the ends.
+    /// the ends. Where two points share a capacitance (a vertical step in
+    /// stretch), that capacitance reads as one of the step's stretches,
+    /// never ±∞; NaN for a NaN `c`.
     pub fn stretch(&self, c: f32) -> f32 {
+        let () = Self::TWO_POINTS;
         let p = &self.points;
-        if N < 2 {
-            return p.first().map_or(0.0, |q| q.1);
-        }
         let k = p.partition_point(|q| q.0 <= c).clamp(1, N - 1);
         let (a, b) = (p[k - 1], p[k]);
-        a.1 + (b.1 - a.1) * (c - a.0) / (b.0 - a.0)
+        let dc = b.0 - a.0;
+        if dc == 0.0 {
+            return if c.is_nan() { f32::NAN } else { a.1 };
+        }
+        a.1 + (b.1 - a.1) * (c - a.0) / dc
     }
 
     /// Capacitance at rest (stretch 0), F: the prior of the line tracker.
     pub fn rest_capacitance(&self) -> f32 {
+        let () = Self::TWO_POINTS;
         self.points[0].0
     }
 }

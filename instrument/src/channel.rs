@@ -85,16 +85,17 @@ impl Channel {
 
     /// A channel held at frequency index `index` whatever the policy
     /// says, as a data-set recording at one frequency needs.
+    /// An index beyond the set means its highest frequency.
     pub const fn pinned(prior_farad: f32, index: usize) -> Self {
         let mut c = Self::new(prior_farad);
-        c.policy.index = index;
+        c.policy.index = crate::config::index(index);
         c.pinned = true;
         c
     }
 
     /// Frequency index to excite the next block with.
     pub fn freq_index(&self) -> usize {
-        self.policy.index
+        crate::config::index(self.policy.index)
     }
 
     /// Turn the phasors of the block just measured at the current frequency

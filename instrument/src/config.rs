@@ -24,13 +24,24 @@ pub const SLOT_S: f32 = (BLOCK + SETTLE_PAIRS) as f32 / SAMPLE_RATE_HZ;
 pub const PERIODS: [u32; 5] = [3, 5, 10, 20, 30];
 
 /// Frequency of set entry `i`, Hz.
+/// An index beyond the set means its highest entry.
 pub fn freq_hz(i: usize) -> f32 {
-    PERIODS[i] as f32 * SAMPLE_RATE_HZ / BLOCK as f32
+    PERIODS[index(i)] as f32 * SAMPLE_RATE_HZ / BLOCK as f32
 }
 
-/// Oscillator tuning word of set entry `i`.
+/// Oscillator tuning word of set entry `i` (an index beyond the set means
+/// its highest entry).
 pub const fn ftw(i: usize) -> u32 {
-    PERIODS[i] << (32 - BLOCK_LOG2)
+    PERIODS[index(i)] << (32 - BLOCK_LOG2)
+}
+
+/// `i` as an index of the frequency set: saturated to its last entry.
+pub const fn index(i: usize) -> usize {
+    if i < PERIODS.len() {
+        i
+    } else {
+        PERIODS.len() - 1
+    }
 }
 
 /// The demodulators of the frequency set, computed at compile time: their

@@ -11,8 +11,12 @@ pub struct Mux<P: OutputPin, const BITS: usize> {
 }
 
 impl<P: OutputPin, const BITS: usize> Mux<P, BITS> {
-    /// Channels this multiplexer selects between.
-    pub const CHANNELS: usize = 1 << BITS;
+    /// Channels this multiplexer selects between (a `u8` channel number
+    /// addresses at most 8 lines: more is a compile-time error).
+    pub const CHANNELS: usize = {
+        assert!(BITS >= 1 && BITS <= 8, "1 to 8 address lines");
+        1 << BITS
+    };
 
     /// A multiplexer on `pins` (A0 first); nothing selected yet.
     pub fn new(pins: [P; BITS]) -> Self {
@@ -23,7 +27,7 @@ impl<P: OutputPin, const BITS: usize> Mux<P, BITS> {
     /// count). Returns true if the selection changed, so the caller knows
     /// to let the analog path settle.
     pub fn select(&mut self, channel: u8) -> Result<bool, P::Error> {
-        let ch = channel % Self::CHANNELS as u8;
+        let ch = (channel as usize % Self::CHANNELS) as u8;
         if self.selected == Some(ch) {
             return Ok(false);
         }

@@ -8,7 +8,7 @@
 //! relative capacitance error per relative error of the measured
 //! dissipation factor (noise, or any deviation of the sensor from the
 //! uniform-line model). For the continuous line κ = 0.14, 0.45, 0.86, 1.43,
-//! 2.4, 4.7, 13.5 at x = 1…7, and infinite at the peak of D (x ≈ 8.3). The
+//! 2.4, 4.7, 13.5 at x = 1…7, and infinite at the peak of D (x ≈ 7.71). The
 //! default x ≤ 4 keeps κ ≤ 1.5.
 //!
 //! * Down: at once, the first block in which x̂ at the current frequency

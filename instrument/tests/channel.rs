@@ -63,6 +63,28 @@ fn calibration_inverts_the_reference_table() {
     assert!((REFERENCE.stretch(273e-12) - 30.0).abs() < 1e-3);
     assert!((REFERENCE.stretch(213.15e-12) - 1.5).abs() < 1e-3);
     assert!(REFERENCE.stretch(200e-12) < 0.0 && REFERENCE.stretch(280e-12) > 30.0);
+    // A table with a repeated capacitance (a flat segment) gives a finite
+    // stretch, never ±inf; NaN stays NaN.
+    let flat = instrument::calib::CalTable {
+        points: [(210e-12, 0.0), (220e-12, 5.0), (220e-12, 6.0), (230e-12, 10.0)],
+    };
+    for c in [200e-12, 215e-12, 220e-12, 225e-12, 240e-12] {
+        assert!(flat.stretch(c).is_finite(), "{c}");
+    }
+    assert!((5.0..=6.0).contains(&flat.stretch(220e-12)));
+    assert!(flat.stretch(f32::NAN).is_nan());
+}
+
+#[test]
+fn indices_beyond_the_frequency_set_saturate() {
+    let last = PERIODS.len() - 1;
+    assert_eq!(freq_hz(99), freq_hz(last));
+    assert_eq!(ftw(usize::MAX), ftw(last));
+    let ch = Channel::pinned(210e-12, 7);
+    assert_eq!(ch.freq_index(), last);
+    let mut free = Channel::new(210e-12);
+    free.policy.index = 1000;
+    assert_eq!(free.freq_index(), last);
 }
 
 /// Run one channel on a simulated sensor; returns the records.
@@ -180,4 +202,13 @@ fn mux_drives_the_address_lines() {
     }
     // Selecting the same channel again needs no settling.
     assert!(!mux.select(4).unwrap());
+    // Eight address lines: 256 channels, every u8 a channel (no modulo
+    // by zero).
+    let pins = [0, 1, 2, 3, 4, 5, 6, 7].map(|bit| FakePin { bit, levels: &levels });
+    let mut wide = instrument::mux::Mux::new(pins);
+    assert_eq!(instrument::mux::Mux::<FakePin, 8>::CHANNELS, 256);
+    for ch in [200u8, 255, 0] {
+        wide.select(ch).unwrap();
+        assert_eq!((levels.get(), wide.selected()), (ch, Some(ch)));
+    }
 }

@@ -28,6 +28,26 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     );
     // Channels 2-7 are held: six calibration points; channels 0 and 1 move.
     assert!(text.contains("6 calibration points"), "{text}");
+    // Every trace is long enough to model; shorter runs (the start-up block
+    // at the lowest frequency) are fragments, not traces.
+    for entry in std::fs::read_dir(&ds).unwrap() {
+        let p = entry.unwrap().path();
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        let rows = std::fs::read_to_string(&p)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .count()
+            - 1;
+        if name.starts_with("trace_") {
+            assert!(
+                rows >= host_sim::model::prepared::MIN_TRACE_ROWS,
+                "{name}: {rows}"
+            );
+        } else if name.starts_with("fragment_") {
+            assert!(rows < host_sim::model::prepared::MIN_TRACE_ROWS, "{name}: {rows}");
+        }
+    }
     let set = host_sim::dataset::read_dir(&ds).unwrap();
     assert_eq!(set.calibration.rows.len(), 6);
     assert!(set.traces.len() >= 4, "{} traces", set.traces.len());

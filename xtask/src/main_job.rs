@@ -114,8 +114,10 @@ pub fn run(out: &Path) -> Result<String> {
     writeln!(
         md,
         "\nWrote the recording as a data set (`host-sim decode`): {} trace files (one per moving channel and frequency), \
-         calibration.csv ({} points from the held channels), faults.csv; and firmware.log, firmware_paper.svg.",
+         {} fragments (runs too short for a trace), calibration.csv ({} points from the held channels), faults.csv; \
+         and firmware.log, firmware_paper.svg.",
         files.len(),
+        written.fragments.len(),
         written.calibration_points
     )?;
     std::fs::write(out.join("summary.md"), &md)?;

@@ -174,6 +174,17 @@ impl Report {
     }
 }
 
+/// The fits of the candidate threads. A thread that panicked carries its
+/// panic on: a candidate never vanishes from the report silently.
+fn joined(hs: Vec<std::thread::ScopedJoinHandle<'_, Option<Fit>>>) -> Vec<Fit> {
+    hs.into_iter()
+        .filter_map(|h| match h.join() {
+            Ok(fit) => fit,
+            Err(panic) => std::panic::resume_unwind(panic),
+        })
+        .collect()
+}
+
 /// Which electrode resistance a data set gives the model.
 fn resistance_of(ds: &DataSet) -> String {
     let cal = ds.calibration.resistance;
@@ -281,7 +292,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
                 sc.spawn(move || prob.fit(&[e], Params::NONE, &[e]))
             })
             .collect();
-        hs.into_iter().filter_map(|h| h.join().ok().flatten()).collect()
+        joined(hs)
     });
     singles.sort_by(|a, b| a.bic.total_cmp(&b.bic));
     report.singles = singles;
@@ -305,7 +316,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
                     sc.spawn(move || prob.fit(&[first, e], start, &[e]))
                 })
                 .collect();
-            hs.into_iter().filter_map(|h| h.join().ok().flatten()).collect()
+            joined(hs)
         });
         pairs.sort_by(|a, b| a.bic.total_cmp(&b.bic));
         report.pairs = pairs;

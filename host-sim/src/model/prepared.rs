@@ -5,6 +5,10 @@ use crate::dataset::{DataSet, Kind, Row, Table};
 use crate::numerics::{corners, quadratic_fit};
 use anyhow::Result;
 
+/// The fewest rows a trace may have: its noise floor takes second
+/// differences, its time effects interpolate between rows.
+pub const MIN_TRACE_ROWS: usize = 8;
+
 /// A data set prepared for fast model evaluation.
 #[derive(Clone, Debug)]
 pub struct Prepared {
@@ -94,6 +98,14 @@ impl File {
 impl Prepared {
     /// Prepare `ds`; the sweep is modelled too when `sweep` is set.
     pub fn new(ds: &DataSet, sweep: bool) -> Result<Self> {
+        for t in &ds.traces {
+            anyhow::ensure!(
+                t.rows.len() >= MIN_TRACE_ROWS,
+                "{}: {} rows; a trace needs at least {MIN_TRACE_ROWS} to be modelled (noise floor, time effects)",
+                t.path.display(),
+                t.rows.len()
+            );
+        }
         let mut files: Vec<File> = ds.traces.iter().map(file_of).collect();
         if let (true, Some(sw)) = (sweep, &ds.sweep) {
             files.push(file_of(sw));

@@ -6,6 +6,10 @@ use super::{Effect, Model, Params};
 use crate::numerics::interp;
 use num_complex::Complex64;
 
+/// The most grid points one trace's window integral uses (64 MiB of
+/// admittances).
+pub const MAX_GRID: usize = 1 << 22;
+
 /// Predictions of a trace with time effects: with a window, the
 /// admittance on a grid eight times finer than the rows, integrated over
 /// each reading's window [t + δ − T, t + δ]; with an offset alone, the
@@ -32,7 +36,10 @@ pub(super) fn timed(file: &File, p: &Params, at: impl Fn(f64, f64, f64) -> Optio
             })
             .collect();
     }
-    let h = (t1 - t0) / ((n - 1).max(1) as f64 * 8.0);
+    // Eight grid steps per row, but at most MAX_GRID points over the span
+    // (rows packed closer than the window needs are over-resolved anyway).
+    let span = t1 - t0 + window + offset.abs();
+    let h = ((t1 - t0) / ((n - 1).max(1) as f64 * 8.0)).max(span / MAX_GRID as f64);
     let (lo, hi) = (t0 - window + offset.min(0.0) - h, t1 + offset.max(0.0) + h);
     let m = ((hi - lo) / h).ceil() as usize + 1;
     let grid: Vec<Complex64> = (0..m)
