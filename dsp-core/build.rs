@@ -74,6 +74,48 @@ fn main() {
     }
     writeln!(s, "];").unwrap();
 
+    // Small-x series of the n-element ladder, n = 1..=64:
+    //   ζ = −j + q1·x + j·q2·x² − q3·x³ − j·q4·x⁴ + O(x⁵),
+    // from the element recursion with s = jx (i += (s/n)·v, v += i/n from
+    // v = 1, i = 0 at the open end) on polynomials in s truncated to s⁵:
+    // with I = i/s, ζ = −j·v/I, and v/I = Σ q_k s^k by series division.
+    const SERIES_ORDER: usize = 5;
+    writeln!(
+        s,
+        "/// q1..q4 of the n-element ladder's small-x series ζ = −j + q1·x + j·q2·x² − q3·x³ − j·q4·x⁴ (row n − 1)."
+    )
+    .unwrap();
+    writeln!(s, "pub static LADDER_SERIES: [[f32; 4]; 64] = [").unwrap();
+    for n in 1..=64usize {
+        let nf = n as f64;
+        let mut v = [0f64; SERIES_ORDER + 1];
+        let mut i = [0f64; SERIES_ORDER + 1];
+        v[0] = 1.0;
+        for _ in 0..n {
+            // i += (s/n)·v
+            for k in (1..=SERIES_ORDER).rev() {
+                i[k] += v[k - 1] / nf;
+            }
+            // v += i/n
+            for k in 0..=SERIES_ORDER {
+                v[k] += i[k] / nf;
+            }
+        }
+        // I = i/s (i has no constant term).
+        let big_i: Vec<f64> = (0..SERIES_ORDER).map(|k| i[k + 1]).collect();
+        let mut q = [0f64; SERIES_ORDER];
+        for k in 0..SERIES_ORDER {
+            let mut acc = v[k];
+            for m in 0..k {
+                acc -= q[m] * big_i[k - m];
+            }
+            q[k] = acc / big_i[0];
+        }
+        assert!((q[0] - 1.0).abs() < 1e-12, "ladder series q0 = {}", q[0]);
+        writeln!(s, "    [{:e}, {:e}, {:e}, {:e}],", q[1], q[2], q[3], q[4]).unwrap();
+    }
+    writeln!(s, "];").unwrap();
+
     // Arm cores with the DSP extension (Cortex-M4/M7/M33...): stable Rust
     // does not expose Arm target features to cfg, so tell by the target.
     println!("cargo::rustc-check-cfg=cfg(arm_dsp)");

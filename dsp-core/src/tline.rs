@@ -36,8 +36,10 @@
 //!   ≤ 2³⁰; after it |q| ≤ 1.5·2³⁰ + 1 and |p| ≤ 1.75·2³⁰ + 2 < 2³¹, and one
 //!   right shift restores ≤ 2³⁰: no overflow is possible.
 //! * β ≥ ½ (few elements at large x): products are taken in i64 and the
-//!   block is renormalized to ≤ 2²³ before each half step, so a half step
-//!   grows a component to at most 2²³·(1 + β) < 2³⁰ (β < 64).
+//!   block is renormalized to < 2³⁰ before each half step, so a product
+//!   is below 2⁶¹ and a half step grows a component to below
+//!   2³⁰·(1 + β) < 2³⁷ (β < 64). 30 bits matter: there Im ζ is a few
+//!   10⁻³ of |ζ| and is what a meter reads as Cs.
 //!
 //! # Continuous kernel
 //! For x ≤ 1 the series ζ = −j + x/3 − jx²/45 − 2x³/945 + … (to x⁸,
@@ -145,8 +147,19 @@ impl LineModel {
     }
 }
 
+/// Below this x the ladder is its series (see [`crate::tables::LADDER_SERIES`]):
+/// the mantissa kernel's absolute error (≈ n·2⁻³⁰ of |ζ|) would swamp
+/// Re ζ ≈ q1·x, the part a meter reports as Rs. The series' first omitted
+/// term is O(x⁵): below 10⁻⁸ of |ζ| here.
+pub const LADDER_SERIES_X: f32 = 0.02;
+
 /// ζ of an n-element ladder; `n` in 1..=64, `x` in the declared range.
 fn ladder_zeta(n: u32, x: f32) -> Complex32 {
+    if x < LADDER_SERIES_X {
+        let [q1, q2, q3, q4] = crate::tables::LADDER_SERIES[(n - 1) as usize];
+        let x2 = x * x;
+        return Complex32::new(x * (q1 - q3 * x2), -1.0 + x2 * (q2 - q4 * x2));
+    }
     let sx = sqrtf(x);
     let (m, sh) = split_f32(sx / n as f32);
     let (p, q) = if sh >= 32 {
@@ -189,7 +202,11 @@ fn ladder_small_beta(n: u32, m: u32, s: u32) -> ([i32; 2], [i32; 2]) {
 /// β = m·2^-sh ≥ ½ kernel (sh in 25..=31); returns (p, q) as [re, im].
 #[inline(never)]
 fn ladder_large_beta(n: u32, m: u32, sh: u32) -> ([i32; 2], [i32; 2]) {
-    const L: u32 = 23;
+    // Components stay below 2^L before each half step: a product m·a is
+    // below 2^(31+L) and a half step grows a component to below
+    // 2^L·(1 + β) < 2^(L+7) (β < 64), both well inside i64. The final
+    // renormalization leaves them below 2^30 for the i32 result.
+    const L: u32 = 30;
     let m = m as i64;
     let mul = |a: i64| (m * a) >> sh;
     // Shift all four right so that every |component| < 2^L.
@@ -209,6 +226,7 @@ fn ladder_large_beta(n: u32, m: u32, sh: u32) -> ([i32; 2], [i32; 2]) {
         v[1] += mul(v[3]);
         norm(&mut v);
     }
+    norm(&mut v);
     ([v[0] as i32, v[1] as i32], [v[2] as i32, v[3] as i32])
 }
 
