@@ -12,15 +12,27 @@
 //!   [`Inverter::new`] computes once, and refined by Illinois regula falsi
 //!   in ln x (a handful of model evaluations).
 //!
-//! # Two branches
-//! D(x) is not monotone: for the continuous line it rises to a peak of
-//! 1.057 at x ≈ 7.71 and falls back towards 1 (ladders behave alike: the
-//! 30-element one peaks at x ≈ 8.3), so
-//! between the peak and [`Inverter::x_max`] one impedance fits two lines
-//! whose capacitances differ by tens of percent. [`Inverter::invert`]
-//! reports [`InvertError::Ambiguous`] there; [`Inverter::invert_near`] picks
-//! the root whose C is closer to a prior (a calibration value or the
-//! previous block's result), which is always available on a running sensor.
+//! # Several lines, one reading
+//! D(x) is not monotone. For the continuous line it rises to a peak of
+//! 1.057 at x ≈ 7.71 and falls back towards 1 as x → ∞; a ladder's D falls
+//! after its first peak (x ≈ 8.3 for 30 elements) to a minimum and then
+//! rises without bound. So one impedance can fit two or three lines over
+//! the model's whole range (x up to [`crate::tline::X_MAX`]), whatever
+//! `x_max` says: a line beyond `x_max` is still a line a sensor can be.
+//! The inverter keeps a grid of D over the whole range, split into its
+//! monotone branches, and solves every branch that reaches the measured D:
+//!
+//! * [`Inverter::invert`] answers only where one line fits over the whole
+//!   range, x ≤ [`Inverter::x_unique`] (4.89 for the continuous line, where
+//!   D = 1 = D(∞)); elsewhere [`InvertError::Ambiguous`].
+//! * [`Inverter::invert_near`] takes the line whose C is closest (in ratio)
+//!   to a prior (a calibration value or the previous block's result), and
+//!   only if every other line is at least [`SEPARATION`] further from it;
+//!   else [`InvertError::Ambiguous`]. If the line it takes lies beyond
+//!   `x_max`, [`InvertError::OutOfRange`]: a line far beyond the range
+//!   (an electrode resistance step, a cracked electrode) is never reported
+//!   as the rising-branch line of the same D.
+//!
 //! Close to the peak the problem is ill-conditioned (dD/dx = 0): keep the
 //! excitation frequency such that x stays below ~5 for noisy data.
 
@@ -32,8 +44,19 @@ use core::f32::consts::TAU;
 pub const X_ASYMPTOTE: f32 = 0.01;
 /// Default upper end of the inversion range (x = ωRC).
 pub const X_MAX_DEFAULT: f32 = 10.0;
-/// Number of grid points from [`X_ASYMPTOTE`] to `x_max`.
-const GRID: usize = 33;
+/// Number of grid points from [`X_ASYMPTOTE`] to [`crate::tline::X_MAX`]
+/// (log-spaced, ≈ 0.23 apart in ln x).
+const GRID: usize = 56;
+/// Largest number of monotone branches of D(x) kept (rising, falling,
+/// rising again for a ladder; the continuous line has two).
+const BRANCHES: usize = 4;
+/// How much closer (in |ln(C/C_prior)|) the chosen line must be to the
+/// prior than any other line fitting the same reading (2 %): more than a
+/// sensor's C moves in one block plus the noise of a reading.
+pub const SEPARATION: f32 = 0.02;
+/// A branch of D(x) beyond the first peak and trough over which D changes
+/// by less than this (relative) does not tell lines apart.
+const FLAT: f32 = 0.01;
 
 /// Why an impedance could not be inverted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,11 +66,14 @@ pub enum InvertError {
     NotCapacitive,
     /// Frequency not finite and positive.
     BadFrequency,
-    /// D is larger than the model reaches for x ≤ `x_max`: ωRC is beyond
-    /// the inversion range (lower the excitation frequency).
+    /// The expected capacitance given is not finite and positive.
+    BadPrior,
+    /// The line that fits lies beyond `x_max` (or no line of the model
+    /// fits D): ωRC is beyond the inversion range (lower the excitation
+    /// frequency).
     OutOfRange,
-    /// D fits two lines in range (see the module docs); use
-    /// [`Inverter::invert_near`].
+    /// D fits more than one line (see the module docs) and no prior tells
+    /// them apart.
     Ambiguous,
     /// The line found differs from the tracked one by more than a sensor
     /// changes in one block ([`crate::track::Tracker::MAX_JUMP`]): a
@@ -62,10 +88,11 @@ impl core::fmt::Display for InvertError {
         match self {
             InvertError::NotCapacitive => f.write_str("not an R-C line (Re Z < 0, Im Z ≥ 0 or not finite)"),
             InvertError::BadFrequency => f.write_str("the frequency is not finite and positive"),
+            InvertError::BadPrior => f.write_str("the expected capacitance is not finite and positive"),
             InvertError::OutOfRange => f.write_str("ωRC is beyond the inversion range: lower the frequency"),
-            InvertError::Ambiguous => {
-                f.write_str("two lines fit this reading: give the expected capacitance")
-            }
+            InvertError::Ambiguous => f.write_str(
+                "more than one line fits this reading and no expected capacitance tells them apart",
+            ),
             InvertError::Jump => f.write_str("the line jumped further than a sensor changes in one block"),
             InvertError::Model(e) => write!(f, "model: {e}"),
         }
@@ -107,8 +134,16 @@ pub struct Inverter {
     u: [f32; GRID],
     /// D at the grid points.
     d: [f32; GRID],
-    /// Index of the grid point with the largest D.
-    peak: usize,
+    /// Grid indices of the ends of the monotone branches: `ends[0] = 0`,
+    /// then every local extremum of D (refined onto the true extremum),
+    /// then `GRID − 1`.
+    ends: [usize; BRANCHES + 1],
+    /// Number of branches (1 when D rises all the way).
+    branches: usize,
+    /// Branches `resolved..branches` are flat (see [`FLAT`]).
+    resolved: usize,
+    /// Smallest |ζ| over the flat branches (less 0.1 %).
+    tail_zeta: f32,
 }
 
 impl Inverter {
@@ -123,53 +158,103 @@ impl Inverter {
         }
     }
 
-    /// Inverter for `model` over x ≤ `x_max` (clamped to 1..=100).
+    /// Inverter for `model` reporting lines with x ≤ `x_max` (clamped to
+    /// 1..=100, and to where D stops telling lines apart: the continuous
+    /// line's trough at x ≈ 25); lines beyond are still solved for, to tell
+    /// them apart.
     pub fn with_x_max(model: LineModel, x_max: f32) -> Result<Self, ModelError> {
         let x_max = x_max.clamp(1.0, 100.0);
-        let (u0, u1) = (libm::logf(X_ASYMPTOTE), libm::logf(x_max));
+        let (u0, u1) = (libm::logf(X_ASYMPTOTE), libm::logf(crate::tline::X_MAX));
         let mut s = Self {
             model,
             x_max,
             u: [0.0; GRID],
             d: [0.0; GRID],
-            peak: 0,
+            ends: [GRID - 1; BRANCHES + 1],
+            branches: 1,
+            resolved: 1,
+            tail_zeta: f32::INFINITY,
         };
         for k in 0..GRID {
             let u = u0 + (u1 - u0) * k as f32 / (GRID - 1) as f32;
-            s.u[k] = u;
-            s.d[k] = dissipation(model.zeta(libm::expf(u))?);
-            if s.d[k] > s.d[s.peak] {
-                s.peak = k;
+            // The top point rounds to a hair above X_MAX in f32.
+            let x = libm::expf(u).min(crate::tline::X_MAX);
+            s.u[k] = libm::logf(x);
+            s.d[k] = dissipation(model.zeta(x)?);
+        }
+        // Branch ends: where D turns by more than EXTREMUM_TOL (f32 noise
+        // on the continuous line's flat D → 1 is no turn).
+        const EXTREMUM_TOL: f32 = 1e-4;
+        s.ends[0] = 0;
+        let mut rising = s.d[1] >= s.d[0];
+        let mut ext = 0;
+        for k in 1..GRID {
+            if (s.d[k] >= s.d[ext]) == rising {
+                ext = k;
+            } else if libm::fabsf(s.d[k] - s.d[ext]) > EXTREMUM_TOL * s.d[ext] {
+                if s.branches == BRANCHES {
+                    break;
+                }
+                if ext > 0 {
+                    s.refine(ext, rising)?;
+                }
+                s.ends[s.branches] = ext;
+                s.branches += 1;
+                rising = !rising;
+                ext = k;
             }
         }
-        // Move the grid point of the largest D onto the true peak
-        // (golden-section search between its neighbours), so that every D
-        // up to the peak lies inside the grid.
-        let k = s.peak;
-        if k > 0 && k < GRID - 1 {
-            const R: f32 = 0.618_034;
-            let (mut a, mut b) = (s.u[k - 1], s.u[k + 1]);
-            let f = |u: f32| model.zeta(libm::expf(u)).map(dissipation);
-            let (mut c, mut d) = (b - R * (b - a), a + R * (b - a));
-            let (mut fc, mut fd) = (f(c)?, f(d)?);
-            for _ in 0..30 {
-                if fc > fd {
-                    (b, d, fd) = (d, c, fc);
-                    c = b - R * (b - a);
-                    fc = f(c)?;
-                } else {
-                    (a, c, fc) = (c, d, fd);
-                    d = a + R * (b - a);
-                    fd = f(d)?;
-                }
+        s.ends[s.branches] = GRID - 1;
+        // Past the first two branches, a branch over which D changes by
+        // less than FLAT (the continuous line's tail, where D = 1 ± 0.25 %
+        // oscillates ever faster) does not resolve x: readings it reaches
+        // are refused, and x_max stops at its start.
+        s.resolved = s.branches;
+        for b in 2..s.branches {
+            let (d0, d1) = (s.d[s.ends[b]], s.d[s.ends[b + 1]]);
+            if libm::fabsf(d1 - d0) < FLAT * d0 {
+                s.resolved = b;
+                break;
             }
-            let (u, du) = if fc > fd { (c, fc) } else { (d, fd) };
-            if du > s.d[k] {
-                s.u[k] = u;
-                s.d[k] = du;
+        }
+        s.x_max = s.x_max.min(libm::expf(s.u[s.ends[s.resolved]]));
+        for k in s.ends[s.resolved]..GRID {
+            if s.resolved < s.branches {
+                let z = model.zeta(libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
+                s.tail_zeta = s.tail_zeta.min(libm::hypotf(z.re, z.im) * 0.999);
             }
         }
         Ok(s)
+    }
+
+    /// Move grid point `k` onto the extremum of D between its neighbours
+    /// (golden-section search in ln x), so that every D up to a peak (or
+    /// down to a trough) lies inside the grid.
+    fn refine(&mut self, k: usize, max: bool) -> Result<(), ModelError> {
+        const R: f32 = 0.618_034;
+        let model = self.model;
+        let sign = if max { 1.0 } else { -1.0 };
+        let f = |u: f32| model.zeta(libm::expf(u)).map(|z| sign * dissipation(z));
+        let (mut a, mut b) = (self.u[k - 1], self.u[k + 1]);
+        let (mut c, mut d) = (b - R * (b - a), a + R * (b - a));
+        let (mut fc, mut fd) = (f(c)?, f(d)?);
+        for _ in 0..30 {
+            if fc > fd {
+                (b, d, fd) = (d, c, fc);
+                c = b - R * (b - a);
+                fc = f(c)?;
+            } else {
+                (a, c, fc) = (c, d, fd);
+                d = a + R * (b - a);
+                fd = f(d)?;
+            }
+        }
+        let (u, du) = if fc > fd { (c, fc) } else { (d, fd) };
+        if du > sign * self.d[k] {
+            self.u[k] = u;
+            self.d[k] = sign * du;
+        }
+        Ok(())
     }
 
     /// The model this inverter fits.
@@ -177,40 +262,62 @@ impl Inverter {
         self.model
     }
 
-    /// Upper end of the inversion range (x = ωRC).
+    /// Upper end of the reported range (x = ωRC).
     pub fn x_max(&self) -> f32 {
         self.x_max
     }
 
-    /// The peak of D(x) in range: (x, D) at the largest dissipation factor
-    /// (the top of the grid when D rises all the way). Near it the
-    /// inversion is ill-conditioned: dD/dx = 0.
+    /// The first peak of D(x): (x, D) at the largest dissipation factor of
+    /// the rising branch (the top of the model's range when D rises all the
+    /// way). Near it the inversion is ill-conditioned: dD/dx = 0.
     pub fn peak(&self) -> (f32, f32) {
-        (libm::expf(self.u[self.peak]), self.d[self.peak])
+        let k = self.ends[1];
+        (libm::expf(self.u[k]), self.d[k])
     }
 
-    /// Largest x up to which one impedance fits only one line in range:
-    /// `x_max` if D(x) rises all the way, else the x on the rising branch
-    /// where D equals D(x_max). Frequency policies keep x below this.
+    /// Largest x up to which one impedance fits only one line over the
+    /// model's whole range: where the rising branch meets the lowest D
+    /// reached beyond the first peak (4.89 for the continuous line), or
+    /// `x_max` if D rises all the way. Without a prior,
+    /// [`invert`](Self::invert) answers only below this; frequency policies
+    /// keep x below it.
     pub fn x_unique(&self) -> f32 {
-        let last = GRID - 1;
-        if self.peak == last {
+        if self.branches == 1 {
             return self.x_max;
         }
-        match self.root(self.d[last], 0, self.peak) {
-            Ok((x, _)) => x,
+        let floor = self.d[self.ends[1]..].iter().copied().fold(f32::INFINITY, f32::min);
+        match self.root(floor, 0, self.ends[1]) {
+            Ok((x, _)) => x.min(self.x_max),
             Err(_) => libm::expf(self.u[0]),
         }
     }
 
-    /// The line that explains `z` (Ω) at `f_hz`, from the rising branch of
-    /// D(x); [`InvertError::Ambiguous`] if the falling branch fits too.
+    /// The band of D reached by lines beyond the resolved branches (the
+    /// continuous line's tail past its trough at x ≈ 25: D = 0.9976 to
+    /// 1.0001), widened by 10⁻⁴ for rounding; `None` if every branch
+    /// resolves x. A line far beyond any range fits readings in it: they
+    /// are [`InvertError::Ambiguous`] unless a prior is clearly below the
+    /// smallest C of those lines (≈ 2.2 times the rising branch's C for
+    /// the continuous line).
+    pub fn tail(&self) -> Option<(f32, f32)> {
+        if self.resolved == self.branches {
+            return None;
+        }
+        let d = &self.d[self.ends[self.resolved]..];
+        let lo = d.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = d.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        Some((lo * (1.0 - 1e-4), hi * (1.0 + 1e-4)))
+    }
+
+    /// The line that explains `z` (Ω) at `f_hz` where only one line does;
+    /// [`InvertError::Ambiguous`] where more than one fits.
     pub fn invert(&self, z: Complex32, f_hz: f32) -> Result<Line, InvertError> {
         self.solve(z, f_hz, None)
     }
 
-    /// As [`invert`](Self::invert), but where two lines fit, the one whose
-    /// capacitance is closer (in ratio) to `c_hint_farad`.
+    /// As [`invert`](Self::invert), but where several lines fit, the one
+    /// whose capacitance is closest (in ratio) to `c_hint_farad`, if it is
+    /// closer by [`SEPARATION`] than every other.
     pub fn invert_near(&self, z: Complex32, f_hz: f32, c_hint_farad: f32) -> Result<Line, InvertError> {
         self.solve(z, f_hz, Some(c_hint_farad))
     }
@@ -235,6 +342,9 @@ impl Inverter {
         if !(z.re.is_finite() && z.im.is_finite() && z.re >= 0.0 && z.im < 0.0) {
             return Err(InvertError::NotCapacitive);
         }
+        if hint.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
+            return Err(InvertError::BadPrior);
+        }
         let w = TAU * f_hz;
         let zabs = libm::hypotf(z.re, z.im);
         let d = z.re / -z.im;
@@ -246,35 +356,84 @@ impl Inverter {
                 x,
             }
         };
+        // Every line that fits, one per branch at most.
+        let mut found = [None::<Line>; BRANCHES];
+        let mut n = 0;
+        // Rounding may put an impedance at a peak a hair above the largest
+        // D on the grid; 10⁻⁵ of slack keeps it on the peak.
+        let top = self.d[self.ends[1]];
+        let d_rising = if d > top && d <= top * (1.0 + 1e-5) { top } else { d };
         if d <= self.d[0] {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);
             let a = self.model.low_freq_resistance_fraction();
-            return Ok(line(x, Complex32::new(a * x, -1.0)));
+            found[0] = Some(line(x, Complex32::new(a * x, -1.0)));
+            n = 1;
         }
-        // Rounding may put an impedance at the very top a hair above the
-        // largest D on the grid; 10⁻⁵ of slack keeps x = x_max in range.
-        if d > self.d[self.peak] * (1.0 + 1e-5) {
-            return Err(InvertError::OutOfRange);
-        }
-        let d = d.min(self.d[self.peak]);
-        let rising = self.root(d, 0, self.peak)?;
-        let last = GRID - 1;
-        let falling = if self.peak < last && d >= self.d[last] {
-            Some(self.root(d, self.peak, last)?)
-        } else {
-            None
+        // A flat branch reaching D: some line far beyond the range fits.
+        // Its x cannot be told, but its C is at least the tail's smallest
+        // |ζ| over ω|Z| (|ζ| grows with x there).
+        let tail_c = match self.tail() {
+            Some((lo, hi)) if d >= lo && d <= hi => Some(self.tail_zeta / (w * zabs)),
+            _ => None,
         };
-        let lo = line(rising.0, rising.1);
-        match (falling, hint) {
-            (None, _) => Ok(lo),
-            (Some(_), None) => Err(InvertError::Ambiguous),
-            (Some((x, zeta)), Some(c)) => {
-                let hi = line(x, zeta);
-                let dist = |l: &Line| libm::fabsf(libm::logf(l.c_farad / c));
-                Ok(if dist(&hi) < dist(&lo) { hi } else { lo })
+        for b in 0..self.resolved {
+            let (i0, i1) = (self.ends[b], self.ends[b + 1]);
+            let (d0, d1) = (self.d[i0], self.d[i1]);
+            let d = if b == 0 { d_rising } else { d };
+            // A branch owns D strictly past its first end (the previous
+            // branch owns the extremum itself) up to its last end.
+            let inside = if b == 0 {
+                d > d0 && d <= d1
+            } else if d1 >= d0 {
+                d > d0 && d <= d1
+            } else {
+                d < d0 && d >= d1
+            };
+            if inside {
+                let (x, zeta) = self.root(d, i0, i1)?;
+                found[n] = Some(line(x, zeta));
+                n += 1;
             }
         }
+        let mut lines = found.iter().take(n).flatten();
+        let Some(&first) = lines.next() else {
+            return Err(if tail_c.is_some() {
+                InvertError::Ambiguous
+            } else {
+                InvertError::OutOfRange
+            });
+        };
+        let chosen = match hint {
+            _ if n == 1 && tail_c.is_none() => first,
+            None => return Err(InvertError::Ambiguous),
+            Some(c) => {
+                let dist = |l: &Line| libm::fabsf(libm::logf(l.c_farad / c));
+                let (mut best, mut d_best, mut d_next) = (first, dist(&first), f32::INFINITY);
+                for l in lines {
+                    let dl = dist(l);
+                    if dl < d_best {
+                        (best, d_next, d_best) = (*l, d_best, dl);
+                    } else {
+                        d_next = d_next.min(dl);
+                    }
+                }
+                // The tail's lines: the closest of them to the prior.
+                if let Some(ct) = tail_c {
+                    d_next = d_next.min(libm::logf(ct / c).max(0.0));
+                }
+                // NaN distances (a non-finite C) never pass.
+                if !(d_next - d_best >= SEPARATION) {
+                    return Err(InvertError::Ambiguous);
+                }
+                best
+            }
+        };
+        // 10⁻⁴ of slack: a line at x_max may come back a hair above it.
+        if chosen.x > self.x_max * (1.0 + 1e-4) {
+            return Err(InvertError::OutOfRange);
+        }
+        Ok(chosen)
     }
 
     /// Root of D(x) = d on the monotone grid stretch [i0, i1]; returns x and
@@ -320,7 +479,8 @@ impl Inverter {
         // Which bracket end the last regula-falsi step kept (Illinois).
         let mut kept = 0i8;
         for _ in 0..12 {
-            let x = libm::expf(u);
+            // exp(ln X_MAX) may round a hair above X_MAX.
+            let x = libm::expf(u).min(crate::tline::X_MAX);
             let zeta = self.model.zeta(x)?;
             let g = dissipation(zeta) - d;
             if g.abs() < best.2 {

@@ -33,8 +33,13 @@
 //! let z = LineModel::Continuous.impedance(700e3, 200e-12, 6e3).unwrap();
 //! let meter = SeriesRc::from_impedance(z, 6e3).unwrap();
 //! assert!(meter.cs_farad < 190e-12); // the lumped meter under-reads
-//! // ...and the inversion recovers the line:
-//! let line = Inverter::new(LineModel::Continuous).invert(z, 6e3).unwrap();
+//! // ...and the inversion recovers the line. At ωRC = 5.3 two lines fit
+//! // this reading (a second, more resistive line with a larger C), so
+//! // `invert` alone says `Ambiguous`; an expected C (the calibration's
+//! // rest value) picks the line:
+//! let inv = Inverter::new(LineModel::Continuous);
+//! assert!(inv.invert(z, 6e3).is_err());
+//! let line = inv.invert_near(z, 6e3, 210e-12).unwrap();
 //! assert!((line.c_farad / 200e-12 - 1.0).abs() < 1e-3);
 //! assert!((line.r_ohm / 700e3 - 1.0).abs() < 1e-3);
 //! ```

@@ -23,11 +23,21 @@ fn z_of(model: LineModel, r: f64, c: f64, f: f64) -> Complex32 {
     Complex32::new(z.re as f32, z.im as f32)
 }
 
+/// Within this relative distance of the peak of D the two lines that fit
+/// a reading have nearly the same C, and the inverter may say
+/// `Ambiguous` even with a prior (the tracker holds C there:
+/// `Tracker::ILL_CONDITIONED`).
+const PEAK_BAND: f64 = 1e-3;
+
 /// Sweep x; `hint(c)` gives the prior, `x_top(inv)` the top of the sweep.
-fn sweep(model: LineModel, x_top: f64, hint: Option<f64>) -> ((f64, f64), (f64, f64)) {
+/// Returns the C and R errors (RMS, max) and how many readings near the
+/// peak of D, or reached by the far lines of `Inverter::tail`, were
+/// ambiguous.
+fn sweep(model: LineModel, x_top: f64, hint: Option<f64>) -> ((f64, f64), (f64, f64), usize) {
     let (c, f) = (210e-12, 6e3);
     let inv = Inverter::new(model);
-    let (mut ec, mut er) = (vec![], vec![]);
+    let d_peak = inv.peak().1 as f64;
+    let (mut ec, mut er, mut ambiguous) = (vec![], vec![], 0);
     for x in log_grid(1e-5, x_top, 2000) {
         let r = x / (TAU * f * c);
         let z = z_of(model, r, c, f);
@@ -35,14 +45,24 @@ fn sweep(model: LineModel, x_top: f64, hint: Option<f64>) -> ((f64, f64), (f64, 
             Some(h) => inv.invert_near(z, f as f32, (c * h) as f32),
             None => inv.invert(z, f as f32),
         };
-        let got = got.unwrap_or_else(|e| panic!("{model:?} x={x}: {e:?}"));
+        let d = z.re as f64 / -z.im as f64;
+        let in_tail = inv
+            .tail()
+            .is_some_and(|(lo, hi)| d >= lo as f64 && d <= hi as f64);
+        let got = match got {
+            Err(InvertError::Ambiguous) if (d / d_peak - 1.0).abs() < PEAK_BAND || in_tail => {
+                ambiguous += 1;
+                continue;
+            }
+            other => other.unwrap_or_else(|e| panic!("{model:?} x={x}: {e:?}")),
+        };
         ec.push(got.c_farad as f64 / c - 1.0);
         // Below x = 10⁻³ R is physically unobservable (D < 3·10⁻⁴).
         if x >= 1e-3 {
             er.push(got.r_ohm as f64 / r - 1.0);
         }
     }
-    (rms_max(&ec), rms_max(&er))
+    (rms_max(&ec), rms_max(&er), ambiguous)
 }
 
 /// Without any prior: within 0.1 % (max) wherever the answer is unique.
@@ -50,21 +70,26 @@ fn sweep(model: LineModel, x_top: f64, hint: Option<f64>) -> ((f64, f64), (f64, 
 fn recovers_c_and_r_within_0p1_percent_in_unique_range() {
     for model in MODELS {
         let xu = Inverter::new(model).x_unique() as f64;
-        let ((crms, cmax), (rrms, rmax)) = sweep(model, xu * 0.999, None);
+        let ((crms, cmax), (rrms, rmax), ambiguous) = sweep(model, xu * 0.999, None);
         println!("{model:?} x ≤ {xu:.2}: C rms {crms:.1e} max {cmax:.1e}; R rms {rrms:.1e} max {rmax:.1e}");
         assert!(cmax < 1e-3 && rmax < 1e-3, "{model:?}");
         assert!(crms < 1e-4 && rrms < 1e-4, "{model:?}");
-        assert!(xu > 5.0, "{model:?} unique only to {xu}");
+        assert_eq!(ambiguous, 0, "{model:?}");
+        // The continuous line's D dips to 0.9976 at x ≈ 25 (below its
+        // limit 1): one line per reading only up to x = 4.89.
+        assert!(xu > 4.85, "{model:?} unique only to {xu}");
     }
 }
 
 /// With the right branch known (exact prior), the solver itself is within
-/// 0.1 % all the way to x = 10, through the ill-conditioned peak of D.
+/// 0.1 % all the way to x = 10, up to the ill-conditioned peak of D, where
+/// it may say the two lines are too alike to tell (a few readings).
 #[test]
 fn recovers_c_and_r_within_0p1_percent_up_to_x_10_on_known_branch() {
     for model in MODELS {
-        let ((crms, cmax), (rrms, rmax)) = sweep(model, 10.0, Some(1.0));
-        println!("{model:?} x ≤ 10: C rms {crms:.1e} max {cmax:.1e}; R rms {rrms:.1e} max {rmax:.1e}");
+        let ((crms, cmax), (rrms, rmax), ambiguous) = sweep(model, 10.0, Some(1.0));
+        println!("{model:?} x ≤ 10: C rms {crms:.1e} max {cmax:.1e}; R rms {rrms:.1e} max {rmax:.1e}; {ambiguous} ambiguous");
+        assert!(ambiguous < 60, "{model:?}: {ambiguous} of 2000");
         assert!(cmax < 1e-3 && rmax < 1e-3, "{model:?}");
         assert!(crms < 2e-4 && rrms < 2e-4, "{model:?}");
     }
@@ -75,7 +100,7 @@ fn recovers_c_and_r_within_0p1_percent_up_to_x_10_on_known_branch() {
 fn prior_error_bounds_branch_error() {
     for model in [LineModel::Continuous, LineModel::Ladder(30)] {
         for h in [1.02, 1.0 / 1.02] {
-            let ((_, cmax), (_, rmax)) = sweep(model, 10.0, Some(h));
+            let ((_, cmax), (_, rmax), _) = sweep(model, 10.0, Some(h));
             assert!(cmax < 0.045 && rmax < 0.045, "{model:?} h={h}: {cmax} {rmax}");
         }
     }
@@ -85,7 +110,7 @@ fn prior_error_bounds_branch_error() {
 fn unique_branch_needs_no_hint_and_ambiguous_band_says_so() {
     let (c, f) = (200e-12, 2e3);
     let inv = Inverter::new(LineModel::Continuous);
-    for x in log_grid(1e-4, 6.0, 200) {
+    for x in log_grid(1e-4, 4.85, 200) {
         let r = x / (TAU * f * c);
         let got = inv
             .invert(z_of(LineModel::Continuous, r, c, f), f as f32)
@@ -104,19 +129,15 @@ fn beyond_range_and_bad_input_are_clear_errors() {
     let (c, f) = (200e-12, 6e3);
     for model in MODELS.into_iter().filter(|m| *m != LineModel::Ladder(1)) {
         let inv = Inverter::new(model);
-        // Far beyond x_max the line looks like more loss than in range.
+        // Far beyond x_max: the prior picks the far line, which is out of
+        // the reported range.
         let r = 200.0 / (TAU * f * c);
         let z = z_of(model, r, c, f);
-        match inv.invert_near(z, f as f32, c as f32) {
-            Err(InvertError::OutOfRange) => {}
-            other => {
-                // Where D comes back into range, the result must not be
-                // mistaken for x ≤ 10 with the right prior: it is a wrong
-                // line, and the test documents that this needs x ≤ x_max.
-                let l = other.unwrap();
-                assert!(l.x <= inv.x_max(), "{model:?} {l:?}");
-            }
-        }
+        let got = inv.invert_near(z, f as f32, c as f32);
+        assert!(
+            matches!(got, Err(InvertError::OutOfRange | InvertError::Ambiguous)),
+            "{model:?} {got:?}"
+        );
     }
     // n = 1: D = x exactly, so beyond x_max is always out of range.
     let inv = Inverter::new(LineModel::Ladder(1));
@@ -150,12 +171,77 @@ fn overflowing_impedances_are_errors_not_zero_capacitance() {
     ] {
         for f in [100.0, 50e3] {
             let r = inv.invert(z, f);
-            assert!(
-                matches!(r, Err(InvertError::OutOfRange | InvertError::NotCapacitive)),
-                "{z} at {f} Hz: {r:?}"
-            );
+            assert!(r.is_err(), "{z} at {f} Hz: {r:?}");
             let r = inv.invert_near(z, f, 200e-12);
             assert!(r.is_err(), "{z} at {f} Hz: {r:?}");
+        }
+    }
+}
+
+/// The report's case: 200 lines with ωRC from 10 to 100 (C = 200 pF,
+/// 6 kHz) all came back `Ok` with C 28–80 % low. No reading of a line
+/// beyond the range is a valid answer now, with or without a prior (the
+/// true C, or one off by up to ±1 %, what a sensor's C moves in a block),
+/// for every model and `x_max`.
+#[test]
+fn lines_beyond_the_range_are_never_valid_answers() {
+    let (c, f) = (200e-12, 6e3);
+    for model in MODELS {
+        for x_max in [10.0, 16.0] {
+            let inv = Inverter::with_x_max(model, x_max).unwrap();
+            let mut refused = 0;
+            for x in log_grid(x_max as f64 * 1.01, 100.0, 200) {
+                let z = z_of(model, x / (TAU * f * c), c, f);
+                let mut results = vec![inv.invert(z, f as f32)];
+                for h in [0.99, 1.0, 1.01] {
+                    results.push(inv.invert_near(z, f as f32, (c * h) as f32));
+                }
+                for r in results {
+                    match r {
+                        Err(_) => refused += 1,
+                        Ok(l) => panic!("{model:?} x_max {x_max}: line at x = {x:.2} read as {l:?}"),
+                    }
+                }
+            }
+            assert_eq!(refused, 200 * 4);
+        }
+    }
+}
+
+/// Round trips over the model's whole x range with `x_max` up to 100,
+/// ladders included (whose D falls after its first peak and rises again):
+/// every `Ok` is the true line to 0.1 %, with the right prior or one 1 %
+/// off (half of `SEPARATION`: a prior further off may pick a line that is
+/// closer to it where two lines are a few % apart); lines in range are
+/// found except near a peak of D.
+#[test]
+fn round_trips_with_large_x_max_are_right_or_refused() {
+    let (c, f) = (200e-12, 6e3);
+    for model in MODELS {
+        for x_max in [16.0f32, 50.0, 100.0] {
+            let inv = Inverter::with_x_max(model, x_max).unwrap();
+            let (mut ok, mut in_range) = (0, 0);
+            for x in log_grid(1e-3, 3000.0, 3000) {
+                let z = z_of(model, x / (TAU * f * c), c, f);
+                if x <= inv.x_max() as f64 {
+                    in_range += 1;
+                }
+                for h in [None, Some(1.0), Some(1.01), Some(1.0 / 1.01)] {
+                    let r = match h {
+                        None => inv.invert(z, f as f32),
+                        Some(h) => inv.invert_near(z, f as f32, (c * h) as f32),
+                    };
+                    if let Ok(l) = r {
+                        let e = (l.c_farad as f64 / c - 1.0).abs();
+                        assert!(e < 1e-3, "{model:?} x_max {x_max} x {x:.3} prior {h:?}: {l:?}");
+                        if h == Some(1.0) {
+                            ok += 1;
+                        }
+                    }
+                }
+            }
+            println!("{model:?} x_max {x_max} ({}): {ok} of {in_range} in range found with the exact prior", inv.x_max());
+            assert!(ok as f64 >= 0.97 * in_range as f64, "{model:?} x_max {x_max}: {ok}/{in_range}");
         }
     }
 }

@@ -90,3 +90,33 @@ fn rejects_jumps_and_relocks_on_the_prior() {
         .update(&mut st, Complex32::new(f32::NAN, -1.0), f as f32)
         .is_err());
 }
+
+/// An electrode resistance step beyond the range within one block, at the
+/// highest frequency: from x = 4 to anything from 10 to 100 (C = 200 pF,
+/// 5859 Hz). No block beyond `Tracker::X_MAX` is a reading, those within
+/// it are right; when R comes back the tracker reads the line again.
+#[test]
+fn a_resistance_step_beyond_the_range_is_never_a_reading() {
+    let (f, c) = (5859.375, 200e-12);
+    let t = Tracker::new(LineModel::Continuous, Tracker::X_MAX).unwrap();
+    for k in 0..200 {
+        let x_step = 10.0 * 10f64.powf(k as f64 / 199.0);
+        let mut st = TrackState::new(c as f32);
+        for _ in 0..3 {
+            let r = t.update(&mut st, z(4.0, c, f), f as f32).unwrap();
+            assert!((r.line.c_farad as f64 / c - 1.0).abs() < 1e-4);
+        }
+        for _ in 0..2 * Tracker::RELOCK_AFTER {
+            let r = t.update(&mut st, z(x_step, c, f), f as f32);
+            match r {
+                // Up to X_MAX the far branch is read, and read right.
+                Ok(r) if x_step <= Tracker::X_MAX as f64 => {
+                    assert!((r.line.c_farad as f64 / c - 1.0).abs() < 1e-3, "x = {x_step:.2}: {r:?}")
+                }
+                r => assert!(r.is_err(), "x = {x_step:.2}: {r:?}"),
+            }
+        }
+        let r = t.update(&mut st, z(4.0, c, f), f as f32).unwrap();
+        assert!((r.line.c_farad as f64 / c - 1.0).abs() < 1e-4);
+    }
+}
