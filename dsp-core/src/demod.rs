@@ -25,6 +25,23 @@
 //! The impedance is Z = k·V/I, where k is the front end's complex
 //! transimpedance ([`FrontEnd`]).
 //!
+//! # What the tone does not explain
+//! Alongside, each channel's sum Σx and sum of squares Σx² are kept
+//! ([`Moments`]), so that the energy left after removing the block's mean
+//! and the fitted tone is known:
+//!
+//! ```text
+//! E_res = Σx² − (Σx)²/N − 2|X|²/(N·32767²),   r = √(E_res/N)   (counts rms)
+//! ```
+//!
+//! With a clean excitation r is the ADC noise (≈ 0.8 counts on the
+//! reference front end). Mains hum, a step or a glitch within the block
+//! raise it, and they also leak into the tone's bin: over a block shorter
+//! than a hum period, hum is mostly a ramp, and a ramp's leakage into the
+//! bin of k whole periods is √12/(πk) ≈ 1.1/k times its own rms. So r bounds
+//! the error a disturbance can have caused, and a channel can refuse the
+//! block ([`Phasors::residual_rms`]).
+//!
 //! Overflow: each product is below 2¹⁵·2¹⁵ = 2³⁰, so the i64 sums cannot
 //! overflow for any block that fits in memory (N < 2³³).
 
@@ -48,6 +65,22 @@ pub struct DemodState {
     n: usize,
     /// Σv·cos, Σv·sin, Σi·cos, Σi·sin (Q15 · ADC counts).
     sums: [i64; 4],
+    /// Σv, Σv², Σi, Σi² (counts, counts²).
+    moments: [i64; 4],
+}
+
+/// Each channel's sum and sum of squares over a block, for the energy the
+/// tone does not explain (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Moments {
+    /// Σv, counts.
+    pub v_sum: i64,
+    /// Σv², counts².
+    pub v_sq: i64,
+    /// Σi, counts.
+    pub i_sum: i64,
+    /// Σi², counts².
+    pub i_sq: i64,
 }
 
 /// The demodulated phasors of one block.
@@ -59,6 +92,8 @@ pub struct Phasors {
     pub i: Complex<i64>,
     /// Number of sample pairs summed.
     pub n: u32,
+    /// Sums and sums of squares of both channels.
+    pub moments: Moments,
 }
 
 /// The analog front end between the sensor and the two ADC channels.
@@ -122,6 +157,7 @@ impl<const N: usize> Demodulator<N> {
         let reference = self.reference.get(state.n..).unwrap_or(&[]);
         let used = pairs.len().min(reference.len());
         state.sums = accumulate(state.sums, &pairs[..used], &reference[..used]);
+        state.moments = moments(state.moments, &pairs[..used]);
         state.n += used;
         used
     }
@@ -129,10 +165,17 @@ impl<const N: usize> Demodulator<N> {
     /// End the block: return its phasors and reset the state.
     pub fn finish(&self, state: &mut DemodState) -> Phasors {
         let [vc, vs, ic, is] = state.sums;
+        let [v_sum, v_sq, i_sum, i_sq] = state.moments;
         let p = Phasors {
             v: Complex::new(vc, -vs),
             i: Complex::new(ic, -is),
             n: state.n as u32,
+            moments: Moments {
+                v_sum,
+                v_sq,
+                i_sum,
+                i_sq,
+            },
         };
         *state = DemodState::default();
         p
@@ -145,6 +188,7 @@ impl<const N: usize> Demodulator<N> {
             ..self.finish(&mut DemodState {
                 n: N,
                 sums: accumulate([0; 4], pairs, &self.reference),
+                moments: moments([0; 4], pairs),
             })
         }
     }
@@ -164,6 +208,20 @@ fn accumulate(sums: [i64; 4], pairs: &[[i16; 2]], reference: &[u32]) -> [i64; 4]
     return arm::accumulate(sums, pairs, reference);
     #[cfg(not(arm_dsp))]
     return portable(sums, pairs, reference);
+}
+
+/// Σv, Σv², Σi, Σi² over a chunk, added to `m`. Each square is below 2³⁰,
+/// so the i64 sums cannot overflow (N < 2³³).
+fn moments(m: [i64; 4], pairs: &[[i16; 2]]) -> [i64; 4] {
+    let [mut v1, mut v2, mut i1, mut i2] = m;
+    for &[v, i] in pairs {
+        let (v, i) = (v as i32, i as i32);
+        v1 += v as i64;
+        v2 += (v * v) as i64;
+        i1 += i as i64;
+        i2 += (i * i) as i64;
+    }
+    [v1, v2, i1, i2]
 }
 
 /// Reference implementation of the inner loop (all targets).
@@ -257,6 +315,17 @@ impl Phasors {
         amplitude(self.i, self.n)
     }
 
+    /// What the tone does not explain, per channel: the rms of the block
+    /// after removing its mean and the fitted tone, `[voltage, current]`,
+    /// counts (see the module docs). 0 for an empty block.
+    pub fn residual_rms(&self) -> [f32; 2] {
+        let m = &self.moments;
+        [
+            residual(m.v_sum, m.v_sq, self.v, self.n),
+            residual(m.i_sum, m.i_sq, self.i, self.n),
+        ]
+    }
+
     /// V/I as a complex ratio, or `None` if the current phasor is zero.
     pub fn ratio(&self) -> Option<Complex32> {
         // Scale both to f32 by the same power of two so that f32 keeps the
@@ -291,4 +360,17 @@ fn amplitude(x: Complex<i64>, n: u32) -> f32 {
     }
     let (re, im) = (x.re as f64, x.im as f64);
     (libm::sqrt(re * re + im * im) * 2.0 / (32767.0 * n as f64)) as f32
+}
+
+/// √(E_res/N) of one channel (f64: exact for the sums' sizes, and IEEE
+/// basic operations only, so the same bits on every target).
+fn residual(sum: i64, sq: i64, x: Complex<i64>, n: u32) -> f32 {
+    if n == 0 {
+        return 0.0;
+    }
+    let n = n as f64;
+    let (s, re, im) = (sum as f64, x.re as f64, x.im as f64);
+    const REF: f64 = 32767.0;
+    let e = sq as f64 - s * s / n - 2.0 * (re * re + im * im) / (n * REF * REF);
+    libm::sqrt(e.max(0.0) / n) as f32
 }

@@ -147,9 +147,12 @@ impl Channel {
                 return rec;
             }
         }
-        if clipped {
-            // A clipped block's phasors are biased: report the lumped
-            // reading, keep the tracker and the policy as they were.
+        if s.thresholds.disturbed(ph) {
+            rec.flags.set(Flags::DISTURBED);
+        }
+        if clipped || rec.flags.has(Flags::DISTURBED) {
+            // A clipped or disturbed block's phasors are biased: report the
+            // lumped reading, keep the tracker and the policy as they were.
             return rec;
         }
         // The lumped reading stays what the meter saw; the line is what is

@@ -21,6 +21,10 @@ impl Flags {
     pub const SETTLING: u8 = 1 << 4;
     /// C held from the previous block (ill-conditioned inversion).
     pub const HELD: u8 = 1 << 5;
+    /// The block holds more than the excitation explains (mains hum, a
+    /// step, a glitch): its residual after the fitted tone is above the
+    /// threshold, so the tone itself may be off.
+    pub const DISTURBED: u8 = 1 << 6;
 
     /// Is `bit` set?
     pub fn has(self, bit: u8) -> bool {
@@ -34,7 +38,7 @@ impl Flags {
 
     /// True if the capacitance of the record can be trusted.
     pub fn valid(self) -> bool {
-        self.0 & (Self::CLIPPED | Self::OPEN | Self::SHORTED | Self::RANGE | Self::SETTLING) == 0
+        self.0 & (Self::CLIPPED | Self::OPEN | Self::SHORTED | Self::RANGE | Self::SETTLING | Self::DISTURBED) == 0
     }
 }
 
@@ -54,6 +58,13 @@ pub struct Thresholds {
     /// Line resistance above which the electrodes count as out of range
     /// (damaged or delaminated), Ω.
     pub r_max_ohm: f32,
+    /// A channel's residual rms after the fitted tone
+    /// ([`dsp_core::demod::Phasors::residual_rms`]) above which the block is
+    /// disturbed, counts, whatever the tone's amplitude.
+    pub residual_counts: f32,
+    /// ... or above this fraction of the channel's tone amplitude, if that
+    /// is larger.
+    pub residual_rel: f32,
 }
 
 impl Thresholds {
@@ -62,10 +73,27 @@ impl Thresholds {
     /// current, a 150 pF sensor at 586 Hz, gives ≈70 counts; the noise
     /// floor of a 1024-pair block is ≈0.05 counts, so 4 counts separates
     /// them widely. No excitation: below a sixth of the designed one.
+    ///
+    /// Disturbance: a clean block's residual is the ADC noise, ≈ 0.8 counts
+    /// rms. A disturbance leaks into the tone's bin at most ≈ 1.1/k times
+    /// its residual rms (a ramp: hum over a block shorter than its period;
+    /// k ≥ 3 periods per block), so a residual below max(1.5 counts, 2 % of
+    /// the tone) moves the tone by at most 0.55 counts or 0.75 % of it:
+    /// ≤ 0.8 % at the smallest current (≈ 70 counts).
     pub const DEFAULT: Self = Self {
         open_counts: 4.0,
         no_excitation_counts: EXCITATION_COUNTS / 6.0,
         short_ohm: 1_000.0,
         r_max_ohm: 5.0e6,
+        residual_counts: 1.5,
+        residual_rel: 0.02,
     };
+
+    /// Is a block with these phasors disturbed (see the fields)?
+    pub fn disturbed(&self, ph: &dsp_core::demod::Phasors) -> bool {
+        let [rv, ri] = ph.residual_rms();
+        let limit = |amplitude: f32| self.residual_counts.max(self.residual_rel * amplitude);
+        // NaN never passes.
+        !(rv <= limit(ph.v_amplitude()) && ri <= limit(ph.i_amplitude()))
+    }
 }

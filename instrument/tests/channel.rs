@@ -212,3 +212,77 @@ fn mux_drives_the_address_lines() {
         assert_eq!((levels.get(), wide.selected()), (ch, Some(ch)));
     }
 }
+
+/// Mains hum at 50 and 60 Hz on the current channel, the voltage channel or
+/// both, from 0 up to the rails (2048 counts), at every frequency of the
+/// set, 30 blocks each with the hum's phase running: no record flagged
+/// valid is more than 1 % off the truth, and without hum every record is
+/// valid. (The report: 200 counts of 50 Hz hum gave 20 of 55 records valid
+/// with C = 241–275 pF against 210 pF.)
+#[test]
+fn mains_hum_never_gives_a_wrong_valid_record() {
+    use skin_sim::frontend::Disturbance;
+    let fe = FrontEndParams::REFERENCE;
+    let settings = Settings {
+        policy: Policy::DEFAULT,
+        thresholds: Thresholds::DEFAULT,
+        front_end: fe.dsp_front_end(),
+        calibration: &REFERENCE,
+        tracker: instrument::channel::tracker(),
+        fixture: dsp_core::fixture::Fixture::NONE,
+    };
+    let s = Sensor::settled(SensorParams::REFERENCE);
+    let c_true = s.truth().c_farad;
+    let mut rng = Rng::new(9);
+    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut table = vec![];
+    for i in 0..PERIODS.len() {
+        let osc = Oscillator::from_ftw(ftw(i));
+        let z = s.impedance(freq_hz(i) as f64);
+        for hum_hz in [50.0f32, 60.0] {
+            for amp in [0.0f32, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2048.0] {
+                for (on_v, on_i) in [(0.0, 1.0), (1.0, 0.0), (1.0, 1.0)] {
+                    let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
+                    let (mut valid, mut worst) = (0, 0f64);
+                    for b in 0..30 {
+                        let t0 = b as f64 * SLOT_S as f64;
+                        let d = Disturbance {
+                            hum_hz,
+                            hum_v: amp * on_v,
+                            hum_i: amp * on_i,
+                            hum_phase_turns: 0.37,
+                            t0_s: t0,
+                            ..Disturbance::NONE
+                        };
+                        let clipped = fe.block_disturbed(&osc, z, &mut rng, &mut buf, &d);
+                        let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                        let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped);
+                        if r.flags.valid() {
+                            valid += 1;
+                            let e = (r.c_farad as f64 / c_true - 1.0).abs();
+                            worst = worst.max(e);
+                            assert!(
+                                e < 0.01,
+                                "{hum_hz} Hz, {amp} counts (v {on_v}, i {on_i}) at {} Hz: valid C {} pF vs {} pF",
+                                freq_hz(i),
+                                r.c_farad * 1e12,
+                                c_true * 1e12
+                            );
+                        }
+                    }
+                    if amp == 0.0 {
+                        // The first block of a pinned channel settles.
+                        assert_eq!(valid, 29, "no hum at {} Hz", freq_hz(i));
+                    }
+                    if on_v == 0.0 {
+                        table.push((freq_hz(i), hum_hz, amp, valid, worst));
+                    }
+                }
+            }
+        }
+    }
+    println!("frequency, hum, counts on the current channel: valid of 29, worst valid error");
+    for (f, h, a, v, w) in table {
+        println!("{f:6.0} Hz {h:2.0} Hz {a:6.0}: {v:2} valid, worst {:.3} %", w * 100.0);
+    }
+}

@@ -60,6 +60,18 @@ impl FrontEndParams {
     /// impedance `z` (Ω) excited by `osc` from phase 0. Returns true if any
     /// sample clipped.
     pub fn block(&self, osc: &Oscillator, z: Complex64, rng: &mut Rng, out: &mut [[i16; 2]]) -> bool {
+        self.block_disturbed(osc, z, rng, out, &Disturbance::NONE)
+    }
+
+    /// As [`block`](Self::block), with `d` added at the ADC inputs.
+    pub fn block_disturbed(
+        &self,
+        osc: &Oscillator,
+        z: Complex64,
+        rng: &mut Rng,
+        out: &mut [[i16; 2]],
+        d: &Disturbance,
+    ) -> bool {
         let half = (1i32 << (self.adc_bits.clamp(2, 16) - 1)) as f32;
         let lsb = (self.full_scale_volt as f32) / half;
         // Current phasor (A) through the transimpedance, in LSB per unit cos/sin.
@@ -83,13 +95,64 @@ impl FrontEndParams {
             code.clamp(-half, half - 1.0) as i16
         };
         let mut st = OscillatorState::default();
-        for o in out.iter_mut() {
+        // Hum phase as a 32-bit turn fraction: per pair, and at the block's
+        // first pair from its absolute time.
+        let turns = |t: f64| {
+            let x = d.hum_hz as f64 * t;
+            ((x - libm::floor(x)) * 4_294_967_296.0) as u64 as u32
+        };
+        let hum_step = turns(1.0 / self.sample_rate_hz);
+        let mut hum_phase = turns(d.t0_s).wrapping_add((d.hum_phase_turns as f64 * 4_294_967_296.0) as i64 as u32);
+        for (n, o) in out.iter_mut().enumerate() {
             let (c, s) = osc.next(&mut st);
             let (c, s) = (c as f32 * q, s as f32 * q);
-            let v = va * c + noise * rng.gaussian_fast();
-            let i = ir * c - ii * s + noise * rng.gaussian_fast();
+            let (_, h) = dsp_core::cossin::cossin(hum_phase as i32);
+            let h = h as f32 * q;
+            hum_phase = hum_phase.wrapping_add(hum_step);
+            let step = if n >= d.step_at { d.step_i } else { 0.0 };
+            let v = va * c + noise * rng.gaussian_fast() + d.hum_v * h;
+            let i = ir * c - ii * s + noise * rng.gaussian_fast() + d.hum_i * h + step;
             *o = [adc(v), adc(i)];
+            if let Some(code) = d.stuck_i {
+                o[1] = code;
+            }
         }
         clipped
     }
+}
+
+/// Disturbances at the ADC inputs of a block, counts: what a bench adds to
+/// the excitation and what the instrument must not mistake for the sensor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disturbance {
+    /// Mains hum frequency, Hz (50 or 60).
+    pub hum_hz: f32,
+    /// Hum amplitude on the voltage channel, counts (peak).
+    pub hum_v: f32,
+    /// Hum amplitude on the current channel, counts (peak).
+    pub hum_i: f32,
+    /// Hum phase at t = 0, turns.
+    pub hum_phase_turns: f32,
+    /// Time of the block's first pair, s (where the hum is in its cycle).
+    pub t0_s: f64,
+    /// A step on the current channel from pair `step_at` on, counts.
+    pub step_i: f32,
+    /// First pair of the step.
+    pub step_at: usize,
+    /// The current channel stuck at one code (an ADC or DMA fault).
+    pub stuck_i: Option<i16>,
+}
+
+impl Disturbance {
+    /// Nothing added.
+    pub const NONE: Self = Self {
+        hum_hz: 50.0,
+        hum_v: 0.0,
+        hum_i: 0.0,
+        hum_phase_turns: 0.0,
+        t0_s: 0.0,
+        step_i: 0.0,
+        step_at: usize::MAX,
+        stuck_i: None,
+    };
 }
