@@ -8,7 +8,7 @@ use dsp_core::Oscillator;
 use embedded_hal::digital::{ErrorType, OutputPin};
 use instrument::config::{freq_hz, ftw, BLOCK, CHANNELS};
 use instrument::effects::{Effect, EffectSet};
-use skin_sim::frontend::FrontEndParams;
+use skin_sim::frontend::{Disturbance, FrontEndParams};
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
 use skin_sim::sensor::{Sensor, SensorParams, Truth};
@@ -26,7 +26,12 @@ pub enum Scenario {
     /// Eight different sensors, each on its own slow trapezoid.
     Eight,
     /// Faults from 1 s to 2 s: channel 1 open, channel 2 clipping,
-    /// channel 3 electrodes at 10 MΩ.
+    /// channel 3 electrodes at 10 MΩ, channel 4 electrodes stepping 8×
+    /// from 356 kΩ to 2.85 MΩ (ωRC from 3 to 24 at 5859 Hz, where it sat:
+    /// beyond the inversion's range, below the broken-electrode limit),
+    /// channel 5 under 300 counts of
+    /// 50 Hz hum, channel 6's current ADC stuck at one code, channel 7 a
+    /// 400-count step in the middle of every block.
     Faults,
     /// A data-set recording of sensors with an undeclared effect
     /// ([`HIDDEN`]): channels 0–2 on the 20 mm/s trapezoid at a fixed
@@ -120,6 +125,7 @@ pub struct Skin {
     scenario: Scenario,
     sensors: [Sensor; CHANNELS],
     broken: Sensor,
+    stepped: Sensor,
     front_end: FrontEndParams,
     rng: Rng,
 }
@@ -137,6 +143,12 @@ fn params(scenario: Scenario, ch: usize) -> SensorParams {
     if matches!(scenario, Scenario::Identify | Scenario::Hidden) {
         p.effects = HIDDEN;
     }
+    if scenario == Scenario::Faults && ch == 4 {
+        // Low-resistance electrodes (356 kΩ): at rest the policy climbs to
+        // the highest frequency.
+        p.top.r_rest_ohm *= 0.5;
+        p.bottom.r_rest_ohm *= 0.5;
+    }
     p
 }
 
@@ -147,10 +159,14 @@ impl Skin {
         let mut broken = SensorParams::REFERENCE;
         broken.top.r_rest_ohm = 5e6;
         broken.bottom.r_rest_ohm = 5e6;
+        let mut stepped = params(scenario, 4);
+        stepped.top.r_rest_ohm *= 8.0;
+        stepped.bottom.r_rest_ohm *= 8.0;
         Self {
             scenario,
             sensors,
             broken: Sensor::settled(broken),
+            stepped: Sensor::settled(stepped),
             front_end: FrontEndParams::REFERENCE,
             rng: Rng::new(0x5eed),
         }
@@ -211,9 +227,33 @@ impl Skin {
                 self.broken.advance(&Profile::Constant(0.0), t_mid);
                 (self.broken.impedance(f), self.broken.truth())
             }
+            // Electrodes at 8× their resistance, from one block to the next.
+            (true, 4) => {
+                self.stepped.advance(&self.profile(4), t_mid);
+                (self.stepped.impedance(f), self.stepped.truth())
+            }
             _ => (self.sensors[ch].impedance(f), self.sensors[ch].truth()),
         };
-        let clipped = fe.block(&osc, z, &mut self.rng, out);
+        let block_s = BLOCK as f64 / fe.sample_rate_hz;
+        let d = match (in_fault, ch) {
+            (true, 5) => Disturbance {
+                hum_hz: 50.0,
+                hum_i: 300.0,
+                t0_s: t_mid - 0.5 * block_s,
+                ..Disturbance::NONE
+            },
+            (true, 6) => Disturbance {
+                stuck_i: Some(1234),
+                ..Disturbance::NONE
+            },
+            (true, 7) => Disturbance {
+                step_i: 400.0,
+                step_at: BLOCK / 2,
+                ..Disturbance::NONE
+            },
+            _ => Disturbance::NONE,
+        };
+        let clipped = fe.block_disturbed(&osc, z, &mut self.rng, out, &d);
         (ch as u8, clipped, truth)
     }
 }

@@ -121,9 +121,35 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
             after.first()
         );
     }
+    // The electrodes of channel 4 step 8× (ωRC from 3 to 24 at 5859 Hz,
+    // where it sat: beyond the inversion's range, below the broken-electrode
+    // limit): the step's block is no reading, the policy falls back, and
+    // every valid record in the window is right (a lower frequency reads
+    // the stepped line). Channels 5-7 (hum, a stuck current ADC, a step
+    // within every block): no valid record more than 1 % off, and the
+    // disturbance is flagged.
+    let c4 = channel(&recs, 4);
+    let step = c4.iter().position(|r| r.t_s >= 1.0).unwrap();
+    assert!(c4[step - 1].valid() && c4[step - 1].freq_hz > 5800.0, "{:?}", c4[step - 1]);
+    assert!(!c4[step].valid(), "the step's block: {:?}", c4[step]);
+    for (ch, flag) in [(4u8, Flags::RANGE), (5, Flags::DISTURBED), (6, Flags::OPEN), (7, Flags::DISTURBED)] {
+        let c = channel(&recs, ch);
+        let inside: Vec<&Rec> = c.iter().filter(|r| (1.0..2.0).contains(&r.t_s)).collect();
+        assert!(inside.len() > 10);
+        let wrong_before = c.iter().find(|r| r.t_s < 1.0 && r.t_s > 0.3 && !r.valid());
+        assert!(wrong_before.is_none(), "channel {ch} before: {wrong_before:?}");
+        let wrong = inside.iter().find(|r| r.valid() && rel_err(r) >= 0.01);
+        assert!(wrong.is_none(), "channel {ch}: {wrong:?}");
+        assert!(inside.iter().any(|r| r.flags.has(flag)), "channel {ch}");
+        if ch != 4 {
+            assert!(inside.iter().all(|r| !r.valid()), "channel {ch}");
+        }
+        let after: Vec<&Rec> = c.iter().filter(|r| r.t_s >= 2.8).collect();
+        assert!(!after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01), "channel {ch} after");
+    }
     // Channel 0 never noticed: no fault flags at all (settling after its
     // own frequency switches is not a fault).
-    let fault_bits = Flags::CLIPPED | Flags::OPEN | Flags::SHORTED | Flags::RANGE;
+    let fault_bits = Flags::CLIPPED | Flags::OPEN | Flags::SHORTED | Flags::RANGE | Flags::DISTURBED;
     assert!(channel(&recs, 0).iter().all(|r| !r.flags.has(fault_bits)));
 }
 
