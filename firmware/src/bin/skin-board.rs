@@ -25,7 +25,7 @@ use dsp_core::demod::FrontEnd;
 use dsp_core::osc::{Oscillator, OscillatorState};
 use firmware::board::dma::Event;
 use firmware::board::pins::AnyPin;
-use firmware::board::{adc, clocks, dac, dma, pac, pins, timer};
+use firmware::board::{adc, clocks, dac, dma, pac, pins, timer, watchdog};
 use instrument::calib::{CalTable, REFERENCE};
 use instrument::channel::{Channel, Settings};
 use instrument::config::{ftw, BLOCK, CHANNELS, DEMODULATORS, SETTLE_PAIRS, SLOT_PAIRS};
@@ -120,6 +120,9 @@ mod app {
     #[init(local = [adc: [u32; 2 * SLOT] = [0; 2 * SLOT], dac: [u16; 2 * SLOT] = [2048; 2 * SLOT]])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
+        let cause = watchdog::take_reset_cause(&dp.RCC);
+        defmt::println!("reset cause: {=str}", cause.as_str());
+        watchdog::start(&dp.IWDG);
         clocks::init(&dp);
         let cal: &'static CalTable<11> = &REFERENCE;
         let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
@@ -133,6 +136,8 @@ mod app {
         let adc_buf: *const u32 = cx.local.adc.as_ptr();
         let dac_buf: &'static mut [u16; 2 * SLOT] = cx.local.dac;
         front_end(&dp, adc_buf as u32, dac_buf.as_ptr() as u32);
+        while !watchdog::ready(&dp.IWDG) {}
+        watchdog::feed(&dp.IWDG);
         defmt::println!("start {=u8} channels", CHANNELS as u8);
         (
             Shared { slot: None, channels },
@@ -170,7 +175,9 @@ mod app {
         let expected = (cx.local.seq.next_index() % 2) as usize;
         let (half, lost) = match event {
             Event::Error => {
-                defmt::println!("dma transfer error: acquisition stopped");
+                // Nothing is fed from here on: the watchdog restarts the
+                // board within 100 ms.
+                defmt::println!("dma transfer error: acquisition stopped, watchdog reset follows");
                 return;
             }
             Event::None => return,
@@ -246,5 +253,10 @@ mod app {
             Some(rec) => defmt::println!("{}", rec),
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), ch),
         }
+        // A block went all the way through: the chain is alive.
+        // SAFETY: IWDG_KR is write-only and written by this task alone
+        // after `init`.
+        #[allow(unsafe_code)]
+        watchdog::feed(unsafe { &*pac::IWDG::ptr() });
     }
 }

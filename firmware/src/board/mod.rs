@@ -14,6 +14,7 @@
 //! | [`dac`] | DAC1 channel 1, paced by TIM6, fed by DMA |
 //! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events |
 //! | [`timer`] | TIM6 at the sample rate |
+//! | [`watchdog`] | IWDG (100 ms), the cause of the last reset |
 //!
 //! The front end's values (sample rate, clock, amplitude) come from
 //! `instrument::design`.
@@ -28,6 +29,7 @@ pub mod pins;
 #[cfg(target_os = "none")]
 mod runtime;
 pub mod timer;
+pub mod watchdog;
 
 #[cfg(test)]
 mod tests;

@@ -1,15 +1,15 @@
 //! The one place that owns logging, panics and faults on the board: defmt
-//! over RTT (read by probe-rs), and a panic or hard fault logs and halts
-//! in a breakpoint so the debugger stops there.
+//! over RTT (read by probe-rs); a panic or hard fault logs and resets the
+//! board, whose next boot logs the cause (`watchdog::take_reset_cause`)
+//! and measures again. A sensing skin left alone must come back, not wait
+//! in a breakpoint for a debugger.
 
 use defmt_rtt as _;
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
     defmt::println!("PANIC {}", defmt::Display2Format(info));
-    loop {
-        cortex_m::asm::bkpt();
-    }
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 #[cortex_m_rt::exception]
@@ -17,9 +17,7 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 #[allow(unsafe_code)]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     defmt::println!("HARDFAULT pc={=u32:#x}", frame.pc());
-    loop {
-        cortex_m::asm::bkpt();
-    }
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 defmt::timestamp!("");

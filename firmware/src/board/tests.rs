@@ -6,7 +6,7 @@
 //! peripheral side for the DAC's DMA, the DMA error and overrun events.
 
 use super::dma::Event;
-use super::{adc, clocks, dac, dma, pac, pins, timer};
+use super::{adc, clocks, dac, dma, pac, pins, timer, watchdog};
 use std::vec;
 use std::vec::Vec;
 
@@ -170,4 +170,35 @@ fn dac_timer_and_pins() {
     let mut b = Fake::new(&[(0x00, 0xFFFF_FEBF)]);
     pins::mux_outputs(b.regs::<pac::gpiob::RegisterBlock>());
     assert_eq!(b.at(0x00), 0xFFFF_FEBF & !0x3F | 0b01_01_01);
+}
+
+#[test]
+fn watchdog_100_ms_from_lsi_over_32_and_the_reset_cause() {
+    let mut iwdg = Fake::new(&[(0x04, 0), (0x08, 0x0FFF)]);
+    watchdog::start(iwdg.regs::<pac::iwdg::RegisterBlock>());
+    // KR last written with the unlock key after the start key; PR = /32
+    // (0b011), RLR = 99 (1 kHz ticks, 100 ms).
+    assert_eq!(iwdg.at(0x00), 0x5555);
+    assert_eq!(iwdg.at(0x04), 0b011);
+    assert_eq!(iwdg.at(0x08), 99);
+    watchdog::feed(iwdg.regs::<pac::iwdg::RegisterBlock>());
+    assert_eq!(iwdg.at(0x00), 0xAAAA);
+    use watchdog::ResetCause as C;
+    // RCC_CSR flags (RM0440 §7.4.29): bits 25 OBL, 26 PIN, 27 BOR, 28 SFT,
+    // 29 IWDG, 30 WWDG, 31 LPWR. NRST follows every internal reset.
+    for (bits, cause) in [
+        (1 << 29 | 1 << 26, C::Watchdog),
+        (1 << 28 | 1 << 26, C::Software),
+        (1 << 27 | 1 << 26, C::PowerOn),
+        (1 << 26, C::Pin),
+        (1 << 30 | 1 << 26, C::WindowWatchdog),
+        (1 << 31 | 1 << 26, C::LowPower),
+        (1 << 25 | 1 << 26, C::OptionBytes),
+        (0, C::Unknown),
+    ] {
+        assert_eq!(C::from_csr(bits), cause, "{bits:#x}");
+    }
+    let mut rcc = Fake::new(&[(0x94, 1 << 29 | 1 << 26)]);
+    assert_eq!(watchdog::take_reset_cause(rcc.regs::<pac::rcc::RegisterBlock>()), C::Watchdog);
+    assert_ne!(rcc.at(0x94) & (1 << 23), 0, "RMVF set");
 }
