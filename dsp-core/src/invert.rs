@@ -285,7 +285,10 @@ impl Inverter {
         if self.branches == 1 {
             return self.x_max;
         }
-        let floor = self.d[self.ends[1]..].iter().copied().fold(f32::INFINITY, f32::min);
+        let floor = self.d[self.ends[1]..]
+            .iter()
+            .copied()
+            .fold(f32::INFINITY, f32::min);
         match self.root(floor, 0, self.ends[1]) {
             Ok((x, _)) => x.min(self.x_max),
             Err(_) => libm::expf(self.u[0]),
@@ -362,7 +365,11 @@ impl Inverter {
         // Rounding may put an impedance at a peak a hair above the largest
         // D on the grid; 10⁻⁵ of slack keeps it on the peak.
         let top = self.d[self.ends[1]];
-        let d_rising = if d > top && d <= top * (1.0 + 1e-5) { top } else { d };
+        let d_rising = if d > top && d <= top * (1.0 + 1e-5) {
+            top
+        } else {
+            d
+        };
         if d <= self.d[0] {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);

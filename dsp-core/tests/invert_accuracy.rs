@@ -240,8 +240,14 @@ fn round_trips_with_large_x_max_are_right_or_refused() {
                     }
                 }
             }
-            println!("{model:?} x_max {x_max} ({}): {ok} of {in_range} in range found with the exact prior", inv.x_max());
-            assert!(ok as f64 >= 0.97 * in_range as f64, "{model:?} x_max {x_max}: {ok}/{in_range}");
+            println!(
+                "{model:?} x_max {x_max} ({}): {ok} of {in_range} in range found with the exact prior",
+                inv.x_max()
+            );
+            assert!(
+                ok as f64 >= 0.97 * in_range as f64,
+                "{model:?} x_max {x_max}: {ok}/{in_range}"
+            );
         }
     }
 }

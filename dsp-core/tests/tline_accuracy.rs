@@ -80,7 +80,11 @@ fn real_and_imaginary_parts_each_within_1e4() {
     let mut worst = (LineModel::Continuous, 0f64);
     for (m, n) in models {
         for x in x_grid(600) {
-            let want = if n == 0 { continuous_ref(x) } else { ladder_ref(n, x) };
+            let want = if n == 0 {
+                continuous_ref(x)
+            } else {
+                ladder_ref(n, x)
+            };
             let got = m.zeta(x as f32).unwrap();
             let re = (got.re as f64 - want.re).abs() / want.re;
             let im = (got.im as f64 - want.im).abs() / want.im.abs();
@@ -97,7 +101,10 @@ fn real_and_imaginary_parts_each_within_1e4() {
     }
     let (re_rms, im_rms) = ((re_ss / cnt as f64).sqrt(), (im_ss / cnt as f64).sqrt());
     println!("Re ζ relative: rms {re_rms:.2e} max {re_max:.2e} (worst {worst:?}); Im ζ: rms {im_rms:.2e} max {im_max:.2e}");
-    assert!(re_max < 1e-4 && im_max < 1e-4, "Re {re_max:e} at {worst:?}, Im {im_max:e}");
+    assert!(
+        re_max < 1e-4 && im_max < 1e-4,
+        "Re {re_max:e} at {worst:?}, Im {im_max:e}"
+    );
     assert!(re_rms < 1e-5 && im_rms < 1e-5, "Re {re_rms:e}, Im {im_rms:e}");
 }
 

@@ -111,7 +111,10 @@ fn a_resistance_step_beyond_the_range_is_never_a_reading() {
             match r {
                 // Up to X_MAX the far branch is read, and read right.
                 Ok(r) if x_step <= Tracker::X_MAX as f64 => {
-                    assert!((r.line.c_farad as f64 / c - 1.0).abs() < 1e-3, "x = {x_step:.2}: {r:?}")
+                    assert!(
+                        (r.line.c_farad as f64 / c - 1.0).abs() < 1e-3,
+                        "x = {x_step:.2}: {r:?}"
+                    )
                 }
                 r => assert!(r.is_err(), "x = {x_step:.2}: {r:?}"),
             }

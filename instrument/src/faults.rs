@@ -38,7 +38,8 @@ impl Flags {
 
     /// True if the capacitance of the record can be trusted.
     pub fn valid(self) -> bool {
-        self.0 & (Self::CLIPPED | Self::OPEN | Self::SHORTED | Self::RANGE | Self::SETTLING | Self::DISTURBED) == 0
+        self.0 & (Self::CLIPPED | Self::OPEN | Self::SHORTED | Self::RANGE | Self::SETTLING | Self::DISTURBED)
+            == 0
     }
 }
 

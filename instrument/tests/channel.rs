@@ -240,7 +240,9 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
         let osc = Oscillator::from_ftw(ftw(i));
         let z = s.impedance(freq_hz(i) as f64);
         for hum_hz in [50.0f32, 60.0] {
-            for amp in [0.0f32, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2048.0] {
+            for amp in [
+                0.0f32, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2048.0,
+            ] {
                 for (on_v, on_i) in [(0.0, 1.0), (1.0, 0.0), (1.0, 1.0)] {
                     let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
                     let (mut valid, mut worst) = (0, 0f64);
@@ -283,6 +285,9 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
     }
     println!("frequency, hum, counts on the current channel: valid of 29, worst valid error");
     for (f, h, a, v, w) in table {
-        println!("{f:6.0} Hz {h:2.0} Hz {a:6.0}: {v:2} valid, worst {:.3} %", w * 100.0);
+        println!(
+            "{f:6.0} Hz {h:2.0} Hz {a:6.0}: {v:2} valid, worst {:.3} %",
+            w * 100.0
+        );
     }
 }

@@ -102,7 +102,8 @@ impl FrontEndParams {
             ((x - libm::floor(x)) * 4_294_967_296.0) as u64 as u32
         };
         let hum_step = turns(1.0 / self.sample_rate_hz);
-        let mut hum_phase = turns(d.t0_s).wrapping_add((d.hum_phase_turns as f64 * 4_294_967_296.0) as i64 as u32);
+        let mut hum_phase =
+            turns(d.t0_s).wrapping_add((d.hum_phase_turns as f64 * 4_294_967_296.0) as i64 as u32);
         for (n, o) in out.iter_mut().enumerate() {
             let (c, s) = osc.next(&mut st);
             let (c, s) = (c as f32 * q, s as f32 * q);

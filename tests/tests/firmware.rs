@@ -130,9 +130,18 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
     // disturbance is flagged.
     let c4 = channel(&recs, 4);
     let step = c4.iter().position(|r| r.t_s >= 1.0).unwrap();
-    assert!(c4[step - 1].valid() && c4[step - 1].freq_hz > 5800.0, "{:?}", c4[step - 1]);
+    assert!(
+        c4[step - 1].valid() && c4[step - 1].freq_hz > 5800.0,
+        "{:?}",
+        c4[step - 1]
+    );
     assert!(!c4[step].valid(), "the step's block: {:?}", c4[step]);
-    for (ch, flag) in [(4u8, Flags::RANGE), (5, Flags::DISTURBED), (6, Flags::OPEN), (7, Flags::DISTURBED)] {
+    for (ch, flag) in [
+        (4u8, Flags::RANGE),
+        (5, Flags::DISTURBED),
+        (6, Flags::OPEN),
+        (7, Flags::DISTURBED),
+    ] {
         let c = channel(&recs, ch);
         let inside: Vec<&Rec> = c.iter().filter(|r| (1.0..2.0).contains(&r.t_s)).collect();
         assert!(inside.len() > 10);
@@ -145,7 +154,10 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
             assert!(inside.iter().all(|r| !r.valid()), "channel {ch}");
         }
         let after: Vec<&Rec> = c.iter().filter(|r| r.t_s >= 2.8).collect();
-        assert!(!after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01), "channel {ch} after");
+        assert!(
+            !after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01),
+            "channel {ch} after"
+        );
     }
     // Channel 0 never noticed: no fault flags at all (settling after its
     // own frequency switches is not a fault).

@@ -199,6 +199,9 @@ fn watchdog_100_ms_from_lsi_over_32_and_the_reset_cause() {
         assert_eq!(C::from_csr(bits), cause, "{bits:#x}");
     }
     let mut rcc = Fake::new(&[(0x94, 1 << 29 | 1 << 26)]);
-    assert_eq!(watchdog::take_reset_cause(rcc.regs::<pac::rcc::RegisterBlock>()), C::Watchdog);
+    assert_eq!(
+        watchdog::take_reset_cause(rcc.regs::<pac::rcc::RegisterBlock>()),
+        C::Watchdog
+    );
     assert_ne!(rcc.at(0x94) & (1 << 23), 0, "RMVF set");
 }
