@@ -390,9 +390,7 @@ impl Inverter {
             let d = if b == 0 { d_rising } else { d };
             // A branch owns D strictly past its first end (the previous
             // branch owns the extremum itself) up to its last end.
-            let inside = if b == 0 {
-                d > d0 && d <= d1
-            } else if d1 >= d0 {
+            let inside = if b == 0 || d1 >= d0 {
                 d > d0 && d <= d1
             } else {
                 d < d0 && d >= d1
@@ -430,7 +428,8 @@ impl Inverter {
                     d_next = d_next.min(libm::logf(ct / c).max(0.0));
                 }
                 // NaN distances (a non-finite C) never pass.
-                if !(d_next - d_best >= SEPARATION) {
+                let gap = d_next - d_best;
+                if gap.is_nan() || gap < SEPARATION {
                     return Err(InvertError::Ambiguous);
                 }
                 best

@@ -286,6 +286,19 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
             if nonneg && v < 0.0 {
                 bail!("{name}:{line}:{}: column '{col}': negative value {v}", i + 1);
             }
+            // Zero is no reading: Cs is undefined at DC, a zero Cs is no
+            // capacitor, a zero resistance no carbon electrode; none can
+            // be modelled.
+            let positive = matches!(
+                *col,
+                "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "r_line_ohm"
+            );
+            if positive && v <= 0.0 {
+                bail!(
+                    "{name}:{line}:{}: column '{col}': {v} is not positive (no reading: it cannot be modelled)",
+                    i + 1
+                );
+            }
             values[k] = v;
         }
         let row = Row { values, line };

@@ -89,3 +89,71 @@ fn rows_a_nanosecond_apart_keep_the_window_grid_bounded() {
         &pred[0][..3]
     );
 }
+
+/// Rows the model cannot evaluate are errors with their place, not
+/// `error: baseline` or NaN pF in a table: a frequency or a resistance of
+/// zero; a whole trace at 1 MHz is modelled.
+#[test]
+fn rows_the_model_cannot_evaluate_are_located() {
+    for (col, value, ok) in [
+        ("freq_hz", "0", false),
+        ("r_top_ohm", "0", false),
+        ("freq_hz", "1000000", true),
+    ] {
+        let tmp = tempfile::tempdir().unwrap();
+        dataset(tmp.path());
+        let trace = first_trace(tmp.path());
+        let (head, rows) = table(&trace);
+        let k = head.split(',').position(|c| c == col).unwrap();
+        let bad: Vec<String> = rows
+            .into_iter()
+            .enumerate()
+            .map(|(n, r)| {
+                if n == 5 || ok {
+                    let mut f: Vec<&str> = r.split(',').collect();
+                    f[k] = value;
+                    f.join(",")
+                } else {
+                    r
+                }
+            })
+            .collect();
+        rewrite(&trace, bad.into_iter());
+        let name = trace.file_name().unwrap().to_string_lossy().into_owned();
+        let got = read_dir(tmp.path()).and_then(|ds| identify(&ds, Options::default()));
+        match (got, ok) {
+            (Err(e), false) => {
+                let e = e.to_string();
+                // Line 7: the header, then the sixth row.
+                assert!(
+                    e.contains(&format!("{name}:7:{}", k + 1)) && e.contains(col),
+                    "{e}"
+                );
+            }
+            (Ok(report), true) => {
+                let text = report.markdown("data", None);
+                assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+            }
+            (other, _) => panic!("{col} = {value}: {:?}", other.map(|_| ())),
+        }
+    }
+}
+
+/// A set of calibration and sweep points alone has no noise floor to judge
+/// a fit against: a clear error, not a built-in 0.001 pF and "± inf".
+#[test]
+fn a_sweep_only_set_is_an_error_not_a_made_up_noise_floor() {
+    let tmp = tempfile::tempdir().unwrap();
+    dataset(tmp.path());
+    for e in std::fs::read_dir(tmp.path()).unwrap() {
+        let p = e.unwrap().path();
+        if p.file_name().unwrap().to_string_lossy().starts_with("trace_") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+    let err = identify(&read_dir(tmp.path()).unwrap(), Options::default())
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no trace") && err.contains("noise floor"), "{err}");
+}

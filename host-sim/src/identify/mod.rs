@@ -234,7 +234,15 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let usable = |v: f64| v.is_finite() && v > 0.0;
     let mut trace_noise: Vec<f64> = raw.iter().copied().filter(|&v| usable(v)).collect();
     trace_noise.sort_by(f64::total_cmp);
-    let median = trace_noise.get(trace_noise.len() / 2).copied().unwrap_or(1e-3);
+    // The noise floor is measured on the traces (point-to-point scatter);
+    // without one there is nothing to judge a fit against, and a made-up
+    // floor would make any fit look explained or not at will.
+    let Some(&median) = trace_noise.get(trace_noise.len() / 2) else {
+        anyhow::bail!(
+            "no trace with a measurable noise floor (a set of calibration and sweep points alone cannot tell an effect from noise): record at least one trace_*.csv of {} rows or more; `residual` still compares the points with the baseline",
+            crate::model::prepared::MIN_TRACE_ROWS
+        );
+    };
     let noise: Vec<f64> = raw.iter().map(|&v| if usable(v) { v } else { median }).collect();
     let noise_floor_pf = (prep
         .files
