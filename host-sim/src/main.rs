@@ -402,20 +402,49 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Identify { dir, out, no_sweep } => {
             use host_sim::identify;
-            let ds = host_sim::dataset::read_dir(&dir)?;
             let options = identify::Options {
                 sweep: !no_sweep,
                 ..Default::default()
             };
+            // A failed run leaves no reports: none from an earlier run
+            // that would pass for this one's, and no half-written ones.
+            const REPORTS: [&str; 3] = ["residuals.svg", "report.json", "report.md"];
+            for name in REPORTS {
+                let path = out.join(name);
+                if path.is_file() {
+                    std::fs::remove_file(&path)
+                        .with_context(|| format!("removing the old {}", path.display()))?;
+                }
+            }
+            let ds = host_sim::dataset::read_dir(&dir)?;
             let report = identify::identify(&ds, options)?;
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            identify::plot(&report, &ds, &out.join("residuals.svg"))?;
             let md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
-            std::fs::write(out.join("report.md"), &md)?;
-            std::fs::write(
-                out.join("report.json"),
-                serde_json::to_string_pretty(&report.json())? + "\n",
-            )?;
+            let json = serde_json::to_string_pretty(&report.json())? + "\n";
+            let temp = || {
+                tempfile::Builder::new()
+                    .prefix(".identify-")
+                    .tempfile_in(&out)
+                    .with_context(|| format!("writing into {}", out.display()))
+            };
+            let (svg_t, json_t, md_t) = (temp()?, temp()?, temp()?);
+            identify::plot(&report, &ds, svg_t.path())?;
+            std::fs::write(json_t.path(), &json)
+                .with_context(|| format!("writing {}", json_t.path().display()))?;
+            std::fs::write(md_t.path(), &md).with_context(|| format!("writing {}", md_t.path().display()))?;
+            // All three are complete: rename them into place, and take the
+            // ones already placed back if a rename fails.
+            let mut placed = vec![];
+            for (t, name) in [svg_t, json_t, md_t].into_iter().zip(REPORTS) {
+                let path = out.join(name);
+                if let Err(e) = t.persist(&path) {
+                    for p in &placed {
+                        let _ = std::fs::remove_file(p);
+                    }
+                    return Err(anyhow::Error::new(e.error).context(format!("writing {}", path.display())));
+                }
+                placed.push(path);
+            }
             println!("{md}");
             println!("wrote {}/report.md, report.json, residuals.svg", out.display());
         }

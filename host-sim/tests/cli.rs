@@ -149,3 +149,30 @@ fn identify_writes_the_reports_and_rejects_bad_data_with_its_place() {
     assert!(!ok);
     assert!(err.contains("nothing"), "{err}");
 }
+
+/// A report that cannot be written leaves no reports behind: neither
+/// half-written ones nor those of an earlier run.
+#[test]
+fn identify_writes_all_its_reports_or_none() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("data");
+    let (ok, _, err) = run(&["dataset", "--out", data.to_str().unwrap(), "--seed", "2"]);
+    assert!(ok, "{err}");
+    let out = tmp.path().join("report");
+    let (ok, _, err) = run(&["identify", data.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    for f in ["report.md", "report.json", "residuals.svg"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    // report.json cannot be replaced (a folder stands in its way).
+    std::fs::remove_file(out.join("report.json")).unwrap();
+    std::fs::create_dir(out.join("report.json")).unwrap();
+    let (ok, _, err) = run(&["identify", data.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(!ok && err.contains("report.json"), "{err}");
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "report.json")
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
