@@ -23,8 +23,10 @@
 //! monotone branches, and solves every branch that reaches the measured D:
 //!
 //! * [`Inverter::invert`] answers only where one line fits over the whole
-//!   range, x ≤ [`Inverter::x_unique`] (4.89 for the continuous line, where
-//!   D = 1 = D(∞)); elsewhere [`InvertError::Ambiguous`].
+//!   range, allowing [`D_MARGIN`] for the uncertainty of a reading's D:
+//!   x ≤ [`Inverter::x_unique`] (4.58 for the continuous line, whose D dips
+//!   to 0.9976 at x ≈ 25; 4.89 without the margin); elsewhere
+//!   [`InvertError::Ambiguous`].
 //! * [`Inverter::invert_near`] takes the line whose C is closest (in ratio)
 //!   to a prior (a calibration value or the previous block's result), and
 //!   only if every other line is at least [`SEPARATION`] further from it;
@@ -54,6 +56,10 @@ const BRANCHES: usize = 4;
 /// prior than any other line fitting the same reading (2 %): more than a
 /// sensor's C moves in one block plus the noise of a reading.
 pub const SEPARATION: f32 = 0.02;
+/// Relative uncertainty of a measured D the inverter allows for when it
+/// decides how many lines fit (2 %: noise, and what a disturbance below the
+/// channel's residual check can do to the phase).
+pub const D_MARGIN: f32 = 0.02;
 /// A branch of D(x) beyond the first peak and trough over which D changes
 /// by less than this (relative) does not tell lines apart.
 const FLAT: f32 = 0.01;
@@ -66,7 +72,8 @@ pub enum InvertError {
     NotCapacitive,
     /// Frequency not finite and positive.
     BadFrequency,
-    /// The expected capacitance given is not finite and positive.
+    /// The expected capacitance (or range) given is not finite and
+    /// positive.
     BadPrior,
     /// The line that fits lies beyond `x_max` (or no line of the model
     /// fits D): ωRC is beyond the inversion range (lower the excitation
@@ -123,6 +130,11 @@ pub struct Line {
     pub c_farad: f32,
     /// x = ωRC at the measurement frequency (dimensionless).
     pub x: f32,
+    /// Error amplification κ = |d ln C / d ln D| at this line: a relative
+    /// error ε of the measured D moves C by κ·ε (0.14 at x = 1, 1.4 at 4,
+    /// 13 at 7, ∞ at the peak of D). A reading is only as good as κ
+    /// times its phase noise allows.
+    pub kappa: f32,
 }
 
 /// Inverter configuration: the model and its precomputed D(x) grid.
@@ -277,7 +289,8 @@ impl Inverter {
 
     /// Largest x up to which one impedance fits only one line over the
     /// model's whole range: where the rising branch meets the lowest D
-    /// reached beyond the first peak (4.89 for the continuous line), or
+    /// reached beyond the first peak, less [`D_MARGIN`] (4.58 for the
+    /// continuous line), or
     /// `x_max` if D rises all the way. Without a prior,
     /// [`invert`](Self::invert) answers only below this; frequency policies
     /// keep x below it.
@@ -288,7 +301,8 @@ impl Inverter {
         let floor = self.d[self.ends[1]..]
             .iter()
             .copied()
-            .fold(f32::INFINITY, f32::min);
+            .fold(f32::INFINITY, f32::min)
+            * (1.0 - D_MARGIN);
         match self.root(floor, 0, self.ends[1]) {
             Ok((x, _)) => x.min(self.x_max),
             Err(_) => libm::expf(self.u[0]),
@@ -315,20 +329,37 @@ impl Inverter {
     /// The line that explains `z` (Ω) at `f_hz` where only one line does;
     /// [`InvertError::Ambiguous`] where more than one fits.
     pub fn invert(&self, z: Complex32, f_hz: f32) -> Result<Line, InvertError> {
-        self.solve(z, f_hz, None)
+        self.solve(z, f_hz, Select::Unique)
     }
 
     /// As [`invert`](Self::invert), but where several lines fit, the one
     /// whose capacitance is closest (in ratio) to `c_hint_farad`, if it is
     /// closer by [`SEPARATION`] than every other.
     pub fn invert_near(&self, z: Complex32, f_hz: f32, c_hint_farad: f32) -> Result<Line, InvertError> {
-        self.solve(z, f_hz, Some(c_hint_farad))
+        self.solve(z, f_hz, Select::Near(c_hint_farad))
+    }
+
+    /// As [`invert`](Self::invert), but where several lines fit, the only
+    /// one whose capacitance lies in `lo_farad..=hi_farad` (the range a
+    /// sensor's calibration spans, when nothing better is known);
+    /// [`InvertError::Ambiguous`] if more than one does (a line of the
+    /// flat tail counts when its smallest C is in range), and
+    /// [`InvertError::OutOfRange`] if none does. Where one line fits, that
+    /// line, whatever its C.
+    pub fn invert_within(
+        &self,
+        z: Complex32,
+        f_hz: f32,
+        lo_farad: f32,
+        hi_farad: f32,
+    ) -> Result<Line, InvertError> {
+        self.solve(z, f_hz, Select::Within(lo_farad, hi_farad))
     }
 
     /// [`Self::solve_unchecked`], with every returned line finite and
     /// positive: an impedance whose ω|Z| is beyond `f32` would give C = 0
     /// and R = ∞, which is no reading.
-    fn solve(&self, z: Complex32, f_hz: f32, hint: Option<f32>) -> Result<Line, InvertError> {
+    fn solve(&self, z: Complex32, f_hz: f32, hint: Select) -> Result<Line, InvertError> {
         let line = self.solve_unchecked(z, f_hz, hint)?;
         let finite = |v: f32| v.is_finite() && v > 0.0;
         if finite(line.c_farad) && finite(line.r_ohm) && finite(line.x) {
@@ -338,15 +369,20 @@ impl Inverter {
         }
     }
 
-    fn solve_unchecked(&self, z: Complex32, f_hz: f32, hint: Option<f32>) -> Result<Line, InvertError> {
+    fn solve_unchecked(&self, z: Complex32, f_hz: f32, hint: Select) -> Result<Line, InvertError> {
         if !(f_hz.is_finite() && f_hz > 0.0) {
             return Err(InvertError::BadFrequency);
         }
         if !(z.re.is_finite() && z.im.is_finite() && z.re >= 0.0 && z.im < 0.0) {
             return Err(InvertError::NotCapacitive);
         }
-        if hint.is_some_and(|c| !(c.is_finite() && c > 0.0)) {
-            return Err(InvertError::BadPrior);
+        let good = |c: f32| c.is_finite() && c > 0.0;
+        match hint {
+            Select::Near(c) if !good(c) => return Err(InvertError::BadPrior),
+            Select::Within(lo, hi) if !(good(lo) && good(hi) && lo <= hi) => {
+                return Err(InvertError::BadPrior)
+            }
+            _ => {}
         }
         let w = TAU * f_hz;
         let zabs = libm::hypotf(z.re, z.im);
@@ -357,19 +393,16 @@ impl Inverter {
                 r_ohm: x / (w * c),
                 c_farad: c,
                 x,
+                kappa: 0.0,
             }
         };
-        // Every line that fits, one per branch at most.
+        // Every line that fits, one per branch at most. A reading's D is
+        // uncertain by up to D_MARGIN: a branch whose D comes that close
+        // fits too (at its nearest end), so near a peak or trough both
+        // sides count, and x_unique is where D is D_MARGIN below the trough.
+        let margin = D_MARGIN * d;
         let mut found = [None::<Line>; BRANCHES];
         let mut n = 0;
-        // Rounding may put an impedance at a peak a hair above the largest
-        // D on the grid; 10⁻⁵ of slack keeps it on the peak.
-        let top = self.d[self.ends[1]];
-        let d_rising = if d > top && d <= top * (1.0 + 1e-5) {
-            top
-        } else {
-            d
-        };
         if d <= self.d[0] {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);
@@ -381,22 +414,22 @@ impl Inverter {
         // Its x cannot be told, but its C is at least the tail's smallest
         // |ζ| over ω|Z| (|ζ| grows with x there).
         let tail_c = match self.tail() {
-            Some((lo, hi)) if d >= lo && d <= hi => Some(self.tail_zeta / (w * zabs)),
+            Some((lo, hi)) if d >= lo - margin && d <= hi + margin => Some(self.tail_zeta / (w * zabs)),
             _ => None,
         };
         for b in 0..self.resolved {
             let (i0, i1) = (self.ends[b], self.ends[b + 1]);
             let (d0, d1) = (self.d[i0], self.d[i1]);
-            let d = if b == 0 { d_rising } else { d };
-            // A branch owns D strictly past its first end (the previous
-            // branch owns the extremum itself) up to its last end.
-            let inside = if b == 0 || d1 >= d0 {
-                d > d0 && d <= d1
+            let (lo, hi) = (d0.min(d1), d0.max(d1));
+            let inside = if b == 0 {
+                // The rising branch owns D above the asymptote's, up to its
+                // peak and D_MARGIN beyond.
+                d > d0 && d <= d1 + margin
             } else {
-                d < d0 && d >= d1
+                d >= lo - margin && d <= hi + margin
             };
             if inside {
-                let (x, zeta) = self.root(d, i0, i1)?;
+                let (x, zeta) = self.root(d.clamp(lo, hi), i0, i1)?;
                 found[n] = Some(line(x, zeta));
                 n += 1;
             }
@@ -411,8 +444,22 @@ impl Inverter {
         };
         let chosen = match hint {
             _ if n == 1 && tail_c.is_none() => first,
-            None => return Err(InvertError::Ambiguous),
-            Some(c) => {
+            Select::Within(lo, hi) => {
+                let inside = |c: f32| c >= lo && c <= hi;
+                let mut picked = inside(first.c_farad).then_some(first);
+                for l in lines.filter(|l| inside(l.c_farad)) {
+                    if picked.is_some() {
+                        return Err(InvertError::Ambiguous);
+                    }
+                    picked = Some(*l);
+                }
+                if tail_c.is_some_and(|ct| ct <= hi) {
+                    return Err(InvertError::Ambiguous);
+                }
+                picked.ok_or(InvertError::OutOfRange)?
+            }
+            Select::Unique => return Err(InvertError::Ambiguous),
+            Select::Near(c) => {
                 let dist = |l: &Line| libm::fabsf(libm::logf(l.c_farad / c));
                 let (mut best, mut d_best, mut d_next) = (first, dist(&first), f32::INFINITY);
                 for l in lines {
@@ -439,7 +486,29 @@ impl Inverter {
         if chosen.x > self.x_max * (1.0 + 1e-4) {
             return Err(InvertError::OutOfRange);
         }
-        Ok(chosen)
+        Ok(Line {
+            kappa: self.kappa(chosen.x)?,
+            ..chosen
+        })
+    }
+
+    /// κ = |d ln|ζ|/d ln x| / |d ln D/d ln x| at `x` (central differences
+    /// over ±0.5 % in x; C ∝ |ζ(x)| at a fixed |Z|). Below the small-x
+    /// asymptote C does not depend on D: 0.
+    pub fn kappa(&self, x: f32) -> Result<f32, InvertError> {
+        if x <= X_ASYMPTOTE {
+            return Ok(0.0);
+        }
+        const H: f32 = 0.005;
+        let at = |x: f32| -> Result<(f32, f32), InvertError> {
+            let z = self
+                .model
+                .zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
+            Ok((libm::logf(libm::hypotf(z.re, z.im)), libm::logf(dissipation(z))))
+        };
+        let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
+        let k = libm::fabsf((m1 - m0) / (d1 - d0));
+        Ok(if k.is_nan() { f32::INFINITY } else { k })
     }
 
     /// Root of D(x) = d on the monotone grid stretch [i0, i1]; returns x and
@@ -522,6 +591,17 @@ impl Inverter {
         }
         Ok((best.0, best.1))
     }
+}
+
+/// How to pick among the lines that fit one reading.
+#[derive(Clone, Copy)]
+enum Select {
+    /// Only where one line fits.
+    Unique,
+    /// The one closest to a prior C (F), by [`SEPARATION`].
+    Near(f32),
+    /// The only one with C in a range (F).
+    Within(f32, f32),
 }
 
 /// D = Re ζ / (−Im ζ).

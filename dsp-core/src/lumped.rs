@@ -46,9 +46,10 @@ impl SeriesRc {
         if !(z.re.is_finite() && z.im.is_finite() && z.im < 0.0 && z.re >= 0.0) {
             return Err(LumpedError::NotCapacitive);
         }
-        // |Im Z| so small that Cs leaves f32: no reading.
+        // |Im Z| so small (or ω|Im Z| so large) that Cs leaves f32's
+        // normal range, to ∞ or to 0: no reading.
         let cs_farad = -1.0 / (TAU * f_hz * z.im);
-        if !cs_farad.is_finite() {
+        if !cs_farad.is_normal() {
             return Err(LumpedError::NotCapacitive);
         }
         Ok(Self {

@@ -3,8 +3,11 @@
 //!
 //! * Unlocked (at the start, or after [`Tracker::RELOCK_AFTER`] rejections
 //!   in a row) the tracker accepts the inversion as it is where it is
-//!   unique, and lets a prior (the rest capacitance of the static
-//!   calibration) pick the branch where two lines fit; then it locks.
+//!   unique; where several lines fit, it takes the one whose C lies in the
+//!   band a sensor can have ([`Tracker::with_band`]: the calibration's
+//!   range around the prior), and none if more than one does (the prior
+//!   alone would pick a line close to the rest value over the true one of
+//!   a stretched sensor); then it locks.
 //! * Locked, the previous block's C picks the branch (see
 //!   [`invert`](crate::invert)), and a result that moves C by more than
 //!   [`Tracker::MAX_JUMP`] is rejected: a real sensor changes C by well
@@ -23,6 +26,8 @@ use core::f32::consts::TAU;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tracker {
     inverter: Inverter,
+    /// Unlocked, a line's C must lie in prior·band (ratios).
+    band: (f32, f32),
 }
 
 /// Tracker state of one channel (16 bytes).
@@ -85,7 +90,21 @@ impl Tracker {
     pub fn new(model: LineModel, x_max: f32) -> Result<Self, ModelError> {
         Ok(Self {
             inverter: Inverter::with_x_max(model, x_max)?,
+            band: Self::BAND,
         })
+    }
+
+    /// Default band of C (ratios to the prior) an unlocked tracker accepts
+    /// where several lines fit: 0.9 to 1.5 (a DE sensor's C grows with
+    /// stretch, by ≈ 30 % at the paper's 30 mm).
+    pub const BAND: (f32, f32) = (0.9, 1.5);
+
+    /// The same tracker, accepting (when unlocked and several lines fit)
+    /// only lines with C in `lo_ratio..=hi_ratio` times the prior: the
+    /// range the sensor's calibration spans, with a margin.
+    pub fn with_band(mut self, lo_ratio: f32, hi_ratio: f32) -> Self {
+        self.band = (lo_ratio, hi_ratio);
+        self
     }
 
     /// The inverter in use.
@@ -108,6 +127,7 @@ impl Tracker {
                     r_ohm: x_peak / (TAU * f_hz * c),
                     c_farad: c,
                     x: x_peak,
+                    kappa: f32::INFINITY,
                 };
                 return Ok(Tracked { line, held: true });
             }
@@ -121,7 +141,8 @@ impl Tracker {
                 }
             })
         } else {
-            self.inverter.invert_near(z, f_hz, st.prior)
+            let (lo, hi) = self.band;
+            self.inverter.invert_within(z, f_hz, st.prior * lo, st.prior * hi)
         };
         match r {
             Ok(line) => {

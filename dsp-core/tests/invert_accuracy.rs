@@ -76,8 +76,10 @@ fn recovers_c_and_r_within_0p1_percent_in_unique_range() {
         assert!(crms < 1e-4 && rrms < 1e-4, "{model:?}");
         assert_eq!(ambiguous, 0, "{model:?}");
         // The continuous line's D dips to 0.9976 at x ≈ 25 (below its
-        // limit 1): one line per reading only up to x = 4.89.
-        assert!(xu > 4.85, "{model:?} unique only to {xu}");
+        // limit 1): one line per reading only up to x = 4.89, and with the
+        // inverter's 2 % allowance for the uncertainty of a reading's D,
+        // up to x = 4.58.
+        assert!(xu > 4.55, "{model:?} unique only to {xu}");
     }
 }
 
@@ -110,7 +112,7 @@ fn prior_error_bounds_branch_error() {
 fn unique_branch_needs_no_hint_and_ambiguous_band_says_so() {
     let (c, f) = (200e-12, 2e3);
     let inv = Inverter::new(LineModel::Continuous);
-    for x in log_grid(1e-4, 4.85, 200) {
+    for x in log_grid(1e-4, 4.55, 200) {
         let r = x / (TAU * f * c);
         let got = inv
             .invert(z_of(LineModel::Continuous, r, c, f), f as f32)

@@ -123,3 +123,29 @@ fn a_resistance_step_beyond_the_range_is_never_a_reading() {
         assert!((r.line.c_farad as f64 / c - 1.0).abs() < 1e-4);
     }
 }
+
+/// Unlocked, with several lines fitting: a stretched sensor (273 pF, 30 %
+/// above the prior) at ωRC = 10 also fits a line of 205 pF at ωRC ≈ 6.2,
+/// closer to the 210 pF prior. Picking by the prior would report that
+/// line; the band says both are possible, so neither is reported.
+#[test]
+fn unlocked_never_picks_the_line_nearest_the_prior_over_the_true_one() {
+    let f = 5859.375;
+    let t = Tracker::new(LineModel::Continuous, Tracker::X_MAX).unwrap();
+    for k in 0..100 {
+        let x = 5.0 + 10.0 * k as f64 / 99.0;
+        for c in [200e-12, 230e-12, 273e-12, 300e-12] {
+            let mut st = TrackState::new(210e-12);
+            match t.update(&mut st, z(x, c, f), f as f32) {
+                Ok(r) => assert!(
+                    (r.line.c_farad as f64 / c - 1.0).abs() < 1e-3,
+                    "x {x} C {c}: {r:?}"
+                ),
+                Err(e) => assert!(
+                    matches!(e, InvertError::Ambiguous | InvertError::OutOfRange),
+                    "{e:?}"
+                ),
+            }
+        }
+    }
+}

@@ -183,7 +183,7 @@ fn quote(field: &str) -> String {
 
 /// The text of a regular file of at most [`MAX_FILE_BYTES`]; a byte that
 /// is not UTF-8 is an error with its line and column.
-fn read_text(path: &Path) -> Result<String> {
+fn read_bytes(path: &Path) -> Result<Vec<u8>> {
     let name = path.display().to_string();
     let meta = std::fs::metadata(path).with_context(|| format!("{name}: cannot open"))?;
     if !meta.is_file() {
@@ -195,7 +195,12 @@ fn read_text(path: &Path) -> Result<String> {
             meta.len()
         );
     }
-    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
+    std::fs::read(path).with_context(|| format!("{name}: cannot read"))
+}
+
+/// `bytes` as text, or the line and column of the first byte that is not
+/// UTF-8.
+fn utf8(name: &str, bytes: Vec<u8>) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| {
         let ok = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         let line = ok.iter().filter(|&&b| b == b'\n').count() + 1;
@@ -206,8 +211,14 @@ fn read_text(path: &Path) -> Result<String> {
 
 /// Read and check one file.
 pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
+    parse_table(path, read_bytes(path)?, kind)
+}
+
+/// Check the contents `bytes` of the file `path` (named in the messages)
+/// as a table of `kind`: what [`read_table`] does once the file is read.
+pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
+    let text = utf8(&name, bytes)?;
     // Comments may stand anywhere; drop them but keep each kept line's
     // physical number for the messages.
     let kept: Vec<(u64, &str)> = text
@@ -256,6 +267,7 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
             header()
         );
     };
+    let flags_at = head.iter().position(|h| h == "flags");
     let mut rows: Vec<Row> = vec![];
     for rec in rd.records() {
         let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
@@ -289,10 +301,15 @@ pub fn read_table(path: &Path, kind: Kind) -> Result<Table> {
             // Zero is no reading: Cs is undefined at DC, a zero Cs is no
             // capacitor, a zero resistance no carbon electrode; none can
             // be modelled.
-            let positive = matches!(
-                *col,
-                "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "r_line_ohm"
-            );
+            // An instrument's own r_line_ohm is modelled only where no
+            // four-terminal resistances are given, and is 0 in a record the
+            // instrument flagged (no line estimate).
+            let flagged = flags_at.is_some_and(|i| rec.get(i).is_some_and(|f| f.trim() != "0"));
+            let positive = match *col {
+                "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" => true,
+                "r_line_ohm" => resistance == Resistance::InstrumentLine && !flagged,
+                _ => false,
+            };
             if positive && v <= 0.0 {
                 bail!(
                     "{name}:{line}:{}: column '{col}': {v} is not positive (no reading: it cannot be modelled)",

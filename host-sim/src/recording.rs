@@ -435,7 +435,7 @@ mod tests {
              truth 8320 1 214.2 712000 2.0 350000 362000\n\
              rec 8320 1 585.9375 213.3 240000 214.21 711000 2.01 0\n\
              12:00:01 INFO truth 13760 1 214.2 712000 4.0 350000 362000\n\
-             12:00:01 INFO rec 13760 1 1953.125 200.1 230000 214.25 712500 4.02 32\n\
+             12:00:01 INFO rec 13760 1 1953.125 200.1 230000 214.25 712500 4.02 0\n\
              truth 19200 2 214.2 712000 0.0 350000 362000\n\
              rec 19200 2 585.9375 0 0 0 0 0 2\n";
         let recs = parse("log", &lines(log)).unwrap();
@@ -443,7 +443,8 @@ mod tests {
         assert!((recs[1].truth.unwrap().c_pf - 214.2).abs() < 1e-4);
         assert!((recs[1].t_s - 8.32e-3).abs() < 1e-12);
         assert!(recs[1].valid() && recs[2].valid() && !recs[3].valid() && !recs[0].valid());
-        assert!(recs[2].flags.has(Flags::HELD));
+        // A held C (flag 32) is no new reading: not valid.
+        assert!(!Flags(Flags::HELD).valid());
         let dir = tempfile::tempdir().unwrap();
         let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
         let names: Vec<String> = w

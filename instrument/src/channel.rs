@@ -168,6 +168,13 @@ impl Channel {
                 rec.stretch_mm = s.calibration.stretch(t.line.c_farad);
                 if t.held {
                     rec.flags.set(Flags::HELD);
+                } else {
+                    let periods = crate::config::PERIODS[crate::config::index(self.policy.index)];
+                    let bound = Thresholds::c_error_bound(ph, z.re / -z.im, t.line.kappa, periods);
+                    // The bound is never NaN (c_error_bound makes it ∞).
+                    if bound > th.c_tolerance {
+                        rec.flags.set(Flags::UNCERTAIN);
+                    }
                 }
                 if t.line.r_ohm > th.r_max_ohm {
                     rec.flags.set(Flags::RANGE);

@@ -19,12 +19,18 @@ impl Flags {
     pub const RANGE: u8 = 1 << 3;
     /// The channel or its frequency just changed: the block is discarded.
     pub const SETTLING: u8 = 1 << 4;
-    /// C held from the previous block (ill-conditioned inversion).
+    /// C held from the previous block (ill-conditioned inversion): no new
+    /// reading, so not valid.
     pub const HELD: u8 = 1 << 5;
     /// The block holds more than the excitation explains (mains hum, a
     /// step, a glitch): its residual after the fitted tone is above the
     /// threshold, so the tone itself may be off.
     pub const DISTURBED: u8 = 1 << 6;
+    /// The line's C is not vouched for: the block's noise, and any
+    /// disturbance the residual check lets through, times the inversion's
+    /// error amplification κ at this ωRC, could move C by more than
+    /// [`Thresholds::c_tolerance`] (near the peak of D, or a weak signal).
+    pub const UNCERTAIN: u8 = 1 << 7;
 
     /// Is `bit` set?
     pub fn has(self, bit: u8) -> bool {
@@ -38,8 +44,15 @@ impl Flags {
 
     /// True if the capacitance of the record can be trusted.
     pub fn valid(self) -> bool {
-        self.0 & (Self::CLIPPED | Self::OPEN | Self::SHORTED | Self::RANGE | Self::SETTLING | Self::DISTURBED)
-            == 0
+        let bad = Self::CLIPPED
+            | Self::OPEN
+            | Self::SHORTED
+            | Self::RANGE
+            | Self::SETTLING
+            | Self::DISTURBED
+            | Self::UNCERTAIN
+            | Self::HELD;
+        self.0 & bad == 0
     }
 }
 
@@ -66,6 +79,9 @@ pub struct Thresholds {
     /// ... or above this fraction of the channel's tone amplitude, if that
     /// is larger.
     pub residual_rel: f32,
+    /// Largest relative error of C a valid record may carry, by the bound
+    /// of [`Thresholds::c_error_bound`].
+    pub c_tolerance: f32,
 }
 
 impl Thresholds {
@@ -88,7 +104,29 @@ impl Thresholds {
         r_max_ohm: 5.0e6,
         residual_counts: 1.5,
         residual_rel: 0.02,
+        c_tolerance: 0.008,
     };
+
+    /// A bound on the relative error of C from one block: each channel's
+    /// phase is off by at most (r/A)·(5/√(N/2) + 1.1/k) (five standard
+    /// deviations of noise of rms r on a tone of amplitude A over N pairs,
+    /// plus the most a disturbance of that rms leaks into the bin of k
+    /// periods); D = Re Z/(−Im Z) moves by (1 + D²)/D times the phase
+    /// error (relative), and C by `kappa` times that, plus the amplitude
+    /// errors. `d` is the block's D, `periods` its k.
+    pub fn c_error_bound(ph: &dsp_core::demod::Phasors, d: f32, kappa: f32, periods: u32) -> f32 {
+        let [rv, ri] = ph.residual_rms();
+        let n = (ph.n as f32).max(1.0);
+        let per = (5.0 / libm::sqrtf(0.5 * n)) + 1.1 / (periods.max(1) as f32);
+        let phase = (rv / ph.v_amplitude() + ri / ph.i_amplitude()) * per;
+        let e = kappa * (1.0 + d * d) / d * phase + phase;
+        // NaN (no signal) is no bound.
+        if e.is_nan() {
+            f32::INFINITY
+        } else {
+            e
+        }
+    }
 
     /// Is a block with these phasors disturbed (see the fields)?
     pub fn disturbed(&self, ph: &dsp_core::demod::Phasors) -> bool {

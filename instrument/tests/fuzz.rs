@@ -1,0 +1,211 @@
+//! Fuzzing the firmware's channel logic and the wire format with proptest.
+//!
+//! * `channel_on_arbitrary_phasors`: any demodulator output (sums, moments,
+//!   pair counts), clipping, time stamps and frequency indices, in
+//!   sequences on one channel: no panic, and a record flagged valid has a
+//!   finite, positive C and R and a finite stretch.
+//! * `disturbed_blocks`: the simulated sensor (any stretch, electrodes at
+//!   0.3–20 times their resistance, any frequency of the set) under random
+//!   mains hum (50/60 Hz, 0 to the rails, either channel), a step inside
+//!   the block, a stuck current ADC, or an electrode step between blocks:
+//!   no record flagged valid is more than 1 % off the truth.
+//! * `wire_parse`: any text, and mutated record lines: no panic; a parsed
+//!   record has finite values.
+//!
+//! Cases per target: `FUZZ_CASES` (default 2 000; 300 for the simulated
+//! blocks); `cargo xtask fuzz` runs 1 000 000.
+
+use dsp_core::demod::{Demodulator, Moments, Phasors};
+use dsp_core::Oscillator;
+use instrument::calib::REFERENCE;
+use instrument::channel::{Channel, Settings};
+use instrument::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
+use instrument::faults::Thresholds;
+use instrument::policy::Policy;
+use instrument::wire;
+use num_complex::Complex;
+use proptest::prelude::*;
+use skin_sim::frontend::{Disturbance, FrontEndParams};
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::{Sensor, SensorParams};
+
+fn cases(default: u32) -> u32 {
+    std::env::var("FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn config(default: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases: cases(default),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
+}
+
+fn settings() -> Settings<'static, 11> {
+    Settings {
+        policy: Policy::DEFAULT,
+        thresholds: Thresholds::DEFAULT,
+        front_end: FrontEndParams::REFERENCE.dsp_front_end(),
+        calibration: &REFERENCE,
+        tracker: instrument::channel::tracker(),
+        fixture: dsp_core::fixture::Fixture::NONE,
+    }
+}
+
+/// Sums of a block: anything an i64 holds, and the realistic sizes often.
+fn sum() -> impl Strategy<Value = i64> {
+    prop_oneof![any::<i64>(), -(1i64 << 36)..(1i64 << 36), -1000i64..1000, Just(0)]
+}
+
+fn phasors() -> impl Strategy<Value = Phasors> {
+    (
+        (sum(), sum(), sum(), sum()),
+        (sum(), sum(), sum(), sum()),
+        prop_oneof![any::<u32>(), Just(BLOCK as u32), Just(0)],
+    )
+        .prop_map(|((a, b, c, d), (v_sum, v_sq, i_sum, i_sq), n)| Phasors {
+            v: Complex::new(a, b),
+            i: Complex::new(c, d),
+            n,
+            moments: Moments {
+                v_sum,
+                v_sq,
+                i_sum,
+                i_sq,
+            },
+        })
+}
+
+proptest! {
+    #![proptest_config(config(2_000))]
+
+    #[test]
+    fn channel_on_arbitrary_phasors(
+        steps in prop::collection::vec((phasors(), any::<bool>(), any::<u64>()), 1..16),
+        prior in prop_oneof![any::<f32>(), 1e-12f32..1e-9],
+        index in any::<usize>(),
+        pinned in any::<bool>(),
+    ) {
+        let s = settings();
+        let mut ch = if pinned { Channel::pinned(prior, index) } else { Channel::new(prior) };
+        for (ph, clipped, t_us) in steps {
+            let r = ch.process(&s, 3, t_us, &ph, clipped);
+            prop_assert!(ch.freq_index() < PERIODS.len());
+            if r.flags.valid() && r.c_farad != 0.0 {
+                prop_assert!(r.c_farad.is_finite() && r.c_farad > 0.0, "{r:?}");
+                prop_assert!(r.r_ohm.is_finite() && r.r_ohm > 0.0, "{r:?}");
+                prop_assert!(r.stretch_mm.is_finite(), "{r:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn wire_parse(text in prop_oneof![
+        ".{0,120}",
+        "(rec|truth)( [-+0-9.eEinfNaN]{0,12}){0,12}",
+    ]) {
+        if let Ok(wire::Line::Rec(r)) = wire::parse(&text) {
+            prop_assert!(r.freq_hz.is_finite() && r.cs_farad.is_finite() && r.c_farad.is_finite());
+        }
+    }
+}
+
+/// What disturbs a block in a case.
+#[derive(Clone, Copy, Debug)]
+enum Attack {
+    Hum {
+        hz: f32,
+        v: f32,
+        i: f32,
+        phase: f32,
+    },
+    Step {
+        counts: f32,
+        at: usize,
+    },
+    Stuck(i16),
+    /// Electrodes times this from the second block on.
+    Resistance(f64),
+}
+
+fn attack() -> impl Strategy<Value = Attack> {
+    prop_oneof![
+        (
+            prop_oneof![Just(50.0f32), Just(60.0)],
+            0.0f32..2048.0,
+            0.0f32..2048.0,
+            0.0f32..1.0,
+            0u8..3
+        )
+            .prop_map(|(hz, a, b, phase, which)| Attack::Hum {
+                hz,
+                v: if which != 1 { a } else { 0.0 },
+                i: if which != 0 { b } else { 0.0 },
+                phase
+            }),
+        (-2000.0f32..2000.0, 0..BLOCK).prop_map(|(counts, at)| Attack::Step { counts, at }),
+        any::<i16>().prop_map(|c| Attack::Stuck(c.clamp(-2048, 2047))),
+        (0.3f64..20.0).prop_map(Attack::Resistance),
+    ]
+}
+
+proptest! {
+    #![proptest_config(config(300))]
+
+    #[test]
+    fn disturbed_blocks(
+        stretch in 0.0f64..30.0,
+        r_scale in 0.3f64..3.0,
+        index in 0..PERIODS.len(),
+        attack in attack(),
+        seed in any::<u64>(),
+    ) {
+        let s = settings();
+        let fe = FrontEndParams::REFERENCE;
+        let mut p = SensorParams::REFERENCE;
+        p.top.r_rest_ohm *= r_scale;
+        p.bottom.r_rest_ohm *= r_scale;
+        let mut sensor = Sensor::settled(p);
+        sensor.advance(&Profile::Constant(stretch), 0.0);
+        let mut stepped = p;
+        if let Attack::Resistance(k) = attack {
+            stepped.top.r_rest_ohm *= k;
+            stepped.bottom.r_rest_ohm *= k;
+        }
+        let mut stepped = Sensor::settled(stepped);
+        stepped.advance(&Profile::Constant(stretch), 0.0);
+        let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), index);
+        let osc = Oscillator::from_ftw(ftw(index));
+        let dm = Demodulator::<BLOCK>::new(&osc);
+        let mut rng = Rng::new(seed);
+        let mut buf = vec![[0i16; 2]; BLOCK];
+        for b in 0..4 {
+            let t0 = b as f64 * SLOT_S as f64;
+            let mut d = Disturbance { t0_s: t0, ..Disturbance::NONE };
+            let mut sensor_now = &sensor;
+            if b >= 2 {
+                match attack {
+                    Attack::Hum { hz, v, i, phase } => {
+                        (d.hum_hz, d.hum_v, d.hum_i, d.hum_phase_turns) = (hz, v, i, phase)
+                    }
+                    Attack::Step { counts, at } => (d.step_i, d.step_at) = (counts, at),
+                    Attack::Stuck(c) => d.stuck_i = Some(c),
+                    Attack::Resistance(_) => sensor_now = &stepped,
+                }
+            }
+            let truth = sensor_now.truth().c_farad;
+            let clipped = fe.block_disturbed(&osc, sensor_now.impedance(freq_hz(index) as f64), &mut rng, &mut buf, &d);
+            let ph = dm.block(buf.as_slice().try_into().unwrap());
+            let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped);
+            if r.flags.valid() {
+                let e = (r.c_farad as f64 / truth - 1.0).abs();
+                prop_assert!(e < 0.01, "block {b} at {} Hz under {attack:?}: C {} pF vs {} pF ({r:?})",
+                    freq_hz(index), r.c_farad * 1e12, truth * 1e12);
+            }
+        }
+    }
+}
