@@ -8,6 +8,8 @@
 //! * `bench`: instruction counts on Cortex-M4 in QEMU (`-icount`), and with
 //!   `--host` the criterion benchmarks.
 //! * `run`: the main job (see the README).
+//! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each; the
+//!   test command runs them with 2 000.
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
@@ -37,6 +39,13 @@ enum Cmd {
     },
     /// The main job: the instrument at work, results under out/.
     Run,
+    /// The fuzz targets (dsp-core's API, the channel logic, the wire
+    /// format, the readers) with many cases (tens of minutes).
+    Fuzz {
+        /// Cases per target.
+        #[arg(long, default_value_t = 1_000_000)]
+        cases: u64,
+    },
 }
 
 fn main() -> Result<()> {
@@ -44,6 +53,33 @@ fn main() -> Result<()> {
     std::env::set_current_dir(&root)?;
     match Cli::parse().cmd {
         Cmd::Setup => setup(),
+        Cmd::Fuzz { cases } => {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let args = [
+                "test",
+                "--release",
+                "-p",
+                "dsp-core",
+                "-p",
+                "instrument",
+                "-p",
+                "host-sim",
+                "--test",
+                "fuzz",
+                "--",
+                "--nocapture",
+            ];
+            eprintln!("$ FUZZ_CASES={cases} cargo {}", args.join(" "));
+            let st = Command::new(cargo)
+                .args(args)
+                .env("FUZZ_CASES", cases.to_string())
+                .status()
+                .context("running cargo")?;
+            if !st.success() {
+                bail!("fuzzing found a failure (proptest prints the minimal input above)");
+            }
+            Ok(())
+        }
         Cmd::Test => {
             setup()?;
             cargo(&root, &["fmt", "--all", "--check"])?;
