@@ -81,15 +81,25 @@ pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: O
     };
     r.map_err(|e| match e {
         InvertError::Ambiguous => anyhow::anyhow!(
-            "two lines fit this reading (ωRC above {:.2} for {}); pass --c-hint with the expected capacitance",
+            "more than one line fits this reading (one line per reading only for ωRC ≤ {:.2} with {}){}",
             inv.x_unique(),
-            model_name(model)
+            model_name(model),
+            if c_hint.is_some() {
+                ", and the expected capacitance given does not tell them apart"
+            } else {
+                "; pass --c-hint with the expected capacitance"
+            }
         ),
         InvertError::OutOfRange => anyhow::anyhow!(
-            "D = Rs·ωCs = {:.4} is beyond what {} reaches for ωRC ≤ {}: lower the frequency",
-            rs_ohm * std::f64::consts::TAU * f_hz * cs_farad,
+            "no line of {} with ωRC ≤ {} explains Cs = {cs_farad:e} F, Rs = {rs_ohm:e} Ω at {f_hz} Hz (D = Rs·ωCs = {:.4}{}): lower the frequency",
             model_name(model),
-            inv.x_max()
+            inv.x_max(),
+            rs_ohm * std::f64::consts::TAU * f_hz * cs_farad,
+            if (std::f64::consts::TAU * f_hz * cs_farad) < 1e-30 {
+                "; |Z| is beyond single precision"
+            } else {
+                ""
+            }
         ),
         InvertError::NotCapacitive => anyhow::anyhow!("Cs and Rs must be positive"),
         other => anyhow::anyhow!("cannot invert: {other}"),
