@@ -33,18 +33,25 @@ fn undershoot_at_2_and_6_khz_not_at_500_hz_and_correction_removes_it() {
     assert!(f2k.lumped[4] > 10.0, "2 kHz undershoot {:?}", f2k.lumped);
     assert!(f6k.lumped[4] > 20.0, "6 kHz undershoot {:?}", f6k.lumped);
     assert!(f6k.lumped[2] >= 10.0, "{:?}", f6k.lumped);
-    // The line-corrected reading stays on the truth: ≤ 0.5 % RMS at 6 kHz,
-    // no undershoot, and hardly any rejected readings.
+    // The line-corrected reading stays on the truth: ≤ 0.5 % RMS, no
+    // undershoot, and every valid record within the channel's tolerance
+    // (0.8 %) plus the truth's own change over a block.
     for a in &acc {
         assert!(a.corrected[2] <= 0.5, "{a:?}");
+        assert!(a.corrected[3] <= 1.0, "{a:?}");
         // No dip beyond the noise: < 1 pF where the line is well
         // conditioned; pinned at 5859 Hz the resistance peak reaches
-        // x ≈ 7, where the inversion amplifies the noise of a 5.12 ms block
-        // several-fold (why the firmware's policy steps down there), so
-        // the bound is 1 % of C.
+        // x = ωRC ≈ 12, where the inversion amplifies a 5.12 ms block's
+        // noise several-fold (why the firmware's policy steps down there),
+        // so the bound is 1 % of C.
         let dip = if a.freq_hz > 5e3 { 2.1 } else { 1.0 };
         assert!(a.corrected[4] < dip, "{a:?}");
-        assert!(a.corrected_missing * 100 <= a.readings, "{a:?}");
+        // Hardly any rejected readings where the line is well conditioned;
+        // pinned at 5859 Hz, the readings near the resistance peak are
+        // flagged UNCERTAIN (the bound on their error passes 0.8 %), the
+        // rest are kept.
+        let rejected = if a.freq_hz > 5e3 { 40 } else { 1 };
+        assert!(a.corrected_missing * 100 <= rejected * a.readings, "{a:?}");
     }
     assert!(f500.corrected[2] < 0.1 && f2k.corrected[2] < 0.1, "{acc:?}");
     for f in ["500", "2000", "6000"] {

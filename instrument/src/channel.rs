@@ -170,7 +170,7 @@ impl Channel {
                     rec.flags.set(Flags::HELD);
                 } else {
                     let periods = crate::config::PERIODS[crate::config::index(self.policy.index)];
-                    let bound = Thresholds::c_error_bound(ph, z.re / -z.im, t.line.kappa, periods);
+                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa, periods);
                     // The bound is never NaN (c_error_bound makes it ∞).
                     if bound > th.c_tolerance {
                         rec.flags.set(Flags::UNCERTAIN);

@@ -82,6 +82,12 @@ pub struct Thresholds {
     /// Largest relative error of C a valid record may carry, by the bound
     /// of [`Thresholds::c_error_bound`].
     pub c_tolerance: f32,
+    /// The ADC's white noise, rms counts: the part of a block's residual
+    /// that is noise (its error is the 5σ term of
+    /// [`Thresholds::c_error_bound`]); only what exceeds it counts as a
+    /// disturbance that can leak into the tone's bin. A board noisier than
+    /// this gets more pessimistic bounds, never optimistic ones.
+    pub noise_counts: f32,
 }
 
 impl Thresholds {
@@ -105,20 +111,35 @@ impl Thresholds {
         residual_counts: 1.5,
         residual_rel: 0.02,
         c_tolerance: 0.008,
+        // 0.7 LSB of input noise (the STM32G4 ADC's typical, 12-bit) and
+        // 0.29 LSB of quantization: 0.76 LSB rms, rounded up.
+        noise_counts: 1.0,
     };
 
-    /// A bound on the relative error of C from one block: each channel's
-    /// phase is off by at most (r/A)·(5/√(N/2) + 1.1/k) (five standard
-    /// deviations of noise of rms r on a tone of amplitude A over N pairs,
-    /// plus the most a disturbance of that rms leaks into the bin of k
-    /// periods); D = Re Z/(−Im Z) moves by (1 + D²)/D times the phase
-    /// error (relative), and C by `kappa` times that, plus the amplitude
-    /// errors. `d` is the block's D, `periods` its k.
-    pub fn c_error_bound(ph: &dsp_core::demod::Phasors, d: f32, kappa: f32, periods: u32) -> f32 {
-        let [rv, ri] = ph.residual_rms();
+    /// A bound on the relative error of C from one block. A channel's
+    /// residual rms r (after the fitted tone) is white noise of at most
+    /// σ = [`Thresholds::noise_counts`] and a disturbance of rms
+    /// δ = √(max(0, r² − σ²)). Its phase is then off by at most
+    ///
+    /// ```text
+    /// φ = (5·r·√(2/N) + 1.1·δ/k) / A
+    /// ```
+    ///
+    /// (five standard deviations of the noise on a tone of amplitude A over
+    /// N pairs, plus the most a disturbance leaks into the bin of k
+    /// periods); D = Re Z/(−Im Z) moves by (1 + D²)/D times the phase error
+    /// (relative), and C by `kappa` times that, plus the amplitude errors,
+    /// each at most φ. `d` is the block's D, `periods` its k.
+    pub fn c_error_bound(&self, ph: &dsp_core::demod::Phasors, d: f32, kappa: f32, periods: u32) -> f32 {
         let n = (ph.n as f32).max(1.0);
-        let per = (5.0 / libm::sqrtf(0.5 * n)) + 1.1 / (periods.max(1) as f32);
-        let phase = (rv / ph.v_amplitude() + ri / ph.i_amplitude()) * per;
+        let k = periods.max(1) as f32;
+        let sigma = self.noise_counts;
+        let channel = |r: f32, a: f32| {
+            let delta = libm::sqrtf((r * r - sigma * sigma).max(0.0));
+            (5.0 * r * libm::sqrtf(2.0 / n) + 1.1 * delta / k) / a
+        };
+        let [rv, ri] = ph.residual_rms();
+        let phase = channel(rv, ph.v_amplitude()) + channel(ri, ph.i_amplitude());
         let e = kappa * (1.0 + d * d) / d * phase + phase;
         // NaN (no signal) is no bound.
         if e.is_nan() {

@@ -291,3 +291,79 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
         );
     }
 }
+
+/// A valid record's C is within the channel's tolerance wherever ωRC
+/// lies: electrodes scaled 0.25× to 6× (x = 0.1 … 40 over the frequency
+/// set), 40 noisy blocks each. Where the inversion amplifies the noise too
+/// much to vouch for 0.8 %, the record is flagged UNCERTAIN (or the
+/// tracker holds) instead; where it does not, nothing is rejected.
+#[test]
+fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
+    use skin_sim::electrode::ElectrodeParams;
+    let fe = FrontEndParams::REFERENCE;
+    let settings = Settings {
+        policy: Policy::DEFAULT,
+        thresholds: Thresholds::DEFAULT,
+        front_end: fe.dsp_front_end(),
+        calibration: &REFERENCE,
+        tracker: instrument::channel::tracker(),
+        fixture: dsp_core::fixture::Fixture::NONE,
+    };
+    let tol = Thresholds::DEFAULT.c_tolerance as f64;
+    let mut rng = Rng::new(21);
+    let mut buf = vec![[0i16; 2]; BLOCK];
+    let (mut flagged_well, mut flagged_ill, mut ill) = (0, 0, 0);
+    let mut worst = 0f64;
+    for scale in [0.25, 0.5, 1.0, 2.0, 4.0, 6.0] {
+        let scaled = |e: ElectrodeParams| ElectrodeParams {
+            r_rest_ohm: e.r_rest_ohm * scale,
+            ..e
+        };
+        let p = SensorParams {
+            top: scaled(ElectrodeParams::TOP),
+            bottom: scaled(ElectrodeParams::BOTTOM),
+            ..SensorParams::REFERENCE
+        };
+        let s = Sensor::settled(p);
+        let truth = s.truth();
+        for i in 0..PERIODS.len() {
+            let f = freq_hz(i) as f64;
+            let x = 2.0 * core::f64::consts::PI * f * truth.r_line_ohm * truth.c_farad;
+            let osc = Oscillator::from_ftw(ftw(i));
+            let z = s.impedance(f);
+            let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
+            for b in 0..40 {
+                let clipped = fe.block(&osc, z, &mut rng, &mut buf);
+                let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                let r = ch.process(&settings, 0, b * 5_000, &ph, clipped);
+                if b == 0 {
+                    continue; // settling
+                }
+                if r.flags.valid() {
+                    let e = (r.c_farad as f64 / truth.c_farad - 1.0).abs();
+                    worst = worst.max(e);
+                    assert!(
+                        e <= tol,
+                        "x = {x:.2} ({f:.0} Hz, R ×{scale}): valid C off by {:.3} %",
+                        e * 100.0
+                    );
+                } else if x < 2.0 {
+                    flagged_well += 1;
+                }
+                if x > 15.0 {
+                    ill += 1;
+                    if r.flags.has(Flags::UNCERTAIN) || r.flags.has(Flags::RANGE) || r.flags.has(Flags::HELD)
+                    {
+                        flagged_ill += 1;
+                    }
+                }
+            }
+        }
+    }
+    println!("worst valid error {:.3} %", worst * 100.0);
+    assert_eq!(flagged_well, 0, "records rejected where x < 2");
+    assert!(
+        ill > 0 && flagged_ill == ill,
+        "x > 15: {flagged_ill} of {ill} flagged"
+    );
+}
