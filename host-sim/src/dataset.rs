@@ -85,7 +85,7 @@ pub const TRACE_HEADER: [&str; 7] = [
 ];
 
 /// The known columns, in this order in [`Row::values`].
-pub const COLUMNS: [&str; 8] = [
+pub const COLUMNS: [&str; 9] = [
     "time_s",
     "stretch_mm",
     "freq_hz",
@@ -94,6 +94,7 @@ pub const COLUMNS: [&str; 8] = [
     "r_top_ohm",
     "r_bottom_ohm",
     "r_line_ohm",
+    "cs_sigma_pf",
 ];
 
 /// One row: the known columns present in the file (NaN where absent), and
@@ -101,7 +102,7 @@ pub const COLUMNS: [&str; 8] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Row {
     /// Values in [`COLUMNS`] order; NaN for a column the file lacks.
-    pub values: [f64; 8],
+    pub values: [f64; 9],
     /// Line number in the file (1-based).
     pub line: u64,
 }
@@ -138,6 +139,13 @@ impl Row {
     /// r_line_ohm (NaN if not recorded).
     pub fn r_line_ohm(&self) -> f64 {
         self.values[7]
+    }
+    /// cs_sigma_pf: the stated 1σ uncertainty of cs_pf, pF (NaN if not
+    /// given). An extension of the interchange format for points whose
+    /// precision is known but that carry no trace to measure a noise
+    /// floor on (transcribed values); other readers ignore the column.
+    pub fn cs_sigma_pf(&self) -> f64 {
+        self.values[8]
     }
     /// The recorded electrode resistance the analyses use, Ω: R_top +
     /// R_bottom where recorded, else the instrument's line estimate (see
@@ -279,7 +287,7 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
                 head.len()
             );
         }
-        let mut values = [f64::NAN; 8];
+        let mut values = [f64::NAN; 9];
         for (k, col) in COLUMNS.iter().enumerate() {
             let Some(i) = index[k] else { continue };
             let field = rec.get(i).unwrap_or("");
@@ -306,7 +314,7 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
             // instrument flagged (no line estimate).
             let flagged = flags_at.is_some_and(|i| rec.get(i).is_some_and(|f| f.trim() != "0"));
             let positive = match *col {
-                "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" => true,
+                "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "cs_sigma_pf" => true,
                 "r_line_ohm" => resistance == Resistance::InstrumentLine && !flagged,
                 _ => false,
             };

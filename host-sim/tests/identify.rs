@@ -37,6 +37,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::MeterLag => (10e-3, 150e-3, false),
         Effect::TimeOffset => (5e-3, 80e-3, true),
         Effect::NonuniformStretch => (0.05, 0.5, true),
+        Effect::LeadResistance => (0.05, 0.5, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
     let m = lo * (hi / lo).powf(rng.uniform());
@@ -185,4 +186,19 @@ fn a_found_effect_reports_its_parameter_and_uncertainty() {
     assert!((p - 8.0).abs() < 5.0 * s + 0.05, "{p} ± {s}");
     assert!(e["rms_pf_after"].as_f64().unwrap() <= 1.5 * j["noise_floor_pf"].as_f64().unwrap());
     assert!(j["final"]["rms_pf"].as_f64().unwrap() * 5.0 < j["baseline"]["rms_pf"].as_f64().unwrap());
+}
+
+#[test]
+fn tab_leads_are_recovered_with_their_uncertainty() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (fx, meter) = hidden(Effect::LeadResistance, 0.4);
+    let r = run(&tmp.path().join("l"), fx, meter, 11);
+    let j = r.json();
+    let e = &j["effects"][0];
+    assert_eq!(e["id"], "lead_resistance", "{}", r.markdown("l", None));
+    let p = e["params"]["lead_fraction"].as_f64().unwrap();
+    let s = e["uncertainty"]["lead_fraction"].as_f64().unwrap();
+    assert!((p - 0.4).abs() < 0.01, "{p}");
+    assert!(s > 0.0 && (p - 0.4).abs() < 5.0 * s + 1e-3, "{p} ± {s}");
+    assert!(e["rms_pf_after"].as_f64().unwrap() <= 1.5 * j["noise_floor_pf"].as_f64().unwrap());
 }

@@ -46,6 +46,7 @@ fn model_matches_the_simulated_sensor_for_every_static_effect() {
         (Effect::ResistanceGradient, -0.6),
         (Effect::DielectricLeakage, 50e-9),
         (Effect::NonuniformStretch, 0.4),
+        (Effect::LeadResistance, 0.63),
     ];
     for (e, v) in cases {
         let fx = EffectSet::NONE.with(e, v);

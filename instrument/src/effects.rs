@@ -30,6 +30,12 @@ pub enum Entry {
     /// The timing of the recording (the meter's integration, the alignment
     /// of its columns).
     Time,
+    /// A fraction of each electrode's end-to-end resistance that lies in
+    /// its tab leads, outside the capacitor: the line keeps the rest, and
+    /// the two leads at the read end are in series with it. Proportional
+    /// to the electrode's resistance, so no fixed wiring calibration holds
+    /// it.
+    Leads,
 }
 
 /// Whose property an effect is.
@@ -96,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 8;
+pub const COUNT: usize = 9;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -124,6 +130,12 @@ pub enum Effect {
     /// falls by this fraction per decade of frequency above 1 kHz (rises
     /// below); the truth is the 1 kHz value.
     DielectricDispersion,
+    /// Fraction β of each electrode's end-to-end resistance in its two tab
+    /// leads (β/2 each) and where the current crowds into the electrode,
+    /// outside the capacitor. The leads are the electrode's own material,
+    /// so they follow its resistance: R_line = (1 − β)·R_rec, and β/2·R_rec
+    /// is in series at the read end.
+    LeadResistance,
 }
 
 impl Effect {
@@ -137,6 +149,7 @@ impl Effect {
         Effect::TimeOffset,
         Effect::NonuniformStretch,
         Effect::DielectricDispersion,
+        Effect::LeadResistance,
     ];
 
     /// Its entry in the catalogue.
@@ -261,6 +274,26 @@ impl Effect {
                 scope: Scope::Sensor,
                 entry: Entry::Dielectric,
                 fitted: false,
+            },
+            // Physical range: a lead is a strip of the electrode's film of
+            // l/w squares (a 30 mm lead 5 mm wide: 6 squares, against the
+            // electrode's 100 mm / 15 mm = 6.7), plus ≈ (2/π)·ln(W/w)
+            // squares where the current crowds into the electrode; up to
+            // well over half of the end-to-end resistance.
+            Effect::LeadResistance => &Info {
+                id: "lead_resistance",
+                key: "lead_fraction",
+                doc: "fraction of each electrode's end-to-end resistance in its tab leads, 0..0.99",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (0.0, 0.99),
+                open: false,
+                search: (0.0, 0.95),
+                scope: Scope::Sensor,
+                entry: Entry::Leads,
+                fitted: true,
             },
         }
     }

@@ -11,8 +11,9 @@
 //! catalogue ([`instrument::effects`], all off by default): contact
 //! resistance at the tabs, parasitic (cable) capacitance at the meter,
 //! electrode resistance varying linearly along the sensor, dielectric
-//! leakage, stretch varying linearly along the sensor, and dielectric
-//! dispersion. The recording's effects (meter lag, time offset) belong to
+//! leakage, stretch varying linearly along the sensor, dielectric
+//! dispersion, and tab leads carrying a fraction of each electrode's
+//! resistance outside the capacitor. The recording's effects (meter lag, time offset) belong to
 //! the meter that reads the sensor (host-sim's chain).
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
@@ -150,7 +151,8 @@ impl Sensor {
         let p = &self.params;
         let s = self.local_stretch(i);
         let w = self.r_weight(i) / SEGMENTS as f64;
-        let r = w * (p.top.resistance(&self.top, s) + p.bottom.resistance(&self.bottom, s));
+        let body = 1.0 - p.effects.get(Effect::LeadResistance);
+        let r = body * w * (p.top.resistance(&self.top, s) + p.bottom.resistance(&self.bottom, s));
         let c = p.capacitance(s) / SEGMENTS as f64;
         // The leakage conductance is distributed with the capacitance.
         let g = p.effects.get(Effect::DielectricLeakage) * c / p.capacitance(self.stretch);
@@ -169,12 +171,13 @@ impl Sensor {
             c += p.capacitance(s) / SEGMENTS as f64;
         }
         let rc = 2.0 * p.effects.get(Effect::ContactResistance);
+        let body = 1.0 - p.effects.get(Effect::LeadResistance);
         Truth {
             t: self.t,
             stretch_mm: self.stretch,
             rate_mm_s: self.rate,
             c_farad: c,
-            r_line_ohm: rt + rb,
+            r_line_ohm: body * (rt + rb),
             r_top_ohm: rt + rc,
             r_bottom_ohm: rb + rc,
         }
@@ -199,9 +202,18 @@ impl Sensor {
             let beyond = z + 0.5 * r;
             z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
         }
-        // The wiring: contacts in series, cable capacitance at the meter.
+        // The tab leads at the read end (top and bottom, β/2 of each
+        // electrode's end-to-end resistance), then the wiring: contacts in
+        // series, cable capacitance at the meter.
+        let beta = fx.get(Effect::LeadResistance);
+        let leads = if beta > 0.0 {
+            let t = self.truth();
+            0.5 * beta / (1.0 - beta) * t.r_line_ohm
+        } else {
+            0.0
+        };
         let (series, shunt) = fx.wiring();
-        let z = z + series;
+        let z = z + series + leads;
         if shunt > 0.0 {
             (z.inv() + Complex64::new(0.0, w * shunt)).inv()
         } else {

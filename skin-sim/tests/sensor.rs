@@ -63,6 +63,23 @@ fn effects_have_their_signatures() {
     assert!(rel(s.impedance(2e3), z0 + 10e3) < 1e-12);
     assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm + 10e3);
     assert_eq!(s.truth().r_line_ohm, t0.r_line_ohm);
+    // Tab leads: a fraction β of each electrode's end-to-end resistance,
+    // outside the line; the read end's two leads in series with it.
+    let beta = 0.6;
+    let s = with(EffectSet::NONE.with(Effect::LeadResistance, beta));
+    assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm);
+    assert!((s.truth().r_line_ohm / t0.r_line_ohm - (1.0 - beta)).abs() < 1e-12);
+    let scaled = with(EffectSet::NONE);
+    let mut p = scaled.params;
+    p.top.r_rest_ohm *= 1.0 - beta;
+    p.bottom.r_rest_ohm *= 1.0 - beta;
+    let body = {
+        let mut x = Sensor::settled(p);
+        x.advance(&Profile::Constant(10.0), 1.0);
+        x
+    };
+    let lead = 0.5 * beta * (t0.r_top_ohm + t0.r_bottom_ohm);
+    assert!(rel(s.impedance(6e3), body.impedance(6e3) + lead) < 1e-9);
     // Parasitic capacitance in parallel at the meter.
     let s = with(EffectSet::NONE.with(Effect::ParasiticCapacitance, 15e-12));
     let w = std::f64::consts::TAU * 2e3;

@@ -17,9 +17,13 @@ pub(super) struct Evaluated {
 pub(super) struct Problem<'a> {
     pub(super) prep: &'a Prepared,
     pub(super) line: Line,
-    /// 1/σ per file.
-    pub(super) w: Vec<f64>,
+    /// 1/σ per file and row.
+    pub(super) w: Vec<Vec<f64>>,
     pub(super) rows: usize,
+    /// The σ are stated uncertainties (not a noise floor measured on the
+    /// residual): a parameter's uncertainty is scaled up by the fit's
+    /// √(χ²/(n − k)) only when that exceeds 1 (the Birge ratio).
+    pub(super) declared: bool,
 }
 
 impl Problem<'_> {
@@ -40,7 +44,8 @@ impl Problem<'_> {
                 f.cs.iter()
                     .zip(p)
                     .zip(&f.used)
-                    .map(|((m, p), &u)| {
+                    .zip(w)
+                    .map(|(((m, p), &u), w)| {
                         let e = m - p;
                         if u {
                             s += (e * w) * (e * w);
@@ -59,7 +64,13 @@ impl Problem<'_> {
             .iter()
             .zip(&self.w)
             .zip(&self.prep.files)
-            .flat_map(|((r, w), f)| r.iter().zip(&f.used).filter(|x| *x.1).map(move |(e, _)| e * w))
+            .flat_map(|((r, w), f)| {
+                r.iter()
+                    .zip(&f.used)
+                    .zip(w)
+                    .filter(|x| *x.0 .1)
+                    .map(|((e, _), w)| e * w)
+            })
             .collect()
     }
 
@@ -220,7 +231,10 @@ impl Problem<'_> {
             Some(a) => a,
             None => self.normal_equations(effects, p, &best)?.0,
         };
-        let s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
+        let mut s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
+        if self.declared {
+            s2 = s2.max(1.0);
+        }
         let sigma = (0..k)
             .map(|i| {
                 let mut unit = vec![0.0; k];

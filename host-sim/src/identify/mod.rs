@@ -202,7 +202,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         .iter()
         .map(|f| f.used.iter().filter(|u| **u).count())
         .sum();
-    anyhow::ensure!(rows > 0, "the data set has no trace rows to explain");
+    anyhow::ensure!(rows > 0, "the data set has no trace or sweep rows to explain");
     // Baselines, unweighted first, to estimate the noise.
     let mut baselines = vec![];
     for line in [Line::Continuous, Line::Ladder(30)] {
@@ -232,31 +232,71 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         })
         .collect();
     let usable = |v: f64| v.is_finite() && v > 0.0;
+    // A file whose every row states its uncertainty (cs_sigma_pf) is
+    // weighted by it; the others by their measured noise floor.
+    let declared: Vec<bool> = prep
+        .files
+        .iter()
+        .map(|f| !f.sigma.is_empty() && f.sigma.iter().all(|&s| usable(s)))
+        .collect();
     let mut trace_noise: Vec<f64> = raw.iter().copied().filter(|&v| usable(v)).collect();
     trace_noise.sort_by(f64::total_cmp);
-    // The noise floor is measured on the traces (point-to-point scatter);
-    // without one there is nothing to judge a fit against, and a made-up
-    // floor would make any fit look explained or not at will.
-    let Some(&median) = trace_noise.get(trace_noise.len() / 2) else {
-        anyhow::bail!(
-            "no trace with a measurable noise floor (a set of calibration and sweep points alone cannot tell an effect from noise): record at least one trace_*.csv of {} rows or more; `residual` still compares the points with the baseline",
-            crate::model::prepared::MIN_TRACE_ROWS
-        );
+    // The noise floor is measured on the traces (point-to-point scatter)
+    // or stated row by row; without either there is nothing to judge a
+    // fit against, and a made-up floor would make any fit look explained
+    // or not at will.
+    let median = trace_noise.get(trace_noise.len() / 2).copied();
+    let mut w: Vec<Vec<f64>> = vec![];
+    for ((f, &v), &d) in prep.files.iter().zip(&raw).zip(&declared) {
+        w.push(if d {
+            f.sigma.iter().map(|s| 1.0 / s).collect()
+        } else {
+            let sigma = if usable(v) {
+                v
+            } else {
+                median.with_context(|| {
+                    format!(
+                        "{}: no trace with a measurable noise floor, and no stated uncertainty (cs_sigma_pf) on every row (a set of calibration and sweep points alone cannot tell an effect from noise): record at least one trace_*.csv of {} rows or more, or state each point's uncertainty; `residual` still compares the points with the baseline",
+                        f.name,
+                        crate::model::prepared::MIN_TRACE_ROWS
+                    )
+                })?
+            };
+            vec![1.0 / sigma; f.cs.len()]
+        });
+    }
+    let row_sigma = |f: &crate::model::File, w: &[f64]| -> (f64, usize) {
+        let (mut ss, mut n) = (0.0, 0usize);
+        for (w, _) in w.iter().zip(&f.used).filter(|x| *x.1) {
+            ss += 1.0 / (w * w);
+            n += 1;
+        }
+        (ss, n)
     };
-    let noise: Vec<f64> = raw.iter().map(|&v| if usable(v) { v } else { median }).collect();
     let noise_floor_pf = (prep
         .files
         .iter()
-        .zip(&noise)
-        .map(|(f, s)| f.used.iter().filter(|u| **u).count() as f64 * s * s)
+        .zip(&w)
+        .map(|(f, w)| row_sigma(f, w).0)
         .sum::<f64>()
         / rows as f64)
         .sqrt();
+    let noise_pf: Vec<(String, f64)> = prep
+        .files
+        .iter()
+        .zip(&w)
+        .map(|(f, w)| {
+            let (ss, n) = row_sigma(f, w);
+            (f.name.clone(), (ss / n.max(1) as f64).sqrt())
+        })
+        .collect();
+    let all_declared = declared.iter().all(|&d| d);
     let problem = |line| Problem {
         prep: &prep,
         line,
-        w: noise.iter().map(|s| 1.0 / s).collect(),
+        w: w.clone(),
         rows,
+        declared: all_declared,
     };
     let fits: Vec<Fit> = baselines
         .iter()
@@ -274,12 +314,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let explained = |f: &Fit| f.rms_pf <= options.explained * noise_floor_pf;
     let mut report = Report {
         baselines: fits,
-        noise_pf: prep
-            .files
-            .iter()
-            .map(|f| f.name.clone())
-            .zip(noise.iter().copied())
-            .collect(),
+        noise_pf,
         noise_floor_pf,
         singles: vec![],
         pairs: vec![],
@@ -292,10 +327,16 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     if explained(&base) {
         return Ok(report);
     }
-    // Every single effect, in parallel.
+    // Every single effect, in parallel; the recording's time effects only
+    // where there is a trace for them to act on.
+    let traces = prep.files.iter().any(|f| f.kind == Kind::Trace);
+    let library: Vec<Effect> = Effect::library()
+        .filter(|e| traces || e.info().entry != instrument::effects::Entry::Time)
+        .collect();
     let mut singles: Vec<Fit> = std::thread::scope(|sc| {
-        let hs: Vec<_> = Effect::library()
-            .map(|e| {
+        let hs: Vec<_> = library
+            .iter()
+            .map(|&e| {
                 let prob = &prob;
                 sc.spawn(move || prob.fit(&[e], Params::NONE, &[e]))
             })
@@ -316,7 +357,9 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     if options.max_effects >= 2 && strong(&best, &base) {
         let first = best.effects[0];
         let mut pairs: Vec<Fit> = std::thread::scope(|sc| {
-            let hs: Vec<_> = Effect::library()
+            let hs: Vec<_> = library
+                .iter()
+                .copied()
                 .filter(|&e| e != first)
                 .map(|e| {
                     let prob = &prob;

@@ -7,8 +7,9 @@
 //! and the frequency f (Hz):
 //!
 //! ```text
-//! R_line = R_rec − 4·R_c                          (ContactResistance)
-//! Z      = line(R_line, C, G, weights) + 2·R_c
+//! R_el   = R_rec − 4·R_c                          (ContactResistance)
+//! R_line = (1 − β)·R_el                           (LeadResistance)
+//! Z      = line(R_line, C, G, weights) + 2·R_c + β/2·R_el
 //! Z      = 1 / (1/Z + jω·C_p)                     (ParasiticCapacitance)
 //! Cs     = −1 / (ω·Im Z)
 //! ```
@@ -107,7 +108,9 @@ impl Model<'_> {
         let p = &self.params;
         let w = TAU * f;
         let rc = p.get(Effect::ContactResistance);
-        let r = r_rec - 4.0 * rc;
+        let beta = p.get(Effect::LeadResistance);
+        let r_el = r_rec - 4.0 * rc;
+        let r = (1.0 - beta) * r_el;
         if !(r > 0.0 && c > 0.0 && w > 0.0) {
             return None;
         }
@@ -128,7 +131,7 @@ impl Model<'_> {
         } else {
             self.nonuniform(r, c, g, s, w)
         };
-        z += 2.0 * rc;
+        z += 2.0 * rc + 0.5 * beta * r_el;
         let cp = p.get(Effect::ParasiticCapacitance);
         if cp != 0.0 {
             z = (z.inv() + Complex64::new(0.0, w * cp)).inv();

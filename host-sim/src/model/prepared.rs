@@ -37,6 +37,8 @@ pub struct File {
     pub f: Vec<f64>,
     /// Measured Cs, pF.
     pub cs: Vec<f64>,
+    /// Stated 1σ of Cs, pF (`cs_sigma_pf`; NaN where not given).
+    pub sigma: Vec<f64>,
     /// Rows where the stretch profile turns (traces).
     pub corner: Vec<bool>,
     /// Rows that enter the statistics: all but those at a trace's ends
@@ -73,6 +75,7 @@ fn file_of(t: &Table) -> File {
         r: t.rows.iter().map(|r| r.r_rec()).collect(),
         f: col(Row::freq_hz),
         cs: col(Row::cs_pf),
+        sigma: col(Row::cs_sigma_pf),
         corner: vec![],
         used: vec![],
     }
