@@ -172,6 +172,21 @@ struct RunArgs {
     /// Trapezoid periods per dynamic run.
     #[arg(long, default_value_t = 2)]
     periods: u32,
+    /// The simulated sensor: the reference sensor (no tab leads, resistance
+    /// falling under cycling; the firmware's default skin), or the founding
+    /// paper's, as its text and `identify` on its static sweep describe it
+    /// (tab leads the firmware does not yet correct).
+    #[arg(long, value_enum, default_value_t = SensorChoice::Reference)]
+    sensor: SensorChoice,
+}
+
+/// Which simulated sensor.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum SensorChoice {
+    /// `SensorParams::PAPER`.
+    Paper,
+    /// `SensorParams::REFERENCE`.
+    Reference,
 }
 
 /// Non-ideal effects of the simulated sensor and its recording, all off by
@@ -301,6 +316,10 @@ fn read_profile_csv(path: &std::path::Path) -> Result<Vec<(f64, f64)>> {
 fn ctx(a: &RunArgs, total_s: f64) -> Result<Ctx> {
     let mut c = Ctx::new(&a.out, a.seed)?.with_progress(total_s);
     c.periods = a.periods;
+    c.sensor = match a.sensor {
+        SensorChoice::Paper => skin_sim::sensor::SensorParams::PAPER,
+        SensorChoice::Reference => skin_sim::sensor::SensorParams::REFERENCE,
+    };
     Ok(c)
 }
 

@@ -4,6 +4,7 @@
 
 mod accuracy;
 mod capacitance;
+mod claims;
 mod dataset;
 mod elements;
 mod resistance;
@@ -12,6 +13,7 @@ mod writers;
 
 pub use accuracy::{accuracy, Accuracy};
 pub use capacitance::{capacitance, lcr_runs};
+pub use claims::{compare, parse_claims, table, Claim, Outcome, CLAIMS_CSV};
 pub use dataset::dataset;
 pub use elements::{calibration, elements};
 pub use resistance::resistance;
@@ -92,8 +94,9 @@ pub(super) fn pf(c: f64) -> f64 {
 
 /// A static sensor at `stretch` mm in the electrodes' steady state.
 pub(super) fn static_sensor(p: SensorParams, stretch: f64) -> Sensor {
-    let mut s = Sensor::settled(p);
-    s.advance(&Profile::Constant(stretch), 0.5);
+    // At its static resistances; a millisecond to take the stretch.
+    let mut s = Sensor::at_static(p);
+    s.advance(&Profile::Constant(stretch), 1e-3);
     s
 }
 
@@ -208,6 +211,10 @@ pub fn paper(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     ctx.progress.set_message("elements (Fig. 13, 14)");
     md += "\n";
     md += &elements(ctx, &runs)?;
+    let claims = parse_claims(CLAIMS_CSV)?;
+    let outcomes = compare(ctx, &claims, &runs, &calibration(ctx)?)?;
+    md += "\n";
+    md += &table(&outcomes);
     ctx.progress.set_message("accuracy, ADC chain");
     let (m, acc) = accuracy(ctx)?;
     md += "\n";
