@@ -37,6 +37,14 @@
 //!
 //! Close to the peak the problem is ill-conditioned (dD/dx = 0): keep the
 //! excitation frequency such that x stays below ~5 for noisy data.
+//!
+//! # Tab leads
+//! A sensor whose electrodes carry part of their resistance in tab leads
+//! outside the capacitor ([`Inverter::with_leads`]) is the line plus a
+//! series resistance proportional to the line's: Z = Z_line(R, C) + ℓ·R,
+//! so ζ(x) = ζ_line(x) + ℓ·x, and everything above holds with that ζ. R
+//! is then the line's resistance alone. ℓ = β/(2(1 − β)) for a fraction
+//! β of each electrode's end-to-end resistance in its two leads.
 
 use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
@@ -124,7 +132,8 @@ impl From<ModelError> for InvertError {
 /// A recovered line.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Line {
-    /// Total electrode resistance R (top + bottom), Ω.
+    /// Total electrode resistance R (top + bottom) of the line, Ω (without
+    /// tab leads: [`Inverter::with_leads`]).
     pub r_ohm: f32,
     /// Line capacitance C, F.
     pub c_farad: f32,
@@ -156,6 +165,18 @@ pub struct Inverter {
     resolved: usize,
     /// Smallest |ζ| over the flat branches (less 0.1 %).
     tail_zeta: f32,
+    /// Series resistance of the read end's tab leads per line resistance,
+    /// ℓ (dimensionless, 0 ≤ ℓ ≤ [`LEAD_MAX`]).
+    lead: f32,
+}
+
+/// Largest lead ratio ℓ an inverter takes (β = 0.99 of each electrode's
+/// resistance in its leads, the catalogue's limit).
+pub const LEAD_MAX: f32 = 50.0;
+
+/// ζ of `model` with leads ℓ: ζ_line(x) + ℓ·x.
+fn zeta_with(model: LineModel, lead: f32, x: f32) -> Result<Complex32, ModelError> {
+    model.zeta(x).map(|z| Complex32::new(z.re + lead * x, z.im))
 }
 
 impl Inverter {
@@ -175,6 +196,18 @@ impl Inverter {
     /// line's trough at x ≈ 25); lines beyond are still solved for, to tell
     /// them apart.
     pub fn with_x_max(model: LineModel, x_max: f32) -> Result<Self, ModelError> {
+        Self::with_leads(model, x_max, 0.0)
+    }
+
+    /// As [`with_x_max`](Self::with_x_max), for a sensor whose read end
+    /// has tab leads of ℓ = `lead_ratio` times the line's resistance in
+    /// series (see the module's "Tab leads"); [`ModelError::OutOfRange`]
+    /// unless 0 ≤ ℓ ≤ [`LEAD_MAX`].
+    pub fn with_leads(model: LineModel, x_max: f32, lead_ratio: f32) -> Result<Self, ModelError> {
+        if !(0.0..=LEAD_MAX).contains(&lead_ratio) {
+            return Err(ModelError::OutOfRange);
+        }
+        let lead = lead_ratio;
         let x_max = x_max.clamp(1.0, 100.0);
         let (u0, u1) = (libm::logf(X_ASYMPTOTE), libm::logf(crate::tline::X_MAX));
         let mut s = Self {
@@ -186,13 +219,14 @@ impl Inverter {
             branches: 1,
             resolved: 1,
             tail_zeta: f32::INFINITY,
+            lead,
         };
         for k in 0..GRID {
             let u = u0 + (u1 - u0) * k as f32 / (GRID - 1) as f32;
             // The top point rounds to a hair above X_MAX in f32.
             let x = libm::expf(u).min(crate::tline::X_MAX);
             s.u[k] = libm::logf(x);
-            s.d[k] = dissipation(model.zeta(x)?);
+            s.d[k] = dissipation(zeta_with(model, lead, x)?);
         }
         // Branch ends: where D turns by more than EXTREMUM_TOL (f32 noise
         // on the continuous line's flat D → 1 is no turn).
@@ -232,7 +266,7 @@ impl Inverter {
         s.x_max = s.x_max.min(libm::expf(s.u[s.ends[s.resolved]]));
         for k in s.ends[s.resolved]..GRID {
             if s.resolved < s.branches {
-                let z = model.zeta(libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
+                let z = zeta_with(model, lead, libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
                 s.tail_zeta = s.tail_zeta.min(libm::hypotf(z.re, z.im) * 0.999);
             }
         }
@@ -244,9 +278,8 @@ impl Inverter {
     /// down to a trough) lies inside the grid.
     fn refine(&mut self, k: usize, max: bool) -> Result<(), ModelError> {
         const R: f32 = 0.618_034;
-        let model = self.model;
         let sign = if max { 1.0 } else { -1.0 };
-        let f = |u: f32| model.zeta(libm::expf(u)).map(|z| sign * dissipation(z));
+        let f = |u: f32| self.zeta(libm::expf(u)).map(|z| sign * dissipation(z));
         let (mut a, mut b) = (self.u[k - 1], self.u[k + 1]);
         let (mut c, mut d) = (b - R * (b - a), a + R * (b - a));
         let (mut fc, mut fd) = (f(c)?, f(d)?);
@@ -272,6 +305,16 @@ impl Inverter {
     /// The model this inverter fits.
     pub fn model(&self) -> LineModel {
         self.model
+    }
+
+    /// The lead ratio ℓ (0: no leads).
+    pub fn lead_ratio(&self) -> f32 {
+        self.lead
+    }
+
+    /// ζ(x) of the model with its leads.
+    fn zeta(&self, x: f32) -> Result<Complex32, ModelError> {
+        zeta_with(self.model, self.lead, x)
     }
 
     /// Upper end of the reported range (x = ωRC).
@@ -406,7 +449,7 @@ impl Inverter {
         if d <= self.d[0] {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);
-            let a = self.model.low_freq_resistance_fraction();
+            let a = self.model.low_freq_resistance_fraction() + self.lead;
             found[0] = Some(line(x, Complex32::new(a * x, -1.0)));
             n = 1;
         }
@@ -501,9 +544,7 @@ impl Inverter {
         }
         const H: f32 = 0.005;
         let at = |x: f32| -> Result<(f32, f32), InvertError> {
-            let z = self
-                .model
-                .zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
+            let z = self.zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
             Ok((libm::logf(libm::hypotf(z.re, z.im)), libm::logf(dissipation(z))))
         };
         let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
@@ -556,7 +597,7 @@ impl Inverter {
         for _ in 0..12 {
             // exp(ln X_MAX) may round a hair above X_MAX.
             let x = libm::expf(u).min(crate::tline::X_MAX);
-            let zeta = self.model.zeta(x)?;
+            let zeta = self.zeta(x)?;
             let g = dissipation(zeta) - d;
             if g.abs() < best.2 {
                 best = (x, zeta, g.abs());

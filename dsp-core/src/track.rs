@@ -88,8 +88,14 @@ impl Tracker {
 
     /// A tracker for `model` over x ≤ `x_max`.
     pub fn new(model: LineModel, x_max: f32) -> Result<Self, ModelError> {
+        Self::with_leads(model, x_max, 0.0)
+    }
+
+    /// A tracker for `model` with tab leads of `lead_ratio` times the
+    /// line's resistance at the read end ([`Inverter::with_leads`]).
+    pub fn with_leads(model: LineModel, x_max: f32, lead_ratio: f32) -> Result<Self, ModelError> {
         Ok(Self {
-            inverter: Inverter::with_x_max(model, x_max)?,
+            inverter: Inverter::with_leads(model, x_max, lead_ratio)?,
             band: Self::BAND,
         })
     }

@@ -68,6 +68,9 @@ fn inverters() -> &'static [Inverter] {
             for x_max in [1.0, 10.0, 16.0, 100.0] {
                 v.push(Inverter::with_x_max(m, x_max).unwrap());
             }
+            for lead in [0.05, 1.79, dsp_core::invert::LEAD_MAX] {
+                v.push(Inverter::with_leads(m, 16.0, lead).unwrap());
+            }
         }
         v
     })

@@ -253,3 +253,43 @@ fn round_trips_with_large_x_max_are_right_or_refused() {
         }
     }
 }
+
+/// Tab leads: the reference impedance of a line R, C plus ℓ·R in series at
+/// the read end, inverted by `Inverter::with_leads`, over lead ratios
+/// from 0 to `LEAD_MAX` and x = 10⁻³ … x_unique (or 100 where D rises all
+/// the way): C and R of the line within 2·10⁻⁵ (max), 5·10⁻⁶ (RMS).
+#[test]
+fn leads_recover_the_line_against_f64() {
+    use dsp_core::invert::LEAD_MAX;
+    let (c, f) = (205e-12, 2e3);
+    for model in [LineModel::Continuous, LineModel::Ladder(30)] {
+        for lead in [0.0f64, 0.1, 0.5, 1.79, 5.0, LEAD_MAX as f64] {
+            let inv = Inverter::with_leads(model, 100.0, lead as f32).unwrap();
+            let xu = inv.x_unique() as f64;
+            let (mut ec, mut er) = (vec![], vec![]);
+            for x in log_grid(1e-3, xu * 0.999, 1500) {
+                let r = x / (TAU * f * c);
+                let z = (zeta_ref(model, x) + lead * x) / (TAU * f * c);
+                let z = Complex32::new(z.re as f32, z.im as f32);
+                let got = inv
+                    .invert(z, f as f32)
+                    .unwrap_or_else(|e| panic!("{model:?} ℓ={lead} x={x}: {e:?}"));
+                ec.push(got.c_farad as f64 / c - 1.0);
+                er.push(got.r_ohm as f64 / r - 1.0);
+            }
+            let ((crms, cmax), (rrms, rmax)) = (rms_max(&ec), rms_max(&er));
+            println!("{model:?} ℓ = {lead}: x ≤ {xu:.2}; C rms {crms:.1e} max {cmax:.1e}; R rms {rrms:.1e} max {rmax:.1e}");
+            assert!(cmax < 2e-5 && rmax < 2e-5, "{model:?} ℓ={lead}");
+            assert!(crms < 5e-6 && rrms < 5e-6, "{model:?} ℓ={lead}");
+            if lead >= 0.5 {
+                // Leads make D rise without bound: one line per reading far
+                // beyond the bare line's 4.58.
+                assert!(xu > 20.0, "{model:?} ℓ={lead}: unique only to {xu}");
+            }
+        }
+    }
+    // Out of range ratios are refused.
+    for bad in [-0.1f32, LEAD_MAX * 1.01, f32::NAN] {
+        assert!(Inverter::with_leads(LineModel::Continuous, 10.0, bad).is_err());
+    }
+}

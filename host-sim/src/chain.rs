@@ -125,6 +125,9 @@ pub struct Setup {
     pub prior_farad: f64,
     /// Seed of the noise.
     pub seed: u64,
+    /// Tab-lead ratio the correction assumes (the device calibration's
+    /// `EffectSet::lead_ratio`; 0: none).
+    pub lead_ratio: f32,
 }
 
 /// Read `sensor` following `profile` from `t_start` until `t_end` (s);
@@ -144,9 +147,10 @@ pub fn run(
         model,
         prior_farad,
         seed,
+        lead_ratio,
     } = setup;
     let mut rng = Rng::new(seed);
-    let tracker = Tracker::new(model, Tracker::X_MAX).expect("valid model");
+    let tracker = Tracker::with_leads(model, Tracker::X_MAX, lead_ratio).expect("valid model and lead ratio");
     let mut state = TrackState::new(prior_farad as f32);
     let mut out = Vec::new();
     let mut correct = |z: Complex32, f: f32| match tracker.update(&mut state, z, f) {
@@ -172,7 +176,8 @@ pub fn run(
                 thresholds: Thresholds::DEFAULT,
                 front_end: fe.dsp_front_end(),
                 calibration: &calib::REFERENCE,
-                tracker: channel::tracker(),
+                tracker: channel::tracker_with_leads(lead_ratio)
+                    .expect("a calibration's lead ratio is in range"),
                 fixture: Fixture::NONE,
             };
             let mut ch = Channel::pinned(prior_farad as f32, index);

@@ -539,6 +539,7 @@ fn run(cli: Cli) -> Result<()> {
                 model: LineModel::Continuous,
                 prior_farad: exp::rest_calibration(params),
                 seed,
+                lead_ratio: params.effects.statics().lead_ratio(),
             };
             let rs = chain::run(&mut s, &p, setup, 0.0, duration, |_| {});
             match out {

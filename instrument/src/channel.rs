@@ -32,10 +32,18 @@ pub struct Settings<'a, const N: usize> {
 /// The line tracker every channel uses: the continuous line over
 /// x ≤ [`Tracker::X_MAX`].
 pub fn tracker() -> Tracker {
-    match Tracker::new(LineModel::Continuous, Tracker::X_MAX) {
+    match tracker_with_leads(0.0) {
         Ok(t) => t,
-        Err(_) => unreachable!("the continuous model is always valid"),
+        Err(_) => unreachable!("the continuous model without leads is always valid"),
     }
+}
+
+/// The tracker for a sensor with tab leads of `lead_ratio` times the
+/// line's resistance at the read end (`EffectSet::lead_ratio` of its
+/// calibration, always within range); an error for a ratio outside
+/// 0..=`dsp_core::invert::LEAD_MAX`.
+pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, dsp_core::tline::ModelError> {
+    Tracker::with_leads(LineModel::Continuous, Tracker::X_MAX, lead_ratio)
 }
 
 /// One measurement record.

@@ -426,6 +426,19 @@ impl EffectSet {
         (series, shunt)
     }
 
+    /// The tab leads as the firmware's inversion takes them: the series
+    /// resistance at the read end per line resistance, ℓ = β/(2(1 − β))
+    /// (`dsp_core::invert::Inverter::with_leads`), for a fraction β of
+    /// each electrode's resistance in its leads; 0 without leads.
+    pub fn lead_ratio(&self) -> f32 {
+        let beta = self.get(Effect::LeadResistance);
+        if beta > 0.0 && beta < 1.0 {
+            (0.5 * beta / (1.0 - beta)) as f32
+        } else {
+            0.0
+        }
+    }
+
     /// The wiring as a de-embedding calibration for the firmware
     /// ([`EffectSet::wiring`] in `f32`).
     pub fn fixture(&self) -> dsp_core::fixture::Fixture {

@@ -133,6 +133,7 @@ pub fn dynamic(ctx: &Ctx, rate: f64, f: f64, meter: Meter, seed: u64) -> Vec<Rea
         model: LineModel::Continuous,
         prior_farad: rest_calibration(ctx.sensor),
         seed,
+        lead_ratio: ctx.sensor.effects.statics().lead_ratio(),
     };
     let mut rs = chain::run(&mut s, &p, setup, 20.0, t_end, |t| {
         if t - last >= 1.0 {
