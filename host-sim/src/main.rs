@@ -112,6 +112,11 @@ enum Cmd {
         /// Leave the static sweep out of the model.
         #[arg(long)]
         no_sweep: bool,
+        /// The set is the founding paper's static sweep (`data/paper/dataset`):
+        /// also predict the paper's dynamic numbers, out of fit, from the
+        /// effects found.
+        #[arg(long)]
+        predict_paper: bool,
     },
     /// A firmware recording (a decoded log with `rec`/`truth` lines, or raw
     /// defmt bytes with --elf) → a data set in the interchange format:
@@ -419,7 +424,12 @@ fn run(cli: Cli) -> Result<()> {
             exp::dataset(&out, params, Meter::lcr(&effects.0), seed, pb)?;
             println!("wrote a data set to {}", out.display());
         }
-        Cmd::Identify { dir, out, no_sweep } => {
+        Cmd::Identify {
+            dir,
+            out,
+            no_sweep,
+            predict_paper,
+        } => {
             use host_sim::identify;
             let options = identify::Options {
                 sweep: !no_sweep,
@@ -438,8 +448,29 @@ fn run(cli: Cli) -> Result<()> {
             let ds = host_sim::dataset::read_dir(&dir)?;
             let report = identify::identify(&ds, options)?;
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            let md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
-            let json = serde_json::to_string_pretty(&report.json())? + "\n";
+            let mut md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
+            let mut j = report.json();
+            if predict_paper {
+                let (section, outcomes) = exp::predict_paper(&report.final_fit().params)?;
+                md += "\n";
+                md += &section;
+                j["predictions"] = outcomes
+                    .iter()
+                    .map(|o| {
+                        serde_json::json!({
+                            "id": o.claim.id,
+                            "use": o.claim.role,
+                            "paper": o.claim.value,
+                            "predicted": o.sim,
+                            "unit": o.claim.unit,
+                            "deviation": o.deviation(),
+                            "tolerance": o.claim.tolerance(),
+                            "within": o.within(),
+                        })
+                    })
+                    .collect();
+            }
+            let json = serde_json::to_string_pretty(&j)? + "\n";
             let temp = || {
                 tempfile::Builder::new()
                     .prefix(".identify-")

@@ -192,3 +192,57 @@ pub fn table(outcomes: &[Outcome]) -> String {
     }
     md
 }
+
+/// The paper's dynamic numbers predicted from a fit of its static sweep:
+/// the paper's sensor (`SensorParams::PAPER`: the text's R and C and the
+/// resistance dynamics set from its three `dynamic` numbers) with the
+/// static effects `fitted` in place of its own, read by the LCR meter as
+/// in Fig. 10 (one period per run). Returns the markdown section and the
+/// outcomes of every `dynamic` and `predict` claim.
+pub fn predict_paper(fitted: &EffectSet) -> Result<(String, Vec<Outcome>)> {
+    let dir = tempfile::tempdir().context("a scratch folder")?;
+    let mut ctx = Ctx::new(dir.path(), 1)?;
+    ctx.periods = 1;
+    ctx.sensor = SensorParams {
+        effects: fitted.statics(),
+        ..SensorParams::PAPER
+    };
+    let claims = parse_claims(CLAIMS_CSV)?;
+    let runs = lcr_runs(&ctx);
+    let cal = calibration(&ctx)?;
+    let out: Vec<Outcome> = compare(&ctx, &claims, &runs, &cal)?
+        .into_iter()
+        .filter(|o| o.claim.role == "dynamic" || o.claim.role == "predict")
+        .collect();
+    let within = out
+        .iter()
+        .filter(|o| o.claim.role == "predict" && o.within())
+        .count();
+    let total = out.iter().filter(|o| o.claim.role == "predict").count();
+    let mut md = format!(
+        "## Prediction out of fit (the paper's dynamic numbers)\n\n\
+         The paper's sensor (its text's R and C, resistance dynamics set from the `dynamic` rows) with the effects fitted above. \
+         `predict` rows set no parameter: {within} of {total} within their tolerance (20 %, or the printed precision where larger).\n\n\
+         | claim | use | quantity | rate | f | paper | predicted | deviation | tolerance | |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|---|\n"
+    );
+    for o in &out {
+        let c = &o.claim;
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} mm/s | {} Hz | {:.2} {u} | {:.2} {u} | {:+.2} {u} | ±{:.2} {u} | {} |",
+            c.id,
+            c.role,
+            c.quantity,
+            c.rate_mm_s,
+            c.freq_hz,
+            c.value,
+            o.sim,
+            o.deviation(),
+            c.tolerance(),
+            if o.within() { "within" } else { "**off**" },
+            u = c.unit
+        );
+    }
+    Ok((md, out))
+}

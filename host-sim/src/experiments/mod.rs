@@ -13,7 +13,7 @@ mod writers;
 
 pub use accuracy::{accuracy, Accuracy};
 pub use capacitance::{capacitance, lcr_runs};
-pub use claims::{compare, parse_claims, table, Claim, Outcome, CLAIMS_CSV};
+pub use claims::{compare, parse_claims, predict_paper, table, Claim, Outcome, CLAIMS_CSV};
 pub use dataset::dataset;
 pub use elements::{calibration, elements};
 pub use resistance::resistance;
