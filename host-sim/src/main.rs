@@ -177,11 +177,11 @@ struct RunArgs {
     /// Trapezoid periods per dynamic run.
     #[arg(long, default_value_t = 2)]
     periods: u32,
-    /// The simulated sensor: the reference sensor (no tab leads, resistance
-    /// falling under cycling; the firmware's default skin), or the founding
-    /// paper's, as its text and `identify` on its static sweep describe it
-    /// (tab leads the firmware does not yet correct).
-    #[arg(long, value_enum, default_value_t = SensorChoice::Reference)]
+    /// The simulated sensor: the founding paper's, as its text and
+    /// `identify` on its static sweep describe it (tab leads, resistance
+    /// rising under cycling), or the reference sensor (no leads, resistance
+    /// falling under cycling; the firmware's skin in QEMU).
+    #[arg(long, value_enum, default_value_t = SensorChoice::Paper)]
     sensor: SensorChoice,
 }
 

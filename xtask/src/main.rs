@@ -146,7 +146,8 @@ fn main() -> Result<()> {
 
 /// The main job: the firmware in QEMU on the simulated skin under the
 /// paper's stretching (out/firmware: CSV, SVG, summary), then host-sim's
-/// reproduction of the paper (out/paper), then the Cortex-M4 counts.
+/// run of the paper's experiments on the simulated skin (out/paper), then
+/// the Cortex-M4 counts.
 fn run_main(root: &Path) -> Result<()> {
     let md = main_job::run(&root.join("out/firmware"))?;
     println!("{md}");
