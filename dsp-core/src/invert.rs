@@ -472,7 +472,9 @@ impl Inverter {
                 d >= lo - margin && d <= hi + margin
             };
             if inside {
-                let (x, zeta) = self.root(d.clamp(lo, hi), i0, i1)?;
+                // max/min, not clamp: clamp's NaN/order check would link
+                // core's float formatting into the firmware (≈ 35 KiB).
+                let (x, zeta) = self.root(d.max(lo).min(hi), i0, i1)?;
                 found[n] = Some(line(x, zeta));
                 n += 1;
             }
