@@ -38,6 +38,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::TimeOffset => (5e-3, 80e-3, true),
         Effect::NonuniformStretch => (0.05, 0.5, true),
         Effect::LeadResistance => (0.05, 0.5, false),
+        Effect::ElectrodeDispersion => (3e-6, 100e-6, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
     let m = lo * (hi / lo).powf(rng.uniform());

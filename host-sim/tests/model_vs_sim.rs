@@ -47,6 +47,8 @@ fn model_matches_the_simulated_sensor_for_every_static_effect() {
         (Effect::DielectricLeakage, 50e-9),
         (Effect::NonuniformStretch, 0.4),
         (Effect::LeadResistance, 0.63),
+        (Effect::ElectrodeDispersion, 40e-6),
+        (Effect::ElectrodeDispersion, 400e-6),
     ];
     for (e, v) in cases {
         let fx = EffectSet::NONE.with(e, v);

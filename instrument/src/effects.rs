@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 9;
+pub const COUNT: usize = 10;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -136,6 +136,11 @@ pub enum Effect {
     /// so they follow its resistance: R_line = (1 − β)·R_rec, and β/2·R_rec
     /// is in series at the read end.
     LeadResistance,
+    /// The electrode film's conductivity rises with frequency (Debye: the
+    /// film is a resistance in parallel with the capacitance between its
+    /// carbon-black clusters, per length): r(f) = r/(1 + j·2πf·τ), τ in s
+    /// (0: none). The recorded end-to-end resistances are the DC values.
+    ElectrodeDispersion,
 }
 
 impl Effect {
@@ -150,6 +155,7 @@ impl Effect {
         Effect::NonuniformStretch,
         Effect::DielectricDispersion,
         Effect::LeadResistance,
+        Effect::ElectrodeDispersion,
     ];
 
     /// Its entry in the catalogue.
@@ -293,6 +299,24 @@ impl Effect {
                 search: (0.0, 0.95),
                 scope: Scope::Sensor,
                 entry: Entry::Leads,
+                fitted: true,
+            },
+            // Physical range: carbon-black/silicone films conduct by
+            // tunnelling between clusters, whose capacitance shunts the
+            // film above f_c = 1/(2πτ); f_c from 160 Hz (τ = 1 ms) up.
+            Effect::ElectrodeDispersion => &Info {
+                id: "electrode_dispersion",
+                key: "film_tau_us",
+                doc: "relaxation time τ of the electrode film's conductivity, r/(1 + jωτ), s",
+                unit: "s",
+                display_unit: "µs",
+                display_scale: 1e6,
+                display_decimals: 2,
+                limits: (0.0, 1e-3),
+                open: false,
+                search: (0.0, 1e-3),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
                 fitted: true,
             },
         }

@@ -12,8 +12,9 @@
 //! resistance at the tabs, parasitic (cable) capacitance at the meter,
 //! electrode resistance varying linearly along the sensor, dielectric
 //! leakage, stretch varying linearly along the sensor, dielectric
-//! dispersion, and tab leads carrying a fraction of each electrode's
-//! resistance outside the capacitor. The recording's effects (meter lag, time offset) belong to
+//! dispersion, tab leads carrying a fraction of each electrode's
+//! resistance outside the capacitor, and a frequency-dependent
+//! conductivity of the electrode film. The recording's effects (meter lag, time offset) belong to
 //! the meter that reads the sensor (host-sim's chain).
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
@@ -223,14 +224,18 @@ impl Sensor {
         } else {
             1.0
         };
+        // The film's conductivity relaxes: each electrode resistance is
+        // r/(1 + jωτ) (the recorded end-to-end values are DC).
+        let tau = fx.get(Effect::ElectrodeDispersion);
+        let film = Complex64::new(1.0, w * tau).inv();
         // Midpoint segments (r/2, shunt c ‖ g, r/2): second-order accurate
         // in the segment length. The far half resistor carries no current.
         let (r, c, g) = self.segment(SEGMENTS - 1);
-        let mut z = Complex64::new(0.5 * r, 0.0) + Complex64::new(g, w * k * c).inv();
+        let mut z = film * (0.5 * r) + Complex64::new(g, w * k * c).inv();
         for i in (0..SEGMENTS - 1).rev() {
             let (r, c, g) = self.segment(i);
-            let beyond = z + 0.5 * r;
-            z = Complex64::new(0.5 * r, 0.0) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
+            let beyond = z + film * (0.5 * r);
+            z = film * (0.5 * r) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
         }
         // The tab leads at the read end (top and bottom, β/2 of each
         // electrode's end-to-end resistance), then the wiring: contacts in
@@ -243,7 +248,7 @@ impl Sensor {
             0.0
         };
         let (series, shunt) = fx.wiring();
-        let z = z + series + leads;
+        let z = z + series + film * leads;
         if shunt > 0.0 {
             (z.inv() + Complex64::new(0.0, w * shunt)).inv()
         } else {

@@ -80,6 +80,13 @@ fn effects_have_their_signatures() {
     };
     let lead = 0.5 * beta * (t0.r_top_ohm + t0.r_bottom_ohm);
     assert!(rel(s.impedance(6e3), body.impedance(6e3) + lead) < 1e-9);
+    // Electrode dispersion: the film's impedance falls above its corner
+    // (1.6 kHz here), so the series resistance a meter sees drops; far
+    // below the corner nothing changes.
+    let s = with(EffectSet::NONE.with(Effect::ElectrodeDispersion, 100e-6));
+    assert_eq!(s.truth().r_top_ohm, t0.r_top_ohm);
+    assert!(rel(s.impedance(10.0), plain.impedance(10.0)) < 1e-3);
+    assert!(s.impedance(6e3).re < 0.5 * plain.impedance(6e3).re);
     // Parasitic capacitance in parallel at the meter.
     let s = with(EffectSet::NONE.with(Effect::ParasiticCapacitance, 15e-12));
     let w = std::f64::consts::TAU * 2e3;

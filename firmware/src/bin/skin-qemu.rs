@@ -45,11 +45,12 @@ pub struct Block {
     pub slot: Slot,
 }
 
-/// The scenario (first argument) and the wiring calibration (optional
-/// further arguments: `id=value` of the catalogue's static effects, SI).
-fn arguments() -> (Scenario, Fixture) {
+/// The scenario (first argument), the wiring calibration and the tab-lead
+/// ratio of the line model (optional further arguments: `id=value` of the
+/// catalogue's static effects, SI).
+fn arguments() -> (Scenario, Fixture, f32) {
     let Ok(args) = semihosting::experimental::env::args::<128>() else {
-        return (Scenario::Paper20, Fixture::NONE);
+        return (Scenario::Paper20, Fixture::NONE, 0.0);
     };
     let mut it = &args;
     let name = it.next().and_then(Result::ok).unwrap_or("paper20");
@@ -72,7 +73,7 @@ fn arguments() -> (Scenario, Fixture) {
             }
         }
     }
-    (scenario, effects.fixture())
+    (scenario, effects.fixture(), effects.lead_ratio())
 }
 
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
@@ -99,7 +100,7 @@ mod app {
 
     #[init]
     fn init(_: init::Context) -> (Shared, Local) {
-        let (scenario, fixture) = arguments();
+        let (scenario, fixture, lead_ratio) = arguments();
         let skin = Skin::new(scenario);
         let cal: &'static CalTable<11> = &REFERENCE;
         let settings = Settings {
@@ -107,7 +108,11 @@ mod app {
             thresholds: Thresholds::DEFAULT,
             front_end: skin.front_end().dsp_front_end(),
             calibration: cal,
-            tracker: instrument::channel::tracker(),
+            // A lead ratio from the catalogue's limits is always in range.
+            tracker: match instrument::channel::tracker_with_leads(lead_ratio) {
+                Ok(t) => t,
+                Err(_) => instrument::channel::tracker(),
+            },
             fixture,
         };
         let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {

@@ -2,9 +2,10 @@
 
 use num_complex::Complex64;
 
-/// Continuous uniform line: Z = z / (γ·tanh γ), γ = √(z·y), z = R (Ω),
-/// y = G + jωC (S).
-pub(super) fn continuous(r: f64, y: Complex64) -> Complex64 {
+/// Continuous uniform line: Z = z / (γ·tanh γ), γ = √(z·y), z = R (Ω,
+/// complex where the film's conductivity relaxes), y = G + jωC (S).
+pub(super) fn continuous(r: impl Into<Complex64>, y: Complex64) -> Complex64 {
+    let r: Complex64 = r.into();
     let g = (y * r).sqrt();
     if g.norm() < 1e-6 {
         return y.inv() + r / 3.0;
@@ -13,7 +14,8 @@ pub(super) fn continuous(r: f64, y: Complex64) -> Complex64 {
 }
 
 /// A uniform piece (r Ω, y S) in front of a load (None: open end).
-pub(super) fn piece(r: f64, y: Complex64, load: Option<Complex64>) -> Complex64 {
+pub(super) fn piece(r: impl Into<Complex64>, y: Complex64, load: Option<Complex64>) -> Complex64 {
+    let r: Complex64 = r.into();
     let Some(zl) = load else {
         return continuous(r, y);
     };

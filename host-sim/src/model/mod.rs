@@ -9,7 +9,8 @@
 //! ```text
 //! R_el   = R_rec − 4·R_c                          (ContactResistance)
 //! R_line = (1 − β)·R_el                           (LeadResistance)
-//! Z      = line(R_line, C, G, weights) + 2·R_c + β/2·R_el
+//! k      = 1 / (1 + jωτ)                          (ElectrodeDispersion)
+//! Z      = line(k·R_line, C, G, weights) + 2·R_c + k·β/2·R_el
 //! Z      = 1 / (1/Z + jω·C_p)                     (ParasiticCapacitance)
 //! Cs     = −1 / (ω·Im Z)
 //! ```
@@ -115,12 +116,13 @@ impl Model<'_> {
             return None;
         }
         let g = p.get(Effect::DielectricLeakage);
+        let film = Complex64::new(1.0, w * p.get(Effect::ElectrodeDispersion)).inv();
         let mut z = if !nonuniform(p) {
             match self.line {
-                Line::Continuous => continuous(r, Complex64::new(g, w * c)),
+                Line::Continuous => continuous(film * r, Complex64::new(g, w * c)),
                 Line::Ladder(n) => {
                     let n = n.max(1) as usize;
-                    let (rn, yn) = (r / n as f64, Complex64::new(g, w * c) / n as f64);
+                    let (rn, yn) = (film * (r / n as f64), Complex64::new(g, w * c) / n as f64);
                     let mut z = yn.inv();
                     for _ in 1..n {
                         z = (yn + (z + rn).inv()).inv();
@@ -129,9 +131,9 @@ impl Model<'_> {
                 }
             }
         } else {
-            self.nonuniform(r, c, g, s, w)
+            self.nonuniform(r, c, g, s, w, film)
         };
-        z += 2.0 * rc + 0.5 * beta * r_el;
+        z += 2.0 * rc + film * (0.5 * beta * r_el);
         let cp = p.get(Effect::ParasiticCapacitance);
         if cp != 0.0 {
             z = (z.inv() + Complex64::new(0.0, w * cp)).inv();
@@ -140,7 +142,7 @@ impl Model<'_> {
     }
 
     /// Nonuniform line of total R (Ω), C (F), G (S) at mean stretch s.
-    fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64) -> Complex64 {
+    fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64, film: Complex64) -> Complex64 {
         let p = &self.params;
         let (grad, u) = (
             p.get(Effect::ResistanceGradient),
@@ -175,7 +177,7 @@ impl Model<'_> {
         let (rs, cs) = (rw[..n].iter().sum::<f64>(), cw[..n].iter().sum::<f64>());
         let mut z: Option<Complex64> = None;
         for i in (0..n).rev() {
-            let (ri, ci) = (r * rw[i] / rs, c * cw[i] / cs);
+            let (ri, ci) = (film * (r * rw[i] / rs), c * cw[i] / cs);
             let yi = Complex64::new(g * ci / c, w * ci);
             z = Some(match self.line {
                 Line::Continuous => piece(ri, yi, z),
