@@ -211,15 +211,22 @@ fn accumulate(sums: [i64; 4], pairs: &[[i16; 2]], reference: &[u32]) -> [i64; 4]
 }
 
 /// Σv, Σv², Σi, Σi² over a chunk, added to `m`. Each square is below 2³⁰,
-/// so the i64 sums cannot overflow (N < 2³³).
+/// so the i64 sums cannot overflow (N < 2³³). The plain sums run in i32
+/// over runs of 2¹⁵ pairs (|Σ| ≤ 2³⁰), and each square is a widening
+/// multiply-accumulate (one `SMLAL` on a Cortex-M4).
 fn moments(m: [i64; 4], pairs: &[[i16; 2]]) -> [i64; 4] {
     let [mut v1, mut v2, mut i1, mut i2] = m;
-    for &[v, i] in pairs {
-        let (v, i) = (v as i32, i as i32);
-        v1 += v as i64;
-        v2 += (v * v) as i64;
-        i1 += i as i64;
-        i2 += (i * i) as i64;
+    for run in pairs.chunks(1 << 15) {
+        let (mut vs, mut is) = (0i32, 0i32);
+        for &[v, i] in run {
+            let (v, i) = (v as i32, i as i32);
+            vs += v;
+            is += i;
+            v2 += v as i64 * v as i64;
+            i2 += i as i64 * i as i64;
+        }
+        v1 += vs as i64;
+        i1 += is as i64;
     }
     [v1, v2, i1, i2]
 }
