@@ -88,20 +88,25 @@ fn indices_beyond_the_frequency_set_saturate() {
 }
 
 /// Run one channel on a simulated sensor; returns the records.
-fn run(
-    params: SensorParams,
-    fe: FrontEndParams,
-    profile: Profile,
-    secs: f32,
-) -> Vec<instrument::channel::Record> {
-    let settings = Settings {
+/// The reference channel settings for front end `fe`.
+fn settings(fe: &FrontEndParams) -> Settings<'static, 11> {
+    Settings {
         policy: Policy::DEFAULT,
         thresholds: Thresholds::DEFAULT,
         front_end: fe.dsp_front_end(),
         calibration: &REFERENCE,
         tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
-    };
+    }
+}
+
+fn run(
+    params: SensorParams,
+    fe: FrontEndParams,
+    profile: Profile,
+    secs: f32,
+) -> Vec<instrument::channel::Record> {
+    let settings = settings(&fe);
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     let mut s = Sensor::settled(params);
     let mut rng = Rng::new(5);
@@ -223,14 +228,7 @@ fn mux_drives_the_address_lines() {
 fn mains_hum_never_gives_a_wrong_valid_record() {
     use skin_sim::frontend::Disturbance;
     let fe = FrontEndParams::REFERENCE;
-    let settings = Settings {
-        policy: Policy::DEFAULT,
-        thresholds: Thresholds::DEFAULT,
-        front_end: fe.dsp_front_end(),
-        calibration: &REFERENCE,
-        tracker: instrument::channel::tracker(),
-        fixture: dsp_core::fixture::Fixture::NONE,
-    };
+    let settings = settings(&fe);
     let s = Sensor::settled(SensorParams::REFERENCE);
     let c_true = s.truth().c_farad;
     let mut rng = Rng::new(9);
@@ -301,14 +299,7 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
 fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
     use skin_sim::electrode::ElectrodeParams;
     let fe = FrontEndParams::REFERENCE;
-    let settings = Settings {
-        policy: Policy::DEFAULT,
-        thresholds: Thresholds::DEFAULT,
-        front_end: fe.dsp_front_end(),
-        calibration: &REFERENCE,
-        tracker: instrument::channel::tracker(),
-        fixture: dsp_core::fixture::Fixture::NONE,
-    };
+    let settings = settings(&fe);
     let tol = Thresholds::DEFAULT.c_tolerance as f64;
     let mut rng = Rng::new(21);
     let mut buf = vec![[0i16; 2]; BLOCK];
