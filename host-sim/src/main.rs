@@ -415,7 +415,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Elements(a) => {
             let c = ctx(&a, 60.0 * a.periods as f64)?;
             let (_, runs) = exp::capacitance(&c)?;
-            println!("{}", exp::elements(&c, &runs)?);
+            println!("{}", exp::elements(&c, &runs, &exp::calibration(&c)?)?);
         }
         Cmd::Accuracy(a) => println!("{}", exp::accuracy(&ctx(&a, 30.0 * a.periods as f64)?)?.0),
         Cmd::Dataset { out, seed, effects } => {

@@ -111,7 +111,7 @@ fn elements_converge_to_the_measurement() {
     let dir = tempfile::tempdir().unwrap();
     let c = ctx(&dir);
     let (_, runs) = exp::capacitance(&c).unwrap();
-    let md = exp::elements(&c, &runs).unwrap();
+    let md = exp::elements(&c, &runs, &exp::calibration(&c).unwrap()).unwrap();
     // RMS sim − meas for n = 1, 2, 4, 30 must fall with n (Fig. 13).
     let rms: Vec<f64> = md
         .lines()

@@ -40,9 +40,9 @@ pub fn calibration(ctx: &Ctx) -> Result<Vec<(f64, f64)>> {
 }
 
 /// Fig. 13 and 14: the paper's simulation with n = 1, 2, 4, 30 elements
-/// against the (simulated) measurement.
-pub fn elements(ctx: &Ctx, runs: &[Run]) -> Result<String> {
-    let cal = calibration(ctx)?;
+/// against the (simulated) measurement, with the static calibration `cal`
+/// ([`calibration`]).
+pub fn elements(ctx: &Ctx, runs: &[Run], cal: &[(f64, f64)]) -> Result<String> {
     let meas = &runs
         .iter()
         .find(|x| x.rate == 10.0 && x.freq_hz == 6000.0)
@@ -54,7 +54,7 @@ pub fn elements(ctx: &Ctx, runs: &[Run]) -> Result<String> {
         meas.iter().map(|r| (r.t, pf(r.cs))).collect(),
     )];
     for n in [1u8, 2, 4, 30] {
-        let sim: Vec<f64> = meas.iter().map(|r| paper_simulation(&cal, r, n)).collect();
+        let sim: Vec<f64> = meas.iter().map(|r| paper_simulation(cal, r, n)).collect();
         let (rms, mx, _) = rms_max(sim.iter().zip(meas).map(|(s, m)| pf(s - m.cs)));
         writeln!(md, "| {n} | {rms:.2} pF | {mx:.2} pF |")?;
         series.push(Series::new(
@@ -77,7 +77,7 @@ pub fn elements(ctx: &Ctx, runs: &[Run]) -> Result<String> {
         readings: rs,
     } in runs.iter().filter(|x| x.rate == 10.0)
     {
-        let sim: Vec<f64> = rs.iter().map(|r| paper_simulation(&cal, r, 30)).collect();
+        let sim: Vec<f64> = rs.iter().map(|r| paper_simulation(cal, r, 30)).collect();
         let (rms, _, _) = rms_max(sim.iter().zip(rs).map(|(s, m)| pf(s - m.cs)));
         let (rel, _, _) = rms_max(sim.iter().zip(rs).map(|(s, m)| 100.0 * (s / m.cs - 1.0)));
         writeln!(md, "| {rate} mm/s | {f} Hz | {rms:.2} pF | {rel:.2} % |")?;

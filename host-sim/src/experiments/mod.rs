@@ -211,9 +211,10 @@ pub fn paper(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     md += &m;
     ctx.progress.set_message("elements (Fig. 13, 14)");
     md += "\n";
-    md += &elements(ctx, &runs)?;
+    let cal = calibration(ctx)?;
+    md += &elements(ctx, &runs, &cal)?;
     let claims = parse_claims(CLAIMS_CSV)?;
-    let outcomes = compare(ctx, &claims, &runs, &calibration(ctx)?)?;
+    let outcomes = compare(ctx, &claims, &runs, &cal)?;
     md += "\n";
     md += &table(&outcomes);
     ctx.progress.set_message("accuracy, ADC chain");
