@@ -6,8 +6,10 @@
 use core::sync::atomic::{AtomicU8, Ordering};
 use dsp_core::Oscillator;
 use embedded_hal::digital::{ErrorType, OutputPin};
+use instrument::calib::{CalTable, REFERENCE};
 use instrument::config::{freq_hz, ftw, BLOCK, CHANNELS};
 use instrument::effects::{Effect, EffectSet};
+use instrument::ranging::Ranging;
 use skin_sim::frontend::{Disturbance, FrontEndParams};
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -74,6 +76,40 @@ impl Scenario {
         }
     }
 
+    /// The sensor every channel of the scenario starts from: the paper's
+    /// (`SensorParams::PAPER`, with tab leads) where the scenario plays
+    /// the paper's stretching; the reference sensor (no leads) where the
+    /// tests were sized on it: eight sensors scaled around it, the fault
+    /// injections' resistance limits, and the calibration loop's hidden
+    /// cable capacitance.
+    pub fn sensor(&self) -> SensorParams {
+        match self.on_paper_sensor() {
+            true => SensorParams::PAPER,
+            false => SensorParams::REFERENCE,
+        }
+    }
+
+    fn on_paper_sensor(&self) -> bool {
+        matches!(self, Self::Slow | Self::Paper20 | Self::Paper)
+    }
+
+    /// The calibration installed for the scenario's sensor, as the board
+    /// holds it in flash: the stretch table of its line capacitance.
+    pub fn calibration(&self) -> &'static CalTable<11> {
+        match self.on_paper_sensor() {
+            true => &PAPER_CAL,
+            false => &REFERENCE,
+        }
+    }
+
+    /// The tab-lead ratio installed for the scenario's sensor (what
+    /// `host-sim identify` finds on its static sweep: the paper's
+    /// `lead_resistance` 0.642 ± 0.010 for its sensor, none for the
+    /// reference sensor), unless the command line gives one.
+    pub fn lead_ratio(&self) -> f32 {
+        self.sensor().effects.lead_ratio()
+    }
+
     /// Simulated duration, s.
     pub fn duration_s(&self) -> f32 {
         match self {
@@ -87,7 +123,8 @@ impl Scenario {
     }
 }
 
-/// The simulated multiplexer's address lines (bit i = line Ai).
+/// The simulated port of the multiplexer's address lines (bit i = line
+/// Ai, i < 3) and the range switch's (bits 3 and 4).
 pub static MUX_LINES: AtomicU8 = AtomicU8::new(0);
 
 /// A simulated GPIO output driving one multiplexer address line.
@@ -113,9 +150,21 @@ pub fn mux_pins() -> [SimPin; 3] {
     [SimPin(0), SimPin(1), SimPin(2)]
 }
 
+/// The range switch's two simulated address lines.
+pub fn range_pins() -> [SimPin; 2] {
+    [SimPin(3), SimPin(4)]
+}
+
 /// The undeclared effect of the `identify` and `hidden` scenarios: 12 pF
 /// of cable capacitance in parallel with every sensor at the front end.
 pub const HIDDEN: EffectSet = EffectSet::NONE.with(Effect::ParasiticCapacitance, 12e-12);
+
+/// The paper's sensor's stretch table (its line capacitance, linear in
+/// stretch: `SensorParams::PAPER`).
+static PAPER_CAL: CalTable<11> = CalTable::linear(
+    SensorParams::PAPER.c_rest_farad,
+    SensorParams::PAPER.rest_length_mm,
+);
 
 /// Fault window of the `faults` scenario, s.
 pub const FAULT_WINDOW: (f32, f32) = (1.0, 2.0);
@@ -127,12 +176,13 @@ pub struct Skin {
     broken: Sensor,
     stepped: Sensor,
     front_end: FrontEndParams,
+    ranging: Ranging,
     rng: Rng,
 }
 
 /// Sensor parameters of channel `ch` in `scenario`.
 fn params(scenario: Scenario, ch: usize) -> SensorParams {
-    let mut p = SensorParams::REFERENCE;
+    let mut p = scenario.sensor();
     if scenario == Scenario::Eight {
         // Sensors of 150–290 pF and 0.65–1.35× the reference electrodes.
         p.c_rest_farad = (150.0 + 20.0 * ch as f64) * 1e-12;
@@ -168,13 +218,20 @@ impl Skin {
             broken: Sensor::settled(broken),
             stepped: Sensor::settled(stepped),
             front_end: FrontEndParams::REFERENCE,
+            ranging: FrontEndParams::REFERENCE.ranging(),
             rng: Rng::new(0x5eed),
         }
     }
 
-    /// The front end (for the transimpedance the firmware divides by).
+    /// The front end at its lowest range.
     pub fn front_end(&self) -> &FrontEndParams {
         &self.front_end
+    }
+
+    /// The front end's ranges (for the transimpedances the firmware
+    /// divides by).
+    pub fn ranging(&self) -> Ranging {
+        self.ranging
     }
 
     /// Stretch profile of channel `ch`.
@@ -202,7 +259,9 @@ impl Skin {
     /// whose middle is at `t_us` (µs since start); returns (channel,
     /// clipped, truth).
     pub fn block(&mut self, fidx: usize, t_us: u64, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
-        let ch = (MUX_LINES.load(Ordering::Relaxed) as usize) % CHANNELS;
+        let lines = MUX_LINES.load(Ordering::Relaxed);
+        let ch = (lines as usize) % CHANNELS;
+        let range = (lines >> 3) & 0b11;
         let t_mid = t_us as f64 * 1e-6;
         let t_s = t_mid as f32;
         let profile = self.profile(ch);
@@ -210,7 +269,7 @@ impl Skin {
         let in_fault = self.scenario == Scenario::Faults && t_s >= FAULT_WINDOW.0 && t_s < FAULT_WINDOW.1;
         let f = freq_hz(fidx) as f64;
         let osc = Oscillator::from_ftw(ftw(fidx));
-        let mut fe = self.front_end;
+        let mut fe = self.front_end.at_range(&self.ranging, range);
         let (z, truth) = match (in_fault, ch) {
             // Disconnected: only a picofarad of stray capacitance remains.
             (true, 1) => (

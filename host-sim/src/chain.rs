@@ -171,10 +171,12 @@ pub fn run(
                 .unwrap_or(0);
             let f = config::freq_hz(index) as f64;
             let osc = Oscillator::from_ftw(config::ftw(index));
+            let ranging = fe.ranging();
             let settings = Settings {
                 policy: Policy::DEFAULT,
                 thresholds: Thresholds::DEFAULT,
-                front_end: fe.dsp_front_end(),
+                front_ends: ranging.front_ends(fe.v_gain as f32),
+                ranging,
                 calibration: &calib::REFERENCE,
                 tracker: channel::tracker_with_leads(lead_ratio)
                     .expect("a calibration's lead ratio is in range"),
@@ -191,9 +193,12 @@ pub fn run(
                 let mid = t + settle + 0.5 * block;
                 sensor.advance(profile, mid);
                 let truth = sensor.truth();
-                let clipped = fe.block(&osc, sensor.impedance(f), &mut rng, &mut buf);
+                let range = ch.range();
+                let clipped =
+                    fe.at_range(&ranging, range)
+                        .block(&osc, sensor.impedance(f), &mut rng, &mut buf);
                 let ph = config::DEMODULATORS[index].block(&buf);
-                let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped);
+                let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped, range);
                 let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
                 let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {
                     (rec.c_farad as f64, rec.r_ohm as f64)

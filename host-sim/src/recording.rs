@@ -51,6 +51,24 @@ pub struct Truth {
     pub r_bottom_ohm: f64,
 }
 
+impl Truth {
+    /// What a series-R-C meter at `f_hz` reads on the true sensor, pF:
+    /// its line (`r_ohm`, `c_pf`) through the tab leads and contacts, the
+    /// part of the end-to-end resistances outside the line
+    /// (`r_top_ohm + r_bottom_ohm − r_ohm`, in series at the read end).
+    pub fn series_meter_pf(&self, f_hz: f64) -> Option<f64> {
+        let w = std::f64::consts::TAU * f_hz;
+        let g = num_complex::Complex64::new(0.0, w * self.r_ohm * self.c_pf * 1e-12).sqrt();
+        if g.norm().is_nan() || g.norm() <= 0.0 {
+            return None;
+        }
+        // Open-ended R-C line: Z = R·coth(γ)/γ, γ = √(jωRC).
+        let z = self.r_ohm * (g.cosh() / g.sinh()) / g
+            + (self.r_top_ohm + self.r_bottom_ohm - self.r_ohm).max(0.0);
+        (z.im < 0.0).then(|| -1e12 / (w * z.im))
+    }
+}
+
 /// One record, with the truth of its block when the recording has one.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Rec {
@@ -425,6 +443,43 @@ mod tests {
 
     fn lines(s: &str) -> Vec<(usize, String)> {
         log_lines(s)
+    }
+
+    /// The series meter on the truth: the open line alone against
+    /// dsp-core's line model (f32); tab leads are a pure series
+    /// resistance, which a series meter's Cs does not see.
+    #[test]
+    fn series_meter_on_the_truth_is_the_line_through_its_leads() {
+        use dsp_core::lumped::SeriesRc;
+        use dsp_core::tline::LineModel;
+        for (r, c, f) in [
+            (712e3, 210.0, 585.9375),
+            (712e3, 210.0, 5859.375),
+            (2.8e6, 230.0, 1953.125),
+        ] {
+            let t = Truth {
+                c_pf: c,
+                r_ohm: r,
+                r_top_ohm: r / 2.0,
+                r_bottom_ohm: r / 2.0,
+                ..Truth::default()
+            };
+            let z = LineModel::Continuous
+                .impedance(r as f32, (c * 1e-12) as f32, f as f32)
+                .unwrap();
+            let cs = SeriesRc::from_impedance(z, f as f32).unwrap().cs_farad as f64 * 1e12;
+            let got = t.series_meter_pf(f).unwrap();
+            assert!((got - cs).abs() < 1e-4 * c, "{got} vs {cs}");
+            // Leads of 1.8× the line: in series, the imaginary part (and
+            // so Cs) is the line's.
+            let leads = Truth {
+                r_top_ohm: 1.4 * r,
+                r_bottom_ohm: 1.4 * r,
+                ..t
+            };
+            assert!((leads.series_meter_pf(f).unwrap() - got).abs() < 1e-9 * c);
+        }
+        assert_eq!(Truth::default().series_meter_pf(1e3), None);
     }
 
     #[test]

@@ -29,6 +29,15 @@ fn identify_names_tab_leads_on_the_papers_static_sweep() {
     let sigma = e["uncertainty"]["lead_fraction"].as_f64().unwrap();
     assert!((0.55..0.70).contains(&beta), "{beta}");
     assert!(sigma > 0.0 && sigma < 0.05, "{sigma}");
+    // The simulated paper's sensor, and the firmware's line model on it,
+    // carry this fit.
+    let installed = skin_sim::sensor::SensorParams::PAPER
+        .effects
+        .get(instrument::effects::Effect::LeadResistance);
+    assert!(
+        (installed - beta).abs() < sigma,
+        "{installed} vs {beta} ± {sigma}"
+    );
     let after = j["final"]["rms_pf"].as_f64().unwrap();
     assert!(
         after <= 1.5 * noise && after * 10.0 < before,

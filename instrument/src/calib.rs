@@ -14,17 +14,26 @@ pub struct CalTable<const N: usize> {
 /// The reference sensor's static calibration ([`crate::design`]: C =
 /// C_rest·(1 + s/length)) every 3 mm from 0 to 30 mm (the line-corrected
 /// C, so no low-frequency bias; see host-sim's `calibration`).
-pub const REFERENCE: CalTable<11> = {
-    let mut points = [(0.0f32, 0.0f32); 11];
-    let mut k = 0;
-    while k < 11 {
-        let s = 3.0 * k as f64;
-        let c = design::SENSOR_C_REST_FARAD * (1.0 + s / design::SENSOR_REST_LENGTH_MM);
-        points[k] = (c as f32, s as f32);
-        k += 1;
+pub const REFERENCE: CalTable<11> =
+    CalTable::linear(design::SENSOR_C_REST_FARAD, design::SENSOR_REST_LENGTH_MM);
+
+impl CalTable<11> {
+    /// The calibration of a sensor whose line capacitance grows linearly
+    /// with stretch, C = `c_rest_farad`·(1 + s/`length_mm`), every 3 mm
+    /// from 0 to 30 mm (a uniaxial stretch of an incompressible film; the
+    /// paper's sensor is linear this way within 0.3 % over 0…30 mm).
+    pub const fn linear(c_rest_farad: f64, length_mm: f64) -> Self {
+        let mut points = [(0.0f32, 0.0f32); 11];
+        let mut k = 0;
+        while k < 11 {
+            let s = 3.0 * k as f64;
+            let c = c_rest_farad * (1.0 + s / length_mm);
+            points[k] = (c as f32, s as f32);
+            k += 1;
+        }
+        CalTable { points }
     }
-    CalTable { points }
-};
+}
 
 impl<const N: usize> CalTable<N> {
     /// A table needs two points: a smaller one is a compile-time error

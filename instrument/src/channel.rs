@@ -3,8 +3,11 @@
 
 use crate::calib::CalTable;
 use crate::config::freq_hz;
+use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
+use crate::ranging::Ranging;
+use crate::sequencer::Plan;
 use dsp_core::demod::{FrontEnd, Phasors};
 use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
@@ -18,8 +21,10 @@ pub struct Settings<'a, const N: usize> {
     pub policy: Policy,
     /// Fault thresholds.
     pub thresholds: Thresholds,
-    /// Front end (transimpedance) for Z = k·V/I.
-    pub front_end: FrontEnd,
+    /// Front end (transimpedance) for Z = k·V/I, one per range.
+    pub front_ends: [FrontEnd; RANGES],
+    /// Auto-ranging of the transimpedance stage.
+    pub ranging: Ranging,
     /// Stretch calibration.
     pub calibration: &'a CalTable<N>,
     /// Line tracking (the inverter's grid, shared by all channels).
@@ -78,6 +83,8 @@ pub struct Channel {
     last_t_us: Option<u64>,
     /// The frequency is fixed (recording a data set at one frequency).
     pinned: bool,
+    /// Transimpedance range for the next block.
+    range: u8,
 }
 
 impl Channel {
@@ -88,6 +95,7 @@ impl Channel {
             track: TrackState::new(prior_farad),
             last_t_us: None,
             pinned: false,
+            range: 0,
         }
     }
 
@@ -106,8 +114,22 @@ impl Channel {
         crate::config::index(self.policy.index)
     }
 
+    /// Transimpedance range to read the next block through.
+    pub fn range(&self) -> u8 {
+        self.range
+    }
+
+    /// What the channel wants for its next slot.
+    pub fn plan(&self) -> Plan {
+        Plan {
+            fidx: self.freq_index(),
+            range: self.range,
+        }
+    }
+
     /// Turn the phasors of the block just measured at the current frequency
-    /// into a record, and update the policy.
+    /// through transimpedance range `range` into a record, and update the
+    /// policy and the range.
     pub fn process<const N: usize>(
         &mut self,
         s: &Settings<N>,
@@ -115,6 +137,23 @@ impl Channel {
         t_us: u64,
         ph: &Phasors,
         clipped: bool,
+        range: u8,
+    ) -> Record {
+        let played = self.policy.index;
+        let rec = self.measure(s, channel, t_us, ph, clipped, range);
+        let growth = freq_hz(self.policy.index) / freq_hz(played);
+        self.range = s.ranging.next(range as usize, ph.i_amplitude(), clipped, growth) as u8;
+        rec
+    }
+
+    fn measure<const N: usize>(
+        &mut self,
+        s: &Settings<N>,
+        channel: u8,
+        t_us: u64,
+        ph: &Phasors,
+        clipped: bool,
+        range: u8,
     ) -> Record {
         let f = freq_hz(self.policy.index);
         // Seconds since this channel's last block (f32 is exact enough for
@@ -138,7 +177,8 @@ impl Channel {
             rec.flags.set(Flags::CLIPPED);
         }
         let th = &s.thresholds;
-        let z = match ph.impedance(&s.front_end) {
+        let front_end = &s.front_ends[(range as usize).min(RANGES - 1)];
+        let z = match ph.impedance(front_end) {
             Some(z) if ph.i_amplitude() >= th.open_counts && ph.v_amplitude() >= th.no_excitation_counts => z,
             _ => {
                 rec.flags.set(Flags::OPEN);

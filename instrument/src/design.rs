@@ -7,6 +7,12 @@
 //!        └──────────────────────────────────────────────────────────────────────► ADC1
 //! ```
 //!
+//! The TIA's feedback resistor is one of [`TIA_RANGES_OHM`], chosen by a
+//! 4:1 analog switch (a TMUX1104-class part, its two address lines on PB5
+//! and PB6) as an LCR meter switches ranges: sensors from ~0.2 MΩ (the
+//! reference sensor at 6 kHz) to ~3 MΩ (the paper's, with its tab leads,
+//! after cycling) all fill the ADC ([`crate::ranging`]).
+//!
 //! Both ADC inputs and the DAC output are biased at mid-supply
 //! ([`BIAS_VOLT`]); the ADCs read ±[`ADC_HALF_SCALE_VOLT`] around it as
 //! codes 0..[`ADC_MAX_CODE`], the bias at [`ADC_OFFSET_CODE`] (DC, which the
@@ -25,8 +31,15 @@ pub const BIAS_VOLT: f64 = VREF_VOLT / 2.0;
 pub const EXCITATION_VOLT: f64 = 1.0;
 /// Gain from the excitation to the voltage ADC channel, V/V.
 pub const V_GAIN: f64 = 1.0;
-/// Feedback resistance of the inverting transimpedance stage, Ω.
-pub const TIA_OHM: f64 = 100e3;
+/// Feedback resistances of the inverting transimpedance stage, one per
+/// range, Ω (E6 steps of about 2.2×; the switch's ~50 Ω on-resistance
+/// is inside the loop's Kelvin sense, and each range's complex gain is a
+/// calibration constant of the board).
+pub const TIA_RANGES_OHM: [f64; RANGES] = [100e3, 220e3, 470e3, 1e6];
+/// Number of transimpedance ranges.
+pub const RANGES: usize = 4;
+/// Feedback resistance of the lowest range (the front end at reset), Ω.
+pub const TIA_OHM: f64 = TIA_RANGES_OHM[0];
 /// ADC resolution, bits.
 pub const ADC_BITS: u32 = 12;
 /// Largest ADC code (a sample at 0 or here sits on a rail).

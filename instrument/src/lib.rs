@@ -7,6 +7,7 @@
 //! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor |
 //! | [`config`] | block, slot, channels, the excitation frequency set |
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
+//! | [`ranging`] | auto-ranging of the transimpedance stage from the current of the last block |
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
@@ -34,5 +35,6 @@ pub mod effects;
 pub mod faults;
 pub mod mux;
 pub mod policy;
+pub mod ranging;
 pub mod sequencer;
 pub mod wire;

@@ -10,11 +10,12 @@
 //! * select the multiplexer for slot k + 1 (it settles in that slot's
 //!   first [`SETTLE_PAIRS`] pairs),
 //! * process slot k at the frequency it was played with,
-//! * prepare slot k + 2 at its channel's frequency now.
+//! * prepare slot k + 2 at its channel's frequency and range now (the
+//!   range's switch is set with the multiplexer when the slot is selected).
 //!
-//! A channel's frequency decision therefore reaches the excitation two
-//! slots later; with [`CHANNELS`] > 2 that is before the channel's next
-//! slot.
+//! A channel's frequency and range decisions therefore reach the front end
+//! two slots later; with [`CHANNELS`] > 2 that is before the channel's
+//! next slot.
 
 use crate::config::{BLOCK, CHANNELS, SETTLE_PAIRS, SLOT_PAIRS};
 use crate::design::SAMPLE_RATE;
@@ -33,6 +34,17 @@ pub struct Slot {
     pub channel: u8,
     /// The frequency index its excitation plays.
     pub fidx: usize,
+    /// The transimpedance range its current is read through.
+    pub range: u8,
+}
+
+/// What a channel wants for its next slot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Plan {
+    /// Frequency index.
+    pub fidx: usize,
+    /// Transimpedance range ([`crate::ranging`]).
+    pub range: u8,
 }
 
 impl Slot {
@@ -49,6 +61,9 @@ pub struct Step {
     pub done: Slot,
     /// The channel of the slot that begins now: select it.
     pub select: u8,
+    /// The range of the slot that begins now: switch to it with the
+    /// channel.
+    pub select_range: u8,
     /// The slot after next, to be written into the half just finished.
     pub prepare: Slot,
 }
@@ -58,8 +73,8 @@ pub struct Step {
 pub struct Sequencer {
     /// The slot that completes next.
     next: u64,
-    /// Frequency index played in the slots of each parity (DMA half).
-    played: [usize; 2],
+    /// The plan of the slots of each parity (DMA half) in flight.
+    played: [Plan; 2],
 }
 
 /// The channel slot `index` measures.
@@ -68,49 +83,59 @@ pub const fn channel_of(index: u64) -> u8 {
 }
 
 impl Sequencer {
-    /// Start: slots 0 and 1, at the frequencies `freq_of(channel)` gives;
-    /// the caller plays them and selects slot 0's channel.
-    pub fn start(mut freq_of: impl FnMut(u8) -> usize) -> (Self, [Slot; 2]) {
-        let slot = |index: u64, f: &mut dyn FnMut(u8) -> usize| {
+    /// Start: slots 0 and 1, as `plan_of(channel)` plans them; the caller
+    /// plays them and selects slot 0's channel and range.
+    pub fn start(mut plan_of: impl FnMut(u8) -> Plan) -> (Self, [Slot; 2]) {
+        let mut slot = |index: u64| {
             let channel = channel_of(index);
+            let p = plan_of(channel);
             Slot {
                 index,
                 channel,
-                fidx: f(channel),
+                fidx: p.fidx,
+                range: p.range,
             }
         };
-        let first = [slot(0, &mut freq_of), slot(1, &mut freq_of)];
+        let first = [slot(0), slot(1)];
+        let plan = |s: &Slot| Plan {
+            fidx: s.fidx,
+            range: s.range,
+        };
         (
             Self {
                 next: 0,
-                played: [first[0].fidx, first[1].fidx],
+                played: [plan(&first[0]), plan(&first[1])],
             },
             first,
         )
     }
 
-    /// The next slot has completed; `freq_of(channel)` is each channel's
-    /// frequency index now.
-    pub fn complete(&mut self, freq_of: impl FnOnce(u8) -> usize) -> Step {
+    /// The next slot has completed; `plan_of(channel)` is what each
+    /// channel wants now.
+    pub fn complete(&mut self, plan_of: impl FnOnce(u8) -> Plan) -> Step {
         let k = self.next;
         self.next = k.saturating_add(1);
         let half = (k % 2) as usize;
         let done = Slot {
             index: k,
             channel: channel_of(k),
-            fidx: self.played[half],
+            fidx: self.played[half].fidx,
+            range: self.played[half].range,
         };
         let ahead = k.saturating_add(2);
         let channel = channel_of(ahead);
+        let p = plan_of(channel);
         let prepare = Slot {
             index: ahead,
             channel,
-            fidx: freq_of(channel),
+            fidx: p.fidx,
+            range: p.range,
         };
-        self.played[half] = prepare.fidx;
+        self.played[half] = p;
         Step {
             done,
             select: channel_of(k.saturating_add(1)),
+            select_range: self.played[1 - half].range,
             prepare,
         }
     }
@@ -132,11 +157,16 @@ mod tests {
         for (c, w) in want.iter_mut().enumerate() {
             *w = c % 5;
         }
-        let (mut seq, first) = Sequencer::start(|c| want[c as usize]);
+        let plan = |f: usize| Plan {
+            fidx: f,
+            range: (f % 4) as u8,
+        };
+        let (mut seq, first) = Sequencer::start(|c| plan(want[c as usize]));
         assert_eq!(
-            first.map(|s| (s.index, s.channel, s.fidx)),
-            [(0, 0, 0), (1, 1, 1)]
+            first.map(|s| (s.index, s.channel, s.fidx, s.range)),
+            [(0, 0, 0, 0), (1, 1, 1, 1)]
         );
+        let mut selected = first[0].range;
         let mut prepared = std::collections::BTreeMap::new();
         for s in first {
             prepared.insert(s.index, s);
@@ -145,8 +175,12 @@ mod tests {
             if k == 20 {
                 want[3] = 0;
             }
-            let st = seq.complete(|c| want[c as usize]);
+            let st = seq.complete(|c| plan(want[c as usize]));
             assert_eq!(st.done.index, k);
+            // The range the slot was read through is the one selected
+            // with it, which is the one planned for it.
+            assert_eq!(st.done.range, selected);
+            selected = st.select_range;
             assert_eq!(st.done.channel as u64, k % CHANNELS as u64);
             assert_eq!(st.select as u64, (k + 1) % CHANNELS as u64);
             assert_eq!(st.prepare.index, k + 2);
@@ -166,6 +200,7 @@ mod tests {
             index: 0,
             channel: 0,
             fidx: 0,
+            range: 0,
         };
         assert_eq!(pairs_us(SLOT_PAIRS), 5440);
         assert_eq!(s.block_mid_us(), 320 + 2560);

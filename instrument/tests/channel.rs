@@ -93,7 +93,8 @@ fn settings(fe: &FrontEndParams) -> Settings<'static, 11> {
     Settings {
         policy: Policy::DEFAULT,
         thresholds: Thresholds::DEFAULT,
-        front_end: fe.dsp_front_end(),
+        front_ends: fe.ranging().front_ends(fe.v_gain as f32),
+        ranging: fe.ranging(),
         calibration: &REFERENCE,
         tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
@@ -117,9 +118,14 @@ fn run(
         let i = ch.freq_index();
         let osc = Oscillator::from_ftw(ftw(i));
         s.advance(&profile, t as f64);
-        let clipped = fe.block(&osc, s.impedance(freq_hz(i) as f64), &mut rng, &mut buf);
+        let clipped = fe.at_range(&settings.ranging, ch.range()).block(
+            &osc,
+            s.impedance(freq_hz(i) as f64),
+            &mut rng,
+            &mut buf,
+        );
         let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
-        out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped));
+        out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped, ch.range()));
         t += SLOT_S;
     }
     out
@@ -254,9 +260,11 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                             t0_s: t0,
                             ..Disturbance::NONE
                         };
-                        let clipped = fe.block_disturbed(&osc, z, &mut rng, &mut buf, &d);
+                        let clipped = fe
+                            .at_range(&settings.ranging, ch.range())
+                            .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
                         let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
-                        let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped);
+                        let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
                         if r.flags.valid() {
                             valid += 1;
                             let e = (r.c_farad as f64 / c_true - 1.0).abs();
@@ -324,9 +332,11 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
             let z = s.impedance(f);
             let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
             for b in 0..40 {
-                let clipped = fe.block(&osc, z, &mut rng, &mut buf);
+                let clipped = fe
+                    .at_range(&settings.ranging, ch.range())
+                    .block(&osc, z, &mut rng, &mut buf);
                 let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
-                let r = ch.process(&settings, 0, b * 5_000, &ph, clipped);
+                let r = ch.process(&settings, 0, b * 5_000, &ph, clipped, ch.range());
                 if b == 0 {
                     continue; // settling
                 }
@@ -356,5 +366,108 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
     assert!(
         ill > 0 && flagged_ill == ill,
         "x > 15: {flagged_ill} of {ill} flagged"
+    );
+}
+
+/// `n` blocks of a channel at its frequency on sensor `s` (a fixed
+/// impedance), each read through the range the channel planned; returns
+/// (record, range it was read through, ADC clipped).
+fn blocks(
+    settings: &Settings<'static, 11>,
+    fe: &FrontEndParams,
+    ch: &mut Channel,
+    z: impl Fn(f64) -> num_complex::Complex64,
+    rng: &mut Rng,
+    n: usize,
+) -> Vec<(instrument::channel::Record, u8, bool)> {
+    let mut buf = vec![[0i16; 2]; BLOCK];
+    (0..n)
+        .map(|b| {
+            let i = ch.freq_index();
+            let osc = Oscillator::from_ftw(ftw(i));
+            let range = ch.range();
+            let clipped =
+                fe.at_range(&settings.ranging, range)
+                    .block(&osc, z(freq_hz(i) as f64), rng, &mut buf);
+            let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+            let r = ch.process(settings, 0, b as u64 * 5_440, &ph, clipped, range);
+            (r, range, clipped)
+        })
+        .collect()
+}
+
+/// Auto-ranging: the paper's sensor after cycling (≈2.8 MΩ end to end,
+/// 64 % of it in the tab leads) draws ~40 counts of current through the
+/// lowest range at 1953 Hz, where the error bound flags most blocks; the
+/// channel switches to the 1 MΩ range and vouches for nearly every block,
+/// each within the 0.8 % tolerance. A low-impedance sensor (the reference
+/// sensor's electrodes halved, at 5859 Hz) stays on a range that does not
+/// clip; an open channel climbs to the top range and a sensor connected
+/// there clips once and is read again from the next block.
+#[test]
+fn the_range_follows_the_sensor() {
+    let fe = FrontEndParams::REFERENCE;
+    let tol = Thresholds::DEFAULT.c_tolerance as f64;
+    let paper = Sensor::settled(SensorParams::PAPER);
+    let c_true = paper.truth().c_farad;
+    let leads = SensorParams::PAPER.effects.lead_ratio();
+    let with = |ranging| Settings {
+        front_ends: instrument::ranging::Ranging::front_ends(&ranging, 1.0),
+        ranging,
+        tracker: instrument::channel::tracker_with_leads(leads).unwrap(),
+        ..settings(&fe)
+    };
+    let mut valid = [0usize; 2];
+    for (k, ranging) in [
+        fe.ranging(),
+        instrument::ranging::Ranging::fixed(fe.tia_ohm as f32),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let s = with(ranging);
+        let mut ch = Channel::pinned(SensorParams::PAPER.c_rest_farad as f32, 2);
+        let recs = blocks(&s, &fe, &mut ch, |f| paper.impedance(f), &mut Rng::new(3), 60);
+        for (r, _, clipped) in &recs[3..] {
+            assert!(!clipped);
+            if r.flags.valid() {
+                valid[k] += 1;
+                let e = (r.c_farad as f64 / c_true - 1.0).abs();
+                assert!(e < tol, "{k}: {r:?} vs {c_true}");
+            }
+        }
+        if k == 0 {
+            assert_eq!(recs.last().unwrap().1, 3, "the 1 MΩ range");
+        }
+    }
+    assert!(valid[0] >= 55, "{valid:?}");
+    assert!(valid[1] <= 30, "{valid:?}");
+
+    // Low impedance at 5859 Hz: never clipped after the first block, never
+    // on the top range.
+    let mut low = SensorParams::REFERENCE;
+    low.top.r_rest_ohm *= 0.5;
+    low.bottom.r_rest_ohm *= 0.5;
+    let low = Sensor::settled(low);
+    let s = settings(&fe);
+    let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), 4);
+    let recs = blocks(&s, &fe, &mut ch, |f| low.impedance(f), &mut Rng::new(4), 30);
+    assert!(recs[1..]
+        .iter()
+        .all(|(r, range, clipped)| !clipped && *range < 3 && r.flags.valid()));
+
+    // Open (1 fF of stray capacitance), then the low sensor connected.
+    let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), 4);
+    let stray = |f: f64| num_complex::Complex64::new(0.0, -1.0 / (core::f64::consts::TAU * f * 1e-15));
+    let open = blocks(&s, &fe, &mut ch, stray, &mut Rng::new(5), 10);
+    assert!(open[1..].iter().all(|(r, _, _)| r.flags.has(Flags::OPEN)));
+    assert_eq!(ch.range(), 3);
+    let back = blocks(&s, &fe, &mut ch, |f| low.impedance(f), &mut Rng::new(6), 10);
+    assert!(back[0].2 && back[0].0.flags.has(Flags::CLIPPED), "{:?}", back[0]);
+    assert!(
+        back[1..]
+            .iter()
+            .all(|(r, _, clipped)| !clipped && r.flags.valid()),
+        "{back:?}"
     );
 }

@@ -49,7 +49,8 @@ fn settings() -> Settings<'static, 11> {
     Settings {
         policy: Policy::DEFAULT,
         thresholds: Thresholds::DEFAULT,
-        front_end: FrontEndParams::REFERENCE.dsp_front_end(),
+        front_ends: FrontEndParams::REFERENCE.ranging().front_ends(1.0),
+        ranging: FrontEndParams::REFERENCE.ranging(),
         calibration: &REFERENCE,
         tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
@@ -85,16 +86,17 @@ proptest! {
 
     #[test]
     fn channel_on_arbitrary_phasors(
-        steps in prop::collection::vec((phasors(), any::<bool>(), any::<u64>()), 1..16),
+        steps in prop::collection::vec((phasors(), any::<bool>(), any::<u64>(), any::<u8>()), 1..16),
         prior in prop_oneof![any::<f32>(), 1e-12f32..1e-9],
         index in any::<usize>(),
         pinned in any::<bool>(),
     ) {
         let s = settings();
         let mut ch = if pinned { Channel::pinned(prior, index) } else { Channel::new(prior) };
-        for (ph, clipped, t_us) in steps {
-            let r = ch.process(&s, 3, t_us, &ph, clipped);
+        for (ph, clipped, t_us, range) in steps {
+            let r = ch.process(&s, 3, t_us, &ph, clipped, range);
             prop_assert!(ch.freq_index() < PERIODS.len());
+            prop_assert!((ch.range() as usize) < instrument::design::RANGES);
             if r.flags.valid() && r.c_farad != 0.0 {
                 prop_assert!(r.c_farad.is_finite() && r.c_farad > 0.0, "{r:?}");
                 prop_assert!(r.r_ohm.is_finite() && r.r_ohm > 0.0, "{r:?}");
@@ -198,9 +200,9 @@ proptest! {
                 }
             }
             let truth = sensor_now.truth().c_farad;
-            let clipped = fe.block_disturbed(&osc, sensor_now.impedance(freq_hz(index) as f64), &mut rng, &mut buf, &d);
+            let clipped = fe.at_range(&s.ranging, ch.range()).block_disturbed(&osc, sensor_now.impedance(freq_hz(index) as f64), &mut rng, &mut buf, &d);
             let ph = dm.block(buf.as_slice().try_into().unwrap());
-            let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped);
+            let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
             if r.flags.valid() {
                 let e = (r.c_farad as f64 / truth - 1.0).abs();
                 prop_assert!(e < 0.01, "block {b} at {} Hz under {attack:?}: C {} pF vs {} pF ({r:?})",

@@ -16,6 +16,7 @@ use crate::rng::Rng;
 use dsp_core::demod::FrontEnd;
 use dsp_core::{Oscillator, OscillatorState};
 use instrument::design;
+use instrument::ranging::Ranging;
 use num_complex::Complex64;
 
 /// Front-end parameters.
@@ -54,6 +55,30 @@ impl FrontEndParams {
     /// The complex transimpedance k with Z = k·V/I for dsp-core.
     pub fn dsp_front_end(&self) -> FrontEnd {
         FrontEnd::transimpedance((self.tia_ohm / self.v_gain) as f32, true)
+    }
+
+    /// The auto-ranging of this front end: the board's ranges
+    /// ([`design::TIA_RANGES_OHM`]) scaled so that the lowest is
+    /// `tia_ohm`, on this ADC.
+    pub fn ranging(&self) -> Ranging {
+        let k = self.tia_ohm / design::TIA_OHM;
+        Ranging {
+            ranges_ohm: design::TIA_RANGES_OHM.map(|r| (r * k) as f32),
+            half_scale: (1u32 << (self.adc_bits.clamp(2, 16) - 1)) as f32,
+            ..Ranging::DEFAULT
+        }
+    }
+
+    /// The front end switched to range `k` of `ranging` (unchanged for an
+    /// index beyond its ranges).
+    pub fn at_range(&self, ranging: &Ranging, k: u8) -> Self {
+        Self {
+            tia_ohm: ranging
+                .ranges_ohm
+                .get(k as usize)
+                .map_or(self.tia_ohm, |&r| r as f64),
+            ..*self
+        }
     }
 
     /// Fill `out` with one block of `[v, i]` ADC codes for a sensor of

@@ -50,7 +50,8 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     }
     let set = host_sim::dataset::read_dir(&ds).unwrap();
     assert_eq!(set.calibration.rows.len(), 6);
-    assert!(set.traces.len() >= 4, "{} traces", set.traces.len());
+    // Channel 0 moves through two frequencies, channel 1 at least one.
+    assert!(set.traces.len() >= 3, "{} traces", set.traces.len());
     for sub in [&["residual"][..], &["identify", "--out"][..]] {
         let mut cmd = Command::new(&host_sim);
         cmd.args(sub);

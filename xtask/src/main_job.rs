@@ -3,8 +3,6 @@
 //! error against the truth.
 
 use anyhow::{Context, Result};
-use dsp_core::lumped::SeriesRc;
-use dsp_core::tline::LineModel;
 use host_sim::numerics::rms_max;
 use host_sim::plot::{figure, Panel, Series};
 use host_sim::recording::{self, Rec, Roles};
@@ -12,16 +10,10 @@ use qemu_tests::records;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// What a fixed 6 kHz series meter would read on the true line of `r`.
+/// What a fixed 6 kHz series meter would read on the true sensor of `r`
+/// (its line through its tab leads).
 fn lumped_6k(r: &Rec) -> Option<f64> {
-    let t = r.truth?;
-    let f = 5859.375f32;
-    let z = LineModel::Continuous
-        .impedance(t.r_ohm as f32, (t.c_pf * 1e-12) as f32, f)
-        .ok()?;
-    SeriesRc::from_impedance(z, f)
-        .ok()
-        .map(|m| m.cs_farad as f64 * 1e12)
+    r.truth?.series_meter_pf(5859.375)
 }
 
 /// Run the `paper` scenario and write everything to `out`.

@@ -144,10 +144,8 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let settings = Settings {
         policy: instrument::policy::Policy::DEFAULT,
         thresholds: instrument::faults::Thresholds::DEFAULT,
-        front_end: dsp_core::demod::FrontEnd::transimpedance(
-            (instrument::design::TIA_OHM / instrument::design::V_GAIN) as f32,
-            true,
-        ),
+        front_ends: instrument::ranging::Ranging::DEFAULT.front_ends(instrument::design::V_GAIN as f32),
+        ranging: instrument::ranging::Ranging::DEFAULT,
         calibration: &REFERENCE,
         tracker: instrument::channel::tracker(),
         fixture: dsp_core::fixture::Fixture::NONE,
@@ -160,7 +158,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     for k in 0..4 {
         total += insns(ticks(syst, || {
             let ph = dm.block(black_box(&buf));
-            black_box(ch.process(&settings, 0, k as u64 * 40_000, &ph, false));
+            black_box(ch.process(&settings, 0, k as u64 * 40_000, &ph, false, 0));
         }));
     }
     let per_block = total / 4;

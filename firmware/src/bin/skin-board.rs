@@ -21,7 +21,6 @@
 #![no_std]
 #![no_main]
 
-use dsp_core::demod::FrontEnd;
 use dsp_core::osc::{Oscillator, OscillatorState};
 use firmware::board::dma::Event;
 use firmware::board::pins::AnyPin;
@@ -33,6 +32,7 @@ use instrument::design;
 use instrument::faults::Thresholds;
 use instrument::mux::Mux;
 use instrument::policy::Policy;
+use instrument::ranging::Ranging;
 use instrument::sequencer::{Sequencer, Slot, Step};
 
 /// Pairs per slot: settling, then the block.
@@ -40,6 +40,8 @@ const SLOT: usize = SLOT_PAIRS;
 
 /// The multiplexer on PB0..PB2.
 pub type BoardMux = Mux<AnyPin, 3>;
+/// The transimpedance range switch on PB5, PB6.
+pub type RangeSwitch = Mux<AnyPin, 2>;
 
 /// The ADC DMA buffer, seen by the processing task only through the half
 /// the DMA has finished.
@@ -113,6 +115,7 @@ mod app {
         adc_buf: DmaBuf,
         dac_buf: &'static mut [u16; 2 * SLOT],
         mux: BoardMux,
+        ranges: RangeSwitch,
         seq: Sequencer,
         settings: Settings<'static, 11>,
     }
@@ -127,12 +130,14 @@ mod app {
         let cal: &'static CalTable<11> = &REFERENCE;
         let channels = [Channel::new(cal.rest_capacitance()); CHANNELS];
         // Slots 0 and 1 play their channels at their start frequencies.
-        let (seq, slots) = Sequencer::start(|c| channels[c as usize].freq_index());
+        let (seq, slots) = Sequencer::start(|c| channels[c as usize].plan());
         let (first, second) = cx.local.dac.split_at_mut(SLOT);
         fill_dac(first, slots[0].fidx);
         fill_dac(second, slots[1].fidx);
         let mut mux = Mux::new(pins::mux_pins());
         let Ok(_) = mux.select(slots[0].channel);
+        let mut ranges = Mux::new(pins::range_pins());
+        let Ok(_) = ranges.select(slots[0].range);
         let adc_buf: *const u32 = cx.local.adc.as_ptr();
         let dac_buf: &'static mut [u16; 2 * SLOT] = cx.local.dac;
         front_end(&dp, adc_buf as u32, dac_buf.as_ptr() as u32);
@@ -145,11 +150,13 @@ mod app {
                 adc_buf: DmaBuf(adc_buf),
                 dac_buf,
                 mux,
+                ranges,
                 seq,
                 settings: Settings {
                     policy: Policy::DEFAULT,
                     thresholds: Thresholds::DEFAULT,
-                    front_end: FrontEnd::transimpedance((design::TIA_OHM / design::V_GAIN) as f32, true),
+                    front_ends: Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
+                    ranging: Ranging::DEFAULT,
                     calibration: cal,
                     tracker: instrument::channel::tracker(),
                     fixture: dsp_core::fixture::Fixture::NONE,
@@ -166,7 +173,7 @@ mod app {
     }
 
     /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dac_buf, mux, seq])]
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dac_buf, mux, ranges, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         // SAFETY: DMA1 is shared with nothing else after `init`; this task
         // alone reads and clears channel 1's flags.
@@ -196,16 +203,17 @@ mod app {
             let st = cx
                 .shared
                 .channels
-                .lock(|c| seq.complete(|ch| c[ch as usize].freq_index()));
+                .lock(|c| seq.complete(|ch| c[ch as usize].plan()));
             prepare(dac, &st);
             defmt::println!("lost {=u64} {=u8}", st.done.block_mid_us(), st.done.channel);
         }
         let st = cx
             .shared
             .channels
-            .lock(|c| seq.complete(|ch| c[ch as usize].freq_index()));
+            .lock(|c| seq.complete(|ch| c[ch as usize].plan()));
         // The slot that begins now: select its channel (within its settling).
         let Ok(_) = cx.local.mux.select(st.select);
+        let Ok(_) = cx.local.ranges.select(st.select_range);
         cx.shared
             .slot
             .lock(|s| *s = Some(Finished { half, slot: st.done }));
@@ -247,7 +255,7 @@ mod app {
                 // the policy switched since; skip, the next slot catches up.
                 return None;
             }
-            Some(channel.process(settings, ch, slot.block_mid_us(), &ph, clipped))
+            Some(channel.process(settings, ch, slot.block_mid_us(), &ph, clipped, slot.range))
         });
         match rec {
             Some(rec) => defmt::println!("{}", rec),

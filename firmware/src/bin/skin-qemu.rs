@@ -24,11 +24,11 @@
 
 use dsp_core::fixture::Fixture;
 use firmware::qemu;
-use firmware::scenario::{mux_pins, Scenario, SimPin, Skin};
-use instrument::calib::{CalTable, REFERENCE};
+use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
+use instrument::calib::CalTable;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_PAIRS};
-use instrument::effects::EffectSet;
+use instrument::effects::{Effect, EffectSet};
 use instrument::faults::Thresholds;
 use instrument::mux::Mux;
 use instrument::policy::Policy;
@@ -47,10 +47,11 @@ pub struct Block {
 
 /// The scenario (first argument), the wiring calibration and the tab-lead
 /// ratio of the line model (optional further arguments: `id=value` of the
-/// catalogue's static effects, SI).
+/// catalogue's static effects, SI; without `lead_resistance`, the ratio
+/// installed for the scenario's sensor).
 fn arguments() -> (Scenario, Fixture, f32) {
     let Ok(args) = semihosting::experimental::env::args::<128>() else {
-        return (Scenario::Paper20, Fixture::NONE, 0.0);
+        return (Scenario::Paper20, Fixture::NONE, Scenario::Paper20.lead_ratio());
     };
     let mut it = &args;
     let name = it.next().and_then(Result::ok).unwrap_or("paper20");
@@ -73,7 +74,11 @@ fn arguments() -> (Scenario, Fixture, f32) {
             }
         }
     }
-    (scenario, effects.fixture(), effects.lead_ratio())
+    let leads = match effects.get(Effect::LeadResistance) > 0.0 {
+        true => effects.lead_ratio(),
+        false => scenario.lead_ratio(),
+    };
+    (scenario, effects.fixture(), leads)
 }
 
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
@@ -92,6 +97,7 @@ mod app {
     struct Local {
         skin: Skin,
         mux: Mux<SimPin, 3>,
+        ranges: Mux<SimPin, 2>,
         scenario: Scenario,
         seq: Sequencer,
         settings: Settings<'static, 11>,
@@ -102,11 +108,12 @@ mod app {
     fn init(_: init::Context) -> (Shared, Local) {
         let (scenario, fixture, lead_ratio) = arguments();
         let skin = Skin::new(scenario);
-        let cal: &'static CalTable<11> = &REFERENCE;
+        let cal: &'static CalTable<11> = scenario.calibration();
         let settings = Settings {
             policy: Policy::DEFAULT,
             thresholds: Thresholds::DEFAULT,
-            front_end: skin.front_end().dsp_front_end(),
+            front_ends: skin.ranging().front_ends(skin.front_end().v_gain as f32),
+            ranging: skin.ranging(),
             calibration: cal,
             // A lead ratio from the catalogue's limits is always in range.
             tracker: match instrument::channel::tracker_with_leads(lead_ratio) {
@@ -121,15 +128,18 @@ mod app {
         });
         // As on the board: slots 0 and 1 are planned, slot 0's channel
         // selected; the simulated DMA then completes one slot per pend.
-        let (seq, first) = Sequencer::start(|c| channels[c as usize].freq_index());
+        let (seq, first) = Sequencer::start(|c| channels[c as usize].plan());
         let mut mux = Mux::new(mux_pins());
         let Ok(_) = mux.select(first[0].channel);
+        let mut ranges = Mux::new(range_pins());
+        let Ok(_) = ranges.select(first[0].range);
         defmt::println!(
-            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm",
+            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm, tab-lead ratio {=f32}",
             CHANNELS as u8,
             defmt::Debug2Format(&scenario),
             fixture.parallel_farad * 1e12,
-            fixture.series_ohm
+            fixture.series_ohm,
+            lead_ratio
         );
         (
             Shared {
@@ -144,6 +154,7 @@ mod app {
             Local {
                 skin,
                 mux,
+                ranges,
                 scenario,
                 seq,
                 settings,
@@ -166,13 +177,13 @@ mod app {
     /// DMA complete: the simulated front end filled the slot that ends now
     /// (the channel the multiplexer selects, at the frequency the sequencer
     /// prepared for it), as the board's DMA half-transfer would.
-    #[task(binds = GPIOA, priority = 2, shared = [block, channels], local = [skin, mux, scenario, seq])]
+    #[task(binds = GPIOA, priority = 2, shared = [block, channels], local = [skin, mux, ranges, scenario, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         let step = {
             let seq = &mut *cx.local.seq;
             cx.shared
                 .channels
-                .lock(|c| seq.complete(|ch| c[ch as usize].freq_index()))
+                .lock(|c| seq.complete(|ch| c[ch as usize].plan()))
         };
         let done = step.done;
         if done.index == 10 {
@@ -194,6 +205,7 @@ mod app {
         });
         // The slot that begins now: its channel settles in its first pairs.
         let Ok(_) = cx.local.mux.select(step.select);
+        let Ok(_) = cx.local.ranges.select(step.select_range);
         let truth = wire::Truth {
             t_us,
             channel: ch,
@@ -223,8 +235,16 @@ mod app {
             // Played at another frequency than the policy now wants (the
             // policy switched after the slot was prepared): skip it, as the
             // board does.
-            (channel.freq_index() == slot.fidx)
-                .then(|| channel.process(settings, slot.channel, slot.block_mid_us(), &ph, clipped))
+            (channel.freq_index() == slot.fidx).then(|| {
+                channel.process(
+                    settings,
+                    slot.channel,
+                    slot.block_mid_us(),
+                    &ph,
+                    clipped,
+                    slot.range,
+                )
+            })
         });
         match rec {
             Some(rec) => defmt::println!("{}", rec),

@@ -1,6 +1,7 @@
 //! Pins: PA0 (ADC1_IN1), PA1 (ADC2_IN2) and PA4 (DAC1_OUT1) analog; PB0,
 //! PB1, PB2 push-pull outputs driving the multiplexer's address lines
-//! A0..A2 (embedded-hal `OutputPin`).
+//! A0..A2, PB5 and PB6 the transimpedance range switch's
+//! (`instrument::design::TIA_RANGES_OHM`) (embedded-hal `OutputPin`).
 
 use super::pac::{gpioa, gpiob};
 
@@ -11,11 +12,20 @@ pub fn analog(gpioa: &gpioa::RegisterBlock) {
         .modify(|_, w| w.moder0().analog().moder1().analog().moder4().analog());
 }
 
-/// PB0..PB2 outputs.
+/// PB0..PB2, PB5, PB6 outputs.
 pub fn mux_outputs(gpiob: &gpiob::RegisterBlock) {
-    gpiob
-        .moder()
-        .modify(|_, w| w.moder0().output().moder1().output().moder2().output());
+    gpiob.moder().modify(|_, w| {
+        w.moder0()
+            .output()
+            .moder1()
+            .output()
+            .moder2()
+            .output()
+            .moder5()
+            .output()
+            .moder6()
+            .output()
+    });
 }
 
 /// Multiplexer address line on GPIOB pin `N`.
@@ -56,6 +66,10 @@ pub enum AnyPin {
     A1(PinB<1>),
     /// PB2
     A2(PinB<2>),
+    /// PB5 (range switch A0)
+    R0(PinB<5>),
+    /// PB6 (range switch A1)
+    R1(PinB<6>),
 }
 
 impl embedded_hal::digital::ErrorType for AnyPin {
@@ -69,6 +83,8 @@ impl embedded_hal::digital::OutputPin for AnyPin {
             AnyPin::A0(p) => p.set_low(),
             AnyPin::A1(p) => p.set_low(),
             AnyPin::A2(p) => p.set_low(),
+            AnyPin::R0(p) => p.set_low(),
+            AnyPin::R1(p) => p.set_low(),
         }
     }
     fn set_high(&mut self) -> Result<(), Self::Error> {
@@ -76,6 +92,8 @@ impl embedded_hal::digital::OutputPin for AnyPin {
             AnyPin::A0(p) => p.set_high(),
             AnyPin::A1(p) => p.set_high(),
             AnyPin::A2(p) => p.set_high(),
+            AnyPin::R0(p) => p.set_high(),
+            AnyPin::R1(p) => p.set_high(),
         }
     }
 }
@@ -83,4 +101,9 @@ impl embedded_hal::digital::OutputPin for AnyPin {
 /// The three address lines.
 pub fn mux_pins() -> [AnyPin; 3] {
     [AnyPin::A0(PinB), AnyPin::A1(PinB), AnyPin::A2(PinB)]
+}
+
+/// The range switch's two address lines.
+pub fn range_pins() -> [AnyPin; 2] {
+    [AnyPin::R0(PinB), AnyPin::R1(PinB)]
 }

@@ -166,10 +166,14 @@ fn dac_timer_and_pins() {
     let mut a = Fake::new(&[(0x00, 0)]);
     pins::analog(a.regs::<pac::gpioa::RegisterBlock>());
     assert_eq!(a.at(0x00), 0b11 | 0b11 << 2 | 0b11 << 8);
-    // GPIOB (reset 0xFFFF_FEBF): PB0..PB2 outputs (0b01), the rest kept.
+    // GPIOB (reset 0xFFFF_FEBF): PB0..PB2 and PB5, PB6 outputs (0b01),
+    // the rest kept (PB3, PB4: the debug port's JTDO and NJTRST).
     let mut b = Fake::new(&[(0x00, 0xFFFF_FEBF)]);
     pins::mux_outputs(b.regs::<pac::gpiob::RegisterBlock>());
-    assert_eq!(b.at(0x00), 0xFFFF_FEBF & !0x3F | 0b01_01_01);
+    assert_eq!(
+        b.at(0x00),
+        0xFFFF_FEBF & !(0x3F | 0x3C00) | 0b01_01_01 | 0b01_01 << 10
+    );
 }
 
 #[test]
