@@ -27,10 +27,13 @@ pub fn run(out: &Path) -> Result<String> {
     let files = written.traces;
     let mut md = String::from(
         "# The firmware in QEMU on the simulated skin\n\n\
+         Eight copies of the paper's sensor (`SensorParams::PAPER`: 205 pF, 350 + 361 kΩ with 64 % in\n\
+         the tab leads, cycled), read through the auto-ranging front end; the firmware's line model\n\
+         carries the leads' ratio `identify` found on the paper's static sweep.\n\
          Channel 0: the paper's 20 mm/s trapezoid; channel 1: 10 mm/s; channels 2–7 held at 4–14 mm.\n\
          Line-corrected C from the firmware against the simulated truth (records flagged settling are\n\
          the one block after each frequency switch and carry no value); for contrast, what a series\n\
-         meter fixed at 6 kHz would read on the same line.\n\n\
+         meter fixed at 6 kHz would read on the same sensor.\n\n\
          | ch | records | valid | corrected RMS | max | RMS | max | stretch RMS | fixed 6 kHz lumped RMS | max |\n\
          |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
@@ -99,7 +102,7 @@ pub fn run(out: &Path) -> Result<String> {
     }
     figure(
         &out.join("firmware_paper.svg"),
-        "Firmware in QEMU: the paper's stretching on the simulated skin",
+        "Firmware in QEMU: the paper's stretching on the paper's sensor (simulated)",
         &panels,
     )
     .context("plot")?;
