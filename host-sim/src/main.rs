@@ -446,7 +446,20 @@ fn run(cli: Cli) -> Result<()> {
                 }
             }
             let ds = host_sim::dataset::read_dir(&dir)?;
-            let report = identify::identify(&ds, options)?;
+            // Candidate models fitted, on stderr (hidden when it is not a
+            // terminal).
+            let pb = indicatif::ProgressBar::new(0);
+            pb.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{spinner} identify: {msg:<32} [{bar:30}] {pos}/{len} models, {elapsed}",
+                )
+                .expect("template")
+                .progress_chars("=> "),
+            );
+            pb.enable_steady_tick(std::time::Duration::from_millis(200));
+            let report = identify::identify_with(&ds, options, &pb);
+            pb.finish_and_clear();
+            let report = report?;
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             let mut md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
             let mut j = report.json();

@@ -161,6 +161,10 @@ impl Effect {
     /// Its entry in the catalogue.
     pub const fn info(self) -> &'static Info {
         match self {
+            // Physical range: a clamped or glued tab on a carbon-black
+            // film ranges from a few Ω (silver paint) to MΩ (a dry press
+            // contact); a recording through the tabs holds four of them
+            // (two per electrode), so R_rec/4 bounds what the data allow.
             Effect::ContactResistance => &Info {
                 id: "contact_resistance",
                 key: "contact_resistance_ohm",
@@ -171,7 +175,7 @@ impl Effect {
                 display_decimals: 0,
                 limits: (0.0, f64::INFINITY),
                 open: false,
-                search: (0.0, 100e3),
+                search: (0.0, 5e6),
                 scope: Scope::Sensor,
                 entry: Entry::SeriesPerTab,
                 fitted: true,
@@ -201,7 +205,7 @@ impl Effect {
                 display_decimals: 4,
                 limits: (-1.0, 1.0),
                 open: true,
-                search: (-0.9, 0.9),
+                search: (-0.98, 0.98),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
                 fitted: true,
@@ -261,7 +265,7 @@ impl Effect {
                 display_decimals: 4,
                 limits: (-1.0, 1.0),
                 open: true,
-                search: (-0.9, 0.9),
+                search: (-0.98, 0.98),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
                 fitted: true,

@@ -134,6 +134,7 @@ fn main() -> Result<()> {
             if host {
                 cargo(&root, &["bench", "-p", "dsp-core", "--bench", "dsp"])?;
                 cargo(&root, &["bench", "-p", "host-sim", "--bench", "paper"])?;
+                cargo(&root, &["bench", "-p", "host-sim", "--bench", "identify"])?;
             }
             Ok(())
         }

@@ -37,6 +37,7 @@ use crate::dataset::{DataSet, Kind};
 use crate::model::{Effect, Line, Params, Prepared};
 use anyhow::{Context, Result};
 use fit::Problem;
+use indicatif::ProgressBar;
 
 /// How `identify` decides.
 #[derive(Clone, Copy, Debug)]
@@ -144,6 +145,9 @@ pub struct Report {
     pub unexplained: bool,
     /// Rows modelled.
     pub rows: usize,
+    /// Traces decimated to bound the work: (file, rows read, every k-th
+    /// row kept).
+    pub decimated: Vec<(String, usize, usize)>,
     /// Which electrode resistance the model used (the calibration's; the
     /// traces' where they differ).
     pub resistance: String,
@@ -196,6 +200,13 @@ fn resistance_of(ds: &DataSet) -> String {
 
 /// Run `identify` on a data set.
 pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
+    identify_with(ds, options, &ProgressBar::hidden())
+}
+
+/// [`identify`], counting the candidate models fitted on `progress` (its
+/// length grows as the search does: the single effects, then the pairs).
+pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> Result<Report> {
+    progress.set_message("baseline");
     let prep = Prepared::new(ds, options.sweep)?;
     let rows: usize = prep
         .files
@@ -321,6 +332,12 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
         accepted: None,
         unexplained: false,
         rows,
+        decimated: prep
+            .files
+            .iter()
+            .filter(|f| f.stride > 1)
+            .map(|f| (f.name.clone(), f.rows_read, f.stride))
+            .collect(),
         resistance: resistance_of(ds),
         options,
     };
@@ -333,12 +350,18 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     let library: Vec<Effect> = Effect::library()
         .filter(|e| traces || e.info().entry != instrument::effects::Entry::Time)
         .collect();
+    progress.set_message("single effects");
+    progress.inc_length(library.len() as u64);
     let mut singles: Vec<Fit> = std::thread::scope(|sc| {
         let hs: Vec<_> = library
             .iter()
             .map(|&e| {
                 let prob = &prob;
-                sc.spawn(move || prob.fit(&[e], Params::NONE, &[e]))
+                sc.spawn(move || {
+                    let f = prob.fit(&[e], Params::NONE, &[e]);
+                    progress.inc(1);
+                    f
+                })
             })
             .collect();
         joined(hs)
@@ -356,6 +379,8 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     }
     if options.max_effects >= 2 && strong(&best, &base) {
         let first = best.effects[0];
+        progress.set_message(format!("pairs with {}", first.id()));
+        progress.inc_length(library.len().saturating_sub(1) as u64);
         let mut pairs: Vec<Fit> = std::thread::scope(|sc| {
             let hs: Vec<_> = library
                 .iter()
@@ -364,7 +389,11 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
                 .map(|e| {
                     let prob = &prob;
                     let start = best.params;
-                    sc.spawn(move || prob.fit(&[first, e], start, &[e]))
+                    sc.spawn(move || {
+                        let f = prob.fit(&[first, e], start, &[e]);
+                        progress.inc(1);
+                        f
+                    })
                 })
                 .collect();
             joined(hs)

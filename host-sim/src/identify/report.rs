@@ -14,17 +14,32 @@ fn param_value(e: Effect, v: f64) -> String {
     }
 }
 
-/// Parameters of a fit as "name = value ± σ".
+/// Is `v` at the far end of `e`'s search range (not at 0, where the
+/// effect is absent)? Then the data may want more than the range holds.
+pub fn at_limit(e: Effect, v: f64) -> bool {
+    let (lo, hi) = e.info().search;
+    let tol = 1e-3 * (hi - lo);
+    (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
+}
+
+/// Parameters of a fit as "name = value ± σ", marked where a value ends
+/// at its search range's limit.
 pub fn params_text(f: &Fit) -> String {
     f.effects
         .iter()
         .zip(&f.sigma)
         .map(|(&e, s)| {
+            let v = f.params.get(e);
             format!(
-                "{} = {} ± {}",
+                "{} = {} ± {}{}",
                 e.info().key,
-                param_value(e, f.params.get(e)),
-                param_value(e, *s)
+                param_value(e, v),
+                param_value(e, *s),
+                if at_limit(e, v) {
+                    " (at the end of its search range)"
+                } else {
+                    ""
+                }
             )
         })
         .collect::<Vec<_>>()
@@ -61,6 +76,7 @@ impl Report {
                         "params": {e.info().key: params[e.info().key]},
                         "uncertainty": {e.info().key: sigma[e.info().key]},
                         "static": e.is_static(),
+                        "at_limit": at_limit(e, f.params.get(e)),
                         "rms_pf_after": f.rms_pf,
                     })
                 })
@@ -84,6 +100,7 @@ impl Report {
                 json!({
                     "ids": f.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
                     "params": params, "uncertainty": sigma,
+                    "at_limit": f.effects.iter().filter(|&&e| at_limit(e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
                     "rms_pf": f.rms_pf, "bic": f.bic,
                     "delta_bic": f.bic - self.baseline().bic,
                 })
@@ -100,6 +117,7 @@ impl Report {
             "best_attempt": self.best_attempt().map(stats),
             "candidates": candidates,
             "rows": self.rows,
+            "decimated": self.decimated.iter().map(|(f, n, k)| json!({"file": f, "rows_read": n, "kept_every": k})).collect::<Vec<_>>(),
             "resistance": self.resistance,
             "criterion": {
                 "bic": "n·ln(S/n) + k·ln(n)",
@@ -172,6 +190,13 @@ impl Report {
             "| **all** | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} % | {:.3} % |\n",
             self.noise_floor_pf, b.rms_pf, b.max_pf, f.rms_pf, f.max_pf, b.rms_pct, f.rms_pct
         );
+        for (file, n, k) in &self.decimated {
+            let _ = writeln!(
+                md,
+                "{file}: {n} rows, decimated to every {k}th (at most {} rows per trace; time effects resolved to {k} sampling intervals).\n",
+                crate::model::prepared::MAX_TRACE_ROWS
+            );
+        }
         if let Some(p) = plot {
             let _ = writeln!(md, "![residual before and after]({p})\n");
         }
@@ -205,5 +230,23 @@ impl Report {
             }
         }
         md
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_value_at_the_far_end_of_its_range_is_marked() {
+        let (lo, hi) = Effect::TimeOffset.info().search;
+        assert!(at_limit(Effect::TimeOffset, hi) && at_limit(Effect::TimeOffset, lo));
+        assert!(!at_limit(Effect::TimeOffset, 0.0) && !at_limit(Effect::TimeOffset, 0.5 * hi));
+        // Zero is where an effect is absent, not a limit.
+        assert!(!at_limit(Effect::ContactResistance, 0.0));
+        assert!(at_limit(
+            Effect::ContactResistance,
+            Effect::ContactResistance.info().search.1
+        ));
     }
 }

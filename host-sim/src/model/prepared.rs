@@ -9,6 +9,15 @@ use anyhow::Result;
 /// differences, its time effects interpolate between rows.
 pub const MIN_TRACE_ROWS: usize = 8;
 
+/// The most rows of one trace a model is evaluated on: a longer trace is
+/// decimated to every k-th row (k = ⌈rows / this⌉), which bounds the
+/// work of `identify` whatever the recording's length. Its effect: the
+/// time effects are resolved to k sampling intervals (the meter window is
+/// averaged over k-times sparser samples), and the statistics count the
+/// rows kept; the noise floor (from second differences) is that of the
+/// rows kept, which for white noise is the same.
+pub const MAX_TRACE_ROWS: usize = 4000;
+
 /// A data set prepared for fast model evaluation.
 #[derive(Clone, Debug)]
 pub struct Prepared {
@@ -41,6 +50,10 @@ pub struct File {
     pub sigma: Vec<f64>,
     /// Rows where the stretch profile turns (traces).
     pub corner: Vec<bool>,
+    /// Rows of the file as read (before decimation).
+    pub rows_read: usize,
+    /// Decimation: every `stride`-th row read is kept (1: all).
+    pub stride: usize,
     /// Rows that enter the statistics: all but those at a trace's ends
     /// whose meter window, at the largest lag and offset searched, would
     /// reach outside the recording (no model can predict them).
@@ -59,7 +72,11 @@ pub fn edge_end_s() -> f64 {
 }
 
 fn file_of(t: &Table) -> File {
-    let col = |g: fn(&Row) -> f64| t.rows.iter().map(g).collect::<Vec<f64>>();
+    let stride = match t.kind {
+        Kind::Trace => t.rows.len().div_ceil(MAX_TRACE_ROWS).max(1),
+        _ => 1,
+    };
+    let col = |g: fn(&Row) -> f64| t.rows.iter().step_by(stride).map(g).collect::<Vec<f64>>();
     File {
         name: t
             .path
@@ -72,11 +89,13 @@ fn file_of(t: &Table) -> File {
             vec![]
         },
         s: col(Row::stretch_mm),
-        r: t.rows.iter().map(|r| r.r_rec()).collect(),
+        r: t.rows.iter().step_by(stride).map(|r| r.r_rec()).collect(),
         f: col(Row::freq_hz),
         cs: col(Row::cs_pf),
         sigma: col(Row::cs_sigma_pf),
         corner: vec![],
+        rows_read: t.rows.len(),
+        stride,
         used: vec![],
     }
     .finish()

@@ -12,6 +12,14 @@ pub struct Shape {
     pub(crate) c: [f64; 3],
     /// (stretch mm, R_top + R_bottom Ω), ascending.
     pub(crate) r: Vec<(f64, f64)>,
+    /// `r`'s stretches and resistances apart, its end quadratics (the
+    /// four points at each end) and its largest R: what [`Shape::r_at`]
+    /// needs on every call, computed once.
+    rs: Vec<f64>,
+    rr: Vec<f64>,
+    below: [f64; 3],
+    above: [f64; 3],
+    top: f64,
 }
 
 impl Shape {
@@ -27,10 +35,23 @@ impl Shape {
         }
         let mut r: Vec<(f64, f64)> = cal.rows.iter().map(|x| (x.stretch_mm(), x.r_rec())).collect();
         r.sort_by(|a, b| a.0.total_cmp(&b.0));
-        Ok(Self {
-            c: quadratic_fit(&pts),
+        Ok(Self::new(quadratic_fit(&pts), r))
+    }
+
+    /// From the C(s) quadratic and the R(s) points (at least one,
+    /// ascending in stretch).
+    pub(crate) fn new(c: [f64; 3], r: Vec<(f64, f64)>) -> Self {
+        let n = r.len();
+        let (rs, rr): (Vec<f64>, Vec<f64>) = r.iter().copied().unzip();
+        Self {
+            c,
+            below: quadratic_fit(&r[..n.min(4)]),
+            above: quadratic_fit(&r[n.saturating_sub(4)..]),
+            top: rr.iter().copied().fold(0.0, f64::max),
+            rs,
+            rr,
             r,
-        })
+        }
     }
 
     /// The local curves of a sensor stretched nonuniformly by `u`: the
@@ -40,10 +61,7 @@ impl Shape {
     /// ρ ← ρ·R_cal/mean_ξ ρ(s(1 + u(2ξ − 1))) at the calibration points.
     pub fn local(&self, u: f64) -> Shape {
         let [a, b, c2] = self.c;
-        let mut out = Shape {
-            c: [a, b, c2 / (1.0 + u * u / 3.0)],
-            r: self.r.clone(),
-        };
+        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0)], self.r.clone());
         for _ in 0..6 {
             let next: Vec<(f64, f64)> = self
                 .r
@@ -58,7 +76,7 @@ impl Shape {
                     (s, rho * r_cal / mean)
                 })
                 .collect();
-            out.r = next;
+            out = Shape::new(out.c, next);
         }
         out
     }
@@ -73,19 +91,16 @@ impl Shape {
     /// four end points (the curve's smooth continuation); at least 5 % of
     /// the largest.
     pub(crate) fn r_at(&self, s: f64) -> f64 {
-        let r = &self.r;
-        let n = r.len();
-        let v = if s < r[0].0 {
-            let q = quadratic_fit(&r[..n.min(4)]);
+        let (t, n) = (&self.rs, self.rs.len());
+        let v = if s < t[0] {
+            let q = self.below;
             q[0] + s * (q[1] + s * q[2])
-        } else if s > r[n - 1].0 {
-            let q = quadratic_fit(&r[n.saturating_sub(4)..]);
+        } else if s > t[n - 1] {
+            let q = self.above;
             q[0] + s * (q[1] + s * q[2])
         } else {
-            let (t, y): (Vec<f64>, Vec<f64>) = r.iter().copied().unzip();
-            interp(&t, &y, &[], s)
+            interp(t, &self.rr, &[], s)
         };
-        let top = r.iter().map(|p| p.1).fold(0.0, f64::max);
-        v.max(0.05 * top)
+        v.max(0.05 * self.top)
     }
 }
