@@ -37,6 +37,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::MeterLag => (10e-3, 150e-3, false),
         Effect::TimeOffset => (5e-3, 80e-3, true),
         Effect::NonuniformStretch => (0.05, 0.5, true),
+        Effect::StretchBulge => (0.05, 0.4, true),
         Effect::LeadResistance => (0.05, 0.5, false),
         Effect::ElectrodeDispersion => (3e-6, 100e-6, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),

@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 10;
+pub const COUNT: usize = 11;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -141,6 +141,11 @@ pub enum Effect {
     /// carbon-black clusters, per length): r(f) = r/(1 + j·2πf·τ), τ in s
     /// (0: none). The recorded end-to-end resistances are the DC values.
     ElectrodeDispersion,
+    /// The symmetric mode of the stretch along the sensor: local stretch
+    /// ∝ 1 + v·(6ξ(1 − ξ) − 1) (v > 0: the middle stretches more than
+    /// the clamped ends; mean unchanged), beside the linear mode of
+    /// [`Effect::NonuniformStretch`].
+    StretchBulge,
 }
 
 impl Effect {
@@ -156,6 +161,7 @@ impl Effect {
         Effect::DielectricDispersion,
         Effect::LeadResistance,
         Effect::ElectrodeDispersion,
+        Effect::StretchBulge,
     ];
 
     /// Its entry in the catalogue.
@@ -233,9 +239,12 @@ impl Effect {
                 display_unit: "ms",
                 display_scale: 1e3,
                 display_decimals: 2,
-                limits: (0.0, 1.0),
+                limits: (0.0, 10.0),
                 open: false,
-                search: (0.0, 0.25),
+                // Up to a second (an LCR meter's slow mode integrates
+                // ~0.1–1 s); what the trace's ends can hold bounds it
+                // (`identify` leaves the rows a window could not see out).
+                search: (0.0, 1.0),
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,
@@ -248,9 +257,11 @@ impl Effect {
                 display_unit: "ms",
                 display_scale: 1e3,
                 display_decimals: 2,
-                limits: (-1.0, 1.0),
+                limits: (-10.0, 10.0),
                 open: true,
-                search: (-0.15, 0.15),
+                // Two instruments started by hand, or a buffered channel:
+                // tenths of a second; ±0.5 s searched.
+                search: (-0.5, 0.5),
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,
@@ -319,6 +330,25 @@ impl Effect {
                 limits: (0.0, 1e-3),
                 open: false,
                 search: (0.0, 1e-3),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            // Physical range: clamps hold the ends back (v > 0) up to
+            // ends that do not stretch at all (v → 1); a film that slips
+            // in its clamps and necks at the ends gives v < 0, down to a
+            // middle that does not stretch (v → −2).
+            Effect::StretchBulge => &Info {
+                id: "stretch_bulge",
+                key: "bulge_ratio",
+                doc: "symmetric stretch mode along the sensor (middle over ends), -2..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-2.0, 1.0),
+                open: true,
+                search: (-0.98, 0.98),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
                 fitted: true,
@@ -436,6 +466,18 @@ impl EffectSet {
             }
         }
         s
+    }
+
+    /// Local stretch over mean stretch at ξ along the sensor (0: the read
+    /// end, 1: the far end): 1 + u·(2ξ − 1) + v·(6ξ(1 − ξ) − 1), u the
+    /// [`Effect::NonuniformStretch`] (linear) and v the
+    /// [`Effect::StretchBulge`] (symmetric) mode; each mode's mean is 0.
+    pub fn stretch_profile(&self, xi: f64) -> f64 {
+        let (u, v) = (
+            self.get(Effect::NonuniformStretch),
+            self.get(Effect::StretchBulge),
+        );
+        1.0 + u * (2.0 * xi - 1.0) + v * (6.0 * xi * (1.0 - xi) - 1.0)
     }
 
     /// The wiring as the meter sees it: (resistance in series with the

@@ -168,7 +168,7 @@ impl Sensor {
     /// Local stretch of segment i, mm.
     fn local_stretch(&self, i: usize) -> f64 {
         let xi = (i as f64 + 0.5) / SEGMENTS as f64;
-        self.stretch * (1.0 + self.params.effects.get(Effect::NonuniformStretch) * (2.0 * xi - 1.0))
+        self.stretch * self.params.effects.stretch_profile(xi)
     }
 
     /// Weight of segment i's electrode resistance (mean 1).

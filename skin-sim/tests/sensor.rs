@@ -103,6 +103,18 @@ fn effects_have_their_signatures() {
     // Nonuniform stretch: the same mean capacitance (C linear in stretch).
     let s = with(EffectSet::NONE.with(Effect::NonuniformStretch, 0.5));
     assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-12);
+    // The symmetric mode too; it changes the impedance, and unlike the
+    // linear mode it is the same seen from either end.
+    // (the 240 segments' midpoints average the quadratic mode to v/(2·240²),
+    // not 0: 5·10⁻⁶ of C).
+    let s = with(EffectSet::NONE.with(Effect::StretchBulge, 0.6));
+    assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-5);
+    assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
+    let fx = EffectSet::NONE.with(Effect::StretchBulge, 0.6);
+    for xi in [0.1, 0.3] {
+        assert!((fx.stretch_profile(xi) - fx.stretch_profile(1.0 - xi)).abs() < 1e-12);
+    }
+    assert!((fx.stretch_profile(0.5) - 1.3).abs() < 1e-12 && (fx.stretch_profile(0.0) - 0.4).abs() < 1e-12);
     // Leakage: lowers the impedance at low frequency most.
     let s = with(EffectSet::NONE.with(Effect::DielectricLeakage, 1.0 / 200e6));
     let lo = rel(s.impedance(100.0), plain.impedance(100.0));

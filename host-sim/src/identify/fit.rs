@@ -252,7 +252,7 @@ impl Problem<'_> {
 pub(super) fn grid(e: Effect) -> Vec<f64> {
     let (lo, hi) = e.info().search;
     let mut v = vec![0.0];
-    let levels = if lo < 0.0 { 7 } else { 12 };
+    let levels = if lo < 0.0 { 9 } else { 12 };
     for k in 0..levels {
         let m = 0.5f64.powi(k);
         v.push(hi * m);

@@ -67,7 +67,7 @@ pub(crate) fn has_time(p: &Params) -> bool {
 }
 
 pub(crate) fn nonuniform(p: &Params) -> bool {
-    p.has(Effect::ResistanceGradient) || p.has(Effect::NonuniformStretch)
+    p.has(Effect::ResistanceGradient) || p.has(Effect::NonuniformStretch) || p.has(Effect::StretchBulge)
 }
 
 /// Line model of the baseline.
@@ -144,10 +144,8 @@ impl Model<'_> {
     /// Nonuniform line of total R (Ω), C (F), G (S) at mean stretch s.
     fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64, film: Complex64) -> Complex64 {
         let p = &self.params;
-        let (grad, u) = (
-            p.get(Effect::ResistanceGradient),
-            p.get(Effect::NonuniformStretch),
-        );
+        let grad = p.get(Effect::ResistanceGradient);
+        let stretched = p.has(Effect::NonuniformStretch) || p.has(Effect::StretchBulge);
         let n = match self.line {
             Line::Continuous => SEGMENTS,
             Line::Ladder(n) => n.max(1) as usize,
@@ -157,8 +155,8 @@ impl Model<'_> {
         // Each piece takes the mean of the profiles over its length
         // (Simpson's rule), so the totals are right to fourth order.
         let at = |xi: f64| {
-            let sl = s * (1.0 + u * (2.0 * xi - 1.0));
-            let (rho, cl) = if u != 0.0 {
+            let sl = s * p.stretch_profile(xi);
+            let (rho, cl) = if stretched {
                 (self.shape.r_at(sl), self.shape.c_at(sl))
             } else {
                 (1.0, 1.0)

@@ -152,8 +152,8 @@ impl Prepared {
     /// Predicted Cs (pF) of every row of every file under `line` and
     /// `params`, after de-biasing the calibration under the same model.
     pub fn predict(&self, line: Line, params: Params) -> Result<Vec<Vec<f64>>> {
-        let u = params.get(Effect::NonuniformStretch);
-        let local = (u != 0.0).then(|| self.shape.local(u));
+        let stretched = params.has(Effect::NonuniformStretch) || params.has(Effect::StretchBulge);
+        let local = stretched.then(|| self.shape.local(&params));
         let m = Model {
             line,
             params,

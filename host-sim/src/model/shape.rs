@@ -54,14 +54,18 @@ impl Shape {
         }
     }
 
-    /// The local curves of a sensor stretched nonuniformly by `u`: the
-    /// calibration recorded each curve's mean along the sensor, so the
-    /// local ones are found by undoing that mean. C: exact for the
-    /// quadratic (c2 → c2/(1 + u²/3)). R: fixed-point iteration
-    /// ρ ← ρ·R_cal/mean_ξ ρ(s(1 + u(2ξ − 1))) at the calibration points.
-    pub fn local(&self, u: f64) -> Shape {
+    /// The local curves of a sensor stretched nonuniformly, with the
+    /// profile φ(ξ) of `p` (`EffectSet::stretch_profile`: linear mode u,
+    /// symmetric mode v): the calibration recorded each curve's mean along
+    /// the sensor, so the local ones are found by undoing that mean. C:
+    /// exact for the quadratic (c2 → c2/mean φ², mean φ² = 1 + u²/3 +
+    /// v²/5; the modes are orthogonal). R: fixed-point iteration
+    /// ρ ← ρ·R_cal/mean_ξ ρ(s·φ(ξ)) at the calibration points.
+    pub fn local(&self, p: &crate::model::Params) -> Shape {
+        use crate::model::Effect;
+        let (u, v) = (p.get(Effect::NonuniformStretch), p.get(Effect::StretchBulge));
         let [a, b, c2] = self.c;
-        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0)], self.r.clone());
+        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0 + v * v / 5.0)], self.r.clone());
         for _ in 0..6 {
             let next: Vec<(f64, f64)> = self
                 .r
@@ -70,7 +74,7 @@ impl Shape {
                 .map(|(&(s, r_cal), &(_, rho))| {
                     const K: usize = 32;
                     let mean = (0..K)
-                        .map(|i| out.r_at(s * (1.0 + u * (2.0 * (i as f64 + 0.5) / K as f64 - 1.0))))
+                        .map(|i| out.r_at(s * p.stretch_profile((i as f64 + 0.5) / K as f64)))
                         .sum::<f64>()
                         / K as f64;
                     (s, rho * r_cal / mean)
