@@ -1,0 +1,211 @@
+//! One hidden effect per data set, drawn over its physical range, for
+//! checking an analysis that is not told which.
+//!
+//! Each family names the catalogue ids (`instrument::effects`, as plain
+//! strings: this crate does not link the catalogue) an analysis may answer
+//! with. The shapes are this bench's own, not the catalogue's: an
+//! exponential resistance or stretch profile where the catalogue has a
+//! linear mode, a sine bulge where it has a parabola, windows centred as
+//! well as trailing, a first-order meter average, per-tab contacts that
+//! differ.
+
+use crate::meter::{Dynamics, Meter};
+use crate::sensor::{ColeCole, Effects};
+use rand::Rng;
+
+/// A family of effects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// Tab contact resistance, 1 kΩ–3 MΩ per tab (silver paint to a dry
+    /// press contact).
+    Contact,
+    /// Cable and fixture capacitance, 0.3–40 pF (a short lead to a metre
+    /// of coax).
+    Parasitic,
+    /// Exponential resistance profile along the sensor, end-to-end ratio
+    /// e^|κ| up to 20.
+    ResistanceProfile,
+    /// Exponential stretch profile, far end to read end up to e^2.5.
+    StretchTilt,
+    /// Sine-shaped stretch bulge, middle over ends (clamps holding the
+    /// ends, m > 0) or necking at the ends (m < 0), |m| ≤ 0.9.
+    StretchBulge,
+    /// Leakage through the dielectric, 2–300 nS.
+    Leakage,
+    /// The meter's averaging window, 20 ms (one row) to 1 s, trailing or
+    /// centred.
+    Window,
+    /// The meter's first-order average, τ 10 ms–0.5 s.
+    FirstOrder,
+    /// The capacitance channel's time offset, 5 ms–0.5 s either way.
+    Offset,
+    /// Tab leads, 5–80 % of each electrode's resistance.
+    Leads,
+    /// Dispersive film conductivity, τ 2–300 µs.
+    FilmDispersion,
+    /// Outside the catalogue: dielectric relaxation (Cole–Cole).
+    Relaxation,
+    /// Outside the catalogue: a blocking (capacitive) contact at the tabs.
+    BlockingContact,
+}
+
+impl Family {
+    /// The families an analysis is expected to name.
+    pub const IN_LIBRARY: [Family; 11] = [
+        Family::Contact,
+        Family::Parasitic,
+        Family::ResistanceProfile,
+        Family::StretchTilt,
+        Family::StretchBulge,
+        Family::Leakage,
+        Family::Window,
+        Family::FirstOrder,
+        Family::Offset,
+        Family::Leads,
+        Family::FilmDispersion,
+    ];
+
+    /// The families outside the catalogue.
+    pub const OUTSIDE: [Family; 2] = [Family::Relaxation, Family::BlockingContact];
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Contact => "contact",
+            Family::Parasitic => "parasitic",
+            Family::ResistanceProfile => "resistance_profile",
+            Family::StretchTilt => "stretch_tilt",
+            Family::StretchBulge => "stretch_bulge",
+            Family::Leakage => "leakage",
+            Family::Window => "window",
+            Family::FirstOrder => "first_order",
+            Family::Offset => "offset",
+            Family::Leads => "leads",
+            Family::FilmDispersion => "film_dispersion",
+            Family::Relaxation => "relaxation",
+            Family::BlockingContact => "blocking_contact",
+        }
+    }
+
+    /// The catalogue ids that name it right (empty: outside the
+    /// catalogue, to be reported as unexplained). An answer of several
+    /// ids is right when all of them are in this list.
+    pub fn catalogue_ids(self) -> &'static [&'static str] {
+        match self {
+            Family::Contact => &["contact_resistance"],
+            Family::Parasitic => &["parasitic_capacitance"],
+            Family::ResistanceProfile => &["resistance_gradient", "resistance_bulge"],
+            Family::StretchTilt => &["nonuniform_stretch", "stretch_bulge"],
+            Family::StretchBulge => &["stretch_bulge", "nonuniform_stretch"],
+            Family::Leakage => &["dielectric_leakage"],
+            Family::Window | Family::FirstOrder => &["meter_lag", "meter_response"],
+            Family::Offset => &["time_offset"],
+            Family::Leads => &["lead_resistance"],
+            Family::FilmDispersion => &["electrode_dispersion"],
+            Family::Relaxation | Family::BlockingContact => &[],
+        }
+    }
+
+    /// Is an answer naming `ids` right? (Outside the catalogue: only
+    /// "unexplained" is, which the caller checks.)
+    pub fn named_right(self, ids: &[&str]) -> bool {
+        let ok = self.catalogue_ids();
+        !ids.is_empty() && ids.iter().all(|id| ok.contains(id))
+    }
+
+    /// A random strength over the family's physical range: the effects
+    /// and the meter of one data set, and the value drawn (SI; for a
+    /// window, negative when centred).
+    pub fn draw(self, rng: &mut impl Rng) -> (Effects, Meter, f64) {
+        let log = |rng: &mut dyn rand::RngCore, lo: f64, hi: f64| lo * (hi / lo).powf(rng.gen::<f64>());
+        let sign = |rng: &mut dyn rand::RngCore| if rng.gen::<bool>() { 1.0 } else { -1.0 };
+        let mut fx = Effects::default();
+        let mut meter = Meter::BENCH;
+        let v;
+        match self {
+            Family::Contact => {
+                v = log(rng, 1e3, 3e6);
+                fx.contact_ohm = v;
+            }
+            Family::Parasitic => {
+                v = log(rng, 0.3e-12, 40e-12);
+                fx.parasitic_f = v;
+            }
+            Family::ResistanceProfile => {
+                v = sign(rng) * log(rng, 0.1, 3.0);
+                fx.resistance_kappa = v;
+            }
+            Family::StretchTilt => {
+                v = sign(rng) * log(rng, 0.1, 2.5);
+                fx.stretch_kappa = v;
+            }
+            Family::StretchBulge => {
+                v = sign(rng) * log(rng, 0.05, 0.9);
+                fx.stretch_bulge = v;
+            }
+            Family::Leakage => {
+                v = log(rng, 2e-9, 300e-9);
+                fx.leakage_s = v;
+            }
+            Family::Window => {
+                let length_s = log(rng, 0.02, 1.0);
+                let centred = rng.gen::<bool>();
+                meter.dynamics = Dynamics::Window { length_s, centred };
+                v = if centred { -length_s } else { length_s };
+            }
+            Family::FirstOrder => {
+                v = log(rng, 0.01, 0.5);
+                meter.dynamics = Dynamics::FirstOrder { tau_s: v };
+            }
+            Family::Offset => {
+                v = sign(rng) * log(rng, 5e-3, 0.5);
+                meter.offset_s = v;
+            }
+            Family::Leads => {
+                v = rng.gen_range(0.05..0.8);
+                fx.lead_fraction = v;
+            }
+            Family::FilmDispersion => {
+                v = log(rng, 2e-6, 300e-6);
+                fx.film_tau_s = v;
+            }
+            Family::Relaxation => {
+                v = rng.gen_range(0.01..0.06);
+                fx.dielectric = ColeCole {
+                    delta: v,
+                    tau_s: 1.0 / (2.0 * std::f64::consts::PI * log(rng, 800.0, 4000.0)),
+                    alpha: 0.7,
+                };
+            }
+            Family::BlockingContact => {
+                v = log(rng, 2e-9, 20e-9);
+                fx.contact_ohm = log(rng, 50e3, 500e3);
+                fx.contact_cap_f = v;
+            }
+        }
+        (fx, meter, v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn draws_stay_in_their_ranges() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for f in Family::IN_LIBRARY.iter().chain(&Family::OUTSIDE) {
+            for _ in 0..200 {
+                let (fx, m, v) = f.draw(&mut rng);
+                assert!(v.is_finite() && v != 0.0, "{}", f.name());
+                assert!(fx.lead_fraction < 0.8 && fx.stretch_bulge.abs() <= 0.9);
+                assert!(m.offset_s.abs() <= 0.5);
+            }
+            assert_eq!(f.catalogue_ids().is_empty(), Family::OUTSIDE.contains(f));
+        }
+        assert!(Family::Window.named_right(&["meter_lag"]));
+        assert!(!Family::Window.named_right(&["meter_lag", "time_offset"]));
+        assert!(!Family::Contact.named_right(&[]));
+    }
+}
