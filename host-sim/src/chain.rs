@@ -37,6 +37,9 @@ pub enum Meter {
     /// `offset_s` the misalignment of the capacitance channel against the
     /// stretch and resistance columns recorded in another run (> 0: the
     /// capacitance is late). Both 0 for an instantaneous, aligned meter.
+    /// With `response_s` > 0, the (windowed) admittance then passes a
+    /// first-order filter of that time constant (a lock-in's RC output
+    /// filter), settled on the sensor at rest before the run.
     Lcr {
         /// Sampling interval, s.
         interval_s: f64,
@@ -48,6 +51,8 @@ pub enum Meter {
         window_s: f64,
         /// Time offset of the capacitance channel, s.
         offset_s: f64,
+        /// First-order response time constant, s (0: none).
+        response_s: f64,
     },
 }
 
@@ -65,6 +70,7 @@ impl Meter {
             abs_farad: 0.02e-12,
             window_s: effects.get(Effect::MeterLag),
             offset_s: effects.get(Effect::TimeOffset),
+            response_s: effects.get(Effect::MeterResponse),
         }
     }
 
@@ -73,8 +79,11 @@ impl Meter {
     pub fn lookback_s(&self) -> f64 {
         match *self {
             Meter::Lcr {
-                window_s, offset_s, ..
-            } => (window_s - offset_s).max(0.0),
+                window_s,
+                offset_s,
+                response_s,
+                ..
+            } => (window_s + 12.0 * response_s - offset_s).max(0.0),
             Meter::Adc(_) => 0.0,
         }
     }
@@ -225,15 +234,62 @@ pub fn run(
             abs_farad,
             window_s,
             offset_s,
+            response_s,
         } => {
             // The meter's view of the sensor runs on its own clock.
-            let mut seen = (window_s > 0.0 || offset_s != 0.0).then(|| sensor.clone());
+            let mut seen = (window_s > 0.0 || offset_s != 0.0 || response_s > 0.0).then(|| sensor.clone());
+            // The first-order filter: its state (admittance), and the
+            // time it has reached.
+            let mut filter: Option<(num_complex::Complex64, f64)> = None;
             let mut t = t_start;
             while t <= t_end + 1e-12 {
                 sensor.advance(profile, t);
                 let truth = sensor.truth();
                 let z = match seen.as_mut() {
                     None => sensor.impedance(freq_hz),
+                    Some(m) if response_s > 0.0 => {
+                        // First order: the (windowed) admittance sampled at
+                        // the midpoints of ≤ 0.5 ms steps, each step
+                        // decaying the state by e^(−d/τ). `m` runs ahead
+                        // of the window's start.
+                        let target = t + offset_s;
+                        let windowed = |m: &mut Sensor, at: f64| -> num_complex::Complex64 {
+                            if window_s <= 0.0 {
+                                m.advance(profile, at);
+                                return m.impedance(freq_hz).inv();
+                            }
+                            let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 500);
+                            let start = at - window_s;
+                            m.advance(profile, start);
+                            let mut v = m.clone();
+                            let mut y = num_complex::Complex64::default();
+                            for j in 0..k {
+                                v.advance(profile, start + window_s * (j as f64 + 0.5) / k as f64);
+                                y += v.impedance(freq_hz).inv();
+                            }
+                            y / k as f64
+                        };
+                        let (mut state, mut at) = match filter {
+                            Some(f) => f,
+                            None => {
+                                // Settled on the sensor as the run starts.
+                                let first = target - 12.0 * response_s;
+                                (windowed(m, first), first)
+                            }
+                        };
+                        let steps = ((target - at) / 0.5e-3).ceil().max(0.0) as usize;
+                        if steps > 0 {
+                            let d = (target - at) / steps as f64;
+                            let e = (-d / response_s).exp();
+                            for _ in 0..steps {
+                                let y = windowed(m, at + 0.5 * d);
+                                state = state * e + y * (1.0 - e);
+                                at += d;
+                            }
+                        }
+                        filter = Some((state, at));
+                        state.inv()
+                    }
                     Some(m) => {
                         // Mean admittance over the window, midpoints of
                         // ≤ 2 ms sub-intervals. Windows overlap: a copy

@@ -33,11 +33,14 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ContactResistance => (2e3, 50e3, false),
         Effect::ParasiticCapacitance => (0.5e-12, 20e-12, false),
         Effect::ResistanceGradient => (0.05, 0.6, true),
-        Effect::DielectricLeakage => (5e-9, 100e-9, false),
+        // 5–100 nS on 200 pF.
+        Effect::DielectricLeakage => (25.0, 500.0, false),
         Effect::MeterLag => (10e-3, 150e-3, false),
+        Effect::MeterResponse => (10e-3, 150e-3, false),
         Effect::TimeOffset => (5e-3, 80e-3, true),
         Effect::NonuniformStretch => (0.05, 0.5, true),
         Effect::StretchBulge => (0.05, 0.4, true),
+        Effect::ResistanceBulge => (0.05, 0.6, true),
         Effect::LeadResistance => (0.05, 0.5, false),
         Effect::ElectrodeDispersion => (3e-6, 100e-6, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
@@ -77,6 +80,7 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
             .collect();
         let show = |v: f64| effect.info().display(v);
         let fitted = show(r.accepted.as_ref().map_or(f64::NAN, |a| a.params.get(effect)));
+        let v_si = v;
         let v = show(v);
         println!(
             "| {seed} | {} | {v:.4} | {:.1} | {} | {fitted:.4} | {:.2} | {:.1} |",
@@ -101,7 +105,14 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
             continue;
         }
         detectable += 1;
-        if named == [effect.id()] {
+        // A meter kernel whose centroid (T/2, τ) is under one row
+        // interval (20 ms) is resolved only as the delay it causes.
+        let centroid = match effect {
+            Effect::MeterLag => 0.5 * v_si,
+            Effect::MeterResponse => v_si,
+            _ => f64::INFINITY,
+        };
+        if named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"]) {
             right += 1;
         }
         if f > 1.5 * nf {

@@ -33,6 +33,11 @@ fn named(r: &Report) -> Vec<&'static str> {
         .collect()
 }
 
+/// The survey over every family (`cargo xtask survey`): `SEEDS` sets
+/// (default 50), one hidden effect each drawn over its physical range;
+/// every tenth set is clean and every tenth (from the fifth) has an
+/// effect outside the library; `FAMILY=name` draws only that family.
+/// Prints a row per set and the summary the README quotes.
 #[test]
 #[ignore]
 fn survey() {
@@ -40,40 +45,95 @@ fn survey() {
     let n: u64 = std::env::var("SEEDS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(20);
+        .unwrap_or(50);
     let fam: Option<String> = std::env::var("FAMILY").ok();
+    println!("| seed | family | value (SI) | baseline/noise | named | after/noise | drop | s |");
+    println!("|---|---|---:|---:|---|---:|---:|---:|");
+    // Per family: (sets, detectable, named right, afters, drops).
+    type Tally = (String, usize, usize, usize, Vec<f64>, Vec<f64>);
+    let mut by: Vec<Tally> = vec![];
+    let (mut clean, mut clean_ok, mut outside, mut outside_ok) = (0, 0, 0, 0);
     for seed in 0..n {
         let mut rng = ChaCha8Rng::seed_from_u64(5000 + seed);
         let lib = Family::IN_LIBRARY;
-        let mut family = lib[rng.gen_range(0..lib.len())];
-        if let Some(f) = &fam {
-            family = *lib
-                .iter()
-                .chain(&Family::OUTSIDE)
-                .find(|x| x.name() == f)
-                .unwrap();
-        }
-        let (fx, meter, v) = family.draw(&mut rng);
-        let b = Bench::new(fx, meter, seed);
+        let family = match (&fam, seed % 10) {
+            (Some(f), _) => Some(
+                *lib.iter()
+                    .chain(&Family::OUTSIDE)
+                    .find(|x| x.name() == f)
+                    .unwrap_or_else(|| panic!("no family {f}")),
+            ),
+            (None, 9) => None,
+            (None, 4) => Some(Family::OUTSIDE[(seed / 10) as usize % Family::OUTSIDE.len()]),
+            (None, _) => Some(lib[rng.gen_range(0..lib.len())]),
+        };
+        let (fx, meter, v) = match family {
+            Some(f) => f.draw(&mut rng),
+            None => (Default::default(), rig_sim::meter::Meter::BENCH, 0.0),
+        };
         let t = std::time::Instant::now();
-        let r = run(&tmp.path().join(format!("s{seed}")), &b);
+        let r = run(&tmp.path().join(format!("s{seed}")), &Bench::new(fx, meter, seed));
         let nf = r.noise_floor_pf;
         let (base, fin) = (r.baseline().rms_pf, r.final_fit().rms_pf);
-        let best = r.singles.first().map(|f| f.label()).unwrap_or_default();
+        let ids = named(&r);
+        let name = family.map_or("clean", |f| f.name());
         println!(
-            "| {seed} | {} | {v:.4e} | {:.1} | {} | {:.2} | {:.1} | best {best} | {:.1}s | floor {nf:.4}",
-            family.name(),
+            "| {seed} | {name} | {v:.4e} | {:.1} | {} | {:.2} | {:.1} | {:.0} |",
             base / nf,
             if r.unexplained {
-                "UNEXPLAINED".to_string()
+                "unexplained".to_string()
+            } else if r.accepted.is_none() {
+                "clean".to_string()
             } else {
-                named(&r).join("+")
+                r.final_fit().label()
             },
             fin / nf,
             base / fin,
             t.elapsed().as_secs_f64()
         );
+        let Some(f) = family else {
+            clean += 1;
+            clean_ok += usize::from(!r.unexplained && r.accepted.is_none());
+            continue;
+        };
+        if f.catalogue_ids().is_empty() {
+            outside += 1;
+            outside_ok += usize::from(r.unexplained && r.accepted.is_none());
+            continue;
+        }
+        let k = match by.iter().position(|b| b.0 == name) {
+            Some(k) => k,
+            None => {
+                by.push((name.to_string(), 0, 0, 0, vec![], vec![]));
+                by.len() - 1
+            }
+        };
+        by[k].1 += 1;
+        if base > 1.5 * nf {
+            by[k].2 += 1;
+            by[k].3 += usize::from(f.named_right_at(&ids, v, 0.02));
+            by[k].4.push(fin / nf);
+            by[k].5.push(base / fin);
+        }
     }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    println!("\n| family | sets | detectable | named right | after/noise (max) | drop (median) |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    let (mut det, mut right, mut drops) = (0, 0, vec![]);
+    for (name, sets, d, r, after, drop) in &mut by {
+        det += *d;
+        right += *r;
+        drops.extend(drop.iter());
+        let mx = after.iter().copied().fold(f64::NAN, f64::max);
+        println!("| {name} | {sets} | {d} | {r} | {mx:.2} | {:.1} |", median(drop));
+    }
+    println!(
+        "\nin library: {right}/{det} detectable named right, median drop {:.1}x; outside: {outside_ok}/{outside} unexplained; clean: {clean_ok}/{clean} clean",
+        median(&mut drops)
+    );
 }
 
 #[test]
@@ -121,40 +181,35 @@ fn effects_outside_the_library_are_unexplained() {
 
 /// The families whose shapes the library covers today, with the ranges it
 /// covers (see the module doc for the rest).
-const COVERED: [Family; 6] = [
+const COVERED: [Family; 7] = [
     Family::Parasitic,
     Family::FilmDispersion,
     Family::Offset,
     Family::Leads,
     Family::Contact,
     Family::Window,
+    Family::FirstOrder,
 ];
 
 #[test]
 fn covered_families_are_named_right_and_explained() {
     let tmp = tempfile::tempdir().unwrap();
     let (mut detectable, mut right, mut bad) = (0, 0, vec![]);
-    for seed in 0..12u64 {
+    for seed in 0..14u64 {
         let mut rng = ChaCha8Rng::seed_from_u64(9000 + seed);
         let family = COVERED[seed as usize % COVERED.len()];
-        let (mut fx, mut meter, v) = family.draw(&mut rng);
-        // Within the covered ranges: contacts to 300 kOhm per tab,
-        // trailing windows to 0.2 s.
+        let (mut fx, meter, v) = family.draw(&mut rng);
+        // Within the covered range: contacts to 300 kOhm per tab.
         fx.contact_ohm = fx.contact_ohm.min(300e3);
-        if let rig_sim::meter::Dynamics::Window { length_s, .. } = meter.dynamics {
-            meter.dynamics = rig_sim::meter::Dynamics::Window {
-                length_s: length_s.min(0.2),
-                centred: false,
-            };
-        }
         let r = run(&tmp.path().join(format!("k{seed}")), &Bench::new(fx, meter, seed));
         let (nf, b, f) = (r.noise_floor_pf, r.baseline().rms_pf, r.final_fit().rms_pf);
         let ids = named(&r);
         println!(
-            "{seed} {} {v:e}: {:.1}x noise -> {ids:?} {:.2}x",
+            "{seed} {} {v:e}: {:.1}x noise -> {ids:?} {:.2}x {}",
             family.name(),
             b / nf,
-            f / nf
+            f / nf,
+            r.final_fit().label()
         );
         if b <= 1.5 * nf {
             if r.accepted.is_some() || r.unexplained {
@@ -166,7 +221,7 @@ fn covered_families_are_named_right_and_explained() {
             continue;
         }
         detectable += 1;
-        if family.named_right(&ids) {
+        if family.named_right_at(&ids, v, 0.02) {
             right += 1;
         } else {
             bad.push(format!("seed {seed}: {} named {ids:?}", family.name()));
@@ -179,7 +234,7 @@ fn covered_families_are_named_right_and_explained() {
             ));
         }
     }
-    println!("detectable {detectable}/12, named right {right}");
-    assert!(detectable >= 9, "only {detectable} detectable");
+    println!("detectable {detectable}/14, named right {right}");
+    assert!(detectable >= 11, "only {detectable} detectable");
     assert!(bad.is_empty(), "{bad:#?}");
 }

@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 11;
+pub const COUNT: usize = 13;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -115,10 +115,14 @@ pub enum Effect {
     /// Electrode resistance per length ∝ 1 + g·(2ξ − 1), ξ = 0 at the read
     /// end: g > 0 is more resistive away from the tabs; total unchanged.
     ResistanceGradient,
-    /// Dielectric leakage conductance, distributed with the capacitance, S.
+    /// Dielectric leakage: conductance per capacitance G/C = σ/ε of the
+    /// film (bulk conduction), S/F: distributed with the capacitance and
+    /// growing with it as the film stretches (G = (σ/ε)·C).
     DielectricLeakage,
-    /// The meter's integration window: a reading is the mean admittance
-    /// over the preceding window, s.
+    /// The meter's integration window: a reading is the mean over the
+    /// window (its admittance, or its readings) ending at the reading's
+    /// time stamp, s; a stamp elsewhere in the window (centred) is a
+    /// [`Effect::TimeOffset`] within it, fitted with it.
     MeterLag,
     /// The capacitance channel's time offset against the stretch and
     /// resistance columns (> 0: late), s.
@@ -146,6 +150,15 @@ pub enum Effect {
     /// the clamped ends; mean unchanged), beside the linear mode of
     /// [`Effect::NonuniformStretch`].
     StretchBulge,
+    /// The meter's first-order response: a reading is the exponentially
+    /// weighted mean of what it measured before, e^(−u/τ)/τ, τ in s (a
+    /// lock-in's RC output filter, a meter's running average).
+    MeterResponse,
+    /// The symmetric mode of the electrode resistance along the sensor:
+    /// per length ∝ 1 + b·(6ξ(1 − ξ) − 1) (b > 0: the middle more
+    /// resistive than the ends; total unchanged), beside the linear mode
+    /// of [`Effect::ResistanceGradient`].
+    ResistanceBulge,
 }
 
 impl Effect {
@@ -162,6 +175,8 @@ impl Effect {
         Effect::LeadResistance,
         Effect::ElectrodeDispersion,
         Effect::StretchBulge,
+        Effect::MeterResponse,
+        Effect::ResistanceBulge,
     ];
 
     /// Its entry in the catalogue.
@@ -216,17 +231,22 @@ impl Effect {
                 entry: Entry::AlongLine,
                 fitted: true,
             },
+            // Physical range: a silicone film conducts σ ≈ 10⁻¹³ S/m
+            // (σ/ε ≈ 0.004 S/F); moisture, ionic fillers and conductive
+            // particles that crossed the film raise it by orders of
+            // magnitude. Searched to 5000 S/F (1 µS on 200 pF, a loss
+            // tangent of 4 at 1 kHz).
             Effect::DielectricLeakage => &Info {
                 id: "dielectric_leakage",
-                key: "leakage_conductance_ns",
-                doc: "dielectric leakage conductance (distributed), S",
-                unit: "S",
-                display_unit: "nS",
-                display_scale: 1e9,
-                display_decimals: 2,
+                key: "leakage_ns_per_pf",
+                doc: "dielectric leakage conductance per capacitance G/C = σ/ε (distributed with C, and growing with it as the film stretches), S/F",
+                unit: "S/F",
+                display_unit: "nS/pF",
+                display_scale: 1e-3,
+                display_decimals: 4,
                 limits: (0.0, f64::INFINITY),
                 open: false,
-                search: (0.0, 1000e-9),
+                search: (0.0, 5000.0),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
                 fitted: true,
@@ -342,6 +362,45 @@ impl Effect {
                 id: "stretch_bulge",
                 key: "bulge_ratio",
                 doc: "symmetric stretch mode along the sensor (middle over ends), -2..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-2.0, 1.0),
+                open: true,
+                search: (-0.98, 0.98),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            // Physical range: a lock-in's output filter from 1 ms to
+            // seconds; a meter's running average over a few readings
+            // (0.05–0.5 s). Searched to 0.5 s: what the trace's start can
+            // hold (the filter starts settled on it).
+            Effect::MeterResponse => &Info {
+                id: "meter_response",
+                key: "response_tau_ms",
+                doc: "time constant of the meter's first-order response, s",
+                unit: "s",
+                display_unit: "ms",
+                display_scale: 1e3,
+                display_decimals: 2,
+                limits: (0.0, 10.0),
+                open: false,
+                search: (0.0, 0.5),
+                scope: Scope::Recording,
+                entry: Entry::Time,
+                fitted: true,
+            },
+            // Physical range: a film sprayed or bladed thicker in the
+            // middle than at its edges (b < 0, down to ends that carry
+            // the whole resistance, b → −2) or thinner (b > 0, up to ends
+            // that conduct perfectly, b → 1); carbon-black films vary by
+            // tens of percent in thickness.
+            Effect::ResistanceBulge => &Info {
+                id: "resistance_bulge",
+                key: "r_bulge_ratio",
+                doc: "symmetric mode of the electrode resistance along the sensor (middle over ends), -2..1",
                 unit: "",
                 display_unit: "",
                 display_scale: 1.0,
@@ -478,6 +537,18 @@ impl EffectSet {
             self.get(Effect::StretchBulge),
         );
         1.0 + u * (2.0 * xi - 1.0) + v * (6.0 * xi * (1.0 - xi) - 1.0)
+    }
+
+    /// Electrode resistance per length over its mean at ξ along the
+    /// sensor: 1 + g·(2ξ − 1) + b·(6ξ(1 − ξ) − 1), g the
+    /// [`Effect::ResistanceGradient`] (linear) and b the
+    /// [`Effect::ResistanceBulge`] (symmetric) mode, floored at 0.
+    pub fn resistance_profile(&self, xi: f64) -> f64 {
+        let (g, b) = (
+            self.get(Effect::ResistanceGradient),
+            self.get(Effect::ResistanceBulge),
+        );
+        (1.0 + g * (2.0 * xi - 1.0) + b * (6.0 * xi * (1.0 - xi) - 1.0)).max(0.0)
     }
 
     /// The wiring as the meter sees it: (resistance in series with the

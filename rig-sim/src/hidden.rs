@@ -113,6 +113,19 @@ impl Family {
         !ids.is_empty() && ids.iter().all(|id| ok.contains(id))
     }
 
+    /// [`Family::named_right`] for a set drawn at `v` and recorded every
+    /// `row_s`: a meter kernel whose centroid (T/2 of a window, τ of a
+    /// first-order response) is under one row interval is resolved from
+    /// nothing but a delay, so `time_offset` names it right too.
+    pub fn named_right_at(self, ids: &[&str], v: f64, row_s: f64) -> bool {
+        let centroid = match self {
+            Family::Window => 0.5 * v.abs(),
+            Family::FirstOrder => v,
+            _ => f64::INFINITY,
+        };
+        self.named_right(ids) || (centroid < row_s && ids == ["time_offset"])
+    }
+
     /// A random strength over the family's physical range: the effects
     /// and the meter of one data set, and the value drawn (SI; for a
     /// window, negative when centred).
@@ -205,6 +218,10 @@ mod tests {
             assert_eq!(f.catalogue_ids().is_empty(), Family::OUTSIDE.contains(f));
         }
         assert!(Family::Window.named_right(&["meter_lag"]));
+        assert!(Family::Window.named_right_at(&["time_offset"], 0.03, 0.02));
+        assert!(!Family::Window.named_right_at(&["time_offset"], 0.05, 0.02));
+        assert!(Family::FirstOrder.named_right_at(&["time_offset"], 0.015, 0.02));
+        assert!(!Family::Offset.named_right_at(&["meter_lag"], 0.01, 0.02));
         assert!(!Family::Window.named_right(&["meter_lag", "time_offset"]));
         assert!(!Family::Contact.named_right(&[]));
     }

@@ -8,7 +8,7 @@
 //! - capacitance Cᵢ = C₀·λᵢ^a / n · ε(ω)/ε(0), ε the dielectric's
 //!   permittivity (Cole–Cole when relaxing);
 //! - each electrode's film resistance R₀·λᵢ^b·(1 + D)·wᵢ / n, D the film's
-//!   dynamic damage (see [`Film`]) and w the resistance profile (mean 1);
+//!   dynamic damage (see [`crate::bench::Film`]) and w the resistance profile (mean 1);
 //!   the film conducts as r/(1 + jωτ_f) when dispersive;
 //! - leakage Gᵢ = G·Cᵢ/C(0), a conductance that scales with the dielectric.
 //!

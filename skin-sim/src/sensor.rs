@@ -174,7 +174,7 @@ impl Sensor {
     /// Weight of segment i's electrode resistance (mean 1).
     fn r_weight(&self, i: usize) -> f64 {
         let xi = (i as f64 + 0.5) / SEGMENTS as f64;
-        1.0 + self.params.effects.get(Effect::ResistanceGradient) * (2.0 * xi - 1.0)
+        self.params.effects.resistance_profile(xi)
     }
 
     /// Segment i: (r_t + r_b, c, g).
@@ -185,8 +185,9 @@ impl Sensor {
         let body = 1.0 - p.effects.get(Effect::LeadResistance);
         let r = body * w * (p.top.resistance(&self.top, s) + p.bottom.resistance(&self.bottom, s));
         let c = p.capacitance(s) / SEGMENTS as f64;
-        // The leakage conductance is distributed with the capacitance.
-        let g = p.effects.get(Effect::DielectricLeakage) * c / p.capacitance(self.stretch);
+        // Bulk leakage: G/C = σ/ε of the film, so each segment's
+        // conductance follows its capacitance.
+        let g = p.effects.get(Effect::DielectricLeakage) * c;
         (r, c, g)
     }
 

@@ -100,6 +100,16 @@ fn effects_have_their_signatures() {
     let s = with(EffectSet::NONE.with(Effect::ResistanceGradient, 0.5));
     assert!((s.truth().r_line_ohm / t0.r_line_ohm - 1.0).abs() < 1e-12);
     assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
+    // The symmetric resistance mode: the same total (to the midpoint
+    // rule's v/(2·n²)), a different impedance, the same from either end.
+    let s = with(EffectSet::NONE.with(Effect::ResistanceBulge, 0.5));
+    assert!((s.truth().r_line_ohm / t0.r_line_ohm - 1.0).abs() < 1e-5);
+    assert!(rel(s.impedance(6e3), plain.impedance(6e3)) > 1e-3);
+    let fx = EffectSet::NONE.with(Effect::ResistanceBulge, 0.5);
+    assert!((fx.resistance_profile(0.2) - fx.resistance_profile(0.8)).abs() < 1e-12);
+    assert!(
+        (fx.resistance_profile(0.5) - 1.25).abs() < 1e-12 && (fx.resistance_profile(0.0) - 0.5).abs() < 1e-12
+    );
     // Nonuniform stretch: the same mean capacitance (C linear in stretch).
     let s = with(EffectSet::NONE.with(Effect::NonuniformStretch, 0.5));
     assert!((s.truth().c_farad / t0.c_farad - 1.0).abs() < 1e-12);
@@ -116,7 +126,8 @@ fn effects_have_their_signatures() {
     }
     assert!((fx.stretch_profile(0.5) - 1.3).abs() < 1e-12 && (fx.stretch_profile(0.0) - 0.4).abs() < 1e-12);
     // Leakage: lowers the impedance at low frequency most.
-    let s = with(EffectSet::NONE.with(Effect::DielectricLeakage, 1.0 / 200e6));
+    // 5 nS on 200 pF.
+    let s = with(EffectSet::NONE.with(Effect::DielectricLeakage, 25.0));
     let lo = rel(s.impedance(100.0), plain.impedance(100.0));
     let hi = rel(s.impedance(20e3), plain.impedance(20e3));
     assert!(lo > 0.005 && lo > 10.0 * hi, "{lo} {hi}");

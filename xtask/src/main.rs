@@ -8,6 +8,8 @@
 //! * `bench`: instruction counts on Cortex-M4 in QEMU (`-icount`), and with
 //!   `--host` the criterion benchmarks.
 //! * `run`: the main job (see the README).
+//! * `survey`: `identify` on the second generator over many seeds (the
+//!   README's figures).
 //! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each; the
 //!   test command runs them with 2 000.
 
@@ -39,6 +41,15 @@ enum Cmd {
     },
     /// The main job: the instrument at work, results under out/.
     Run,
+    /// identify on the second generator (`rig-sim`): one hidden effect per
+    /// set over its physical range, clean sets and effects outside the
+    /// library; a row per set and the README's summary (about a minute a
+    /// set).
+    Survey {
+        /// Sets.
+        #[arg(long, default_value_t = 50)]
+        seeds: u64,
+    },
     /// The fuzz targets (dsp-core's API, the channel logic, the wire
     /// format, the readers) with many cases (tens of minutes).
     Fuzz {
@@ -53,6 +64,31 @@ fn main() -> Result<()> {
     std::env::set_current_dir(&root)?;
     match Cli::parse().cmd {
         Cmd::Setup => setup(),
+        Cmd::Survey { seeds } => {
+            let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+            let args = [
+                "test",
+                "--release",
+                "-p",
+                "host-sim",
+                "--test",
+                "second_generator",
+                "--",
+                "--ignored",
+                "--nocapture",
+                "survey",
+            ];
+            eprintln!("$ SEEDS={seeds} cargo {}", args.join(" "));
+            let st = Command::new(cargo)
+                .args(args)
+                .env("SEEDS", seeds.to_string())
+                .status()
+                .context("running cargo")?;
+            if !st.success() {
+                bail!("the survey failed");
+            }
+            Ok(())
+        }
         Cmd::Fuzz { cases } => {
             let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
             let args = [
@@ -98,6 +134,8 @@ fn main() -> Result<()> {
                     "skin-sim",
                     "-p",
                     "host-sim",
+                    "-p",
+                    "rig-sim",
                     "-p",
                     "qemu-tests",
                 ])

@@ -4,7 +4,7 @@
 //! Levenberg–Marquardt; 1σ from the covariance.
 
 use super::{FileError, Fit};
-use crate::model::{Effect, Line, Params, Prepared};
+use crate::model::{Averaging, Effect, Line, Params, Prepared};
 use crate::numerics::solve;
 
 /// Noise-weighted residuals and statistics of `pred` against the data.
@@ -17,6 +17,8 @@ pub(super) struct Evaluated {
 pub(super) struct Problem<'a> {
     pub(super) prep: &'a Prepared,
     pub(super) line: Line,
+    /// What the meter averages (time effects only).
+    pub(super) averaging: Averaging,
     /// 1/σ per file and row.
     pub(super) w: Vec<Vec<f64>>,
     pub(super) rows: usize,
@@ -28,7 +30,7 @@ pub(super) struct Problem<'a> {
 
 impl Problem<'_> {
     pub(super) fn eval(&self, params: Params) -> Option<Evaluated> {
-        self.evaluate(&self.prep.predict(self.line, params).ok()?)
+        self.evaluate(&self.prep.predict_as(self.line, params, self.averaging).ok()?)
     }
 
     /// Residuals and weighted sum of squares of predictions `pred` (pF).
@@ -79,8 +81,9 @@ impl Problem<'_> {
         n * (s / n).ln() + k as f64 * n.ln()
     }
 
-    /// Summarize a model.
-    pub(super) fn fit_of(&self, effects: Vec<Effect>, params: Params, sigma: Vec<f64>, ev: Evaluated) -> Fit {
+    /// Summarize a model whose parameters `fitted` (1σ `sigma`) are set
+    /// in `params`; it names them all until told otherwise.
+    pub(super) fn fit_of(&self, fitted: Vec<Effect>, params: Params, sigma: Vec<f64>, ev: Evaluated) -> Fit {
         let (mut ss, mut mx, mut ssp, mut mxp, mut n) = (0.0, 0.0f64, 0.0, 0.0f64, 0usize);
         let files = self
             .prep
@@ -113,8 +116,11 @@ impl Problem<'_> {
         let k = n.max(1) as f64;
         Fit {
             line: self.line,
-            bic: self.bic(ev.s, effects.len()),
-            effects,
+            bic: self.bic(ev.s, fitted.len()),
+            effects: fitted.clone(),
+            fitted,
+            averaging: None,
+            unresolved: None,
             params,
             sigma,
             s: ev.s,

@@ -34,7 +34,7 @@ pub use report::params_text;
 
 use crate::baseline::noise_sigma;
 use crate::dataset::{DataSet, Kind};
-use crate::model::{Effect, Line, Params, Prepared};
+use crate::model::{Averaging, Effect, Line, Params, Prepared};
 use anyhow::{Context, Result};
 use fit::Problem;
 use indicatif::ProgressBar;
@@ -85,11 +85,22 @@ pub struct FileError {
 pub struct Fit {
     /// Line model.
     pub line: Line,
-    /// Effects fitted (empty: the baseline).
+    /// The effects the fit names (empty: the baseline).
     pub effects: Vec<Effect>,
+    /// The parameters fitted: the named effects' and any that are part of
+    /// one of them (a window's [`Effect::TimeOffset`] that lies within it
+    /// is where the meter stamps its readings, not a separate effect).
+    pub fitted: Vec<Effect>,
+    /// What the meter averages, where a time kernel was fitted.
+    pub averaging: Option<Averaging>,
+    /// Why the data cannot vouch for this model alone (None: they can):
+    /// a meter kernel shorter than the rows resolve. Such a fit is
+    /// selected only when no single effect the rows resolve explains the
+    /// data.
+    pub unresolved: Option<String>,
     /// All parameters (fitted ones set).
     pub params: Params,
-    /// 1σ uncertainty of each fitted parameter (same order as `effects`).
+    /// 1σ uncertainty of each fitted parameter (same order as `fitted`).
     pub sigma: Vec<f64>,
     /// Noise-weighted sum of squares.
     pub s: f64,
@@ -110,17 +121,42 @@ pub struct Fit {
 }
 
 impl Fit {
-    /// A label: the effects' ids joined by " + ".
+    /// A label: the effects' ids joined by " + ", with what the meter
+    /// averages where a time kernel was fitted.
     pub fn label(&self) -> String {
         if self.effects.is_empty() {
             format!("baseline ({})", self.line)
         } else {
-            self.effects
+            let ids = self
+                .effects
                 .iter()
                 .map(|e| e.id())
                 .collect::<Vec<_>>()
-                .join(" + ")
+                .join(" + ");
+            match self.averaging {
+                Some(a) => format!("{ids} ({a})"),
+                None => ids,
+            }
         }
+    }
+
+    /// The parameters that belong to the named effect `e`: its own, and
+    /// for a meter kernel the fitted ones no effect is named for (its
+    /// stamp within the window).
+    pub fn params_of(&self, e: Effect) -> Vec<Effect> {
+        let mut v = vec![e];
+        if KERNELS.contains(&e) && self.effects.iter().find(|k| KERNELS.contains(k)) == Some(&e) {
+            v.extend(self.fitted.iter().filter(|f| !self.effects.contains(f)));
+        }
+        v
+    }
+
+    /// The 1σ of a fitted parameter `e` (NaN if not fitted).
+    pub fn sigma_of(&self, e: Effect) -> f64 {
+        self.fitted
+            .iter()
+            .position(|&f| f == e)
+            .map_or(f64::NAN, |i| self.sigma[i])
     }
 }
 
@@ -171,22 +207,160 @@ impl Report {
         if !self.unexplained {
             return None;
         }
-        self.singles
-            .iter()
-            .chain(&self.pairs)
-            .min_by(|a, b| a.bic.total_cmp(&b.bic))
+        self.singles.iter().chain(&self.pairs).min_by(|a, b| {
+            (a.unresolved.is_some(), a.bic)
+                .partial_cmp(&(b.unresolved.is_some(), b.bic))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
     }
 }
 
 /// The fits of the candidate threads. A thread that panicked carries its
 /// panic on: a candidate never vanishes from the report silently.
-fn joined(hs: Vec<std::thread::ScopedJoinHandle<'_, Option<Fit>>>) -> Vec<Fit> {
+fn joined<T>(hs: Vec<std::thread::ScopedJoinHandle<'_, Option<T>>>) -> Vec<T> {
     hs.into_iter()
         .filter_map(|h| match h.join() {
             Ok(fit) => fit,
             Err(panic) => std::panic::resume_unwind(panic),
         })
         .collect()
+}
+
+/// The meter's averaging kernels: each is fitted in both averaging
+/// domains ([`Averaging`]), and the better kept.
+const KERNELS: [Effect; 2] = [Effect::MeterLag, Effect::MeterResponse];
+
+/// One candidate model: the parameters it fits, those to scan on a grid
+/// first (the others start where the smaller model left them), the start,
+/// what the meter averages, and the key under which the better of its
+/// averaging domains is kept.
+struct Candidate {
+    fitted: Vec<Effect>,
+    scan: Vec<Effect>,
+    start: Params,
+    averaging: Averaging,
+    key: Effect,
+}
+
+/// What a candidate fits for the effect `e`: a window jointly with its
+/// stamp (a time offset: a trailing and a centred window are both
+/// windows), any other effect alone.
+fn fitted_for(e: Effect) -> Vec<Effect> {
+    if e == Effect::MeterLag {
+        vec![Effect::MeterLag, Effect::TimeOffset]
+    } else {
+        vec![e]
+    }
+}
+
+/// The candidates: every effect of `library` alone (`base` None), or
+/// added to the parameters of `base`; a model with a meter kernel in
+/// both averaging domains (unless `base` chose one).
+fn candidates(library: &[Effect], base: Option<&Fit>) -> Vec<Candidate> {
+    let mut out = vec![];
+    for &e in library {
+        let (mut fitted, start) = match base {
+            None => (vec![], Params::NONE),
+            Some(b) => (b.fitted.clone(), b.params),
+        };
+        if fitted.contains(&e) {
+            continue;
+        }
+        let scan: Vec<Effect> = fitted_for(e)
+            .into_iter()
+            .filter(|f| !fitted.contains(f))
+            .collect();
+        fitted.extend(&scan);
+        let domains = match base.and_then(|b| b.averaging) {
+            Some(a) => vec![a],
+            None if fitted.iter().any(|f| KERNELS.contains(f)) => {
+                vec![Averaging::Admittance, Averaging::Readings]
+            }
+            None => vec![Averaging::Admittance],
+        };
+        for averaging in domains {
+            out.push(Candidate {
+                fitted: fitted.clone(),
+                scan: scan.clone(),
+                start,
+                averaging,
+                key: e,
+            });
+        }
+    }
+    out
+}
+
+/// Fit the candidates in parallel (one per averaging domain, `problems`
+/// indexed by [`Averaging`]), counting them on `progress`; the better
+/// domain of each key is kept, and each fit named ([`named`]).
+fn run_candidates(
+    problems: &[Problem; 2],
+    cands: Vec<Candidate>,
+    row_s: f64,
+    progress: &ProgressBar,
+) -> Vec<Fit> {
+    progress.inc_length(cands.len() as u64);
+    let fits: Vec<(Effect, Fit)> = std::thread::scope(|sc| {
+        let hs: Vec<_> = cands
+            .iter()
+            .map(|c| {
+                let prob = &problems[c.averaging as usize];
+                sc.spawn(move || {
+                    let f = prob
+                        .fit(&c.fitted, c.start, &c.scan)
+                        .map(|f| (c.key, named(f, c.averaging, row_s)));
+                    progress.inc(1);
+                    f
+                })
+            })
+            .collect();
+        joined(hs)
+    });
+    let mut best: Vec<(Effect, Fit)> = vec![];
+    for (k, f) in fits {
+        match best.iter_mut().find(|(b, _)| *b == k) {
+            Some((_, b)) if f.s < b.s => *b = f,
+            Some(_) => {}
+            None => best.push((k, f)),
+        }
+    }
+    best.into_iter().map(|(_, f)| f).collect()
+}
+
+/// Name a fit's effects: a window's time offset that lies within the
+/// window (to 3σ, 2 % of the window and 1 ms) is where the meter stamps
+/// its readings, part of `meter_lag`; outside it, the capacitance channel
+/// is offset as well. A fit with a meter kernel records its averaging.
+///
+/// A kernel whose centroid (T/2 for a window, τ for a first-order
+/// response) is under one row interval `row_s` is not resolved: between
+/// rows, all the data see of it is a delay by its centroid, and smoothing
+/// the model over a row also smooths the noise of the recorded resistance
+/// it is computed from, which a fit rewards. Such a fit is marked
+/// [`Fit::unresolved`]: `time_offset` stands for it unless a delay does
+/// not explain the data.
+fn named(mut f: Fit, averaging: Averaging, row_s: f64) -> Fit {
+    let p = f.params;
+    let centroid = 0.5 * p.get(Effect::MeterLag) + p.get(Effect::MeterResponse);
+    if f.fitted.iter().any(|e| KERNELS.contains(e)) && centroid < row_s {
+        f.unresolved = Some(format!(
+            "kernel centroid {:.1} ms under the row interval {:.1} ms: not resolved from a delay",
+            centroid * 1e3,
+            row_s * 1e3
+        ));
+    }
+    if f.fitted.contains(&Effect::MeterLag) && f.fitted.contains(&Effect::TimeOffset) {
+        let (t, d) = (p.get(Effect::MeterLag), p.get(Effect::TimeOffset));
+        let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.02 * t + 1e-3;
+        if d >= -tol && d <= t + tol {
+            f.effects.retain(|&e| e != Effect::TimeOffset);
+        }
+    }
+    if f.fitted.iter().any(|e| KERNELS.contains(e)) {
+        f.averaging = Some(averaging);
+    }
+    f
 }
 
 /// Which electrode resistance a data set gives the model.
@@ -302,9 +476,10 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         })
         .collect();
     let all_declared = declared.iter().all(|&d| d);
-    let problem = |line| Problem {
+    let problem = |line, averaging| Problem {
         prep: &prep,
         line,
+        averaging,
         w: w.clone(),
         rows,
         declared: all_declared,
@@ -312,7 +487,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     let fits: Vec<Fit> = baselines
         .iter()
         .map(|(line, pred)| {
-            let p = problem(*line);
+            let p = problem(*line, Averaging::Admittance);
             let ev = p.evaluate(pred).context("baseline")?;
             Ok(p.fit_of(vec![], Params::NONE, vec![], ev))
         })
@@ -321,7 +496,6 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     // that effects are added to; the paper's n = 30 ladder is reported as
     // its approximation.
     let base = fits[0].clone();
-    let prob = problem(base.line);
     let explained = |f: &Fit| f.rms_pf <= options.explained * noise_floor_pf;
     let mut report = Report {
         baselines: fits,
@@ -350,25 +524,35 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     let library: Vec<Effect> = Effect::library()
         .filter(|e| traces || e.info().entry != instrument::effects::Entry::Time)
         .collect();
+    let problems = [
+        problem(base.line, Averaging::Admittance),
+        problem(base.line, Averaging::Readings),
+    ];
     progress.set_message("single effects");
-    progress.inc_length(library.len() as u64);
-    let mut singles: Vec<Fit> = std::thread::scope(|sc| {
-        let hs: Vec<_> = library
-            .iter()
-            .map(|&e| {
-                let prob = &prob;
-                sc.spawn(move || {
-                    let f = prob.fit(&[e], Params::NONE, &[e]);
-                    progress.inc(1);
-                    f
-                })
-            })
-            .collect();
-        joined(hs)
-    });
-    singles.sort_by(|a, b| a.bic.total_cmp(&b.bic));
+    // The row interval the time kernels are resolved against: the
+    // shortest trace's median step (after decimation).
+    let row_s = prep
+        .files
+        .iter()
+        .filter(|f| f.kind == Kind::Trace)
+        .map(|f| {
+            let mut d: Vec<f64> = f.t.windows(2).map(|w| w[1] - w[0]).collect();
+            d.sort_by(f64::total_cmp);
+            d.get(d.len() / 2).copied().unwrap_or(0.0)
+        })
+        .fold(f64::INFINITY, f64::min);
+    // Fits the data vouch for, best BIC first, then the rest.
+    let order = |v: &mut Vec<Fit>| {
+        v.sort_by(|a, b| {
+            (a.unresolved.is_some(), a.bic)
+                .partial_cmp(&(b.unresolved.is_some(), b.bic))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+    };
+    let mut singles = run_candidates(&problems, candidates(&library, None), row_s, progress);
+    order(&mut singles);
     report.singles = singles;
-    let Some(best) = report.singles.first().cloned() else {
+    let Some(best) = report.singles.first().filter(|f| f.unresolved.is_none()).cloned() else {
         report.unexplained = true;
         return Ok(report);
     };
@@ -377,30 +561,22 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         report.accepted = Some(best);
         return Ok(report);
     }
+    // A kernel shorter than the rows resolve, only where no model they
+    // do resolve explains the data (a delay would have, if it were one).
+    if let Some(k) = report
+        .singles
+        .iter()
+        .find(|f| f.unresolved.is_some() && strong(f, &base) && explained(f))
+    {
+        report.accepted = Some(k.clone());
+        return Ok(report);
+    }
     if options.max_effects >= 2 && strong(&best, &base) {
-        let first = best.effects[0];
-        progress.set_message(format!("pairs with {}", first.id()));
-        progress.inc_length(library.len().saturating_sub(1) as u64);
-        let mut pairs: Vec<Fit> = std::thread::scope(|sc| {
-            let hs: Vec<_> = library
-                .iter()
-                .copied()
-                .filter(|&e| e != first)
-                .map(|e| {
-                    let prob = &prob;
-                    let start = best.params;
-                    sc.spawn(move || {
-                        let f = prob.fit(&[first, e], start, &[e]);
-                        progress.inc(1);
-                        f
-                    })
-                })
-                .collect();
-            joined(hs)
-        });
-        pairs.sort_by(|a, b| a.bic.total_cmp(&b.bic));
+        progress.set_message(format!("pairs with {}", best.label()));
+        let mut pairs = run_candidates(&problems, candidates(&library, Some(&best)), row_s, progress);
+        order(&mut pairs);
         report.pairs = pairs;
-        if let Some(bp) = report.pairs.first() {
+        if let Some(bp) = report.pairs.first().filter(|f| f.unresolved.is_none()) {
             if strong(bp, &best) && explained(bp) {
                 report.accepted = Some(bp.clone());
                 return Ok(report);

@@ -25,13 +25,20 @@ pub fn at_limit(e: Effect, v: f64) -> bool {
 /// Parameters of a fit as "name = value ± σ", marked where a value ends
 /// at its search range's limit.
 pub fn params_text(f: &Fit) -> String {
-    f.effects
+    f.fitted
         .iter()
         .zip(&f.sigma)
         .map(|(&e, s)| {
             let v = f.params.get(e);
+            // A window's offset within it: where the meter stamps.
+            let t = f.params.get(Effect::MeterLag);
+            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset && t > 0.0 {
+                format!(" (the stamp, {:.2} of the window after its start)", 1.0 - v / t)
+            } else {
+                String::new()
+            };
             format!(
-                "{} = {} ± {}{}",
+                "{} = {} ± {}{stamp}{}",
                 e.info().key,
                 param_value(e, v),
                 param_value(e, *s),
@@ -52,12 +59,12 @@ impl Report {
         use serde_json::json;
         let fit_json = |f: &Fit| {
             let params: serde_json::Map<String, serde_json::Value> = f
-                .effects
+                .fitted
                 .iter()
                 .map(|&e| (e.info().key.to_string(), json!(e.info().display(f.params.get(e)))))
                 .collect();
             let sigma: serde_json::Map<String, serde_json::Value> = f
-                .effects
+                .fitted
                 .iter()
                 .zip(&f.sigma)
                 .map(|(&e, s)| (e.info().key.to_string(), json!(e.info().display(*s))))
@@ -71,12 +78,19 @@ impl Report {
             .flat_map(|f| {
                 let (params, sigma) = fit_json(f);
                 f.effects.iter().map(move |&e| {
+                    let own = f.params_of(e);
+                    let pick = |m: &serde_json::Map<String, serde_json::Value>| {
+                        own.iter()
+                            .map(|p| (p.info().key.to_string(), m[p.info().key].clone()))
+                            .collect::<serde_json::Map<_, _>>()
+                    };
                     json!({
                         "id": e.id(),
-                        "params": {e.info().key: params[e.info().key]},
-                        "uncertainty": {e.info().key: sigma[e.info().key]},
+                        "params": pick(&params),
+                        "uncertainty": pick(&sigma),
                         "static": e.is_static(),
-                        "at_limit": at_limit(e, f.params.get(e)),
+                        "at_limit": own.iter().any(|&p| at_limit(p, f.params.get(p))),
+                        "averaging": f.averaging.filter(|_| !e.is_static()),
                         "rms_pf_after": f.rms_pf,
                     })
                 })
@@ -100,7 +114,9 @@ impl Report {
                 json!({
                     "ids": f.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
                     "params": params, "uncertainty": sigma,
-                    "at_limit": f.effects.iter().filter(|&&e| at_limit(e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
+                    "averaging": f.averaging,
+                    "unresolved": f.unresolved,
+                    "at_limit": f.fitted.iter().filter(|&&e| at_limit(e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
                     "rms_pf": f.rms_pf, "bic": f.bic,
                     "delta_bic": f.bic - self.baseline().bic,
                 })
@@ -220,8 +236,9 @@ impl Report {
             for x in self.singles.iter().chain(&self.pairs) {
                 let _ = writeln!(
                     md,
-                    "| {} | {} | {:.3} pF | {:.2} | {:.0} |",
+                    "| {}{} | {} | {:.3} pF | {:.2} | {:.0} |",
                     x.label(),
+                    x.unresolved.as_ref().map_or(String::new(), |u| format!(" ({u})")),
                     params_text(x),
                     x.rms_pf,
                     x.rms_pf / self.noise_floor_pf,

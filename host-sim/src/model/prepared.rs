@@ -1,6 +1,6 @@
 //! A data set prepared for fast model evaluation, and its predictions.
 
-use super::{has_time, timed::timed, Effect, Line, Model, Params, Shape};
+use super::{has_time, timed::timed, Averaging, Effect, Line, Model, Params, Shape};
 use crate::dataset::{DataSet, Kind, Row, Table};
 use crate::numerics::{corners, quadratic_fit};
 use anyhow::Result;
@@ -60,10 +60,17 @@ pub struct File {
     pub used: Vec<bool>,
 }
 
-/// Rows left out at the start of a trace (s): the longest window plus the
-/// largest negative offset searched.
+/// Rows left out at the start of a trace (s): the longest window (or two
+/// of the longest first-order time constants, where a filter started
+/// settled is within e⁻² of one that saw the past) plus the largest
+/// negative offset searched.
 pub fn edge_start_s() -> f64 {
-    Effect::MeterLag.info().search.1 - Effect::TimeOffset.info().search.0
+    Effect::MeterLag
+        .info()
+        .search
+        .1
+        .max(2.0 * Effect::MeterResponse.info().search.1)
+        - Effect::TimeOffset.info().search.0
 }
 
 /// Rows left out at the end of a trace (s): the largest positive offset.
@@ -150,8 +157,14 @@ impl Prepared {
     }
 
     /// Predicted Cs (pF) of every row of every file under `line` and
-    /// `params`, after de-biasing the calibration under the same model.
+    /// `params`, after de-biasing the calibration under the same model; a
+    /// meter that averages the admittance.
     pub fn predict(&self, line: Line, params: Params) -> Result<Vec<Vec<f64>>> {
+        self.predict_as(line, params, Averaging::Admittance)
+    }
+
+    /// [`Prepared::predict`] with the meter's `averaging` domain.
+    pub fn predict_as(&self, line: Line, params: Params, averaging: Averaging) -> Result<Vec<Vec<f64>>> {
         let stretched = params.has(Effect::NonuniformStretch) || params.has(Effect::StretchBulge);
         let local = stretched.then(|| self.shape.local(&params));
         let m = Model {
@@ -167,7 +180,7 @@ impl Prepared {
             .iter()
             .map(|file| {
                 if file.kind == Kind::Trace && has_time(&params) {
-                    timed(file, &params, at)
+                    timed(file, &params, averaging, at)
                 } else {
                     (0..file.cs.len())
                         .map(|k| {
