@@ -53,6 +53,103 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
     }
 }
 
+/// Random strength of `effect` (SI) over its physical range (the
+/// catalogue's notes; what a user's sensor or meter may have, detectable
+/// or not): log-uniform magnitude, random sign where it has one.
+fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
+    let (lo, hi, signed): (f64, f64, bool) = match effect {
+        // Silver paint to a dry press contact.
+        Effect::ContactResistance => (100.0, 1e6, false),
+        Effect::ParasiticCapacitance => (0.2e-12, 50e-12, false),
+        Effect::ResistanceGradient => (0.02, 0.95, true),
+        // 0.4–400 nS on 200 pF.
+        Effect::DielectricLeakage => (2.0, 2000.0, false),
+        // One sample to an LCR meter's slow mode.
+        Effect::MeterLag => (5e-3, 1.0, false),
+        Effect::MeterResponse => (5e-3, 0.5, false),
+        Effect::TimeOffset => (2e-3, 0.5, true),
+        Effect::NonuniformStretch => (0.02, 0.95, true),
+        Effect::StretchBulge => (0.02, 0.95, true),
+        Effect::ResistanceBulge => (0.02, 0.95, true),
+        Effect::LeadResistance => (0.02, 0.9, false),
+        Effect::ElectrodeDispersion => (1e-6, 1e-3, false),
+        Effect::DielectricDispersion => unreachable!("not in the library"),
+    };
+    let m = lo * (hi / lo).powf(rng.uniform());
+    if signed && rng.uniform() < 0.5 {
+        -m
+    } else {
+        m
+    }
+}
+
+/// The survey over the physical ranges (`cargo xtask survey`, beside the
+/// second generator's): `SEEDS` sets (default 50), one hidden effect each
+/// at [`physical_strength`]; a row per set and the summary the README
+/// quotes.
+#[test]
+#[ignore]
+fn survey() {
+    let tmp = tempfile::tempdir().unwrap();
+    let n: u64 = std::env::var("SEEDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(50);
+    let library: Vec<Effect> = Effect::library().collect();
+    println!("| seed | hidden | value | baseline/noise | named | after/noise | drop |");
+    println!("|---|---|---:|---:|---|---:|---:|");
+    let (mut det, mut right, mut drops, mut worst) = (0, 0, vec![], 0.0f64);
+    for seed in 0..n {
+        let mut rng = Rng::new(7000 + seed);
+        let effect = library[(rng.uniform() * library.len() as f64) as usize % library.len()];
+        let v = physical_strength(effect, &mut rng);
+        let (fx, meter) = hidden(effect, v);
+        let r = run(&tmp.path().join(format!("p{seed}")), fx, meter, seed);
+        let nf = r.noise_floor_pf;
+        let (b, f) = (r.baseline().rms_pf, r.final_fit().rms_pf);
+        let named: Vec<&str> = r
+            .accepted
+            .iter()
+            .flat_map(|a| a.effects.iter().map(|e| e.id()))
+            .collect();
+        println!(
+            "| {seed} | {} | {:.4} {} | {:.1} | {} | {:.2} | {:.1} |",
+            effect.id(),
+            effect.info().display(v),
+            effect.info().display_unit,
+            b / nf,
+            if r.unexplained {
+                "unexplained".to_string()
+            } else if r.accepted.is_none() {
+                "clean".to_string()
+            } else {
+                r.final_fit().label()
+            },
+            f / nf,
+            b / f
+        );
+        if b <= 1.5 * nf {
+            continue;
+        }
+        det += 1;
+        let centroid = match effect {
+            Effect::MeterLag => 0.5 * v,
+            Effect::MeterResponse => v,
+            _ => f64::INFINITY,
+        };
+        if named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"]) {
+            right += 1;
+        }
+        drops.push(b / f);
+        worst = worst.max(f / nf);
+    }
+    drops.sort_by(f64::total_cmp);
+    println!(
+        "\nskin-sim, physical ranges: {right}/{det} detectable named right, median drop {:.1}x, after <= {worst:.2}x noise",
+        drops.get(drops.len() / 2).copied().unwrap_or(f64::NAN)
+    );
+}
+
 fn run(dir: &Path, fx: EffectSet, meter: Meter, seed: u64) -> Report {
     dataset(dir, with_effects(fx), meter, seed, ProgressBar::hidden()).unwrap();
     identify(&read_dir(dir).unwrap(), Options::default()).unwrap()

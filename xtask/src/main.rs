@@ -8,8 +8,8 @@
 //! * `bench`: instruction counts on Cortex-M4 in QEMU (`-icount`), and with
 //!   `--host` the criterion benchmarks.
 //! * `run`: the main job (see the README).
-//! * `survey`: `identify` on the second generator over many seeds (the
-//!   README's figures).
+//! * `survey`: `identify` over the physical ranges on both generators,
+//!   many seeds (the README's figures).
 //! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each; the
 //!   test command runs them with 2 000.
 
@@ -41,10 +41,10 @@ enum Cmd {
     },
     /// The main job: the instrument at work, results under out/.
     Run,
-    /// identify on the second generator (`rig-sim`): one hidden effect per
-    /// set over its physical range, clean sets and effects outside the
-    /// library; a row per set and the README's summary (about a minute a
-    /// set).
+    /// identify over the physical ranges on both generators (`rig-sim`:
+    /// with clean sets and effects outside the library; `skin-sim`): one
+    /// hidden effect per set, a row per set and the README's summaries
+    /// (about a minute a set).
     Survey {
         /// Sets.
         #[arg(long, default_value_t = 50)]
@@ -73,6 +73,8 @@ fn main() -> Result<()> {
                 "host-sim",
                 "--test",
                 "second_generator",
+                "--test",
+                "identify",
                 "--",
                 "--ignored",
                 "--nocapture",
