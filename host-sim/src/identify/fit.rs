@@ -170,68 +170,35 @@ impl Problem<'_> {
     }
 
     /// Fit `effects` starting from `start` (the others held): a grid over
-    /// the range of each effect not yet set in `start` (`scan`), then
-    /// projected Levenberg–Marquardt on all of them.
-    pub(super) fn fit(&self, effects: &[Effect], start: Params, scan: &[Effect]) -> Option<Fit> {
+    /// the range of each effect not yet set in `start` (`scan`), evaluated
+    /// on `coarse` (the same data, traces decimated: the grid only picks
+    /// the basin), then projected Levenberg–Marquardt on all of them on
+    /// the full data.
+    pub(super) fn fit(
+        &self,
+        coarse: &Problem,
+        effects: &[Effect],
+        start: Params,
+        scan: &[Effect],
+    ) -> Option<Fit> {
         let mut p = start;
-        let mut best = self.eval(p)?;
-        for &e in scan {
-            let mut at = p.get(e);
-            for v in grid(e) {
-                if let Some(ev) = self.eval(p.with(e, v)) {
-                    if ev.s < best.s {
-                        best = ev;
-                        at = v;
+        if !scan.is_empty() {
+            let mut s_best = coarse.eval(p).map_or(f64::INFINITY, |ev| ev.s);
+            for &e in scan {
+                let mut at = p.get(e);
+                for v in grid(e) {
+                    if let Some(ev) = coarse.eval(p.with(e, v)) {
+                        if ev.s < s_best {
+                            s_best = ev.s;
+                            at = v;
+                        }
                     }
                 }
+                p = p.with(e, at);
             }
-            p = p.with(e, at);
         }
         let k = effects.len();
-        let clamp = |e: Effect, v: f64| {
-            let (lo, hi) = e.info().search;
-            v.clamp(lo, hi)
-        };
-        let mut lambda = 1e-3;
-        // JᵀJ at the current `p`, kept for the uncertainty when the last
-        // iteration leaves `p` where it was.
-        let mut jtj_at_p = None;
-        for _ in 0..40 {
-            let (a, g) = self.normal_equations(effects, p, &best)?;
-            let mut improved = false;
-            while lambda < 1e10 {
-                let mut m = a.clone();
-                for (i, row) in m.iter_mut().enumerate() {
-                    row[i] += lambda * a[i][i].max(1e-300);
-                }
-                let Some(d) = solve(m, g.iter().map(|v| -v).collect()) else {
-                    lambda *= 10.0;
-                    continue;
-                };
-                let mut q = p;
-                for (i, &e) in effects.iter().enumerate() {
-                    q = q.with(e, clamp(e, p.get(e) + d[i]));
-                }
-                match self.eval(q) {
-                    Some(ev) if ev.s < best.s => {
-                        let rel = (best.s - ev.s) / best.s;
-                        p = q;
-                        best = ev;
-                        lambda = (lambda / 4.0).max(1e-9);
-                        improved = rel > 1e-9;
-                        break;
-                    }
-                    _ => lambda *= 4.0,
-                }
-            }
-            if !improved {
-                // `p` is unchanged only if no step was accepted.
-                if lambda >= 1e10 {
-                    jtj_at_p = Some(a);
-                }
-                break;
-            }
-        }
+        let (p, best, jtj_at_p) = self.levenberg_marquardt(effects, p, self.eval(p)?);
         // Uncertainty: s²·(JᵀJ)⁻¹, s² = S/(n − k), at the optimum.
         let a = match jtj_at_p {
             Some(a) => a,
@@ -249,6 +216,70 @@ impl Problem<'_> {
             })
             .collect();
         Some(self.fit_of(effects.to_vec(), p, sigma, best))
+    }
+
+    /// Projected Levenberg–Marquardt on `effects` from `p` (evaluated as
+    /// `best`): the optimum, its evaluation, and JᵀJ there when the last
+    /// iteration left `p` where it was.
+    #[allow(clippy::type_complexity)]
+    fn levenberg_marquardt(
+        &self,
+        effects: &[Effect],
+        mut p: Params,
+        mut best: Evaluated,
+    ) -> (Params, Evaluated, Option<Vec<Vec<f64>>>) {
+        let clamp = |e: Effect, v: f64| {
+            let (lo, hi) = e.info().search;
+            v.clamp(lo, hi)
+        };
+        let mut lambda = 1e-3;
+        for _ in 0..40 {
+            let Some((a, g)) = self.normal_equations(effects, p, &best) else {
+                break;
+            };
+            let (mut improved, mut moved) = (false, false);
+            while lambda < 1e10 {
+                let mut m = a.clone();
+                for (i, row) in m.iter_mut().enumerate() {
+                    row[i] += lambda * a[i][i].max(1e-300);
+                }
+                let Some(d) = solve(m, g.iter().map(|v| -v).collect()) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let mut q = p;
+                for (i, &e) in effects.iter().enumerate() {
+                    q = q.with(e, clamp(e, p.get(e) + d[i]));
+                }
+                // A step (after the bounds) below 10⁻⁹ of every range
+                // moves nothing the data can see: converged.
+                if effects.iter().all(|&e| {
+                    let (lo, hi) = e.info().search;
+                    (q.get(e) - p.get(e)).abs() <= 1e-9 * (hi - lo)
+                }) {
+                    break;
+                }
+                match self.eval(q) {
+                    Some(ev) if ev.s < best.s => {
+                        // Converged when χ² falls by under 0.01 (S is
+                        // noise-weighted: BIC decides on differences of 10,
+                        // σ on differences of 1).
+                        improved = best.s - ev.s > 1e-2;
+                        moved = true;
+                        p = q;
+                        best = ev;
+                        lambda = (lambda / 4.0).max(1e-9);
+                        break;
+                    }
+                    _ => lambda *= 4.0,
+                }
+            }
+            if !improved {
+                // `p` is unchanged only if no step was accepted.
+                return (p, best, (!moved).then_some(a));
+            }
+        }
+        (p, best, None)
     }
 }
 

@@ -226,6 +226,10 @@ fn joined<T>(hs: Vec<std::thread::ScopedJoinHandle<'_, Option<T>>>) -> Vec<T> {
         .collect()
 }
 
+/// Rows per trace of the coarse copy the grids are scanned on (a 1500-row
+/// trace: every 4th row).
+const COARSE_ROWS: usize = 400;
+
 /// The meter's averaging kernels: each is fitted in both averaging
 /// domains ([`Averaging`]), and the better kept.
 const KERNELS: [Effect; 2] = [Effect::MeterLag, Effect::MeterResponse];
@@ -296,6 +300,7 @@ fn candidates(library: &[Effect], base: Option<&Fit>) -> Vec<Candidate> {
 /// domain of each key is kept, and each fit named ([`named`]).
 fn run_candidates(
     problems: &[Problem; 2],
+    coarse: &[Problem; 2],
     cands: Vec<Candidate>,
     row_s: f64,
     progress: &ProgressBar,
@@ -306,9 +311,10 @@ fn run_candidates(
             .iter()
             .map(|c| {
                 let prob = &problems[c.averaging as usize];
+                let coarse = &coarse[c.averaging as usize];
                 sc.spawn(move || {
                     let f = prob
-                        .fit(&c.fitted, c.start, &c.scan)
+                        .fit(coarse, &c.fitted, c.start, &c.scan)
                         .map(|f| (c.key, named(f, c.averaging, row_s)));
                     progress.inc(1);
                     f
@@ -431,10 +437,11 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     // fit against, and a made-up floor would make any fit look explained
     // or not at will.
     let median = trace_noise.get(trace_noise.len() / 2).copied();
-    let mut w: Vec<Vec<f64>> = vec![];
+    // Each file's σ: stated row by row (None), or its noise floor.
+    let mut file_sigma: Vec<Option<f64>> = vec![];
     for ((f, &v), &d) in prep.files.iter().zip(&raw).zip(&declared) {
-        w.push(if d {
-            f.sigma.iter().map(|s| 1.0 / s).collect()
+        file_sigma.push(if d {
+            None
         } else {
             let sigma = if usable(v) {
                 v
@@ -447,9 +454,20 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
                     )
                 })?
             };
-            vec![1.0 / sigma; f.cs.len()]
+            Some(sigma)
         });
     }
+    let weights = |prep: &Prepared| -> Vec<Vec<f64>> {
+        prep.files
+            .iter()
+            .zip(&file_sigma)
+            .map(|(f, s)| match s {
+                Some(s) => vec![1.0 / s; f.cs.len()],
+                None => f.sigma.iter().map(|s| 1.0 / s).collect(),
+            })
+            .collect()
+    };
+    let w = weights(&prep);
     let row_sigma = |f: &crate::model::File, w: &[f64]| -> (f64, usize) {
         let (mut ss, mut n) = (0.0, 0usize);
         for (w, _) in w.iter().zip(&f.used).filter(|x| *x.1) {
@@ -528,6 +546,27 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         problem(base.line, Averaging::Admittance),
         problem(base.line, Averaging::Readings),
     ];
+    // The grids run on a copy of the traces decimated to COARSE_ROWS rows
+    // each; Levenberg–Marquardt refines on all rows.
+    let coarse_prep = Prepared::with_max_rows(ds, options.sweep, COARSE_ROWS)?;
+    let coarse_w = weights(&coarse_prep);
+    let coarse_rows = coarse_prep
+        .files
+        .iter()
+        .map(|f| f.used.iter().filter(|u| **u).count())
+        .sum();
+    let coarse_problem = |averaging| Problem {
+        prep: &coarse_prep,
+        line: base.line,
+        averaging,
+        w: coarse_w.clone(),
+        rows: coarse_rows,
+        declared: all_declared,
+    };
+    let coarse = [
+        coarse_problem(Averaging::Admittance),
+        coarse_problem(Averaging::Readings),
+    ];
     progress.set_message("single effects");
     // The row interval the time kernels are resolved against: the
     // shortest trace's median step (after decimation).
@@ -549,7 +588,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
                 .unwrap_or(std::cmp::Ordering::Equal)
         })
     };
-    let mut singles = run_candidates(&problems, candidates(&library, None), row_s, progress);
+    let mut singles = run_candidates(&problems, &coarse, candidates(&library, None), row_s, progress);
     order(&mut singles);
     report.singles = singles;
     let Some(best) = report.singles.first().filter(|f| f.unresolved.is_none()).cloned() else {
@@ -573,7 +612,13 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     }
     if options.max_effects >= 2 && strong(&best, &base) {
         progress.set_message(format!("pairs with {}", best.label()));
-        let mut pairs = run_candidates(&problems, candidates(&library, Some(&best)), row_s, progress);
+        let mut pairs = run_candidates(
+            &problems,
+            &coarse,
+            candidates(&library, Some(&best)),
+            row_s,
+            progress,
+        );
         order(&mut pairs);
         report.pairs = pairs;
         if let Some(bp) = report.pairs.first().filter(|f| f.unresolved.is_none()) {

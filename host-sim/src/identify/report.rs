@@ -32,8 +32,18 @@ pub fn params_text(f: &Fit) -> String {
             let v = f.params.get(e);
             // A window's offset within it: where the meter stamps.
             let t = f.params.get(Effect::MeterLag);
-            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset && t > 0.0 {
-                format!(" (the stamp, {:.2} of the window after its start)", 1.0 - v / t)
+            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset {
+                // Named the stamp within the window's tolerance
+                // (`named`); a fraction of it only where it is one.
+                let frac = 1.0 - v / t;
+                if t > 0.0 && (-0.05..=1.05).contains(&frac) {
+                    format!(
+                        " (the stamp, {:.2} of the window after its start)",
+                        frac.clamp(0.0, 1.0)
+                    )
+                } else {
+                    " (the stamp: the window is too short to place it in)".to_string()
+                }
             } else {
                 String::new()
             };

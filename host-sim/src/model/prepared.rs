@@ -78,9 +78,9 @@ pub fn edge_end_s() -> f64 {
     Effect::TimeOffset.info().search.1
 }
 
-fn file_of(t: &Table) -> File {
+fn file_of(t: &Table, max_rows: usize) -> File {
     let stride = match t.kind {
-        Kind::Trace => t.rows.len().div_ceil(MAX_TRACE_ROWS).max(1),
+        Kind::Trace => t.rows.len().div_ceil(max_rows.max(MIN_TRACE_ROWS)).max(1),
         _ => 1,
     };
     let col = |g: fn(&Row) -> f64| t.rows.iter().step_by(stride).map(g).collect::<Vec<f64>>();
@@ -127,6 +127,13 @@ impl File {
 impl Prepared {
     /// Prepare `ds`; the sweep is modelled too when `sweep` is set.
     pub fn new(ds: &DataSet, sweep: bool) -> Result<Self> {
+        Self::with_max_rows(ds, sweep, MAX_TRACE_ROWS)
+    }
+
+    /// [`Prepared::new`] with each trace decimated to at most `max_rows`
+    /// rows (at least [`MIN_TRACE_ROWS`]): `identify` scans its grids on
+    /// such a coarse copy and refines on the full one.
+    pub fn with_max_rows(ds: &DataSet, sweep: bool, max_rows: usize) -> Result<Self> {
         for t in &ds.traces {
             anyhow::ensure!(
                 t.rows.len() >= MIN_TRACE_ROWS,
@@ -135,9 +142,9 @@ impl Prepared {
                 t.rows.len()
             );
         }
-        let mut files: Vec<File> = ds.traces.iter().map(file_of).collect();
+        let mut files: Vec<File> = ds.traces.iter().map(|t| file_of(t, max_rows)).collect();
         if let (true, Some(sw)) = (sweep, &ds.sweep) {
-            files.push(file_of(sw));
+            files.push(file_of(sw, max_rows));
         }
         Ok(Self {
             shape: Shape::from_calibration(&ds.calibration)?,

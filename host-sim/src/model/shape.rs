@@ -60,15 +60,23 @@ impl Shape {
     /// the sensor, so the local ones are found by undoing that mean. C:
     /// exact for the quadratic (c2 → c2/mean φ², mean φ² = 1 + u²/3 +
     /// v²/5; the modes are orthogonal). R: fixed-point iteration
-    /// ρ ← ρ·R_cal/mean_ξ ρ(s·φ(ξ)) at the calibration points.
+    /// ρ ← ρ·R_cal/mean_ξ ρ(s·φ(ξ)) at the calibration points, R_cal the
+    /// film's (the recorded totals less the contacts of `p`).
     pub fn local(&self, p: &crate::model::Params) -> Shape {
         use crate::model::Effect;
         let (u, v) = (p.get(Effect::NonuniformStretch), p.get(Effect::StretchBulge));
+        // The film's own R(s): the recorded totals less the tabs' contacts
+        // (R_el = R_rec − 4·R_c), which do not stretch.
+        let rc4 = 4.0 * p.get(Effect::ContactResistance);
+        let film: Vec<(f64, f64)> = self
+            .r
+            .iter()
+            .map(|&(s, r)| (s, (r - rc4).max(1e-3 * r)))
+            .collect();
         let [a, b, c2] = self.c;
-        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0 + v * v / 5.0)], self.r.clone());
+        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0 + v * v / 5.0)], film.clone());
         for _ in 0..6 {
-            let next: Vec<(f64, f64)> = self
-                .r
+            let next: Vec<(f64, f64)> = film
                 .iter()
                 .zip(&out.r)
                 .map(|(&(s, r_cal), &(_, rho))| {
