@@ -74,6 +74,8 @@ fn survey() {
         let t = std::time::Instant::now();
         let r = run(&tmp.path().join(format!("s{seed}")), &Bench::new(fx, meter, seed));
         let nf = r.noise_floor_pf;
+        // After: against the floor seen through the final model.
+        let fnf = r.final_noise_pf();
         let (base, fin) = (r.baseline().rms_pf, r.final_fit().rms_pf);
         let ids = named(&r);
         let name = family.map_or("clean", |f| f.name());
@@ -87,7 +89,7 @@ fn survey() {
             } else {
                 r.final_fit().label()
             },
-            fin / nf,
+            fin / fnf,
             base / fin,
             t.elapsed().as_secs_f64()
         );
@@ -112,7 +114,7 @@ fn survey() {
         if base > 1.5 * nf {
             by[k].2 += 1;
             by[k].3 += usize::from(f.named_right_at(&ids, v, 0.02));
-            by[k].4.push(fin / nf);
+            by[k].4.push(fin / fnf);
             by[k].5.push(base / fin);
         }
     }

@@ -4,6 +4,8 @@
 //! Levenberg–Marquardt; 1σ from the covariance.
 
 use super::{FileError, Fit};
+use crate::baseline::noise_sigma;
+use crate::dataset::Kind;
 use crate::model::{Averaging, Effect, Line, Params, Prepared};
 use crate::numerics::solve;
 
@@ -26,6 +28,8 @@ pub(super) struct Problem<'a> {
     /// residual): a parameter's uncertainty is scaled up by the fit's
     /// √(χ²/(n − k)) only when that exceeds 1 (the Birge ratio).
     pub(super) declared: bool,
+    /// Per file: its rows state their σ (`cs_sigma_pf`).
+    pub(super) stated: Vec<bool>,
 }
 
 impl Problem<'_> {
@@ -81,6 +85,45 @@ impl Problem<'_> {
         n * (s / n).ln() + k as f64 * n.ln()
     }
 
+    /// The noise floor (pF) of the data seen through a model whose
+    /// residual is `residual`: per trace, the point-to-point scatter of the
+    /// residual on the rows used ([`noise_sigma`]: the meter's Cs noise
+    /// and the recorded resistances' noise as the model carries it into
+    /// its prediction, which a misfit smooth in time does not raise); a
+    /// sweep takes the traces' median; stated σ as stated. Row-weighted
+    /// RMS over the files.
+    pub(super) fn floor_of(&self, residual: &[Vec<f64>]) -> f64 {
+        let usable = |v: f64| v.is_finite() && v > 0.0;
+        let per: Vec<Option<f64>> = self
+            .prep
+            .files
+            .iter()
+            .zip(residual)
+            .zip(&self.stated)
+            .map(|((f, r), &stated)| {
+                if stated || f.kind != Kind::Trace {
+                    return None;
+                }
+                let used: Vec<f64> = r.iter().zip(&f.used).filter(|x| *x.1).map(|x| *x.0).collect();
+                Some(noise_sigma(&used)).filter(|&v| usable(v))
+            })
+            .collect();
+        let mut traces: Vec<f64> = per.iter().flatten().copied().collect();
+        traces.sort_by(f64::total_cmp);
+        let median = traces.get(traces.len() / 2).copied();
+        let (mut ss, mut n) = (0.0, 0usize);
+        for ((f, w), s) in self.prep.files.iter().zip(&self.w).zip(&per) {
+            for (w, _) in w.iter().zip(&f.used).filter(|x| *x.1) {
+                // A file without a scatter of its own: its weight's σ
+                // (stated), or the traces' median.
+                let sigma = s.or(median.filter(|_| f.kind != Kind::Trace)).unwrap_or(1.0 / w);
+                ss += sigma * sigma;
+                n += 1;
+            }
+        }
+        (ss / n.max(1) as f64).sqrt()
+    }
+
     /// Summarize a model whose parameters `fitted` (1σ `sigma`) are set
     /// in `params`; it names them all until told otherwise.
     pub(super) fn fit_of(&self, fitted: Vec<Effect>, params: Params, sigma: Vec<f64>, ev: Evaluated) -> Fit {
@@ -115,6 +158,7 @@ impl Problem<'_> {
             .collect();
         let k = n.max(1) as f64;
         Fit {
+            noise_pf: self.floor_of(&ev.residual),
             line: self.line,
             bic: self.bic(ev.s, fitted.len()),
             effects: fitted.clone(),
@@ -123,6 +167,7 @@ impl Problem<'_> {
             unresolved: None,
             params,
             sigma,
+            correlation: vec![],
             s: ev.s,
             rms_pf: (ss / k).sqrt(),
             max_pf: mx,
@@ -208,14 +253,36 @@ impl Problem<'_> {
         if self.declared {
             s2 = s2.max(1.0);
         }
-        let sigma = (0..k)
+        // (JᵀJ)⁻¹ by columns (None: singular, nothing pinned down).
+        let inv: Vec<Option<Vec<f64>>> = (0..k)
             .map(|i| {
                 let mut unit = vec![0.0; k];
                 unit[i] = 1.0;
-                solve(a.clone(), unit).map_or(f64::INFINITY, |col| (s2 * col[i]).max(0.0).sqrt())
+                solve(a.clone(), unit)
             })
             .collect();
-        Some(self.fit_of(effects.to_vec(), p, sigma, best))
+        let sigma: Vec<f64> = inv
+            .iter()
+            .enumerate()
+            .map(|(i, col)| {
+                col.as_ref()
+                    .map_or(f64::INFINITY, |c| (s2 * c[i]).max(0.0).sqrt())
+            })
+            .collect();
+        // Correlations ρᵢⱼ = Cᵢⱼ/√(CᵢᵢCⱼⱼ) (NaN where singular).
+        let correlation = (0..k)
+            .map(|i| {
+                (0..k)
+                    .map(|j| match (&inv[i], &inv[j]) {
+                        (Some(ci), Some(cj)) => ci[j] / (ci[i] * cj[j]).sqrt(),
+                        _ => f64::NAN,
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut fit = self.fit_of(effects.to_vec(), p, sigma, best);
+        fit.correlation = correlation;
+        Some(fit)
     }
 
     /// Projected Levenberg–Marquardt on `effects` from `p` (evaluated as

@@ -15,7 +15,9 @@
 //!    the best pair containing it.
 //! 4. An effect is accepted only with strong evidence (ΔBIC > 10 against
 //!    the smaller model) *and* when the model with it explains the data
-//!    (RMS ≤ [`Options::explained`] × noise floor). Otherwise the data set
+//!    (RMS ≤ [`Options::explained`] × the noise floor seen through that
+//!    model, [`Fit::noise_pf`]: the recorded resistances' noise enters
+//!    every prediction, more through some models than others). Otherwise the data set
 //!    is reported as unexplained, with the best attempt kept apart.
 
 //!
@@ -102,12 +104,23 @@ pub struct Fit {
     pub params: Params,
     /// 1σ uncertainty of each fitted parameter (same order as `fitted`).
     pub sigma: Vec<f64>,
+    /// Correlation of the fitted parameters' errors (same order; NaN
+    /// where the normal matrix is singular).
+    pub correlation: Vec<Vec<f64>>,
     /// Noise-weighted sum of squares.
     pub s: f64,
     /// Bayesian information criterion.
     pub bic: f64,
     /// Overall RMS, pF.
     pub rms_pf: f64,
+    /// The noise floor the fit is judged by, pF: the data's noise seen
+    /// through this model (the point-to-point scatter of its residual:
+    /// the meter's Cs noise and the recorded resistances' noise as the
+    /// model carries it; `Problem::floor_of`). Large contacts leave a
+    /// small film resistance to be found by difference, so the
+    /// resistances' noise weighs more through them than through the
+    /// baseline.
+    pub noise_pf: f64,
     /// Overall max, pF.
     pub max_pf: f64,
     /// Overall RMS relative to the measured Cs, %.
@@ -149,6 +162,49 @@ impl Fit {
             v.extend(self.fitted.iter().filter(|f| !self.effects.contains(f)));
         }
         v
+    }
+
+    /// What these data cannot pin down: a parameter whose 1σ is as large
+    /// as its value (or reaches across its search range), and pairs whose
+    /// errors are correlated beyond |ρ| = [`CORRELATED`] (the data fix a
+    /// combination of the two, not each).
+    pub fn identifiability(&self) -> Vec<String> {
+        let mut out = vec![];
+        for (i, &e) in self.fitted.iter().enumerate() {
+            let (v, s) = (self.params.get(e), self.sigma[i]);
+            let (lo, hi) = e.info().search;
+            if s.is_nan() || s >= v.abs() || s >= 0.5 * (hi - lo) {
+                out.push(format!(
+                    "{}: not pinned down (1σ {} against a value of {})",
+                    e.info().key,
+                    fmt_si(e, s),
+                    fmt_si(e, v)
+                ));
+            }
+        }
+        for i in 0..self.fitted.len() {
+            for j in i + 1..self.fitted.len() {
+                let r = self
+                    .correlation
+                    .get(i)
+                    .and_then(|c| c.get(j))
+                    .copied()
+                    .unwrap_or(f64::NAN);
+                if r.is_nan() || r.abs() > CORRELATED {
+                    out.push(format!(
+                        "{} and {}: {} (the data fix a combination of the two, not each)",
+                        self.fitted[i].info().key,
+                        self.fitted[j].info().key,
+                        if r.is_nan() {
+                            "not separable".to_string()
+                        } else {
+                            format!("errors correlated, ρ = {r:.3}")
+                        }
+                    ));
+                }
+            }
+        }
+        out
     }
 
     /// The 1σ of a fitted parameter `e` (NaN if not fitted).
@@ -213,6 +269,18 @@ impl Report {
                 .unwrap_or(std::cmp::Ordering::Equal)
         })
     }
+}
+
+/// Correlation of two fitted parameters' errors beyond which the report
+/// says the data fix only their combination.
+pub const CORRELATED: f64 = 0.95;
+
+/// A value of effect `e` in its display unit.
+fn fmt_si(e: Effect, v: f64) -> String {
+    let i = e.info();
+    format!("{:.*} {}", i.display_decimals, i.display(v), i.display_unit)
+        .trim_end()
+        .to_string()
 }
 
 /// The fits of the candidate threads. A thread that panicked carries its
@@ -501,6 +569,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         w: w.clone(),
         rows,
         declared: all_declared,
+        stated: declared.clone(),
     };
     let fits: Vec<Fit> = baselines
         .iter()
@@ -514,7 +583,8 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
     // that effects are added to; the paper's n = 30 ladder is reported as
     // its approximation.
     let base = fits[0].clone();
-    let explained = |f: &Fit| f.rms_pf <= options.explained * noise_floor_pf;
+    // Explained: within the factor of the noise as the model sees it.
+    let explained = |f: &Fit| f.rms_pf <= options.explained * f.noise_pf;
     let mut report = Report {
         baselines: fits,
         noise_pf,
@@ -562,6 +632,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         w: coarse_w.clone(),
         rows: coarse_rows,
         declared: all_declared,
+        stated: declared.clone(),
     };
     let coarse = [
         coarse_problem(Averaging::Admittance),

@@ -22,6 +22,16 @@ pub fn at_limit(e: Effect, v: f64) -> bool {
     (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
 }
 
+/// Where the floor seen through a model differs from the baseline's by
+/// more than 10 %: both.
+fn through(model: f64, baseline: f64) -> String {
+    if (model / baseline - 1.0).abs() > 0.1 {
+        format!(" through this model ({baseline:.3} pF through the baseline)")
+    } else {
+        String::new()
+    }
+}
+
 /// Parameters of a fit as "name = value ± σ", marked where a value ends
 /// at its search range's limit.
 pub fn params_text(f: &Fit) -> String {
@@ -110,6 +120,7 @@ impl Report {
             json!({
                 "model": f.label(),
                 "rms_pf": f.rms_pf, "max_pf": f.max_pf,
+                "noise_pf": f.noise_pf,
                 "rms_pct": f.rms_pct, "max_pct": f.max_pct,
                 "bic": f.bic,
                 "files": f.files,
@@ -127,7 +138,8 @@ impl Report {
                     "averaging": f.averaging,
                     "unresolved": f.unresolved,
                     "at_limit": f.fitted.iter().filter(|&&e| at_limit(e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
-                    "rms_pf": f.rms_pf, "bic": f.bic,
+                    "rms_pf": f.rms_pf, "noise_pf": f.noise_pf, "bic": f.bic,
+                    "identifiability": f.identifiability(),
                     "delta_bic": f.bic - self.baseline().bic,
                 })
             })
@@ -140,6 +152,7 @@ impl Report {
             "noise_floor_pf": self.noise_floor_pf,
             "noise_pf": self.noise_pf.iter().map(|(f, s)| json!({"file": f, "sigma_pf": s})).collect::<Vec<_>>(),
             "unexplained": self.unexplained,
+            "identifiability": self.accepted.as_ref().map_or(vec![], Fit::identifiability),
             "best_attempt": self.best_attempt().map(stats),
             "candidates": candidates,
             "rows": self.rows,
@@ -153,17 +166,24 @@ impl Report {
         })
     }
 
+    /// The noise floor seen through the accepted model, or through the
+    /// baseline.
+    pub fn final_noise_pf(&self) -> f64 {
+        self.accepted.as_ref().map_or(self.noise_floor_pf, |f| f.noise_pf)
+    }
+
     /// A short verdict line.
     pub fn verdict(&self) -> String {
         let nf = self.noise_floor_pf;
         match (&self.accepted, self.unexplained) {
             (Some(f), _) => format!(
-                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF",
+                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}",
                 f.label(),
                 params_text(f),
                 self.baseline().rms_pf,
                 f.rms_pf,
-                nf
+                f.noise_pf,
+                through(f.noise_pf, nf)
             ),
             (None, false) => format!(
                 "clean: the {} explains the data (RMS {:.3} pF, noise floor {:.3} pF)",
@@ -172,13 +192,14 @@ impl Report {
                 nf
             ),
             (None, true) => format!(
-                "unexplained: RMS {:.3} pF is {:.1}× the noise floor ({:.3} pF), and no candidate brings it within {}× (best attempt: {} at {:.3} pF)",
+                "unexplained: RMS {:.3} pF is {:.1}× the noise floor ({:.3} pF), and no candidate brings it within {}× (best attempt: {} at {:.3} pF, {:.2}× its floor)",
                 self.baseline().rms_pf,
                 self.baseline().rms_pf / nf,
                 nf,
                 self.options.explained,
                 self.best_attempt().map_or("none".into(), Fit::label),
-                self.best_attempt().map_or(f64::NAN, |f| f.rms_pf)
+                self.best_attempt().map_or(f64::NAN, |f| f.rms_pf),
+                self.best_attempt().map_or(f64::NAN, |f| f.rms_pf / f.noise_pf)
             ),
         }
     }
@@ -187,15 +208,27 @@ impl Report {
     pub fn markdown(&self, data: &str, plot: Option<&str>) -> String {
         use std::fmt::Write as _;
         let mut md = format!("# identify: {data}\n\n**{}**\n\n", self.verdict());
+        // What the data cannot pin down, of the model found (or tried).
+        if let Some(x) = self.accepted.as_ref().or(self.best_attempt()) {
+            let notes = x.identifiability();
+            if !notes.is_empty() {
+                let _ = writeln!(md, "Identifiability ({}):\n", x.label());
+                for n in notes {
+                    let _ = writeln!(md, "- {n}");
+                }
+                md.push('\n');
+            }
+        }
         let b = self.baseline();
         let f = self.final_fit();
         let _ = writeln!(md, "## Error before and after\n");
         let _ = writeln!(
             md,
-            "Before: {}. After: {}. Noise floor: {:.3} pF ({} rows). Electrode resistance: {}.\n",
+            "Before: {}. After: {}. Noise floor: {:.3} pF through the baseline, {:.3} pF through the final model ({} rows). Electrode resistance: {}.\n",
             b.label(),
             f.label(),
             self.noise_floor_pf,
+            self.final_noise_pf(),
             self.rows,
             self.resistance
         );
@@ -240,18 +273,19 @@ impl Report {
         if !self.singles.is_empty() {
             let _ = writeln!(
                 md,
-                "\n## Candidates\n\nModel selection by BIC = n·ln(S/n) + k·ln n; an effect is accepted when it lowers BIC by more than {} and leaves the RMS within {}× the noise floor.\n\n| effects | parameters (± 1σ) | RMS | RMS / noise | ΔBIC vs baseline |\n|---|---|---:|---:|---:|",
+                "\n## Candidates\n\nModel selection by BIC = n·ln(S/n) + k·ln n; an effect is accepted when it lowers BIC by more than {} and leaves the RMS within {}× the noise floor seen through the model (the point-to-point scatter of its residual: the Cs noise and the recorded resistances' noise as the model carries it).\n\n| effects | parameters (± 1σ) | RMS | noise through it | RMS / noise | ΔBIC vs baseline |\n|---|---|---:|---:|---:|---:|",
                 self.options.bic_margin, self.options.explained
             );
             for x in self.singles.iter().chain(&self.pairs) {
                 let _ = writeln!(
                     md,
-                    "| {}{} | {} | {:.3} pF | {:.2} | {:.0} |",
+                    "| {}{} | {} | {:.3} pF | {:.3} pF | {:.2} | {:.0} |",
                     x.label(),
                     x.unresolved.as_ref().map_or(String::new(), |u| format!(" ({u})")),
                     params_text(x),
                     x.rms_pf,
-                    x.rms_pf / self.noise_floor_pf,
+                    x.noise_pf,
+                    x.rms_pf / x.noise_pf,
                     x.bic - b.bic
                 );
             }
