@@ -173,7 +173,21 @@ impl Prepared {
     /// [`Prepared::predict`] with the meter's `averaging` domain.
     pub fn predict_as(&self, line: Line, params: Params, averaging: Averaging) -> Result<Vec<Vec<f64>>> {
         let stretched = params.has(Effect::NonuniformStretch) || params.has(Effect::StretchBulge);
-        let local = stretched.then(|| self.shape.local(&params));
+        let mut local = stretched.then(|| self.shape.local(&params));
+        // The calibration's raw Cs carries the line's bias, which grows
+        // with R along the stretch: the local C(s) is un-averaged from the
+        // de-biased curve instead (once: the bias under the refined shape
+        // moves it by far less). Rig-sim, an exponential stretch profile:
+        // 0.25 → 0.08 pF at 30 mm.
+        if let Some(sh) = &local {
+            let m0 = Model {
+                line,
+                params,
+                shape: sh,
+            };
+            let c = self.calibrate(&m0)?;
+            local = Some(self.shape.with_c(c).local(&params));
+        }
         let m = Model {
             line,
             params,

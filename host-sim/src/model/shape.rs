@@ -93,6 +93,11 @@ impl Shape {
         out
     }
 
+    /// The same R(s) with the C(s) quadratic `c` (any unit).
+    pub fn with_c(&self, c: [f64; 3]) -> Shape {
+        Shape::new(c, self.r.clone())
+    }
+
     pub(crate) fn c_at(&self, s: f64) -> f64 {
         let [a, b, c] = self.c;
         (a + s * (b + s * c)).max(1e-9 * a.abs())
