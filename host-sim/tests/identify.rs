@@ -26,6 +26,16 @@ fn hidden(effect: Effect, v: f64) -> (EffectSet, Meter) {
     (fx, Meter::lcr(&fx))
 }
 
+/// A log-uniform magnitude in [lo, hi], with a random sign if `signed`.
+fn log_uniform(lo: f64, hi: f64, signed: bool, rng: &mut Rng) -> f64 {
+    let m = lo * (hi / lo).powf(rng.uniform());
+    if signed && rng.uniform() < 0.5 {
+        -m
+    } else {
+        m
+    }
+}
+
 /// Random strength of `effect` (SI): log-uniform magnitude over a
 /// range from barely to clearly detectable, random sign where it has one.
 fn strength(effect: Effect, rng: &mut Rng) -> f64 {
@@ -45,12 +55,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ElectrodeDispersion => (3e-6, 100e-6, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
-    let m = lo * (hi / lo).powf(rng.uniform());
-    if signed && rng.uniform() < 0.5 {
-        -m
-    } else {
-        m
-    }
+    log_uniform(lo, hi, signed, rng)
 }
 
 /// Random strength of `effect` (SI) over its physical range (the
@@ -75,12 +80,7 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ElectrodeDispersion => (1e-6, 1e-3, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
-    let m = lo * (hi / lo).powf(rng.uniform());
-    if signed && rng.uniform() < 0.5 {
-        -m
-    } else {
-        m
-    }
+    log_uniform(lo, hi, signed, rng)
 }
 
 /// The survey over the physical ranges (`cargo xtask survey`, beside the
@@ -120,13 +120,7 @@ fn survey() {
             effect.info().display(v),
             effect.info().display_unit,
             b / nf,
-            if r.unexplained {
-                "unexplained".to_string()
-            } else if r.accepted.is_none() {
-                "clean".to_string()
-            } else {
-                r.final_fit().label()
-            },
+            r.outcome(),
             f / fnf,
             b / f
         );

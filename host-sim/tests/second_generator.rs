@@ -82,13 +82,7 @@ fn survey() {
         println!(
             "| {seed} | {name} | {v:.4e} | {:.1} | {} | {:.2} | {:.1} | {:.0} |",
             base / nf,
-            if r.unexplained {
-                "unexplained".to_string()
-            } else if r.accepted.is_none() {
-                "clean".to_string()
-            } else {
-                r.final_fit().label()
-            },
+            r.outcome(),
             fin / fnf,
             base / fin,
             t.elapsed().as_secs_f64()

@@ -172,6 +172,16 @@ impl Report {
         self.accepted.as_ref().map_or(self.noise_floor_pf, |f| f.noise_pf)
     }
 
+    /// The outcome in a word: "unexplained", "clean", or the accepted
+    /// model's label.
+    pub fn outcome(&self) -> String {
+        match (&self.accepted, self.unexplained) {
+            (_, true) => "unexplained".to_string(),
+            (None, false) => "clean".to_string(),
+            (Some(f), false) => f.label(),
+        }
+    }
+
     /// A short verdict line.
     pub fn verdict(&self) -> String {
         let nf = self.noise_floor_pf;
