@@ -26,6 +26,19 @@ fn hidden(effect: Effect, v: f64) -> (EffectSet, Meter) {
     (fx, Meter::lcr(&fx))
 }
 
+/// Whether `named` is the right answer for `effect` at strength `v` (SI):
+/// the effect itself, or, for a meter kernel whose centroid (T/2, τ) is
+/// under one row interval (20 ms), the delay it causes (`time_offset`),
+/// which is all the rows resolve of it.
+fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
+    let centroid = match effect {
+        Effect::MeterLag => 0.5 * v,
+        Effect::MeterResponse => v,
+        _ => f64::INFINITY,
+    };
+    named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"])
+}
+
 /// A log-uniform magnitude in [lo, hi], with a random sign if `signed`.
 fn log_uniform(lo: f64, hi: f64, signed: bool, rng: &mut Rng) -> f64 {
     let m = lo * (hi / lo).powf(rng.uniform());
@@ -128,12 +141,7 @@ fn survey() {
             continue;
         }
         det += 1;
-        let centroid = match effect {
-            Effect::MeterLag => 0.5 * v,
-            Effect::MeterResponse => v,
-            _ => f64::INFINITY,
-        };
-        if named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"]) {
+        if named_right(effect, v, &named) {
             right += 1;
         }
         drops.push(b / f);
@@ -198,14 +206,7 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
             continue;
         }
         detectable += 1;
-        // A meter kernel whose centroid (T/2, τ) is under one row
-        // interval (20 ms) is resolved only as the delay it causes.
-        let centroid = match effect {
-            Effect::MeterLag => 0.5 * v_si,
-            Effect::MeterResponse => v_si,
-            _ => f64::INFINITY,
-        };
-        if named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"]) {
+        if named_right(effect, v_si, &named) {
             right += 1;
         }
         if f > 1.5 * nf {
