@@ -82,10 +82,11 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ResistanceGradient => (0.02, 0.95, true),
         // 0.4–400 nS on 200 pF.
         Effect::DielectricLeakage => (2.0, 2000.0, false),
-        // One sample to an LCR meter's slow mode.
-        Effect::MeterLag => (5e-3, 1.0, false),
-        Effect::MeterResponse => (5e-3, 0.5, false),
-        Effect::TimeOffset => (2e-3, 0.5, true),
+        // One sample to seconds, as far as the 30 s traces hold (±2 s,
+        // τ to 1 s: `host_sim::model::search`).
+        Effect::MeterLag => (5e-3, 1.9, false),
+        Effect::MeterResponse => (5e-3, 0.95, false),
+        Effect::TimeOffset => (2e-3, 1.9, true),
         Effect::NonuniformStretch => (0.02, 0.95, true),
         Effect::StretchBulge => (0.02, 0.95, true),
         Effect::ResistanceBulge => (0.02, 0.95, true),
@@ -399,4 +400,40 @@ fn a_million_row_trace_is_decimated_and_still_read() {
     assert_eq!(best.effects, vec![Effect::ContactResistance], "{}", r.verdict());
     let v = best.params.get(Effect::ContactResistance);
     assert!((v / 30e3 - 1.0).abs() < 0.05, "{v}");
+}
+
+/// Time effects beyond the catalogue's first guesses (±0.5 s offsets,
+/// 1 s windows): searched as far as the 30 s traces hold (±2 s), each
+/// named and its parameter recovered.
+#[test]
+fn time_effects_are_searched_as_far_as_the_trace_holds() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (k, (effect, v)) in [
+        (Effect::TimeOffset, -1.6),
+        (Effect::TimeOffset, 1.2),
+        (Effect::MeterLag, 1.8),
+        (Effect::MeterResponse, 0.8),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let (fx, meter) = hidden(effect, v);
+        let r = run(&tmp.path().join(format!("t{k}")), fx, meter, 20 + k as u64);
+        let j = r.json();
+        let reach = j["search"]["reach_s"].as_f64().unwrap();
+        assert!((reach - 2.0).abs() < 0.01, "reach {reach} s");
+        let f = r
+            .accepted
+            .as_ref()
+            .unwrap_or_else(|| panic!("{}: {}", effect.id(), r.verdict()));
+        assert_eq!(f.effects, [effect], "{}", r.verdict());
+        let (got, sigma) = (f.params.get(effect), f.sigma_of(effect));
+        assert!(
+            (got - v).abs() < 0.02 * v.abs() + 5.0 * sigma,
+            "{}: {got} ± {sigma} against {v}",
+            effect.id()
+        );
+        assert_eq!(j["effects"][0]["at_limit"], false);
+        assert!(f.rms_pf <= 1.5 * f.noise_pf, "{}", r.verdict());
+    }
 }

@@ -261,10 +261,12 @@ impl Effect {
                 display_decimals: 2,
                 limits: (0.0, 10.0),
                 open: false,
-                // Up to a second (an LCR meter's slow mode integrates
-                // ~0.1–1 s); what the trace's ends can hold bounds it
-                // (`identify` leaves the rows a window could not see out).
-                search: (0.0, 1.0),
+                // From one sample to an LCR meter's slow mode (~0.1–1 s)
+                // and a logger's averaging (seconds). `identify` searches
+                // as far as the traces hold (host-sim `model::search`: the
+                // rows a window could not see out, a fifth of the shortest
+                // trace; 2 s on 30 s traces), within these limits.
+                search: (0.0, 10.0),
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,
@@ -280,8 +282,10 @@ impl Effect {
                 limits: (-10.0, 10.0),
                 open: true,
                 // Two instruments started by hand, or a buffered channel:
-                // tenths of a second; ±0.5 s searched.
-                search: (-0.5, 0.5),
+                // tenths of a second to seconds. Searched as far as the
+                // traces hold (host-sim `model::search`: ±2 s on 30 s
+                // traces), within these limits.
+                search: (-10.0, 10.0),
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,
@@ -375,8 +379,9 @@ impl Effect {
             },
             // Physical range: a lock-in's output filter from 1 ms to
             // seconds; a meter's running average over a few readings
-            // (0.05–0.5 s). Searched to 0.5 s: what the trace's start can
-            // hold (the filter starts settled on it).
+            // (0.05–0.5 s). Searched as far as the traces hold (host-sim
+            // `model::search`: τ to 1 s on 30 s traces, whose first 2τ
+            // are left out: the filter starts settled on the first row).
             Effect::MeterResponse => &Info {
                 id: "meter_response",
                 key: "response_tau_ms",
@@ -387,7 +392,7 @@ impl Effect {
                 display_decimals: 2,
                 limits: (0.0, 10.0),
                 open: false,
-                search: (0.0, 0.5),
+                search: (0.0, 10.0),
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,

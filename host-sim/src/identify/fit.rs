@@ -6,7 +6,7 @@
 use super::{FileError, Fit};
 use crate::baseline::noise_sigma;
 use crate::dataset::Kind;
-use crate::model::{Averaging, Effect, Line, Params, Prepared};
+use crate::model::{Averaging, Effect, Line, Params, Prepared, Search};
 use crate::numerics::solve;
 
 /// Noise-weighted residuals and statistics of `pred` against the data.
@@ -158,6 +158,7 @@ impl Problem<'_> {
             .collect();
         let k = n.max(1) as f64;
         Fit {
+            search: self.prep.search,
             noise_pf: self.floor_of(&ev.residual),
             line: self.line,
             bic: self.bic(ev.s, fitted.len()),
@@ -190,7 +191,7 @@ impl Problem<'_> {
         let r0 = self.weighted(at);
         let mut jac = Vec::with_capacity(effects.len());
         for &e in effects {
-            let (lo, hi) = e.info().search;
+            let (lo, hi) = self.prep.search.range(e);
             let h = 1e-4 * (hi - lo);
             let (v, sign) = if p.get(e) + h <= hi {
                 (p.get(e) + h, 1.0)
@@ -231,7 +232,7 @@ impl Problem<'_> {
             let mut s_best = coarse.eval(p).map_or(f64::INFINITY, |ev| ev.s);
             for &e in scan {
                 let mut at = p.get(e);
-                for v in grid(e) {
+                for v in grid(&coarse.prep.search, e) {
                     if let Some(ev) = coarse.eval(p.with(e, v)) {
                         if ev.s < s_best {
                             s_best = ev.s;
@@ -296,7 +297,7 @@ impl Problem<'_> {
         mut best: Evaluated,
     ) -> (Params, Evaluated, Option<Vec<Vec<f64>>>) {
         let clamp = |e: Effect, v: f64| {
-            let (lo, hi) = e.info().search;
+            let (lo, hi) = self.prep.search.range(e);
             v.clamp(lo, hi)
         };
         let mut lambda = 1e-3;
@@ -321,7 +322,7 @@ impl Problem<'_> {
                 // A step (after the bounds) below 10⁻⁹ of every range
                 // moves nothing the data can see: converged.
                 if effects.iter().all(|&e| {
-                    let (lo, hi) = e.info().search;
+                    let (lo, hi) = self.prep.search.range(e);
                     (q.get(e) - p.get(e)).abs() <= 1e-9 * (hi - lo)
                 }) {
                     break;
@@ -351,15 +352,31 @@ impl Problem<'_> {
 }
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
-/// (factor 2) across its range, both signs where allowed, since some
-/// effects act quadratically and a linear grid would miss small values.
-pub(super) fn grid(e: Effect) -> Vec<f64> {
-    let (lo, hi) = e.info().search;
+/// (factor 2) across its range in `search`, from its end down to the
+/// finest the data resolve ([`Search::finest`]: half a row interval for
+/// a time effect), both signs where allowed, since some effects act
+/// quadratically and a linear grid would miss small values.
+pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
+    let (lo, hi) = search.range(e);
+    let top = hi.max(-lo);
     let mut v = vec![0.0];
-    let levels = if lo < 0.0 { 9 } else { 12 };
+    if top <= 0.0 {
+        return v;
+    }
+    // Signed ranges: 9 magnitudes (1/256 of the range), one-sided: 12
+    // (1/2048); time effects down to half a row interval, at most 16.
+    let base = if lo < 0.0 { 9 } else { 12 };
+    let fine = (top / search.finest(e)).log2().ceil() as i32 + 1;
+    let levels = if e.info().entry == instrument::effects::Entry::Time {
+        fine.clamp(2, 16)
+    } else {
+        base
+    };
     for k in 0..levels {
         let m = 0.5f64.powi(k);
-        v.push(hi * m);
+        if hi > 0.0 {
+            v.push(hi * m);
+        }
         if lo < 0.0 {
             v.push(lo * m);
         }

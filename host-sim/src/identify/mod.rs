@@ -36,7 +36,7 @@ pub use report::params_text;
 
 use crate::baseline::noise_sigma;
 use crate::dataset::{DataSet, Kind};
-use crate::model::{Averaging, Effect, Line, Params, Prepared};
+use crate::model::{Averaging, Effect, Line, Params, Prepared, Search};
 use anyhow::{Context, Result};
 use fit::Problem;
 use indicatif::ProgressBar;
@@ -129,6 +129,8 @@ pub struct Fit {
     pub max_pct: f64,
     /// Per file.
     pub files: Vec<FileError>,
+    /// The ranges the fit searched.
+    pub search: Search,
     /// Residual (measured − model, pF) per file and row.
     pub residual: Vec<Vec<f64>>,
 }
@@ -172,7 +174,7 @@ impl Fit {
         let mut out = vec![];
         for (i, &e) in self.fitted.iter().enumerate() {
             let (v, s) = (self.params.get(e), self.sigma[i]);
-            let (lo, hi) = e.info().search;
+            let (lo, hi) = self.search.range(e);
             if s.is_nan() || s >= v.abs() || s >= 0.5 * (hi - lo) {
                 out.push(format!(
                     "{}: not pinned down (1σ {} against a value of {})",
@@ -243,6 +245,11 @@ pub struct Report {
     /// Which electrode resistance the model used (the calibration's; the
     /// traces' where they differ).
     pub resistance: String,
+    /// The ranges searched (the time effects' scaled to the traces).
+    pub search: Search,
+    /// Traces' rows left out of the statistics, where a reading could
+    /// reach past the recording: (file, rows at the start, at the end).
+    pub left_out: Vec<(String, usize, usize)>,
     /// Options used.
     pub options: Options,
 }
@@ -601,6 +608,18 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             .map(|f| (f.name.clone(), f.rows_read, f.stride))
             .collect(),
         resistance: resistance_of(ds),
+        search: prep.search,
+        left_out: prep
+            .files
+            .iter()
+            .filter(|f| f.kind == Kind::Trace)
+            .map(|f| {
+                let start = f.used.iter().take_while(|u| !**u).count();
+                let end = f.used.iter().rev().take_while(|u| !**u).count();
+                (f.name.clone(), start.min(f.used.len()), end)
+            })
+            .filter(|x| x.1 + x.2 > 0)
+            .collect(),
         options,
     };
     if explained(&base) {

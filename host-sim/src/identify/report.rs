@@ -2,7 +2,7 @@
 //! for tools, parameters in each effect's display unit.
 
 use super::{Fit, Report};
-use crate::model::Effect;
+use crate::model::{Effect, Search};
 
 fn param_value(e: Effect, v: f64) -> String {
     let i = e.info();
@@ -14,10 +14,10 @@ fn param_value(e: Effect, v: f64) -> String {
     }
 }
 
-/// Is `v` at the far end of `e`'s search range (not at 0, where the
+/// Is `v` at the far end of `e`'s range in `search` (not at 0, where the
 /// effect is absent)? Then the data may want more than the range holds.
-pub fn at_limit(e: Effect, v: f64) -> bool {
-    let (lo, hi) = e.info().search;
+pub fn at_limit(search: &Search, e: Effect, v: f64) -> bool {
+    let (lo, hi) = search.range(e);
     let tol = 1e-3 * (hi - lo);
     (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
 }
@@ -62,7 +62,7 @@ pub fn params_text(f: &Fit) -> String {
                 e.info().key,
                 param_value(e, v),
                 param_value(e, *s),
-                if at_limit(e, v) {
+                if at_limit(&f.search, e, v) {
                     " (at the end of its search range)"
                 } else {
                     ""
@@ -109,7 +109,7 @@ impl Report {
                         "params": pick(&params),
                         "uncertainty": pick(&sigma),
                         "static": e.is_static(),
-                        "at_limit": own.iter().any(|&p| at_limit(p, f.params.get(p))),
+                        "at_limit": own.iter().any(|&p| at_limit(&f.search, p, f.params.get(p))),
                         "averaging": f.averaging.filter(|_| !e.is_static()),
                         "rms_pf_after": f.rms_pf,
                     })
@@ -137,7 +137,7 @@ impl Report {
                     "params": params, "uncertainty": sigma,
                     "averaging": f.averaging,
                     "unresolved": f.unresolved,
-                    "at_limit": f.fitted.iter().filter(|&&e| at_limit(e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
+                    "at_limit": f.fitted.iter().filter(|&&e| at_limit(&f.search, e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
                     "rms_pf": f.rms_pf, "noise_pf": f.noise_pf, "bic": f.bic,
                     "identifiability": f.identifiability(),
                     "delta_bic": f.bic - self.baseline().bic,
@@ -158,6 +158,15 @@ impl Report {
             "rows": self.rows,
             "decimated": self.decimated.iter().map(|(f, n, k)| json!({"file": f, "rows_read": n, "kept_every": k})).collect::<Vec<_>>(),
             "resistance": self.resistance,
+            "search": {
+                "reach_s": self.search.reach_s,
+                "row_s": self.search.row_s,
+                "ranges": Effect::library().map(|e| {
+                    let (lo, hi) = self.search.range(e);
+                    (e.info().key.to_string(), json!([e.info().display(lo), e.info().display(hi)]))
+                }).collect::<serde_json::Map<_, _>>(),
+            },
+            "left_out": self.left_out.iter().map(|(f, a, b)| json!({"file": f, "rows_at_start": a, "rows_at_end": b})).collect::<Vec<_>>(),
             "criterion": {
                 "bic": "n·ln(S/n) + k·ln(n)",
                 "explained_within_noise": self.options.explained,
@@ -266,6 +275,33 @@ impl Report {
                 crate::model::prepared::MAX_TRACE_ROWS
             );
         }
+        if self.search.reach_s > 0.0 {
+            let r = |e: Effect| self.search.range(e).1 * 1e3;
+            let _ = writeln!(
+                md,
+                "Time effects searched as far as the traces hold (the rows a reading could reach past the recording from, {:.0} % of the shortest trace, left out): offsets ±{:.0} ms, windows to {:.0} ms, first-order τ to {:.0} ms, from half a row interval ({:.1} ms).\n",
+                100.0 * crate::model::search::EDGE_BUDGET,
+                r(Effect::TimeOffset),
+                r(Effect::MeterLag),
+                r(Effect::MeterResponse),
+                0.5 * self.search.row_s * 1e3
+            );
+        }
+        // Traces with the same rows left out, on one line.
+        let mut groups: Vec<((usize, usize), Vec<&str>)> = vec![];
+        for (file, a, b) in &self.left_out {
+            match groups.iter_mut().find(|g| g.0 == (*a, *b)) {
+                Some(g) => g.1.push(file),
+                None => groups.push(((*a, *b), vec![file])),
+            }
+        }
+        for ((a, b), files) in groups {
+            let _ = writeln!(
+                md,
+                "{}: {a} rows at the start and {b} at the end left out of the statistics.\n",
+                files.join(", ")
+            );
+        }
         if let Some(p) = plot {
             let _ = writeln!(md, "![residual before and after]({p})\n");
         }
@@ -310,12 +346,20 @@ mod tests {
 
     #[test]
     fn a_value_at_the_far_end_of_its_range_is_marked() {
-        let (lo, hi) = Effect::TimeOffset.info().search;
-        assert!(at_limit(Effect::TimeOffset, hi) && at_limit(Effect::TimeOffset, lo));
-        assert!(!at_limit(Effect::TimeOffset, 0.0) && !at_limit(Effect::TimeOffset, 0.5 * hi));
+        let search = Search {
+            reach_s: 3.0,
+            row_s: 0.02,
+        };
+        let at = |e, v| at_limit(&search, e, v);
+        let (lo, hi) = search.range(Effect::TimeOffset);
+        assert_eq!(hi, 3.0);
+        assert!(at(Effect::TimeOffset, hi) && at(Effect::TimeOffset, lo));
+        assert!(!at(Effect::TimeOffset, 0.0) && !at(Effect::TimeOffset, 0.5 * hi));
+        // The catalogue's 0.5 s is no limit on a trace that holds 3 s.
+        assert!(!at(Effect::TimeOffset, 0.5));
         // Zero is where an effect is absent, not a limit.
-        assert!(!at_limit(Effect::ContactResistance, 0.0));
-        assert!(at_limit(
+        assert!(!at(Effect::ContactResistance, 0.0));
+        assert!(at(
             Effect::ContactResistance,
             Effect::ContactResistance.info().search.1
         ));

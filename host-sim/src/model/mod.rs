@@ -41,14 +41,17 @@
 //! | [`shape`] | the sensor's static C(s) and R(s), and their local curves under a nonuniform stretch |
 //! | `line` | uniform line pieces: the continuous line and a piece in front of a load |
 //! | [`prepared`] | a data set prepared for fast evaluation, and its predictions |
+//! | [`search`] | the ranges searched on a data set: the time effects' as far as its traces hold |
 //! | `timed` | the meter's averaging and offset on a trace |
 
 mod line;
 pub mod prepared;
+pub mod search;
 pub mod shape;
 mod timed;
 
-pub use prepared::{edge_end_s, edge_start_s, File, Prepared};
+pub use prepared::{File, Prepared};
+pub use search::Search;
 pub use shape::Shape;
 pub use timed::Averaging;
 

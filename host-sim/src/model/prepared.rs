@@ -1,5 +1,6 @@
 //! A data set prepared for fast model evaluation, and its predictions.
 
+use super::search::Search;
 use super::{has_time, timed::timed, Averaging, Effect, Line, Model, Params, Shape};
 use crate::dataset::{DataSet, Kind, Row, Table};
 use crate::numerics::{corners, quadratic_fit};
@@ -27,6 +28,9 @@ pub struct Prepared {
     calibration: Table,
     /// Files whose residual is modelled: the traces, then the sweep.
     pub files: Vec<File>,
+    /// The ranges searched on these data (the time effects' scaled to the
+    /// traces).
+    pub search: Search,
 }
 
 /// One modelled file.
@@ -55,30 +59,12 @@ pub struct File {
     /// Decimation: every `stride`-th row read is kept (1: all).
     pub stride: usize,
     /// Rows that enter the statistics: all but those at a trace's ends
-    /// whose meter window, at the largest lag and offset searched, would
+    /// whose reading, at the largest window and offset searched, would
     /// reach outside the recording (no model can predict them).
     pub used: Vec<bool>,
 }
 
-/// Rows left out at the start of a trace (s): the longest window (or two
-/// of the longest first-order time constants, where a filter started
-/// settled is within e⁻² of one that saw the past) plus the largest
-/// negative offset searched.
-pub fn edge_start_s() -> f64 {
-    Effect::MeterLag
-        .info()
-        .search
-        .1
-        .max(2.0 * Effect::MeterResponse.info().search.1)
-        - Effect::TimeOffset.info().search.0
-}
-
-/// Rows left out at the end of a trace (s): the largest positive offset.
-pub fn edge_end_s() -> f64 {
-    Effect::TimeOffset.info().search.1
-}
-
-fn file_of(t: &Table, max_rows: usize) -> File {
+fn file_of(t: &Table, max_rows: usize, search: &Search) -> File {
     let stride = match t.kind {
         Kind::Trace => t.rows.len().div_ceil(max_rows.max(MIN_TRACE_ROWS)).max(1),
         _ => 1,
@@ -105,17 +91,15 @@ fn file_of(t: &Table, max_rows: usize) -> File {
         stride,
         used: vec![],
     }
-    .finish()
+    .finish(search)
 }
 
 impl File {
-    fn finish(mut self) -> Self {
+    fn finish(mut self, search: &Search) -> Self {
         if self.kind == Kind::Trace {
             self.corner = corners(&self.t, &self.s);
-            let (a, b) = (
-                self.t[0] + edge_start_s(),
-                self.t[self.t.len() - 1] - edge_end_s(),
-            );
+            let (back, ahead) = search.edges_s();
+            let (a, b) = (self.t[0] + back, self.t[self.t.len() - 1] - ahead);
             self.used = self.t.iter().map(|&t| t >= a && t <= b).collect();
         } else {
             self.used = vec![true; self.cs.len()];
@@ -142,11 +126,13 @@ impl Prepared {
                 t.rows.len()
             );
         }
-        let mut files: Vec<File> = ds.traces.iter().map(|t| file_of(t, max_rows)).collect();
+        let search = Search::of(&ds.traces);
+        let mut files: Vec<File> = ds.traces.iter().map(|t| file_of(t, max_rows, &search)).collect();
         if let (true, Some(sw)) = (sweep, &ds.sweep) {
-            files.push(file_of(sw, max_rows));
+            files.push(file_of(sw, max_rows, &search));
         }
         Ok(Self {
+            search,
             shape: Shape::from_calibration(&ds.calibration)?,
             calibration: ds.calibration.clone(),
             files,

@@ -15,10 +15,9 @@
 //! changes over the kernel the two agree; over a second of stretching
 //! they differ by tenths of a pF, which the data resolve.
 //!
-//! The first-order filter starts settled on the trace's first instant
-//! (the recording begins at rest); the rows [`super::edge_start_s`] at a
-//! trace's start, where that could matter, are left out of the
-//! statistics.
+//! The first-order filter starts settled on the trace's first instant;
+//! the rows at a trace's ends whose reading could reach past the
+//! recording are left out of the statistics ([`super::search`]).
 
 use super::prepared::File;
 use super::{Effect, Model, Params};
