@@ -317,6 +317,17 @@ impl Inverter {
         zeta_with(self.model, self.lead, x)
     }
 
+    /// ζ(x) = ωC·Z of the model with its leads at any x = ωRC up to
+    /// [`crate::tline::X_MAX`]: below [`crate::tline::X_MIN`] the small-x
+    /// asymptote −j + (a + ℓ)·x (there within 10⁻¹⁰ of the line).
+    pub fn zeta_at(&self, x: f32) -> Result<Complex32, InvertError> {
+        if x > 0.0 && x < crate::tline::X_MIN {
+            let a = self.model.low_freq_resistance_fraction() + self.lead;
+            return Ok(Complex32::new(a * x, -1.0));
+        }
+        Ok(self.zeta(x)?)
+    }
+
     /// Upper end of the reported range (x = ωRC).
     pub fn x_max(&self) -> f32 {
         self.x_max

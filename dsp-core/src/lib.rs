@@ -17,6 +17,7 @@
 //! | [`fixture`] | de-embedding contacts and parasitic capacitance found by `identify` |
 //! | [`invert`] | true line C and R from one measured impedance |
 //! | [`track`] | the line over successive blocks: branch choice, plausibility, holds |
+//! | [`twotone`] | the line from two tones at once, and its model-consistency χ² |
 //!
 //! Everything is `no_std`, allocation-free and deterministic: the fixed-point
 //! kernels use integer arithmetic only, and the few `f32` operations at the
@@ -63,6 +64,7 @@ pub mod lumped;
 pub mod osc;
 pub mod tline;
 pub mod track;
+pub mod twotone;
 
 /// Generated lookup tables (see `build.rs`).
 #[allow(clippy::unreadable_literal)]

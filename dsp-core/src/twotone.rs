@@ -1,0 +1,209 @@
+//! The line from two tones at once, and how well one uniform line
+//! explains both.
+//!
+//! A block excited by two tones carries the impedance at two frequencies,
+//! Z₁ at f₁ and Z₂ at f₂: four real numbers for the line's two unknowns,
+//! R and C. The line that fits both best, weighted by each tone's noise,
+//! is the joint estimate; what it leaves is a model check that no
+//! single-frequency meter has:
+//!
+//! ```text
+//! Z_k(R, C) = ζ(ω_k·R·C) / (ω_k·C)                       (the line, with leads)
+//! χ² = Σ_k |Z_k,measured − Z_k(R, C)|² / σ_k²            (σ_k: 1σ of Re Z_k and of Im Z_k, Ω)
+//! ```
+//!
+//! minimized over (ln R, ln C) by Gauss–Newton from the single-tone
+//! inversions ([`Inverter`]). On a sensor that is a uniform line, χ² is
+//! chi-squared with 4 − 2 = 2 degrees of freedom (mean 2; above
+//! [`CHI2_FLAG`] one block in 10⁴ by chance). A contact resistance, a
+//! parasitic capacitance or a disturbance that the line does not have
+//! moves the two tones' lines apart and χ² up: the record is flagged
+//! ([`Solution::consistent`]).
+//!
+//! The covariance of (ln R, ln C) is σ²-weighted (JᵀJ)⁻¹ at the optimum,
+//! so [`Solution::sigma_ln_c`] is the joint estimate's 1σ relative error
+//! of C.
+//!
+//! The noise σ_k of a tone's impedance follows from the block
+//! ([`z_sigma`]): with N pairs, amplitudes A (counts) and residual r
+//! (counts rms, what the tones do not explain) per channel, each
+//! component of the phasor V has a relative 1σ of r·√2/(A·√N), and Z =
+//! k·V/I adds the voltage's and the current's in quadrature.
+
+use crate::invert::{InvertError, Inverter, Line};
+use crate::Complex32;
+use core::f32::consts::TAU;
+
+/// χ² (2 degrees of freedom) above which a record is flagged: exceeded by
+/// chance with probability e^(−χ²/2) = 10⁻⁴ on a uniform line.
+pub const CHI2_FLAG: f32 = 18.42;
+
+/// Gauss–Newton iterations at most (from the single-tone inversions it
+/// converges in 2–3).
+const ITERATIONS: usize = 6;
+
+/// Step in ln x of the central difference for dζ/d ln x.
+const H: f32 = 1e-2;
+
+/// One tone of a block: its impedance and noise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tone {
+    /// Measured impedance, Ω.
+    pub z: Complex32,
+    /// Frequency, Hz.
+    pub f_hz: f32,
+    /// 1σ of Re Z and of Im Z, each, Ω ([`z_sigma`]).
+    pub sigma_ohm: f32,
+}
+
+/// The joint line of two tones.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solution {
+    /// The line both tones fit best; `x` and `kappa` at the higher tone.
+    pub line: Line,
+    /// χ² of the fit (2 degrees of freedom on a uniform line).
+    pub chi2: f32,
+    /// 1σ relative error of C from the fit's covariance.
+    pub sigma_ln_c: f32,
+    /// 1σ relative error of R from the fit's covariance.
+    pub sigma_ln_r: f32,
+}
+
+impl Solution {
+    /// One uniform line explains both tones within their noise
+    /// (χ² ≤ [`CHI2_FLAG`]).
+    pub fn consistent(&self) -> bool {
+        self.chi2 <= CHI2_FLAG
+    }
+}
+
+/// 1σ of each component of Z (Ω) for a tone of impedance `z` measured over
+/// `n` pairs with voltage and current amplitudes `a_v`, `a_i` and
+/// residuals `r_v`, `r_i` (counts): |Z|·√(2/n)·√((r_v/a_v)² + (r_i/a_i)²).
+/// Infinite when an amplitude is 0 (no tone: no information).
+pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> f32 {
+    if !(a_v > 0.0 && a_i > 0.0 && n > 0) {
+        return f32::INFINITY;
+    }
+    let (ev, ei) = (r_v / a_v, r_i / a_i);
+    libm::hypotf(z.re, z.im) * libm::sqrtf(2.0 / n as f32) * libm::sqrtf(ev * ev + ei * ei)
+}
+
+/// The line both `tones` fit, starting from the single-tone inversions
+/// (the branch chosen nearest `c_hint_farad`, as
+/// [`Inverter::invert_near`]); an error when neither tone inverts, or a
+/// σ is not finite and positive.
+pub fn solve(inv: &Inverter, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Solution, InvertError> {
+    for t in tones {
+        if !(t.sigma_ohm.is_finite() && t.sigma_ohm > 0.0) {
+            return Err(InvertError::NotCapacitive);
+        }
+    }
+    // The higher tone resolves R best; the lower one starts where the
+    // higher is ambiguous or out of range.
+    let (lo, hi) = if tones[0].f_hz <= tones[1].f_hz {
+        (tones[0], tones[1])
+    } else {
+        (tones[1], tones[0])
+    };
+    let start = match inv.invert_near(hi.z, hi.f_hz, c_hint_farad) {
+        Ok(l) => l,
+        Err(e_hi) => match inv.invert_near(lo.z, lo.f_hz, c_hint_farad) {
+            Ok(l) => l,
+            Err(_) => return Err(e_hi),
+        },
+    };
+    let mut p = [libm::logf(start.r_ohm), libm::logf(start.c_farad)];
+    let mut fit = evaluate(inv, &[lo, hi], p)?;
+    for _ in 0..ITERATIONS {
+        // Normal equations of the 4 weighted residuals in (ln R, ln C).
+        let (a, g) = (fit.jtj, fit.jtr);
+        let det = a[0] * a[2] - a[1] * a[1];
+        if !(det.is_finite() && det > 0.0) {
+            break;
+        }
+        let d = [
+            (a[2] * g[0] - a[1] * g[1]) / det,
+            (a[0] * g[1] - a[1] * g[0]) / det,
+        ];
+        // Never more than a factor e per step (the start is close). max/min,
+        // not clamp: its checks would link core's float formatting into
+        // the firmware (as in `invert`).
+        #[allow(clippy::manual_clamp)]
+        let clamp = |v: f32| v.max(-1.0).min(1.0);
+        let q = [p[0] + clamp(d[0]), p[1] + clamp(d[1])];
+        let Ok(next) = evaluate(inv, &[lo, hi], q) else {
+            break;
+        };
+        if next.chi2 > fit.chi2 {
+            break;
+        }
+        let small = libm::fabsf(d[0]) < 1e-6 && libm::fabsf(d[1]) < 1e-6;
+        (p, fit) = (q, next);
+        if small {
+            break;
+        }
+    }
+    let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
+    let x = TAU * hi.f_hz * r * c;
+    let a = fit.jtj;
+    let det = a[0] * a[2] - a[1] * a[1];
+    let (var_r, var_c) = if det > 0.0 {
+        (a[2] / det, a[0] / det)
+    } else {
+        (f32::INFINITY, f32::INFINITY)
+    };
+    Ok(Solution {
+        line: Line {
+            r_ohm: r,
+            c_farad: c,
+            x,
+            kappa: inv.kappa(x)?,
+        },
+        chi2: fit.chi2,
+        sigma_ln_c: libm::sqrtf(var_c),
+        sigma_ln_r: libm::sqrtf(var_r),
+    })
+}
+
+/// χ², JᵀJ (symmetric: [a₀₀, a₀₁, a₁₁]) and Jᵀr (r = measured − model,
+/// weighted) at p = (ln R, ln C).
+struct Evaluated {
+    chi2: f32,
+    jtj: [f32; 3],
+    jtr: [f32; 2],
+}
+
+fn evaluate(inv: &Inverter, tones: &[Tone; 2], p: [f32; 2]) -> Result<Evaluated, InvertError> {
+    let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
+    let mut e = Evaluated {
+        chi2: 0.0,
+        jtj: [0.0; 3],
+        jtr: [0.0; 2],
+    };
+    for t in tones {
+        let w = TAU * t.f_hz;
+        let x = w * r * c;
+        let scale = 1.0 / (w * c * t.sigma_ohm);
+        let zeta = inv.zeta_at(x)?;
+        // dζ/d ln x by central differences.
+        let (up, down) = (inv.zeta_at(x * libm::expf(H))?, inv.zeta_at(x * libm::expf(-H))?);
+        let dz = (up - down) / (2.0 * H);
+        // Weighted model and its derivatives in ln R and ln C.
+        let model = zeta * scale;
+        let d_r = dz * scale;
+        let d_c = (dz - zeta) * scale;
+        let res = t.z / t.sigma_ohm - model;
+        e.chi2 += res.norm_sqr();
+        e.jtj[0] += d_r.norm_sqr();
+        e.jtj[1] += d_r.re * d_c.re + d_r.im * d_c.im;
+        e.jtj[2] += d_c.norm_sqr();
+        e.jtr[0] += d_r.re * res.re + d_r.im * res.im;
+        e.jtr[1] += d_c.re * res.re + d_c.im * res.im;
+    }
+    if e.chi2.is_finite() {
+        Ok(e)
+    } else {
+        Err(InvertError::OutOfRange)
+    }
+}

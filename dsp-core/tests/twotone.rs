@@ -1,0 +1,176 @@
+//! The two-tone line solve against the f64 reference line: the joint
+//! (R, C) across the declared range, χ² as a chi-squared of 2 degrees of
+//! freedom on a uniform line in noise, and the model check firing on what
+//! a uniform line does not have (contacts, a parasitic capacitance).
+
+mod common;
+use common::{log_grid, rms_max, zeta_ref};
+use dsp_core::invert::Inverter;
+use dsp_core::tline::LineModel;
+use dsp_core::twotone::{solve, z_sigma, Tone, CHI2_FLAG};
+use dsp_core::Complex32;
+use num_complex::Complex64;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::f64::consts::TAU;
+
+/// The declared range: the higher tone at x = ωRC from 0.01 to 6 (the
+/// policy keeps it ≤ 4), the lower one 2 to 8 times lower in frequency,
+/// leads from none to the paper's sensor's (ℓ = 0.9).
+const X_HI: (f64, f64) = (0.01, 6.0);
+const RATIOS: [f64; 3] = [2.0, 4.0, 8.0];
+const LEADS: [f64; 2] = [0.0, 0.9];
+
+/// The reference impedance (Ω, f64) of a line R, C with leads ℓ at f, plus
+/// `extra` (a contact's 2·R_c, or nothing), in parallel with `cp` (F).
+fn z_ref(model: LineModel, lead: f64, r: f64, c: f64, f: f64, extra: f64, cp: f64) -> Complex64 {
+    let w = TAU * f;
+    let x = w * r * c;
+    let z = (zeta_ref(model, x) + lead * x) / (w * c) + extra;
+    if cp > 0.0 {
+        1.0 / (1.0 / z + Complex64::new(0.0, w * cp))
+    } else {
+        z
+    }
+}
+
+fn tone(z: Complex64, f: f64, sigma: f64) -> Tone {
+    Tone {
+        z: Complex32::new(z.re as f32, z.im as f32),
+        f_hz: f as f32,
+        sigma_ohm: sigma as f32,
+    }
+}
+
+#[test]
+fn the_joint_line_is_the_reference_line_across_the_range() {
+    let (r, c) = (700e3, 210e-12);
+    for model in [LineModel::Continuous, LineModel::Ladder(30)] {
+        for lead in LEADS {
+            let inv = Inverter::with_leads(model, 10.0, lead as f32).unwrap();
+            let (mut ec, mut er, mut chi) = (vec![], vec![], 0.0f64);
+            for x_hi in log_grid(X_HI.0, X_HI.1, 40) {
+                for ratio in RATIOS {
+                    let f_hi = x_hi / (TAU * r * c);
+                    let f_lo = f_hi / ratio;
+                    let tones = [f_lo, f_hi].map(|f| {
+                        let z = z_ref(model, lead, r, c, f, 0.0, 0.0);
+                        tone(z, f, 1e-4 * z.norm())
+                    });
+                    let s = solve(&inv, &tones, 1.05 * c as f32)
+                        .unwrap_or_else(|e| panic!("{model:?} ℓ {lead} x {x_hi} ratio {ratio}: {e}"));
+                    ec.push(s.line.c_farad as f64 / c - 1.0);
+                    er.push(s.line.r_ohm as f64 / r - 1.0);
+                    chi = chi.max(s.chi2 as f64);
+                    assert!((s.line.x as f64 / x_hi - 1.0).abs() < 1e-3);
+                }
+            }
+            let ((c_rms, c_max), (r_rms, r_max)) = (rms_max(&ec), rms_max(&er));
+            println!(
+                "{model:?} ℓ = {lead}: C {c_rms:.1e} RMS / {c_max:.1e} max, R {r_rms:.1e} / {r_max:.1e}, χ² ≤ {chi:.1e}"
+            );
+            // f32 model and data: C within 2·10⁻⁵ RMS, 10⁻⁴ max; R within
+            // 10⁻⁴ RMS, 10⁻³ max (at x = 0.01 the tones carry R in a
+            // resistive part 10⁻³ of |Z|); exact data leave χ² ≪ 1.
+            assert!(c_rms < 2e-5 && c_max < 1e-4, "C {c_rms} {c_max}");
+            assert!(r_rms < 1e-4 && r_max < 1e-3, "R {r_rms} {r_max}");
+            assert!(chi < 0.05, "χ² {chi}");
+        }
+    }
+}
+
+/// Noisy tones at a relative 1σ `eps` per component; returns the χ² of
+/// each draw, the errors of ln C and the solver's σ of ln C.
+fn draws(
+    x_hi: f64,
+    ratio: f64,
+    eps: f64,
+    extra: f64,
+    cp: f64,
+    n: usize,
+    seed: u64,
+) -> (Vec<f64>, Vec<f64>, f64) {
+    let (r, c, lead) = (700e3, 210e-12, 0.0);
+    let model = LineModel::Continuous;
+    let inv = Inverter::with_leads(model, 10.0, lead as f32).unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let unit = Normal::new(0.0, 1.0).unwrap();
+    let f_hi = x_hi / (TAU * r * c);
+    let (mut chi, mut lnc, mut sig) = (vec![], vec![], 0.0);
+    for _ in 0..n {
+        let tones = [f_hi / ratio, f_hi].map(|f| {
+            let z = z_ref(model, lead, r, c, f, extra, cp);
+            let s = eps * z.norm();
+            let (a, b) = (unit.sample(&mut rng), unit.sample(&mut rng));
+            let zn = z + Complex64::new(s * a, s * b);
+            tone(zn, f, s)
+        });
+        let s = solve(&inv, &tones, c as f32).unwrap();
+
+        chi.push(s.chi2 as f64);
+        lnc.push((s.line.c_farad as f64 / c).ln());
+        sig = s.sigma_ln_c as f64;
+    }
+    (chi, lnc, sig)
+}
+
+#[test]
+fn chi2_of_a_uniform_line_in_noise_has_two_degrees_of_freedom() {
+    for (k, (x_hi, ratio)) in [(0.3, 4.0), (2.0, 4.0), (4.0, 2.0), (4.0, 8.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let n = 2000;
+        let (chi, lnc, sigma) = draws(x_hi, ratio, 1e-3, 0.0, 0.0, n, 7 + k as u64);
+        let mean = chi.iter().sum::<f64>() / n as f64;
+        let flagged = chi.iter().filter(|&&v| v > CHI2_FLAG as f64).count();
+        let m = lnc.iter().sum::<f64>() / n as f64;
+        let sd = (lnc.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt();
+        println!("x {x_hi} ratio {ratio}: mean χ² {mean:.3}, flagged {flagged}/{n}, ln C sd {sd:.2e} vs σ {sigma:.2e}, bias {m:.1e}");
+        // E χ² = 2 (sd of the mean of 2000: 0.045); P(χ² > 18.4) = 10⁻⁴,
+        // 0.2 expected of 2000 (4 or more: 6·10⁻⁵).
+        assert!((mean - 2.0).abs() < 0.15, "mean χ² {mean}");
+        assert!(flagged <= 3, "{flagged} false flags");
+        // The stated σ of ln C is the scatter's (within 10 %), unbiased.
+        assert!((sd / sigma - 1.0).abs() < 0.1, "sd {sd} σ {sigma}");
+        assert!(m.abs() < 4.0 * sd / (n as f64).sqrt() + 1e-5, "bias {m}");
+    }
+}
+
+#[test]
+fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_a_clean_line() {
+    // A block's impedance to 10⁻⁴ (1024 pairs, 1000 counts of current,
+    // 0.8 counts of noise give 5·10⁻⁵).
+    let eps = 1e-4;
+    for x_hi in [1.0, 2.0, 4.0] {
+        let clean = draws(x_hi, 4.0, eps, 0.0, 0.0, 200, 3).0;
+        let contact = draws(x_hi, 4.0, eps, 2.0 * 10e3, 0.0, 200, 3).0;
+        let parasitic = draws(x_hi, 4.0, eps, 0.0, 2e-12, 200, 3).0;
+        let fired = |v: &[f64]| v.iter().filter(|&&c| c > CHI2_FLAG as f64).count();
+        let median = |v: &[f64]| {
+            let mut s = v.to_vec();
+            s.sort_by(f64::total_cmp);
+            s[s.len() / 2]
+        };
+        println!(
+            "x {x_hi}: median χ² clean {:.1}, 2×10 kΩ contacts {:.0}, 2 pF parasitic {:.0}",
+            median(&clean),
+            median(&contact),
+            median(&parasitic)
+        );
+        assert!(fired(&clean) == 0, "clean fired {}", fired(&clean));
+        assert!(fired(&contact) >= 190, "contact fired {}", fired(&contact));
+        assert!(fired(&parasitic) >= 190, "parasitic fired {}", fired(&parasitic));
+    }
+}
+
+#[test]
+fn the_noise_of_a_tone_follows_from_its_block() {
+    // |Z| = 1 MΩ, 1024 pairs, 1000 and 500 counts, 0.8 counts each:
+    // 1e6·√(2/1024)·0.8·√(1/1000² + 1/500²).
+    let z = Complex32::new(6e5, -8e5);
+    let s = z_sigma(z, 1024, 1000.0, 500.0, 0.8, 0.8);
+    let expect = 1e6 * (2.0f64 / 1024.0).sqrt() * 0.8 * (1e-6f64 + 4e-6).sqrt();
+    assert!((s as f64 / expect - 1.0).abs() < 1e-5, "{s} vs {expect}");
+    assert!(z_sigma(z, 1024, 0.0, 500.0, 0.8, 0.8).is_infinite());
+}
