@@ -369,15 +369,46 @@ fn amplitude(x: Complex<i64>, n: u32) -> f32 {
     (libm::sqrt(re * re + im * im) * 2.0 / (32767.0 * n as f64)) as f32
 }
 
+/// What none of several tones explains: the rms of one block after
+/// removing its mean and every tone in `tones`, `[voltage, current]`,
+/// counts; each tone demodulated from the same block (the same sums and
+/// squares, the same N) and a whole number of periods in it, so that the
+/// tones are orthogonal and their energies add:
+///
+/// ```text
+/// E_res = Σx² − (Σx)²/N − Σ_k 2|X_k|²/(N·32767²)
+/// ```
+///
+/// 0 for no tone or an empty block. With one tone, [`Phasors::residual_rms`].
+pub fn residual_rms_tones(tones: &[Phasors]) -> [f32; 2] {
+    let Some(first) = tones.first() else {
+        return [0.0; 2];
+    };
+    let m = &first.moments;
+    [
+        residual_of(m.v_sum, m.v_sq, tones.iter().map(|t| t.v), first.n),
+        residual_of(m.i_sum, m.i_sq, tones.iter().map(|t| t.i), first.n),
+    ]
+}
+
 /// √(E_res/N) of one channel (f64: exact for the sums' sizes, and IEEE
 /// basic operations only, so the same bits on every target).
 fn residual(sum: i64, sq: i64, x: Complex<i64>, n: u32) -> f32 {
+    residual_of(sum, sq, core::iter::once(x), n)
+}
+
+/// √(E_res/N) of one channel after every tone of `xs`.
+fn residual_of(sum: i64, sq: i64, xs: impl Iterator<Item = Complex<i64>>, n: u32) -> f32 {
     if n == 0 {
         return 0.0;
     }
     let n = n as f64;
-    let (s, re, im) = (sum as f64, x.re as f64, x.im as f64);
+    let s = sum as f64;
     const REF: f64 = 32767.0;
-    let e = sq as f64 - s * s / n - 2.0 * (re * re + im * im) / (n * REF * REF);
+    let mut e = sq as f64 - s * s / n;
+    for x in xs {
+        let (re, im) = (x.re as f64, x.im as f64);
+        e -= 2.0 * (re * re + im * im) / (n * REF * REF);
+    }
     libm::sqrt(e.max(0.0) / n) as f32
 }
