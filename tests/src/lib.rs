@@ -40,11 +40,11 @@ pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
     if !st.success() {
         bail!("firmware build of {bin} failed");
     }
-    Ok(root()
-        .join("firmware/target")
-        .join(TARGET)
-        .join("release")
-        .join(bin))
+    // Where cargo put it: CARGO_TARGET_DIR when set (relative to the
+    // firmware's folder, where cargo ran), else the firmware's own target.
+    let fw = root().join("firmware");
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| fw.join("target"), |d| fw.join(d));
+    Ok(target.join(TARGET).join("release").join(bin))
 }
 
 /// What a QEMU run printed and how it ended.

@@ -115,8 +115,41 @@ fn main() -> ! {
         println!("bench invert_{} {} insn/inversion", name, total / xs.len() as u32);
         println!("bench invert_{}_worst {} insn/inversion", name, worst);
     }
+    two_tones(syst, &insns);
     block_budget(syst, &insns);
     qemu::exit(0)
+}
+
+/// The joint line of two tones (1.5 and 6 kHz) with its χ², from the
+/// single-tone inversions, averaged over the higher tone at x = 0.3–5.
+fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    use dsp_core::twotone::{solve, Tone};
+    let inv = Inverter::new(LineModel::Continuous);
+    let c = 200e-12f32;
+    let (mut total, mut worst, mut count) = (0, 0, 0);
+    for x_hi in [0.3f32, 1.0, 2.0, 3.5, 5.0] {
+        let tones = [1500.0f32, 6000.0].map(|f| {
+            let w = core::f32::consts::TAU * f;
+            let z = LineModel::Continuous.zeta(x_hi * f / 6000.0).unwrap_or_default() / (w * c);
+            Tone {
+                z,
+                f_hz: f,
+                sigma_ohm: 1e-4 * z.l1_norm(),
+            }
+        });
+        let t = insns(ticks(syst, || {
+            black_box(solve(&inv, black_box(&tones), 1.05 * c).ok());
+        }));
+        if solve(&inv, &tones, 1.05 * c).is_err() {
+            println!("FAIL twotone at x = {}", x_hi);
+            qemu::exit(1);
+        }
+        total += t;
+        worst = worst.max(t);
+        count += 1;
+    }
+    println!("bench twotone_solve {} insn/record", total / count);
+    println!("bench twotone_solve_worst {} insn/record", worst);
 }
 
 /// One whole firmware block: demodulate 1024 pairs, then fault checks, line
