@@ -7,7 +7,7 @@ mod common;
 use common::{log_grid, rms_max, zeta_ref};
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
-use dsp_core::twotone::{solve, z_sigma, Tone, CHI2_FLAG};
+use dsp_core::twotone::{solve, solve_from, z_sigma, Tone, CHI2_FLAG};
 use dsp_core::Complex32;
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -173,4 +173,47 @@ fn the_noise_of_a_tone_follows_from_its_block() {
     let expect = 1e6 * (2.0f64 / 1024.0).sqrt() * 0.8 * (1e-6f64 + 4e-6).sqrt();
     assert!((s as f64 / expect - 1.0).abs() < 1e-5, "{s} vs {expect}");
     assert!(z_sigma(z, 1024, 0.0, 500.0, 0.8, 0.8).is_infinite());
+}
+
+/// Tracking: from the previous record's line, 25 % off in R and in C, the
+/// same joint line as from the single-tone inversions (within 10⁻⁵ of C,
+/// 10⁻⁴ of R) across the declared range.
+#[test]
+fn a_tracked_start_converges_to_the_same_line() {
+    let (r, c) = (700e3, 210e-12);
+    let model = LineModel::Continuous;
+    let inv = Inverter::with_leads(model, 10.0, 0.9).unwrap();
+    let mut worst = (0f64, 0f64);
+    for x_hi in log_grid(X_HI.0, X_HI.1, 25) {
+        for ratio in RATIOS {
+            let f_hi = x_hi / (TAU * r * c);
+            let tones = [f_hi / ratio, f_hi].map(|f| {
+                let z = z_ref(model, 0.9, r, c, f, 0.0, 0.0);
+                tone(z, f, 1e-4 * z.norm())
+            });
+            let full = solve(&inv, &tones, c as f32).unwrap();
+            for (kr, kc) in [(1.25, 1.25), (0.75, 1.25), (1.25, 0.75), (0.75, 0.75)] {
+                let t = solve_from(&inv, &tones, (kr * r) as f32, (kc * c) as f32)
+                    .unwrap_or_else(|e| panic!("x {x_hi} ratio {ratio} start {kr} {kc}: {e}"));
+                let ec = (t.line.c_farad / full.line.c_farad - 1.0).abs() as f64;
+                let er = (t.line.r_ohm / full.line.r_ohm - 1.0).abs() as f64;
+                worst = (worst.0.max(ec), worst.1.max(er));
+                assert!(
+                    ec < 1e-5 && er < 1e-4,
+                    "x {x_hi} ratio {ratio} start {kr} {kc}: C {ec}, R {er}"
+                );
+            }
+        }
+    }
+    println!(
+        "tracked start: C within {:.1e}, R within {:.1e} of the full solve",
+        worst.0, worst.1
+    );
+    assert!(solve_from(
+        &inv,
+        &[tone(Complex64::new(1e5, -1e6), 1e3, 10.0); 2],
+        -1.0,
+        1e-10
+    )
+    .is_err());
 }

@@ -123,10 +123,11 @@ fn main() -> ! {
 /// The joint line of two tones (1.5 and 6 kHz) with its χ², from the
 /// single-tone inversions, averaged over the higher tone at x = 0.3–5.
 fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
-    use dsp_core::twotone::{solve, Tone};
+    use dsp_core::twotone::{solve, solve_from, Tone};
     let inv = Inverter::new(LineModel::Continuous);
     let c = 200e-12f32;
     let (mut total, mut worst, mut count) = (0, 0, 0);
+    let (mut tracked, mut tracked_worst) = (0, 0);
     for x_hi in [0.3f32, 1.0, 2.0, 3.5, 5.0] {
         let tones = [1500.0f32, 6000.0].map(|f| {
             let w = core::f32::consts::TAU * f;
@@ -140,16 +141,25 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         let t = insns(ticks(syst, || {
             black_box(solve(&inv, black_box(&tones), 1.05 * c).ok());
         }));
-        if solve(&inv, &tones, 1.05 * c).is_err() {
+        let Ok(s) = solve(&inv, &tones, 1.05 * c) else {
             println!("FAIL twotone at x = {}", x_hi);
             qemu::exit(1);
-        }
+        };
         total += t;
         worst = worst.max(t);
         count += 1;
+        // Tracking: from the previous record's line, 2 % off.
+        let (r0, c0) = (1.02 * s.line.r_ohm, 0.98 * s.line.c_farad);
+        let t = insns(ticks(syst, || {
+            black_box(solve_from(&inv, black_box(&tones), r0, c0).ok());
+        }));
+        tracked += t;
+        tracked_worst = tracked_worst.max(t);
     }
     println!("bench twotone_solve {} insn/record", total / count);
     println!("bench twotone_solve_worst {} insn/record", worst);
+    println!("bench twotone_tracked {} insn/record", tracked / count);
+    println!("bench twotone_tracked_worst {} insn/record", tracked_worst);
 }
 
 /// One whole firmware block: demodulate 1024 pairs, then fault checks, line
