@@ -616,7 +616,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             .map(|f| {
                 let start = f.used.iter().take_while(|u| !**u).count();
                 let end = f.used.iter().rev().take_while(|u| !**u).count();
-                (f.name.clone(), start.min(f.used.len()), end)
+                (f.name.clone(), start, end)
             })
             .filter(|x| x.1 + x.2 > 0)
             .collect(),
