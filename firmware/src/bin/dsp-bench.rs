@@ -116,8 +116,34 @@ fn main() -> ! {
         println!("bench invert_{}_worst {} insn/inversion", name, worst);
     }
     two_tones(syst, &insns);
+    math(syst, &insns);
     block_budget(syst, &insns);
     qemu::exit(0)
+}
+
+/// micromath and libm, instructions per call of each f32 function on the
+/// device path, averaged over inputs across its range.
+fn math(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    use micromath::F32;
+    let xs = [1e-9f32, 3e-4, 0.02, 0.7, 1.3, 45.0, 7e3, 2e6];
+    let ex = [-25.0f32, -7.0, -1.5, -0.2, 0.3, 2.0, 9.0, 22.0];
+    let mut row = |name: &str, inputs: &[f32; 8], m: &dyn Fn(f32) -> f32, l: &dyn Fn(f32) -> f32| {
+        let (mut tm, mut tl) = (0, 0);
+        for &x in inputs {
+            tm += insns(ticks(syst, || {
+                black_box(m(black_box(x)));
+            }));
+            tl += insns(ticks(syst, || {
+                black_box(l(black_box(x)));
+            }));
+        }
+        println!("bench micromath_{} {} insn/call", name, tm / 8);
+        println!("bench libm_{} {} insn/call", name, tl / 8);
+    };
+    row("exp", &ex, &|x| F32(x).exp().0, &libm::expf);
+    row("ln", &xs, &|x| F32(x).ln().0, &libm::logf);
+    row("sqrt", &xs, &|x| F32(x).sqrt().0, &libm::sqrtf);
+    row("hypot", &xs, &|x| F32(x).hypot(F32(1.7 * x)).0, &|x| libm::hypotf(x, 1.7 * x));
 }
 
 /// The joint line of two tones (1.5 and 6 kHz) with its χ², from the
