@@ -143,7 +143,9 @@ fn math(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     row("exp", &ex, &|x| F32(x).exp().0, &libm::expf);
     row("ln", &xs, &|x| F32(x).ln().0, &libm::logf);
     row("sqrt", &xs, &|x| F32(x).sqrt().0, &libm::sqrtf);
-    row("hypot", &xs, &|x| F32(x).hypot(F32(1.7 * x)).0, &|x| libm::hypotf(x, 1.7 * x));
+    row("hypot", &xs, &|x| F32(x).hypot(F32(1.7 * x)).0, &|x| {
+        libm::hypotf(x, 1.7 * x)
+    });
 }
 
 /// The joint line of two tones (1.5 and 6 kHz) with its χ², from the
