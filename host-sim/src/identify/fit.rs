@@ -353,8 +353,8 @@ impl Problem<'_> {
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
 /// (factor 2) across its range in `search`, from its end down to the
-/// finest the data resolve ([`Search::finest`]: half a row interval for
-/// a time effect), both signs where allowed, since some effects act
+/// finest the data resolve (a time effect: half a row interval,
+/// [`Search::finest_time_s`]), both signs where allowed, since some effects act
 /// quadratically and a linear grid would miss small values.
 pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
     let (lo, hi) = search.range(e);
@@ -365,12 +365,12 @@ pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
     }
     // Signed ranges: 9 magnitudes (1/256 of the range), one-sided: 12
     // (1/2048); time effects down to half a row interval, at most 16.
-    let base = if lo < 0.0 { 9 } else { 12 };
-    let fine = (top / search.finest(e)).log2().ceil() as i32 + 1;
-    let levels = if e.info().entry == instrument::effects::Entry::Time {
-        fine.clamp(2, 16)
+    let levels = if e.info().entry == instrument::effects::Entry::Time && search.row_s > 0.0 {
+        ((top / search.finest_time_s()).log2().ceil() as i32 + 1).clamp(2, 16)
+    } else if lo < 0.0 {
+        9
     } else {
-        base
+        12
     };
     for k in 0..levels {
         let m = 0.5f64.powi(k);

@@ -96,16 +96,10 @@ impl Search {
         (back - lo, hi)
     }
 
-    /// The grid's finest nonzero magnitude for `e` (SI): half a row
-    /// interval for a time effect, 1/2048 of the range otherwise.
-    pub fn finest(&self, e: Effect) -> f64 {
-        let (lo, hi) = self.range(e);
-        let span = hi.max(-lo);
-        if e.info().entry == instrument::effects::Entry::Time && self.row_s > 0.0 {
-            (0.5 * self.row_s).min(span)
-        } else {
-            span / 2048.0
-        }
+    /// The finest nonzero magnitude a time effect's grid reaches down to,
+    /// s: half a row interval (0: no trace).
+    pub fn finest_time_s(&self) -> f64 {
+        0.5 * self.row_s
     }
 }
 
@@ -136,6 +130,6 @@ mod tests {
             s.range(Effect::ContactResistance),
             Effect::ContactResistance.info().search
         );
-        assert!(close(s.finest(Effect::MeterLag), 0.01));
+        assert!(close(s.finest_time_s(), 0.01));
     }
 }
