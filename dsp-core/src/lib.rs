@@ -12,6 +12,7 @@
 //! | [`cossin`] | table-based sine/cosine of an `i32` phase (`i32::MIN` = −π), Q31 |
 //! | [`osc`] | phase-accumulator excitation oscillator ([`Oscillator`] / [`OscillatorState`]) |
 //! | [`demod`] | synchronous I/Q demodulation of (voltage, current) sample pairs, i64 sums |
+//! | [`comb`] | demodulation of a comb of tones from one input of a scanned block |
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
 //! | [`fixture`] | de-embedding contacts and parasitic capacitance found by `identify` |
@@ -55,6 +56,7 @@ pub use num_complex::Complex;
 /// impedances (dimensionless).
 pub type Complex32 = Complex<f32>;
 
+pub mod comb;
 pub mod cossin;
 pub mod demod;
 mod fixed;

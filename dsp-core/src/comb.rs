@@ -1,0 +1,213 @@
+//! Synchronous demodulation of a comb of tones from one input of a
+//! scanned block.
+//!
+//! A front end that excites every sensor with the same sum of K tones and
+//! samples many inputs in turn leaves, per block, rows of `S` samples (one
+//! per input of an ADC's scan) at `N` instants. Tone k makes `periods[k]`
+//! whole periods in the block, so with θₖ,ₙ = 2π·pₖ·n/N the sums
+//!
+//! ```text
+//! Xₖ = Σₙ xₙ·e^(−jθₖ,ₙ) = Σ xₙ cos θₖ,ₙ − j Σ xₙ sin θₖ,ₙ      (Q31 · ADC counts)
+//! ```
+//!
+//! are each tone's least-squares phasor, and the tones are exactly
+//! orthogonal over the block: tone q adds nothing to Xₖ (q ≠ k), nor does
+//! DC. The amplitude of tone k is 2|Xₖ|/(2³¹·N) counts, and the ratio of
+//! a voltage input's phasor to a current input's ([`Tones::ratio`]) gives
+//! the impedance as in [`crate::demod`].
+//!
+//! The reference is cos θ, sin θ in Q31 from [`crate::cossin`] at the
+//! exact phase (pₖ·n mod N)/N of a turn (error below 10⁻⁸): 8·N·K bytes,
+//! laid out once. Q31, not the Q15 of [`crate::demod`], because the comb's
+//! residual subtracts the energies of K tones that can be 10⁷ times the
+//! noise's: a Q15 reference's rounding (10⁻⁵ of each tone's energy) would
+//! bury the noise, a Q31 one's (10⁻⁹) does not.
+//!
+//! What no tone explains (hum, a step, noise), counts rms, with the mean
+//! and every tone of the comb removed:
+//!
+//! ```text
+//! E_res = Σx² − (Σx)²/N − Σₖ 2|Xₖ|²/(N·2⁶²),   r = √(E_res/N)
+//! ```
+//!
+//! Overflow: each product is at most 2¹⁵·2³¹ = 2⁴⁶ and a sum holds N of
+//! them, so the i64 sums cannot overflow for N < 2¹⁷ ([`Comb::new`]
+//! refuses larger blocks).
+
+use crate::cossin::cossin;
+use crate::Complex32;
+use num_complex::Complex;
+
+/// Why a comb cannot be laid out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CombError {
+    /// A tone has 0 periods, or N/2 or more (at or above Nyquist).
+    Periods(u32),
+    /// Two tones have the same number of periods.
+    Repeated(u32),
+    /// The block is longer than 2¹⁷ instants (the sums could overflow).
+    TooLong,
+}
+
+impl core::fmt::Display for CombError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            CombError::Periods(p) => write!(f, "{p} periods per block is not between 1 and N/2 − 1"),
+            CombError::Repeated(p) => write!(f, "two tones of {p} periods per block"),
+            CombError::TooLong => write!(f, "a block of more than 2^17 instants"),
+        }
+    }
+}
+
+impl core::error::Error for CombError {}
+
+/// The demodulator of a comb of `K` tones over blocks of `N` instants.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Comb<const N: usize, const K: usize> {
+    periods: [u32; K],
+    /// Instant n of tone k: [cos θₖ,ₙ, sin θₖ,ₙ], Q31 (saturated: +1 is
+    /// i32::MAX).
+    reference: [[[i32; 2]; N]; K],
+}
+
+/// The comb's sums for one input over one block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tones<const K: usize> {
+    /// Phasor of each tone, Xₖ = Σ x·e^(−jθₖ), Q31 · ADC counts.
+    pub x: [Complex<i64>; K],
+    /// Instants summed.
+    pub n: u32,
+    /// Σx, counts.
+    pub sum: i64,
+    /// Σx², counts².
+    pub sq: i64,
+}
+
+impl<const N: usize, const K: usize> Comb<N, K> {
+    /// The comb whose tone k makes `periods[k]` whole periods per block;
+    /// an error unless every count is in 1..N/2 and none repeats.
+    pub fn new(periods: [u32; K]) -> Result<Self, CombError> {
+        if N > 1 << 17 {
+            return Err(CombError::TooLong);
+        }
+        for (k, &p) in periods.iter().enumerate() {
+            if p == 0 || 2 * p as u64 >= N as u64 {
+                return Err(CombError::Periods(p));
+            }
+            if periods[..k].contains(&p) {
+                return Err(CombError::Repeated(p));
+            }
+        }
+        let mut reference = [[[0i32; 2]; N]; K];
+        for (row, &p) in reference.iter_mut().zip(&periods) {
+            for (n, w) in row.iter_mut().enumerate() {
+                // The exact phase as a fraction of a turn, 2³² per turn.
+                let m = (p as u64 * n as u64) % N as u64;
+                let phase = (((m << 32) + N as u64 / 2) / N as u64) as u32 as i32;
+                let (c, s) = cossin(phase);
+                *w = [c, s];
+            }
+        }
+        Ok(Self { periods, reference })
+    }
+
+    /// Periods per block of each tone.
+    pub fn periods(&self) -> &[u32; K] {
+        &self.periods
+    }
+
+    /// Tone k's reference words (see the type).
+    pub fn reference(&self, k: usize) -> Option<&[[i32; 2]; N]> {
+        self.reference.get(k)
+    }
+
+    /// Demodulate input `col` of a block of rows of `S` inputs (as a
+    /// scanning ADC's DMA leaves them): every tone, Σx and Σx². An input
+    /// beyond the row gives an empty result (`n` = 0).
+    pub fn column<const S: usize>(&self, rows: &[[i16; S]; N], col: usize) -> Tones<K> {
+        let mut t = Tones {
+            x: [Complex::new(0, 0); K],
+            n: 0,
+            sum: 0,
+            sq: 0,
+        };
+        if col >= S {
+            return t;
+        }
+        for (x, reference) in t.x.iter_mut().zip(&self.reference) {
+            let (mut c, mut s) = (0i64, 0i64);
+            for (row, &[rc, rs]) in rows.iter().zip(reference.iter()) {
+                let v = row[col] as i64;
+                c += v * rc as i64;
+                s += v * rs as i64;
+            }
+            *x = Complex::new(c, -s);
+        }
+        let (mut sum, mut sq) = (0i64, 0i64);
+        for row in rows {
+            let v = row[col] as i32;
+            sum += v as i64;
+            sq += (v * v) as i64;
+        }
+        t.n = N as u32;
+        t.sum = sum;
+        t.sq = sq;
+        t
+    }
+}
+
+impl<const K: usize> Tones<K> {
+    /// Amplitude of tone `k`, counts (peak); 0 for an empty block or a
+    /// tone beyond the comb.
+    pub fn amplitude(&self, k: usize) -> f32 {
+        match self.x.get(k) {
+            Some(x) if self.n > 0 => {
+                let (re, im) = (x.re as f64, x.im as f64);
+                (libm::sqrt(re * re + im * im) * 2.0 / (Q31 * self.n as f64)) as f32
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// What no tone of the comb explains: the block's rms after its mean
+    /// and every tone, counts (module docs). 0 for an empty block. f64 and
+    /// IEEE basic operations only: the same bits on every target.
+    pub fn residual_rms(&self) -> f32 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let n = self.n as f64;
+        let s = self.sum as f64;
+        let mut e = self.sq as f64 - s * s / n;
+        for x in &self.x {
+            let (re, im) = (x.re as f64, x.im as f64);
+            e -= 2.0 * (re * re + im * im) / (n * Q31 * Q31);
+        }
+        libm::sqrt(e.max(0.0) / n) as f32
+    }
+
+    /// V/I of tone `k` of a voltage input `v` and a current input `i`
+    /// (multiply by the front end's transimpedance for Z, as
+    /// [`crate::demod::Phasors::impedance`]); `None` for a tone beyond the
+    /// comb or no current.
+    pub fn ratio(v: &Self, i: &Self, k: usize) -> Option<Complex32> {
+        let (v, i) = (v.x.get(k)?, i.x.get(k)?);
+        // Scale all four by one power of two so that f32 keeps the top
+        // bits of the largest; V/I is unchanged by a common factor.
+        let m = [v.re, v.im, i.re, i.im]
+            .iter()
+            .fold(0u64, |a, x| a | x.unsigned_abs());
+        let sh = (64 - m.leading_zeros()).saturating_sub(40);
+        let f = |x: i64| (x >> sh) as f32;
+        let (v, i) = (Complex32::new(f(v.re), f(v.im)), Complex32::new(f(i.re), f(i.im)));
+        let d = i.norm_sqr();
+        if d > 0.0 && d.is_finite() {
+            Some(v * i.conj() / d)
+        } else {
+            None
+        }
+    }
+}
+
+/// The reference's full scale, 2³¹.
+const Q31: f64 = 2_147_483_648.0;
