@@ -6,39 +6,44 @@ use crate::design;
 
 /// Bit set of flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Flags(pub u8);
+pub struct Flags(pub u16);
 
 impl Flags {
     /// An ADC sample of the block hit a rail.
-    pub const CLIPPED: u8 = 1 << 0;
+    pub const CLIPPED: u16 = 1 << 0;
     /// No current: the sensor is disconnected (open).
-    pub const OPEN: u8 = 1 << 1;
+    pub const OPEN: u16 = 1 << 1;
     /// Not a lossy capacitor, or |Z| below the short threshold.
-    pub const SHORTED: u8 = 1 << 2;
+    pub const SHORTED: u16 = 1 << 2;
     /// The line inversion failed or was rejected (x beyond range, jump).
-    pub const RANGE: u8 = 1 << 3;
+    pub const RANGE: u16 = 1 << 3;
     /// The channel or its frequency just changed: the block is discarded.
-    pub const SETTLING: u8 = 1 << 4;
+    pub const SETTLING: u16 = 1 << 4;
     /// C held from the previous block (ill-conditioned inversion): no new
     /// reading, so not valid.
-    pub const HELD: u8 = 1 << 5;
+    pub const HELD: u16 = 1 << 5;
     /// The block holds more than the excitation explains (mains hum, a
     /// step, a glitch): its residual after the fitted tone is above the
     /// threshold, so the tone itself may be off.
-    pub const DISTURBED: u8 = 1 << 6;
+    pub const DISTURBED: u16 = 1 << 6;
     /// The line's C is not vouched for: the block's noise, and any
     /// disturbance the residual check lets through, times the inversion's
     /// error amplification κ at this ωRC, could move C by more than
     /// [`Thresholds::c_tolerance`] (near the peak of D, or a weak signal).
-    pub const UNCERTAIN: u8 = 1 << 7;
+    pub const UNCERTAIN: u16 = 1 << 7;
+    /// The two tones of the block disagree: no single uniform line
+    /// explains both within their noise (χ² of
+    /// [`dsp_core::twotone::Solution`] above its flag): a contact, a
+    /// parasitic, a disturbance the line does not have.
+    pub const MODEL: u16 = 1 << 8;
 
     /// Is `bit` set?
-    pub fn has(self, bit: u8) -> bool {
+    pub fn has(self, bit: u16) -> bool {
         self.0 & bit != 0
     }
 
     /// Set `bit`.
-    pub fn set(&mut self, bit: u8) {
+    pub fn set(&mut self, bit: u16) {
         self.0 |= bit;
     }
 
@@ -51,7 +56,8 @@ impl Flags {
             | Self::SETTLING
             | Self::DISTURBED
             | Self::UNCERTAIN
-            | Self::HELD;
+            | Self::HELD
+            | Self::MODEL;
         self.0 & bad == 0
     }
 }
@@ -59,6 +65,10 @@ impl Flags {
 /// The designed excitation at the voltage ADC, counts (amplitude).
 const EXCITATION_COUNTS: f32 = (design::EXCITATION_VOLT * design::V_GAIN * design::ADC_OFFSET_CODE as f64
     / design::ADC_HALF_SCALE_VOLT) as f32;
+
+/// One tone of the array's excitation at its voltage input, counts.
+const ARRAY_TONE_COUNTS: f32 =
+    (crate::array::TONE_VOLT / design::ADC_HALF_SCALE_VOLT * crate::array::HALF_SCALE as f64) as f32;
 
 /// Thresholds of the fault checks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -114,6 +124,24 @@ impl Thresholds {
         // 0.7 LSB of input noise (the STM32G4 ADC's typical, 12-bit) and
         // 0.29 LSB of quantization: 0.76 LSB rms, rounded up.
         noise_counts: 1.0,
+    };
+
+    /// Thresholds for the array ([`crate::array`]: 15-bit oversampled
+    /// results, 0.3 V tones, 330 kΩ transimpedance). The smallest real
+    /// current, the paper's cycled sensor (≈ 1.9 MΩ) at 500 Hz, gives
+    /// ≈ 500 counts and a tone of the excitation ≈ 2980; a clean block's
+    /// residual is the ADC's ≈ 2.15 counts. Open below 30 counts, no
+    /// excitation below a sixth; disturbed above 4.5 counts (2.1× the
+    /// noise, as the board's 1.5 against 0.76) or 2 % of the largest tone.
+    pub const ARRAY: Self = Self {
+        open_counts: 30.0,
+        no_excitation_counts: ARRAY_TONE_COUNTS / 6.0,
+        short_ohm: 1_000.0,
+        r_max_ohm: 5.0e6,
+        residual_counts: 4.5,
+        residual_rel: 0.02,
+        c_tolerance: 0.008,
+        noise_counts: crate::array::NOISE_COUNTS,
     };
 
     /// A bound on the relative error of C from one block. A channel's

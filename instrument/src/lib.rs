@@ -14,6 +14,8 @@
 //! | [`channel`] | one sensor channel: demodulated block → record |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
+//! | [`array`] | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
+//! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain
 //! chain runs the same [`channel::Channel`] on the simulated skin. It is
@@ -27,6 +29,7 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod array;
 pub mod calib;
 pub mod channel;
 pub mod config;
@@ -37,4 +40,5 @@ pub mod mux;
 pub mod policy;
 pub mod ranging;
 pub mod sequencer;
+pub mod tones;
 pub mod wire;

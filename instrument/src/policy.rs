@@ -93,16 +93,31 @@ impl Policy {
     /// Update with a measured line (R Ω, C F) after `dt_s` seconds; returns
     /// true if the frequency changed.
     pub fn update(&self, st: &mut PolicyState, r_ohm: f32, c_farad: f32, dt_s: f32) -> bool {
+        let set: [f32; PERIODS.len()] = core::array::from_fn(freq_hz);
+        self.update_on(&set, st, r_ohm, c_farad, dt_s)
+    }
+
+    /// As [`Policy::update`] on another frequency set (`set_hz`, Hz,
+    /// ascending; `st.index` indexes it): the array's comb.
+    pub fn update_on(
+        &self,
+        set_hz: &[f32],
+        st: &mut PolicyState,
+        r_ohm: f32,
+        c_farad: f32,
+        dt_s: f32,
+    ) -> bool {
+        let x = |i: usize, r: f32| TAU * set_hz[i] * r * c_farad;
         st.since_switch_s = (st.since_switch_s + dt_s).min(f32::MAX);
         let decayed = st.r_peak * (1.0 - self.decay_per_s * dt_s).max(0.0);
         st.r_peak = decayed.max(r_ohm);
-        let mut target = st.index;
-        while target > 0 && Self::x(target, st.r_peak, c_farad) > self.x_limit {
+        let mut target = st.index.min(set_hz.len().saturating_sub(1));
+        while target > 0 && x(target, st.r_peak) > self.x_limit {
             target -= 1;
         }
         if target == st.index && st.since_switch_s >= self.hold_s {
-            while target + 1 < PERIODS.len()
-                && Self::x(target + 1, st.r_peak, c_farad) <= self.x_limit * (1.0 - self.hysteresis)
+            while target + 1 < set_hz.len()
+                && x(target + 1, st.r_peak) <= self.x_limit * (1.0 - self.hysteresis)
             {
                 target += 1;
             }

@@ -123,7 +123,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
             c_farad: num(6)? * 1e-12,
             r_ohm: num(7)?,
             stretch_mm: num(8)?,
-            flags: Flags(byte(9)?),
+            flags: Flags(w[9].parse::<u16>().map_err(|_| WireError::Field(9))?),
         }),
         _ => Line::Truth(Truth {
             t_us: int(1)?,
@@ -142,7 +142,7 @@ impl defmt::Format for Record {
     fn format(&self, f: defmt::Formatter) {
         defmt::write!(
             f,
-            "rec {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u8}",
+            "rec {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u16}",
             self.t_us,
             self.channel,
             self.freq_hz,

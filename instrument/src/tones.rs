@@ -1,0 +1,237 @@
+//! One sensor of the array ([`crate::array`]): from the comb's phasors of
+//! a block to a line-corrected record with its model check.
+//!
+//! Every block carries the sensor's current at all [`TONES`] tones of the
+//! comb. The channel uses two of them: the policy's tone (the highest
+//! whose x̂ = 2π·f·R̂·C stays within the bound, as [`crate::policy`]
+//! chooses one frequency for the multiplexed board) and the one two steps
+//! below it (a factor 3–4 lower; the lowest pair when the policy sits at
+//! the bottom). Their impedances, each with its noise from the block,
+//! give the line by [`dsp_core::twotone`]: from the previous record's
+//! line while the channel tracks its sensor, from the single-tone
+//! inversions otherwise. χ² says whether one uniform line explains both
+//! tones; a record where it does not is flagged [`Flags::MODEL`].
+//! Switching tones needs no settling: the excitation never changes.
+
+use crate::array::{tone_hz, tones_hz, TONES};
+use crate::calib::CalTable;
+use crate::faults::{Flags, Thresholds};
+use crate::policy::{Policy, PolicyState};
+use dsp_core::comb::Tones;
+use dsp_core::demod::FrontEnd;
+use dsp_core::fixture::Fixture;
+use dsp_core::invert::Inverter;
+use dsp_core::twotone::{self, Tone};
+use dsp_core::Complex32;
+
+/// What every sensor of the array shares.
+#[derive(Clone, Copy, Debug)]
+pub struct ToneSettings<'a, const N: usize> {
+    /// Tone policy (its `settle_blocks` is not used: nothing settles).
+    pub policy: Policy,
+    /// Fault thresholds, in the array ADC's counts.
+    pub thresholds: Thresholds,
+    /// The transimpedance k in Z = k·V/I.
+    pub front_end: FrontEnd,
+    /// The line model and its inversion.
+    pub inverter: Inverter,
+    /// Stretch calibration.
+    pub calibration: &'a CalTable<N>,
+    /// Wiring de-embedded before the line (as `host-sim identify` found
+    /// it).
+    pub fixture: Fixture,
+    /// χ² above which a record is flagged [`Flags::MODEL`].
+    pub chi2_flag: f32,
+}
+
+/// One record of an array sensor.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ToneRecord {
+    /// Middle of the block since start, µs.
+    pub t_us: u64,
+    /// Sensor.
+    pub channel: u8,
+    /// The two tones' frequencies, Hz, lower first.
+    pub f_hz: [f32; 2],
+    /// The measured impedance at each, Ω (0 when not measured).
+    pub z: [Complex32; 2],
+    /// Line capacitance, F (0 when not available).
+    pub c_farad: f32,
+    /// Line resistance (both electrodes), Ω.
+    pub r_ohm: f32,
+    /// χ² of the two tones against one uniform line (2 degrees of
+    /// freedom; 0 when not solved).
+    pub chi2: f32,
+    /// 1σ relative error of C from the block's noise.
+    pub sigma_c: f32,
+    /// Stretch from the calibration, mm.
+    pub stretch_mm: f32,
+    /// Flags.
+    pub flags: Flags,
+}
+
+/// State of one array sensor.
+#[derive(Clone, Copy, Debug)]
+pub struct ToneChannel {
+    /// Tone policy state (`index`: the higher tone).
+    pub policy: PolicyState,
+    /// The last line solved consistently, (R Ω, C F).
+    line: Option<(f32, f32)>,
+    last_t_us: Option<u64>,
+    prior_farad: f32,
+}
+
+impl ToneChannel {
+    /// A sensor that rests at `prior_farad` (its calibration).
+    pub const fn new(prior_farad: f32) -> Self {
+        Self {
+            policy: PolicyState::new(),
+            line: None,
+            last_t_us: None,
+            prior_farad,
+        }
+    }
+
+    /// The comb tones the next block is read at, lower first.
+    pub fn pair(&self) -> [usize; 2] {
+        let hi = self.policy.index.clamp(1, TONES - 1);
+        [hi.saturating_sub(2), hi]
+    }
+
+    /// Turn the comb's phasors of the excitation `v` and of this sensor's
+    /// current `i` over one block into a record; `rotation` takes the
+    /// sensor's scan skew out ([`crate::array::skew_rotation`]), `clipped`
+    /// says an ADC result of the sensor's input or the voltage's hit a
+    /// rail. Updates the tone policy and the tracked line.
+    #[allow(clippy::too_many_arguments)]
+    pub fn process<const N: usize>(
+        &mut self,
+        s: &ToneSettings<N>,
+        channel: u8,
+        t_us: u64,
+        v: &Tones<TONES>,
+        i: &Tones<TONES>,
+        clipped: bool,
+        rotation: &[Complex32; TONES],
+    ) -> ToneRecord {
+        let dt = self
+            .last_t_us
+            .map_or(0.0, |t0| t_us.saturating_sub(t0) as f32 * 1e-6);
+        self.last_t_us = Some(t_us);
+        let pair = self.pair();
+        let mut rec = ToneRecord {
+            t_us,
+            channel,
+            f_hz: pair.map(tone_hz),
+            ..ToneRecord::default()
+        };
+        let th = &s.thresholds;
+        if clipped {
+            rec.flags.set(Flags::CLIPPED);
+        }
+        // Each tone's impedance, or why there is none.
+        let mut tones = [Tone {
+            z: Complex32::new(0.0, 0.0),
+            f_hz: 0.0,
+            sigma_ohm: 0.0,
+        }; 2];
+        let (rv, ri) = (v.residual_rms(), i.residual_rms());
+        for (j, &k) in pair.iter().enumerate() {
+            let (av, ai) = (v.amplitude(k), i.amplitude(k));
+            let z = match Tones::ratio(v, i, k) {
+                Some(r) if ai >= th.open_counts && av >= th.no_excitation_counts => {
+                    r * s.front_end.gain * rotation[k]
+                }
+                _ => {
+                    rec.flags.set(Flags::OPEN);
+                    return rec;
+                }
+            };
+            rec.z[j] = z;
+            // A lossy capacitor: Re Z ≥ 0 and Im Z < 0, and not a short.
+            if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
+                rec.flags.set(Flags::SHORTED);
+                return rec;
+            }
+            tones[j] = Tone {
+                z,
+                f_hz: rec.f_hz[j],
+                sigma_ohm: twotone::z_sigma(z, v.n.min(i.n), av, ai, rv, ri),
+            };
+        }
+        // What no tone of the comb explains, against the largest tone.
+        let largest = |t: &Tones<TONES>| (0..TONES).map(|k| t.amplitude(k)).fold(0.0, f32::max);
+        let limit = |a: f32| th.residual_counts.max(th.residual_rel * a);
+        if !(rv <= limit(largest(v)) && ri <= limit(largest(i))) {
+            rec.flags.set(Flags::DISTURBED);
+        }
+        if clipped || rec.flags.has(Flags::DISTURBED) {
+            // Biased tones: keep the line and the policy as they were.
+            return rec;
+        }
+        // The line is what is left behind the wiring.
+        for t in tones.iter_mut() {
+            match s.fixture.remove(t.z, t.f_hz) {
+                Ok(z) => t.z = z,
+                Err(_) => {
+                    rec.flags.set(Flags::OPEN);
+                    return rec;
+                }
+            }
+        }
+        let hint = self.line.map_or(self.prior_farad, |(_, c)| c);
+        let tracked = self
+            .line
+            .map(|(r, c)| twotone::solve_from(&s.inverter, &tones, r, c));
+        let solution = match tracked {
+            Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
+            // Lost, or never locked: from the single-tone inversions, the
+            // better of the two.
+            other => match (other, twotone::solve(&s.inverter, &tones, hint)) {
+                (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
+                (Some(Ok(t)), Err(_)) => Ok(t),
+                (_, fresh) => fresh,
+            },
+        };
+        let sol = match solution {
+            Ok(sol) => sol,
+            Err(_) => {
+                rec.flags.set(Flags::RANGE);
+                self.line = None;
+                s.policy.fallback(&mut self.policy);
+                return rec;
+            }
+        };
+        rec.c_farad = sol.line.c_farad;
+        rec.r_ohm = sol.line.r_ohm;
+        rec.chi2 = sol.chi2;
+        rec.sigma_c = sol.sigma_ln_c;
+        rec.stretch_mm = s.calibration.stretch(sol.line.c_farad);
+        if sol.chi2 > s.chi2_flag {
+            rec.flags.set(Flags::MODEL);
+        }
+        // Five standard deviations of the block's noise within tolerance
+        // (a NaN σ is no bound).
+        let within = 5.0 * sol.sigma_ln_c <= th.c_tolerance;
+        if !within {
+            rec.flags.set(Flags::UNCERTAIN);
+        }
+        if sol.line.r_ohm > th.r_max_ohm {
+            rec.flags.set(Flags::RANGE);
+            self.line = None;
+            s.policy.fallback(&mut self.policy);
+            return rec;
+        }
+        if !rec.flags.has(Flags::MODEL) {
+            self.line = Some((sol.line.r_ohm, sol.line.c_farad));
+        }
+        s.policy.update_on(
+            &tones_hz(),
+            &mut self.policy,
+            sol.line.r_ohm,
+            sol.line.c_farad,
+            dt,
+        );
+        rec
+    }
+}

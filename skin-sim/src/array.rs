@@ -1,0 +1,141 @@
+//! The array's analog front end and ADCs ([`instrument::array`]): one comb
+//! excitation, a transimpedance stage per sensor, five ADCs scanning four
+//! inputs each, as their DMA leaves a block.
+//!
+//! At instant n of a block, scan position j is converted at
+//! t = n/[`RATE_HZ`] + j·[`SCAN_STEP_S`], so tone k (pₖ periods per block,
+//! phase φₖ) stands at θ = 2π·(pₖ·n/N + fₖ·j·Δ) + φₖ there. The excitation
+//! input reads v = g_v·Σ Aₖ cos θ; sensor s's input reads the inverting
+//! stage's −R_f·Σ Re{Aₖ·e^(jθ)/Zₛ,ₖ}, Zₛ,ₖ its impedance at tone k (held over
+//! the block: the sensor moves slowly against 4 ms). Each result is
+//! quantized to the 15-bit oversampled scale with Gaussian noise of
+//! [`NOISE_COUNTS`] and clipped at the rails (reported per input). Spare
+//! inputs read noise. Phases use dsp-core's integer `cossin` and the
+//! synthesis `f32` arithmetic, so the codes are the same on the host and
+//! in QEMU.
+
+use crate::frontend::Disturbance;
+use crate::rng::Rng;
+use dsp_core::cossin::cossin;
+use instrument::array::{
+    adc_position, input_of, Frame, ADCS, BLOCK, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN,
+    SCAN_STEP_S, SENSORS, TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
+};
+use instrument::design;
+use num_complex::Complex64;
+
+/// Inputs of the five ADCs.
+pub const INPUTS: usize = ADCS * SCAN;
+
+/// The array front end's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArrayFrontEnd {
+    /// Each tone's amplitude at the sensors, V.
+    pub tone_volt: f64,
+    /// Gain from the excitation to its ADC input, V/V.
+    pub v_gain: f64,
+    /// Every sensor's transimpedance, Ω.
+    pub tia_ohm: f64,
+    /// ADC input span around the bias, V (±).
+    pub half_scale_volt: f64,
+    /// Noise of one result, counts rms.
+    pub noise_counts: f64,
+}
+
+impl ArrayFrontEnd {
+    /// As designed ([`instrument::array`]).
+    pub const REFERENCE: Self = Self {
+        tone_volt: TONE_VOLT,
+        v_gain: 1.0,
+        tia_ohm: TIA_OHM,
+        half_scale_volt: design::ADC_HALF_SCALE_VOLT,
+        noise_counts: NOISE_COUNTS as f64,
+    };
+
+    /// The complex transimpedance k in Z = k·V/I for dsp-core.
+    pub fn dsp_front_end(&self) -> dsp_core::demod::FrontEnd {
+        dsp_core::demod::FrontEnd::transimpedance((self.tia_ohm / self.v_gain) as f32, true)
+    }
+
+    /// Fill `frame` with one block for sensors of impedances `z[s][k]`
+    /// (Ω, at comb tone k), with `hum[s]` added at sensor s's input (only
+    /// its hum fields are used; `t0_s` is the block's start). Returns
+    /// which inputs clipped.
+    pub fn frame(
+        &self,
+        z: &[[Complex64; TONES]; SENSORS],
+        hum: &[Disturbance; SENSORS],
+        rng: &mut Rng,
+        frame: &mut Frame,
+    ) -> [bool; INPUTS] {
+        let half = HALF_SCALE as f32;
+        let lsb = self.half_scale_volt / HALF_SCALE as f64;
+        // Per input and tone: the cos and sin coefficients of its code.
+        let mut coef = [[(0f32, 0f32); TONES]; INPUTS];
+        for c in coef[VOLTAGE_INPUT].iter_mut() {
+            *c = ((self.tone_volt * self.v_gain / lsb) as f32, 0.0);
+        }
+        for (s, zs) in z.iter().enumerate() {
+            for (k, zk) in zs.iter().enumerate() {
+                let y = Complex64::new(self.tone_volt, 0.0) / zk;
+                let g = -self.tia_ohm / lsb;
+                coef[input_of(s)][k] = ((g * y.re) as f32, (g * y.im) as f32);
+            }
+        }
+        // The phase offset of each tone at each scan position, 2³² a turn.
+        let turn = 4_294_967_296.0f64;
+        let tone_hz = |k: usize| COMB[k] as f64 * RATE_HZ as f64 / BLOCK as f64;
+        let offset: [[u32; TONES]; SCAN] = core::array::from_fn(|j| {
+            core::array::from_fn(|k| {
+                let t =
+                    tone_hz(k) * j as f64 * SCAN_STEP_S as f64 + PHASES[k] as f64 / core::f64::consts::TAU;
+                ((t - libm::floor(t)) * turn) as u64 as u32
+            })
+        });
+        let hum_turns = |h: &Disturbance, t: f64| {
+            let x = h.hum_hz as f64 * t + h.hum_phase_turns as f64;
+            ((x - libm::floor(x)) * turn) as u64 as u32
+        };
+        let q = 1.0 / 2_147_483_648.0f32;
+        let noise = self.noise_counts as f32;
+        let mut clipped = [false; INPUTS];
+        #[allow(clippy::needless_range_loop)] // n is the instant: a phase, and a row of each ADC
+        for n in 0..BLOCK {
+            // cos and sin of every tone at every scan position.
+            let mut cs = [[(0f32, 0f32); TONES]; SCAN];
+            for (j, row) in cs.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    let m = (COMB[k] as u64 * n as u64) % BLOCK as u64;
+                    let base = (((m << 32) + BLOCK as u64 / 2) / BLOCK as u64) as u32;
+                    let (c, s) = cossin(base.wrapping_add(offset[j][k]) as i32);
+                    *v = (c as f32 * q, s as f32 * q);
+                }
+            }
+            for input in 0..INPUTS {
+                let (a, j) = adc_position(input);
+                let mut x = 0f32;
+                for (&(cc, ss), &(c, s)) in coef[input].iter().zip(&cs[j]) {
+                    x += cc * c - ss * s;
+                }
+                if let Some(h) = (1..=SENSORS).contains(&input).then(|| &hum[input - 1]) {
+                    if h.hum_i != 0.0 {
+                        let t = h.t0_s + n as f64 / RATE_HZ as f64 + j as f64 * SCAN_STEP_S as f64;
+                        let (_, s) = cossin(hum_turns(h, t) as i32);
+                        x += h.hum_i * s as f32 * q;
+                    }
+                }
+                x += noise * rng.gaussian_fast();
+                let code = if x >= 0.0 {
+                    (x + 0.5) as i32
+                } else {
+                    (x - 0.5) as i32
+                } as f32;
+                if code > half - 1.0 || code < -half {
+                    clipped[input] = true;
+                }
+                frame[a][n][j] = code.clamp(-half, half - 1.0) as i16;
+            }
+        }
+        clipped
+    }
+}
