@@ -6,6 +6,7 @@
 //! | module | what it does |
 //! |---|---|
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
+//! | `array_skin` | (feature `qemu`) the simulated skin of the array's QEMU runs: sixteen sensors, the comb front end |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //! | `board` | (feature `board`) the STM32G474's hardware, one module per peripheral; its logging, panics and faults on the target |
 #![no_std]
@@ -15,6 +16,8 @@
 #[cfg(test)]
 extern crate std;
 
+#[cfg(feature = "qemu")]
+pub mod array_skin;
 #[cfg(feature = "board")]
 pub mod board;
 #[cfg(all(target_os = "none", feature = "qemu"))]

@@ -186,6 +186,9 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
             Line::Truth(t) => {
                 truth.insert((t.t_us, t.channel), t);
             }
+            Line::Tone(_) => bail!(
+                "{source}:{n}: an array record ('tone' line) among single-tone records: read array recordings with parse_tones"
+            ),
             Line::Rec(r) => {
                 let t = truth.remove(&(r.t_us, r.channel)).map(|t| Truth {
                     c_pf: t.c_farad as f64 * 1e12,
@@ -221,6 +224,83 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
                     flags: r.flags,
                     truth: t,
                 });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One array record ([`instrument::tones::ToneRecord`]) with the truth of
+/// its block, if the recording has it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneRec {
+    /// The record as the firmware wrote it.
+    pub rec: instrument::tones::ToneRecord,
+    /// The rig's view of its sensor during the block.
+    pub truth: Option<Truth>,
+}
+
+impl ToneRec {
+    /// Time of the block's middle, s.
+    pub fn t_s(&self) -> f64 {
+        self.rec.t_us as f64 * 1e-6
+    }
+
+    /// Relative error of C against the truth, if both are there.
+    pub fn c_error(&self) -> Option<f64> {
+        let t = self.truth?;
+        (self.rec.c_farad > 0.0).then(|| self.rec.c_farad as f64 * 1e12 / t.c_pf - 1.0)
+    }
+}
+
+/// Parse an array recording: its `tone` lines (numbered as in their
+/// source; other lines are skipped), each paired with the truth line of
+/// its block and sensor. An error names the line and says why: a field
+/// that does not parse, a frequency that is not positive or tones out of
+/// order, a sensor going back in time, a single-tone `rec` line.
+pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRec>> {
+    let mut out: Vec<ToneRec> = vec![];
+    let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
+    let mut last: BTreeMap<u8, u64> = BTreeMap::new();
+    for (n, l) in lines {
+        let line = match wire::parse(l) {
+            Ok(line) => line,
+            Err(WireError::NotARecord) => continue,
+            Err(e) => bail!("{source}:{n}: {e}: '{}'", clip(l)),
+        };
+        match line {
+            Line::Truth(t) => {
+                truth.insert((t.t_us, t.channel), t);
+            }
+            Line::Rec(_) => bail!("{source}:{n}: a single-tone record ('rec' line) in an array recording"),
+            Line::Tone(r) => {
+                if !(r.f_hz[0] > 0.0 && r.f_hz[0] < r.f_hz[1]) {
+                    bail!(
+                        "{source}:{n}: tones {} Hz and {} Hz are not two positive frequencies, lower first",
+                        r.f_hz[0],
+                        r.f_hz[1]
+                    );
+                }
+                if r.c_farad < 0.0 || r.r_ohm < 0.0 || r.chi2 < 0.0 || r.sigma_c < 0.0 {
+                    bail!(
+                        "{source}:{n}: a negative capacitance, resistance, chi2 or sigma: '{}'",
+                        clip(l)
+                    );
+                }
+                if let Some(&t0) = last.get(&r.channel) {
+                    if r.t_us <= t0 {
+                        bail!("{source}:{n}: sensor {} goes back in time", r.channel);
+                    }
+                }
+                last.insert(r.channel, r.t_us);
+                let t = truth.remove(&(r.t_us, r.channel)).map(|t| Truth {
+                    c_pf: t.c_farad as f64 * 1e12,
+                    r_ohm: t.r_line_ohm as f64,
+                    stretch_mm: t.stretch_mm as f64,
+                    r_top_ohm: t.r_top_ohm as f64,
+                    r_bottom_ohm: t.r_bottom_ohm as f64,
+                });
+                out.push(ToneRec { rec: r, truth: t });
             }
         }
     }

@@ -14,7 +14,7 @@
 //! | [`channel`] | one sensor channel: demodulated block → record |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
-//! | [`array`] | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
+//! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain

@@ -7,7 +7,12 @@
 //! ```text
 //! rec   t_us channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags
 //! truth t_us channel c_pF r_line_ohm stretch_mm r_top_ohm r_bottom_ohm
+//! tone  t_us channel f_lo_hz re_lo_ohm im_lo_ohm f_hi_hz re_hi_ohm im_hi_ohm c_pF r_ohm chi2 sigma_c stretch_mm flags
 //! ```
+//!
+//! A `tone` line is one record of the array ([`crate::tones`]): the two
+//! tones' measured impedances, the line both fit, its χ² and the 1σ
+//! relative error of C.
 //!
 //! `t_us` is the middle of the block in µs since start (an integer, exact
 //! for 584 000 years); a truth line belongs to the record with the same
@@ -16,11 +21,15 @@
 
 use crate::channel::Record;
 use crate::faults::Flags;
+use crate::tones::ToneRecord;
+use dsp_core::Complex32;
 
 /// The first word of a record line.
 pub const REC: &str = "rec";
 /// The first word of a truth line.
 pub const TRUTH: &str = "truth";
+/// The first word of an array record line.
+pub const TONE: &str = "tone";
 
 /// What the simulated skin truly was during one block (QEMU only): the
 /// rig's view of the sensor.
@@ -49,6 +58,8 @@ pub enum Line {
     Rec(Record),
     /// A `truth` line.
     Truth(Truth),
+    /// A `tone` line.
+    Tone(ToneRecord),
 }
 
 /// Why a line is not a record or truth line.
@@ -70,7 +81,7 @@ pub enum WireError {
 impl core::fmt::Display for WireError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            WireError::NotARecord => write!(f, "not a '{REC}' or '{TRUTH}' line"),
+            WireError::NotARecord => write!(f, "not a '{REC}', '{TRUTH}' or '{TONE}' line"),
             WireError::FieldCount { found, expected } => {
                 write!(f, "{found} fields where the format has {expected}")
             }
@@ -85,6 +96,8 @@ impl core::error::Error for WireError {}
 pub const REC_FIELDS: usize = 10;
 /// Fields of a `truth` line, its keyword included.
 pub const TRUTH_FIELDS: usize = 8;
+/// Fields of a `tone` line, its keyword included.
+pub const TONE_FIELDS: usize = 15;
 
 /// Parse one line (surrounding text before the keyword, such as a probe's
 /// timestamp, must be cut by the caller).
@@ -94,12 +107,13 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
     let expected = match kind {
         REC => REC_FIELDS,
         TRUTH => TRUTH_FIELDS,
+        TONE => TONE_FIELDS,
         _ => return Err(WireError::NotARecord),
     };
-    let mut w = [""; REC_FIELDS];
+    let mut w = [""; TONE_FIELDS];
     let mut found = 1;
     for word in words {
-        if found < REC_FIELDS {
+        if found < TONE_FIELDS {
             w[found] = word;
         }
         found += 1;
@@ -109,6 +123,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
     }
     let int = |i: usize| w[i].parse::<u64>().map_err(|_| WireError::Field(i));
     let byte = |i: usize| w[i].parse::<u8>().map_err(|_| WireError::Field(i));
+    let flags = |i: usize| w[i].parse::<u16>().map(Flags).map_err(|_| WireError::Field(i));
     let num = |i: usize| match w[i].parse::<f32>() {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(WireError::Field(i)),
@@ -123,7 +138,19 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
             c_farad: num(6)? * 1e-12,
             r_ohm: num(7)?,
             stretch_mm: num(8)?,
-            flags: Flags(w[9].parse::<u16>().map_err(|_| WireError::Field(9))?),
+            flags: flags(9)?,
+        }),
+        TONE => Line::Tone(ToneRecord {
+            t_us: int(1)?,
+            channel: byte(2)?,
+            f_hz: [num(3)?, num(6)?],
+            z: [Complex32::new(num(4)?, num(5)?), Complex32::new(num(7)?, num(8)?)],
+            c_farad: num(9)? * 1e-12,
+            r_ohm: num(10)?,
+            chi2: num(11)?,
+            sigma_c: num(12)?,
+            stretch_mm: num(13)?,
+            flags: flags(14)?,
         }),
         _ => Line::Truth(Truth {
             t_us: int(1)?,
@@ -150,6 +177,30 @@ impl defmt::Format for Record {
             self.rs_ohm,
             self.c_farad * 1e12,
             self.r_ohm,
+            self.stretch_mm,
+            self.flags.0
+        )
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for ToneRecord {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(
+            f,
+            "tone {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u16}",
+            self.t_us,
+            self.channel,
+            self.f_hz[0],
+            self.z[0].re,
+            self.z[0].im,
+            self.f_hz[1],
+            self.z[1].re,
+            self.z[1].im,
+            self.c_farad * 1e12,
+            self.r_ohm,
+            self.chi2,
+            self.sigma_c,
             self.stretch_mm,
             self.flags.0
         )
@@ -206,6 +257,28 @@ mod tests {
             })
         );
         assert_eq!(parse("rec 1 2 NaN 4 5 6 7 8 9"), Err(WireError::Field(3)));
+        let Ok(Line::Tone(t)) =
+            parse("tone 2000 15 500 812000 -1.9e6 2000 400000 -520000 205.1 1.01e6 1.7 0.0004 0.2 256")
+        else {
+            panic!("not a tone line")
+        };
+        assert_eq!(
+            (t.t_us, t.channel, t.f_hz, t.flags),
+            (2000, 15, [500.0, 2000.0], Flags(Flags::MODEL))
+        );
+        assert_eq!(t.z[1], Complex32::new(400000.0, -520000.0));
+        assert!((t.c_farad - 205.1e-12).abs() < 1e-16 && t.chi2 == 1.7 && t.sigma_c == 0.0004);
+        assert_eq!(
+            parse("tone 1 2 3"),
+            Err(WireError::FieldCount {
+                found: 4,
+                expected: 15
+            })
+        );
+        assert_eq!(
+            parse("tone 1 2 3 4 5 6 7 8 9 10 11 12 13 70000"),
+            Err(WireError::Field(14))
+        );
         assert_eq!(parse("rec -1 2 3 4 5 6 7 8 9"), Err(WireError::Field(1)));
         assert_eq!(parse("rec 1 300 3 4 5 6 7 8 9"), Err(WireError::Field(2)));
     }

@@ -181,7 +181,7 @@ fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_clean_sensors() {
             // A sensor is told apart by its records: most of them flagged
             // (the parasitic's all, the contact's where the tone pair is
             // 4× apart), the median χ² far above the flag.
-            let fraction = if s <= 10 { 0.6 } else { 0.99 };
+            let fraction = if s <= 10 { 0.5 } else { 0.99 };
             bad |= (model as f64) < fraction * solved as f64 || median < 5.0 * dsp_core::twotone::CHI2_FLAG;
         }
     }

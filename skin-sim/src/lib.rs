@@ -8,7 +8,7 @@
 //! | [`electrode`] | electrode resistance: static stretch dependence, rate-dependent peaks, transients at rest, slow settling |
 //! | [`sensor`] | the sensor on a fine grid ([`sensor::SEGMENTS`] segments), its impedance read from one end, optional non-ideal effects |
 //! | [`frontend`] | excitation, transimpedance stage and ADC: blocks of paired samples |
-//! | [`array`] | the array's front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
+//! | [`array`](mod@array) | the array's front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
 //! | [`rng`] | a small deterministic PRNG with Gaussian samples |
 //!
 //! Units: SI (Ω, F, Hz, s), except stretch in mm as in the paper.

@@ -195,7 +195,16 @@ impl Sensor {
     pub fn truth(&self) -> Truth {
         let p = &self.params;
         let (mut c, mut rt, mut rb) = (0.0, 0.0, 0.0);
-        for i in 0..SEGMENTS {
+        // Alike segments sum to one of them (no profile: ξ does not
+        // matter), else segment by segment.
+        let n = if self.uniform_profiles() { 0 } else { SEGMENTS };
+        if n == 0 {
+            let s = self.local_stretch(0);
+            rt = p.top.resistance(&self.top, s);
+            rb = p.bottom.resistance(&self.bottom, s);
+            c = p.capacitance(s);
+        }
+        for i in 0..n {
             let s = self.local_stretch(i);
             let w = self.r_weight(i) / SEGMENTS as f64;
             rt += w * p.top.resistance(&self.top, s);
@@ -255,6 +264,11 @@ impl Sensor {
     /// The common segment when all segments are alike (no profile along
     /// the sensor), else `None`.
     fn uniform(&self) -> Option<(f64, f64, f64)> {
+        self.uniform_profiles().then(|| self.segment(0))
+    }
+
+    /// No profile along the sensor: all segments alike.
+    fn uniform_profiles(&self) -> bool {
         let fx = &self.params.effects;
         let profiles = [
             Effect::NonuniformStretch,
@@ -262,10 +276,7 @@ impl Sensor {
             Effect::ResistanceGradient,
             Effect::ResistanceBulge,
         ];
-        profiles
-            .iter()
-            .all(|&e| fx.get(e) == 0.0)
-            .then(|| self.segment(0))
+        profiles.iter().all(|&e| fx.get(e) == 0.0)
     }
 
     /// The line's impedance by the segment recursion (any profile).

@@ -2,7 +2,7 @@
 //! reader (`host_sim::recording`, the same code as `host-sim decode`).
 
 use anyhow::Result;
-pub use host_sim::recording::{Rec, Truth};
+pub use host_sim::recording::{Rec, ToneRec, Truth};
 
 /// Build the QEMU firmware, run `scenario`, decode its records.
 pub fn run_scenario(scenario: &str) -> Result<(crate::Run, Vec<Rec>)> {
@@ -15,6 +15,22 @@ pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<Rec>)> {
     let run = crate::run_qemu_args(&elf, args, std::time::Duration::from_secs(600))?;
     let lines = host_sim::recording::decode_defmt(&elf, &run.raw)?;
     let recs = host_sim::recording::parse(&format!("QEMU run {}", args.join(" ")), &lines)?;
+    Ok((
+        crate::Run {
+            stdout: lines.into_iter().map(|(_, l)| l).collect::<Vec<_>>().join("\n"),
+            ..run
+        },
+        recs,
+    ))
+}
+
+/// Build the array firmware (`skin-array`), run `scenario`, decode its
+/// records.
+pub fn run_array(scenario: &str) -> Result<(crate::Run, Vec<ToneRec>)> {
+    let elf = crate::build_firmware("skin-array", &["qemu"])?;
+    let run = crate::run_qemu_args(&elf, &[scenario], std::time::Duration::from_secs(900))?;
+    let lines = host_sim::recording::decode_defmt(&elf, &run.raw)?;
+    let recs = host_sim::recording::parse_tones(&format!("QEMU array run {scenario}"), &lines)?;
     Ok((
         crate::Run {
             stdout: lines.into_iter().map(|(_, l)| l).collect::<Vec<_>>().join("\n"),

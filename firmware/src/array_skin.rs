@@ -1,0 +1,162 @@
+//! The simulated skin of the array's QEMU runs ([`instrument::array`]):
+//! sixteen sensors, their stretch, and the comb front end that fills a
+//! block of the five ADCs' scans, as the board's DMA would.
+
+use dsp_core::fixture::Fixture;
+use instrument::array::{tones_hz, Frame, SENSORS, TONES};
+use instrument::calib::CalTable;
+use instrument::effects::Effect;
+use instrument::wire;
+use skin_sim::array::{ArrayFrontEnd, INPUTS};
+use skin_sim::frontend::Disturbance;
+use skin_sim::profile::Profile;
+use skin_sim::rng::Rng;
+use skin_sim::sensor::{Sensor, SensorParams};
+
+/// An array scenario, chosen by name on the semihosting command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ArrayScenario {
+    /// Sixteen of the paper's sensors on its 20 mm/s trapezoid, sensor s
+    /// 0.6·s s ahead in its cycle: every phase of the motion at once.
+    Paper,
+    /// The model check: sensors 0–5 clean, 6–10 with 30 kΩ of undeclared
+    /// contact per tab, 11–15 with 2 pF of undeclared cable capacitance;
+    /// all on the 20 mm/s trapezoid.
+    Check,
+    /// Mains hum: as `paper`, with 50 Hz on sensors 4–7 (30, 100, 300 and
+    /// 1000 counts) from 1 s to 2 s.
+    Hum,
+}
+
+impl ArrayScenario {
+    /// Parse a scenario name.
+    pub fn parse(name: &str) -> Option<Self> {
+        Some(match name {
+            "paper" => Self::Paper,
+            "check" => Self::Check,
+            "hum" => Self::Hum,
+            _ => return None,
+        })
+    }
+
+    /// Simulated duration, s.
+    pub fn duration_s(&self) -> f32 {
+        match self {
+            Self::Paper => 10.0,
+            Self::Check | Self::Hum => 3.0,
+        }
+    }
+
+    /// Sensor `s`'s parameters.
+    pub fn params(&self, s: usize) -> SensorParams {
+        let mut p = SensorParams::PAPER;
+        if *self == Self::Check {
+            p.effects = match s {
+                0..=5 => p.effects,
+                6..=10 => p.effects.with(Effect::ContactResistance, 30e3),
+                _ => p.effects.with(Effect::ParasiticCapacitance, 2e-12),
+            };
+        }
+        p
+    }
+
+    /// The firmware's calibration of every sensor: the paper's.
+    pub fn calibration(&self) -> &'static CalTable<11> {
+        &PAPER_CAL
+    }
+
+    /// The tab-lead ratio installed: the paper's.
+    pub fn lead_ratio(&self) -> f32 {
+        SensorParams::PAPER.effects.lead_ratio()
+    }
+
+    /// No wiring is declared.
+    pub fn fixture(&self) -> Fixture {
+        Fixture::NONE
+    }
+}
+
+static PAPER_CAL: CalTable<11> = CalTable::linear(
+    SensorParams::PAPER.c_rest_farad,
+    SensorParams::PAPER.rest_length_mm,
+);
+
+/// How far ahead in its cycle sensor `s` runs, s.
+fn lead_s(scenario: ArrayScenario, s: usize) -> f64 {
+    match scenario {
+        ArrayScenario::Paper | ArrayScenario::Hum => 0.6 * s as f64,
+        ArrayScenario::Check => 0.0,
+    }
+}
+
+/// The simulated skin of the array.
+pub struct ArraySkin {
+    scenario: ArrayScenario,
+    sensors: [Sensor; SENSORS],
+    front_end: ArrayFrontEnd,
+    rng: Rng,
+}
+
+impl ArraySkin {
+    /// The skin of `scenario` at t = 0.
+    pub fn new(scenario: ArrayScenario) -> Self {
+        let profile = Profile::paper(20.0);
+        let sensors = core::array::from_fn(|s| {
+            let mut sensor = Sensor::settled(scenario.params(s));
+            sensor.advance(&profile, lead_s(scenario, s));
+            sensor
+        });
+        Self {
+            scenario,
+            sensors,
+            front_end: ArrayFrontEnd::REFERENCE,
+            rng: Rng::new(0xa11a),
+        }
+    }
+
+    /// The front end (for the transimpedance the firmware divides by).
+    pub fn front_end(&self) -> &ArrayFrontEnd {
+        &self.front_end
+    }
+
+    /// Fill `frame` with the block whose middle is at `t_us` (µs since
+    /// start); returns which inputs clipped, and writes each sensor's
+    /// truth to `truth`.
+    pub fn block(
+        &mut self,
+        t_us: u64,
+        frame: &mut Frame,
+        truth: &mut [wire::Truth; SENSORS],
+    ) -> [bool; INPUTS] {
+        let t = t_us as f64 * 1e-6;
+        let hz = tones_hz().map(|f| f as f64);
+        let profile = Profile::paper(20.0);
+        let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
+        let mut hum = [Disturbance::NONE; SENSORS];
+        let block_s = instrument::array::BLOCK as f64 / instrument::array::RATE_HZ as f64;
+        for (s, sensor) in self.sensors.iter_mut().enumerate() {
+            sensor.advance(&profile, t + lead_s(self.scenario, s));
+            z[s] = sensor.impedances(&hz);
+            let tr = sensor.truth();
+            truth[s] = wire::Truth {
+                t_us,
+                channel: s as u8,
+                c_farad: tr.c_farad as f32,
+                r_line_ohm: tr.r_line_ohm as f32,
+                stretch_mm: tr.stretch_mm as f32,
+                r_top_ohm: tr.r_top_ohm as f32,
+                r_bottom_ohm: tr.r_bottom_ohm as f32,
+            };
+            if self.scenario == ArrayScenario::Hum && (4..8).contains(&s) && (1.0..2.0).contains(&t) {
+                const HUM: [f32; 4] = [30.0, 100.0, 300.0, 1000.0];
+                hum[s] = Disturbance {
+                    hum_hz: 50.0,
+                    hum_i: HUM[s - 4],
+                    t0_s: t - 0.5 * block_s,
+                    ..Disturbance::NONE
+                };
+            }
+        }
+        self.front_end.frame(&z, &hum, &mut self.rng, frame)
+    }
+}

@@ -1,0 +1,179 @@
+//! The array firmware on QEMU's lm3s6965evb (Cortex-M4): sixteen sensors
+//! read at once through one comb excitation ([`instrument::array`]), with
+//! the simulated skin of [`firmware::array_skin`] in place of the board's
+//! DAC, transimpedance stages and five scanning ADCs.
+//!
+//! * `dma_done` (hardware task, bound to the GPIOA interrupt, pended by
+//!   `idle` as the board's DMA-complete interrupt would fire): a block of
+//!   the five ADCs' scans is complete; the simulated DMA has filled it.
+//!   Logs each sensor's truth (the rig's view).
+//! * `process` (software task): demodulate the comb on the excitation and
+//!   on every sensor's input, turn each sensor's two tones into a line
+//!   with its model check ([`instrument::tones`]), log the records.
+//!
+//! Records are `tone` lines of [`instrument::wire`], decoded on the host.
+//! The scenario is the first semihosting argument (`paper`, `check`,
+//! `hum`).
+#![no_std]
+#![no_main]
+
+use dsp_core::comb::{Comb, Tones};
+use dsp_core::invert::Inverter;
+use dsp_core::tline::LineModel;
+use dsp_core::track::Tracker;
+use dsp_core::Complex32;
+use firmware::array_skin::{ArrayScenario, ArraySkin};
+use firmware::qemu;
+use instrument::array::{
+    input_of, rows_of, skew_rotation, Frame, ADCS, BLOCK, COMB, RATE_HZ, SCAN, SENSORS, TONES, VOLTAGE_INPUT,
+};
+use instrument::faults::Thresholds;
+use instrument::policy::Policy;
+use instrument::tones::{ToneChannel, ToneSettings};
+use instrument::wire;
+use skin_sim::array::INPUTS;
+
+/// The block period, µs.
+const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
+
+/// The scenario named by the first semihosting argument.
+fn scenario() -> ArrayScenario {
+    let Ok(args) = semihosting::experimental::env::args::<64>() else {
+        return ArrayScenario::Paper;
+    };
+    let mut it = &args;
+    let name = it.next().and_then(Result::ok).unwrap_or("paper");
+    ArrayScenario::parse(name).unwrap_or_else(|| {
+        defmt::println!("unknown scenario {=str}", name);
+        qemu::exit(2)
+    })
+}
+
+#[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
+mod app {
+    use super::*;
+    use lm3s6965::Interrupt;
+
+    #[shared]
+    struct Shared {
+        /// The block the DMA completed, its clipped inputs and its middle.
+        frame: (Frame, [bool; INPUTS], u64),
+        done: bool,
+    }
+
+    #[local]
+    struct Local {
+        skin: ArraySkin,
+        block: u64,
+        end_block: u64,
+        comb: Comb<BLOCK, TONES>,
+        channels: [ToneChannel; SENSORS],
+        rotations: [[Complex32; TONES]; SENSORS],
+        settings: ToneSettings<'static, 11>,
+    }
+
+    #[init]
+    fn init(_: init::Context) -> (Shared, Local) {
+        let scenario = scenario();
+        let skin = ArraySkin::new(scenario);
+        let cal = scenario.calibration();
+        let Ok(comb) = Comb::new(COMB) else { qemu::exit(3) };
+        let inverter =
+            match Inverter::with_leads(LineModel::Continuous, Tracker::X_MAX, scenario.lead_ratio()) {
+                Ok(i) => i,
+                Err(_) => qemu::exit(3),
+            };
+        let settings = ToneSettings {
+            policy: Policy::DEFAULT,
+            thresholds: Thresholds::ARRAY,
+            front_end: skin.front_end().dsp_front_end(),
+            inverter,
+            calibration: cal,
+            fixture: scenario.fixture(),
+            chi2_flag: dsp_core::twotone::CHI2_FLAG,
+        };
+        defmt::println!(
+            "start array {=u8} sensors, {=u32} records/s each, scenario {}",
+            SENSORS as u8,
+            RATE_HZ / BLOCK as u32,
+            defmt::Debug2Format(&scenario)
+        );
+        (
+            Shared {
+                frame: ([[[0; SCAN]; BLOCK]; ADCS], [false; INPUTS], 0),
+                done: false,
+            },
+            Local {
+                skin,
+                block: 0,
+                end_block: (scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US,
+                comb,
+                channels: [ToneChannel::new(cal.rest_capacitance()); SENSORS],
+                rotations: core::array::from_fn(skew_rotation),
+                settings,
+            },
+        )
+    }
+
+    #[idle(shared = [done])]
+    fn idle(mut cx: idle::Context) -> ! {
+        loop {
+            if cx.shared.done.lock(|d| *d) {
+                defmt::println!("end");
+                qemu::exit(0);
+            }
+            rtic::pend(Interrupt::GPIOA);
+        }
+    }
+
+    /// DMA complete: the simulated ADCs filled the block that ends now.
+    #[task(binds = GPIOA, priority = 2, shared = [frame], local = [skin, block])]
+    fn dma_done(mut cx: dma_done::Context) {
+        let t_us = *cx.local.block * BLOCK_US + BLOCK_US / 2;
+        *cx.local.block += 1;
+        let skin = &mut *cx.local.skin;
+        let mut truth = [wire::Truth::default(); SENSORS];
+        cx.shared.frame.lock(|(frame, clipped, t)| {
+            *clipped = skin.block(t_us, frame, &mut truth);
+            *t = t_us;
+        });
+        for t in &truth {
+            defmt::println!("{}", t);
+        }
+        if process::spawn().is_err() {
+            defmt::println!("overrun {=u64}", t_us);
+        }
+    }
+
+    /// Demodulate every input, solve every sensor, log the records.
+    #[task(priority = 1, shared = [frame, done], local = [comb, channels, rotations, settings, end_block])]
+    async fn process(mut cx: process::Context) {
+        let comb = &*cx.local.comb;
+        let (v, currents, clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
+            let (rows, j) = rows_of(frame, VOLTAGE_INPUT);
+            let v = comb.column(rows, j);
+            let currents: [Tones<TONES>; SENSORS] = core::array::from_fn(|s| {
+                let (rows, j) = rows_of(frame, input_of(s));
+                comb.column(rows, j)
+            });
+            (v, currents, *clipped, *t)
+        });
+        let settings = &*cx.local.settings;
+        for (s, (ch, i)) in cx.local.channels.iter_mut().zip(&currents).enumerate() {
+            let input = input_of(s);
+            let rec = ch.process(
+                settings,
+                s as u8,
+                t_us,
+                &v,
+                i,
+                clipped[input] || clipped[VOLTAGE_INPUT],
+                &cx.local.rotations[s],
+            );
+            defmt::println!("{}", rec);
+        }
+        if (t_us / BLOCK_US) + 1 >= *cx.local.end_block {
+            cx.shared.done.lock(|d| *d = true);
+        }
+    }
+}
