@@ -125,6 +125,12 @@ fn main() {
     if target.starts_with("thumbv7em") || target.starts_with("thumbv8m.main") {
         println!("cargo:rustc-cfg=arm_dsp");
     }
+    // ...and with a single-precision FPU (hard-float ABI): `vsqrt.f32`.
+    println!("cargo::rustc-check-cfg=cfg(arm_fpu)");
+    if (target.starts_with("thumbv7em") || target.starts_with("thumbv8m.main")) && target.ends_with("eabihf")
+    {
+        println!("cargo:rustc-cfg=arm_fpu");
+    }
 
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap()).join("tables.rs");
     fs::write(out, s).unwrap();

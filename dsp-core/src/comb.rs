@@ -158,32 +158,58 @@ impl<const N: usize, const K: usize> Comb<N, K> {
 
 impl<const K: usize> Tones<K> {
     /// Amplitude of tone `k`, counts (peak); 0 for an empty block or a
-    /// tone beyond the comb.
+    /// tone beyond the comb. f32 after scaling the sums by a common power
+    /// of two (relative error below 10⁻⁶).
     pub fn amplitude(&self, k: usize) -> f32 {
         match self.x.get(k) {
             Some(x) if self.n > 0 => {
-                let (re, im) = (x.re as f64, x.im as f64);
-                (libm::sqrt(re * re + im * im) * 2.0 / (Q31 * self.n as f64)) as f32
+                // To i32 (one conversion instruction to f32), 30 bits kept.
+                let m = x.re.unsigned_abs() | x.im.unsigned_abs();
+                let sh = (64 - m.leading_zeros()).saturating_sub(30);
+                let (re, im) = ((x.re >> sh) as i32 as f32, (x.im >> sh) as i32 as f32);
+                let scale = libm::ldexpf(2.0 / (Q31 as f32 * self.n as f32), sh as i32);
+                crate::fmath::sqrt(re * re + im * im) * scale
             }
             _ => 0.0,
         }
     }
 
     /// What no tone of the comb explains: the block's rms after its mean
-    /// and every tone, counts (module docs). 0 for an empty block. f64 and
-    /// IEEE basic operations only: the same bits on every target.
+    /// and every tone, counts (module docs). 0 for an empty block.
+    ///
+    /// N·E_res = N·Σx² − (Σx)² − Σₖ 2|Xₖ|²/2⁶² is formed in i128
+    /// (|Xₖ|² < 2¹²⁶ for N < 2¹⁷; the tones' term rounded to an integer),
+    /// only its square root in f32: the same bits on every target, and no
+    /// cancellation however large the tones; r = √(N·E_res)/N.
     pub fn residual_rms(&self) -> f32 {
         if self.n == 0 {
             return 0.0;
         }
-        let n = self.n as f64;
-        let s = self.sum as f64;
-        let mut e = self.sq as f64 - s * s / n;
+        let n = self.n as i128;
+        let s = self.sum as i128;
+        let mut e = n * self.sq as i128 - s * s;
+        let mut tones = 0i128;
         for x in &self.x {
-            let (re, im) = (x.re as f64, x.im as f64);
-            e -= 2.0 * (re * re + im * im) / (n * Q31 * Q31);
+            let (re, im) = (x.re as i128, x.im as i128);
+            tones += re * re + im * im;
         }
-        libm::sqrt(e.max(0.0) / n) as f32
+        // Σ 2|X|²/2⁶², rounded to the nearest.
+        e -= (tones + (1 << 60)) >> 61;
+        let e = e.max(0);
+        // To f32 through a shift (even) that keeps 30 bits (E·N < 2¹²⁶).
+        let bits = 128 - e.leading_zeros();
+        let sh = (bits.saturating_sub(30) + 1) & !1;
+        let scaled = (e >> sh) as i32 as f32;
+        libm::ldexpf(crate::fmath::sqrt(scaled), (sh / 2) as i32) / self.n as f32
+    }
+
+    /// The amplitudes of every tone and the residual, once (a channel
+    /// reads them many times).
+    pub fn levels(&self) -> Levels<K> {
+        Levels {
+            amplitude: core::array::from_fn(|k| self.amplitude(k)),
+            residual: self.residual_rms(),
+        }
     }
 
     /// V/I of tone `k` of a voltage input `v` and a current input `i`
@@ -197,8 +223,8 @@ impl<const K: usize> Tones<K> {
         let m = [v.re, v.im, i.re, i.im]
             .iter()
             .fold(0u64, |a, x| a | x.unsigned_abs());
-        let sh = (64 - m.leading_zeros()).saturating_sub(40);
-        let f = |x: i64| (x >> sh) as f32;
+        let sh = (64 - m.leading_zeros()).saturating_sub(30);
+        let f = |x: i64| (x >> sh) as i32 as f32;
         let (v, i) = (Complex32::new(f(v.re), f(v.im)), Complex32::new(f(i.re), f(i.im)));
         let d = i.norm_sqr();
         if d > 0.0 && d.is_finite() {
@@ -206,6 +232,22 @@ impl<const K: usize> Tones<K> {
         } else {
             None
         }
+    }
+}
+
+/// An input's levels over one block ([`Tones::levels`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Levels<const K: usize> {
+    /// Each tone's amplitude, counts (peak).
+    pub amplitude: [f32; K],
+    /// What no tone explains, counts rms.
+    pub residual: f32,
+}
+
+impl<const K: usize> Levels<K> {
+    /// The largest tone's amplitude, counts.
+    pub fn largest(&self) -> f32 {
+        self.amplitude.iter().fold(0.0, |m, &a| m.max(a))
     }
 }
 

@@ -15,6 +15,7 @@
 //! | [`comb`] | demodulation of a comb of tones from one input of a scanned block |
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
+//! | [`fmath`] | f32 square root: one FPU instruction on the target, libm's bits on the host |
 //! | [`fixture`] | de-embedding contacts and parasitic capacitance found by `identify` |
 //! | [`invert`] | true line C and R from one measured impedance |
 //! | [`track`] | the line over successive blocks: branch choice, plausibility, holds |
@@ -47,7 +48,8 @@
 //! ```
 #![no_std]
 #![deny(missing_docs)]
-// The only unsafe code is the Cortex-M4 inner loop of `demod::arm`.
+// The only unsafe code is the Cortex-M4 inner loop of `demod::arm` and
+// `fmath`'s `vsqrt.f32`.
 #![deny(unsafe_code)]
 
 pub use num_complex::Complex;
@@ -61,6 +63,7 @@ pub mod cossin;
 pub mod demod;
 mod fixed;
 pub mod fixture;
+pub mod fmath;
 pub mod invert;
 pub mod lumped;
 pub mod osc;

@@ -38,6 +38,18 @@ use core::f32::consts::TAU;
 /// chance with probability e^(−χ²/2) = 10⁻⁴ on a uniform line.
 pub const CHI2_FLAG: f32 = 18.42;
 
+/// The χ² above which a record of a uniform line is flagged with
+/// probability `p` when each tone's σ is estimated from the block's own
+/// residual with `dof` degrees of freedom (N − 2K − 1 for K tones and a
+/// mean over N instants): the statistic is then 2·F(2, dof), whose tail
+/// is (1 + χ²/dof)^(−dof/2), so the flag is dof·(p^(−2/dof) − 1). For
+/// large `dof` it tends to −2·ln p ([`CHI2_FLAG`] at p = 10⁻⁴); 89
+/// degrees of freedom (the array's 100-instant blocks) need 20.5.
+pub fn chi2_flag(p: f32, dof: u32) -> f32 {
+    let d = dof.max(1) as f32;
+    d * (libm::powf(p, -2.0 / d) - 1.0)
+}
+
 /// Gauss–Newton iterations at most (from the single-tone inversions it
 /// converges in 2–3).
 const ITERATIONS: usize = 6;
@@ -62,7 +74,10 @@ pub struct Tone {
 /// The joint line of two tones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Solution {
-    /// The line both tones fit best; `x` and `kappa` at the higher tone.
+    /// The line both tones fit best; `x` at the higher tone. Its `kappa`
+    /// is not computed (NaN): a single tone's error amplification says
+    /// nothing of the joint fit, whose error is [`Solution::sigma_ln_c`]
+    /// ([`Inverter::kappa`] gives it, at ≈ 2500 instructions, if wanted).
     pub line: Line,
     /// χ² of the fit (2 degrees of freedom on a uniform line).
     pub chi2: f32,
@@ -89,7 +104,8 @@ pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> 
         return f32::INFINITY;
     }
     let (ev, ei) = (r_v / a_v, r_i / a_i);
-    libm::hypotf(z.re, z.im) * libm::sqrtf(2.0 / n as f32) * libm::sqrtf(ev * ev + ei * ei)
+    // |Z|² < 10³⁸ for any impedance below 10¹⁹ Ω: no hypot needed.
+    crate::fmath::sqrt((z.re * z.re + z.im * z.im) * (2.0 / n as f32) * (ev * ev + ei * ei))
 }
 
 /// The line both `tones` fit, starting from the single-tone inversions
@@ -201,11 +217,11 @@ fn refine(inv: &Inverter, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, 
             r_ohm: r,
             c_farad: c,
             x,
-            kappa: inv.kappa(x)?,
+            kappa: f32::NAN,
         },
         chi2: fit.chi2,
-        sigma_ln_c: libm::sqrtf(var_c),
-        sigma_ln_r: libm::sqrtf(var_r),
+        sigma_ln_c: crate::fmath::sqrt(var_c),
+        sigma_ln_r: crate::fmath::sqrt(var_r),
     })
 }
 

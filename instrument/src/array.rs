@@ -9,12 +9,12 @@
 //!
 //! One excitation drives every sensor: a comb of [`TONES`] tones, each
 //! making [`COMB`] whole periods per block of [`BLOCK`] instants, played by
-//! the DAC from a table at [`DAC_RATE_HZ`] (20 samples per ADC instant, so
+//! the DAC from a table at [`DAC_RATE_HZ`] (40 samples per ADC instant, so
 //! its images lie above 950 kHz, far beyond the reconstruction filter).
 //! Each sensor's bottom tab is held at the bias by its own inverting
 //! transimpedance stage of [`TIA_OHM`]. The five ADCs, started together by
-//! one timer at [`RATE_HZ`], each scan [`SCAN`] inputs with 8× hardware
-//! oversampling (15-bit results: the sum of eight 12-bit conversions);
+//! one timer at [`RATE_HZ`], each scan [`SCAN`] inputs with 16× hardware
+//! oversampling (16-bit results: the sum of sixteen 12-bit conversions);
 //! input `4a + j` is position `j` of ADC `a`. Input 0 reads the excitation,
 //! inputs 1–16 the sensors, 17–19 are spare. A block is 4 ms: every
 //! sensor is read [`RECORDS_PER_S`] times a second, at both tones its
@@ -24,9 +24,16 @@
 //! after position 0, so a sensor whose input sits at another position
 //! than the voltage's is sampled later: its current phasor at tone f
 //! carries a phase of 2π·f·Δt that the sensor does not have. The channel
-//! takes it out ([`skew_rotation`]); at 6 kHz and 15 µs it is 0.57 rad.
-//! Eight oversampled conversions average over a fifth of the scan step
-//! alike on every input, so the ratio V/I keeps no trace of it.
+//! takes it out ([`skew_rotation`]); at 6 kHz and 30 µs it is 1.13 rad.
+//! Sixteen oversampled conversions average over the scan step alike on
+//! every input, so the ratio V/I keeps no trace of it.
+//!
+//! **Why 25 kHz.** What sets the noise of a tone is the number of
+//! conversions, not of results: 16× oversampling at 25 kHz has the
+//! noise of 8× at 50 kHz, and half the results to demodulate (the
+//! comb's cost is per result and tone). 6 kHz, the highest tone, is
+//! well under the 12.5 kHz Nyquist frequency; each TIA's feedback
+//! capacitor and the ADC's 16-conversion average filter above it.
 
 use core::f32::consts::TAU;
 use dsp_core::Complex32;
@@ -38,9 +45,9 @@ pub const ADCS: usize = 5;
 /// Inputs each ADC scans per instant.
 pub const SCAN: usize = 4;
 /// Instants per second (the timer's rate), Hz.
-pub const RATE_HZ: u32 = 50_000;
+pub const RATE_HZ: u32 = 25_000;
 /// Instants per block: 4 ms.
-pub const BLOCK: usize = 200;
+pub const BLOCK: usize = 100;
 /// Records per second per sensor.
 pub const RECORDS_PER_S: u32 = RATE_HZ / BLOCK as u32;
 /// Tones of the comb.
@@ -64,14 +71,16 @@ pub const TIA_OHM: f64 = 330e3;
 /// Each tone's amplitude at the sensors, V (peak). Five of them with the
 /// phases of [`PHASES`] peak at [`comb_peak`] × this: 0.87 V.
 pub const TONE_VOLT: f64 = 0.3;
-/// ADC result bits (12-bit conversions, 8× oversampled and summed).
-pub const ADC_BITS: u32 = 15;
+/// ADC result bits (12-bit conversions, 16× oversampled and summed).
+pub const ADC_BITS: u32 = 16;
+/// Conversions summed per result.
+pub const OVERSAMPLING: u32 = 16;
 /// Half of the ADC's span, counts (the bias at mid-scale).
 pub const HALF_SCALE: i32 = 1 << (ADC_BITS - 1);
-/// Noise of one oversampled result, counts rms: eight conversions each
-/// with the 12-bit converter's 0.7 LSB of input noise and 0.29 LSB of
-/// rounding, summed: √8·0.76 ≈ 2.1.
-pub const NOISE_COUNTS: f32 = 2.15;
+/// Noise of one oversampled result, counts rms: sixteen conversions
+/// each with the 12-bit converter's 0.7 LSB of input noise and 0.29 LSB
+/// of rounding, summed: √16·0.76 ≈ 3.05.
+pub const NOISE_COUNTS: f32 = 3.05;
 /// The comb's phases, rad: the lowest peak a random search of 20 000
 /// phase sets and a local refinement found (2.90 of one tone's
 /// amplitude, a crest factor of 1.84; in phase the five would peak at 5,
@@ -79,6 +88,10 @@ pub const NOISE_COUNTS: f32 = 2.15;
 /// `the_comb_fits_the_dac_and_its_crest_factor_is_low` checks that a
 /// fresh search does no better.
 pub const PHASES: [f32; TONES] = [0.0, 2.2208, 5.499, 1.0584, 1.1246];
+
+/// Degrees of freedom of a block's residual: N instants less the mean
+/// and two per tone.
+pub const RESIDUAL_DOF: u32 = (BLOCK - 2 * TONES - 1) as u32;
 
 /// Frequency of comb tone `k`, Hz (the highest for an index beyond).
 pub fn tone_hz(k: usize) -> f32 {
@@ -156,15 +169,15 @@ mod tests {
         assert!(input_of(SENSORS - 1) < ADCS * SCAN);
         assert_eq!(adc_position(input_of(0)), (0, 1));
         assert_eq!(adc_position(input_of(15)), (4, 0));
-        // Sensor 2 sits at position 3: 15 µs after the voltage.
-        assert!((skew_s(2) - 15e-6).abs() < 1e-9);
+        // Sensor 2 sits at position 3: 30 µs after the voltage.
+        assert!((skew_s(2) - 30e-6).abs() < 1e-9);
         assert_eq!(skew_s(3), 0.0);
         let r = skew_rotation(2)[4];
-        assert!((r.arg() - TAU * 6000.0 * 15e-6).abs() < 1e-5);
+        assert!((r.arg() - TAU * 6000.0 * 30e-6).abs() < 1e-5);
         assert_eq!(DAC_TABLE, 4000);
-        // The ADC's rate: 4 inputs × 8 conversions × 50 kHz = 1.6 MSa/s,
+        // The ADC's rate: 4 inputs × 16 conversions × 25 kHz = 1.6 MSa/s,
         // under the G474's 4 MSa/s.
-        assert!(SCAN as u32 * 8 * RATE_HZ <= 4_000_000);
+        assert!(SCAN as u32 * OVERSAMPLING * RATE_HZ <= 4_000_000);
     }
 
     #[test]

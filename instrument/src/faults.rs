@@ -126,19 +126,19 @@ impl Thresholds {
         noise_counts: 1.0,
     };
 
-    /// Thresholds for the array ([`crate::array`]: 15-bit oversampled
+    /// Thresholds for the array ([`crate::array`]: 16-bit oversampled
     /// results, 0.3 V tones, 330 kΩ transimpedance). The smallest real
     /// current, the paper's cycled sensor (≈ 1.9 MΩ) at 500 Hz, gives
-    /// ≈ 500 counts and a tone of the excitation ≈ 2980; a clean block's
-    /// residual is the ADC's ≈ 2.15 counts. Open below 30 counts, no
-    /// excitation below a sixth; disturbed above 4.5 counts (2.1× the
+    /// ≈ 1000 counts and a tone of the excitation ≈ 5960; a clean block's
+    /// residual is the ADC's ≈ 3.05 counts. Open below 60 counts, no
+    /// excitation below a sixth; disturbed above 6.4 counts (2.1× the
     /// noise, as the board's 1.5 against 0.76) or 2 % of the largest tone.
     pub const ARRAY: Self = Self {
-        open_counts: 30.0,
+        open_counts: 60.0,
         no_excitation_counts: ARRAY_TONE_COUNTS / 6.0,
         short_ohm: 1_000.0,
         r_max_ohm: 5.0e6,
-        residual_counts: 4.5,
+        residual_counts: 6.4,
         residual_rel: 0.02,
         c_tolerance: 0.008,
         noise_counts: crate::array::NOISE_COUNTS,

@@ -17,7 +17,7 @@ use crate::array::{tone_hz, tones_hz, TONES};
 use crate::calib::CalTable;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
-use dsp_core::comb::Tones;
+use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
 use dsp_core::fixture::Fixture;
 use dsp_core::invert::Inverter;
@@ -70,6 +70,26 @@ pub struct ToneRecord {
     pub flags: Flags,
 }
 
+/// One input of a block: the comb's sums and, computed once from them,
+/// every tone's amplitude and the residual.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Input {
+    /// The comb's sums.
+    pub tones: Tones<TONES>,
+    /// Amplitudes and residual.
+    pub levels: Levels<TONES>,
+}
+
+impl Input {
+    /// An input's sums with their levels.
+    pub fn of(tones: Tones<TONES>) -> Self {
+        Self {
+            levels: tones.levels(),
+            tones,
+        }
+    }
+}
+
 /// State of one array sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct ToneChannel {
@@ -109,8 +129,8 @@ impl ToneChannel {
         s: &ToneSettings<N>,
         channel: u8,
         t_us: u64,
-        v: &Tones<TONES>,
-        i: &Tones<TONES>,
+        v: &Input,
+        i: &Input,
         clipped: bool,
         rotation: &[Complex32; TONES],
     ) -> ToneRecord {
@@ -135,10 +155,11 @@ impl ToneChannel {
             f_hz: 0.0,
             sigma_ohm: 0.0,
         }; 2];
-        let (rv, ri) = (v.residual_rms(), i.residual_rms());
+        let (rv, ri) = (v.levels.residual, i.levels.residual);
+        let n = v.tones.n.min(i.tones.n);
         for (j, &k) in pair.iter().enumerate() {
-            let (av, ai) = (v.amplitude(k), i.amplitude(k));
-            let z = match Tones::ratio(v, i, k) {
+            let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
+            let z = match Tones::ratio(&v.tones, &i.tones, k) {
                 Some(r) if ai >= th.open_counts && av >= th.no_excitation_counts => {
                     r * s.front_end.gain * rotation[k]
                 }
@@ -156,13 +177,12 @@ impl ToneChannel {
             tones[j] = Tone {
                 z,
                 f_hz: rec.f_hz[j],
-                sigma_ohm: twotone::z_sigma(z, v.n.min(i.n), av, ai, rv, ri),
+                sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
             };
         }
         // What no tone of the comb explains, against the largest tone.
-        let largest = |t: &Tones<TONES>| (0..TONES).map(|k| t.amplitude(k)).fold(0.0, f32::max);
         let limit = |a: f32| th.residual_counts.max(th.residual_rel * a);
-        if !(rv <= limit(largest(v)) && ri <= limit(largest(i))) {
+        if !(rv <= limit(v.levels.largest()) && ri <= limit(i.levels.largest())) {
             rec.flags.set(Flags::DISTURBED);
         }
         if clipped || rec.flags.has(Flags::DISTURBED) {

@@ -11,7 +11,7 @@ use instrument::calib::CalTable;
 use instrument::effects::{Effect, EffectSet};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::Policy;
-use instrument::tones::{ToneChannel, ToneRecord, ToneSettings};
+use instrument::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use skin_sim::array::ArrayFrontEnd;
 use skin_sim::frontend::Disturbance;
 use skin_sim::profile::Profile;
@@ -41,7 +41,7 @@ fn run(
         inverter: Inverter::with_leads(LineModel::Continuous, 16.0, paper.effects.lead_ratio()).unwrap(),
         calibration: &cal,
         fixture: EffectSet::NONE.fixture(),
-        chi2_flag: dsp_core::twotone::CHI2_FLAG,
+        chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
     };
     let mut sensors: Vec<Sensor> = (0..SENSORS).map(|s| Sensor::settled(params(s))).collect();
     let mut channels = [ToneChannel::new(cal.rest_capacitance()); SENSORS];
@@ -63,11 +63,11 @@ fn run(
         }
         let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
         let (rows, j) = rows_of(&frame, VOLTAGE_INPUT);
-        let v = comb.column(rows, j);
+        let v = Input::of(comb.column(rows, j));
         for s in 0..SENSORS {
             let input = instrument::array::input_of(s);
             let (rows, j) = rows_of(&frame, input);
-            let i = comb.column(rows, j);
+            let i = Input::of(comb.column(rows, j));
             let rec = channels[s].process(
                 &settings,
                 s as u8,
@@ -131,8 +131,8 @@ fn sixteen_sensors_at_once_within_a_thousandth_under_the_papers_stretching() {
 }
 
 /// A clean sensor trips the model check about as often as chance says
-/// (χ² of 2 degrees of freedom beyond 18.4: 10⁻⁴ a record; the noise σ
-/// is itself estimated from the block, which fattens the tail a little).
+/// (10⁻⁴ a record at the flag of `twotone::chi2_flag`, which allows for
+/// the noise σ being estimated from the block).
 fn check_false_flags(false_flags: usize, records: usize) {
     let rate = false_flags as f64 / records as f64;
     println!("false model flags: {false_flags} in {records} ({rate:.1e})");

@@ -175,7 +175,7 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
 /// line's error amplification κ (two more model evaluations): 5000 → 6000
 /// mean, 10 000 worst. The block budget, the one the firmware lives by,
 /// is unchanged.
-pub const DSP_BUDGETS: [(&str, f64); 5] = [
+pub const DSP_BUDGETS: [(&str, f64); 6] = [
     ("demod_pair", 20.0),
     ("eval_ladder30", 1000.0),
     ("invert_continuous", 6000.0),
@@ -183,6 +183,9 @@ pub const DSP_BUDGETS: [(&str, f64); 5] = [
     // The firmware issue: a block's processing "well within" its duration
     // (5.12 ms at 170 MHz); 10 % at one instruction per cycle.
     ("block_load_permille", 100.0),
+    // Issue 13: the array's sixteen sensors at 250 records/s each within
+    // 30 % of a 170 MHz Cortex-M4 (a 4 ms block: 680 000 cycles).
+    ("array_load_permille", 300.0),
 ];
 
 /// The `host-sim` command built beside this test executable (the

@@ -9,6 +9,11 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
         "{}",
         run.stdout
     );
+    assert!(
+        run.stdout.contains("check vsqrt_equals_libm ok"),
+        "{}",
+        run.stdout
+    );
     for (name, max) in qemu_tests::DSP_BUDGETS {
         let b = benches
             .iter()

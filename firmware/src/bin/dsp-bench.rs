@@ -115,9 +115,21 @@ fn main() -> ! {
         println!("bench invert_{} {} insn/inversion", name, total / xs.len() as u32);
         println!("bench invert_{}_worst {} insn/inversion", name, worst);
     }
+    // The FPU's square root must give libm's bits (IEEE: both correctly
+    // rounded), or host and target would differ.
+    let mut x = 1e-30f32;
+    while x < 1e30 {
+        if dsp_core::fmath::sqrt(x).to_bits() != libm::sqrtf(x).to_bits() {
+            println!("FAIL vsqrt differs from libm at {}", x);
+            qemu::exit(1);
+        }
+        x *= 1.013;
+    }
+    println!("check vsqrt_equals_libm ok");
     two_tones(syst, &insns);
     math(syst, &insns);
     block_budget(syst, &insns);
+    array_budget(syst, &insns);
     qemu::exit(0)
 }
 
@@ -243,4 +255,106 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         "bench block_load_permille {} permille",
         per_block as u64 * 1000 / 870_400
     );
+}
+
+/// One block of the array (`skin-array`'s `process`): the comb on the
+/// excitation and on 16 sensor inputs, then 16 channels' two-tone lines;
+/// averaged over 8 blocks of sixteen of the paper's sensors, the channels
+/// tracking after the first. The load is of the 4 ms block at 170 MHz
+/// (680 000 cycles), the latency from a block's last sample to its last
+/// record at one instruction per cycle. `array_comb_input` includes each
+/// input's levels (amplitudes and residual).
+fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    use dsp_core::comb::Comb;
+    use instrument::array::{input_of, rows_of, skew_rotation, tones_hz, Frame, BLOCK, COMB, SENSORS, TONES};
+    use instrument::tones::{Input, ToneChannel, ToneSettings};
+    use skin_sim::array::ArrayFrontEnd;
+    use skin_sim::frontend::Disturbance;
+    use skin_sim::sensor::{Sensor, SensorParams};
+    let Ok(comb) = Comb::<BLOCK, TONES>::new(COMB) else {
+        qemu::exit(5)
+    };
+    let fe = ArrayFrontEnd::REFERENCE;
+    let p = SensorParams::PAPER;
+    let cal = instrument::calib::CalTable::<11>::linear(p.c_rest_farad, p.rest_length_mm);
+    let Ok(inverter) = Inverter::with_leads(LineModel::Continuous, 16.0, p.effects.lead_ratio()) else {
+        qemu::exit(5)
+    };
+    let settings = ToneSettings {
+        policy: instrument::policy::Policy::DEFAULT,
+        thresholds: instrument::faults::Thresholds::ARRAY,
+        front_end: fe.dsp_front_end(),
+        inverter,
+        calibration: &cal,
+        fixture: dsp_core::fixture::Fixture::NONE,
+        chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
+    };
+    let hz = tones_hz().map(|f| f as f64);
+    let z = [Sensor::settled(p).impedances(&hz); SENSORS];
+    let mut rng = skin_sim::rng::Rng::new(7);
+    let mut frame: Frame = [[[0; 4]; BLOCK]; 5];
+    let mut channels = [ToneChannel::new(cal.rest_capacitance()); SENSORS];
+    let rotations: [[Complex32; TONES]; SENSORS] = core::array::from_fn(skew_rotation);
+    let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
+    let mut valid = 0;
+    let empty = Input::of(comb.column(&frame[0], 9));
+    for b in 0..9u64 {
+        fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
+        let mut v = empty;
+        let mut currents = [empty; SENSORS];
+        // The comb on every input, with each input's levels.
+        let tc = insns(ticks(syst, || {
+            let (rows, j) = rows_of(&frame, 0);
+            v = Input::of(comb.column(black_box(rows), j));
+            for (s, c) in currents.iter_mut().enumerate() {
+                let (rows, j) = rows_of(&frame, input_of(s));
+                *c = Input::of(comb.column(black_box(rows), j));
+            }
+        }));
+        let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
+        let ts = insns(ticks(syst, || {
+            for (s, ch) in channels.iter_mut().enumerate() {
+                recs[s] = ch.process(
+                    &settings,
+                    s as u8,
+                    b * 4000 + 2000,
+                    &v,
+                    &currents[s],
+                    false,
+                    &rotations[s],
+                );
+            }
+        }));
+        // The first block starts every channel from the inversions.
+        if b > 0 {
+            comb_t += tc;
+            solve_t += ts;
+            total += tc + ts;
+            blocks += 1;
+            valid += recs.iter().filter(|r| r.flags.valid()).count();
+        }
+    }
+    if valid != SENSORS * blocks as usize {
+        println!(
+            "FAIL array bench: {} valid records of {}",
+            valid,
+            SENSORS as u32 * blocks
+        );
+        qemu::exit(1);
+    }
+    let per_block = total / blocks;
+    println!(
+        "bench array_comb_input {} insn/input",
+        comb_t / blocks / (SENSORS as u32 + 1)
+    );
+    println!(
+        "bench array_channel {} insn/record",
+        solve_t / blocks / SENSORS as u32
+    );
+    println!("bench array_block {} insn/block", per_block);
+    println!(
+        "bench array_load_permille {} permille",
+        per_block as u64 * 1000 / 680_000
+    );
+    println!("bench array_latency_us {} us", per_block / 170);
 }

@@ -29,7 +29,7 @@ use instrument::array::{
 };
 use instrument::faults::Thresholds;
 use instrument::policy::Policy;
-use instrument::tones::{ToneChannel, ToneSettings};
+use instrument::tones::{Input, ToneChannel, ToneSettings};
 use instrument::wire;
 use skin_sim::array::INPUTS;
 
@@ -90,7 +90,7 @@ mod app {
             inverter,
             calibration: cal,
             fixture: scenario.fixture(),
-            chi2_flag: dsp_core::twotone::CHI2_FLAG,
+            chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
         };
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",
@@ -159,6 +159,7 @@ mod app {
             (v, currents, *clipped, *t)
         });
         let settings = &*cx.local.settings;
+        let v = Input::of(v);
         for (s, (ch, i)) in cx.local.channels.iter_mut().zip(&currents).enumerate() {
             let input = input_of(s);
             let rec = ch.process(
@@ -166,7 +167,7 @@ mod app {
                 s as u8,
                 t_us,
                 &v,
-                i,
+                &Input::of(*i),
                 clipped[input] || clipped[VOLTAGE_INPUT],
                 &cx.local.rotations[s],
             );
