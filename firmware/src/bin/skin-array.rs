@@ -9,7 +9,11 @@
 //!   Logs each sensor's truth (the rig's view).
 //! * `process` (software task): demodulate the comb on the excitation and
 //!   on every sensor's input, turn each sensor's two tones into a line
-//!   with its model check ([`instrument::tones`]), log the records.
+//!   with its model check ([`instrument::tones`]), and queue the records.
+//! * `idle`: the logger. It drains the record queue (a `heapless` SPSC
+//!   queue of [`QUEUE`] − 1 records, four blocks' worth) to defmt. The
+//!   acquisition never waits for it: a record that finds the queue full
+//!   is dropped and counted, and a `drops n` line says so.
 //!
 //! Records are `tone` lines of [`instrument::wire`], decoded on the host.
 //! The scenario is the first semihosting argument (`paper`, `check`,
@@ -24,14 +28,18 @@ use dsp_core::track::Tracker;
 use dsp_core::Complex32;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu;
+use heapless::spsc::{Consumer, Producer, Queue};
 use instrument::array::{
     input_of, rows_of, skew_rotation, Frame, ADCS, BLOCK, COMB, RATE_HZ, SCAN, SENSORS, TONES, VOLTAGE_INPUT,
 };
 use instrument::faults::Thresholds;
 use instrument::policy::Policy;
-use instrument::tones::{Input, ToneChannel, ToneSettings};
+use instrument::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use instrument::wire;
 use skin_sim::array::INPUTS;
+
+/// The record queue's size (it holds one fewer: four blocks of 16).
+const QUEUE: usize = 65;
 
 /// The block period, µs.
 const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
@@ -70,10 +78,14 @@ mod app {
         channels: [ToneChannel; SENSORS],
         rotations: [[Complex32; TONES]; SENSORS],
         settings: ToneSettings<'static, 11>,
+        records: Producer<'static, ToneRecord, QUEUE>,
+        logger: Consumer<'static, ToneRecord, QUEUE>,
+        drops: u32,
     }
 
-    #[init]
-    fn init(_: init::Context) -> (Shared, Local) {
+    #[init(local = [queue: Queue<ToneRecord, QUEUE> = Queue::new()])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let (records, logger) = cx.local.queue.split();
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);
         let cal = scenario.calibration();
@@ -111,13 +123,19 @@ mod app {
                 channels: [ToneChannel::new(cal.rest_capacitance()); SENSORS],
                 rotations: core::array::from_fn(skew_rotation),
                 settings,
+                records,
+                logger,
+                drops: 0,
             },
         )
     }
 
-    #[idle(shared = [done])]
+    #[idle(shared = [done], local = [logger])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
+            while let Some(rec) = cx.local.logger.dequeue() {
+                defmt::println!("{}", rec);
+            }
             if cx.shared.done.lock(|d| *d) {
                 defmt::println!("end");
                 qemu::exit(0);
@@ -146,7 +164,7 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done], local = [comb, channels, rotations, settings, end_block])]
+    #[task(priority = 1, shared = [frame, done], local = [comb, channels, rotations, settings, end_block, records, drops])]
     async fn process(mut cx: process::Context) {
         let comb = &*cx.local.comb;
         let (v, currents, clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
@@ -160,6 +178,7 @@ mod app {
         });
         let settings = &*cx.local.settings;
         let v = Input::of(v);
+        let mut dropped = false;
         for (s, (ch, i)) in cx.local.channels.iter_mut().zip(&currents).enumerate() {
             let input = input_of(s);
             let rec = ch.process(
@@ -171,7 +190,13 @@ mod app {
                 clipped[input] || clipped[VOLTAGE_INPUT],
                 &cx.local.rotations[s],
             );
-            defmt::println!("{}", rec);
+            if cx.local.records.enqueue(rec).is_err() {
+                *cx.local.drops += 1;
+                dropped = true;
+            }
+        }
+        if dropped {
+            defmt::println!("drops {=u32}", *cx.local.drops);
         }
         if (t_us / BLOCK_US) + 1 >= *cx.local.end_block {
             cx.shared.done.lock(|d| *d = true);
