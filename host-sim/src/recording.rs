@@ -176,12 +176,8 @@ fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>> {
 pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
     let mut out = vec![];
     let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
-    for (n, l) in lines {
-        let line = match wire::parse(l) {
-            Ok(line) => line,
-            Err(WireError::NotARecord) => continue,
-            Err(e) => bail!("{source}:{n}: {e}: '{}'", clip(l)),
-        };
+    for item in wire_lines(source, lines) {
+        let (n, l, line) = item?;
         match line {
             Line::Truth(t) => {
                 truth.insert((t.t_us, t.channel), t);
@@ -190,13 +186,7 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
                 "{source}:{n}: an array record ('tone' line) among single-tone records: read array recordings with parse_tones"
             ),
             Line::Rec(r) => {
-                let t = truth.remove(&(r.t_us, r.channel)).map(|t| Truth {
-                    c_pf: t.c_farad as f64 * 1e12,
-                    r_ohm: t.r_line_ohm as f64,
-                    stretch_mm: t.stretch_mm as f64,
-                    r_top_ohm: t.r_top_ohm as f64,
-                    r_bottom_ohm: t.r_bottom_ohm as f64,
-                });
+                let t = truth.remove(&(r.t_us, r.channel)).map(truth_of);
                 if r.freq_hz <= 0.0 {
                     bail!("{source}:{n}: frequency {} Hz is not positive", r.freq_hz);
                 }
@@ -262,12 +252,8 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRe
     let mut out: Vec<ToneRec> = vec![];
     let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
     let mut last: BTreeMap<u8, u64> = BTreeMap::new();
-    for (n, l) in lines {
-        let line = match wire::parse(l) {
-            Ok(line) => line,
-            Err(WireError::NotARecord) => continue,
-            Err(e) => bail!("{source}:{n}: {e}: '{}'", clip(l)),
-        };
+    for item in wire_lines(source, lines) {
+        let (n, l, line) = item?;
         match line {
             Line::Truth(t) => {
                 truth.insert((t.t_us, t.channel), t);
@@ -293,18 +279,36 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRe
                     }
                 }
                 last.insert(r.channel, r.t_us);
-                let t = truth.remove(&(r.t_us, r.channel)).map(|t| Truth {
-                    c_pf: t.c_farad as f64 * 1e12,
-                    r_ohm: t.r_line_ohm as f64,
-                    stretch_mm: t.stretch_mm as f64,
-                    r_top_ohm: t.r_top_ohm as f64,
-                    r_bottom_ohm: t.r_bottom_ohm as f64,
-                });
+                let t = truth.remove(&(r.t_us, r.channel)).map(truth_of);
                 out.push(ToneRec { rec: r, truth: t });
             }
         }
     }
     Ok(out)
+}
+
+/// The record and truth lines of a log, numbered as in `source`; other
+/// lines are skipped, a malformed one is an error naming its line.
+fn wire_lines<'a>(
+    source: &'a str,
+    lines: &'a [(usize, String)],
+) -> impl Iterator<Item = Result<(usize, &'a str, Line)>> + 'a {
+    lines.iter().filter_map(move |(n, l)| match wire::parse(l) {
+        Ok(line) => Some(Ok((*n, l.as_str(), line))),
+        Err(WireError::NotARecord) => None,
+        Err(e) => Some(Err(anyhow::anyhow!("{source}:{n}: {e}: '{}'", clip(l)))),
+    })
+}
+
+/// The rig's view of a block, as the reports use it.
+fn truth_of(t: wire::Truth) -> Truth {
+    Truth {
+        c_pf: t.c_farad as f64 * 1e12,
+        r_ohm: t.r_line_ohm as f64,
+        stretch_mm: t.stretch_mm as f64,
+        r_top_ohm: t.r_top_ohm as f64,
+        r_bottom_ohm: t.r_bottom_ohm as f64,
+    }
 }
 
 /// A line for an error message: at most 120 characters.

@@ -125,15 +125,9 @@ impl ArrayFrontEnd {
                     }
                 }
                 x += noise * rng.gaussian_fast();
-                let code = if x >= 0.0 {
-                    (x + 0.5) as i32
-                } else {
-                    (x - 0.5) as i32
-                } as f32;
-                if code > half - 1.0 || code < -half {
-                    clipped[input] = true;
-                }
-                frame[a][n][j] = code.clamp(-half, half - 1.0) as i16;
+                let (code, rail) = crate::frontend::quantize(x, half);
+                clipped[input] |= rail;
+                frame[a][n][j] = code;
             }
         }
         clipped

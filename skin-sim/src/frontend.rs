@@ -108,16 +108,9 @@ impl FrontEndParams {
         let q = 1.0 / 2_147_483_648.0f32;
         let mut clipped = false;
         let mut adc = |x: f32| {
-            // Round half away from zero, then clip to the ADC range.
-            let code = if x >= 0.0 {
-                (x + 0.5) as i32
-            } else {
-                (x - 0.5) as i32
-            } as f32;
-            if code > half - 1.0 || code < -half {
-                clipped = true;
-            }
-            code.clamp(-half, half - 1.0) as i16
+            let (code, rail) = quantize(x, half);
+            clipped |= rail;
+            code
         };
         let mut st = OscillatorState::default();
         // Hum phase as a 32-bit turn fraction: per pair, and at the block's
@@ -145,6 +138,19 @@ impl FrontEndParams {
         }
         clipped
     }
+}
+
+/// An ADC's code for an input of `x` counts on a bipolar range of
+/// ±`half`: rounded half away from zero, then clipped to the range;
+/// true when it clipped.
+pub(crate) fn quantize(x: f32, half: f32) -> (i16, bool) {
+    let code = if x >= 0.0 {
+        (x + 0.5) as i32
+    } else {
+        (x - 0.5) as i32
+    } as f32;
+    let rail = code > half - 1.0 || code < -half;
+    (code.clamp(-half, half - 1.0) as i16, rail)
 }
 
 /// Disturbances at the ADC inputs of a block, counts: what a bench adds to
