@@ -128,6 +128,7 @@ fn main() -> ! {
     }
     println!("check vsqrt_equals_libm ok");
     two_tones(syst, &insns);
+    newton_peer(syst, &insns);
     math(syst, &insns);
     block_budget(syst, &insns);
     array_budget(syst, &insns);
@@ -196,6 +197,91 @@ fn lockin_peer(
         (err(theirs) * 1e6) as u32
     );
     println!("bench demod_ratio_error_ppm {} ppm", (err(mine) * 1e6) as u32);
+}
+
+/// The peer of our continuous-line inversion: a straightforward f32
+/// Newton on Z = γ·coth γ/(jωC), γ = √(jωRC), with libm (`expf`,
+/// `sincosf`, `logf`), in (ln R, ln C) from the series R-C reading
+/// (R₀ = 3·Rs, C₀ = Cs: the line's low-x limit), at most 30 steps of at
+/// most e. On the same impedances as `invert_continuous` (6 kHz, 200 pF,
+/// x = 0.02–6): instructions, the largest C error, and the lines it
+/// missed (no convergence to 10⁻³). Ours, for comparison, on the same.
+fn newton_peer(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
+    let (w, c) = (core::f32::consts::TAU * 6000.0, 200e-12f32);
+    let inv = Inverter::new(LineModel::Continuous);
+    let (mut t_newton, mut t_ours, mut e_newton, mut e_ours, mut missed) = (0, 0, 0f32, 0f32, 0);
+    for &x in &xs {
+        let z: Complex32 = LineModel::Continuous.zeta(x).unwrap_or_default() / (w * c);
+        let mut got = None;
+        t_newton += insns(ticks(syst, || {
+            got = newton_coth(black_box(z), w);
+        }));
+        match got {
+            Some(cn) if libm::fabsf(cn / c - 1.0) < 1e-3 => {
+                e_newton = e_newton.max(libm::fabsf(cn / c - 1.0))
+            }
+            _ => missed += 1,
+        }
+        let mut line = None;
+        t_ours += insns(ticks(syst, || {
+            line = inv.invert_near(black_box(z), 6000.0, 1.05 * c).ok();
+        }));
+        match line {
+            Some(l) => e_ours = e_ours.max(libm::fabsf(l.c_farad / c - 1.0)),
+            None => {
+                println!("FAIL our inversion missed x = {}", x);
+                qemu::exit(1);
+            }
+        }
+    }
+    let n = xs.len() as u32;
+    println!("bench newton_coth {} insn/inversion", t_newton / n);
+    println!("bench newton_coth_missed {} of 8", missed);
+    println!("bench newton_coth_c_error_ppm {} ppm", (e_newton * 1e6) as u32);
+    println!("bench ours_near {} insn/inversion", t_ours / n);
+    println!("bench ours_near_c_error_ppm {} ppm", (e_ours * 1e6) as u32);
+}
+
+/// C (F) of the line whose impedance at ω is `z`, by Newton (see
+/// [`newton_peer`]); `None` when it does not converge.
+fn newton_coth(z: Complex32, w: f32) -> Option<f32> {
+    let j = Complex32::new(0.0, 1.0);
+    let c0 = -1.0 / (w * z.im);
+    let r0 = 3.0 * z.re;
+    if !(c0 > 0.0 && r0 > 0.0) {
+        return None;
+    }
+    let (mut lr, mut lc) = (libm::logf(r0), libm::logf(c0));
+    for _ in 0..30 {
+        let (r, c) = (libm::expf(lr), libm::expf(lc));
+        let s = libm::sqrtf(0.5 * w * r * c);
+        let g = Complex32::new(s, s);
+        let (sn, cs) = libm::sincosf(2.0 * s);
+        let e2 = Complex32::new(cs, sn) * libm::expf(2.0 * s);
+        let coth = (e2 + 1.0) / (e2 - 1.0);
+        let k = (j * (w * c)).inv();
+        let model = g * coth * k;
+        let f = model - z;
+        // d(γ coth γ)/dγ = coth γ − γ(coth² γ − 1); dγ/d ln R = γ/2.
+        let dg = coth - g * (coth * coth - 1.0);
+        let a = k * dg * g * 0.5;
+        let b = a - model;
+        let det = a.re * b.im - a.im * b.re;
+        if !(det.is_finite() && det != 0.0) {
+            return None;
+        }
+        let dr = (-f.re * b.im + f.im * b.re) / det;
+        let dc = (-a.re * f.im + a.im * f.re) / det;
+        #[allow(clippy::manual_clamp)]
+        let clamp = |v: f32| v.max(-1.0).min(1.0);
+        lr += clamp(dr);
+        lc += clamp(dc);
+        if libm::fabsf(dr) < 1e-6 && libm::fabsf(dc) < 1e-6 {
+            return Some(libm::expf(lc));
+        }
+    }
+    None
 }
 
 /// micromath and libm, instructions per call of each f32 function on the
