@@ -26,7 +26,16 @@ pub enum ArrayScenario {
     /// Mains hum: as `paper`, with 50 Hz on sensors 4–7 (30, 100, 300 and
     /// 1000 counts) from 1 s to 2 s.
     Hum,
+    /// A data-set recording for `host-sim identify`: every sensor the
+    /// reference sensor (no tab leads, so the one undeclared effect is
+    /// alone) with 12 pF of undeclared cable capacitance ([`HIDDEN_PF`]);
+    /// sensors 0–3 on the 20 mm/s trapezoid (staggered), 4–15 held at
+    /// 0–30 mm (the static calibration).
+    Identify,
 }
+
+/// The undeclared cable capacitance of the `identify` scenario, pF.
+pub const HIDDEN_PF: f64 = 12.0;
 
 impl ArrayScenario {
     /// Parse a scenario name.
@@ -35,6 +44,7 @@ impl ArrayScenario {
             "paper" => Self::Paper,
             "check" => Self::Check,
             "hum" => Self::Hum,
+            "identify" => Self::Identify,
             _ => return None,
         })
     }
@@ -44,20 +54,36 @@ impl ArrayScenario {
         match self {
             Self::Paper => 10.0,
             Self::Check | Self::Hum => 3.0,
+            Self::Identify => 10.0,
         }
     }
 
     /// Sensor `s`'s parameters.
     pub fn params(&self, s: usize) -> SensorParams {
         let mut p = SensorParams::PAPER;
-        if *self == Self::Check {
-            p.effects = match s {
-                0..=5 => p.effects,
-                6..=10 => p.effects.with(Effect::ContactResistance, 30e3),
-                _ => p.effects.with(Effect::ParasiticCapacitance, 2e-12),
-            };
+        match self {
+            Self::Check => {
+                p.effects = match s {
+                    0..=5 => p.effects,
+                    6..=10 => p.effects.with(Effect::ContactResistance, 30e3),
+                    _ => p.effects.with(Effect::ParasiticCapacitance, 2e-12),
+                }
+            }
+            Self::Identify => {
+                p = SensorParams::REFERENCE;
+                p.effects = p.effects.with(Effect::ParasiticCapacitance, HIDDEN_PF * 1e-12);
+            }
+            _ => {}
         }
         p
+    }
+
+    /// Sensor `s`'s stretch.
+    pub fn profile(&self, s: usize) -> Profile<'static> {
+        match (self, s) {
+            (Self::Identify, 4..) => Profile::Constant(30.0 * (s - 4) as f64 / 11.0),
+            _ => Profile::paper(20.0),
+        }
     }
 
     /// The firmware's calibration of every sensor: the paper's.
@@ -84,7 +110,7 @@ static PAPER_CAL: CalTable<11> = CalTable::linear(
 /// How far ahead in its cycle sensor `s` runs, s.
 fn lead_s(scenario: ArrayScenario, s: usize) -> f64 {
     match scenario {
-        ArrayScenario::Paper | ArrayScenario::Hum => 0.6 * s as f64,
+        ArrayScenario::Paper | ArrayScenario::Hum | ArrayScenario::Identify => 0.6 * s as f64,
         ArrayScenario::Check => 0.0,
     }
 }
@@ -100,10 +126,9 @@ pub struct ArraySkin {
 impl ArraySkin {
     /// The skin of `scenario` at t = 0.
     pub fn new(scenario: ArrayScenario) -> Self {
-        let profile = Profile::paper(20.0);
         let sensors = core::array::from_fn(|s| {
             let mut sensor = Sensor::settled(scenario.params(s));
-            sensor.advance(&profile, lead_s(scenario, s));
+            sensor.advance(&scenario.profile(s), lead_s(scenario, s));
             sensor
         });
         Self {
@@ -130,12 +155,11 @@ impl ArraySkin {
     ) -> [bool; INPUTS] {
         let t = t_us as f64 * 1e-6;
         let hz = tones_hz().map(|f| f as f64);
-        let profile = Profile::paper(20.0);
         let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
         let mut hum = [Disturbance::NONE; SENSORS];
         let block_s = instrument::array::BLOCK as f64 / instrument::array::RATE_HZ as f64;
         for (s, sensor) in self.sensors.iter_mut().enumerate() {
-            sensor.advance(&profile, t + lead_s(self.scenario, s));
+            sensor.advance(&self.scenario.profile(s), t + lead_s(self.scenario, s));
             z[s] = sensor.impedances(&hz);
             let tr = sensor.truth();
             truth[s] = wire::Truth {

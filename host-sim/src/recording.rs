@@ -123,7 +123,7 @@ pub fn log_lines(text: &str) -> Vec<(usize, String)> {
     text.lines()
         .enumerate()
         .filter_map(|(i, l)| {
-            [wire::REC, wire::TRUTH].iter().find_map(|k| {
+            [wire::REC, wire::TRUTH, wire::TONE].iter().find_map(|k| {
                 let at = l.find(&format!("{k} "))?;
                 // The keyword starts the line or follows a space.
                 (at == 0 || l[..at].ends_with(' ')).then(|| (i + 1, l[at..].to_string()))
@@ -241,6 +241,41 @@ impl ToneRec {
         let t = self.truth?;
         (self.rec.c_farad > 0.0).then(|| self.rec.c_farad as f64 * 1e12 / t.c_pf - 1.0)
     }
+
+    /// The record as one single-tone record per tone, for the data sets
+    /// (a trace per sensor and frequency): each with its tone's lumped
+    /// Cs–Rs (0 when its impedance was not measured or is not a lossy
+    /// capacitor) and the joint line, flags and truth of the record.
+    ///
+    /// A record that failed the model check ([`Flags::MODEL`]) still holds
+    /// two good lumped readings, which are what `identify` looks at to
+    /// find what the line lacks: they keep their validity, and the line
+    /// the check could not vouch for is left out (C and R 0, "not
+    /// available").
+    pub fn per_tone(&self) -> [Rec; 2] {
+        let r = &self.rec;
+        let model = r.flags.has(Flags::MODEL);
+        let flags = Flags(r.flags.0 & !Flags::MODEL);
+        let (c_pf, r_ohm) = match model {
+            true => (0.0, 0.0),
+            false => (r.c_farad as f64 * 1e12, r.r_ohm as f64),
+        };
+        core::array::from_fn(|k| {
+            let lumped = dsp_core::lumped::SeriesRc::from_impedance(r.z[k], r.f_hz[k]).ok();
+            Rec {
+                t_s: self.t_s(),
+                channel: r.channel,
+                freq_hz: r.f_hz[k] as f64,
+                cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
+                rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),
+                c_pf,
+                r_ohm,
+                stretch_mm: r.stretch_mm as f64,
+                flags,
+                truth: self.truth,
+            }
+        })
+    }
 }
 
 /// Parse an array recording: its `tone` lines (numbered as in their
@@ -328,11 +363,23 @@ pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<Rec>> {
         Some(elf) => decode_defmt(elf, &bytes)?,
         None => log_lines(&String::from_utf8_lossy(&bytes)),
     };
-    let recs = parse(&name, &lines)?;
+    // An array recording ('tone' lines) gives a record per tone.
+    let array = lines
+        .iter()
+        .any(|(_, l)| matches!(wire::parse(l), Ok(Line::Tone(_))));
+    let recs = if array {
+        parse_tones(&name, &lines)?
+            .iter()
+            .flat_map(ToneRec::per_tone)
+            .collect()
+    } else {
+        parse(&name, &lines)?
+    };
     if recs.is_empty() {
         bail!(
-            "{name}: no records (expected '{} ...' lines, or raw defmt with --elf)",
-            wire::REC
+            "{name}: no records (expected '{} ...' or '{} ...' lines, or raw defmt with --elf)",
+            wire::REC,
+            wire::TONE
         );
     }
     Ok(recs)
@@ -523,6 +570,42 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn an_array_recording_reads_as_a_record_per_tone() {
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("array.log");
+        // Sensor 3: a clean record, then one the model check flagged.
+        std::fs::write(
+            &log,
+            "start array\n\
+             truth 2000 3 205 1000000 0 1300000 1300000\n\
+             tone 2000 3 500 400000 -1600000 2000 200000 -390000 205.1 1000000 1.2 0.0004 0.1 0\n\
+             12:00:01 INFO tone 6000 3 500 400000 -1600000 2000 200000 -390000 205.1 1000000 40 0.0004 0.1 256\n",
+        )
+        .unwrap();
+        let recs = read(&log, None).unwrap();
+        assert_eq!(recs.len(), 4);
+        assert_eq!(
+            recs.iter().map(|r| r.freq_hz).collect::<Vec<_>>(),
+            [500.0, 2000.0, 500.0, 2000.0]
+        );
+        // Each tone's lumped reading from its own impedance.
+        let cs = -1e12 / (std::f64::consts::TAU * 2000.0 * -390000.0);
+        assert!((recs[1].cs_pf - cs).abs() < 1e-3 * cs && recs[1].rs_ohm == 200000.0);
+        assert!(recs[0].truth.is_some() && recs[2].truth.is_none());
+        assert!((recs[0].c_pf - 205.1).abs() < 1e-3 && recs[0].valid());
+        // The flagged record keeps its lumped readings, valid, without a line.
+        assert!(recs[2].valid() && recs[2].c_pf == 0.0 && recs[2].cs_pf > 0.0);
+        // A `rec` line among them says what is wrong, with its line.
+        std::fs::write(
+            &log,
+            "tone 2000 3 500 400000 -1600000 2000 200000 -390000 205.1 1000000 1.2 0.0004 0.1 0\nrec 1 2 3 4 5 6 7 8 9\n",
+        )
+        .unwrap();
+        let e = read(&log, None).unwrap_err().to_string();
+        assert!(e.contains(":2: a single-tone record"), "{e}");
+    }
     use super::*;
 
     fn lines(s: &str) -> Vec<(usize, String)> {

@@ -94,3 +94,61 @@ fn hum_is_flagged_and_never_passes_as_valid() {
         }
     }
 }
+
+#[test]
+fn identify_reads_an_array_recording_and_finds_the_hidden_parasitic() {
+    // Every sensor with 12 pF of cable capacitance the firmware was not
+    // told of: the model check flags every record, and the recording,
+    // decoded into a data set (a trace per sensor and tone, the held
+    // sensors as calibration), tells `identify` what it is.
+    let (run, recs) = run_array("identify").unwrap();
+    let run = run.ok().unwrap();
+    let flagged = recs.iter().filter(|r| r.rec.flags.has(Flags::MODEL)).count();
+    assert!(
+        flagged as f64 > 0.99 * recs.len() as f64,
+        "{flagged} of {}",
+        recs.len()
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("array.log");
+    std::fs::write(&log, &run.stdout).unwrap();
+    let host_sim = qemu_tests::host_sim_bin();
+    let ds = tmp.path().join("ds");
+    let out = std::process::Command::new(&host_sim)
+        .arg("decode")
+        .arg(&log)
+        .arg("--out")
+        .arg(&ds)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("12 calibration points"), "{text}");
+    let id = tmp.path().join("id");
+    let out = std::process::Command::new(&host_sim)
+        .arg("identify")
+        .arg(&ds)
+        .arg("--out")
+        .arg(&id)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report = std::fs::read_to_string(id.join("report.md")).unwrap();
+    let verdict = report.lines().find(|l| l.starts_with("**")).unwrap_or_default();
+    println!("{verdict}");
+    assert!(
+        verdict.contains("explained by parasitic_capacitance"),
+        "{verdict}"
+    );
+    let pf: f64 = verdict
+        .split("parasitic_capacitance_pf = ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(f64::NAN);
+    assert!((pf - 12.0).abs() < 0.5, "{pf} pF");
+}

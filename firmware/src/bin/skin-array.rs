@@ -17,7 +17,7 @@
 //!
 //! Records are `tone` lines of [`instrument::wire`], decoded on the host.
 //! The scenario is the first semihosting argument (`paper`, `check`,
-//! `hum`).
+//! `hum`, `identify`).
 #![no_std]
 #![no_main]
 
