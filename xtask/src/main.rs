@@ -186,11 +186,14 @@ fn main() -> Result<()> {
 }
 
 /// The main job: the firmware in QEMU on the simulated skin under the
-/// paper's stretching (out/firmware: CSV, SVG, summary), then host-sim's
+/// paper's stretching (out/firmware: CSV, SVG, summary), the array's
+/// sixteen sensors at once (out/array: the same), then host-sim's
 /// run of the paper's experiments on the simulated skin (out/paper), then
 /// the Cortex-M4 counts.
 fn run_main(root: &Path) -> Result<()> {
     let md = main_job::run(&root.join("out/firmware"))?;
+    println!("{md}");
+    let md = main_job::run_array(&root.join("out/array"))?;
     println!("{md}");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let st = Command::new(&cargo)
@@ -251,6 +254,11 @@ fn bench() -> Result<()> {
             "STM32G474 board, 8 channels; budget 64 KiB / 16 KiB",
         ),
         ("skin-qemu", "qemu", "QEMU, with the simulated skin"),
+        (
+            "skin-array",
+            "qemu",
+            "QEMU, the array of 16 sensors with its simulated skin",
+        ),
         ("dsp-bench", "qemu", "instruction-count bench"),
     ] {
         let elf = qemu_tests::build_firmware(bin, &[feature])?;
