@@ -79,7 +79,7 @@ fn main() -> ! {
         qemu::exit(1);
     }
     println!("check demod_asm_equals_portable ok");
-    lockin_peer(syst, &insns, &buf, &fast, ftw_of(&osc));
+    lockin_peer(syst, &insns, &buf, &fast, osc.ftw());
     println!("bench demod_block {} insn/block", n);
     println!(
         "bench demod_pair {}.{:02} insn/pair",
@@ -133,11 +133,6 @@ fn main() -> ! {
     block_budget(syst, &insns);
     array_budget(syst, &insns);
     qemu::exit(0)
-}
-
-/// The tuning word of an oscillator.
-fn ftw_of(osc: &Oscillator) -> u32 {
-    osc.ftw()
 }
 
 /// quartiq's idsp lock-in (`idsp::Lockin` with its second-order
