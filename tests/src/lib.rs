@@ -207,6 +207,25 @@ pub fn host_sim_bin() -> PathBuf {
     bin
 }
 
+/// Run `host-sim` (as [`host_sim_bin`]) with `args`; panics with its
+/// output unless it succeeds, and returns its standard output.
+pub fn host_sim<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> String {
+    let out = Command::new(host_sim_bin())
+        .args(args)
+        .output()
+        .expect("running host-sim");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "host-sim {:?}: {text}{}",
+        args.iter()
+            .map(|a| a.as_ref().to_string_lossy().into_owned())
+            .collect::<Vec<_>>(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
 /// Flash and static RAM of a firmware image, bytes: flash holds every
 /// allocated section below the RAM origin plus the initial values of
 /// `.data`; RAM holds `.data`, `.bss` and `.uninit`.

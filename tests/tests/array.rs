@@ -112,31 +112,21 @@ fn identify_reads_an_array_recording_and_finds_the_hidden_parasitic() {
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("array.log");
     std::fs::write(&log, &run.stdout).unwrap();
-    let host_sim = qemu_tests::host_sim_bin();
     let ds = tmp.path().join("ds");
-    let out = std::process::Command::new(&host_sim)
-        .arg("decode")
-        .arg(&log)
-        .arg("--out")
-        .arg(&ds)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = qemu_tests::host_sim(&[
+        "decode".as_ref(),
+        log.as_os_str(),
+        "--out".as_ref(),
+        ds.as_os_str(),
+    ]);
     assert!(text.contains("12 calibration points"), "{text}");
     let id = tmp.path().join("id");
-    let out = std::process::Command::new(&host_sim)
-        .arg("identify")
-        .arg(&ds)
-        .arg("--out")
-        .arg(&id)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    qemu_tests::host_sim(&[
+        "identify".as_ref(),
+        ds.as_os_str(),
+        "--out".as_ref(),
+        id.as_os_str(),
+    ]);
     let report = std::fs::read_to_string(id.join("report.md")).unwrap();
     let verdict = report.lines().find(|l| l.starts_with("**")).unwrap_or_default();
     println!("{verdict}");

@@ -1,8 +1,6 @@
 //! A firmware recording, decoded by the user's tool (`host-sim decode`),
 //! is a complete data set: `residual` and `identify` read it.
 
-use std::process::Command;
-
 #[test]
 fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() {
     let (run, recs) = qemu_tests::records::run_scenario("paper").unwrap();
@@ -12,20 +10,12 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     let log = tmp.path().join("firmware.log");
     std::fs::write(&log, &run.stdout).unwrap();
     let ds = tmp.path().join("ds");
-    let host_sim = qemu_tests::host_sim_bin();
-    let out = Command::new(&host_sim)
-        .arg("decode")
-        .arg(&log)
-        .arg("--out")
-        .arg(&ds)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = qemu_tests::host_sim(&[
+        "decode".as_ref(),
+        log.as_os_str(),
+        "--out".as_ref(),
+        ds.as_os_str(),
+    ]);
     // Channels 2-7 are held: six calibration points; channels 0 and 1 move.
     assert!(text.contains("6 calibration points"), "{text}");
     // Every trace is long enough to model; shorter runs (the start-up block
@@ -52,19 +42,13 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     assert_eq!(set.calibration.rows.len(), 6);
     // Channel 0 moves through two frequencies, channel 1 at least one.
     assert!(set.traces.len() >= 3, "{} traces", set.traces.len());
-    for sub in [&["residual"][..], &["identify", "--out"][..]] {
-        let mut cmd = Command::new(&host_sim);
-        cmd.args(sub);
-        if sub.len() == 2 {
-            cmd.arg(tmp.path().join("id"));
-        }
-        let out = cmd.arg(&ds).output().unwrap();
-        assert!(
-            out.status.success(),
-            "{sub:?}: {}{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
+    qemu_tests::host_sim(&["residual".as_ref(), ds.as_os_str()]);
+    let id = tmp.path().join("id");
+    qemu_tests::host_sim(&[
+        "identify".as_ref(),
+        "--out".as_ref(),
+        id.as_os_str(),
+        ds.as_os_str(),
+    ]);
     assert!(tmp.path().join("id/report.json").is_file());
 }
