@@ -217,21 +217,7 @@ impl<const K: usize> Tones<K> {
     /// [`crate::demod::Phasors::impedance`]); `None` for a tone beyond the
     /// comb or no current.
     pub fn ratio(v: &Self, i: &Self, k: usize) -> Option<Complex32> {
-        let (v, i) = (v.x.get(k)?, i.x.get(k)?);
-        // Scale all four by one power of two so that f32 keeps the top
-        // bits of the largest; V/I is unchanged by a common factor.
-        let m = [v.re, v.im, i.re, i.im]
-            .iter()
-            .fold(0u64, |a, x| a | x.unsigned_abs());
-        let sh = (64 - m.leading_zeros()).saturating_sub(30);
-        let f = |x: i64| (x >> sh) as i32 as f32;
-        let (v, i) = (Complex32::new(f(v.re), f(v.im)), Complex32::new(f(i.re), f(i.im)));
-        let d = i.norm_sqr();
-        if d > 0.0 && d.is_finite() {
-            Some(v * i.conj() / d)
-        } else {
-            None
-        }
+        crate::demod::ratio_of(*v.x.get(k)?, *i.x.get(k)?)
     }
 }
 

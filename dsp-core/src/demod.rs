@@ -335,29 +335,34 @@ impl Phasors {
 
     /// V/I as a complex ratio, or `None` if the current phasor is zero.
     pub fn ratio(&self) -> Option<Complex32> {
-        // Scale both to f32 by the same power of two so that f32 keeps the
-        // top bits of the larger sum; V/I is unchanged by a common factor.
-        let m = [self.v.re, self.v.im, self.i.re, self.i.im]
-            .iter()
-            .fold(0u64, |a, x| a | x.unsigned_abs());
-        let sh = (64 - m.leading_zeros()).saturating_sub(40);
-        let f = |x: i64| (x >> sh) as f32;
-        let (v, i) = (
-            Complex32::new(f(self.v.re), f(self.v.im)),
-            Complex32::new(f(self.i.re), f(self.i.im)),
-        );
-        let d = i.norm_sqr();
-        if d > 0.0 && d.is_finite() {
-            Some(v * i.conj() / d)
-        } else {
-            None
-        }
+        ratio_of(self.v, self.i)
     }
 
     /// Impedance Z = k·V/I through `front_end` (Ω), or `None` if no current
     /// was measured (open sensor).
     pub fn impedance(&self, front_end: &FrontEnd) -> Option<Complex32> {
         self.ratio().map(|r| r * front_end.gain)
+    }
+}
+
+/// V/I of two i64 phasors as a complex `f32`, or `None` if I is zero.
+/// All four sums are scaled by one power of two so that the largest keeps
+/// its top 30 bits (more than f32's 24; V/I is unchanged by a common
+/// factor) and converted through i32, one instruction each on a
+/// Cortex-M4F. [`Phasors::ratio`] and [`crate::comb::Tones::ratio`] both
+/// use it.
+pub(crate) fn ratio_of(v: Complex<i64>, i: Complex<i64>) -> Option<Complex32> {
+    let m = [v.re, v.im, i.re, i.im]
+        .iter()
+        .fold(0u64, |a, x| a | x.unsigned_abs());
+    let sh = (64 - m.leading_zeros()).saturating_sub(30);
+    let f = |x: i64| (x >> sh) as i32 as f32;
+    let (v, i) = (Complex32::new(f(v.re), f(v.im)), Complex32::new(f(i.re), f(i.im)));
+    let d = i.norm_sqr();
+    if d > 0.0 && d.is_finite() {
+        Some(v * i.conj() / d)
+    } else {
+        None
     }
 }
 
