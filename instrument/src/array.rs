@@ -24,7 +24,7 @@
 //! after position 0, so a sensor whose input sits at another position
 //! than the voltage's is sampled later: its current phasor at tone f
 //! carries a phase of 2π·f·Δt that the sensor does not have. The channel
-//! takes it out ([`skew_rotation`]); at 6 kHz and 30 µs it is 1.13 rad.
+//! takes it out ([`skew_rotation`]); at 6 kHz and 28.2 µs it is 1.06 rad.
 //! Sixteen oversampled conversions average over the scan step alike on
 //! every input, so the ratio V/I keeps no trace of it.
 //!
@@ -55,8 +55,15 @@ pub const TONES: usize = 5;
 /// Whole periods per block of each tone, ascending: 500, 1000, 2000,
 /// 4000 and 6000 Hz.
 pub const COMB: [u32; TONES] = [2, 4, 8, 16, 24];
-/// Time between two positions of a scan, s (a fourth of an instant).
-pub const SCAN_STEP_S: f32 = 1.0 / (RATE_HZ as f32 * SCAN as f32);
+/// The ADCs' clock, Hz: the 170 MHz AHB clock over 4 (synchronous, so
+/// all five start on the same edge of the timer's trigger).
+pub const ADC_CLOCK_HZ: u32 = crate::design::SYSCLK_HZ / 4;
+/// ADC clock cycles per conversion: 12.5 of sampling and 12.5 of
+/// successive approximation (12 bits).
+pub const CONVERSION_CYCLES: f32 = 25.0;
+/// Time between two positions of a scan, s: the sixteen conversions of
+/// one position, 9.41 µs (the four take 37.6 µs of the 40 µs instant).
+pub const SCAN_STEP_S: f32 = OVERSAMPLING as f32 * CONVERSION_CYCLES / ADC_CLOCK_HZ as f32;
 /// The DAC's sample rate, Hz.
 pub const DAC_RATE_HZ: u32 = 1_000_000;
 /// Samples of the DAC's table: one block.
@@ -75,6 +82,13 @@ pub const TONE_VOLT: f64 = 0.3;
 pub const ADC_BITS: u32 = 16;
 /// Conversions summed per result.
 pub const OVERSAMPLING: u32 = 16;
+/// The largest result: sixteen full-scale 12-bit conversions, less the
+/// bias at [`HALF_SCALE`].
+pub const MAX_CODE: i32 = OVERSAMPLING as i32 * 4095 - HALF_SCALE;
+/// How close to a rail a result counts as clipped, counts: within 8 LSB
+/// of one conversion on average. A result is the mean of 9.4 µs, so a
+/// peak past a rail pulls its neighbours near it too.
+pub const RAIL_MARGIN: i32 = 8 * OVERSAMPLING as i32;
 /// Half of the ADC's span, counts (the bias at mid-scale).
 pub const HALF_SCALE: i32 = 1 << (ADC_BITS - 1);
 /// Noise of one oversampled result, counts rms: sixteen conversions
@@ -149,13 +163,81 @@ fn peak_of(phases: &[f32; TONES], points: usize) -> f32 {
     peak
 }
 
+/// Inputs of the five ADCs (sensors, the excitation and the spares).
+pub const INPUTS: usize = ADCS * SCAN;
+
+/// One ADC's rows of a block: per instant, its scan.
+pub type Rows = [[i16; SCAN]; BLOCK];
+
 /// One block as the ADCs' DMA leaves it: per ADC, per instant, its scan.
-pub type Frame = [[[i16; SCAN]; BLOCK]; ADCS];
+pub type Frame = [Rows; ADCS];
 
 /// The rows of input `input`'s ADC and its position in each row.
-pub fn rows_of(frame: &Frame, input: usize) -> (&[[i16; SCAN]; BLOCK], usize) {
+pub fn rows_of(frame: &Frame, input: usize) -> (&Rows, usize) {
     let (a, j) = adc_position(input);
     (&frame[a.min(ADCS - 1)], j)
+}
+
+/// Does a result sit on a rail (within [`RAIL_MARGIN`])?
+pub const fn on_rail(code: i16) -> bool {
+    let c = code as i32;
+    c <= -HALF_SCALE + RAIL_MARGIN || c >= MAX_CODE - RAIL_MARGIN
+}
+
+/// Which inputs of a block have a result on a rail; `rows(a)` is ADC a's
+/// rows.
+pub fn clipped<'a>(rows: impl Fn(usize) -> &'a Rows) -> [bool; INPUTS] {
+    let mut out = [false; INPUTS];
+    for a in 0..ADCS {
+        for row in rows(a) {
+            for (j, &x) in row.iter().enumerate() {
+                out[a * SCAN + j] |= on_rail(x);
+            }
+        }
+    }
+    out
+}
+
+/// The ADC's DMA leaves offset binary (0 … 65 520, the bias at 32 768):
+/// make it two's complement around the bias, in place (flipping the top
+/// bit is subtracting 32 768 modulo 2¹⁶).
+pub fn from_offset_binary(rows: &mut Rows) {
+    for x in rows.iter_mut().flatten() {
+        *x ^= i16::MIN;
+    }
+}
+
+/// The DAC's mid-scale code: the bias.
+pub const DAC_MID: u16 = 1 << (crate::design::DAC_BITS - 1);
+/// One tone's amplitude in DAC codes: [`TONE_VOLT`] of the 3.3 V
+/// reference's 4096 codes (372.4; the reconstruction filter and buffer
+/// after the DAC have a gain of 1).
+pub const TONE_CODES: f32 =
+    (TONE_VOLT / crate::design::VREF_VOLT * (1u32 << crate::design::DAC_BITS) as f64) as f32;
+
+/// The DAC's table: one block of the comb at [`DAC_RATE_HZ`], sample n
+/// the code of [`DAC_MID`] + [`TONE_CODES`]·Σₖ cos(2π·pₖ·n/[`DAC_TABLE`]
+/// \+ φₖ), rounded. Phases from dsp-core's integer `cossin`, so the table
+/// is the same on the host and the target.
+pub fn dac_table(table: &mut [u16; DAC_TABLE]) {
+    let turn = 4_294_967_296.0f64;
+    let offset: [u32; TONES] = core::array::from_fn(|k| {
+        let t = PHASES[k] as f64 / core::f64::consts::TAU;
+        ((t - libm::floor(t)) * turn) as u64 as u32
+    });
+    let q = 1.0 / 2_147_483_648.0f32;
+    let n_table = DAC_TABLE as u64;
+    for (n, code) in table.iter_mut().enumerate() {
+        let mut x = 0f32;
+        for (k, &p) in COMB.iter().enumerate() {
+            let m = (p as u64 * n as u64) % n_table;
+            let base = (((m << 32) + n_table / 2) / n_table) as u32;
+            let (c, _) = dsp_core::cossin::cossin(base.wrapping_add(offset[k]) as i32);
+            x += c as f32 * q;
+        }
+        let v = DAC_MID as f32 + TONE_CODES * x + 0.5;
+        *code = (v as u16).min((1 << crate::design::DAC_BITS) - 1);
+    }
 }
 
 #[cfg(test)]
@@ -169,11 +251,14 @@ mod tests {
         assert!(input_of(SENSORS - 1) < ADCS * SCAN);
         assert_eq!(adc_position(input_of(0)), (0, 1));
         assert_eq!(adc_position(input_of(15)), (4, 0));
-        // Sensor 2 sits at position 3: 30 µs after the voltage.
-        assert!((skew_s(2) - 30e-6).abs() < 1e-9);
+        // Sensor 2 sits at position 3: three scan steps after the
+        // voltage, 28.2 µs; the scan of four fits in an instant.
+        assert!((SCAN_STEP_S - 16.0 * 25.0 / 42.5e6).abs() < 1e-12);
+        assert!((skew_s(2) - 3.0 * SCAN_STEP_S).abs() < 1e-12);
+        assert!(SCAN as f32 * SCAN_STEP_S < 1.0 / RATE_HZ as f32);
         assert_eq!(skew_s(3), 0.0);
         let r = skew_rotation(2)[4];
-        assert!((r.arg() - TAU * 6000.0 * 30e-6).abs() < 1e-5);
+        assert!((r.arg() - TAU * 6000.0 * 3.0 * SCAN_STEP_S).abs() < 1e-5);
         assert_eq!(DAC_TABLE, 4000);
         // The ADC's rate: 4 inputs × 16 conversions × 25 kHz = 1.6 MSa/s,
         // under the G474's 4 MSa/s.
@@ -202,5 +287,52 @@ mod tests {
         assert!(best > 0.97 * peak, "a search found {best} against {peak}");
         // The excitation's peak stays inside the buffer's ±1.45 V swing.
         assert!(peak as f64 * TONE_VOLT < 1.45);
+    }
+
+    #[test]
+    fn the_dac_table_is_the_comb_within_half_a_code() {
+        let mut table = [0u16; DAC_TABLE];
+        dac_table(&mut table);
+        // Against f64: the rounding alone (RMS 1/√12 = 0.289 code).
+        let a = TONE_VOLT / crate::design::VREF_VOLT * 4096.0;
+        let (mut sq, mut max) = (0f64, 0f64);
+        for (n, &c) in table.iter().enumerate() {
+            let t = n as f64 / DAC_TABLE as f64;
+            let x: f64 = (0..TONES)
+                .map(|k| (core::f64::consts::TAU * COMB[k] as f64 * t + PHASES[k] as f64).cos())
+                .sum();
+            let e = c as f64 - (2048.0 + a * x);
+            sq += e * e;
+            max = max.max(e.abs());
+        }
+        let rms = (sq / DAC_TABLE as f64).sqrt();
+        assert!(rms < 0.30 && max <= 0.5 + 1e-3, "rms {rms} max {max}");
+        // Its extremes: the comb's peak, inside the 12-bit range.
+        let (lo, hi) = (*table.iter().min().unwrap(), *table.iter().max().unwrap());
+        let peak = comb_peak(DAC_TABLE) as f64 * a;
+        assert!((2048.0 - lo as f64 - peak).abs() < 1.5 && (hi as f64 - 2048.0 - peak).abs() < 1.5);
+        assert!(lo > 900 && hi < 3200, "{lo}..{hi}");
+    }
+
+    #[test]
+    fn offset_binary_and_the_rails() {
+        let mut rows: Rows = [[0; SCAN]; BLOCK];
+        // Raw DMA words (as i16 bits): 0, the bias, the largest sum.
+        let raw = [0u16, 32_768, 65_520, 32_768 + 1000];
+        for (j, &r) in raw.iter().enumerate() {
+            rows[7][j] = r as i16;
+        }
+        from_offset_binary(&mut rows);
+        assert_eq!(rows[7], [-32_768, 0, MAX_CODE as i16, 1000]);
+        assert_eq!(rows[0], [-32_768; SCAN], "a zero word is the low rail");
+        assert!(on_rail(-32_768) && on_rail(MAX_CODE as i16) && on_rail((MAX_CODE - RAIL_MARGIN) as i16));
+        assert!(!on_rail(0) && !on_rail((MAX_CODE - RAIL_MARGIN - 1) as i16));
+        assert!(!on_rail((-HALF_SCALE + RAIL_MARGIN + 1) as i16));
+        let mut frame: Frame = [[[100; SCAN]; BLOCK]; ADCS];
+        frame[3][50][2] = MAX_CODE as i16;
+        frame[0][0][0] = -32_700;
+        let c = clipped(|a| &frame[a]);
+        assert_eq!(c.iter().filter(|&&x| x).count(), 2);
+        assert!(c[14] && c[VOLTAGE_INPUT]);
     }
 }

@@ -16,6 +16,7 @@
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
 //! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
+//! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain
 //! chain runs the same [`channel::Channel`] on the simulated skin. It is
@@ -39,6 +40,7 @@ pub mod faults;
 pub mod mux;
 pub mod policy;
 pub mod ranging;
+pub mod reader;
 pub mod sequencer;
 pub mod tones;
 pub mod wire;

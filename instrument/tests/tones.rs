@@ -1,17 +1,18 @@
 //! The array on the host: sixteen simulated sensors read at once through
 //! the comb front end (`skin_sim::array`), each block demodulated by
-//! dsp-core's comb and turned into a record by `instrument::tones`, the
-//! chain the firmware's `skin-array` runs in QEMU.
+//! dsp-core's comb and turned into a record by `instrument::tones`
+//! (`instrument::reader`: the chain the firmware's `skin-array` runs in
+//! QEMU and `skin-array-board` on the board).
 
-use dsp_core::comb::Comb;
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
-use instrument::array::{rows_of, skew_rotation, Frame, BLOCK, COMB, RATE_HZ, SENSORS, TONES, VOLTAGE_INPUT};
+use instrument::array::{Frame, BLOCK, RATE_HZ, SENSORS, TONES};
 use instrument::calib::CalTable;
 use instrument::effects::{Effect, EffectSet};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::Policy;
-use instrument::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
+use instrument::reader::ArrayReader;
+use instrument::tones::{ToneRecord, ToneSettings};
 use skin_sim::array::ArrayFrontEnd;
 use skin_sim::frontend::Disturbance;
 use skin_sim::profile::Profile;
@@ -31,7 +32,6 @@ fn run(
     seed: u64,
 ) -> Run {
     let fe = ArrayFrontEnd::REFERENCE;
-    let comb = Comb::<BLOCK, TONES>::new(COMB).unwrap();
     let paper = SensorParams::PAPER;
     let cal = CalTable::<11>::linear(paper.c_rest_farad, paper.rest_length_mm);
     let settings = ToneSettings {
@@ -44,8 +44,7 @@ fn run(
         chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
     };
     let mut sensors: Vec<Sensor> = (0..SENSORS).map(|s| Sensor::settled(params(s))).collect();
-    let mut channels = [ToneChannel::new(cal.rest_capacitance()); SENSORS];
-    let rotations: Vec<_> = (0..SENSORS).map(skew_rotation).collect();
+    let mut reader = ArrayReader::new(cal.rest_capacitance()).unwrap();
     let mut rng = Rng::new(seed);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK]; 5]);
     let blocks = (seconds * RATE_HZ as f64 / BLOCK as f64) as u64;
@@ -62,23 +61,18 @@ fn run(
             truth[s] = sensor.truth().c_farad;
         }
         let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
-        let (rows, j) = rows_of(&frame, VOLTAGE_INPUT);
-        let v = Input::of(comb.column(rows, j));
-        for s in 0..SENSORS {
-            let input = instrument::array::input_of(s);
-            let (rows, j) = rows_of(&frame, input);
-            let i = Input::of(comb.column(rows, j));
-            let rec = channels[s].process(
-                &settings,
-                s as u8,
-                t_us,
-                &v,
-                &i,
-                clipped[input] || clipped[VOLTAGE_INPUT],
-                &rotations[s],
-            );
-            out[s].push((rec, truth[s]));
-        }
+        let block = reader.demodulate(|a| &frame[a]);
+        let mut s = 0;
+        reader.solve(
+            &settings,
+            t_us,
+            &block,
+            |input| clipped[input],
+            |rec| {
+                out[s].push((rec, truth[s]));
+                s += 1;
+            },
+        );
     }
     out
 }

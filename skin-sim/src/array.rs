@@ -18,14 +18,13 @@ use crate::frontend::Disturbance;
 use crate::rng::Rng;
 use dsp_core::cossin::cossin;
 use instrument::array::{
-    adc_position, input_of, Frame, ADCS, BLOCK, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN,
-    SCAN_STEP_S, SENSORS, TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
+    adc_position, input_of, Frame, BLOCK, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN, SCAN_STEP_S,
+    SENSORS, TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
 };
 use instrument::design;
 use num_complex::Complex64;
 
-/// Inputs of the five ADCs.
-pub const INPUTS: usize = ADCS * SCAN;
+pub use instrument::array::INPUTS;
 
 /// The array front end's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -403,27 +403,28 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     );
 }
 
-/// One block of the array (`skin-array`'s `process`): the comb on the
-/// excitation and on 16 sensor inputs, then 16 channels' two-tone lines;
-/// averaged over 8 blocks of sixteen of the paper's sensors, the channels
-/// tracking after the first. The load is of the 4 ms block at 170 MHz
-/// (680 000 cycles), the latency from a block's last sample to its last
-/// record at one instruction per cycle. `array_comb_input` includes each
-/// input's levels (amplitudes and residual).
+/// One block of the array (`skin-array`'s `process`, through
+/// `instrument::reader`): the comb on the excitation and on 16 sensor
+/// inputs, then 16 channels' two-tone lines; averaged over 8 blocks of
+/// sixteen of the paper's sensors, the channels tracking after the first.
+/// The load is of the 4 ms block at 170 MHz (680 000 cycles), the latency
+/// from a block's last sample to its last record at one instruction per
+/// cycle. `array_channel` includes the sensor's share of the inputs'
+/// levels (amplitudes and residual).
 fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
-    use dsp_core::comb::Comb;
-    use instrument::array::{input_of, rows_of, skew_rotation, tones_hz, Frame, BLOCK, COMB, SENSORS, TONES};
-    use instrument::tones::{Input, ToneChannel, ToneSettings};
+    use instrument::array::{tones_hz, Frame, BLOCK, SENSORS};
+    use instrument::reader::ArrayReader;
+    use instrument::tones::ToneSettings;
     use skin_sim::array::ArrayFrontEnd;
     use skin_sim::frontend::Disturbance;
     use skin_sim::sensor::{Sensor, SensorParams};
-    let Ok(comb) = Comb::<BLOCK, TONES>::new(COMB) else {
-        qemu::exit(5)
-    };
     let fe = ArrayFrontEnd::REFERENCE;
     let p = SensorParams::PAPER;
     let cal = instrument::calib::CalTable::<11>::linear(p.c_rest_farad, p.rest_length_mm);
     let Ok(inverter) = Inverter::with_leads(LineModel::Continuous, 16.0, p.effects.lead_ratio()) else {
+        qemu::exit(5)
+    };
+    let Ok(mut reader) = ArrayReader::new(cal.rest_capacitance()) else {
         qemu::exit(5)
     };
     let settings = ToneSettings {
@@ -439,37 +440,28 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);
     let mut frame: Frame = [[[0; 4]; BLOCK]; 5];
-    let mut channels = [ToneChannel::new(cal.rest_capacitance()); SENSORS];
-    let rotations: [[Complex32; TONES]; SENSORS] = core::array::from_fn(skew_rotation);
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
     let mut valid = 0;
-    let empty = Input::of(comb.column(&frame[0], 9));
+    let mut block = reader.demodulate(|a| &frame[a]);
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
-        let mut v = empty;
-        let mut currents = [empty; SENSORS];
-        // The comb on every input, with each input's levels.
+        // The comb on every input.
         let tc = insns(ticks(syst, || {
-            let (rows, j) = rows_of(&frame, 0);
-            v = Input::of(comb.column(black_box(rows), j));
-            for (s, c) in currents.iter_mut().enumerate() {
-                let (rows, j) = rows_of(&frame, input_of(s));
-                *c = Input::of(comb.column(black_box(rows), j));
-            }
+            block = reader.demodulate(|a| black_box(&frame[a]));
         }));
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
         let ts = insns(ticks(syst, || {
-            for (s, ch) in channels.iter_mut().enumerate() {
-                recs[s] = ch.process(
-                    &settings,
-                    s as u8,
-                    b * 4000 + 2000,
-                    &v,
-                    &currents[s],
-                    false,
-                    &rotations[s],
-                );
-            }
+            let mut s = 0;
+            reader.solve(
+                &settings,
+                b * 4000 + 2000,
+                &block,
+                |_| false,
+                |r| {
+                    recs[s] = r;
+                    s += 1;
+                },
+            );
         }));
         // The first block starts every channel from the inversions.
         if b > 0 {

@@ -21,22 +21,18 @@
 #![no_std]
 #![no_main]
 
-use dsp_core::comb::{Comb, Tones};
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
-use dsp_core::Complex32;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu;
 use heapless::spsc::{Consumer, Producer, Queue};
-use instrument::array::{
-    input_of, rows_of, skew_rotation, Frame, ADCS, BLOCK, COMB, RATE_HZ, SCAN, SENSORS, TONES, VOLTAGE_INPUT,
-};
+use instrument::array::{Frame, ADCS, BLOCK, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::faults::Thresholds;
 use instrument::policy::Policy;
-use instrument::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
+use instrument::reader::ArrayReader;
+use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
-use skin_sim::array::INPUTS;
 
 /// The record queue's size (it holds one fewer: four blocks of 16).
 const QUEUE: usize = 65;
@@ -74,9 +70,7 @@ mod app {
         skin: ArraySkin,
         block: u64,
         end_block: u64,
-        comb: Comb<BLOCK, TONES>,
-        channels: [ToneChannel; SENSORS],
-        rotations: [[Complex32; TONES]; SENSORS],
+        reader: ArrayReader,
         settings: ToneSettings<'static, 11>,
         records: Producer<'static, ToneRecord, QUEUE>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
@@ -89,7 +83,9 @@ mod app {
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);
         let cal = scenario.calibration();
-        let Ok(comb) = Comb::new(COMB) else { qemu::exit(3) };
+        let Ok(reader) = ArrayReader::new(cal.rest_capacitance()) else {
+            qemu::exit(3)
+        };
         let inverter =
             match Inverter::with_leads(LineModel::Continuous, Tracker::X_MAX, scenario.lead_ratio()) {
                 Ok(i) => i,
@@ -119,9 +115,7 @@ mod app {
                 skin,
                 block: 0,
                 end_block: (scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US,
-                comb,
-                channels: [ToneChannel::new(cal.rest_capacitance()); SENSORS],
-                rotations: core::array::from_fn(skew_rotation),
+                reader,
                 settings,
                 records,
                 logger,
@@ -164,37 +158,27 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done], local = [comb, channels, rotations, settings, end_block, records, drops])]
+    #[task(priority = 1, shared = [frame, done], local = [reader, settings, end_block, records, drops])]
     async fn process(mut cx: process::Context) {
-        let comb = &*cx.local.comb;
-        let (v, currents, clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
-            let (rows, j) = rows_of(frame, VOLTAGE_INPUT);
-            let v = comb.column(rows, j);
-            let currents: [Tones<TONES>; SENSORS] = core::array::from_fn(|s| {
-                let (rows, j) = rows_of(frame, input_of(s));
-                comb.column(rows, j)
-            });
-            (v, currents, *clipped, *t)
-        });
-        let settings = &*cx.local.settings;
-        let v = Input::of(v);
+        let reader = &mut *cx.local.reader;
+        let (block, clipped, t_us) = cx
+            .shared
+            .frame
+            .lock(|(frame, clipped, t)| (reader.demodulate(|a| &frame[a]), *clipped, *t));
+        let (records, drops) = (&mut *cx.local.records, &mut *cx.local.drops);
         let mut dropped = false;
-        for (s, (ch, i)) in cx.local.channels.iter_mut().zip(&currents).enumerate() {
-            let input = input_of(s);
-            let rec = ch.process(
-                settings,
-                s as u8,
-                t_us,
-                &v,
-                &Input::of(*i),
-                clipped[input] || clipped[VOLTAGE_INPUT],
-                &cx.local.rotations[s],
-            );
-            if cx.local.records.enqueue(rec).is_err() {
-                *cx.local.drops += 1;
-                dropped = true;
-            }
-        }
+        reader.solve(
+            &*cx.local.settings,
+            t_us,
+            &block,
+            |input| clipped[input],
+            |rec| {
+                if records.enqueue(rec).is_err() {
+                    *drops += 1;
+                    dropped = true;
+                }
+            },
+        );
         if dropped {
             defmt::println!("drops {=u32}", *cx.local.drops);
         }

@@ -73,11 +73,35 @@ pub fn peripherals(rcc: &rcc::RegisterBlock) {
         .modify(|_, w| w.tim6en().set_bit().pwren().set_bit());
 }
 
+/// The array's clocks: DMA1, DMAMUX1; GPIOA–C, ADC12, ADC345, DAC1;
+/// TIM6, TIM7, PWR; SYSCFG (which clocks the op-amps' registers too).
+pub fn array_peripherals(rcc: &rcc::RegisterBlock) {
+    rcc.ahb1enr()
+        .modify(|_, w| w.dma1en().set_bit().dmamux1en().set_bit());
+    rcc.ahb2enr().modify(|_, w| {
+        w.gpioaen()
+            .set_bit()
+            .gpioben()
+            .set_bit()
+            .gpiocen()
+            .set_bit()
+            .adc12en()
+            .set_bit()
+            .adc345en()
+            .set_bit()
+            .dac1en()
+            .set_bit()
+    });
+    rcc.apb1enr1()
+        .modify(|_, w| w.tim6en().set_bit().tim7en().set_bit().pwren().set_bit());
+    rcc.apb2enr().modify(|_, w| w.syscfgen().set_bit());
+}
+
 /// The whole sequence (RM0440 6.1.5 and 6.2.7): PWR clock, boost, wait
 /// states before the frequency rises, HSI16, PLL, AHB /2 through the
 /// switch, ≥ 1 µs, AHB /1.
 #[cfg(target_os = "none")]
-pub fn init(dp: &super::pac::Peripherals) {
+pub fn system(dp: &super::pac::Peripherals) {
     dp.RCC.apb1enr1().modify(|_, w| w.pwren().set_bit());
     boost(&dp.PWR);
     flash_wait_states(&dp.FLASH);
@@ -93,5 +117,11 @@ pub fn init(dp: &super::pac::Peripherals) {
     // ≥ 1 µs at the 85 MHz AHB: 200 cycles.
     cortex_m::asm::delay(200);
     ahb_full(&dp.RCC);
+}
+
+/// The single-tone board: [`system`], then its peripherals' clocks.
+#[cfg(target_os = "none")]
+pub fn init(dp: &super::pac::Peripherals) {
+    system(dp);
     peripherals(&dp.RCC);
 }

@@ -18,3 +18,18 @@ pub fn configure(dac: &dac1::RegisterBlock) {
             .set_bit()
     });
 }
+
+/// The array: as [`configure`], triggered by TIM7 TRGO (1 MSa/s).
+pub fn configure_array(dac: &dac1::RegisterBlock) {
+    dac.mcr().modify(|_, w| w.hfsel().more160mhz());
+    dac.cr().write(|w| {
+        w.tsel1()
+            .tim7trgo()
+            .ten1()
+            .set_bit()
+            .dmaen1()
+            .set_bit()
+            .en1()
+            .set_bit()
+    });
+}

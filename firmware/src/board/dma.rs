@@ -80,6 +80,73 @@ pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
     });
 }
 
+/// DMAMUX request of the array: DMA1 channels 1–5 ← the five scanning
+/// ADCs in frame order, channel 6 ← DAC1 channel 1.
+#[allow(unsafe_code)]
+pub fn array_requests(mux: &dmamux::RegisterBlock) {
+    for (c, adc) in super::scan::SCAN_ADCS.iter().enumerate() {
+        // SAFETY: request lines of the G474's DMAMUX (1..=115).
+        mux.ccr(c)
+            .write(|w| unsafe { w.dmareq_id().bits(adc.dma_request()) });
+    }
+    mux.ccr(ARRAY_DAC_CHANNEL)
+        .write(|w| unsafe { w.dmareq_id().bits(REQ_DAC1_CH1) });
+}
+
+/// The array's DAC channel (0-based: DMA1 channel 6).
+pub const ARRAY_DAC_CHANNEL: usize = 5;
+
+/// The array's ADC channel `c` (0-based, frame ADC c): `results` 16-bit
+/// results from the ADC's data register `from` to `to`, circular; with
+/// half-transfer, transfer-complete and transfer-error interrupts if
+/// `interrupts`.
+pub fn scan_channel(dma: &dma1::RegisterBlock, c: usize, from: u32, to: u32, results: u16, interrupts: bool) {
+    let ch = dma.ch(c);
+    addresses(ch, from, to, results);
+    ch.cr().write(|w| {
+        w.dir()
+            .from_peripheral()
+            .psize()
+            .bits16()
+            .msize()
+            .bits16()
+            .minc()
+            .set_bit()
+            .circ()
+            .set_bit()
+            .htie()
+            .bit(interrupts)
+            .tcie()
+            .bit(interrupts)
+            .teie()
+            .bit(interrupts)
+            .en()
+            .set_bit()
+    });
+}
+
+/// The array's DAC channel: the table of `codes` 16-bit codes at `from`
+/// to the DAC's holding register `to`, circular, as [`dac_channel`] does
+/// for the single-tone board.
+pub fn table_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
+    let ch = dma.ch(ARRAY_DAC_CHANNEL);
+    addresses(ch, to, from, codes);
+    ch.cr().write(|w| {
+        w.dir()
+            .from_memory()
+            .psize()
+            .bits32()
+            .msize()
+            .bits16()
+            .minc()
+            .set_bit()
+            .circ()
+            .set_bit()
+            .en()
+            .set_bit()
+    });
+}
+
 /// What channel 1's interrupt found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Event {
@@ -121,11 +188,15 @@ impl Event {
 
 /// Read and clear channel 1's flags.
 pub fn take_event(dma: &dma1::RegisterBlock) -> Event {
-    let isr = dma.isr().read();
-    dma.ifcr().write(|w| w.cgif1().clear());
-    Event::from_flags(
-        isr.teif1().bit_is_set(),
-        isr.htif1().bit_is_set(),
-        isr.tcif1().bit_is_set(),
-    )
+    take_event_of(dma, 0)
+}
+
+/// Read and clear channel `c`'s flags (0-based: four bits each in ISR,
+/// GIF, TCIF, HTIF, TEIF; writing CGIF clears them all).
+#[allow(unsafe_code)]
+pub fn take_event_of(dma: &dma1::RegisterBlock, c: usize) -> Event {
+    let flags = dma.isr().read().bits() >> (4 * c);
+    // SAFETY: CGIFc is bit 4c of the write-only IFCR (c < 8).
+    dma.ifcr().write(|w| unsafe { w.bits(1 << (4 * c)) });
+    Event::from_flags(flags & 0b1000 != 0, flags & 0b100 != 0, flags & 0b10 != 0)
 }

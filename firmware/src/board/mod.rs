@@ -11,8 +11,10 @@
 //! | [`clocks`] | HSI16 → PLL → 170 MHz, range-1 boost, flash wait states, peripheral clocks |
 //! | [`pins`] | analog inputs, the multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`adc`] | ADC1 + ADC2 in dual regular simultaneous mode, paced by TIM6 |
-//! | [`dac`] | DAC1 channel 1, paced by TIM6, fed by DMA |
-//! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events |
+//! | [`scan`] | the array: five ADCs each scanning four inputs, 16× oversampled; the pin map |
+//! | [`opamp`] | the array: three op-amps as followers into ADC3 and ADC5 |
+//! | [`dac`] | DAC1 channel 1, paced by TIM6 (the array: TIM7), fed by DMA |
+//! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events; the array's channels 1–6 |
 //! | [`timer`] | TIM6 at the sample rate |
 //! | [`watchdog`] | IWDG (100 ms), the cause of the last reset |
 //!
@@ -25,9 +27,11 @@ pub mod adc;
 pub mod clocks;
 pub mod dac;
 pub mod dma;
+pub mod opamp;
 pub mod pins;
 #[cfg(target_os = "none")]
 mod runtime;
+pub mod scan;
 pub mod timer;
 pub mod watchdog;
 

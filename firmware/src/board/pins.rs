@@ -3,13 +3,47 @@
 //! A0..A2, PB5 and PB6 the transimpedance range switch's
 //! (`instrument::design::TIA_RANGES_OHM`) (embedded-hal `OutputPin`).
 
-use super::pac::{gpioa, gpiob};
+use super::pac::{gpioa, gpiob, gpioc};
 
 /// PA0, PA1, PA4 analog.
 pub fn analog(gpioa: &gpioa::RegisterBlock) {
     gpioa
         .moder()
         .modify(|_, w| w.moder0().analog().moder1().analog().moder4().analog());
+}
+
+/// The array's analog pins ([`super::scan::INPUT_PINS`] and PA4, the
+/// DAC's output): MODER 0b11 on each. The reset leaves most pins analog
+/// already; this does not rely on it.
+#[allow(unsafe_code)]
+pub fn array_analog(
+    gpioa: &gpioa::RegisterBlock,
+    gpiob: &gpiob::RegisterBlock,
+    gpioc: &gpioc::RegisterBlock,
+) {
+    let (a, b, c) = array_analog_masks();
+    // SAFETY: MODER takes any 32-bit value; the masks only set whole
+    // 2-bit fields of the pins listed.
+    gpioa.moder().modify(|r, w| unsafe { w.bits(r.bits() | a) });
+    gpiob.moder().modify(|r, w| unsafe { w.bits(r.bits() | b) });
+    gpioc.moder().modify(|r, w| unsafe { w.bits(r.bits() | c) });
+}
+
+/// MODER bits of the array's analog pins on ports A, B and C.
+pub const fn array_analog_masks() -> (u32, u32, u32) {
+    let (mut a, mut b, mut c) = (0b11u32 << 8, 0u32, 0u32);
+    let pins = super::scan::INPUT_PINS;
+    let mut i = 0;
+    while i < pins.len() {
+        let m = 0b11 << (2 * pins[i].pin as u32);
+        match pins[i].port {
+            'A' => a |= m,
+            'B' => b |= m,
+            _ => c |= m,
+        }
+        i += 1;
+    }
+    (a, b, c)
 }
 
 /// PB0..PB2, PB5, PB6 outputs.

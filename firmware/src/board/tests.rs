@@ -6,7 +6,8 @@
 //! peripheral side for the DAC's DMA, the DMA error and overrun events.
 
 use super::dma::Event;
-use super::{adc, clocks, dac, dma, pac, pins, timer, watchdog};
+use super::scan::{Adc, INPUT_PINS, SCAN_ADCS};
+use super::{adc, clocks, dac, dma, opamp, pac, pins, scan, timer, watchdog};
 use std::vec;
 use std::vec::Vec;
 
@@ -208,4 +209,243 @@ fn watchdog_100_ms_from_lsi_over_32_and_the_reset_cause() {
         C::Watchdog
     );
     assert_ne!(rcc.at(0x94) & (1 << 23), 0, "RMVF set");
+}
+
+#[test]
+fn the_arrays_pin_map_is_realisable_on_the_nucleo() {
+    use instrument::array::{adc_position, input_of, INPUTS, SENSORS, VOLTAGE_INPUT};
+    // Each frame ADC's four positions are one hardware ADC, the one
+    // SCAN_ADCS names; the five are distinct.
+    for (i, p) in INPUT_PINS.iter().enumerate() {
+        assert_eq!(p.adc, SCAN_ADCS[adc_position(i).0], "input {i}");
+    }
+    for (a, adc) in SCAN_ADCS.iter().enumerate() {
+        assert!(!SCAN_ADCS[..a].contains(adc), "{adc:?} twice");
+    }
+    // The excitation and the sixteen sensors on distinct pins; the
+    // spares too, but for input 19, which repeats 18.
+    let used: Vec<_> = (0..INPUTS - 1)
+        .map(|i| (INPUT_PINS[i].port, INPUT_PINS[i].pin))
+        .collect();
+    for (i, p) in used.iter().enumerate() {
+        assert!(!used[..i].contains(p), "input {i} shares {p:?}");
+    }
+    assert_eq!(INPUT_PINS[19], INPUT_PINS[18]);
+    // None of the Nucleo's own pins, nor the DAC's output.
+    let taken = [
+        ('A', 2),
+        ('A', 3),
+        ('A', 4),
+        ('A', 5),
+        ('A', 13),
+        ('A', 14),
+        ('A', 15),
+        ('B', 3),
+        ('B', 4),
+        ('B', 8),
+        ('C', 13),
+        ('C', 14),
+        ('C', 15),
+        ('F', 0),
+        ('F', 1),
+    ];
+    for p in &used {
+        assert!(!taken.contains(p), "{p:?} is the Nucleo's");
+    }
+    // Each pin reaches its channel on this package (embassy's
+    // stm32-data for STM32G474RE; the followers: RM0440's OPAMP
+    // connections, VINP2 and the internal output to the ADC).
+    let adc_pins: &[(Adc, char, u8, u8)] = &[
+        (Adc::Adc1, 'A', 0, 1),
+        (Adc::Adc1, 'C', 0, 6),
+        (Adc::Adc1, 'C', 1, 7),
+        (Adc::Adc1, 'C', 2, 8),
+        (Adc::Adc2, 'A', 6, 3),
+        (Adc::Adc2, 'A', 7, 4),
+        (Adc::Adc2, 'C', 4, 5),
+        (Adc::Adc2, 'C', 5, 11),
+        (Adc::Adc3, 'B', 0, 12),
+        (Adc::Adc3, 'B', 1, 1),
+        (Adc::Adc3, 'B', 13, 5),
+        (Adc::Adc4, 'B', 12, 3),
+        (Adc::Adc4, 'B', 14, 4),
+        (Adc::Adc4, 'B', 15, 5),
+        (Adc::Adc5, 'A', 8, 1),
+        (Adc::Adc5, 'A', 9, 2),
+    ];
+    // (op-amp, its VINP2 pin, ADC, the internal channel).
+    let followers: &[(u8, char, u8, Adc, u8)] = &[
+        (3, 'A', 1, Adc::Adc3, 13),
+        (4, 'B', 11, Adc::Adc5, 5),
+        (5, 'C', 3, Adc::Adc5, 3),
+    ];
+    for p in INPUT_PINS {
+        match p.follower {
+            None => assert!(adc_pins.contains(&(p.adc, p.port, p.pin, p.channel)), "{p:?}"),
+            Some(n) => assert!(followers.contains(&(n, p.port, p.pin, p.adc, p.channel)), "{p:?}"),
+        }
+    }
+    assert_eq!(INPUT_PINS[VOLTAGE_INPUT], INPUT_PINS[0]);
+    assert_eq!(
+        (INPUT_PINS[input_of(0)].port, INPUT_PINS[input_of(0)].pin),
+        ('C', 0)
+    );
+    assert_eq!(input_of(SENSORS - 1), 16);
+    // Analog mode on exactly those pins and PA4.
+    let (a, b, c) = pins::array_analog_masks();
+    assert_eq!(
+        a,
+        0b11 | 0b11 << 2 | 0b11 << 8 | 0b11 << 12 | 0b11 << 14 | 0b11 << 16 | 0b11 << 18
+    );
+    assert_eq!(
+        b,
+        [0u32, 1, 11, 12, 13, 14, 15]
+            .iter()
+            .map(|p| 0b11 << (2 * p))
+            .sum::<u32>()
+    );
+    assert_eq!(
+        c,
+        [0u32, 1, 2, 3, 4, 5].iter().map(|p| 0b11 << (2 * p)).sum::<u32>()
+    );
+    let mut gb = Fake::new(&[(0x00, 0xFFFF_FEBF)]);
+    let (mut ga, mut gc) = (Fake::new(&[(0x00, 0)]), Fake::new(&[(0x00, 0)]));
+    pins::array_analog(
+        ga.regs::<pac::gpioa::RegisterBlock>(),
+        gb.regs::<pac::gpiob::RegisterBlock>(),
+        gc.regs::<pac::gpioc::RegisterBlock>(),
+    );
+    assert_eq!((ga.at(0), gb.at(0), gc.at(0)), (a, 0xFFFF_FEBF | b, c));
+}
+
+#[test]
+fn the_arrays_adcs_scan_four_inputs_sixteen_times_oversampled_on_tim6() {
+    // Common blocks: independent (DUAL = 0), CKMODE = 0b11 (HCLK/4).
+    let mut common = Fake::new(&[]);
+    scan::common(common.regs::<pac::adc12_common::RegisterBlock>());
+    assert_eq!(common.at(0x08), 0b11 << 16);
+    // ADC3's scan: PB0 (IN12), PB1 (IN1), PB13 (IN5), OPAMP3 (IN13).
+    assert_eq!(scan::sequence(2), [12, 1, 5, 13]);
+    let mut a = Fake::new(&[(0x0C, 0x8000_0000), (0x08, 0x2000_0000)]);
+    scan::configure(a.regs::<pac::adc1::RegisterBlock>(), scan::sequence(2));
+    // SQR1: L = 3, SQ1..SQ4 at bits 6, 12, 18, 24.
+    assert_eq!(a.at(0x30), 3 | 12 << 6 | 1 << 12 | 5 << 18 | 13 << 24);
+    // SMPR1 (0x14): IN1 and IN5 at 12.5 cycles (0b010); SMPR2 (0x18):
+    // IN12 and IN13 (fields 2 and 3).
+    assert_eq!(a.at(0x14), 0b010 << 3 | 0b010 << 15);
+    assert_eq!(a.at(0x18), 0b010 << 6 | 0b010 << 9);
+    // CFGR: DMAEN (0), DMACFG (1), EXTSEL 13 (bits 5..9), EXTEN rising
+    // (10), JQDIS kept; CONT, OVRMOD, RES (12 bits), ALIGN 0.
+    assert_eq!(a.at(0x0C), 1 | 1 << 1 | 13 << 5 | 1 << 10 | 1 << 31);
+    // CFGR2 (0x10): ROVSE (0), OVSR = 0b011 (16×, bits 2..4), OVSS = 0,
+    // TROVS = 0, ROVSM = 0.
+    assert_eq!(a.at(0x10), 1 | 0b011 << 2);
+    // Every frame ADC's sample times cover exactly its channels.
+    for f in 0..5 {
+        let seq = scan::sequence(f);
+        let (s1, s2) = scan::sample_times(seq);
+        for ch in 0..19u32 {
+            let bits = if ch < 10 {
+                s1 >> (3 * ch)
+            } else {
+                s2 >> (3 * (ch - 10))
+            } & 0b111;
+            assert_eq!(
+                bits,
+                if seq.contains(&(ch as u8)) { 0b010 } else { 0 },
+                "ADC {f} IN{ch}"
+            );
+        }
+    }
+    // The scan fits the instant: 4 × 16 conversions of 25 cycles at
+    // 42.5 MHz (HCLK/4) within 1/25 kHz.
+    let scan_s = 4.0 * 16.0 * 25.0 / (instrument::design::SYSCLK_HZ as f64 / 4.0);
+    assert!(scan_s < 1.0 / instrument::array::RATE_HZ as f64, "{scan_s}");
+    let step = instrument::array::SCAN_STEP_S as f64;
+    assert!(
+        (scan_s / 4.0 / step - 1.0).abs() < 1e-6,
+        "the skew the channels take out is the board's: {step}"
+    );
+}
+
+#[test]
+fn the_arrays_followers_dma_dac_and_timers() {
+    // OPAMP3..5 CSR (0x08, 0x0C, 0x10): OPAEN, VP_SEL = 2 (bits 2..3),
+    // VM_SEL = 3 (follower, bits 5..6), OPAINTOEN (bit 8).
+    let mut op = Fake::new(&[]);
+    opamp::followers(op.regs::<pac::opamp::RegisterBlock>());
+    let csr = 1 | 2 << 2 | 3 << 5 | 1 << 8;
+    assert_eq!((op.at(0x00), op.at(0x04)), (0, 0), "OPAMP1, 2 untouched");
+    assert_eq!(
+        (op.at(0x08), op.at(0x0C), op.at(0x10), op.at(0x14)),
+        (csr, csr, csr, 0)
+    );
+    // DMAMUX: channels 0..4 ← ADC1, ADC2, ADC3, ADC5, ADC4; 5 ← DAC1 CH1.
+    let mut mux = Fake::new(&[]);
+    dma::array_requests(mux.regs::<pac::dmamux::RegisterBlock>());
+    let reqs: Vec<u32> = (0..6).map(|c| mux.at(4 * c)).collect();
+    assert_eq!(reqs, [5, 36, 37, 39, 38, 6]);
+    // DMA1: channel 5 (CCR5 at 0x08 + 20·4) with interrupts, channel 1
+    // without; 16-bit both sides, circular, peripheral → memory.
+    let mut d = Fake::new(&[]);
+    let regs = d.regs::<pac::dma1::RegisterBlock>();
+    dma::scan_channel(regs, 4, 0x5000_0540, 0x2000_2000, 800, true);
+    dma::scan_channel(regs, 0, 0x5000_0040, 0x2000_1000, 800, false);
+    let base = 1 | 1 << 5 | 1 << 7 | 0b01 << 8 | 0b01 << 10;
+    assert_eq!(d.at(0x08 + 20 * 4), base | 1 << 1 | 1 << 2 | 1 << 3);
+    assert_eq!(d.at(0x08), base);
+    assert_eq!(
+        (d.at(0x0C + 80), d.at(0x10 + 80), d.at(0x14 + 80)),
+        (800, 0x5000_0540, 0x2000_2000)
+    );
+    // Channel 6: the DAC's table, memory → DAC, 16-bit codes as 32-bit
+    // writes, circular, no interrupts.
+    dma::table_channel(
+        d.regs::<pac::dma1::RegisterBlock>(),
+        0x2000_4000,
+        0x5000_0808,
+        4000,
+    );
+    assert_eq!(
+        d.at(0x08 + 100),
+        1 | 1 << 4 | 1 << 5 | 1 << 7 | 0b10 << 8 | 0b01 << 10
+    );
+    assert_eq!(
+        (d.at(0x0C + 100), d.at(0x10 + 100), d.at(0x14 + 100)),
+        (4000, 0x5000_0808, 0x2000_4000)
+    );
+    // Channel 5's events (ISR bits 16..19) and its clear (CGIF5, bit 16).
+    let mut d = Fake::new(&[(0x00, 0b0100 << 16 | 0b1110)]);
+    let regs = d.regs::<pac::dma1::RegisterBlock>();
+    assert_eq!(dma::take_event_of(regs, 4), Event::FirstHalf);
+    assert_eq!(d.at(0x04), 1 << 16);
+    let mut d = Fake::new(&[(0x00, 0b0110 << 16)]);
+    assert_eq!(
+        dma::take_event_of(d.regs::<pac::dma1::RegisterBlock>(), 4),
+        Event::Overrun
+    );
+    let mut d = Fake::new(&[(0x00, 0b1000 << 16)]);
+    assert_eq!(
+        dma::take_event_of(d.regs::<pac::dma1::RegisterBlock>(), 4),
+        Event::Error
+    );
+    // DAC: TSEL1 = 2 (TIM7_TRGO).
+    let mut dac_regs = Fake::new(&[]);
+    dac::configure_array(dac_regs.regs::<pac::dac1::RegisterBlock>());
+    assert_eq!(dac_regs.at(0x00), 1 | 1 << 1 | 2 << 2 | 1 << 12);
+    // TIM6 at 25 kHz (6799), TIM7 at 1 MHz (169): one block is 680 000
+    // cycles of each, so the table and the block stay in step.
+    let (a6, a7) = (timer::arr_for(25_000), timer::arr_for(1_000_000));
+    assert_eq!((a6, a7), (6799, 169));
+    assert_eq!((a6 + 1) * 100, (a7 + 1) * 4000);
+    let mut t = Fake::new(&[]);
+    timer::configure_arr(t.regs::<pac::tim6::RegisterBlock>(), a7);
+    assert_eq!((t.at(0x28), t.at(0x2C), t.at(0x04)), (0, 169, 0b010 << 4));
+    // Clocks: GPIOC (2), ADC345 (14), TIM7 (5), SYSCFG (APB2 bit 0).
+    let mut rcc = Fake::new(&[]);
+    clocks::array_peripherals(rcc.regs::<pac::rcc::RegisterBlock>());
+    assert_eq!(rcc.at(0x48), 1 | 1 << 2);
+    assert_eq!(rcc.at(0x4C), 1 | 1 << 1 | 1 << 2 | 1 << 13 | 1 << 14 | 1 << 16);
+    assert_eq!(rcc.at(0x58), 1 << 4 | 1 << 5 | 1 << 28);
+    assert_eq!(rcc.at(0x60), 1);
 }
