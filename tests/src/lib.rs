@@ -255,3 +255,7 @@ pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
 /// The firmware issue's board budgets with 8 channels: flash and static RAM,
 /// bytes.
 pub const BOARD_BUDGET: (u64, u64) = (64 * 1024, 16 * 1024);
+
+/// The array issue's board budgets (16 sensors at once): flash and
+/// static RAM, bytes.
+pub const ARRAY_BOARD_BUDGET: (u64, u64) = (128 * 1024, 64 * 1024);

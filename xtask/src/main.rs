@@ -215,18 +215,11 @@ fn board_build(root: &Path) -> Result<()> {
     let fw = root.join("firmware");
     let t = qemu_tests::TARGET;
     cargo(&fw, &["build-board"])?;
-    let image = [
-        "--release",
-        "--target",
-        t,
-        "--features",
-        "board",
-        "--bin",
-        "skin-board",
-    ];
+    cargo(&fw, &["build-array-board"])?;
+    let images = ["--release", "--target", t, "--features", "board", "--bins"];
     cargo(
         &fw,
-        &[&["clippy"][..], &image, &["--", "-D", "warnings"]].concat(),
+        &[&["clippy"][..], &images, &["--", "-D", "warnings"]].concat(),
     )?;
     cargo(&fw, &["test", "--lib", "--features", "board"])
 }
@@ -252,6 +245,11 @@ fn bench() -> Result<()> {
             "skin-board",
             "board",
             "STM32G474 board, 8 channels; budget 64 KiB / 16 KiB",
+        ),
+        (
+            "skin-array-board",
+            "board",
+            "STM32G474 board, the array of 16 sensors; budget 128 KiB / 64 KiB",
         ),
         ("skin-qemu", "qemu", "QEMU, with the simulated skin"),
         (
