@@ -4,7 +4,7 @@
 
 use dsp_core::fixture::Fixture;
 use instrument::array::{tones_hz, Frame, SENSORS, TONES};
-use instrument::calib::CalTable;
+use instrument::calib::{CalTable, Calibrations};
 use instrument::effects::Effect;
 use instrument::wire;
 use skin_sim::array::{ArrayFrontEnd, INPUTS};
@@ -86,9 +86,10 @@ impl ArrayScenario {
         }
     }
 
-    /// The firmware's calibration of every sensor: the paper's.
-    pub fn calibration(&self) -> &'static CalTable<11> {
-        &PAPER_CAL
+    /// The firmware's calibration of the skin: the paper's table for
+    /// every sensor.
+    pub fn calibrations(&self) -> Calibrations<'static, 11, SENSORS> {
+        Calibrations::new(&PAPER_CAL)
     }
 
     /// The tab-lead ratio installed: the paper's.

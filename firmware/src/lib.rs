@@ -8,6 +8,7 @@
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
 //! | `array_skin` | (feature `qemu`) the simulated skin of the array's QEMU runs: sixteen sensors, the comb front end |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
+//! | `records` | the array's record queue between acquisition and logger (`heapless`): never waits, counts drops |
 //! | `board` | (feature `board`) the STM32G474's hardware, one module per peripheral; its logging, panics and faults on the target |
 #![no_std]
 #![deny(missing_docs)]
@@ -22,5 +23,6 @@ pub mod array_skin;
 pub mod board;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;
+pub mod records;
 #[cfg(feature = "qemu")]
 pub mod scenario;

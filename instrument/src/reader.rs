@@ -10,6 +10,7 @@
 //! [`ArrayReader::solve`] does not.
 
 use crate::array::{adc_position, input_of, skew_rotation, Rows, BLOCK, COMB, SENSORS, TONES, VOLTAGE_INPUT};
+use crate::calib::Calibrations;
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
 use dsp_core::Complex32;
@@ -34,12 +35,12 @@ pub struct ArrayReader {
 }
 
 impl ArrayReader {
-    /// Sixteen channels resting at `prior_farad` (the calibration's rest
-    /// capacitance).
-    pub fn new(prior_farad: f32) -> Result<Self, CombError> {
+    /// Sixteen channels, each resting at its calibration's rest
+    /// capacitance.
+    pub fn new<const N: usize>(calibration: &Calibrations<'_, N, SENSORS>) -> Result<Self, CombError> {
         Ok(Self {
             comb: Comb::new(COMB)?,
-            channels: [ToneChannel::new(prior_farad); SENSORS],
+            channels: core::array::from_fn(|s| ToneChannel::new(calibration.of(s as u8).rest_capacitance())),
             rotations: core::array::from_fn(skew_rotation),
         })
     }

@@ -13,8 +13,9 @@
 //! tones; a record where it does not is flagged [`Flags::MODEL`].
 //! Switching tones needs no settling: the excitation never changes.
 
+use crate::array::SENSORS;
 use crate::array::{tone_hz, tones_hz, TONES};
-use crate::calib::CalTable;
+use crate::calib::Calibrations;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
 use dsp_core::comb::{Levels, Tones};
@@ -35,8 +36,8 @@ pub struct ToneSettings<'a, const N: usize> {
     pub front_end: FrontEnd,
     /// The line model and its inversion.
     pub inverter: Inverter,
-    /// Stretch calibration.
-    pub calibration: &'a CalTable<N>,
+    /// Stretch calibration: each sensor's table.
+    pub calibration: &'a Calibrations<'a, N, SENSORS>,
     /// Wiring de-embedded before the line (as `host-sim identify` found
     /// it).
     pub fixture: Fixture,
@@ -226,7 +227,7 @@ impl ToneChannel {
         rec.r_ohm = sol.line.r_ohm;
         rec.chi2 = sol.chi2;
         rec.sigma_c = sol.sigma_ln_c;
-        rec.stretch_mm = s.calibration.stretch(sol.line.c_farad);
+        rec.stretch_mm = s.calibration.of(channel).stretch(sol.line.c_farad);
         if sol.chi2 > s.chi2_flag {
             rec.flags.set(Flags::MODEL);
         }

@@ -7,7 +7,7 @@
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use instrument::array::{Frame, BLOCK, RATE_HZ, SENSORS, TONES};
-use instrument::calib::CalTable;
+use instrument::calib::{CalTable, Calibrations};
 use instrument::effects::{Effect, EffectSet};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::Policy;
@@ -22,10 +22,30 @@ use skin_sim::sensor::{Sensor, SensorParams};
 /// Records and the truth (C, F) beside each, per sensor.
 type Run = Vec<Vec<(ToneRecord, f64)>>;
 
+/// The paper's calibration for every sensor.
+fn paper_cal() -> &'static CalTable<11> {
+    let paper = SensorParams::PAPER;
+    Box::leak(Box::new(CalTable::<11>::linear(
+        paper.c_rest_farad,
+        paper.rest_length_mm,
+    )))
+}
+
 /// Run the array for `seconds` with sensor s of `params(s)` under
 /// `profile(s)`, the firmware reading every sensor as a clean paper
-/// sensor (its leads, its calibration, no wiring).
+/// sensor (its leads, no wiring) on the paper's calibration.
 fn run(
+    params: impl Fn(usize) -> SensorParams,
+    profile: impl Fn(usize) -> Profile<'static>,
+    seconds: f64,
+    seed: u64,
+) -> Run {
+    run_with(&Calibrations::new(paper_cal()), params, profile, seconds, seed)
+}
+
+/// [`run`], each sensor on its table of `cals`.
+fn run_with(
+    cals: &Calibrations<'_, 11, SENSORS>,
     params: impl Fn(usize) -> SensorParams,
     profile: impl Fn(usize) -> Profile<'static>,
     seconds: f64,
@@ -33,18 +53,17 @@ fn run(
 ) -> Run {
     let fe = ArrayFrontEnd::REFERENCE;
     let paper = SensorParams::PAPER;
-    let cal = CalTable::<11>::linear(paper.c_rest_farad, paper.rest_length_mm);
     let settings = ToneSettings {
         policy: Policy::DEFAULT,
         thresholds: Thresholds::ARRAY,
         front_end: fe.dsp_front_end(),
         inverter: Inverter::with_leads(LineModel::Continuous, 16.0, paper.effects.lead_ratio()).unwrap(),
-        calibration: &cal,
+        calibration: cals,
         fixture: EffectSet::NONE.fixture(),
         chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
     };
     let mut sensors: Vec<Sensor> = (0..SENSORS).map(|s| Sensor::settled(params(s))).collect();
-    let mut reader = ArrayReader::new(cal.rest_capacitance()).unwrap();
+    let mut reader = ArrayReader::new(cals).unwrap();
     let mut rng = Rng::new(seed);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK]; 5]);
     let blocks = (seconds * RATE_HZ as f64 / BLOCK as f64) as u64;
@@ -199,4 +218,58 @@ fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_clean_sensors() {
         }
     }
     assert!(!bad);
+}
+
+#[test]
+fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
+    // Sixteen sensors made one by one: rest capacitances from 150 to
+    // 290 pF (the design range), the paper's electrodes, on the 20 mm/s
+    // trapezoid. Each sensor's own table is its linear calibration.
+    let c_rest = |s: usize| 150e-12 + 140e-12 * s as f64 / 15.0;
+    let params = |s: usize| SensorParams {
+        c_rest_farad: c_rest(s),
+        ..SensorParams::PAPER
+    };
+    let own: Vec<CalTable<11>> = (0..SENSORS)
+        .map(|s| CalTable::linear(c_rest(s), SensorParams::PAPER.rest_length_mm))
+        .collect();
+    let mut cals = Calibrations::<11, SENSORS>::new(paper_cal());
+    for (s, t) in own.iter().enumerate() {
+        cals.insert(s as u8, *t).unwrap();
+    }
+    let profile = |s: usize| Profile::Table(leaked_delay(s as f64 * 0.6));
+    let out = run_with(&cals, params, profile, 10.0, 3);
+    // The stretch each record gives against the stretch its sensor's C
+    // means, and the same with one table for all.
+    let shared = paper_cal();
+    for (s, recs) in out.iter().enumerate() {
+        let (valid, rms, _) = stats(recs);
+        let (mut sq, mut max, mut shared_max) = (0f64, 0f64, 0f64);
+        for (r, c) in recs.iter().filter(|(r, _)| r.flags.valid()) {
+            let truth = own[s].stretch(*c as f32) as f64;
+            let e = r.stretch_mm as f64 - truth;
+            sq += e * e;
+            max = max.max(e.abs());
+            shared_max = shared_max.max((shared.stretch(r.c_farad) as f64 - truth).abs());
+        }
+        let s_rms = (sq / valid as f64).sqrt();
+        println!(
+            "sensor {s:2} ({:.0} pF): {valid} valid, C rms {:.3} %, stretch rms {s_rms:.3} mm max {max:.3} mm; one table for all: {shared_max:.1} mm off",
+            c_rest(s) * 1e12,
+            rms * 100.0
+        );
+        assert!(valid >= recs.len() - 3, "sensor {s}: {valid} valid");
+        assert!(rms < 1e-3, "sensor {s}: C rms {rms}");
+        // 0.1 % of C is 0.1–0.13 mm of a 100 mm sensor stretched 0–30 mm
+        // (the largest errors: 4σ, 0.4 % of C, at 30 mm).
+        assert!(
+            s_rms < 0.1 && max < 0.6,
+            "sensor {s}: stretch rms {s_rms} max {max}"
+        );
+        // The shared table is wrong by the sensors' spread (but for the
+        // sensor nearest the paper's).
+        if (c_rest(s) / SensorParams::PAPER.c_rest_farad - 1.0).abs() > 0.05 {
+            assert!(shared_max > 5.0, "sensor {s}: {shared_max}");
+        }
+    }
 }

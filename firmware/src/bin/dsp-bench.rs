@@ -424,7 +424,8 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let Ok(inverter) = Inverter::with_leads(LineModel::Continuous, 16.0, p.effects.lead_ratio()) else {
         qemu::exit(5)
     };
-    let Ok(mut reader) = ArrayReader::new(cal.rest_capacitance()) else {
+    let cals = instrument::calib::Calibrations::<11, SENSORS>::new(&cal);
+    let Ok(mut reader) = ArrayReader::new(&cals) else {
         qemu::exit(5)
     };
     let settings = ToneSettings {
@@ -432,7 +433,7 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         thresholds: instrument::faults::Thresholds::ARRAY,
         front_end: fe.dsp_front_end(),
         inverter,
-        calibration: &cal,
+        calibration: &cals,
         fixture: dsp_core::fixture::Fixture::NONE,
         chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
     };

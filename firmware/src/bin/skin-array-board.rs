@@ -38,19 +38,18 @@ use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use firmware::board::dma::Event;
 use firmware::board::{clocks, dac, dma, opamp, pac, pins, scan, timer, watchdog};
-use heapless::spsc::{Consumer, Producer, Queue};
+use firmware::records::{RecordSink, QUEUE};
+use heapless::spsc::{Consumer, Queue};
 use instrument::array::{
     clipped, dac_table, from_offset_binary, Rows, ADCS, BLOCK, DAC_RATE_HZ, DAC_TABLE, RATE_HZ, RESIDUAL_DOF,
     SCAN, SENSORS, TIA_OHM,
 };
-use instrument::calib::{CalTable, REFERENCE};
+use instrument::calib::{Calibrations, REFERENCE};
 use instrument::faults::Thresholds;
 use instrument::policy::Policy;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 
-/// The record queue's size (it holds one fewer: four blocks of 16).
-const QUEUE: usize = 65;
 /// The block period, µs.
 const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
 /// Results per ADC buffer: two blocks of four positions.
@@ -116,15 +115,15 @@ mod app {
         block: u64,
         reader: ArrayReader,
         settings: ToneSettings<'static, 11>,
-        records: Producer<'static, ToneRecord, QUEUE>,
+        records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
-        drops: u32,
     }
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
         adc: AdcBuffers = [[[[0; SCAN]; BLOCK]; 2]; ADCS],
         table: [u16; DAC_TABLE] = [0; DAC_TABLE],
+        cals: Calibrations<'static, 11, SENSORS> = Calibrations::new(&REFERENCE),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
@@ -134,8 +133,10 @@ mod app {
         clocks::system(&dp);
         clocks::array_peripherals(&dp.RCC);
         let (records, logger) = cx.local.queue.split();
-        let cal: &'static CalTable<11> = &REFERENCE;
-        let Ok(reader) = ArrayReader::new(cal.rest_capacitance()) else {
+        // Every sensor on the reference table until a calibration run
+        // gives it its own (`Calibrations::insert`).
+        let cal: &'static Calibrations<'static, 11, SENSORS> = cx.local.cals;
+        let Ok(reader) = ArrayReader::new(cal) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             loop {
                 cortex_m::asm::wfi();
@@ -173,9 +174,8 @@ mod app {
                     fixture: dsp_core::fixture::Fixture::NONE,
                     chi2_flag: dsp_core::twotone::chi2_flag(1e-4, RESIDUAL_DOF),
                 },
-                records,
+                records: RecordSink::new(records),
                 logger,
-                drops: 0,
             },
         )
     }
@@ -235,7 +235,7 @@ mod app {
     }
 
     /// The block's records, straight from the DMA buffers.
-    #[task(priority = 1, shared = [finished], local = [bufs, reader, settings, records, drops])]
+    #[task(priority = 1, shared = [finished], local = [bufs, reader, settings, records])]
     async fn process(mut cx: process::Context) {
         let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
@@ -252,23 +252,18 @@ mod app {
         let rails = clipped(|a| rows[a]);
         let reader = &mut *cx.local.reader;
         let block = reader.demodulate(|a| rows[a]);
-        let (records, drops) = (&mut *cx.local.records, &mut *cx.local.drops);
-        let mut dropped = false;
+        let sink = &mut *cx.local.records;
+        let before = sink.drops();
         let t_us = k * BLOCK_US + BLOCK_US / 2;
         reader.solve(
             &*cx.local.settings,
             t_us,
             &block,
             |input| rails[input],
-            |rec| {
-                if records.enqueue(rec).is_err() {
-                    *drops += 1;
-                    dropped = true;
-                }
-            },
+            |rec| sink.push(rec),
         );
-        if dropped {
-            defmt::println!("drops {=u32}", *cx.local.drops);
+        if sink.drops() != before {
+            defmt::println!("drops {=u32}", sink.drops());
         }
         // A block went all the way through: the chain is alive.
         // SAFETY: IWDG_KR is write-only and written by this task alone

@@ -26,16 +26,15 @@ use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu;
-use heapless::spsc::{Consumer, Producer, Queue};
+use firmware::records::{RecordSink, QUEUE};
+use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK, INPUTS, RATE_HZ, SCAN, SENSORS};
+use instrument::calib::Calibrations;
 use instrument::faults::Thresholds;
 use instrument::policy::Policy;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
-
-/// The record queue's size (it holds one fewer: four blocks of 16).
-const QUEUE: usize = 65;
 
 /// The block period, µs.
 const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
@@ -72,18 +71,22 @@ mod app {
         end_block: u64,
         reader: ArrayReader,
         settings: ToneSettings<'static, 11>,
-        records: Producer<'static, ToneRecord, QUEUE>,
+        records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
-        drops: u32,
     }
 
-    #[init(local = [queue: Queue<ToneRecord, QUEUE> = Queue::new()])]
+    #[init(local = [
+        queue: Queue<ToneRecord, QUEUE> = Queue::new(),
+        cals: Calibrations<'static, 11, SENSORS> = Calibrations::new(&instrument::calib::REFERENCE),
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (records, logger) = cx.local.queue.split();
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);
-        let cal = scenario.calibration();
-        let Ok(reader) = ArrayReader::new(cal.rest_capacitance()) else {
+        let cal: &'static mut Calibrations<'static, 11, SENSORS> = cx.local.cals;
+        *cal = scenario.calibrations();
+        let cal: &'static Calibrations<'static, 11, SENSORS> = cal;
+        let Ok(reader) = ArrayReader::new(cal) else {
             qemu::exit(3)
         };
         let inverter =
@@ -117,9 +120,8 @@ mod app {
                 end_block: (scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US,
                 reader,
                 settings,
-                records,
+                records: RecordSink::new(records),
                 logger,
-                drops: 0,
             },
         )
     }
@@ -158,29 +160,24 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done], local = [reader, settings, end_block, records, drops])]
+    #[task(priority = 1, shared = [frame, done], local = [reader, settings, end_block, records])]
     async fn process(mut cx: process::Context) {
         let reader = &mut *cx.local.reader;
         let (block, clipped, t_us) = cx
             .shared
             .frame
             .lock(|(frame, clipped, t)| (reader.demodulate(|a| &frame[a]), *clipped, *t));
-        let (records, drops) = (&mut *cx.local.records, &mut *cx.local.drops);
-        let mut dropped = false;
+        let sink = &mut *cx.local.records;
+        let before = sink.drops();
         reader.solve(
             &*cx.local.settings,
             t_us,
             &block,
             |input| clipped[input],
-            |rec| {
-                if records.enqueue(rec).is_err() {
-                    *drops += 1;
-                    dropped = true;
-                }
-            },
+            |rec| sink.push(rec),
         );
-        if dropped {
-            defmt::println!("drops {=u32}", *cx.local.drops);
+        if sink.drops() != before {
+            defmt::println!("drops {=u32}", sink.drops());
         }
         if (t_us / BLOCK_US) + 1 >= *cx.local.end_block {
             cx.shared.done.lock(|d| *d = true);

@@ -73,27 +73,13 @@ pub fn peripherals(rcc: &rcc::RegisterBlock) {
         .modify(|_, w| w.tim6en().set_bit().pwren().set_bit());
 }
 
-/// The array's clocks: DMA1, DMAMUX1; GPIOA–C, ADC12, ADC345, DAC1;
-/// TIM6, TIM7, PWR; SYSCFG (which clocks the op-amps' registers too).
+/// The array's clocks: the single-tone board's ([`peripherals`]) and
+/// GPIOC, ADC345, TIM7, SYSCFG (which clocks the op-amps' registers too).
 pub fn array_peripherals(rcc: &rcc::RegisterBlock) {
-    rcc.ahb1enr()
-        .modify(|_, w| w.dma1en().set_bit().dmamux1en().set_bit());
-    rcc.ahb2enr().modify(|_, w| {
-        w.gpioaen()
-            .set_bit()
-            .gpioben()
-            .set_bit()
-            .gpiocen()
-            .set_bit()
-            .adc12en()
-            .set_bit()
-            .adc345en()
-            .set_bit()
-            .dac1en()
-            .set_bit()
-    });
-    rcc.apb1enr1()
-        .modify(|_, w| w.tim6en().set_bit().tim7en().set_bit().pwren().set_bit());
+    peripherals(rcc);
+    rcc.ahb2enr()
+        .modify(|_, w| w.gpiocen().set_bit().adc345en().set_bit());
+    rcc.apb1enr1().modify(|_, w| w.tim7en().set_bit());
     rcc.apb2enr().modify(|_, w| w.syscfgen().set_bit());
 }
 

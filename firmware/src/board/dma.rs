@@ -62,7 +62,11 @@ pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
 /// written as 32-bit words (a 16-bit write to a DAC register is not
 /// supported, RM0440 22.7).
 pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
-    let ch = dma.ch(1);
+    to_dac(dma.ch(1), from, to, codes);
+}
+
+/// A channel from memory to a DAC's holding register, circular.
+fn to_dac(ch: &dma1::CH, from: u32, to: u32, codes: u16) {
     addresses(ch, to, from, codes);
     ch.cr().write(|w| {
         w.dir()
@@ -129,22 +133,7 @@ pub fn scan_channel(dma: &dma1::RegisterBlock, c: usize, from: u32, to: u32, res
 /// to the DAC's holding register `to`, circular, as [`dac_channel`] does
 /// for the single-tone board.
 pub fn table_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
-    let ch = dma.ch(ARRAY_DAC_CHANNEL);
-    addresses(ch, to, from, codes);
-    ch.cr().write(|w| {
-        w.dir()
-            .from_memory()
-            .psize()
-            .bits32()
-            .msize()
-            .bits16()
-            .minc()
-            .set_bit()
-            .circ()
-            .set_bit()
-            .en()
-            .set_bit()
-    });
+    to_dac(dma.ch(ARRAY_DAC_CHANNEL), from, to, codes);
 }
 
 /// What channel 1's interrupt found.

@@ -11,34 +11,23 @@ use super::pac::opamp;
 /// OPAMP3, 4 and 5: enabled, follower (VM_SEL = output), VINP2,
 /// output to the ADC.
 pub fn followers(op: &opamp::RegisterBlock) {
-    op.opamp3_csr().write(|w| {
-        w.opaen()
-            .enabled()
-            .vm_sel()
-            .output()
-            .vp_sel()
-            .vinp2()
-            .opaintoen()
-            .adcchannel()
-    });
-    op.opamp4_csr().write(|w| {
-        w.opaen()
-            .enabled()
-            .vm_sel()
-            .output()
-            .vp_sel()
-            .vinp2()
-            .opaintoen()
-            .adcchannel()
-    });
-    op.opamp5_csr().write(|w| {
-        w.opaen()
-            .enabled()
-            .vm_sel()
-            .output()
-            .vp_sel()
-            .vinp2()
-            .opaintoen()
-            .adcchannel()
-    });
+    // Each op-amp's CSR is its own type in the PAC: one write, three
+    // registers.
+    macro_rules! follower {
+        ($csr:expr) => {
+            $csr.write(|w| {
+                w.opaen()
+                    .enabled()
+                    .vm_sel()
+                    .output()
+                    .vp_sel()
+                    .vinp2()
+                    .opaintoen()
+                    .adcchannel()
+            })
+        };
+    }
+    follower!(op.opamp3_csr());
+    follower!(op.opamp4_csr());
+    follower!(op.opamp5_csr());
 }

@@ -1,0 +1,58 @@
+//! The array's record queue between acquisition and logger: a `heapless`
+//! SPSC queue of four blocks' records. The acquisition's end never waits:
+//! a record that finds the queue full is dropped and counted, and the
+//! firmware reports the count (`drops n`).
+
+use heapless::spsc::Producer;
+use instrument::tones::ToneRecord;
+
+/// The queue's size (it holds one fewer: four blocks of 16 records).
+pub const QUEUE: usize = 65;
+
+/// The acquisition's end of the record queue.
+pub struct RecordSink<'a> {
+    producer: Producer<'a, ToneRecord, QUEUE>,
+    drops: u32,
+}
+
+impl<'a> RecordSink<'a> {
+    /// The producer's end of a split queue.
+    pub fn new(producer: Producer<'a, ToneRecord, QUEUE>) -> Self {
+        Self { producer, drops: 0 }
+    }
+
+    /// Queue `rec`, or count it dropped if the queue is full.
+    pub fn push(&mut self, rec: ToneRecord) {
+        if self.producer.enqueue(rec).is_err() {
+            self.drops = self.drops.saturating_add(1);
+        }
+    }
+
+    /// Records dropped since start.
+    pub fn drops(&self) -> u32 {
+        self.drops
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use heapless::spsc::Queue;
+
+    #[test]
+    fn a_full_queue_drops_and_counts() {
+        let mut q: Queue<ToneRecord, QUEUE> = Queue::new();
+        let (p, mut c) = q.split();
+        let mut sink = RecordSink::new(p);
+        for k in 0..QUEUE as u8 + 2 {
+            sink.push(ToneRecord {
+                channel: k,
+                ..ToneRecord::default()
+            });
+        }
+        assert_eq!(sink.drops(), 3, "64 held, 3 dropped");
+        assert_eq!(c.dequeue().map(|r| r.channel), Some(0), "oldest first");
+        sink.push(ToneRecord::default());
+        assert_eq!(sink.drops(), 3, "room again");
+    }
+}
