@@ -17,6 +17,19 @@ fn lumped_6k(r: &Rec) -> Option<f64> {
 }
 
 /// Run the `paper` scenario and write everything to `out`.
+/// A capacitance-against-time panel: the truth (pF), then `measured`.
+fn c_panel(title: String, truth: Vec<(f64, f64)>, measured: Vec<Series>) -> Panel {
+    let mut series = vec![Series::new("truth", truth)];
+    series.extend(measured);
+    Panel {
+        title,
+        x_label: "time [s]".into(),
+        y_label: "C [pF]".into(),
+        log_x: false,
+        series,
+    }
+}
+
 pub fn run(out: &Path) -> Result<String> {
     std::fs::create_dir_all(out)?;
     eprintln!("running the firmware in QEMU (20 s of simulated skin)...");
@@ -54,19 +67,13 @@ pub fn run(out: &Path) -> Result<String> {
         )?;
         if ch < 2 {
             let t = |r: &Rec| r.t_s;
-            panels.push(Panel {
-                title: format!(
+            panels.push(c_panel(
+                format!(
                     "channel {ch}: capacitance ({} mm/s)",
                     if ch == 0 { 20 } else { 10 }
                 ),
-                x_label: "time [s]".into(),
-                y_label: "C [pF]".into(),
-                log_x: false,
-                series: vec![
-                    Series::new(
-                        "truth",
-                        rs.iter().filter_map(|r| Some((t(r), r.truth?.c_pf))).collect(),
-                    ),
+                rs.iter().filter_map(|r| Some((t(r), r.truth?.c_pf))).collect(),
+                vec![
                     Series::new(
                         "firmware, line-corrected",
                         valid.iter().map(|r| (t(r), r.c_pf)).collect(),
@@ -76,7 +83,7 @@ pub fn run(out: &Path) -> Result<String> {
                         rs.iter().filter_map(|r| Some((t(r), lumped_6k(r)?))).collect(),
                     ),
                 ],
-            });
+            ));
             panels.push(Panel {
                 title: format!(
                     "channel {ch}: excitation frequency chosen by the firmware, and electrode resistance"
@@ -163,25 +170,17 @@ pub fn run_array(out: &Path) -> Result<String> {
         )?;
         if s == 0 || s == 8 {
             let t = |r: &recording::ToneRec| r.t_s();
-            panels.push(Panel {
-                title: format!("sensor {s}: capacitance, 250 records/s"),
-                x_label: "time [s]".into(),
-                y_label: "C [pF]".into(),
-                log_x: false,
-                series: vec![
-                    Series::new(
-                        "truth",
-                        rs.iter().filter_map(|r| Some((t(r), r.truth?.c_pf))).collect(),
-                    ),
-                    Series::new(
-                        "firmware, two tones, line-corrected",
-                        valid
-                            .iter()
-                            .map(|r| (t(r), r.rec.c_farad as f64 * 1e12))
-                            .collect(),
-                    ),
-                ],
-            });
+            panels.push(c_panel(
+                format!("sensor {s}: capacitance, 250 records/s"),
+                rs.iter().filter_map(|r| Some((t(r), r.truth?.c_pf))).collect(),
+                vec![Series::new(
+                    "firmware, two tones, line-corrected",
+                    valid
+                        .iter()
+                        .map(|r| (t(r), r.rec.c_farad as f64 * 1e12))
+                        .collect(),
+                )],
+            ));
         }
     }
     figure(
