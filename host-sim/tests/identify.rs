@@ -9,7 +9,7 @@
 //! at least 7.5× the noise floor (so that a 5× drop can still end above
 //! the noise) the error drops by ≥ 5×. Sets with no effect come out clean;
 //! an effect outside the library (dielectric dispersion) ends unexplained;
-//! the shared example data set comes out clean.
+//! the repository's example data set (`data/example`, rig-sim) comes out clean.
 
 use host_sim::chain::Meter;
 use host_sim::dataset::read_dir;
@@ -261,11 +261,7 @@ fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
 
 #[test]
 fn the_example_data_set_is_clean() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/example-dataset");
-    if !dir.exists() {
-        eprintln!("SKIPPED: ../shared/example-dataset not present");
-        return;
-    }
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/example");
     let r = identify(&read_dir(&dir).unwrap(), Options::default()).unwrap();
     println!("{}", r.verdict());
     assert!(!r.unexplained && r.accepted.is_none(), "{}", r.verdict());

@@ -9,11 +9,7 @@ use std::path::Path;
 
 #[test]
 fn example_data_set_is_explained_down_to_the_noise() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/example-dataset");
-    if !dir.is_dir() {
-        eprintln!("SKIPPED: ../shared/example-dataset not present");
-        return;
-    }
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/example");
     let ds = read_dir(&dir).unwrap();
     let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();
     for r in residuals(&ds, &b) {

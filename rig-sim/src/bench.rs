@@ -55,6 +55,17 @@ pub struct Bench {
 }
 
 impl Bench {
+    /// The seed of the repository's example data set (`data/example/`).
+    pub const EXAMPLE_SEED: u64 = 2026;
+
+    /// The bench of the repository's example data set (`data/example/`,
+    /// written by `cargo xtask example-data`): the bench's sensor and film,
+    /// no effect beyond the uniform line, the bench's meter, noise from
+    /// [`Bench::EXAMPLE_SEED`].
+    pub fn example() -> Self {
+        Self::new(Effects::default(), Meter::BENCH, Self::EXAMPLE_SEED)
+    }
+
     /// The bench with `effects` and `meter`, noise from `seed`.
     pub fn new(effects: Effects, meter: Meter, seed: u64) -> Self {
         Self {
