@@ -4,14 +4,14 @@
 
 use dsp_core::fixture::Fixture;
 use instrument::array::{tones_hz, Frame, SENSORS, TONES};
-use instrument::calib::{CalTable, Calibrations};
+use instrument::calib::{Calibrations, POINTS};
 use instrument::effects::Effect;
 use instrument::wire;
 use skin_sim::array::{ArrayFrontEnd, INPUTS};
 use skin_sim::frontend::Disturbance;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Sensor, SensorParams};
+use skin_sim::sensor::{Sensor, SensorParams, PAPER_CALIBRATION};
 
 /// An array scenario, chosen by name on the semihosting command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,8 +88,8 @@ impl ArrayScenario {
 
     /// The firmware's calibration of the skin: the paper's table for
     /// every sensor.
-    pub fn calibrations(&self) -> Calibrations<'static, 11, SENSORS> {
-        Calibrations::new(&PAPER_CAL)
+    pub fn calibrations(&self) -> Calibrations<'static, POINTS, SENSORS> {
+        Calibrations::new(&PAPER_CALIBRATION)
     }
 
     /// The tab-lead ratio installed: the paper's.
@@ -102,11 +102,6 @@ impl ArrayScenario {
         Fixture::NONE
     }
 }
-
-static PAPER_CAL: CalTable<11> = CalTable::linear(
-    SensorParams::PAPER.c_rest_farad,
-    SensorParams::PAPER.rest_length_mm,
-);
 
 /// How far ahead in its cycle sensor `s` runs, s.
 fn lead_s(scenario: ArrayScenario, s: usize) -> f64 {
@@ -152,26 +147,17 @@ impl ArraySkin {
         &mut self,
         t_us: u64,
         frame: &mut Frame,
-        truth: &mut [wire::Truth; SENSORS],
+        truth: &mut [wire::TruthLine; SENSORS],
     ) -> [bool; INPUTS] {
         let t = t_us as f64 * 1e-6;
         let hz = tones_hz().map(|f| f as f64);
         let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
         let mut hum = [Disturbance::NONE; SENSORS];
-        let block_s = instrument::array::BLOCK as f64 / instrument::array::RATE_HZ as f64;
+        let block_s = instrument::array::BLOCK_INSTANTS as f64 / instrument::array::RATE_HZ as f64;
         for (s, sensor) in self.sensors.iter_mut().enumerate() {
             sensor.advance(&self.scenario.profile(s), t + lead_s(self.scenario, s));
             z[s] = sensor.impedances(&hz);
-            let tr = sensor.truth();
-            truth[s] = wire::Truth {
-                t_us,
-                channel: s as u8,
-                c_farad: tr.c_farad as f32,
-                r_line_ohm: tr.r_line_ohm as f32,
-                stretch_mm: tr.stretch_mm as f32,
-                r_top_ohm: tr.r_top_ohm as f32,
-                r_bottom_ohm: tr.r_bottom_ohm as f32,
-            };
+            truth[s] = sensor.truth().line(t_us, s as u8);
             if self.scenario == ArrayScenario::Hum && (4..8).contains(&s) && (1.0..2.0).contains(&t) {
                 const HUM: [f32; 4] = [30.0, 100.0, 300.0, 1000.0];
                 hum[s] = Disturbance {

@@ -6,14 +6,14 @@
 use core::sync::atomic::{AtomicU8, Ordering};
 use dsp_core::Oscillator;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use instrument::calib::{CalTable, REFERENCE};
-use instrument::config::{freq_hz, ftw, BLOCK, CHANNELS};
+use instrument::calib::{CalTable, POINTS, REFERENCE};
+use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES};
 use instrument::effects::{Effect, EffectSet};
 use instrument::ranging::Ranging;
 use skin_sim::frontend::{Disturbance, FrontEndParams};
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
-use skin_sim::sensor::{Sensor, SensorParams, Truth};
+use skin_sim::sensor::{Sensor, SensorParams, Truth, PAPER_CALIBRATION};
 
 /// A test scenario, chosen by name on the semihosting command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,9 +95,9 @@ impl Scenario {
 
     /// The calibration installed for the scenario's sensor, as the board
     /// holds it in flash: the stretch table of its line capacitance.
-    pub fn calibration(&self) -> &'static CalTable<11> {
+    pub fn calibration(&self) -> &'static CalTable<POINTS> {
         match self.on_paper_sensor() {
-            true => &PAPER_CAL,
+            true => &PAPER_CALIBRATION,
             false => &REFERENCE,
         }
     }
@@ -146,25 +146,18 @@ impl OutputPin for SimPin {
 }
 
 /// The three simulated address lines A0..A2.
-pub fn mux_pins() -> [SimPin; 3] {
+pub fn mux_pins() -> [SimPin; MUX_ADDRESS_LINES] {
     [SimPin(0), SimPin(1), SimPin(2)]
 }
 
 /// The range switch's two simulated address lines.
-pub fn range_pins() -> [SimPin; 2] {
+pub fn range_pins() -> [SimPin; RANGE_ADDRESS_LINES] {
     [SimPin(3), SimPin(4)]
 }
 
 /// The undeclared effect of the `identify` and `hidden` scenarios: 12 pF
 /// of cable capacitance in parallel with every sensor at the front end.
 pub const HIDDEN: EffectSet = EffectSet::NONE.with(Effect::ParasiticCapacitance, 12e-12);
-
-/// The paper's sensor's stretch table (its line capacitance, linear in
-/// stretch: `SensorParams::PAPER`).
-static PAPER_CAL: CalTable<11> = CalTable::linear(
-    SensorParams::PAPER.c_rest_farad,
-    SensorParams::PAPER.rest_length_mm,
-);
 
 /// Fault window of the `faults` scenario, s.
 pub const FAULT_WINDOW: (f32, f32) = (1.0, 2.0);
@@ -258,7 +251,7 @@ impl Skin {
     /// lines select, excited at frequency index `fidx`, for the block
     /// whose middle is at `t_us` (µs since start); returns (channel,
     /// clipped, truth).
-    pub fn block(&mut self, fidx: usize, t_us: u64, out: &mut [[i16; 2]; BLOCK]) -> (u8, bool, Truth) {
+    pub fn block(&mut self, fidx: usize, t_us: u64, out: &mut [[i16; 2]; BLOCK_PAIRS]) -> (u8, bool, Truth) {
         let lines = MUX_LINES.load(Ordering::Relaxed);
         let ch = (lines as usize) % CHANNELS;
         let range = (lines >> 3) & 0b11;
@@ -293,7 +286,7 @@ impl Skin {
             }
             _ => (self.sensors[ch].impedance(f), self.sensors[ch].truth()),
         };
-        let block_s = BLOCK as f64 / fe.sample_rate_hz;
+        let block_s = BLOCK_PAIRS as f64 / fe.sample_rate_hz;
         let d = match (in_fault, ch) {
             (true, 5) => Disturbance {
                 hum_hz: 50.0,
@@ -307,7 +300,7 @@ impl Skin {
             },
             (true, 7) => Disturbance {
                 step_i: 400.0,
-                step_at: BLOCK / 2,
+                step_at: BLOCK_PAIRS / 2,
                 ..Disturbance::NONE
             },
             _ => Disturbance::NONE,

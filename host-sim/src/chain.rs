@@ -7,7 +7,6 @@
 //! C and R.
 
 use crate::numerics::series_cs;
-use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
@@ -16,8 +15,6 @@ use instrument::calib;
 use instrument::channel::{self, Channel, Settings};
 use instrument::config::{self, PERIODS};
 use instrument::effects::{Effect, EffectSet};
-use instrument::faults::Thresholds;
-use instrument::policy::Policy;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -169,7 +166,7 @@ pub fn run(
     match meter {
         Meter::Adc(fe) => {
             // The firmware's channel, pinned to the frequency of its set
-            // nearest to the one asked for: blocks of config::BLOCK pairs
+            // nearest to the one asked for: blocks of config::BLOCK_PAIRS pairs
             // after SETTLE_PAIRS of settling, one slot each.
             let fs = fe.sample_rate_hz;
             let index = (0..PERIODS.len())
@@ -182,20 +179,15 @@ pub fn run(
             let osc = Oscillator::from_ftw(config::ftw(index));
             let ranging = fe.ranging();
             let settings = Settings {
-                policy: Policy::DEFAULT,
-                thresholds: Thresholds::DEFAULT,
-                front_ends: ranging.front_ends(fe.v_gain as f32),
-                ranging,
-                calibration: &calib::REFERENCE,
                 tracker: channel::tracker_with_leads(lead_ratio)
                     .expect("a calibration's lead ratio is in range"),
-                fixture: Fixture::NONE,
+                ..Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &calib::REFERENCE)
             };
             let mut ch = Channel::pinned(prior_farad as f32, index);
-            let slot = (config::BLOCK + config::SETTLE_PAIRS) as f64 / fs;
+            let slot = (config::BLOCK_PAIRS + config::SETTLE_PAIRS) as f64 / fs;
             let settle = config::SETTLE_PAIRS as f64 / fs;
-            let block = config::BLOCK as f64 / fs;
-            let mut buf = [[0i16; 2]; config::BLOCK];
+            let block = config::BLOCK_PAIRS as f64 / fs;
+            let mut buf = [[0i16; 2]; config::BLOCK_PAIRS];
             sensor.advance(profile, t_start);
             let mut t = sensor.time();
             while t + slot <= t_end + 1e-12 {

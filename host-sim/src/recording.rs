@@ -175,7 +175,7 @@ fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>> {
 /// `source` names the input in errors.
 pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
     let mut out = vec![];
-    let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
+    let mut truth: BTreeMap<(u64, u8), wire::TruthLine> = BTreeMap::new();
     for item in wire_lines(source, lines) {
         let (n, l, line) = item?;
         match line {
@@ -285,7 +285,7 @@ impl ToneRec {
 /// order, a sensor going back in time, a single-tone `rec` line.
 pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRec>> {
     let mut out: Vec<ToneRec> = vec![];
-    let mut truth: BTreeMap<(u64, u8), wire::Truth> = BTreeMap::new();
+    let mut truth: BTreeMap<(u64, u8), wire::TruthLine> = BTreeMap::new();
     let mut last: BTreeMap<u8, u64> = BTreeMap::new();
     for item in wire_lines(source, lines) {
         let (n, l, line) = item?;
@@ -336,7 +336,7 @@ fn wire_lines<'a>(
 }
 
 /// The rig's view of a block, as the reports use it.
-fn truth_of(t: wire::Truth) -> Truth {
+fn truth_of(t: wire::TruthLine) -> Truth {
     Truth {
         c_pf: t.c_farad as f64 * 1e12,
         r_ohm: t.r_line_ohm as f64,

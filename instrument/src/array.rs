@@ -8,11 +8,11 @@
 //! ```
 //!
 //! One excitation drives every sensor: a comb of [`TONES`] tones, each
-//! making [`COMB`] whole periods per block of [`BLOCK`] instants, played by
+//! making [`COMB`] whole periods per block of [`BLOCK_INSTANTS`] instants, played by
 //! the DAC from a table at [`DAC_RATE_HZ`] (40 samples per ADC instant, so
 //! its images lie above 950 kHz, far beyond the reconstruction filter).
 //! Each sensor's bottom tab is held at the bias by its own inverting
-//! transimpedance stage of [`TIA_OHM`]. The five ADCs, started together by
+//! transimpedance stage of [`SENSOR_TIA_OHM`]. The five ADCs, started together by
 //! one timer at [`RATE_HZ`], each scan [`SCAN`] inputs with 16× hardware
 //! oversampling (16-bit results: the sum of sixteen 12-bit conversions);
 //! input `4a + j` is position `j` of ADC `a`. Input 0 reads the excitation,
@@ -47,9 +47,9 @@ pub const SCAN: usize = 4;
 /// Instants per second (the timer's rate), Hz.
 pub const RATE_HZ: u32 = 25_000;
 /// Instants per block: 4 ms.
-pub const BLOCK: usize = 100;
+pub const BLOCK_INSTANTS: usize = 100;
 /// Records per second per sensor.
-pub const RECORDS_PER_S: u32 = RATE_HZ / BLOCK as u32;
+pub const RECORDS_PER_S: u32 = RATE_HZ / BLOCK_INSTANTS as u32;
 /// Tones of the comb.
 pub const TONES: usize = 5;
 /// Whole periods per block of each tone, ascending: 500, 1000, 2000,
@@ -67,19 +67,19 @@ pub const SCAN_STEP_S: f32 = OVERSAMPLING as f32 * CONVERSION_CYCLES / ADC_CLOCK
 /// The DAC's sample rate, Hz.
 pub const DAC_RATE_HZ: u32 = 1_000_000;
 /// Samples of the DAC's table: one block.
-pub const DAC_TABLE: usize = BLOCK * (DAC_RATE_HZ / RATE_HZ) as usize;
+pub const DAC_TABLE: usize = BLOCK_INSTANTS * (DAC_RATE_HZ / RATE_HZ) as usize;
 /// Input of the excitation voltage.
 pub const VOLTAGE_INPUT: usize = 0;
 /// Feedback resistance of every sensor's transimpedance stage, Ω: the
 /// largest E6 value that keeps the lowest-impedance sensor of the design
 /// range (0.46 MΩ electrodes, 290 pF, all five tones at their peaks
 /// together) inside the ADC.
-pub const TIA_OHM: f64 = 330e3;
+pub const SENSOR_TIA_OHM: f64 = 330e3;
 /// Each tone's amplitude at the sensors, V (peak). Five of them with the
 /// phases of [`PHASES`] peak at [`comb_peak`] × this: 0.87 V.
 pub const TONE_VOLT: f64 = 0.3;
 /// ADC result bits (12-bit conversions, 16× oversampled and summed).
-pub const ADC_BITS: u32 = 16;
+pub const RESULT_BITS: u32 = 16;
 /// Conversions summed per result.
 pub const OVERSAMPLING: u32 = 16;
 /// The largest result: sixteen full-scale 12-bit conversions, less the
@@ -90,7 +90,7 @@ pub const MAX_CODE: i32 = OVERSAMPLING as i32 * 4095 - HALF_SCALE;
 /// peak past a rail pulls its neighbours near it too.
 pub const RAIL_MARGIN: i32 = 8 * OVERSAMPLING as i32;
 /// Half of the ADC's span, counts (the bias at mid-scale).
-pub const HALF_SCALE: i32 = 1 << (ADC_BITS - 1);
+pub const HALF_SCALE: i32 = 1 << (RESULT_BITS - 1);
 /// Noise of one oversampled result, counts rms: sixteen conversions
 /// each with the 12-bit converter's 0.7 LSB of input noise and 0.29 LSB
 /// of rounding, summed: √16·0.76 ≈ 3.05.
@@ -105,11 +105,11 @@ pub const PHASES: [f32; TONES] = [0.0, 2.2208, 5.499, 1.0584, 1.1246];
 
 /// Degrees of freedom of a block's residual: N instants less the mean
 /// and two per tone.
-pub const RESIDUAL_DOF: u32 = (BLOCK - 2 * TONES - 1) as u32;
+pub const RESIDUAL_DOF: u32 = (BLOCK_INSTANTS - 2 * TONES - 1) as u32;
 
 /// Frequency of comb tone `k`, Hz (the highest for an index beyond).
 pub fn tone_hz(k: usize) -> f32 {
-    COMB[k.min(TONES - 1)] as f32 * RATE_HZ as f32 / BLOCK as f32
+    COMB[k.min(TONES - 1)] as f32 * RATE_HZ as f32 / BLOCK_INSTANTS as f32
 }
 
 /// The comb's frequencies, Hz, ascending.
@@ -167,7 +167,7 @@ fn peak_of(phases: &[f32; TONES], points: usize) -> f32 {
 pub const INPUTS: usize = ADCS * SCAN;
 
 /// One ADC's rows of a block: per instant, its scan.
-pub type Rows = [[i16; SCAN]; BLOCK];
+pub type Rows = [[i16; SCAN]; BLOCK_INSTANTS];
 
 /// One block as the ADCs' DMA leaves it: per ADC, per instant, its scan.
 pub type Frame = [Rows; ADCS];
@@ -282,7 +282,7 @@ mod tests {
                     .wrapping_add(1_442_695_040_888_963_407);
                 *p = (s >> 40) as f32 / (1u64 << 24) as f32 * TAU;
             }
-            best = best.min(peak_of(&ph, BLOCK));
+            best = best.min(peak_of(&ph, BLOCK_INSTANTS));
         }
         assert!(best > 0.97 * peak, "a search found {best} against {peak}");
         // The excitation's peak stays inside the buffer's ±1.45 V swing.
@@ -316,7 +316,7 @@ mod tests {
 
     #[test]
     fn offset_binary_and_the_rails() {
-        let mut rows: Rows = [[0; SCAN]; BLOCK];
+        let mut rows: Rows = [[0; SCAN]; BLOCK_INSTANTS];
         // Raw DMA words (as i16 bits): 0, the bias, the largest sum.
         let raw = [0u16, 32_768, 65_520, 32_768 + 1000];
         for (j, &r) in raw.iter().enumerate() {
@@ -328,7 +328,7 @@ mod tests {
         assert!(on_rail(-32_768) && on_rail(MAX_CODE as i16) && on_rail((MAX_CODE - RAIL_MARGIN) as i16));
         assert!(!on_rail(0) && !on_rail((MAX_CODE - RAIL_MARGIN - 1) as i16));
         assert!(!on_rail((-HALF_SCALE + RAIL_MARGIN + 1) as i16));
-        let mut frame: Frame = [[[100; SCAN]; BLOCK]; ADCS];
+        let mut frame: Frame = [[[100; SCAN]; BLOCK_INSTANTS]; ADCS];
         frame[3][50][2] = MAX_CODE as i16;
         frame[0][0][0] = -32_700;
         let c = clipped(|a| &frame[a]);

@@ -5,6 +5,12 @@
 
 use crate::design;
 
+/// Points of a linear calibration table ([`CalTable::linear`]): every
+/// [`STEP_MM`] from 0 to 30 mm.
+pub const POINTS: usize = 11;
+/// Stretch between the points of a linear calibration table, mm.
+pub const STEP_MM: f64 = 3.0;
+
 /// A monotone table of (capacitance F, stretch mm) points, ascending in
 /// capacitance.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -16,19 +22,19 @@ pub struct CalTable<const N: usize> {
 /// The reference sensor's static calibration ([`crate::design`]: C =
 /// C_rest·(1 + s/length)) every 3 mm from 0 to 30 mm (the line-corrected
 /// C, so no low-frequency bias; see host-sim's `calibration`).
-pub const REFERENCE: CalTable<11> =
+pub const REFERENCE: CalTable<POINTS> =
     CalTable::linear(design::SENSOR_C_REST_FARAD, design::SENSOR_REST_LENGTH_MM);
 
-impl CalTable<11> {
+impl CalTable<POINTS> {
     /// The calibration of a sensor whose line capacitance grows linearly
     /// with stretch, C = `c_rest_farad`·(1 + s/`length_mm`), every 3 mm
     /// from 0 to 30 mm (a uniaxial stretch of an incompressible film; the
     /// paper's sensor is linear this way within 0.3 % over 0…30 mm).
     pub const fn linear(c_rest_farad: f64, length_mm: f64) -> Self {
-        let mut points = [(0.0f32, 0.0f32); 11];
+        let mut points = [(0.0f32, 0.0f32); POINTS];
         let mut k = 0;
-        while k < 11 {
-            let s = 3.0 * k as f64;
+        while k < POINTS {
+            let s = STEP_MM * k as f64;
             let c = c_rest_farad * (1.0 + s / length_mm);
             points[k] = (c as f32, s as f32);
             k += 1;
@@ -127,7 +133,7 @@ mod calibrations_tests {
 
     #[test]
     fn each_sensor_reads_its_own_table_or_the_default() {
-        let mut cals = Calibrations::<11, 2>::new(&REFERENCE);
+        let mut cals = Calibrations::<POINTS, 2>::new(&REFERENCE);
         let small = CalTable::linear(150e-12, 100.0);
         let large = CalTable::linear(290e-12, 100.0);
         assert_eq!(cals.insert(3, small), Ok(()));
@@ -148,7 +154,7 @@ mod calibrations_tests {
         // A table whose capacitance does not ascend is refused.
         let mut bad = small;
         bad.points.swap(2, 3);
-        let mut one = Calibrations::<11, 4>::new(&REFERENCE);
+        let mut one = Calibrations::<POINTS, 4>::new(&REFERENCE);
         assert_eq!(one.insert(0, bad), Err(CalError::NotAscending));
         bad = small;
         bad.points[5].0 = f32::NAN;

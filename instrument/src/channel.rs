@@ -34,6 +34,24 @@ pub struct Settings<'a, const N: usize> {
     pub fixture: Fixture,
 }
 
+impl<'a, const N: usize> Settings<'a, N> {
+    /// The settings every multiplexed application starts from: the
+    /// default policy and thresholds, the continuous line without leads,
+    /// no wiring to de-embed; the front end's ranges and the stretch
+    /// calibration are the application's.
+    pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging, calibration: &'a CalTable<N>) -> Self {
+        Self {
+            policy: Policy::DEFAULT,
+            thresholds: Thresholds::DEFAULT,
+            front_ends,
+            ranging,
+            calibration,
+            tracker: tracker(),
+            fixture: Fixture::NONE,
+        }
+    }
+}
+
 /// The line tracker every channel uses: the continuous line over
 /// x ≤ [`Tracker::X_MAX`].
 pub fn tracker() -> Tracker {

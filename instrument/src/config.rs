@@ -7,17 +7,25 @@ pub const SAMPLE_RATE_HZ: f32 = SAMPLE_RATE as f32;
 /// log2 of the pairs in one demodulation block.
 pub const BLOCK_LOG2: u32 = 10;
 /// Pairs in one demodulation block (5.12 ms at 200 kSa/s).
-pub const BLOCK: usize = 1 << BLOCK_LOG2;
+pub const BLOCK_PAIRS: usize = 1 << BLOCK_LOG2;
 /// Pairs discarded after each multiplexer switch (analog settling, 0.32 ms).
 pub const SETTLE_PAIRS: usize = 64;
 /// Pairs in one slot: settling, then the block.
-pub const SLOT_PAIRS: usize = SETTLE_PAIRS + BLOCK;
+pub const SLOT_PAIRS: usize = SETTLE_PAIRS + BLOCK_PAIRS;
 /// Sensor channels behind the analog multiplexer.
 pub const CHANNELS: usize = 8;
+/// Address lines of the sensor multiplexer (A0..A2): one per bit of the
+/// channel number.
+pub const MUX_ADDRESS_LINES: usize = 3;
+const _: () = assert!(1 << MUX_ADDRESS_LINES == CHANNELS);
+/// Address lines of the transimpedance range switch: one per bit of the
+/// range number.
+pub const RANGE_ADDRESS_LINES: usize = 2;
+const _: () = assert!(1 << RANGE_ADDRESS_LINES == crate::design::RANGES);
 /// Block duration, s.
-pub const BLOCK_S: f32 = BLOCK as f32 / SAMPLE_RATE_HZ;
+pub const BLOCK_S: f32 = BLOCK_PAIRS as f32 / SAMPLE_RATE_HZ;
 /// One slot per channel: settling plus a block, s.
-pub const SLOT_S: f32 = (BLOCK + SETTLE_PAIRS) as f32 / SAMPLE_RATE_HZ;
+pub const SLOT_S: f32 = (BLOCK_PAIRS + SETTLE_PAIRS) as f32 / SAMPLE_RATE_HZ;
 
 /// The excitation frequencies, as whole periods per block (k·f_s/N):
 /// 586, 977, 1953, 3906, 5859 Hz. Ascending.
@@ -26,7 +34,7 @@ pub const PERIODS: [u32; 5] = [3, 5, 10, 20, 30];
 /// Frequency of set entry `i`, Hz.
 /// An index beyond the set means its highest entry.
 pub fn freq_hz(i: usize) -> f32 {
-    PERIODS[index(i)] as f32 * SAMPLE_RATE_HZ / BLOCK as f32
+    PERIODS[index(i)] as f32 * SAMPLE_RATE_HZ / BLOCK_PAIRS as f32
 }
 
 /// Oscillator tuning word of set entry `i` (an index beyond the set means
@@ -47,7 +55,7 @@ pub const fn index(i: usize) -> usize {
 /// The demodulators of the frequency set, computed at compile time: their
 /// references (4 KiB each) live in flash, and a frequency switch costs
 /// nothing.
-pub static DEMODULATORS: [dsp_core::demod::Demodulator<BLOCK>; PERIODS.len()] = [
+pub static DEMODULATORS: [dsp_core::demod::Demodulator<BLOCK_PAIRS>; PERIODS.len()] = [
     dsp_core::demod::Demodulator::from_ftw(ftw(0)),
     dsp_core::demod::Demodulator::from_ftw(ftw(1)),
     dsp_core::demod::Demodulator::from_ftw(ftw(2)),

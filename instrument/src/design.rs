@@ -39,13 +39,13 @@ pub const TIA_RANGES_OHM: [f64; RANGES] = [100e3, 220e3, 470e3, 1e6];
 /// Number of transimpedance ranges.
 pub const RANGES: usize = 4;
 /// Feedback resistance of the lowest range (the front end at reset), Ω.
-pub const TIA_OHM: f64 = TIA_RANGES_OHM[0];
-/// ADC resolution, bits.
-pub const ADC_BITS: u32 = 12;
+pub const TIA_LOWEST_RANGE_OHM: f64 = TIA_RANGES_OHM[0];
+/// Resolution of one ADC conversion, bits.
+pub const CONVERSION_BITS: u32 = 12;
 /// Largest ADC code (a sample at 0 or here sits on a rail).
-pub const ADC_MAX_CODE: u16 = (1 << ADC_BITS) - 1;
+pub const ADC_MAX_CODE: u16 = (1 << CONVERSION_BITS) - 1;
 /// ADC code of the bias.
-pub const ADC_OFFSET_CODE: u16 = 1 << (ADC_BITS - 1);
+pub const ADC_OFFSET_CODE: u16 = 1 << (CONVERSION_BITS - 1);
 /// ADC input span around the bias, V (±).
 pub const ADC_HALF_SCALE_VOLT: f64 = BIAS_VOLT;
 /// DAC resolution, bits.

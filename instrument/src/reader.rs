@@ -9,7 +9,9 @@
 //! solve after it let go: [`ArrayReader::demodulate`] reads the block,
 //! [`ArrayReader::solve`] does not.
 
-use crate::array::{adc_position, input_of, skew_rotation, Rows, BLOCK, COMB, SENSORS, TONES, VOLTAGE_INPUT};
+use crate::array::{
+    adc_position, input_of, skew_rotation, Rows, BLOCK_INSTANTS, COMB, SENSORS, TONES, VOLTAGE_INPUT,
+};
 use crate::calib::Calibrations;
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
@@ -28,7 +30,7 @@ pub struct Demodulated {
 /// The array's demodulator and its sixteen channels.
 #[derive(Clone, Debug)]
 pub struct ArrayReader {
-    comb: Comb<BLOCK, TONES>,
+    comb: Comb<BLOCK_INSTANTS, TONES>,
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
     rotations: [[Complex32; TONES]; SENSORS],

@@ -2,7 +2,7 @@
 //! board app and the QEMU app.
 //!
 //! The front end runs in slots of [`SLOT_PAIRS`] pairs: [`SETTLE_PAIRS`]
-//! of multiplexer settling, then a [`BLOCK`]-pair block. Slot k measures
+//! of multiplexer settling, then a [`BLOCK_PAIRS`]-pair block. Slot k measures
 //! channel k mod [`CHANNELS`]. The DMA holds two slots (two halves); when
 //! slot k completes, slot k + 1 is already playing from the other half, so
 //! the half just finished is refilled with the waveform of slot k + 2:
@@ -17,7 +17,7 @@
 //! two slots later; with [`CHANNELS`] > 2 that is before the channel's
 //! next slot.
 
-use crate::config::{BLOCK, CHANNELS, SETTLE_PAIRS, SLOT_PAIRS};
+use crate::config::{BLOCK_PAIRS, CHANNELS, SETTLE_PAIRS, SLOT_PAIRS};
 use crate::design::SAMPLE_RATE;
 
 /// Duration of `pairs` ADC pairs, µs (exact for the configured rate).
@@ -50,7 +50,7 @@ pub struct Plan {
 impl Slot {
     /// Middle of the slot's block since start, µs: the time of its record.
     pub const fn block_mid_us(&self) -> u64 {
-        self.index * pairs_us(SLOT_PAIRS) + pairs_us(SETTLE_PAIRS) + pairs_us(BLOCK) / 2
+        self.index * pairs_us(SLOT_PAIRS) + pairs_us(SETTLE_PAIRS) + pairs_us(BLOCK_PAIRS) / 2
     }
 }
 

@@ -45,6 +45,29 @@ pub struct ToneSettings<'a, const N: usize> {
     pub chi2_flag: f32,
 }
 
+impl<'a, const N: usize> ToneSettings<'a, N> {
+    /// The settings every array application starts from: the default
+    /// policy, the array's thresholds, no wiring to de-embed, the model
+    /// check's flag at a 10⁻⁴ false rate for the block's residual degrees
+    /// of freedom; the front end, the line model and the calibrations are
+    /// the application's.
+    pub fn new(
+        front_end: FrontEnd,
+        inverter: Inverter,
+        calibration: &'a Calibrations<'a, N, SENSORS>,
+    ) -> Self {
+        Self {
+            policy: Policy::DEFAULT,
+            thresholds: Thresholds::ARRAY,
+            front_end,
+            inverter,
+            calibration,
+            fixture: Fixture::NONE,
+            chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
+        }
+    }
+}
+
 /// One record of an array sensor.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToneRecord {

@@ -34,7 +34,7 @@ pub const TONE: &str = "tone";
 /// What the simulated skin truly was during one block (QEMU only): the
 /// rig's view of the sensor.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Truth {
+pub struct TruthLine {
     /// Middle of the block, µs.
     pub t_us: u64,
     /// Channel.
@@ -57,7 +57,7 @@ pub enum Line {
     /// A `rec` line.
     Rec(Record),
     /// A `truth` line.
-    Truth(Truth),
+    Truth(TruthLine),
     /// A `tone` line.
     Tone(ToneRecord),
 }
@@ -152,7 +152,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
             stretch_mm: num(13)?,
             flags: flags(14)?,
         }),
-        _ => Line::Truth(Truth {
+        _ => Line::Truth(TruthLine {
             t_us: int(1)?,
             channel: byte(2)?,
             c_farad: num(3)? * 1e-12,
@@ -208,7 +208,7 @@ impl defmt::Format for ToneRecord {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for Truth {
+impl defmt::Format for TruthLine {
     fn format(&self, f: defmt::Formatter) {
         defmt::write!(
             f,

@@ -3,9 +3,9 @@
 
 use dsp_core::demod::Demodulator;
 use dsp_core::Oscillator;
-use instrument::calib::REFERENCE;
+use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
-use instrument::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
+use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::{Policy, PolicyState};
 use skin_sim::frontend::FrontEndParams;
@@ -89,16 +89,12 @@ fn indices_beyond_the_frequency_set_saturate() {
 
 /// Run one channel on a simulated sensor; returns the records.
 /// The reference channel settings for front end `fe`.
-fn settings(fe: &FrontEndParams) -> Settings<'static, 11> {
-    Settings {
-        policy: Policy::DEFAULT,
-        thresholds: Thresholds::DEFAULT,
-        front_ends: fe.ranging().front_ends(fe.v_gain as f32),
-        ranging: fe.ranging(),
-        calibration: &REFERENCE,
-        tracker: instrument::channel::tracker(),
-        fixture: dsp_core::fixture::Fixture::NONE,
-    }
+fn settings(fe: &FrontEndParams) -> Settings<'static, POINTS> {
+    Settings::new(
+        fe.ranging().front_ends(fe.v_gain as f32),
+        fe.ranging(),
+        &REFERENCE,
+    )
 }
 
 fn run(
@@ -111,7 +107,7 @@ fn run(
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     let mut s = Sensor::settled(params);
     let mut rng = Rng::new(5);
-    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     let mut out = vec![];
     let mut t = 0.0f32;
     while t < secs {
@@ -124,7 +120,7 @@ fn run(
             &mut rng,
             &mut buf,
         );
-        let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+        let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
         out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped, ch.range()));
         t += SLOT_S;
     }
@@ -238,7 +234,7 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
     let s = Sensor::settled(SensorParams::REFERENCE);
     let c_true = s.truth().c_farad;
     let mut rng = Rng::new(9);
-    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     let mut table = vec![];
     for i in 0..PERIODS.len() {
         let osc = Oscillator::from_ftw(ftw(i));
@@ -263,7 +259,8 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                         let clipped = fe
                             .at_range(&settings.ranging, ch.range())
                             .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
-                        let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                        let ph =
+                            Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
                         let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
                         if r.flags.valid() {
                             valid += 1;
@@ -310,7 +307,7 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
     let settings = settings(&fe);
     let tol = Thresholds::DEFAULT.c_tolerance as f64;
     let mut rng = Rng::new(21);
-    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     let (mut flagged_well, mut flagged_ill, mut ill) = (0, 0, 0);
     let mut worst = 0f64;
     for scale in [0.25, 0.5, 1.0, 2.0, 4.0, 6.0] {
@@ -335,7 +332,7 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
                 let clipped = fe
                     .at_range(&settings.ranging, ch.range())
                     .block(&osc, z, &mut rng, &mut buf);
-                let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
                 let r = ch.process(&settings, 0, b * 5_000, &ph, clipped, ch.range());
                 if b == 0 {
                     continue; // settling
@@ -373,14 +370,14 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
 /// impedance), each read through the range the channel planned; returns
 /// (record, range it was read through, ADC clipped).
 fn blocks(
-    settings: &Settings<'static, 11>,
+    settings: &Settings<'static, POINTS>,
     fe: &FrontEndParams,
     ch: &mut Channel,
     z: impl Fn(f64) -> num_complex::Complex64,
     rng: &mut Rng,
     n: usize,
 ) -> Vec<(instrument::channel::Record, u8, bool)> {
-    let mut buf = vec![[0i16; 2]; BLOCK];
+    let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     (0..n)
         .map(|b| {
             let i = ch.freq_index();
@@ -389,7 +386,7 @@ fn blocks(
             let clipped =
                 fe.at_range(&settings.ranging, range)
                     .block(&osc, z(freq_hz(i) as f64), rng, &mut buf);
-            let ph = Demodulator::<BLOCK>::new(&osc).block(buf.as_slice().try_into().unwrap());
+            let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
             let r = ch.process(settings, 0, b as u64 * 5_440, &ph, clipped, range);
             (r, range, clipped)
         })

@@ -17,11 +17,9 @@
 
 use dsp_core::demod::{Demodulator, Moments, Phasors};
 use dsp_core::Oscillator;
-use instrument::calib::REFERENCE;
+use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
-use instrument::config::{freq_hz, ftw, BLOCK, PERIODS, SLOT_S};
-use instrument::faults::Thresholds;
-use instrument::policy::Policy;
+use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::wire;
 use num_complex::Complex;
 use proptest::prelude::*;
@@ -45,16 +43,9 @@ fn config(default: u32) -> ProptestConfig {
     }
 }
 
-fn settings() -> Settings<'static, 11> {
-    Settings {
-        policy: Policy::DEFAULT,
-        thresholds: Thresholds::DEFAULT,
-        front_ends: FrontEndParams::REFERENCE.ranging().front_ends(1.0),
-        ranging: FrontEndParams::REFERENCE.ranging(),
-        calibration: &REFERENCE,
-        tracker: instrument::channel::tracker(),
-        fixture: dsp_core::fixture::Fixture::NONE,
-    }
+fn settings() -> Settings<'static, POINTS> {
+    let ranging = FrontEndParams::REFERENCE.ranging();
+    Settings::new(ranging.front_ends(1.0), ranging, &REFERENCE)
 }
 
 /// Sums of a block: anything an i64 holds, and the realistic sizes often.
@@ -66,7 +57,7 @@ fn phasors() -> impl Strategy<Value = Phasors> {
     (
         (sum(), sum(), sum(), sum()),
         (sum(), sum(), sum(), sum()),
-        prop_oneof![any::<u32>(), Just(BLOCK as u32), Just(0)],
+        prop_oneof![any::<u32>(), Just(BLOCK_PAIRS as u32), Just(0)],
     )
         .prop_map(|((a, b, c, d), (v_sum, v_sq, i_sum, i_sq), n)| Phasors {
             v: Complex::new(a, b),
@@ -149,7 +140,7 @@ fn attack() -> impl Strategy<Value = Attack> {
                 i: if which != 0 { b } else { 0.0 },
                 phase
             }),
-        (-2000.0f32..2000.0, 0..BLOCK).prop_map(|(counts, at)| Attack::Step { counts, at }),
+        (-2000.0f32..2000.0, 0..BLOCK_PAIRS).prop_map(|(counts, at)| Attack::Step { counts, at }),
         any::<i16>().prop_map(|c| Attack::Stuck(c.clamp(-2048, 2047))),
         (0.3f64..20.0).prop_map(Attack::Resistance),
     ]
@@ -182,9 +173,9 @@ proptest! {
         stepped.advance(&Profile::Constant(stretch), 0.0);
         let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), index);
         let osc = Oscillator::from_ftw(ftw(index));
-        let dm = Demodulator::<BLOCK>::new(&osc);
+        let dm = Demodulator::<BLOCK_PAIRS>::new(&osc);
         let mut rng = Rng::new(seed);
-        let mut buf = vec![[0i16; 2]; BLOCK];
+        let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
         for b in 0..4 {
             let t0 = b as f64 * SLOT_S as f64;
             let mut d = Disturbance { t0_s: t0, ..Disturbance::NONE };

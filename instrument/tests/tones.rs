@@ -6,11 +6,10 @@
 
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
-use instrument::array::{Frame, BLOCK, RATE_HZ, SENSORS, TONES};
-use instrument::calib::{CalTable, Calibrations};
-use instrument::effects::{Effect, EffectSet};
-use instrument::faults::{Flags, Thresholds};
-use instrument::policy::Policy;
+use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
+use instrument::calib::{CalTable, Calibrations, POINTS};
+use instrument::effects::Effect;
+use instrument::faults::Flags;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 use skin_sim::array::ArrayFrontEnd;
@@ -23,12 +22,8 @@ use skin_sim::sensor::{Sensor, SensorParams};
 type Run = Vec<Vec<(ToneRecord, f64)>>;
 
 /// The paper's calibration for every sensor.
-fn paper_cal() -> &'static CalTable<11> {
-    let paper = SensorParams::PAPER;
-    Box::leak(Box::new(CalTable::<11>::linear(
-        paper.c_rest_farad,
-        paper.rest_length_mm,
-    )))
+fn paper_cal() -> &'static CalTable<POINTS> {
+    &skin_sim::sensor::PAPER_CALIBRATION
 }
 
 /// Run the array for `seconds` with sensor s of `params(s)` under
@@ -45,7 +40,7 @@ fn run(
 
 /// [`run`], each sensor on its table of `cals`.
 fn run_with(
-    cals: &Calibrations<'_, 11, SENSORS>,
+    cals: &Calibrations<'_, POINTS, SENSORS>,
     params: impl Fn(usize) -> SensorParams,
     profile: impl Fn(usize) -> Profile<'static>,
     seconds: f64,
@@ -53,20 +48,16 @@ fn run_with(
 ) -> Run {
     let fe = ArrayFrontEnd::REFERENCE;
     let paper = SensorParams::PAPER;
-    let settings = ToneSettings {
-        policy: Policy::DEFAULT,
-        thresholds: Thresholds::ARRAY,
-        front_end: fe.dsp_front_end(),
-        inverter: Inverter::with_leads(LineModel::Continuous, 16.0, paper.effects.lead_ratio()).unwrap(),
-        calibration: cals,
-        fixture: EffectSet::NONE.fixture(),
-        chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
-    };
+    let settings = ToneSettings::new(
+        fe.dsp_front_end(),
+        Inverter::with_leads(LineModel::Continuous, 16.0, paper.effects.lead_ratio()).unwrap(),
+        cals,
+    );
     let mut sensors: Vec<Sensor> = (0..SENSORS).map(|s| Sensor::settled(params(s))).collect();
     let mut reader = ArrayReader::new(cals).unwrap();
     let mut rng = Rng::new(seed);
-    let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK]; 5]);
-    let blocks = (seconds * RATE_HZ as f64 / BLOCK as f64) as u64;
+    let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
+    let blocks = (seconds * RATE_HZ as f64 / BLOCK_INSTANTS as f64) as u64;
     let mut out: Run = vec![Vec::new(); SENSORS];
     let hz = instrument::array::tones_hz().map(|f| f as f64);
     for b in 0..blocks {
@@ -230,10 +221,10 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
         c_rest_farad: c_rest(s),
         ..SensorParams::PAPER
     };
-    let own: Vec<CalTable<11>> = (0..SENSORS)
+    let own: Vec<CalTable<POINTS>> = (0..SENSORS)
         .map(|s| CalTable::linear(c_rest(s), SensorParams::PAPER.rest_length_mm))
         .collect();
-    let mut cals = Calibrations::<11, SENSORS>::new(paper_cal());
+    let mut cals = Calibrations::<POINTS, SENSORS>::new(paper_cal());
     for (s, t) in own.iter().enumerate() {
         cals.insert(s as u8, *t).unwrap();
     }

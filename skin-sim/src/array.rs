@@ -18,8 +18,8 @@ use crate::frontend::Disturbance;
 use crate::rng::Rng;
 use dsp_core::cossin::cossin;
 use instrument::array::{
-    adc_position, input_of, Frame, BLOCK, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN, SCAN_STEP_S,
-    SENSORS, TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
+    adc_position, input_of, Frame, BLOCK_INSTANTS, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN,
+    SCAN_STEP_S, SENSORS, SENSOR_TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
 };
 use instrument::design;
 use num_complex::Complex64;
@@ -46,7 +46,7 @@ impl ArrayFrontEnd {
     pub const REFERENCE: Self = Self {
         tone_volt: TONE_VOLT,
         v_gain: 1.0,
-        tia_ohm: TIA_OHM,
+        tia_ohm: SENSOR_TIA_OHM,
         half_scale_volt: design::ADC_HALF_SCALE_VOLT,
         noise_counts: NOISE_COUNTS as f64,
     };
@@ -83,7 +83,7 @@ impl ArrayFrontEnd {
         }
         // The phase offset of each tone at each scan position, 2³² a turn.
         let turn = 4_294_967_296.0f64;
-        let tone_hz = |k: usize| COMB[k] as f64 * RATE_HZ as f64 / BLOCK as f64;
+        let tone_hz = |k: usize| COMB[k] as f64 * RATE_HZ as f64 / BLOCK_INSTANTS as f64;
         let offset: [[u32; TONES]; SCAN] = core::array::from_fn(|j| {
             core::array::from_fn(|k| {
                 let t =
@@ -99,13 +99,13 @@ impl ArrayFrontEnd {
         let noise = self.noise_counts as f32;
         let mut clipped = [false; INPUTS];
         #[allow(clippy::needless_range_loop)] // n is the instant: a phase, and a row of each ADC
-        for n in 0..BLOCK {
+        for n in 0..BLOCK_INSTANTS {
             // cos and sin of every tone at every scan position.
             let mut cs = [[(0f32, 0f32); TONES]; SCAN];
             for (j, row) in cs.iter_mut().enumerate() {
                 for (k, v) in row.iter_mut().enumerate() {
-                    let m = (COMB[k] as u64 * n as u64) % BLOCK as u64;
-                    let base = (((m << 32) + BLOCK as u64 / 2) / BLOCK as u64) as u32;
+                    let m = (COMB[k] as u64 * n as u64) % BLOCK_INSTANTS as u64;
+                    let base = (((m << 32) + BLOCK_INSTANTS as u64 / 2) / BLOCK_INSTANTS as u64) as u32;
                     let (c, s) = cossin(base.wrapping_add(offset[j][k]) as i32);
                     *v = (c as f32 * q, s as f32 * q);
                 }

@@ -46,8 +46,8 @@ impl FrontEndParams {
         sample_rate_hz: design::SAMPLE_RATE as f64,
         excitation_volt: design::EXCITATION_VOLT,
         v_gain: design::V_GAIN,
-        tia_ohm: design::TIA_OHM,
-        adc_bits: design::ADC_BITS,
+        tia_ohm: design::TIA_LOWEST_RANGE_OHM,
+        adc_bits: design::CONVERSION_BITS,
         full_scale_volt: design::ADC_HALF_SCALE_VOLT,
         noise_lsb: 0.7,
     };
@@ -61,7 +61,7 @@ impl FrontEndParams {
     /// ([`design::TIA_RANGES_OHM`]) scaled so that the lowest is
     /// `tia_ohm`, on this ADC.
     pub fn ranging(&self) -> Ranging {
-        let k = self.tia_ohm / design::TIA_OHM;
+        let k = self.tia_ohm / design::TIA_LOWEST_RANGE_OHM;
         Ranging {
             ranges_ohm: design::TIA_RANGES_OHM.map(|r| (r * k) as f32),
             half_scale: (1u32 << (self.adc_bits.clamp(2, 16) - 1)) as f32,

@@ -19,6 +19,7 @@
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
 use crate::profile::Profile;
+use instrument::calib::{CalTable, POINTS};
 use instrument::design;
 use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
@@ -78,6 +79,13 @@ impl SensorParams {
     }
 }
 
+/// The paper's sensor's stretch table, as the firmware holds it: its line
+/// capacitance, linear in stretch ([`SensorParams::PAPER`]).
+pub static PAPER_CALIBRATION: CalTable<POINTS> = CalTable::linear(
+    SensorParams::PAPER.c_rest_farad,
+    SensorParams::PAPER.rest_length_mm,
+);
+
 /// What the simulated sensor truly is at one instant.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Truth {
@@ -96,6 +104,22 @@ pub struct Truth {
     pub r_top_ohm: f64,
     /// End-to-end bottom electrode resistance, Ω.
     pub r_bottom_ohm: f64,
+}
+
+impl Truth {
+    /// The truth line of the block whose middle is `t_us` on `channel`,
+    /// as the QEMU firmware logs it beside the record.
+    pub fn line(&self, t_us: u64, channel: u8) -> instrument::wire::TruthLine {
+        instrument::wire::TruthLine {
+            t_us,
+            channel,
+            c_farad: self.c_farad as f32,
+            r_line_ohm: self.r_line_ohm as f32,
+            stretch_mm: self.stretch_mm as f32,
+            r_top_ohm: self.r_top_ohm as f32,
+            r_bottom_ohm: self.r_bottom_ohm as f32,
+        }
+    }
 }
 
 /// A sensor in time.

@@ -354,13 +354,13 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};
-    use instrument::config::{ftw, BLOCK};
+    use instrument::config::{ftw, BLOCK_PAIRS};
     let fidx = 2;
     let osc = Oscillator::from_ftw(ftw(fidx));
     // A plausible block: 1 V excitation, a 210 pF / 712 kΩ line at 1953 Hz.
     let zeta = LineModel::Continuous.zeta(1.8).unwrap_or_default();
     let mut st = OscillatorState::default();
-    let mut buf = [[0i16; 2]; BLOCK];
+    let mut buf = [[0i16; 2]; BLOCK_PAIRS];
     let (ang_re, ang_im) = (zeta.re, zeta.im);
     for p in buf.iter_mut() {
         let (c, s) = osc.next(&mut st);
@@ -370,19 +370,15 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         let (yr, yi) = (ang_re / d, -ang_im / d);
         *p = [(1240.0 * c) as i16, (-1000.0 * (yr * c - yi * s)) as i16];
     }
-    let settings = Settings {
-        policy: instrument::policy::Policy::DEFAULT,
-        thresholds: instrument::faults::Thresholds::DEFAULT,
-        front_ends: instrument::ranging::Ranging::DEFAULT.front_ends(instrument::design::V_GAIN as f32),
-        ranging: instrument::ranging::Ranging::DEFAULT,
-        calibration: &REFERENCE,
-        tracker: instrument::channel::tracker(),
-        fixture: dsp_core::fixture::Fixture::NONE,
-    };
+    let settings = Settings::new(
+        instrument::ranging::Ranging::DEFAULT.front_ends(instrument::design::V_GAIN as f32),
+        instrument::ranging::Ranging::DEFAULT,
+        &REFERENCE,
+    );
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     ch.policy.index = fidx;
     ch.policy.settling = 0;
-    let dm = Demodulator::<BLOCK>::new(&osc);
+    let dm = Demodulator::<BLOCK_PAIRS>::new(&osc);
     let mut total = 0;
     for k in 0..4 {
         total += insns(ticks(syst, || {
@@ -392,7 +388,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     }
     let per_block = total / 4;
     let rebuild = insns(ticks(syst, || {
-        black_box(Demodulator::<BLOCK>::new(black_box(&osc)));
+        black_box(Demodulator::<BLOCK_PAIRS>::new(black_box(&osc)));
     }));
     // 5.12 ms of samples at 170 MHz: 870 400 cycles.
     println!("bench block_process {} insn/block", per_block);
@@ -412,7 +408,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// cycle. `array_channel` includes the sensor's share of the inputs'
 /// levels (amplitudes and residual).
 fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
-    use instrument::array::{tones_hz, Frame, BLOCK, SENSORS};
+    use instrument::array::{tones_hz, Frame, BLOCK_INSTANTS, SENSORS};
     use instrument::reader::ArrayReader;
     use instrument::tones::ToneSettings;
     use skin_sim::array::ArrayFrontEnd;
@@ -420,27 +416,19 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use skin_sim::sensor::{Sensor, SensorParams};
     let fe = ArrayFrontEnd::REFERENCE;
     let p = SensorParams::PAPER;
-    let cal = instrument::calib::CalTable::<11>::linear(p.c_rest_farad, p.rest_length_mm);
+    let cal = &skin_sim::sensor::PAPER_CALIBRATION;
     let Ok(inverter) = Inverter::with_leads(LineModel::Continuous, 16.0, p.effects.lead_ratio()) else {
         qemu::exit(5)
     };
-    let cals = instrument::calib::Calibrations::<11, SENSORS>::new(&cal);
+    let cals = instrument::calib::Calibrations::<{ instrument::calib::POINTS }, SENSORS>::new(cal);
     let Ok(mut reader) = ArrayReader::new(&cals) else {
         qemu::exit(5)
     };
-    let settings = ToneSettings {
-        policy: instrument::policy::Policy::DEFAULT,
-        thresholds: instrument::faults::Thresholds::ARRAY,
-        front_end: fe.dsp_front_end(),
-        inverter,
-        calibration: &cals,
-        fixture: dsp_core::fixture::Fixture::NONE,
-        chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
-    };
+    let settings = ToneSettings::new(fe.dsp_front_end(), inverter, &cals);
     let hz = tones_hz().map(|f| f as f64);
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);
-    let mut frame: Frame = [[[0; 4]; BLOCK]; 5];
+    let mut frame: Frame = [[[0; 4]; BLOCK_INSTANTS]; 5];
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
     let mut valid = 0;
     let mut block = reader.demodulate(|a| &frame[a]);

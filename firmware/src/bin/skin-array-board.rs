@@ -36,68 +36,32 @@ use dsp_core::demod::FrontEnd;
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
-use firmware::board::dma::Event;
-use firmware::board::{clocks, dac, dma, opamp, pac, pins, scan, timer, watchdog};
+use firmware::board::dma::{self, Completion};
+use firmware::board::front_end::{self, AdcBlocks, ARRAY_PACER};
+use firmware::board::scan::{self, Adcs};
+use firmware::board::setup::{self, Watchdog};
+use firmware::board::{clocks, pac};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{
-    clipped, dac_table, from_offset_binary, Rows, ADCS, BLOCK, DAC_RATE_HZ, DAC_TABLE, RATE_HZ, RESIDUAL_DOF,
-    SCAN, SENSORS, TIA_OHM,
+    clipped, dac_table, from_offset_binary, Rows, ADCS, BLOCK_INSTANTS, DAC_TABLE, RATE_HZ, SCAN, SENSORS,
+    SENSOR_TIA_OHM,
 };
-use instrument::calib::{Calibrations, REFERENCE};
-use instrument::faults::Thresholds;
-use instrument::policy::Policy;
+use instrument::calib::{Calibrations, POINTS, REFERENCE};
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 
 /// The block period, µs.
-const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
-/// Results per ADC buffer: two blocks of four positions.
-const RESULTS: usize = 2 * BLOCK * SCAN;
-/// DMA1 channel (0-based) whose interrupt paces the blocks: the last of
-/// the five the DMA serves.
-const PACER: usize = ADCS - 1;
-
-/// Every ADC's circular buffer: two blocks.
-pub type AdcBuffers = [[Rows; 2]; ADCS];
+const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
 
 /// The ADC buffers, seen by the processing task only through the half
 /// the DMA has finished.
-pub struct DmaBufs(*mut AdcBuffers);
+pub struct DmaBufs(*mut AdcBlocks);
 
 // SAFETY: the pointer is to a 'static buffer; the one task holding it
 // touches only the half the DMA has finished (see `process`).
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBufs {}
-
-/// Pins, followers, DMA, DAC, ADCs, then the timers that start them.
-fn front_end(dp: &pac::Peripherals, adc_bufs: &AdcBuffers, table: &[u16; DAC_TABLE]) {
-    pins::array_analog(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
-    opamp::followers(&dp.OPAMP);
-    dma::array_requests(&dp.DMAMUX);
-    for (a, adc) in scan::blocks(dp).iter().enumerate() {
-        dma::scan_channel(
-            &dp.DMA1,
-            a,
-            adc.dr().as_ptr() as u32,
-            adc_bufs[a].as_ptr() as u32,
-            RESULTS as u16,
-            a == PACER,
-        );
-    }
-    dma::table_channel(
-        &dp.DMA1,
-        table.as_ptr() as u32,
-        dp.DAC1.dhr12r1().as_ptr() as u32,
-        DAC_TABLE as u16,
-    );
-    dac::configure_array(&dp.DAC1);
-    scan::init(dp);
-    timer::configure_arr(&dp.TIM7, timer::arr_for(DAC_RATE_HZ));
-    timer::configure_arr(&dp.TIM6, timer::arr_for(RATE_HZ));
-    timer::start(&dp.TIM7);
-    timer::start(&dp.TIM6);
-}
 
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
@@ -111,31 +75,31 @@ mod app {
 
     #[local]
     struct Local {
+        dma: pac::DMA1,
+        adcs: Adcs,
+        watchdog: Watchdog,
         bufs: DmaBufs,
         block: u64,
         reader: ArrayReader,
-        settings: ToneSettings<'static, 11>,
+        settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
     }
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
-        adc: AdcBuffers = [[[[0; SCAN]; BLOCK]; 2]; ADCS],
+        adc: AdcBlocks = [[[[0; SCAN]; BLOCK_INSTANTS]; 2]; ADCS],
         table: [u16; DAC_TABLE] = [0; DAC_TABLE],
-        cals: Calibrations<'static, 11, SENSORS> = Calibrations::new(&REFERENCE),
+        cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&REFERENCE),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
-        let cause = watchdog::take_reset_cause(&dp.RCC);
-        defmt::println!("reset cause: {=str}", cause.as_str());
-        watchdog::start(&dp.IWDG);
-        clocks::system(&dp);
+        setup::begin(&dp);
         clocks::array_peripherals(&dp.RCC);
         let (records, logger) = cx.local.queue.split();
         // Every sensor on the reference table until a calibration run
         // gives it its own (`Calibrations::insert`).
-        let cal: &'static Calibrations<'static, 11, SENSORS> = cx.local.cals;
+        let cal: &'static Calibrations<'static, POINTS, SENSORS> = cx.local.cals;
         let Ok(reader) = ArrayReader::new(cal) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             loop {
@@ -150,30 +114,28 @@ mod app {
         };
         let table: &'static mut [u16; DAC_TABLE] = cx.local.table;
         dac_table(table);
-        let adc: &'static mut AdcBuffers = cx.local.adc;
-        front_end(&dp, adc, table);
-        while !watchdog::ready(&dp.IWDG) {}
-        watchdog::feed(&dp.IWDG);
+        let adc: &'static mut AdcBlocks = cx.local.adc;
+        front_end::array(&dp, adc, table);
+        let owned = setup::finish(dp);
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each",
             SENSORS as u8,
-            RATE_HZ / BLOCK as u32
+            RATE_HZ / BLOCK_INSTANTS as u32
         );
         (
             Shared { finished: None },
             Local {
+                dma: owned.dma,
+                adcs: owned.adcs,
+                watchdog: owned.watchdog,
                 bufs: DmaBufs(adc),
                 block: 0,
                 reader,
-                settings: ToneSettings {
-                    policy: Policy::DEFAULT,
-                    thresholds: Thresholds::ARRAY,
-                    front_end: FrontEnd::transimpedance(TIA_OHM as f32, true),
+                settings: ToneSettings::new(
+                    FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
                     inverter,
-                    calibration: cal,
-                    fixture: dsp_core::fixture::Fixture::NONE,
-                    chi2_flag: dsp_core::twotone::chi2_flag(1e-4, RESIDUAL_DOF),
-                },
+                    cal,
+                ),
                 records: RecordSink::new(records),
                 logger,
             },
@@ -192,36 +154,22 @@ mod app {
     }
 
     /// DMA1 channel 5, half or full: block `k` is in every ADC's buffer.
-    #[task(binds = DMA1_CH5, priority = 2, shared = [finished], local = [block])]
+    #[task(binds = DMA1_CH5, priority = 2, shared = [finished], local = [dma, adcs, block])]
     fn dma_done(mut cx: dma_done::Context) {
-        // SAFETY: after `init` this task alone reads and clears channel
-        // 5's flags and the ADCs' overrun flags.
-        #[allow(unsafe_code)]
-        let (event, overrun) = unsafe {
-            let dp = pac::Peripherals::steal();
-            (
-                dma::take_event_of(&dp.DMA1, PACER),
-                scan::take_overrun(scan::blocks(&dp)),
-            )
-        };
+        let event = dma::take_event_of(cx.local.dma, ARRAY_PACER);
+        let overrun = scan::take_overrun(cx.local.adcs);
         let expected = (*cx.local.block % 2) as usize;
-        let (half, lost) = match event {
-            Event::Error => (0, true),
-            Event::None => return,
-            // Both halves done: the interrupt came a block late, and the
-            // expected block is lost (the DMA is overwriting it).
-            Event::Overrun => (1 - expected, true),
-            e => match e.half() {
-                Some(h) => (h, h != expected),
-                None => return,
-            },
+        let (half, lost) = match event.completion(expected) {
+            Completion::Done { half, lost } if !overrun => (half, lost),
+            Completion::Nothing if !overrun => return,
+            _ => {
+                // A transfer error, or an ADC whose stream is out of step
+                // with the others. Nothing is fed from here on: the
+                // watchdog restarts the board within 100 ms.
+                defmt::println!("dma error or adc overrun: acquisition stopped, watchdog reset follows");
+                return;
+            }
         };
-        if event == Event::Error || overrun {
-            // Nothing is fed from here on: the watchdog restarts the
-            // board within 100 ms.
-            defmt::println!("dma error or adc overrun: acquisition stopped, watchdog reset follows");
-            return;
-        }
         if lost {
             defmt::println!("lost {=u64}", *cx.local.block * BLOCK_US + BLOCK_US / 2);
             *cx.local.block += 1;
@@ -235,7 +183,7 @@ mod app {
     }
 
     /// The block's records, straight from the DMA buffers.
-    #[task(priority = 1, shared = [finished], local = [bufs, reader, settings, records])]
+    #[task(priority = 1, shared = [finished], local = [bufs, reader, settings, records, watchdog])]
     async fn process(mut cx: process::Context) {
         let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
@@ -266,9 +214,6 @@ mod app {
             defmt::println!("drops {=u32}", sink.drops());
         }
         // A block went all the way through: the chain is alive.
-        // SAFETY: IWDG_KR is write-only and written by this task alone
-        // after `init`.
-        #[allow(unsafe_code)]
-        watchdog::feed(unsafe { &*pac::IWDG::ptr() });
+        cx.local.watchdog.feed();
     }
 }

@@ -28,27 +28,23 @@ use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu;
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
-use instrument::array::{Frame, ADCS, BLOCK, INPUTS, RATE_HZ, SCAN, SENSORS};
-use instrument::calib::Calibrations;
-use instrument::faults::Thresholds;
-use instrument::policy::Policy;
+use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
+use instrument::calib::{Calibrations, POINTS};
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
 /// The block period, µs.
-const BLOCK_US: u64 = BLOCK as u64 * 1_000_000 / RATE_HZ as u64;
+const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
 
 /// The scenario named by the first semihosting argument.
 fn scenario() -> ArrayScenario {
-    let Ok(args) = semihosting::experimental::env::args::<64>() else {
-        return ArrayScenario::Paper;
-    };
-    let mut it = &args;
-    let name = it.next().and_then(Result::ok).unwrap_or("paper");
-    ArrayScenario::parse(name).unwrap_or_else(|| {
-        defmt::println!("unknown scenario {=str}", name);
-        qemu::exit(2)
+    qemu::with_args(|args| {
+        let name = args.next().unwrap_or("paper");
+        ArrayScenario::parse(name).unwrap_or_else(|| {
+            defmt::println!("unknown scenario {=str}", name);
+            qemu::exit(2)
+        })
     })
 }
 
@@ -70,22 +66,22 @@ mod app {
         block: u64,
         end_block: u64,
         reader: ArrayReader,
-        settings: ToneSettings<'static, 11>,
+        settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
     }
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
-        cals: Calibrations<'static, 11, SENSORS> = Calibrations::new(&instrument::calib::REFERENCE),
+        cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&instrument::calib::REFERENCE),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (records, logger) = cx.local.queue.split();
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);
-        let cal: &'static mut Calibrations<'static, 11, SENSORS> = cx.local.cals;
+        let cal: &'static mut Calibrations<'static, POINTS, SENSORS> = cx.local.cals;
         *cal = scenario.calibrations();
-        let cal: &'static Calibrations<'static, 11, SENSORS> = cal;
+        let cal: &'static Calibrations<'static, POINTS, SENSORS> = cal;
         let Ok(reader) = ArrayReader::new(cal) else {
             qemu::exit(3)
         };
@@ -95,23 +91,18 @@ mod app {
                 Err(_) => qemu::exit(3),
             };
         let settings = ToneSettings {
-            policy: Policy::DEFAULT,
-            thresholds: Thresholds::ARRAY,
-            front_end: skin.front_end().dsp_front_end(),
-            inverter,
-            calibration: cal,
             fixture: scenario.fixture(),
-            chi2_flag: dsp_core::twotone::chi2_flag(1e-4, instrument::array::RESIDUAL_DOF),
+            ..ToneSettings::new(skin.front_end().dsp_front_end(), inverter, cal)
         };
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",
             SENSORS as u8,
-            RATE_HZ / BLOCK as u32,
+            RATE_HZ / BLOCK_INSTANTS as u32,
             defmt::Debug2Format(&scenario)
         );
         (
             Shared {
-                frame: ([[[0; SCAN]; BLOCK]; ADCS], [false; INPUTS], 0),
+                frame: ([[[0; SCAN]; BLOCK_INSTANTS]; ADCS], [false; INPUTS], 0),
                 done: false,
             },
             Local {
@@ -146,7 +137,7 @@ mod app {
         let t_us = *cx.local.block * BLOCK_US + BLOCK_US / 2;
         *cx.local.block += 1;
         let skin = &mut *cx.local.skin;
-        let mut truth = [wire::Truth::default(); SENSORS];
+        let mut truth = [wire::TruthLine::default(); SENSORS];
         cx.shared.frame.lock(|(frame, clipped, t)| {
             *clipped = skin.block(t_us, frame, &mut truth);
             *t = t_us;

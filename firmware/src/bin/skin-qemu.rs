@@ -25,20 +25,19 @@
 use dsp_core::fixture::Fixture;
 use firmware::qemu;
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
-use instrument::calib::CalTable;
+use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
-use instrument::config::{BLOCK, CHANNELS, DEMODULATORS, SLOT_PAIRS};
+use instrument::config::{
+    BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
+};
 use instrument::effects::{Effect, EffectSet};
-use instrument::faults::Thresholds;
 use instrument::mux::Mux;
-use instrument::policy::Policy;
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
-use instrument::wire;
 
 /// A block as the DMA leaves it.
 pub struct Block {
     /// `[voltage, current]` ADC pairs.
-    pub pairs: [[i16; 2]; BLOCK],
+    pub pairs: [[i16; 2]; BLOCK_PAIRS],
     /// A sample hit an ADC rail.
     pub clipped: bool,
     /// The slot it completes (channel, frequency played).
@@ -50,35 +49,32 @@ pub struct Block {
 /// catalogue's static effects, SI; without `lead_resistance`, the ratio
 /// installed for the scenario's sensor).
 fn arguments() -> (Scenario, Fixture, f32) {
-    let Ok(args) = semihosting::experimental::env::args::<128>() else {
-        return (Scenario::Paper20, Fixture::NONE, Scenario::Paper20.lead_ratio());
-    };
-    let mut it = &args;
-    let name = it.next().and_then(Result::ok).unwrap_or("paper20");
-    let scenario = Scenario::parse(name).unwrap_or_else(|| {
-        defmt::println!("unknown scenario {=str}", name);
-        qemu::exit(2)
-    });
-    let mut effects = EffectSet::NONE;
-    for arg in it {
-        let Ok(arg) = arg else { qemu::exit(2) };
-        match effects.apply(arg) {
-            Ok(e) if e.is_static() => {}
-            Ok(_) => {
-                defmt::println!("'{=str}': not a static effect of the sensor", arg);
-                qemu::exit(2)
-            }
-            Err(err) => {
-                defmt::println!("bad effect '{=str}': {}", arg, defmt::Display2Format(&err));
-                qemu::exit(2)
+    qemu::with_args(|args| {
+        let name = args.next().unwrap_or("paper20");
+        let scenario = Scenario::parse(name).unwrap_or_else(|| {
+            defmt::println!("unknown scenario {=str}", name);
+            qemu::exit(2)
+        });
+        let mut effects = EffectSet::NONE;
+        for arg in args {
+            match effects.apply(arg) {
+                Ok(e) if e.is_static() => {}
+                Ok(_) => {
+                    defmt::println!("'{=str}': not a static effect of the sensor", arg);
+                    qemu::exit(2)
+                }
+                Err(err) => {
+                    defmt::println!("bad effect '{=str}': {}", arg, defmt::Display2Format(&err));
+                    qemu::exit(2)
+                }
             }
         }
-    }
-    let leads = match effects.get(Effect::LeadResistance) > 0.0 {
-        true => effects.lead_ratio(),
-        false => scenario.lead_ratio(),
-    };
-    (scenario, effects.fixture(), leads)
+        let leads = match effects.get(Effect::LeadResistance) > 0.0 {
+            true => effects.lead_ratio(),
+            false => scenario.lead_ratio(),
+        };
+        (scenario, effects.fixture(), leads)
+    })
 }
 
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
@@ -96,11 +92,11 @@ mod app {
     #[local]
     struct Local {
         skin: Skin,
-        mux: Mux<SimPin, 3>,
-        ranges: Mux<SimPin, 2>,
+        mux: Mux<SimPin, MUX_ADDRESS_LINES>,
+        ranges: Mux<SimPin, RANGE_ADDRESS_LINES>,
         scenario: Scenario,
         seq: Sequencer,
-        settings: Settings<'static, 11>,
+        settings: Settings<'static, POINTS>,
         end_slot: u64,
     }
 
@@ -108,20 +104,20 @@ mod app {
     fn init(_: init::Context) -> (Shared, Local) {
         let (scenario, fixture, lead_ratio) = arguments();
         let skin = Skin::new(scenario);
-        let cal: &'static CalTable<11> = scenario.calibration();
-        let settings = Settings {
-            policy: Policy::DEFAULT,
-            thresholds: Thresholds::DEFAULT,
-            front_ends: skin.ranging().front_ends(skin.front_end().v_gain as f32),
-            ranging: skin.ranging(),
-            calibration: cal,
-            // A lead ratio from the catalogue's limits is always in range.
-            tracker: match instrument::channel::tracker_with_leads(lead_ratio) {
-                Ok(t) => t,
-                Err(_) => instrument::channel::tracker(),
-            },
-            fixture,
+        let Ok(tracker) = instrument::channel::tracker_with_leads(lead_ratio) else {
+            defmt::println!("tab-lead ratio {=f32} beyond the line model's range", lead_ratio);
+            qemu::exit(2)
         };
+        let settings = Settings {
+            tracker,
+            fixture,
+            ..Settings::new(
+                skin.ranging().front_ends(skin.front_end().v_gain as f32),
+                skin.ranging(),
+                scenario.calibration(),
+            )
+        };
+        let cal = settings.calibration;
         let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
             Some(i) => Channel::pinned(cal.rest_capacitance(), i),
             None => Channel::new(cal.rest_capacitance()),
@@ -144,7 +140,7 @@ mod app {
         (
             Shared {
                 block: Block {
-                    pairs: [[0; 2]; BLOCK],
+                    pairs: [[0; 2]; BLOCK_PAIRS],
                     clipped: false,
                     slot: first[0],
                 },
@@ -206,15 +202,7 @@ mod app {
         // The slot that begins now: its channel settles in its first pairs.
         let Ok(_) = cx.local.mux.select(step.select);
         let Ok(_) = cx.local.ranges.select(step.select_range);
-        let truth = wire::Truth {
-            t_us,
-            channel: ch,
-            c_farad: truth.c_farad as f32,
-            r_line_ohm: truth.r_line_ohm as f32,
-            stretch_mm: truth.stretch_mm as f32,
-            r_top_ohm: truth.r_top_ohm as f32,
-            r_bottom_ohm: truth.r_bottom_ohm as f32,
-        };
+        let truth = truth.line(t_us, ch);
         defmt::println!("{}", truth);
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", done.index);

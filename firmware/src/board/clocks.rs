@@ -104,10 +104,3 @@ pub fn system(dp: &super::pac::Peripherals) {
     cortex_m::asm::delay(200);
     ahb_full(&dp.RCC);
 }
-
-/// The single-tone board: [`system`], then its peripherals' clocks.
-#[cfg(target_os = "none")]
-pub fn init(dp: &super::pac::Peripherals) {
-    system(dp);
-    peripherals(&dp.RCC);
-}

@@ -175,6 +175,50 @@ impl Event {
     }
 }
 
+/// What an interrupt of a circular buffer of two halves means for the
+/// application, given the half it expects next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Completion {
+    /// Half `half` holds a complete slot or block. `lost`: the expected
+    /// half was overwritten before its interrupt was served (the interrupt
+    /// came a slot late); the application skips one slot in its sequence.
+    Done {
+        /// The half that is complete and not being written (0 or 1).
+        half: usize,
+        /// The expected half was lost.
+        lost: bool,
+    },
+    /// A transfer error: the channel stopped.
+    Error,
+    /// Nothing completed (a spurious interrupt).
+    Nothing,
+}
+
+impl Event {
+    /// The event for an application that expects half `expected` (0 or 1)
+    /// to complete next.
+    pub fn completion(self, expected: usize) -> Completion {
+        match self {
+            Event::Error => Completion::Error,
+            Event::None => Completion::Nothing,
+            // Both halves done: the DMA is overwriting the expected one,
+            // and the other is the one complete now.
+            Event::Overrun => Completion::Done {
+                half: 1 - expected,
+                lost: true,
+            },
+            Event::FirstHalf => Completion::Done {
+                half: 0,
+                lost: expected != 0,
+            },
+            Event::SecondHalf => Completion::Done {
+                half: 1,
+                lost: expected != 1,
+            },
+        }
+    }
+}
+
 /// Read and clear channel 1's flags.
 pub fn take_event(dma: &dma1::RegisterBlock) -> Event {
     take_event_of(dma, 0)

@@ -15,8 +15,10 @@
 //! | [`opamp`] | the array: three op-amps as followers into ADC3 and ADC5 |
 //! | [`dac`] | DAC1 channel 1, paced by TIM6 (the array: TIM7), fed by DMA |
 //! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events; the array's channels 1–6 |
+//! | [`front_end`] | each front end started in RM0440's order; the DAC's slot waveforms; the DMA buffers' shapes |
 //! | [`timer`] | TIM6 at the sample rate |
 //! | [`watchdog`] | IWDG (100 ms), the cause of the last reset |
+//! | [`setup`] | the start and end of both board apps' `init`: reset cause, watchdog, clocks, the peripherals the tasks own |
 //!
 //! The front end's values (sample rate, clock, amplitude) come from
 //! `instrument::design`.
@@ -27,11 +29,13 @@ pub mod adc;
 pub mod clocks;
 pub mod dac;
 pub mod dma;
+pub mod front_end;
 pub mod opamp;
 pub mod pins;
 #[cfg(target_os = "none")]
 mod runtime;
 pub mod scan;
+pub mod setup;
 pub mod timer;
 pub mod watchdog;
 

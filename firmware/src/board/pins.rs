@@ -4,6 +4,7 @@
 //! (`instrument::design::TIA_RANGES_OHM`) (embedded-hal `OutputPin`).
 
 use super::pac::{gpioa, gpiob, gpioc};
+use instrument::config::{MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES};
 
 /// PA0, PA1, PA4 analog.
 pub fn analog(gpioa: &gpioa::RegisterBlock) {
@@ -133,11 +134,11 @@ impl embedded_hal::digital::OutputPin for AnyPin {
 }
 
 /// The three address lines.
-pub fn mux_pins() -> [AnyPin; 3] {
+pub fn mux_pins() -> [AnyPin; MUX_ADDRESS_LINES] {
     [AnyPin::A0(PinB), AnyPin::A1(PinB), AnyPin::A2(PinB)]
 }
 
 /// The range switch's two address lines.
-pub fn range_pins() -> [AnyPin; 2] {
+pub fn range_pins() -> [AnyPin; RANGE_ADDRESS_LINES] {
     [AnyPin::R0(PinB), AnyPin::R1(PinB)]
 }

@@ -215,18 +215,48 @@ pub fn configure(adc: &adc1::RegisterBlock, channels: [u8; SCAN]) {
     });
 }
 
+/// `[ADC1, …, ADC5]` in frame order ([`SCAN_ADCS`]).
+fn frame_order(by_number: [&adc1::RegisterBlock; 5]) -> [&adc1::RegisterBlock; ADCS] {
+    SCAN_ADCS.map(|adc| by_number[adc as usize])
+}
+
 /// The five ADCs' register blocks, in frame order.
 #[cfg(target_os = "none")]
 pub fn blocks(dp: &super::pac::Peripherals) -> [&adc1::RegisterBlock; ADCS] {
-    SCAN_ADCS.map(|adc| -> &adc1::RegisterBlock {
-        match adc {
-            Adc::Adc1 => &dp.ADC1,
-            Adc::Adc2 => &dp.ADC2,
-            Adc::Adc3 => &dp.ADC3,
-            Adc::Adc4 => &dp.ADC4,
-            Adc::Adc5 => &dp.ADC5,
+    frame_order([&dp.ADC1, &dp.ADC2, &dp.ADC3, &dp.ADC4, &dp.ADC5])
+}
+
+/// The five ADCs, owned by the task that reads their overrun flags.
+pub struct Adcs {
+    adc1: super::pac::ADC1,
+    adc2: super::pac::ADC2,
+    adc3: super::pac::ADC3,
+    adc4: super::pac::ADC4,
+    adc5: super::pac::ADC5,
+}
+
+impl Adcs {
+    /// Take the five ADCs.
+    pub fn new(
+        adc1: super::pac::ADC1,
+        adc2: super::pac::ADC2,
+        adc3: super::pac::ADC3,
+        adc4: super::pac::ADC4,
+        adc5: super::pac::ADC5,
+    ) -> Self {
+        Self {
+            adc1,
+            adc2,
+            adc3,
+            adc4,
+            adc5,
         }
-    })
+    }
+
+    /// Their register blocks, in frame order.
+    pub fn blocks(&self) -> [&adc1::RegisterBlock; ADCS] {
+        frame_order([&self.adc1, &self.adc2, &self.adc3, &self.adc4, &self.adc5])
+    }
 }
 
 /// The whole sequence, ending with every ADC armed for TIM6.
@@ -260,10 +290,9 @@ pub fn init(dp: &super::pac::Peripherals) {
 /// Read and clear every ADC's overrun flag: true if one lost a result
 /// (the DMA fell behind, and that ADC's stream is no longer aligned with
 /// the others).
-#[cfg(target_os = "none")]
-pub fn take_overrun(dp_adcs: [&adc1::RegisterBlock; ADCS]) -> bool {
+pub fn take_overrun(adcs: &Adcs) -> bool {
     let mut any = false;
-    for adc in dp_adcs {
+    for adc in adcs.blocks() {
         if adc.isr().read().ovr().bit_is_set() {
             adc.isr().write(|w| w.ovr().clear());
             any = true;

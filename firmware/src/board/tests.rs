@@ -135,6 +135,40 @@ fn dma_channels_and_requests() {
     assert_eq!(Event::from_flags(false, false, true).half(), Some(1));
     assert_eq!(Event::from_flags(false, false, false), Event::None);
     assert_eq!(Event::Overrun.half(), None);
+}
+
+#[test]
+fn a_completion_names_the_finished_half_and_a_lost_one() {
+    use super::dma::Completion::{self, Done};
+    for expected in [0, 1] {
+        let other = 1 - expected;
+        let events = [Event::FirstHalf, Event::SecondHalf];
+        assert_eq!(
+            events[expected].completion(expected),
+            Done {
+                half: expected,
+                lost: false
+            }
+        );
+        // The other half's interrupt: the expected one was skipped.
+        assert_eq!(
+            events[other].completion(expected),
+            Done {
+                half: other,
+                lost: true
+            }
+        );
+        // Both flags set: the expected half is being overwritten.
+        assert_eq!(
+            Event::Overrun.completion(expected),
+            Done {
+                half: other,
+                lost: true
+            }
+        );
+        assert_eq!(Event::Error.completion(expected), Completion::Error);
+        assert_eq!(Event::None.completion(expected), Completion::Nothing);
+    }
     // Reading the flags clears channel 1's (CGIF1, IFCR at 0x04).
     let mut d = Fake::new(&[(0x00, 0b1110)]);
     assert_eq!(

@@ -1,0 +1,112 @@
+//! The two analog front ends, each started in the order RM0440 asks for:
+//! pins, DMA, DAC, ADCs, then the timers that trigger them all. Each
+//! application calls one of these from `init`; what each step writes is
+//! in its peripheral's module (and tested there).
+
+#[cfg(target_os = "none")]
+use super::{adc, dac, dma, opamp, pac, pins, scan, timer};
+use dsp_core::osc::{Oscillator, OscillatorState};
+use instrument::array::{Rows, ADCS, BLOCK_INSTANTS, SCAN};
+#[cfg(target_os = "none")]
+use instrument::array::{DAC_RATE_HZ, DAC_TABLE, RATE_HZ};
+use instrument::config::{ftw, SETTLE_PAIRS, SLOT_PAIRS};
+use instrument::design;
+use instrument::sequencer::Step;
+
+/// The multiplexed board's circular buffers hold two slots.
+pub const SLOTS: usize = 2;
+
+/// The multiplexed board's DAC buffer: two slots of codes.
+pub type DacSlots = [u16; SLOTS * SLOT_PAIRS];
+
+/// The multiplexed board's ADC buffer: two slots of packed (ADC1, ADC2)
+/// pairs.
+pub type AdcSlots = [u32; SLOTS * SLOT_PAIRS];
+
+/// The array's ADC buffers: every ADC's circular buffer of two blocks.
+pub type AdcBlocks = [[Rows; 2]; ADCS];
+
+/// Results per array ADC buffer: two blocks of [`SCAN`] positions.
+pub const ARRAY_RESULTS: usize = 2 * BLOCK_INSTANTS * SCAN;
+
+/// DMA1 channel (0-based) whose interrupt paces the array's blocks: the
+/// last of the five ADCs the DMA serves.
+pub const ARRAY_PACER: usize = ADCS - 1;
+
+/// Write one slot of DAC codes for frequency index `fidx`: the settling
+/// pairs lead into the block, which starts at phase 0.
+pub fn fill_slot(buf: &mut [u16], fidx: usize) {
+    let osc = Oscillator::from_ftw(ftw(fidx));
+    let mut st = OscillatorState {
+        phase: (ftw(fidx).wrapping_mul(SETTLE_PAIRS as u32) as i32).wrapping_neg(),
+    };
+    for b in buf.iter_mut() {
+        *b = osc.next_dac(&mut st, design::DAC_BITS, design::DAC_AMPLITUDE_Q15);
+    }
+}
+
+/// The slot after next reuses the DAC half of the slot `step` completed:
+/// write its frequency there.
+pub fn prepare(dac: &mut DacSlots, step: &Step) {
+    let h = (step.done.index % SLOTS as u64) as usize;
+    fill_slot(&mut dac[h * SLOT_PAIRS..(h + 1) * SLOT_PAIRS], step.prepare.fidx);
+}
+
+/// The multiplexed front end: PA0/PA1 analog, the multiplexer's address
+/// lines, DMA1 channels 1 (ADC pairs → `adc_buf`) and 2 (`dac_buf` →
+/// DAC), the DAC, ADC1 + ADC2 in dual mode, then TIM6, which starts them.
+#[cfg(target_os = "none")]
+pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_buf: &DacSlots) {
+    pins::analog(&dp.GPIOA);
+    pins::mux_outputs(&dp.GPIOB);
+    dma::requests(&dp.DMAMUX);
+    dma::adc_channel(
+        &dp.DMA1,
+        dp.ADC12_COMMON.cdr().as_ptr() as u32,
+        adc_buf.as_ptr() as u32,
+        adc_buf.len() as u16,
+    );
+    dma::dac_channel(
+        &dp.DMA1,
+        dac_buf.as_ptr() as u32,
+        dp.DAC1.dhr12r1().as_ptr() as u32,
+        dac_buf.len() as u16,
+    );
+    dac::configure(&dp.DAC1);
+    adc::init(dp);
+    timer::configure(&dp.TIM6);
+    timer::start(&dp.TIM6);
+}
+
+/// The array's front end: its analog pins, the op-amp followers, DMA1
+/// channels 1–5 (each ADC → its buffer in `adc_bufs`, the pacer with
+/// interrupts) and 6 (`table` → DAC), the DAC on TIM7, the five scanning
+/// ADCs, then TIM7 and TIM6, which start them.
+#[cfg(target_os = "none")]
+pub fn array(dp: &pac::Peripherals, adc_bufs: &AdcBlocks, table: &[u16; DAC_TABLE]) {
+    pins::array_analog(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
+    opamp::followers(&dp.OPAMP);
+    dma::array_requests(&dp.DMAMUX);
+    for (a, adc) in scan::blocks(dp).iter().enumerate() {
+        dma::scan_channel(
+            &dp.DMA1,
+            a,
+            adc.dr().as_ptr() as u32,
+            adc_bufs[a].as_ptr() as u32,
+            ARRAY_RESULTS as u16,
+            a == ARRAY_PACER,
+        );
+    }
+    dma::table_channel(
+        &dp.DMA1,
+        table.as_ptr() as u32,
+        dp.DAC1.dhr12r1().as_ptr() as u32,
+        DAC_TABLE as u16,
+    );
+    dac::configure_array(&dp.DAC1);
+    scan::init(dp);
+    timer::configure_arr(&dp.TIM7, timer::arr_for(DAC_RATE_HZ));
+    timer::configure_arr(&dp.TIM6, timer::arr_for(RATE_HZ));
+    timer::start(&dp.TIM7);
+    timer::start(&dp.TIM6);
+}

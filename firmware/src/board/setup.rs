@@ -1,0 +1,58 @@
+//! The start and the end of `init` that both board applications share,
+//! and the peripherals their tasks own afterwards.
+//!
+//! [`begin`]: log why the board last reset, start the watchdog, bring the
+//! system clock to 170 MHz. Then the application configures its front
+//! end. [`finish`]: wait until the watchdog has taken its settings, feed
+//! it once, and hand the peripherals the tasks need over as owned values
+//! ([`Owned`]), so that no task reaches a peripheral through a raw
+//! pointer or `steal()`.
+
+use super::pac;
+use super::scan::Adcs;
+use super::{clocks, watchdog};
+
+/// The independent watchdog, owned by the task that proves the chain is
+/// alive.
+pub struct Watchdog(pac::IWDG);
+
+impl Watchdog {
+    /// Reload the counter: a block went all the way through.
+    pub fn feed(&mut self) {
+        watchdog::feed(&self.0);
+    }
+}
+
+/// The peripherals the tasks own after `init`.
+pub struct Owned {
+    /// DMA1: its interrupt flags, read and cleared by the DMA task.
+    pub dma: pac::DMA1,
+    /// The five ADCs: their overrun flags, read and cleared by the array's
+    /// DMA task.
+    pub adcs: Adcs,
+    /// The watchdog, fed by the processing task.
+    pub watchdog: Watchdog,
+}
+
+/// Log the cause of the last reset, start the watchdog (100 ms) and the
+/// system clock (RM0440 6.1.5: boost, wait states, PLL at 170 MHz).
+#[cfg(target_os = "none")]
+pub fn begin(dp: &pac::Peripherals) {
+    let cause = watchdog::take_reset_cause(&dp.RCC);
+    defmt::println!("reset cause: {=str}", cause.as_str());
+    watchdog::start(&dp.IWDG);
+    clocks::system(dp);
+}
+
+/// The watchdog's settings in force and fed once; the peripherals the
+/// tasks own.
+#[cfg(target_os = "none")]
+pub fn finish(dp: pac::Peripherals) -> Owned {
+    while !watchdog::ready(&dp.IWDG) {}
+    watchdog::feed(&dp.IWDG);
+    Owned {
+        dma: dp.DMA1,
+        adcs: Adcs::new(dp.ADC1, dp.ADC2, dp.ADC3, dp.ADC4, dp.ADC5),
+        watchdog: Watchdog(dp.IWDG),
+    }
+}
