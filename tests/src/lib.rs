@@ -8,6 +8,7 @@
 //! period zero" on stderr).
 
 pub mod records;
+pub mod summary;
 
 use anyhow::{bail, Context, Result};
 use std::io::Read;

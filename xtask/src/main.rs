@@ -50,6 +50,13 @@ enum Cmd {
         #[arg(long, default_value_t = 50)]
         seeds: u64,
     },
+    /// Write the repository's example data set (`data/example/`) with
+    /// rig-sim, the independent bench generator, at its fixed seed.
+    ExampleData {
+        /// Folder to write (its CSV files are replaced).
+        #[arg(long, default_value = "data/example")]
+        out: std::path::PathBuf,
+    },
     /// The fuzz targets (dsp-core's API, the channel logic, the wire
     /// format, the readers) with many cases (tens of minutes).
     Fuzz {
@@ -64,6 +71,13 @@ fn main() -> Result<()> {
     std::env::set_current_dir(&root)?;
     match Cli::parse().cmd {
         Cmd::Setup => setup(),
+        Cmd::ExampleData { out } => {
+            rig_sim::Bench::example()
+                .write(&out)
+                .with_context(|| format!("writing {}", out.display()))?;
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
         Cmd::Survey { seeds } => {
             let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
             let args = [
