@@ -10,11 +10,12 @@ use crate::numerics::series_cs;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
-use dsp_core::{Complex32, Oscillator};
+use dsp_core::Oscillator;
 use instrument::calib;
 use instrument::channel::{self, Channel, Settings};
 use instrument::config::{self, PERIODS};
 use instrument::effects::{Effect, EffectSet};
+use num_complex::Complex64;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -145,81 +146,11 @@ pub fn run(
     setup: Setup,
     t_start: f64,
     t_end: f64,
-    mut tick: impl FnMut(f64),
+    tick: impl FnMut(f64),
 ) -> Vec<Reading> {
-    let Setup {
-        freq_hz,
-        meter,
-        model,
-        prior_farad,
-        seed,
-        lead_ratio,
-    } = setup;
-    let mut rng = Rng::new(seed);
-    let tracker = Tracker::with_leads(model, Tracker::X_MAX, lead_ratio).expect("valid model and lead ratio");
-    let mut state = TrackState::new(prior_farad as f32);
-    let mut out = Vec::new();
-    let mut correct = |z: Complex32, f: f32| match tracker.update(&mut state, z, f) {
-        Ok(t) => (t.line.c_farad as f64, t.line.r_ohm as f64),
-        Err(_) => (f64::NAN, f64::NAN),
-    };
-    match meter {
-        Meter::Adc(fe) => {
-            // The firmware's channel, pinned to the frequency of its set
-            // nearest to the one asked for: blocks of config::BLOCK_PAIRS pairs
-            // after SETTLE_PAIRS of settling, one slot each.
-            let fs = fe.sample_rate_hz;
-            let index = (0..PERIODS.len())
-                .min_by(|&a, &b| {
-                    let d = |i: usize| (config::freq_hz(i) as f64 / freq_hz).ln().abs();
-                    d(a).total_cmp(&d(b))
-                })
-                .unwrap_or(0);
-            let f = config::freq_hz(index) as f64;
-            let osc = Oscillator::from_ftw(config::ftw(index));
-            let ranging = fe.ranging();
-            let settings = Settings {
-                tracker: channel::tracker_with_leads(lead_ratio)
-                    .expect("a calibration's lead ratio is in range"),
-                ..Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &calib::REFERENCE)
-            };
-            let mut ch = Channel::pinned(prior_farad as f32, index);
-            let slot = (config::BLOCK_PAIRS + config::SETTLE_PAIRS) as f64 / fs;
-            let settle = config::SETTLE_PAIRS as f64 / fs;
-            let block = config::BLOCK_PAIRS as f64 / fs;
-            let mut buf = [[0i16; 2]; config::BLOCK_PAIRS];
-            sensor.advance(profile, t_start);
-            let mut t = sensor.time();
-            while t + slot <= t_end + 1e-12 {
-                let mid = t + settle + 0.5 * block;
-                sensor.advance(profile, mid);
-                let truth = sensor.truth();
-                let range = ch.range();
-                let clipped =
-                    fe.at_range(&ranging, range)
-                        .block(&osc, sensor.impedance(f), &mut rng, &mut buf);
-                let ph = config::DEMODULATORS[index].block(&buf);
-                let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped, range);
-                let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
-                let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {
-                    (rec.c_farad as f64, rec.r_ohm as f64)
-                } else {
-                    (f64::NAN, f64::NAN)
-                };
-                out.push(reading(
-                    &truth,
-                    f,
-                    measured(rec.cs_farad),
-                    measured(rec.rs_ohm),
-                    c_corr,
-                    r_corr,
-                    clipped,
-                ));
-                t += slot;
-                sensor.advance(profile, t);
-                tick(t);
-            }
-        }
+    let span = (t_start, t_end);
+    match setup.meter {
+        Meter::Adc(fe) => run_adc(sensor, profile, &fe, &setup, span, tick),
         Meter::Lcr {
             interval_s,
             rel,
@@ -228,90 +159,212 @@ pub fn run(
             offset_s,
             response_s,
         } => {
-            // The meter's view of the sensor runs on its own clock.
-            let mut seen = (window_s > 0.0 || offset_s != 0.0 || response_s > 0.0).then(|| sensor.clone());
-            // The first-order filter: its state (admittance), and the
-            // time it has reached.
-            let mut filter: Option<(num_complex::Complex64, f64)> = None;
-            let mut t = t_start;
-            while t <= t_end + 1e-12 {
-                sensor.advance(profile, t);
-                let truth = sensor.truth();
-                let z = match seen.as_mut() {
-                    None => sensor.impedance(freq_hz),
-                    Some(m) if response_s > 0.0 => {
-                        // First order: the (windowed) admittance sampled at
-                        // the midpoints of ≤ 0.5 ms steps, each step
-                        // decaying the state by e^(−d/τ). `m` runs ahead
-                        // of the window's start.
-                        let target = t + offset_s;
-                        let windowed = |m: &mut Sensor, at: f64| -> num_complex::Complex64 {
-                            if window_s <= 0.0 {
-                                m.advance(profile, at);
-                                return m.impedance(freq_hz).inv();
-                            }
-                            let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 500);
-                            let start = at - window_s;
-                            m.advance(profile, start);
-                            let mut v = m.clone();
-                            let mut y = num_complex::Complex64::default();
-                            for j in 0..k {
-                                v.advance(profile, start + window_s * (j as f64 + 0.5) / k as f64);
-                                y += v.impedance(freq_hz).inv();
-                            }
-                            y / k as f64
-                        };
-                        let (mut state, mut at) = match filter {
-                            Some(f) => f,
-                            None => {
-                                // Settled on the sensor as the run starts.
-                                let first = target - 12.0 * response_s;
-                                (windowed(m, first), first)
-                            }
-                        };
-                        let steps = ((target - at) / 0.5e-3).ceil().max(0.0) as usize;
-                        if steps > 0 {
-                            let d = (target - at) / steps as f64;
-                            let e = (-d / response_s).exp();
-                            for _ in 0..steps {
-                                let y = windowed(m, at + 0.5 * d);
-                                state = state * e + y * (1.0 - e);
-                                at += d;
-                            }
-                        }
-                        filter = Some((state, at));
-                        state.inv()
-                    }
-                    Some(m) => {
-                        // Mean admittance over the window, midpoints of
-                        // ≤ 2 ms sub-intervals. Windows overlap: a copy
-                        // integrates this one while `m` waits at the start
-                        // of the next.
-                        let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 500);
-                        let start = t + offset_s - window_s;
-                        m.advance(profile, start);
-                        let mut v = m.clone();
-                        let mut y = num_complex::Complex64::default();
-                        for j in 0..k {
-                            v.advance(profile, start + window_s * (j as f64 + 0.5) / k as f64);
-                            y += v.impedance(freq_hz).inv();
-                        }
-                        (y / k as f64).inv()
-                    }
-                };
-                let cs = series_cs(z, freq_hz) * (1.0 + rel * rng.gaussian()) + abs_farad * rng.gaussian();
-                let rs = z.re * (1.0 + rel * rng.gaussian());
-                let zm = SeriesRc {
-                    cs_farad: cs as f32,
-                    rs_ohm: rs as f32,
-                }
-                .impedance(freq_hz as f32);
-                let (c_corr, r_corr) = correct(zm, freq_hz as f32);
-                out.push(reading(&truth, freq_hz, cs, rs, c_corr, r_corr, false));
-                tick(t);
-                t += interval_s;
+            let lcr = LcrMeter {
+                interval_s,
+                rel,
+                abs_farad,
+                window_s,
+                offset_s,
+                response_s,
+            };
+            run_lcr(sensor, profile, &lcr, &setup, span, tick)
+        }
+    }
+}
+
+/// The firmware's channel, pinned to the frequency of its set nearest to
+/// the one asked for: blocks of `config::BLOCK_PAIRS` pairs after
+/// `SETTLE_PAIRS` of settling, one slot each, through front end `fe` and
+/// its ADC.
+fn run_adc(
+    sensor: &mut Sensor,
+    profile: &Profile,
+    fe: &FrontEndParams,
+    setup: &Setup,
+    (t_start, t_end): (f64, f64),
+    mut tick: impl FnMut(f64),
+) -> Vec<Reading> {
+    let mut rng = Rng::new(setup.seed);
+    let fs = fe.sample_rate_hz;
+    let index = (0..PERIODS.len())
+        .min_by(|&a, &b| {
+            let d = |i: usize| (config::freq_hz(i) as f64 / setup.freq_hz).ln().abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap_or(0);
+    let f = config::freq_hz(index) as f64;
+    let osc = Oscillator::from_ftw(config::ftw(index));
+    let ranging = fe.ranging();
+    let settings = Settings {
+        tracker: channel::tracker_with_leads(setup.lead_ratio)
+            .expect("a calibration's lead ratio is in range"),
+        ..Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &calib::REFERENCE)
+    };
+    let mut ch = Channel::pinned(setup.prior_farad as f32, index);
+    let slot = (config::BLOCK_PAIRS + config::SETTLE_PAIRS) as f64 / fs;
+    let settle = config::SETTLE_PAIRS as f64 / fs;
+    let block = config::BLOCK_PAIRS as f64 / fs;
+    let mut buf = [[0i16; 2]; config::BLOCK_PAIRS];
+    let mut out = Vec::new();
+    sensor.advance(profile, t_start);
+    let mut t = sensor.time();
+    while t + slot <= t_end + 1e-12 {
+        let mid = t + settle + 0.5 * block;
+        sensor.advance(profile, mid);
+        let truth = sensor.truth();
+        let range = ch.range();
+        let clipped = fe
+            .at_range(&ranging, range)
+            .block(&osc, sensor.impedance(f), &mut rng, &mut buf);
+        let ph = config::DEMODULATORS[index].block(&buf);
+        let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped, range);
+        let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
+        let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {
+            (rec.c_farad as f64, rec.r_ohm as f64)
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        out.push(reading(
+            &truth,
+            f,
+            measured(rec.cs_farad),
+            measured(rec.rs_ohm),
+            c_corr,
+            r_corr,
+            clipped,
+        ));
+        t += slot;
+        sensor.advance(profile, t);
+        tick(t);
+    }
+    out
+}
+
+/// An LCR meter's settings ([`Meter::Lcr`]).
+struct LcrMeter {
+    interval_s: f64,
+    rel: f64,
+    abs_farad: f64,
+    window_s: f64,
+    offset_s: f64,
+    response_s: f64,
+}
+
+/// The mean admittance of the sensor over `[start, start + window_s]`,
+/// sampled at the midpoints of ≤ 2 ms sub-intervals; `m` waits at
+/// `start` (windows overlap: a copy integrates this one).
+fn mean_admittance(m: &mut Sensor, profile: &Profile, start: f64, window_s: f64, freq_hz: f64) -> Complex64 {
+    let k = ((window_s / 2e-3).ceil() as usize).clamp(1, 500);
+    m.advance(profile, start);
+    let mut v = m.clone();
+    let mut y = Complex64::default();
+    for j in 0..k {
+        v.advance(profile, start + window_s * (j as f64 + 0.5) / k as f64);
+        y += v.impedance(freq_hz).inv();
+    }
+    y / k as f64
+}
+
+/// A first-order response of time constant τ to the (windowed)
+/// admittance: its state and the time it has reached.
+struct FirstOrder {
+    state: Complex64,
+    at: f64,
+}
+
+impl FirstOrder {
+    /// The filter settled on what the meter sees at `at` (12 τ before the
+    /// first reading).
+    fn settled(m: &mut Sensor, profile: &Profile, lcr: &LcrMeter, at: f64, freq_hz: f64) -> Self {
+        Self {
+            state: Self::input(m, profile, lcr, at, freq_hz),
+            at,
+        }
+    }
+
+    /// What the filter integrates at `at`: the admittance, averaged over
+    /// the meter's window when it has one.
+    fn input(m: &mut Sensor, profile: &Profile, lcr: &LcrMeter, at: f64, freq_hz: f64) -> Complex64 {
+        if lcr.window_s <= 0.0 {
+            m.advance(profile, at);
+            return m.impedance(freq_hz).inv();
+        }
+        mean_admittance(m, profile, at - lcr.window_s, lcr.window_s, freq_hz)
+    }
+
+    /// Advance to `target` in steps of ≤ 0.5 ms, each sampled at its
+    /// midpoint and decaying the state by e^(−d/τ); the impedance then.
+    fn advance(
+        &mut self,
+        m: &mut Sensor,
+        profile: &Profile,
+        lcr: &LcrMeter,
+        target: f64,
+        freq_hz: f64,
+    ) -> Complex64 {
+        let steps = ((target - self.at) / 0.5e-3).ceil().max(0.0) as usize;
+        if steps > 0 {
+            let d = (target - self.at) / steps as f64;
+            let e = (-d / lcr.response_s).exp();
+            for _ in 0..steps {
+                let y = Self::input(m, profile, lcr, self.at + 0.5 * d, freq_hz);
+                self.state = self.state * e + y * (1.0 - e);
+                self.at += d;
             }
         }
+        self.state.inv()
+    }
+}
+
+/// An LCR meter reading the sensor every `interval_s`: instant, averaged
+/// over a window, or through a first-order response, stamped `offset_s`
+/// late, with its noise; each reading corrected by the line tracker.
+fn run_lcr(
+    sensor: &mut Sensor,
+    profile: &Profile,
+    lcr: &LcrMeter,
+    setup: &Setup,
+    (t_start, t_end): (f64, f64),
+    mut tick: impl FnMut(f64),
+) -> Vec<Reading> {
+    let freq_hz = setup.freq_hz;
+    let mut rng = Rng::new(setup.seed);
+    let tracker = Tracker::with_leads(setup.model, Tracker::X_MAX, setup.lead_ratio)
+        .expect("valid model and lead ratio");
+    let mut state = TrackState::new(setup.prior_farad as f32);
+    // The meter's view of the sensor runs on its own clock.
+    let mut seen =
+        (lcr.window_s > 0.0 || lcr.offset_s != 0.0 || lcr.response_s > 0.0).then(|| sensor.clone());
+    let mut filter: Option<FirstOrder> = None;
+    let mut out = Vec::new();
+    let mut t = t_start;
+    while t <= t_end + 1e-12 {
+        sensor.advance(profile, t);
+        let truth = sensor.truth();
+        let target = t + lcr.offset_s;
+        let z = match seen.as_mut() {
+            None => sensor.impedance(freq_hz),
+            Some(m) if lcr.response_s > 0.0 => filter
+                .get_or_insert_with(|| {
+                    FirstOrder::settled(m, profile, lcr, target - 12.0 * lcr.response_s, freq_hz)
+                })
+                .advance(m, profile, lcr, target, freq_hz),
+            Some(m) => mean_admittance(m, profile, target - lcr.window_s, lcr.window_s, freq_hz).inv(),
+        };
+        let cs = series_cs(z, freq_hz) * (1.0 + lcr.rel * rng.gaussian()) + lcr.abs_farad * rng.gaussian();
+        let rs = z.re * (1.0 + lcr.rel * rng.gaussian());
+        let zm = SeriesRc {
+            cs_farad: cs as f32,
+            rs_ohm: rs as f32,
+        }
+        .impedance(freq_hz as f32);
+        let (c_corr, r_corr) = match tracker.update(&mut state, zm, freq_hz as f32) {
+            Ok(t) => (t.line.c_farad as f64, t.line.r_ohm as f64),
+            Err(_) => (f64::NAN, f64::NAN),
+        };
+        out.push(reading(&truth, freq_hz, cs, rs, c_corr, r_corr, false));
+        tick(t);
+        t += lcr.interval_s;
     }
     out
 }

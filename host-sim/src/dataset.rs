@@ -248,48 +248,91 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
         .headers()
         .with_context(|| format!("{name}: cannot read the header row"))?
         .clone();
-    let head_line = physical(1);
-    let index: Vec<Option<usize>> = COLUMNS
-        .iter()
-        .map(|c| head.iter().position(|h| h == *c))
-        .collect();
-    let has = |c: &str| head.iter().any(|h| h == c);
-    let header = || head.iter().collect::<Vec<_>>().join(",");
-    for req in kind.required() {
-        if !has(req) {
-            bail!(
-                "{name}:{head_line}: missing required column '{req}' (header: {})",
-                header()
-            );
-        }
-    }
-    let resistance = if !kind.needs_resistance() {
-        Resistance::None
-    } else if has("r_top_ohm") && has("r_bottom_ohm") {
-        Resistance::FourTerminal
-    } else if has("r_line_ohm") {
-        Resistance::InstrumentLine
-    } else {
-        bail!(
-            "{name}:{head_line}: missing required columns 'r_top_ohm' and 'r_bottom_ohm' (or an instrument's 'r_line_ohm') (header: {})",
-            header()
-        );
-    };
-    let flags_at = head.iter().position(|h| h == "flags");
+    let header = Header::of(&name, &head, physical(1), kind)?;
     let mut rows: Vec<Row> = vec![];
     for rec in rd.records() {
         let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
         let line = physical(rec.position().map_or(0, |p| p.line()));
-        if rec.len() != head.len() {
+        let row = header.row(&name, &rec, line)?;
+        header.check_order(&name, &row, &rows, kind)?;
+        rows.push(row);
+    }
+    if rows.is_empty() {
+        bail!("{name}: no data rows");
+    }
+    Ok(Table {
+        path: path.to_path_buf(),
+        kind,
+        resistance: header.resistance,
+        rows,
+    })
+}
+
+/// A file's header row, checked: where each known column stands.
+struct Header {
+    /// Fields per row.
+    fields: usize,
+    /// Its physical line.
+    line: u64,
+    /// Where each of [`COLUMNS`] stands, if it does.
+    index: Vec<Option<usize>>,
+    /// Where the instrument's `flags` stand, if they do.
+    flags_at: Option<usize>,
+    /// Where the electrode resistance comes from.
+    resistance: Resistance,
+}
+
+impl Header {
+    /// The header `head` (at physical line `line`) of a file of `kind`:
+    /// an error naming a missing required column.
+    fn of(name: &str, head: &csv::StringRecord, line: u64, kind: Kind) -> Result<Self> {
+        let has = |c: &str| head.iter().any(|h| h == c);
+        let header = || head.iter().collect::<Vec<_>>().join(",");
+        for req in kind.required() {
+            if !has(req) {
+                bail!(
+                    "{name}:{line}: missing required column '{req}' (header: {})",
+                    header()
+                );
+            }
+        }
+        let resistance = if !kind.needs_resistance() {
+            Resistance::None
+        } else if has("r_top_ohm") && has("r_bottom_ohm") {
+            Resistance::FourTerminal
+        } else if has("r_line_ohm") {
+            Resistance::InstrumentLine
+        } else {
             bail!(
-                "{name}:{line}: {} fields where the header (line {head_line}) has {}",
+                "{name}:{line}: missing required columns 'r_top_ohm' and 'r_bottom_ohm' (or an instrument's 'r_line_ohm') (header: {})",
+                header()
+            );
+        };
+        Ok(Self {
+            fields: head.len(),
+            line,
+            index: COLUMNS
+                .iter()
+                .map(|c| head.iter().position(|h| h == *c))
+                .collect(),
+            flags_at: head.iter().position(|h| h == "flags"),
+            resistance,
+        })
+    }
+
+    /// One data row at physical `line`, every known field checked.
+    fn row(&self, name: &str, rec: &csv::StringRecord, line: u64) -> Result<Row> {
+        if rec.len() != self.fields {
+            bail!(
+                "{name}:{line}: {} fields where the header (line {}) has {}",
                 rec.len(),
-                head.len()
+                self.line,
+                self.fields
             );
         }
         let mut values = [f64::NAN; 9];
         for (k, col) in COLUMNS.iter().enumerate() {
-            let Some(i) = index[k] else { continue };
+            let Some(i) = self.index[k] else { continue };
             let field = rec.get(i).unwrap_or("");
             let v: f64 = match field.parse::<f64>() {
                 Ok(v) if v.is_finite() => v,
@@ -312,10 +355,12 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
             // An instrument's own r_line_ohm is modelled only where no
             // four-terminal resistances are given, and is 0 in a record the
             // instrument flagged (no line estimate).
-            let flagged = flags_at.is_some_and(|i| rec.get(i).is_some_and(|f| f.trim() != "0"));
+            let flagged = self
+                .flags_at
+                .is_some_and(|i| rec.get(i).is_some_and(|f| f.trim() != "0"));
             let positive = match *col {
                 "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "cs_sigma_pf" => true,
-                "r_line_ohm" => resistance == Resistance::InstrumentLine && !flagged,
+                "r_line_ohm" => self.resistance == Resistance::InstrumentLine && !flagged,
                 _ => false,
             };
             if positive && v <= 0.0 {
@@ -326,8 +371,14 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
             }
             values[k] = v;
         }
-        let row = Row { values, line };
-        if let (Some(prev), Some(i)) = (rows.last(), index[0]) {
+        Ok(Row { values, line })
+    }
+
+    /// `row` after `rows`: time must increase, and a trace holds one
+    /// frequency.
+    fn check_order(&self, name: &str, row: &Row, rows: &[Row], kind: Kind) -> Result<()> {
+        let line = row.line;
+        if let (Some(prev), Some(i)) = (rows.last(), self.index[0]) {
             if row.time_s() <= prev.time_s() {
                 bail!(
                     "{name}:{line}:{}: column 'time_s': {} does not increase (line {}: {})",
@@ -339,7 +390,7 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
             }
         }
         if kind == Kind::Trace {
-            if let (Some(first), Some(i)) = (rows.first(), index[2]) {
+            if let (Some(first), Some(i)) = (rows.first(), self.index[2]) {
                 if row.freq_hz() != first.freq_hz() {
                     bail!(
                         "{name}:{line}:{}: column 'freq_hz': {} differs from {} (line {}); a trace holds one frequency",
@@ -351,17 +402,8 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
                 }
             }
         }
-        rows.push(row);
+        Ok(())
     }
-    if rows.is_empty() {
-        bail!("{name}: no data rows");
-    }
-    Ok(Table {
-        path: path.to_path_buf(),
-        kind,
-        resistance,
-        rows,
-    })
 }
 
 /// A data set: the calibration, the sweep if present, and the traces.

@@ -10,7 +10,7 @@ use host_sim::si;
 use instrument::effects::{Effect, EffectSet};
 use skin_sim::profile::Profile;
 use skin_sim::sensor::Sensor;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// The longest `trace`, s: an hour of simulated skin (3.6 million 1 ms
@@ -141,29 +141,33 @@ enum Cmd {
         statics: Option<Vec<u8>>,
     },
     /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
-    Trace {
-        /// trapezoid:RATE, ramp:RATE:AMPLITUDE, step:TIME:AMPLITUDE,
-        /// const:STRETCH, or a CSV file with time_s,stretch_mm.
-        #[arg(long)]
-        profile: String,
-        /// Duration, s.
-        #[arg(long, value_parser = si::parse, default_value = "10")]
-        duration: f64,
-        /// Excitation frequency.
-        #[arg(long, value_parser = si::parse, default_value = "2k")]
-        f: f64,
-        /// 'adc' (front end, ADC, dsp-core) or 'lcr' (ideal series meter).
-        #[arg(long, default_value = "adc")]
-        meter: String,
-        /// Output CSV (default: stdout).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Seed of the noise.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        #[command(flatten)]
-        effects: EffectArgs,
-    },
+    Trace(TraceArgs),
+}
+
+/// The options of `trace`.
+#[derive(clap::Args)]
+struct TraceArgs {
+    /// trapezoid:RATE, ramp:RATE:AMPLITUDE, step:TIME:AMPLITUDE,
+    /// const:STRETCH, or a CSV file with time_s,stretch_mm.
+    #[arg(long)]
+    profile: String,
+    /// Duration, s.
+    #[arg(long, value_parser = si::parse, default_value = "10")]
+    duration: f64,
+    /// Excitation frequency.
+    #[arg(long, value_parser = si::parse, default_value = "2k")]
+    f: f64,
+    /// 'adc' (front end, ADC, dsp-core) or 'lcr' (ideal series meter).
+    #[arg(long, default_value = "adc")]
+    meter: String,
+    /// Output CSV (default: stdout).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    effects: EffectArgs,
 }
 
 #[derive(clap::Args)]
@@ -348,61 +352,14 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
-        Cmd::Model { r, c, f, model, csv } => {
-            if csv {
-                println!("model,freq_hz,x,cs_pf,rs_ohm,d,cs_error_pct");
-            } else {
-                println!("line: R = {}, C = {}", si::fmt(r, "Ω"), si::fmt(c, "F"));
-                println!(
-                    "{:<14} {:>11} {:>8} {:>11} {:>11} {:>8} {:>9}",
-                    "model", "f", "ωRC", "Cs", "Rs", "D", "Cs/C−1"
-                );
-            }
-            for &fh in &f {
-                for &m in &model {
-                    let rd = meter::read(m, r, c, fh)?;
-                    let (cs, rs) = (rd.series.cs_farad as f64, rd.series.rs_ohm as f64);
-                    let d = rd.series.dissipation(fh as f32);
-                    let err = 100.0 * (cs / c - 1.0);
-                    if csv {
-                        println!(
-                            "{},{fh},{:.6},{:.4},{:.1},{d:.6},{err:.4}",
-                            model_name(m),
-                            rd.x,
-                            cs * 1e12,
-                            rs
-                        );
-                    } else {
-                        println!(
-                            "{:<14} {:>11} {:>8.4} {:>11} {:>11} {:>8.4} {:>8.3}%",
-                            model_name(m),
-                            si::fmt(fh, "Hz"),
-                            rd.x,
-                            si::fmt(cs, "F"),
-                            si::fmt(rs, "Ω"),
-                            d,
-                            err
-                        );
-                    }
-                }
-            }
-        }
+        Cmd::Model { r, c, f, model, csv } => model_table(r, c, &f, &model, csv)?,
         Cmd::Invert {
             cs,
             rs,
             f,
             model,
             c_hint,
-        } => {
-            let line = meter::invert(model, cs, rs, f, c_hint)?;
-            println!("model: {}", model_name(model));
-            println!("C   = {}", si::fmt(line.c_farad as f64, "F"));
-            println!(
-                "R   = {}  (top + bottom electrode)",
-                si::fmt(line.r_ohm as f64, "Ω")
-            );
-            println!("ωRC = {:.5}", line.x);
-        }
+        } => invert(cs, rs, f, model, c_hint)?,
         Cmd::Paper(a) => {
             let c = ctx(&a, 600.0 + 9.0 * 10.0 * a.periods as f64)?;
             let (md, _) = exp::paper(&c)?;
@@ -429,171 +386,254 @@ fn run(cli: Cli) -> Result<()> {
             out,
             no_sweep,
             predict_paper,
-        } => {
-            use host_sim::identify;
-            let options = identify::Options {
-                sweep: !no_sweep,
-                ..Default::default()
-            };
-            // A failed run leaves no reports: none from an earlier run
-            // that would pass for this one's, and no half-written ones.
-            const REPORTS: [&str; 3] = ["residuals.svg", "report.json", "report.md"];
-            for name in REPORTS {
-                let path = out.join(name);
-                if path.is_file() {
-                    std::fs::remove_file(&path)
-                        .with_context(|| format!("removing the old {}", path.display()))?;
-                }
-            }
-            let ds = host_sim::dataset::read_dir(&dir)?;
-            // Candidate models fitted, on stderr (hidden when it is not a
-            // terminal).
-            let pb = indicatif::ProgressBar::new(0);
-            pb.set_style(
-                indicatif::ProgressStyle::with_template(
-                    "{spinner} identify: {msg:<32} [{bar:30}] {pos}/{len} models, {elapsed}",
-                )
-                .expect("template")
-                .progress_chars("=> "),
-            );
-            pb.enable_steady_tick(std::time::Duration::from_millis(200));
-            let report = identify::identify_with(&ds, options, &pb);
-            pb.finish_and_clear();
-            let report = report?;
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            let mut md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
-            let mut j = report.json();
-            if predict_paper {
-                let (section, outcomes) = exp::predict_paper(&report.final_fit().params)?;
-                md += "\n";
-                md += &section;
-                j["predictions"] = outcomes
-                    .iter()
-                    .map(|o| {
-                        serde_json::json!({
-                            "id": o.claim.id,
-                            "use": o.claim.role,
-                            "paper": o.claim.value,
-                            "predicted": o.sim,
-                            "unit": o.claim.unit,
-                            "deviation": o.deviation(),
-                            "tolerance": o.claim.tolerance(),
-                            "within": o.within(),
-                        })
-                    })
-                    .collect();
-            }
-            let json = serde_json::to_string_pretty(&j)? + "\n";
-            let temp = || {
-                tempfile::Builder::new()
-                    .prefix(".identify-")
-                    .tempfile_in(&out)
-                    .with_context(|| format!("writing into {}", out.display()))
-            };
-            let (svg_t, json_t, md_t) = (temp()?, temp()?, temp()?);
-            identify::plot(&report, &ds, svg_t.path())?;
-            std::fs::write(json_t.path(), &json)
-                .with_context(|| format!("writing {}", json_t.path().display()))?;
-            std::fs::write(md_t.path(), &md).with_context(|| format!("writing {}", md_t.path().display()))?;
-            // All three are complete: rename them into place, and take the
-            // ones already placed back if a rename fails.
-            let mut placed = vec![];
-            for (t, name) in [svg_t, json_t, md_t].into_iter().zip(REPORTS) {
-                let path = out.join(name);
-                if let Err(e) = t.persist(&path) {
-                    for p in &placed {
-                        let _ = std::fs::remove_file(p);
-                    }
-                    return Err(anyhow::Error::new(e.error).context(format!("writing {}", path.display())));
-                }
-                placed.push(path);
-            }
-            println!("{md}");
-            println!("wrote {}/report.md, report.json, residuals.svg", out.display());
-        }
+        } => identify(&dir, &out, no_sweep, predict_paper)?,
         Cmd::Decode {
             input,
             elf,
             out,
             traces,
             statics,
-        } => {
-            use host_sim::recording;
-            let recs = recording::read(&input, elf.as_deref())?;
-            let w = recording::write_dataset(&out, &recs, &recording::Roles { traces, statics })?;
-            println!(
-                "{} records → {} trace files ({} rows), {} fragments (runs shorter than a trace), {} calibration points, {} faults in {}",
-                recs.len(),
-                w.traces.len(),
-                w.rows,
-                w.fragments.len(),
-                w.calibration_points,
-                w.faults,
-                out.display()
-            );
-        }
+        } => decode(
+            &input,
+            elf.as_deref(),
+            &out,
+            host_sim::recording::Roles { traces, statics },
+        )?,
         Cmd::Residual {
             dir,
             model,
             raw_calibration,
-        } => {
-            let ds = host_sim::dataset::read_dir(&dir)?;
-            let b = host_sim::baseline::Baseline::from_calibration(&ds.calibration, model, !raw_calibration)?;
-            println!("electrode resistance: {}\n", ds.calibration.resistance);
-            println!("| trace | rows | residual RMS | max | noise floor | RMS / noise |");
-            println!("|---|---:|---:|---:|---:|---:|");
-            for r in host_sim::baseline::residuals(&ds, &b) {
+        } => residual(&dir, model, raw_calibration)?,
+        Cmd::Trace(t) => trace(t)?,
+    }
+    Ok(())
+}
+
+/// `model`: what a series Cs–Rs meter reads on a line of `r` and `c`, per
+/// model and frequency, as a table or CSV.
+fn model_table(r: f64, c: f64, f: &[f64], models: &[LineModel], csv: bool) -> Result<()> {
+    if csv {
+        println!("model,freq_hz,x,cs_pf,rs_ohm,d,cs_error_pct");
+    } else {
+        println!("line: R = {}, C = {}", si::fmt(r, "Ω"), si::fmt(c, "F"));
+        println!(
+            "{:<14} {:>11} {:>8} {:>11} {:>11} {:>8} {:>9}",
+            "model", "f", "ωRC", "Cs", "Rs", "D", "Cs/C−1"
+        );
+    }
+    for &fh in f {
+        for &m in models {
+            let rd = meter::read(m, r, c, fh)?;
+            let (cs, rs) = (rd.series.cs_farad as f64, rd.series.rs_ohm as f64);
+            let d = rd.series.dissipation(fh as f32);
+            let err = 100.0 * (cs / c - 1.0);
+            if csv {
                 println!(
-                    "| {} | {} | {:.3} pF | {:.3} pF | {:.3} pF | {:.2} |",
-                    r.file,
-                    r.n,
-                    r.rms_pf,
-                    r.max_pf,
-                    r.noise_pf,
-                    r.rms_pf / r.noise_pf
+                    "{},{fh},{:.6},{:.4},{:.1},{d:.6},{err:.4}",
+                    model_name(m),
+                    rd.x,
+                    cs * 1e12,
+                    rs
                 );
-            }
-        }
-        Cmd::Trace {
-            profile,
-            duration,
-            f,
-            meter,
-            out,
-            seed,
-            effects,
-        } => {
-            let mut points = vec![];
-            let p = parse_profile(&profile, &mut points)?;
-            let m = match meter.as_str() {
-                "adc" => Meter::ADC,
-                "lcr" => Meter::lcr(&effects.0),
-                other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
-            };
-            anyhow::ensure!(
-                duration > 0.0 && duration <= MAX_TRACE_S,
-                "--duration must be within 0..{MAX_TRACE_S} s (the simulated sensor steps by 1 ms)"
-            );
-            anyhow::ensure!((100.0..=50e3).contains(&f), "--f must be within 100 Hz..50 kHz");
-            let params = exp::with_effects(effects.0);
-            let mut s = Sensor::settled(params);
-            let setup = chain::Setup {
-                freq_hz: f,
-                meter: m,
-                model: LineModel::Continuous,
-                prior_farad: exp::rest_calibration(params),
-                seed,
-                lead_ratio: params.effects.statics().lead_ratio(),
-            };
-            let rs = chain::run(&mut s, &p, setup, 0.0, duration, |_| {});
-            match out {
-                Some(path) => {
-                    exp::write_trace(&path, &rs, true)?;
-                    println!("wrote {} readings to {}", rs.len(), path.display());
-                }
-                None => exp::write_trace_to(std::io::stdout().lock(), &rs, true)?,
+            } else {
+                println!(
+                    "{:<14} {:>11} {:>8.4} {:>11} {:>11} {:>8.4} {:>8.3}%",
+                    model_name(m),
+                    si::fmt(fh, "Hz"),
+                    rd.x,
+                    si::fmt(cs, "F"),
+                    si::fmt(rs, "Ω"),
+                    d,
+                    err
+                );
             }
         }
     }
     Ok(())
+}
+
+/// `invert`: the line behind one series reading.
+fn invert(cs: f64, rs: f64, f: f64, model: LineModel, c_hint: Option<f64>) -> Result<()> {
+    let line = meter::invert(model, cs, rs, f, c_hint)?;
+    println!("model: {}", model_name(model));
+    println!("C   = {}", si::fmt(line.c_farad as f64, "F"));
+    println!(
+        "R   = {}  (top + bottom electrode)",
+        si::fmt(line.r_ohm as f64, "Ω")
+    );
+    println!("ωRC = {:.5}", line.x);
+    Ok(())
+}
+
+/// `decode`: a firmware recording to a data set.
+fn decode(input: &Path, elf: Option<&Path>, out: &Path, roles: host_sim::recording::Roles) -> Result<()> {
+    use host_sim::recording;
+    let recs = recording::read(input, elf)?;
+    let w = recording::write_dataset(out, &recs, &roles)?;
+    println!(
+        "{} records → {} trace files ({} rows), {} fragments (runs shorter than a trace), {} calibration points, {} faults in {}",
+        recs.len(),
+        w.traces.len(),
+        w.rows,
+        w.fragments.len(),
+        w.calibration_points,
+        w.faults,
+        out.display()
+    );
+    Ok(())
+}
+
+/// `residual`: the baseline's residual per trace.
+fn residual(dir: &Path, model: LineModel, raw_calibration: bool) -> Result<()> {
+    let ds = host_sim::dataset::read_dir(dir)?;
+    let b = host_sim::baseline::Baseline::from_calibration(&ds.calibration, model, !raw_calibration)?;
+    println!("electrode resistance: {}\n", ds.calibration.resistance);
+    println!("| trace | rows | residual RMS | max | noise floor | RMS / noise |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in host_sim::baseline::residuals(&ds, &b) {
+        println!(
+            "| {} | {} | {:.3} pF | {:.3} pF | {:.3} pF | {:.2} |",
+            r.file,
+            r.n,
+            r.rms_pf,
+            r.max_pf,
+            r.noise_pf,
+            r.rms_pf / r.noise_pf
+        );
+    }
+    Ok(())
+}
+
+/// `identify`: the reports of what the residual says the model lacks,
+/// written all or none.
+fn identify(dir: &Path, out: &Path, no_sweep: bool, predict_paper: bool) -> Result<()> {
+    use host_sim::identify;
+    let options = identify::Options {
+        sweep: !no_sweep,
+        ..Default::default()
+    };
+    // A failed run leaves no reports: none from an earlier run
+    // that would pass for this one's, and no half-written ones.
+    const REPORTS: [&str; 3] = ["residuals.svg", "report.json", "report.md"];
+    for name in REPORTS {
+        let path = out.join(name);
+        if path.is_file() {
+            std::fs::remove_file(&path).with_context(|| format!("removing the old {}", path.display()))?;
+        }
+    }
+    let ds = host_sim::dataset::read_dir(dir)?;
+    let pb = identify_progress();
+    let report = identify::identify_with(&ds, options, &pb);
+    pb.finish_and_clear();
+    let report = report?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut md = report.markdown(&dir.display().to_string(), Some("residuals.svg"));
+    let mut j = report.json();
+    if predict_paper {
+        let (section, outcomes) = exp::predict_paper(&report.final_fit().params)?;
+        md += "\n";
+        md += &section;
+        j["predictions"] = outcomes.iter().map(prediction_json).collect();
+    }
+    let json = serde_json::to_string_pretty(&j)? + "\n";
+    let temp = || {
+        tempfile::Builder::new()
+            .prefix(".identify-")
+            .tempfile_in(out)
+            .with_context(|| format!("writing into {}", out.display()))
+    };
+    let (svg_t, json_t, md_t) = (temp()?, temp()?, temp()?);
+    identify::plot(&report, &ds, svg_t.path())?;
+    std::fs::write(json_t.path(), &json).with_context(|| format!("writing {}", json_t.path().display()))?;
+    std::fs::write(md_t.path(), &md).with_context(|| format!("writing {}", md_t.path().display()))?;
+    // All three are complete: rename them into place, and take the
+    // ones already placed back if a rename fails.
+    let mut placed = vec![];
+    for (t, name) in [svg_t, json_t, md_t].into_iter().zip(REPORTS) {
+        let path = out.join(name);
+        if let Err(e) = t.persist(&path) {
+            for p in &placed {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(anyhow::Error::new(e.error).context(format!("writing {}", path.display())));
+        }
+        placed.push(path);
+    }
+    println!("{md}");
+    println!("wrote {}/report.md, report.json, residuals.svg", out.display());
+    Ok(())
+}
+
+/// `trace`: the simulated sensor along a profile, read by a meter.
+fn trace(t: TraceArgs) -> Result<()> {
+    let TraceArgs {
+        profile,
+        duration,
+        f,
+        meter,
+        out,
+        seed,
+        effects,
+    } = t;
+    let mut points = vec![];
+    let p = parse_profile(&profile, &mut points)?;
+    let m = match meter.as_str() {
+        "adc" => Meter::ADC,
+        "lcr" => Meter::lcr(&effects.0),
+        other => anyhow::bail!("--meter '{other}': expected 'adc' or 'lcr'"),
+    };
+    anyhow::ensure!(
+        duration > 0.0 && duration <= MAX_TRACE_S,
+        "--duration must be within 0..{MAX_TRACE_S} s (the simulated sensor steps by 1 ms)"
+    );
+    anyhow::ensure!((100.0..=50e3).contains(&f), "--f must be within 100 Hz..50 kHz");
+    let params = exp::with_effects(effects.0);
+    let mut s = Sensor::settled(params);
+    let setup = chain::Setup {
+        freq_hz: f,
+        meter: m,
+        model: LineModel::Continuous,
+        prior_farad: exp::rest_calibration(params),
+        seed,
+        lead_ratio: params.effects.statics().lead_ratio(),
+    };
+    let rs = chain::run(&mut s, &p, setup, 0.0, duration, |_| {});
+    match out {
+        Some(path) => {
+            exp::write_trace(&path, &rs, true)?;
+            println!("wrote {} readings to {}", rs.len(), path.display());
+        }
+        None => exp::write_trace_to(std::io::stdout().lock(), &rs, true)?,
+    }
+    Ok(())
+}
+
+/// The progress of `identify`'s candidate models, on stderr (hidden when
+/// it is not a terminal).
+fn identify_progress() -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(0);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} identify: {msg:<32} [{bar:30}] {pos}/{len} models, {elapsed}",
+        )
+        .expect("template")
+        .progress_chars("=> "),
+    );
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb
+}
+
+/// One of the paper's claims as `identify --predict-paper` predicts it, for
+/// `report.json`.
+fn prediction_json(o: &exp::Outcome) -> serde_json::Value {
+    serde_json::json!({
+        "id": o.claim.id,
+        "use": o.claim.role,
+        "paper": o.claim.value,
+        "predicted": o.sim,
+        "unit": o.claim.unit,
+        "deviation": o.deviation(),
+        "tolerance": o.claim.tolerance(),
+        "within": o.within(),
+    })
 }

@@ -8,9 +8,11 @@
 //! ([`Owned`]), so that no task reaches a peripheral through a raw
 //! pointer or `steal()`.
 
+#[cfg(target_os = "none")]
+use super::clocks;
 use super::pac;
 use super::scan::Adcs;
-use super::{clocks, watchdog};
+use super::watchdog;
 
 /// The independent watchdog, owned by the task that proves the chain is
 /// alive.

@@ -463,11 +463,7 @@ pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
 pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> Result<Report> {
     progress.set_message("baseline");
     let prep = Prepared::new(ds, options.sweep)?;
-    let rows: usize = prep
-        .files
-        .iter()
-        .map(|f| f.used.iter().filter(|u| **u).count())
-        .sum();
+    let rows = used_rows(&prep);
     anyhow::ensure!(rows > 0, "the data set has no trace or sweep rows to explain");
     // Baselines, unweighted first, to estimate the noise.
     let mut baselines = vec![];
@@ -477,107 +473,8 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             .with_context(|| format!("baseline, {line}"))?;
         baselines.push((line, pred));
     }
-    // Noise per trace from the continuous baseline's residual; the sweep
-    // (a smooth curve over frequency, few points) takes the traces' median.
-    let resid0: Vec<Vec<f64>> = prep
-        .files
-        .iter()
-        .zip(&baselines[0].1)
-        .map(|(f, p)| f.cs.iter().zip(p).map(|(m, p)| m - p).collect())
-        .collect();
-    let raw: Vec<f64> = prep
-        .files
-        .iter()
-        .zip(&resid0)
-        .map(|(f, r)| {
-            if f.kind == Kind::Trace {
-                noise_sigma(r)
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    let usable = |v: f64| v.is_finite() && v > 0.0;
-    // A file whose every row states its uncertainty (cs_sigma_pf) is
-    // weighted by it; the others by their measured noise floor.
-    let declared: Vec<bool> = prep
-        .files
-        .iter()
-        .map(|f| !f.sigma.is_empty() && f.sigma.iter().all(|&s| usable(s)))
-        .collect();
-    let mut trace_noise: Vec<f64> = raw.iter().copied().filter(|&v| usable(v)).collect();
-    trace_noise.sort_by(f64::total_cmp);
-    // The noise floor is measured on the traces (point-to-point scatter)
-    // or stated row by row; without either there is nothing to judge a
-    // fit against, and a made-up floor would make any fit look explained
-    // or not at will.
-    let median = trace_noise.get(trace_noise.len() / 2).copied();
-    // Each file's σ: stated row by row (None), or its noise floor.
-    let mut file_sigma: Vec<Option<f64>> = vec![];
-    for ((f, &v), &d) in prep.files.iter().zip(&raw).zip(&declared) {
-        file_sigma.push(if d {
-            None
-        } else {
-            let sigma = if usable(v) {
-                v
-            } else {
-                median.with_context(|| {
-                    format!(
-                        "{}: no trace with a measurable noise floor, and no stated uncertainty (cs_sigma_pf) on every row (a set of calibration and sweep points alone cannot tell an effect from noise): record at least one trace_*.csv of {} rows or more, or state each point's uncertainty; `residual` still compares the points with the baseline",
-                        f.name,
-                        crate::model::prepared::MIN_TRACE_ROWS
-                    )
-                })?
-            };
-            Some(sigma)
-        });
-    }
-    let weights = |prep: &Prepared| -> Vec<Vec<f64>> {
-        prep.files
-            .iter()
-            .zip(&file_sigma)
-            .map(|(f, s)| match s {
-                Some(s) => vec![1.0 / s; f.cs.len()],
-                None => f.sigma.iter().map(|s| 1.0 / s).collect(),
-            })
-            .collect()
-    };
-    let w = weights(&prep);
-    let row_sigma = |f: &crate::model::File, w: &[f64]| -> (f64, usize) {
-        let (mut ss, mut n) = (0.0, 0usize);
-        for (w, _) in w.iter().zip(&f.used).filter(|x| *x.1) {
-            ss += 1.0 / (w * w);
-            n += 1;
-        }
-        (ss, n)
-    };
-    let noise_floor_pf = (prep
-        .files
-        .iter()
-        .zip(&w)
-        .map(|(f, w)| row_sigma(f, w).0)
-        .sum::<f64>()
-        / rows as f64)
-        .sqrt();
-    let noise_pf: Vec<(String, f64)> = prep
-        .files
-        .iter()
-        .zip(&w)
-        .map(|(f, w)| {
-            let (ss, n) = row_sigma(f, w);
-            (f.name.clone(), (ss / n.max(1) as f64).sqrt())
-        })
-        .collect();
-    let all_declared = declared.iter().all(|&d| d);
-    let problem = |line, averaging| Problem {
-        prep: &prep,
-        line,
-        averaging,
-        w: w.clone(),
-        rows,
-        declared: all_declared,
-        stated: declared.clone(),
-    };
+    let weighting = Weighting::measure(&prep, &baselines[0].1)?;
+    let problem = |line, averaging| weighting.problem(&prep, line, averaging);
     let fits: Vec<Fit> = baselines
         .iter()
         .map(|(line, pred)| {
@@ -586,12 +483,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             Ok(p.fit_of(vec![], Params::NONE, vec![], ev))
         })
         .collect::<Result<_>>()?;
-    // The sensor is a continuous film: the continuous line is the base
-    // that effects are added to; the paper's n = 30 ladder is reported as
-    // its approximation.
-    let base = fits[0].clone();
-    // Explained: within the factor of the noise as the model sees it.
-    let explained = |f: &Fit| f.rms_pf <= options.explained * f.noise_pf;
+    let (noise_floor_pf, noise_pf) = weighting.floors(&prep, rows);
     let mut report = Report {
         baselines: fits,
         noise_pf,
@@ -609,59 +501,79 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             .collect(),
         resistance: resistance_of(ds),
         search: prep.search,
-        left_out: prep
-            .files
-            .iter()
-            .filter(|f| f.kind == Kind::Trace)
-            .map(|f| {
-                let start = f.used.iter().take_while(|u| !**u).count();
-                let end = f.used.iter().rev().take_while(|u| !**u).count();
-                (f.name.clone(), start, end)
-            })
-            .filter(|x| x.1 + x.2 > 0)
-            .collect(),
+        left_out: left_out(&prep),
         options,
     };
-    if explained(&base) {
+    // The sensor is a continuous film: the continuous line is the base
+    // that effects are added to; the paper's n = 30 ladder is reported as
+    // its approximation.
+    let base = report.baselines[0].clone();
+    if options.explains(&base) {
         return Ok(report);
     }
-    // Every single effect, in parallel; the recording's time effects only
-    // where there is a trace for them to act on.
-    let traces = prep.files.iter().any(|f| f.kind == Kind::Trace);
-    let library: Vec<Effect> = Effect::library()
-        .filter(|e| traces || e.info().entry != instrument::effects::Entry::Time)
-        .collect();
-    let problems = [
-        problem(base.line, Averaging::Admittance),
-        problem(base.line, Averaging::Readings),
-    ];
     // The grids run on a copy of the traces decimated to COARSE_ROWS rows
     // each; Levenberg–Marquardt refines on all rows.
     let coarse_prep = Prepared::with_max_rows(ds, options.sweep, COARSE_ROWS)?;
-    let coarse_w = weights(&coarse_prep);
-    let coarse_rows = coarse_prep
-        .files
+    let averagings = [Averaging::Admittance, Averaging::Readings];
+    let selection = Selection {
+        problems: averagings.map(|a| problem(base.line, a)),
+        coarse: averagings.map(|a| weighting.problem(&coarse_prep, base.line, a)),
+        library: library(&prep),
+        row_s: row_interval(&prep),
+        progress,
+    };
+    selection.select(&base, &mut report);
+    Ok(report)
+}
+
+impl Options {
+    /// Explained: within the factor of the noise as the model sees it.
+    fn explains(&self, f: &Fit) -> bool {
+        f.rms_pf <= self.explained * f.noise_pf
+    }
+
+    /// `big` beats `small` by the BIC margin.
+    fn strong(&self, big: &Fit, small: &Fit) -> bool {
+        small.bic - big.bic > self.bic_margin
+    }
+}
+
+/// Rows that enter the statistics, over all files.
+fn used_rows(prep: &Prepared) -> usize {
+    prep.files
         .iter()
         .map(|f| f.used.iter().filter(|u| **u).count())
-        .sum();
-    let coarse_problem = |averaging| Problem {
-        prep: &coarse_prep,
-        line: base.line,
-        averaging,
-        w: coarse_w.clone(),
-        rows: coarse_rows,
-        declared: all_declared,
-        stated: declared.clone(),
-    };
-    let coarse = [
-        coarse_problem(Averaging::Admittance),
-        coarse_problem(Averaging::Readings),
-    ];
-    progress.set_message("single effects");
-    // The row interval the time kernels are resolved against: the
-    // shortest trace's median step (after decimation).
-    let row_s = prep
-        .files
+        .sum()
+}
+
+/// Per trace: the rows left out at its start and end (their reading could
+/// reach outside the recording).
+fn left_out(prep: &Prepared) -> Vec<(String, usize, usize)> {
+    prep.files
+        .iter()
+        .filter(|f| f.kind == Kind::Trace)
+        .map(|f| {
+            let start = f.used.iter().take_while(|u| !**u).count();
+            let end = f.used.iter().rev().take_while(|u| !**u).count();
+            (f.name.clone(), start, end)
+        })
+        .filter(|x| x.1 + x.2 > 0)
+        .collect()
+}
+
+/// The library's effects this data set can show: the recording's time
+/// effects only where there is a trace for them to act on.
+fn library(prep: &Prepared) -> Vec<Effect> {
+    let traces = prep.files.iter().any(|f| f.kind == Kind::Trace);
+    Effect::library()
+        .filter(|e| traces || e.info().entry != instrument::effects::Entry::Time)
+        .collect()
+}
+
+/// The row interval the time kernels are resolved against: the shortest
+/// trace's median step (after decimation).
+fn row_interval(prep: &Prepared) -> f64 {
+    prep.files
         .iter()
         .filter(|f| f.kind == Kind::Trace)
         .map(|f| {
@@ -669,55 +581,187 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             d.sort_by(f64::total_cmp);
             d.get(d.len() / 2).copied().unwrap_or(0.0)
         })
-        .fold(f64::INFINITY, f64::min);
-    // Fits the data vouch for, best BIC first, then the rest.
-    let order = |v: &mut Vec<Fit>| {
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// How each file's rows are weighted: by the σ its rows state
+/// (`cs_sigma_pf`), or by its noise floor.
+struct Weighting {
+    /// Per file: every row states its σ.
+    declared: Vec<bool>,
+    /// Per file: its noise floor, pF (None: its rows state their σ).
+    file_sigma: Vec<Option<f64>>,
+}
+
+impl Weighting {
+    /// Each file's noise floor from the continuous baseline's residual
+    /// (`baseline`, pF per file and row); the sweep (a smooth curve over
+    /// frequency, few points) takes the traces' median.
+    fn measure(prep: &Prepared, baseline: &[Vec<f64>]) -> Result<Self> {
+        let raw: Vec<f64> = prep
+            .files
+            .iter()
+            .zip(baseline)
+            .map(|(f, p)| {
+                let r: Vec<f64> = f.cs.iter().zip(p).map(|(m, p)| m - p).collect();
+                if f.kind == Kind::Trace {
+                    noise_sigma(&r)
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        let usable = |v: f64| v.is_finite() && v > 0.0;
+        let declared: Vec<bool> = prep
+            .files
+            .iter()
+            .map(|f| !f.sigma.is_empty() && f.sigma.iter().all(|&s| usable(s)))
+            .collect();
+        let mut trace_noise: Vec<f64> = raw.iter().copied().filter(|&v| usable(v)).collect();
+        trace_noise.sort_by(f64::total_cmp);
+        // The noise floor is measured on the traces (point-to-point
+        // scatter) or stated row by row; without either there is nothing
+        // to judge a fit against, and a made-up floor would make any fit
+        // look explained or not at will.
+        let median = trace_noise.get(trace_noise.len() / 2).copied();
+        let mut file_sigma = vec![];
+        for ((f, &v), &d) in prep.files.iter().zip(&raw).zip(&declared) {
+            file_sigma.push(match (d, usable(v)) {
+                (true, _) => None,
+                (false, true) => Some(v),
+                (false, false) => Some(median.with_context(|| {
+                    format!(
+                        "{}: no trace with a measurable noise floor, and no stated uncertainty (cs_sigma_pf) on every row (a set of calibration and sweep points alone cannot tell an effect from noise): record at least one trace_*.csv of {} rows or more, or state each point's uncertainty; `residual` still compares the points with the baseline",
+                        f.name,
+                        crate::model::prepared::MIN_TRACE_ROWS
+                    )
+                })?),
+            });
+        }
+        Ok(Self { declared, file_sigma })
+    }
+
+    /// 1/σ per file and row of `prep`.
+    fn weights(&self, prep: &Prepared) -> Vec<Vec<f64>> {
+        prep.files
+            .iter()
+            .zip(&self.file_sigma)
+            .map(|(f, s)| match s {
+                Some(s) => vec![1.0 / s; f.cs.len()],
+                None => f.sigma.iter().map(|s| 1.0 / s).collect(),
+            })
+            .collect()
+    }
+
+    /// The fitting problem of `line` on `prep` with these weights.
+    fn problem<'a>(&self, prep: &'a Prepared, line: Line, averaging: Averaging) -> Problem<'a> {
+        Problem {
+            prep,
+            line,
+            averaging,
+            w: self.weights(prep),
+            rows: used_rows(prep),
+            declared: self.declared.iter().all(|&d| d),
+            stated: self.declared.clone(),
+        }
+    }
+
+    /// The noise floor over all `rows` used rows, and per file, pF.
+    fn floors(&self, prep: &Prepared, rows: usize) -> (f64, Vec<(String, f64)>) {
+        let w = self.weights(prep);
+        // Σσ² and the count over a file's used rows.
+        let row_sigma = |f: &crate::model::File, w: &[f64]| -> (f64, usize) {
+            let (mut ss, mut n) = (0.0, 0usize);
+            for (w, _) in w.iter().zip(&f.used).filter(|x| *x.1) {
+                ss += 1.0 / (w * w);
+                n += 1;
+            }
+            (ss, n)
+        };
+        let total = prep
+            .files
+            .iter()
+            .zip(&w)
+            .map(|(f, w)| row_sigma(f, w).0)
+            .sum::<f64>();
+        let per_file = prep
+            .files
+            .iter()
+            .zip(&w)
+            .map(|(f, w)| {
+                let (ss, n) = row_sigma(f, w);
+                (f.name.clone(), (ss / n.max(1) as f64).sqrt())
+            })
+            .collect();
+        ((total / rows as f64).sqrt(), per_file)
+    }
+}
+
+/// The forward search of the library: every single effect, then the
+/// pairs with the best one.
+struct Selection<'a, 'p> {
+    /// The full problem, averaging the admittance and the readings.
+    problems: [Problem<'a>; 2],
+    /// The same on the coarse copy (the grids).
+    coarse: [Problem<'a>; 2],
+    library: Vec<Effect>,
+    row_s: f64,
+    progress: &'p ProgressBar,
+}
+
+impl Selection<'_, '_> {
+    /// Candidates `base` fitted, fits the data vouch for first, best BIC
+    /// first.
+    fn fitted(&self, base: Option<&Fit>) -> Vec<Fit> {
+        let mut v = run_candidates(
+            &self.problems,
+            &self.coarse,
+            candidates(&self.library, base),
+            self.row_s,
+            self.progress,
+        );
         v.sort_by(|a, b| {
             (a.unresolved.is_some(), a.bic)
                 .partial_cmp(&(b.unresolved.is_some(), b.bic))
                 .unwrap_or(std::cmp::Ordering::Equal)
-        })
-    };
-    let mut singles = run_candidates(&problems, &coarse, candidates(&library, None), row_s, progress);
-    order(&mut singles);
-    report.singles = singles;
-    let Some(best) = report.singles.first().filter(|f| f.unresolved.is_none()).cloned() else {
-        report.unexplained = true;
-        return Ok(report);
-    };
-    let strong = |big: &Fit, small: &Fit| small.bic - big.bic > options.bic_margin;
-    if strong(&best, &base) && explained(&best) {
-        report.accepted = Some(best);
-        return Ok(report);
+        });
+        v
     }
-    // A kernel shorter than the rows resolve, only where no model they
-    // do resolve explains the data (a delay would have, if it were one).
-    if let Some(k) = report
-        .singles
-        .iter()
-        .find(|f| f.unresolved.is_some() && strong(f, &base) && explained(f))
-    {
-        report.accepted = Some(k.clone());
-        return Ok(report);
-    }
-    if options.max_effects >= 2 && strong(&best, &base) {
-        progress.set_message(format!("pairs with {}", best.label()));
-        let mut pairs = run_candidates(
-            &problems,
-            &coarse,
-            candidates(&library, Some(&best)),
-            row_s,
-            progress,
-        );
-        order(&mut pairs);
-        report.pairs = pairs;
-        if let Some(bp) = report.pairs.first().filter(|f| f.unresolved.is_none()) {
-            if strong(bp, &best) && explained(bp) {
-                report.accepted = Some(bp.clone());
-                return Ok(report);
+
+    /// Model selection from the baseline `base`: the accepted model in
+    /// `report`, or `unexplained`.
+    fn select(&self, base: &Fit, report: &mut Report) {
+        let options = report.options;
+        self.progress.set_message("single effects");
+        report.singles = self.fitted(None);
+        let Some(best) = report.singles.first().filter(|f| f.unresolved.is_none()).cloned() else {
+            report.unexplained = true;
+            return;
+        };
+        if options.strong(&best, base) && options.explains(&best) {
+            report.accepted = Some(best);
+            return;
+        }
+        // A kernel shorter than the rows resolve, only where no model they
+        // do resolve explains the data (a delay would have, if it were one).
+        if let Some(k) = report
+            .singles
+            .iter()
+            .find(|f| f.unresolved.is_some() && options.strong(f, base) && options.explains(f))
+        {
+            report.accepted = Some(k.clone());
+            return;
+        }
+        if options.max_effects >= 2 && options.strong(&best, base) {
+            self.progress.set_message(format!("pairs with {}", best.label()));
+            report.pairs = self.fitted(Some(&best));
+            if let Some(bp) = report.pairs.first().filter(|f| f.unresolved.is_none()) {
+                if options.strong(bp, &best) && options.explains(bp) {
+                    report.accepted = Some(bp.clone());
+                    return;
+                }
             }
         }
+        report.unexplained = true;
     }
-    report.unexplained = true;
-    Ok(report)
 }

@@ -73,49 +73,35 @@ pub fn params_text(f: &Fit) -> String {
         .join(", ")
 }
 
+/// A fit's parameters and their 1σ, keyed by the catalogue's report keys,
+/// in display units.
+fn fit_json(
+    f: &Fit,
+) -> (
+    serde_json::Map<String, serde_json::Value>,
+    serde_json::Map<String, serde_json::Value>,
+) {
+    use serde_json::json;
+    let params = f
+        .fitted
+        .iter()
+        .map(|&e| (e.info().key.to_string(), json!(e.info().display(f.params.get(e)))))
+        .collect();
+    let sigma = f
+        .fitted
+        .iter()
+        .zip(&f.sigma)
+        .map(|(&e, s)| (e.info().key.to_string(), json!(e.info().display(*s))))
+        .collect();
+    (params, sigma)
+}
+
 impl Report {
     /// The JSON report.
     pub fn json(&self) -> serde_json::Value {
         use serde_json::json;
-        let fit_json = |f: &Fit| {
-            let params: serde_json::Map<String, serde_json::Value> = f
-                .fitted
-                .iter()
-                .map(|&e| (e.info().key.to_string(), json!(e.info().display(f.params.get(e)))))
-                .collect();
-            let sigma: serde_json::Map<String, serde_json::Value> = f
-                .fitted
-                .iter()
-                .zip(&f.sigma)
-                .map(|(&e, s)| (e.info().key.to_string(), json!(e.info().display(*s))))
-                .collect();
-            (params, sigma)
-        };
         let fin = self.final_fit();
-        let effects: Vec<serde_json::Value> = self
-            .accepted
-            .iter()
-            .flat_map(|f| {
-                let (params, sigma) = fit_json(f);
-                f.effects.iter().map(move |&e| {
-                    let own = f.params_of(e);
-                    let pick = |m: &serde_json::Map<String, serde_json::Value>| {
-                        own.iter()
-                            .map(|p| (p.info().key.to_string(), m[p.info().key].clone()))
-                            .collect::<serde_json::Map<_, _>>()
-                    };
-                    json!({
-                        "id": e.id(),
-                        "params": pick(&params),
-                        "uncertainty": pick(&sigma),
-                        "static": e.is_static(),
-                        "at_limit": own.iter().any(|&p| at_limit(&f.search, p, f.params.get(p))),
-                        "averaging": f.averaging.filter(|_| !e.is_static()),
-                        "rms_pf_after": f.rms_pf,
-                    })
-                })
-            })
-            .collect();
+        let effects = self.effects_json();
         let stats = |f: &Fit| {
             json!({
                 "model": f.label(),
@@ -126,24 +112,7 @@ impl Report {
                 "files": f.files,
             })
         };
-        let candidates: Vec<serde_json::Value> = self
-            .singles
-            .iter()
-            .chain(&self.pairs)
-            .map(|f| {
-                let (params, sigma) = fit_json(f);
-                json!({
-                    "ids": f.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
-                    "params": params, "uncertainty": sigma,
-                    "averaging": f.averaging,
-                    "unresolved": f.unresolved,
-                    "at_limit": f.fitted.iter().filter(|&&e| at_limit(&f.search, e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
-                    "rms_pf": f.rms_pf, "noise_pf": f.noise_pf, "bic": f.bic,
-                    "identifiability": f.identifiability(),
-                    "delta_bic": f.bic - self.baseline().bic,
-                })
-            })
-            .collect();
+        let candidates = self.candidates_json();
         json!({
             "baseline": stats(self.baseline()),
             "baselines": self.baselines.iter().map(stats).collect::<Vec<_>>(),
@@ -173,6 +142,58 @@ impl Report {
                 "bic_margin": self.options.bic_margin,
             },
         })
+    }
+
+    /// Each accepted effect with its parameters and their 1σ, for the
+    /// JSON report.
+    fn effects_json(&self) -> Vec<serde_json::Value> {
+        use serde_json::json;
+        self.accepted
+            .iter()
+            .flat_map(|f| {
+                let (params, sigma) = fit_json(f);
+                f.effects.iter().map(move |&e| {
+                    let own = f.params_of(e);
+                    let pick = |m: &serde_json::Map<String, serde_json::Value>| {
+                        own.iter()
+                            .map(|p| (p.info().key.to_string(), m[p.info().key].clone()))
+                            .collect::<serde_json::Map<_, _>>()
+                    };
+                    json!({
+                        "id": e.id(),
+                        "params": pick(&params),
+                        "uncertainty": pick(&sigma),
+                        "static": e.is_static(),
+                        "at_limit": own.iter().any(|&p| at_limit(&f.search, p, f.params.get(p))),
+                        "averaging": f.averaging.filter(|_| !e.is_static()),
+                        "rms_pf_after": f.rms_pf,
+                    })
+                })
+            })
+            .collect()
+    }
+
+    /// Every candidate fitted, for the JSON report.
+    fn candidates_json(&self) -> Vec<serde_json::Value> {
+        use serde_json::json;
+        self
+            .singles
+            .iter()
+            .chain(&self.pairs)
+            .map(|f| {
+                let (params, sigma) = fit_json(f);
+                json!({
+                    "ids": f.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
+                    "params": params, "uncertainty": sigma,
+                    "averaging": f.averaging,
+                    "unresolved": f.unresolved,
+                    "at_limit": f.fitted.iter().filter(|&&e| at_limit(&f.search, e, f.params.get(e))).map(|e| e.info().key).collect::<Vec<_>>(),
+                    "rms_pf": f.rms_pf, "noise_pf": f.noise_pf, "bic": f.bic,
+                    "identifiability": f.identifiability(),
+                    "delta_bic": f.bic - self.baseline().bic,
+                })
+            })
+            .collect()
     }
 
     /// The noise floor seen through the accepted model, or through the
@@ -223,21 +244,9 @@ impl Report {
         }
     }
 
-    /// The markdown report; `plot` is the residual figure's file name.
-    pub fn markdown(&self, data: &str, plot: Option<&str>) -> String {
+    /// The error before and after, per file and overall.
+    fn errors_md(&self, md: &mut String) {
         use std::fmt::Write as _;
-        let mut md = format!("# identify: {data}\n\n**{}**\n\n", self.verdict());
-        // What the data cannot pin down, of the model found (or tried).
-        if let Some(x) = self.accepted.as_ref().or(self.best_attempt()) {
-            let notes = x.identifiability();
-            if !notes.is_empty() {
-                let _ = writeln!(md, "Identifiability ({}):\n", x.label());
-                for n in notes {
-                    let _ = writeln!(md, "- {n}");
-                }
-                md.push('\n');
-            }
-        }
         let b = self.baseline();
         let f = self.final_fit();
         let _ = writeln!(md, "## Error before and after\n");
@@ -268,6 +277,13 @@ impl Report {
             "| **all** | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} pF | {:.3} % | {:.3} % |\n",
             self.noise_floor_pf, b.rms_pf, b.max_pf, f.rms_pf, f.max_pf, b.rms_pct, f.rms_pct
         );
+        self.coverage_md(md);
+    }
+
+    /// What the statistics cover: decimated traces, the time effects'
+    /// search, the rows left out.
+    fn coverage_md(&self, md: &mut String) {
+        use std::fmt::Write as _;
         for (file, n, k) in &self.decimated {
             let _ = writeln!(
                 md,
@@ -302,9 +318,12 @@ impl Report {
                 files.join(", ")
             );
         }
-        if let Some(p) = plot {
-            let _ = writeln!(md, "![residual before and after]({p})\n");
-        }
+    }
+
+    /// The baselines and every candidate fitted.
+    fn models_md(&self, md: &mut String) {
+        use std::fmt::Write as _;
+        let b = self.baseline();
         let _ = writeln!(
             md,
             "## Baselines\n\n| model | RMS | max | BIC |\n|---|---:|---:|---:|"
@@ -336,6 +355,28 @@ impl Report {
                 );
             }
         }
+    }
+
+    /// The markdown report; `plot` is the residual figure's file name.
+    pub fn markdown(&self, data: &str, plot: Option<&str>) -> String {
+        use std::fmt::Write as _;
+        let mut md = format!("# identify: {data}\n\n**{}**\n\n", self.verdict());
+        // What the data cannot pin down, of the model found (or tried).
+        if let Some(x) = self.accepted.as_ref().or(self.best_attempt()) {
+            let notes = x.identifiability();
+            if !notes.is_empty() {
+                let _ = writeln!(md, "Identifiability ({}):\n", x.label());
+                for n in notes {
+                    let _ = writeln!(md, "- {n}");
+                }
+                md.push('\n');
+            }
+        }
+        self.errors_md(&mut md);
+        if let Some(p) = plot {
+            let _ = writeln!(md, "![residual before and after]({p})\n");
+        }
+        self.models_md(&mut md);
         md
     }
 }

@@ -44,6 +44,7 @@
 //! | [`search`] | the ranges searched on a data set: the time effects' as far as its traces hold |
 //! | `timed` | the meter's averaging and offset on a trace |
 
+mod file;
 mod line;
 pub mod prepared;
 pub mod search;

@@ -19,7 +19,7 @@
 //! the rows at a trace's ends whose reading could reach past the
 //! recording are left out of the statistics ([`super::search`]).
 
-use super::prepared::File;
+use super::file::File;
 use super::{Effect, Model, Params};
 use crate::numerics::interp;
 use num_complex::Complex64;
@@ -83,6 +83,7 @@ pub(super) fn timed(
         Averaging::Readings => y.re * 1e12,
     };
     if window <= 1e-9 && tau <= 1e-9 {
+        // An offset alone: the model at t + δ directly.
         return file
             .t
             .iter()
@@ -113,20 +114,7 @@ pub(super) fn timed(
         (j, u - j as f64)
     };
     if window > 1e-9 {
-        // Cumulative integral: trapezoids with the four-point cubic end
-        // correction −h/24·(y[j+2] − y[j+1] − y[j] + y[j−1]).
-        let mut cum = Vec::with_capacity(m);
-        let mut acc = Complex64::default();
-        cum.push(acc);
-        for j in 1..m {
-            let (a, b) = (j - 1, j);
-            let mut seg = 0.5 * h * (grid[a] + grid[b]);
-            if a >= 1 && b + 1 < m {
-                seg -= h / 24.0 * (grid[b + 1] - grid[b] - grid[a] + grid[a - 1]);
-            }
-            acc += seg;
-            cum.push(acc);
-        }
+        let cum = cumulative(&grid, h);
         // Integral over [lo, x]: cum at the left node plus the partial
         // trapezoid of the linear segment.
         let integral = |x: f64| {
@@ -157,6 +145,26 @@ pub(super) fn timed(
         return first_order(&windowed, tau, h, node, file, offset, reading);
     }
     first_order(&grid, tau, h, node, file, offset, reading)
+}
+
+/// The cumulative integral of the samples `grid` (spacing `h`) from its
+/// first node: trapezoids with the four-point cubic end correction
+/// −h/24·(y[j+2] − y[j+1] − y[j] + y[j−1]).
+fn cumulative(grid: &[Complex64], h: f64) -> Vec<Complex64> {
+    let m = grid.len();
+    let mut cum = Vec::with_capacity(m);
+    let mut acc = Complex64::default();
+    cum.push(acc);
+    for j in 1..m {
+        let (a, b) = (j - 1, j);
+        let mut seg = 0.5 * h * (grid[a] + grid[b]);
+        if a >= 1 && b + 1 < m {
+            seg -= h / 24.0 * (grid[b + 1] - grid[b] - grid[a] + grid[a - 1]);
+        }
+        acc += seg;
+        cum.push(acc);
+    }
+    cum
 }
 
 /// The first-order response (time constant `tau`, s) of the samples

@@ -1,0 +1,214 @@
+//! Writing a recording as a data set: traces per moving channel and
+//! frequency, fragments, the calibration from the static channels, and
+//! the faults ([the format](../../../docs/data-format.md)).
+
+use super::{Rec, Roles, Truth, STATIC_SPREAD_MM};
+use crate::model::prepared::MIN_TRACE_ROWS;
+use anyhow::{bail, Context, Result};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// What [`write_dataset`] wrote.
+#[derive(Clone, Debug, Default)]
+pub struct Written {
+    /// Trace files.
+    pub traces: Vec<PathBuf>,
+    /// Fragment files (runs too short for a trace).
+    pub fragments: Vec<PathBuf>,
+    /// Trace rows in all.
+    pub rows: usize,
+    /// Calibration points.
+    pub calibration_points: usize,
+    /// Records listed in `faults.csv`.
+    pub faults: usize,
+}
+
+/// Write `recs` as a data set in `dir` (see the module documentation).
+pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut channels: BTreeMap<u8, Vec<&Rec>> = BTreeMap::new();
+    for r in recs {
+        channels.entry(r.channel).or_default().push(r);
+    }
+    let truth = recs.iter().any(|r| r.truth.is_some());
+    let mut out = Written {
+        faults: write_faults(dir, recs)?,
+        ..Written::default()
+    };
+    let statics: Vec<(u8, &[&Rec])> = channels
+        .iter()
+        .filter(|(&ch, rs)| roles.is_static(ch, rs))
+        .map(|(&ch, rs)| (ch, rs.as_slice()))
+        .collect();
+    out.calibration_points = write_calibration(dir, &statics, truth)?;
+    let mut groups: BTreeMap<(u8, u64), Vec<&Rec>> = BTreeMap::new();
+    for (&ch, rs) in &channels {
+        if roles.is_trace(ch, rs) {
+            for r in rs.iter().filter(|r| r.measured()) {
+                groups.entry((ch, r.freq_hz.round() as u64)).or_default().push(r);
+            }
+        }
+    }
+    for ((ch, f), rs) in groups {
+        let kind = if rs.len() >= MIN_TRACE_ROWS {
+            "trace"
+        } else {
+            "fragment"
+        };
+        let path = dir.join(format!("{kind}_ch{ch}_{f}hz.csv"));
+        write_trace(&path, ch, f, &rs, truth)?;
+        if kind == "trace" {
+            out.rows += rs.len();
+            out.traces.push(path);
+        } else {
+            out.fragments.push(path);
+        }
+    }
+    Ok(out)
+}
+
+impl Roles {
+    /// Is channel `ch` (records `rs`) a calibration point?
+    fn is_static(&self, ch: u8, rs: &[&Rec]) -> bool {
+        match &self.statics {
+            Some(list) => list.contains(&ch),
+            // A channel with no valid record has no stretch to judge (its
+            // records are all in faults.csv).
+            None => stretch_spread(rs) < STATIC_SPREAD_MM,
+        }
+    }
+
+    /// Are channel `ch`'s records (`rs`) traces?
+    fn is_trace(&self, ch: u8, rs: &[&Rec]) -> bool {
+        match &self.traces {
+            Some(list) => list.contains(&ch),
+            None => !self.is_static(ch, rs),
+        }
+    }
+}
+
+/// The spread of the stretch over the valid records, mm (NaN if none).
+fn stretch_spread(rs: &[&Rec]) -> f64 {
+    let s = rs.iter().filter(|r| r.valid()).map(|r| r.stretch());
+    let (lo, hi) = s.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if lo <= hi {
+        hi - lo
+    } else {
+        f64::NAN
+    }
+}
+
+/// `faults.csv`: every record flagged invalid. Returns how many.
+fn write_faults(dir: &Path, recs: &[Rec]) -> Result<usize> {
+    let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
+    writeln!(faults, "time_s,channel,freq_hz,flags")?;
+    let mut n = 0;
+    for r in recs.iter().filter(|r| !r.valid()) {
+        writeln!(faults, "{:.6},{},{},{}", r.t_s, r.channel, r.freq_hz, r.flags.0)?;
+        n += 1;
+    }
+    faults.flush()?;
+    Ok(n)
+}
+
+/// `calibration.csv`: one point per static channel, the mean of its valid
+/// records at the frequency it was read at most. Returns how many.
+fn write_calibration(dir: &Path, statics: &[(u8, &[&Rec])], truth: bool) -> Result<usize> {
+    let mut cal = std::io::BufWriter::new(std::fs::File::create(dir.join("calibration.csv"))?);
+    writeln!(
+        cal,
+        "# firmware recording: each static channel's valid records at its most used frequency, averaged"
+    )?;
+    let rcols = if truth {
+        "r_top_ohm,r_bottom_ohm"
+    } else {
+        "r_line_ohm"
+    };
+    writeln!(cal, "stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}")?;
+    for &(ch, rs) in statics {
+        let good: Vec<&&Rec> = rs.iter().filter(|r| r.valid() && r.measured()).collect();
+        let mut count: BTreeMap<u64, usize> = BTreeMap::new();
+        for r in &good {
+            *count.entry(r.freq_hz.to_bits()).or_default() += 1;
+        }
+        let Some((&f, _)) = count.iter().max_by_key(|(_, n)| **n) else {
+            bail!("static channel {ch} has no valid record");
+        };
+        let at: Vec<&&&Rec> = good.iter().filter(|r| r.freq_hz.to_bits() == f).collect();
+        let n = at.len() as f64;
+        let mean = |g: &dyn Fn(&Rec) -> f64| at.iter().map(|r| g(r)).sum::<f64>() / n;
+        let r_text = if truth {
+            let t = |g: fn(&Truth) -> f64| mean(&|r: &Rec| r.truth.as_ref().map_or(f64::NAN, g));
+            format!("{:.0},{:.0}", t(|t| t.r_top_ohm), t(|t| t.r_bottom_ohm))
+        } else {
+            format!("{:.0}", mean(&|r| r.r_ohm))
+        };
+        writeln!(
+            cal,
+            "{:.4},{},{:.4},{:.0},{r_text}",
+            mean(&|r| r.stretch()),
+            f64::from_bits(f),
+            mean(&|r| r.cs_pf),
+            mean(&|r| r.rs_ohm)
+        )?;
+    }
+    cal.flush()?;
+    Ok(statics.len())
+}
+
+/// One trace (or fragment) file: channel `ch`'s records `rs` at `f` Hz,
+/// with the rig's view where the recording has truth lines.
+fn write_trace(path: &Path, ch: u8, f: u64, rs: &[&Rec], truth: bool) -> Result<()> {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    if truth {
+        writeln!(
+            w,
+            "# firmware channel {ch} at {f} Hz; stretch and electrode resistances from the rig (simulated truth)"
+        )?;
+        writeln!(w, "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,r_line_ohm,flags,c_true_pf,r_true_ohm,stretch_true_mm")?;
+    } else {
+        writeln!(
+            w,
+            "# firmware channel {ch} at {f} Hz; stretch from the firmware's calibration, resistance its line estimate"
+        )?;
+        writeln!(
+            w,
+            "time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,flags"
+        )?;
+    }
+    for r in rs {
+        match r.truth {
+            Some(t) if truth => writeln!(
+                w,
+                "{:.6},{:.4},{:.0},{:.0},{},{:.4},{:.0},{:.4},{:.0},{},{:.4},{:.0},{:.4}",
+                r.t_s,
+                t.stretch_mm,
+                t.r_top_ohm,
+                t.r_bottom_ohm,
+                r.freq_hz,
+                r.cs_pf,
+                r.rs_ohm,
+                r.c_pf,
+                r.r_ohm,
+                r.flags.0,
+                t.c_pf,
+                t.r_ohm,
+                t.stretch_mm
+            )?,
+            None if truth => bail!(
+                "record of channel {ch} at {:.6} s has no truth line where the others have one",
+                r.t_s
+            ),
+            _ => writeln!(
+                w,
+                "{:.6},{:.4},{:.0},{},{:.4},{:.0},{:.4},{}",
+                r.t_s, r.stretch_mm, r.r_ohm, r.freq_hz, r.cs_pf, r.rs_ohm, r.c_pf, r.flags.0
+            )?,
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
