@@ -176,3 +176,36 @@ fn identify_writes_all_its_reports_or_none() {
         .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
 }
+
+/// `docs/host-tools.md` shows what sizing a sensor prints.
+#[test]
+fn the_docs_show_what_model_and_invert_print() {
+    let model = [
+        "model",
+        "--r",
+        "700k",
+        "--c",
+        "200p",
+        "--f",
+        "500,6k",
+        "--model",
+        "1,30,continuous",
+    ];
+    let invert = [
+        "invert", "--cs", "134.12p", "--rs", "201.1k", "--f", "6k", "--c-hint", "200p",
+    ];
+    let mut md = String::from("```console\n");
+    for args in [&model[..], &invert[..]] {
+        let (ok, out, err) = run(args);
+        assert!(ok, "{err}");
+        md += &format!(
+            "$ cargo run -q --release -p host-sim -- {}\n{out}",
+            args.join(" ")
+        );
+        if args[0] == "model" {
+            md += "\n";
+        }
+    }
+    md += "```\n";
+    figures::check("docs/host-tools.md", "cli-sizing", &md).unwrap();
+}

@@ -204,3 +204,31 @@ fn the_channel_corrects_the_papers_tab_leads() {
         assert!(a.lumped[2] > 2.0, "{a:?}");
     }
 }
+
+/// `docs/paper.md` shows what `host-sim paper` prints with its defaults
+/// (the paper's sensor, seed 1, two periods), and the README's headline
+/// its accuracy at 2 kHz (the frequency of the paper's undershoots; the
+/// firmware's 1953 Hz).
+#[test]
+fn the_docs_show_what_host_sim_paper_prints() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = Ctx::new(dir.path(), 1).unwrap();
+    c.sensor = skin_sim::sensor::SensorParams::PAPER;
+    let (md, acc) = exp::paper(&c).unwrap();
+    let body = md.split_once("\n\n").map_or(md.as_str(), |(_, b)| b);
+    figures::check("docs/paper.md", "paper-summary", body).unwrap();
+    let a = &acc[1];
+    let line = format!(
+        "- The paper's sensor on its 20 mm/s trapezoid at {:.0} Hz (host-sim: the firmware's channel on a \
+         simulated ADC): a series meter is off by {:.1} % RMS ({:.1} % max); the {} of {} records the \
+         channel vouches for are within {:.2} % RMS ({:.2} % max).\n",
+        a.freq_hz,
+        a.lumped[2],
+        a.lumped[3],
+        a.readings - a.corrected_missing,
+        a.readings,
+        a.corrected[2],
+        a.corrected[3]
+    );
+    figures::check("README.md", "headline-paper", &line).unwrap();
+}

@@ -62,3 +62,28 @@ fn an_undeclared_effect_leaves_a_residual() {
     assert!(c < 1.5, "{c}");
     assert!(p > 5.0, "{p}");
 }
+
+/// `docs/identify.md` shows the example data set's residual per trace,
+/// as `host-sim residual data/example` computes it.
+#[test]
+fn the_docs_show_the_example_data_sets_verdicts() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/example");
+    let ds = read_dir(&dir).unwrap();
+    let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();
+    let raw = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, false).unwrap();
+    let mut md = String::from(
+        "| trace | residual RMS | noise floor | ratio | with the raw calibration (Cs taken as C) |\n\
+         |---|---:|---:|---:|---:|\n",
+    );
+    for (r, w) in residuals(&ds, &b).iter().zip(residuals(&ds, &raw)) {
+        md += &format!(
+            "| `{}` | {:.3} pF | {:.3} pF | {:.2} | {:.1}× the noise |\n",
+            r.file,
+            r.rms_pf,
+            r.noise_pf,
+            r.rms_pf / r.noise_pf,
+            w.rms_pf / w.noise_pf
+        );
+    }
+    figures::check("docs/identify.md", "example-residual", &md).unwrap();
+}

@@ -9,6 +9,7 @@
 
 pub mod records;
 pub mod summary;
+pub mod tables;
 
 use anyhow::{bail, Context, Result};
 use std::io::Read;

@@ -47,6 +47,20 @@ fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
         // Every record has its truth.
         assert!(mine.iter().all(|r| r.truth.is_some()));
     }
+    // The README's headline and the accuracy page show this run's figures.
+    let sensors = qemu_tests::summary::sensors(&recs).unwrap();
+    figures::check(
+        "README.md",
+        "headline-array",
+        &qemu_tests::summary::sensor_headline(&sensors),
+    )
+    .unwrap();
+    figures::check(
+        "docs/accuracy.md",
+        "array-sensors",
+        &qemu_tests::summary::sensor_table(&sensors),
+    )
+    .unwrap();
 }
 
 #[test]

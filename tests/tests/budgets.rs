@@ -23,3 +23,14 @@ fn array_board_image_fits_128k_flash_and_64k_ram() {
     // table (8000 B) and the record queue are static.
     assert!(ram > 20 * 1024 && flash > 32 * 1024, "flash {flash}, RAM {ram}");
 }
+
+#[test]
+fn every_image_is_tabulated() {
+    let table = qemu_tests::tables::image_table().unwrap();
+    assert_eq!(
+        table.lines().count(),
+        2 + qemu_tests::tables::IMAGES.len(),
+        "{table}"
+    );
+    figures::check("docs/benchmarks.md", "images", &table).unwrap();
+}

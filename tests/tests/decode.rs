@@ -6,6 +6,20 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     let (run, recs) = qemu_tests::records::run_scenario("paper").unwrap();
     let run = run.ok().unwrap();
     assert!(recs.len() > 3000, "{} records", recs.len());
+    // The README's headline and the accuracy page show this run's figures.
+    let channels = qemu_tests::summary::channels(&recs);
+    figures::check(
+        "README.md",
+        "headline-multiplexed",
+        &qemu_tests::summary::channel_headline(&channels),
+    )
+    .unwrap();
+    figures::check(
+        "docs/accuracy.md",
+        "firmware-channels",
+        &qemu_tests::summary::channel_table(&channels),
+    )
+    .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let log = tmp.path().join("firmware.log");
     std::fs::write(&log, &run.stdout).unwrap();

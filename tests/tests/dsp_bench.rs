@@ -22,6 +22,19 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
         println!("{name}: {} {} (budget {max})", b.value, b.unit);
         assert!(b.value <= max, "{name}: {} > {max}", b.value);
     }
+    // The benchmark page and the README show this run's counts.
+    figures::check(
+        "docs/benchmarks.md",
+        "bench-m4",
+        &qemu_tests::tables::bench_table(&benches),
+    )
+    .unwrap();
+    figures::check(
+        "README.md",
+        "headline-speed",
+        &qemu_tests::tables::speed_headline(&benches),
+    )
+    .unwrap();
 }
 
 #[test]

@@ -3,13 +3,30 @@
 //! error against the truth. The figures come from `qemu_tests::summary`,
 //! which the QEMU tests check the README and docs against.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use host_sim::plot::{figure, Panel, Series};
 use host_sim::recording::{self, Rec, Roles, ToneRec};
 use qemu_tests::records;
 use qemu_tests::summary::{self, Motion};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// The main job: the multiplexed firmware (`out/firmware`) and the array
+/// (`out/array`) in QEMU, the paper's experiments on the simulated skin
+/// (`out/paper`), then the Cortex-M4 instruction counts.
+pub fn all(root: &Path) -> Result<()> {
+    println!("{}", run(&root.join("out/firmware"))?);
+    println!("{}", run_array(&root.join("out/array"))?);
+    let st = std::process::Command::new(crate::cargo::bin())
+        .args(["run", "--release", "-q", "-p", "host-sim", "--", "paper", "--out"])
+        .arg(root.join("out/paper"))
+        .status()
+        .context("running host-sim")?;
+    if !st.success() {
+        bail!("host-sim paper failed");
+    }
+    crate::bench::cortex_m4()
+}
 
 /// A capacitance-against-time panel: the truth (pF), then `measured`.
 fn c_panel(title: String, truth: Vec<(f64, f64)>, measured: Vec<Series>) -> Panel {

@@ -1,0 +1,198 @@
+//! The benchmark and image-size tables `cargo xtask bench` prints and
+//! `docs/benchmarks.md` shows (checked there by the QEMU tests).
+
+use crate::Bench;
+use anyhow::Result;
+use std::fmt::Write as _;
+
+/// What each instruction-count benchmark of `dsp-bench` measures (names
+/// ending in `_{fn}` for the f32 functions are described by their
+/// prefix).
+pub const BENCH_NOTES: &[(&str, &str)] = &[
+    (
+        "demod_pair",
+        "demodulation, per sample pair (with the moments of the disturbance check)",
+    ),
+    ("demod_block", "demodulation of one 1024-pair block"),
+    ("demod_ratio_error_ppm", "V/I error of our demodulator"),
+    (
+        "idsp_lockin_pair",
+        "quartiq idsp's lock-in on the same block, per pair (the peer)",
+    ),
+    ("idsp_lockin_ratio_error_ppm", "its V/I error"),
+    ("eval_ladder30", "30-element ladder evaluation"),
+    ("eval_continuous", "continuous-line evaluation"),
+    (
+        "invert_continuous",
+        "inversion, continuous line, mean (every line that fits, and κ)",
+    ),
+    ("invert_continuous_worst", "inversion, continuous line, worst"),
+    ("invert_ladder30", "inversion, 30-element ladder, mean"),
+    ("invert_ladder30_worst", "inversion, 30-element ladder, worst"),
+    (
+        "newton_coth",
+        "the peer: f32 libm Newton on Z = γ·coth γ/(jωC), 8 lines",
+    ),
+    ("newton_coth_missed", "lines the Newton peer did not converge on"),
+    ("newton_coth_c_error_ppm", "its C error where it converged"),
+    (
+        "ours_near",
+        "our inversion on the same 8 lines, branch by the expected C",
+    ),
+    ("ours_near_c_error_ppm", "its C error"),
+    ("twotone_solve", "two-tone joint line and χ², mean"),
+    ("twotone_solve_worst", "two-tone joint line and χ², worst"),
+    (
+        "twotone_tracked",
+        "two-tone line from the previous record's, mean",
+    ),
+    (
+        "twotone_tracked_worst",
+        "two-tone line from the previous record's, worst",
+    ),
+    (
+        "block_process",
+        "one multiplexed block: demodulation, checks, inversion, policy, range",
+    ),
+    (
+        "block_load_permille",
+        "its share of a 170 MHz Cortex-M4 over a 5.12 ms block",
+    ),
+    (
+        "reference_rebuild",
+        "the demodulator's references rebuilt at a frequency switch",
+    ),
+    ("array_comb_input", "the comb (5 tones) on one array input"),
+    ("array_channel", "one array sensor's record"),
+    ("array_block", "one array block: 17 inputs and 16 records"),
+    (
+        "array_load_permille",
+        "the array's share of a 170 MHz Cortex-M4 (16 sensors × 250 records/s)",
+    ),
+    (
+        "array_latency_us",
+        "latency from a block's last result to its last record",
+    ),
+    ("micromath_", "micromath's f32 function, per call"),
+    ("libm_", "libm's f32 function, per call"),
+];
+
+/// The note of benchmark `name`.
+pub fn bench_note(name: &str) -> &'static str {
+    BENCH_NOTES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .or_else(|| {
+            BENCH_NOTES
+                .iter()
+                .find(|(n, _)| n.ends_with('_') && name.starts_with(n))
+        })
+        .map_or("", |(_, d)| d)
+}
+
+/// The Markdown table of a `dsp-bench` run, with the budgets the tests
+/// hold.
+pub fn bench_table(benches: &[Bench]) -> String {
+    let mut md = String::from("| benchmark | what | value | budget |\n|---|---|---:|---:|\n");
+    for b in benches {
+        let budget = crate::DSP_BUDGETS
+            .iter()
+            .find(|(n, _)| *n == b.name)
+            .map_or_else(|| "–".to_string(), |(_, v)| format!("≤ {v}"));
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | {} {} | {budget} |",
+            b.name,
+            bench_note(&b.name),
+            b.value,
+            b.unit
+        );
+    }
+    md
+}
+
+/// A firmware image: (binary, feature, what it is, budget of flash and
+/// static RAM in bytes where it has one).
+pub type Image = (&'static str, &'static str, &'static str, Option<(u64, u64)>);
+
+/// The firmware images.
+pub const IMAGES: [Image; 5] = [
+    (
+        "skin-board",
+        "board",
+        "STM32G474, 8 sensors multiplexed",
+        Some(crate::BOARD_BUDGET),
+    ),
+    (
+        "skin-array-board",
+        "board",
+        "STM32G474, 16 sensors at once",
+        Some(crate::ARRAY_BOARD_BUDGET),
+    ),
+    (
+        "skin-qemu",
+        "qemu",
+        "QEMU, multiplexed, with its simulated skin",
+        None,
+    ),
+    (
+        "skin-array",
+        "qemu",
+        "QEMU, the array, with its simulated skin",
+        None,
+    ),
+    (
+        "dsp-bench",
+        "qemu",
+        "QEMU, the instruction-count benchmarks",
+        None,
+    ),
+];
+
+/// KiB with one decimal.
+fn kib(bytes: u64) -> String {
+    format!("{:.1} KiB", bytes as f64 / 1024.0)
+}
+
+/// Build every image (release) and tabulate its flash and static RAM.
+pub fn image_table() -> Result<String> {
+    let mut md = String::from("| image | what | flash | static RAM | budget |\n|---|---|---:|---:|---:|\n");
+    for (bin, feature, what, budget) in IMAGES {
+        let elf = crate::build_firmware(bin, &[feature])?;
+        let (flash, ram) = crate::image_size(&elf)?;
+        let budget = budget.map_or_else(|| "–".to_string(), |(f, r)| format!("{} / {}", kib(f), kib(r)));
+        let _ = writeln!(
+            md,
+            "| `{bin}` | {what} | {} | {} | {budget} |",
+            kib(flash),
+            kib(ram)
+        );
+    }
+    Ok(md)
+}
+
+/// The README's headline line on speed, from a `dsp-bench` run.
+pub fn speed_headline(benches: &[Bench]) -> String {
+    let get = |n: &str| benches.iter().find(|b| b.name == n).map_or(f64::NAN, |b| b.value);
+    format!(
+        "- Cortex-M4 at 170 MHz (instruction counts in QEMU): the array's 16 sensors × 250 records/s take \
+         {:.1} % of the CPU; a multiplexed block {:.1} %; demodulation {} instructions per sample pair \
+         (quartiq idsp's lock-in: {}).\n",
+        get("array_load_permille") / 10.0,
+        get("block_load_permille") / 10.0,
+        get("demod_pair"),
+        get("idsp_lockin_pair"),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn notes_cover_names_and_prefixes() {
+        assert!(bench_note("demod_pair").starts_with("demodulation"));
+        assert!(bench_note("libm_exp").starts_with("libm"));
+        assert_eq!(bench_note("no_such_bench"), "");
+    }
+}

@@ -1,0 +1,36 @@
+//! Running cargo and system commands, each printed before it runs.
+
+use anyhow::{bail, Context, Result};
+use std::path::Path;
+use std::process::Command;
+
+/// The cargo that runs xtask.
+pub fn bin() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+}
+
+/// `cargo ARGS` in `dir`, with `envs`; an error if it fails.
+pub fn run_env(dir: &Path, args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
+    let shown: Vec<String> = envs.iter().map(|(k, v)| format!("{k}={v} ")).collect();
+    eprintln!(
+        "$ (cd {}) {}cargo {}",
+        dir.display(),
+        shown.concat(),
+        args.join(" ")
+    );
+    let st = Command::new(bin())
+        .current_dir(dir)
+        .args(args)
+        .envs(envs.iter().copied())
+        .status()
+        .context("running cargo")?;
+    if !st.success() {
+        bail!("cargo {} failed", args.join(" "));
+    }
+    Ok(())
+}
+
+/// `cargo ARGS` in `dir`; an error if it fails.
+pub fn run(dir: &Path, args: &[&str]) -> Result<()> {
+    run_env(dir, args, &[])
+}

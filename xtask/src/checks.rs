@@ -1,0 +1,132 @@
+//! `cargo xtask test`: every check CI runs, in the order that fails
+//! cheapest first.
+
+use crate::cargo;
+use anyhow::Result;
+use std::path::Path;
+
+/// The host crates rustdoc checks.
+const DOC_CRATES: [&str; 7] = [
+    "dsp-core",
+    "instrument",
+    "skin-sim",
+    "host-sim",
+    "rig-sim",
+    "qemu-tests",
+    "figures",
+];
+
+/// Everything: formatting, lints, docs, host tests, cross builds, the
+/// board images and the QEMU tests (which run with the host tests).
+pub fn all(root: &Path) -> Result<()> {
+    format(root)?;
+    lint(root)?;
+    docs(root)?;
+    // Host tests in release: the Monte-Carlo and sweep tests are large;
+    // overflow checks stay on through the dev-profile run of the
+    // fixed-point unit tests below. The QEMU tests are in this run.
+    cargo::run(root, &["test", "--release", "--workspace"])?;
+    cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
+    cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
+    // dsp-core on every core we support: M4F (DSP + FPU) and M3.
+    for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
+        cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
+    }
+    board(root)
+}
+
+/// `cargo fmt --check` on both workspaces.
+fn format(root: &Path) -> Result<()> {
+    cargo::run(root, &["fmt", "--all", "--check"])?;
+    cargo::run(&root.join("firmware"), &["fmt", "--all", "--check"])
+}
+
+/// clippy with warnings as errors: the host crates with all their
+/// targets; the firmware's images for the target, and its library with
+/// its tests on the host (the board's register tests), for each feature.
+fn lint(root: &Path) -> Result<()> {
+    cargo::run(root, &["clippy", "--all-targets", "--", "-D", "warnings"])?;
+    let fw = root.join("firmware");
+    let t = qemu_tests::TARGET;
+    cargo::run(
+        &fw,
+        &[
+            "clippy",
+            "--release",
+            "--target",
+            t,
+            "--bins",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    )?;
+    for feature in ["qemu", "board"] {
+        cargo::run(
+            &fw,
+            &[
+                "clippy",
+                "--release",
+                "--target",
+                t,
+                "--bins",
+                "--features",
+                feature,
+                "--",
+                "-D",
+                "warnings",
+            ],
+        )?;
+        cargo::run(
+            &fw,
+            &[
+                "clippy",
+                "--lib",
+                "--tests",
+                "--features",
+                feature,
+                "--",
+                "-D",
+                "warnings",
+            ],
+        )?;
+    }
+    Ok(())
+}
+
+/// rustdoc on every crate, no warnings, no broken links: the host crates,
+/// and the firmware (library and apps) for each of its images.
+fn docs(root: &Path) -> Result<()> {
+    let deny = [("RUSTDOCFLAGS", "-D warnings")];
+    let mut args = vec!["doc", "--no-deps"];
+    for c in DOC_CRATES {
+        args.extend(["-p", c]);
+    }
+    cargo::run_env(root, &args, &deny)?;
+    for feature in ["qemu", "board"] {
+        cargo::run_env(
+            &root.join("firmware"),
+            &[
+                "doc",
+                "--no-deps",
+                "--release",
+                "--target",
+                qemu_tests::TARGET,
+                "--features",
+                feature,
+            ],
+            &deny,
+        )?;
+    }
+    Ok(())
+}
+
+/// The board images, built through the aliases users flash with
+/// (`flash-board` takes the same arguments): they must build and link
+/// even with no board here; then the board's register tests on the host.
+fn board(root: &Path) -> Result<()> {
+    let fw = root.join("firmware");
+    cargo::run(&fw, &["build-board"])?;
+    cargo::run(&fw, &["build-array-board"])?;
+    cargo::run(&fw, &["test", "--lib", "--features", "board"])
+}

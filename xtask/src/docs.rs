@@ -1,0 +1,60 @@
+//! `cargo xtask docs`: every figure of the README and `docs/`
+//! regenerated. The main job's plots are copied into `docs/`, and each
+//! figure block is rewritten by the test that measures it (the `figures`
+//! crate, `DOCS_UPDATE=1`).
+
+use crate::cargo;
+use anyhow::{Context, Result};
+use std::path::Path;
+
+/// The plots the docs show: (what the main job writes, where the docs
+/// keep it).
+const PLOTS: [(&str, &str); 4] = [
+    ("out/firmware/firmware_paper.svg", "docs/firmware_paper.svg"),
+    ("out/array/array_paper.svg", "docs/array_paper.svg"),
+    ("out/paper/accuracy_20mmps.svg", "docs/accuracy_20mmps.svg"),
+    ("out/paper/fig10_capacitance.svg", "docs/fig10_capacitance.svg"),
+];
+
+/// The test files that hold figure tests: (crate, test file).
+const FILES: [(&str, &str); 7] = [
+    ("qemu-tests", "decode"),
+    ("qemu-tests", "array"),
+    ("qemu-tests", "dsp_bench"),
+    ("qemu-tests", "budgets"),
+    ("host-sim", "paper"),
+    ("host-sim", "residual"),
+    ("host-sim", "cli"),
+];
+
+/// The tests that measure the figures (each checks its blocks).
+const TESTS: [&str; 7] = [
+    "the_main_jobs_recording_decodes",
+    "sixteen_sensors_250_times_a_second",
+    "dsp_kernels_on_cortex_m4_within_budget",
+    "every_image_is_tabulated",
+    "the_docs_show_what_host_sim_paper_prints",
+    "the_docs_show_the_example_data_sets_verdicts",
+    "the_docs_show_what_model_and_invert_print",
+];
+
+/// Run the main job, copy its plots, rewrite the figure blocks.
+pub fn regenerate(root: &Path) -> Result<()> {
+    crate::main_job::all(root)?;
+    for (from, to) in PLOTS {
+        std::fs::copy(root.join(from), root.join(to)).with_context(|| format!("copying {from} to {to}"))?;
+        eprintln!("wrote {to}");
+    }
+    let mut args = vec!["test", "--release"];
+    for (krate, _) in FILES {
+        if !args.contains(&krate) {
+            args.extend(["-p", krate]);
+        }
+    }
+    for (_, file) in FILES {
+        args.extend(["--test", file]);
+    }
+    args.push("--");
+    args.extend(TESTS);
+    cargo::run_env(root, &args, &[(figures::UPDATE_VAR, "1")])
+}
