@@ -1,5 +1,5 @@
 //! Reading measured data sets in the interchange format
-//! (`shared/data-format.md`): CSV with one header row, `#` comments
+//! (`docs/data-format.md`): CSV with one header row, `#` comments
 //! anywhere, columns in any order, unknown columns ignored.
 //!
 //! A reader rejects, naming the file, line and column: a field of a known

@@ -51,6 +51,9 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// One table of bad files, each with the pieces its message must name:
+/// long because the format has that many rules, and one table so that a
+/// rule without a case stands out.
 #[test]
 fn rejections_name_file_line_column_and_reason() {
     let dir = tempfile::tempdir().unwrap();

@@ -179,7 +179,9 @@ impl Effect {
         Effect::ResistanceBulge,
     ];
 
-    /// Its entry in the catalogue.
+    /// Its entry in the catalogue: the catalogue itself, one entry per
+    /// effect, so one long `match` on purpose (an effect is added here and
+    /// nowhere else).
     pub const fn info(self) -> &'static Info {
         match self {
             // Physical range: a clamped or glued tab on a carbon-black

@@ -65,7 +65,7 @@ pub enum Line {
 /// Why a line is not a record or truth line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WireError {
-    /// Neither `rec` nor `truth` (other log output).
+    /// Not a `rec`, `truth` or `tone` line (other log output).
     NotARecord,
     /// The number of fields differs from the format's.
     FieldCount {

@@ -1,5 +1,5 @@
 //! A data set from the bench, in the interchange format
-//! (`shared/data-format.md`): static calibration points at 500 Hz, static
+//! (`docs/data-format.md`): static calibration points at 500 Hz, static
 //! frequency sweeps at three stretches, and traces of the rig's stroke
 //! cycles at two speeds and three frequencies.
 //!
@@ -138,6 +138,10 @@ fn round(v: f64, decimals: i32) -> f64 {
 
 impl Bench {
     /// A trace of `cycle` at `freq_hz`.
+    ///
+    /// One function of about 90 lines on purpose: the film's damage, the
+    /// meter's dynamics and its noise act on the same millisecond samples
+    /// in one loop, the order a bench's instruments see them in.
     pub fn trace(&self, cycle: &Cycle, freq_hz: f64, rng: &mut ChaCha8Rng) -> Vec<Row> {
         let (before, after) = self.meter.reach();
         let t_end = cycle.duration_s();

@@ -13,7 +13,7 @@
 //! | effect shapes | linear and parabolic modes | exponential and sine profiles, per-tab contacts that differ, blocking contacts, Cole–Cole relaxation ([`hidden`]) |
 //!
 //! The only things shared are the interchange format
-//! (`shared/data-format.md`) and the catalogue's effect ids as strings.
+//! (`docs/data-format.md`) and the catalogue's effect ids as strings.
 
 pub mod bench;
 pub mod hidden;

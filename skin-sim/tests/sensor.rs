@@ -46,6 +46,9 @@ fn truth_follows_stretch() {
     assert_eq!(tr.r_top_ohm + tr.r_bottom_ohm, tr.r_line_ohm);
 }
 
+/// Every effect of the catalogue against its physical signature, one
+/// block per effect: long because the catalogue is, and in one place so
+/// that an effect without a signature stands out.
 #[test]
 fn effects_have_their_signatures() {
     let base = SensorParams::REFERENCE;

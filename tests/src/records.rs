@@ -2,15 +2,15 @@
 //! reader (`host_sim::recording`, the same code as `host-sim decode`).
 
 use anyhow::Result;
-pub use host_sim::recording::{Rec, ToneRec, Truth};
+pub use host_sim::recording::{BlockTruth, LoggedRecord, LoggedToneRecord};
 
 /// Build the QEMU firmware, run `scenario`, decode its records.
-pub fn run_scenario(scenario: &str) -> Result<(crate::Run, Vec<Rec>)> {
+pub fn run_scenario(scenario: &str) -> Result<(crate::Run, Vec<LoggedRecord>)> {
     run_scenario_args(&[scenario])
 }
 
 /// [`run_scenario`] with further semihosting arguments after the name.
-pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<Rec>)> {
+pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<LoggedRecord>)> {
     let elf = crate::build_firmware("skin-qemu", &["qemu"])?;
     let run = crate::run_qemu_args(&elf, args, std::time::Duration::from_secs(600))?;
     let lines = host_sim::recording::decode_defmt(&elf, &run.raw)?;
@@ -26,7 +26,7 @@ pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<Rec>)> {
 
 /// Build the array firmware (`skin-array`), run `scenario`, decode its
 /// records.
-pub fn run_array(scenario: &str) -> Result<(crate::Run, Vec<ToneRec>)> {
+pub fn run_array(scenario: &str) -> Result<(crate::Run, Vec<LoggedToneRecord>)> {
     let elf = crate::build_firmware("skin-array", &["qemu"])?;
     let run = crate::run_qemu_args(&elf, &[scenario], std::time::Duration::from_secs(900))?;
     let lines = host_sim::recording::decode_defmt(&elf, &run.raw)?;

@@ -3,7 +3,7 @@
 //! the docs' tables are all written from them (and checked against them
 //! by the QEMU tests, through the `figures` crate).
 
-use crate::records::{Rec, ToneRec};
+use crate::records::{LoggedRecord, LoggedToneRecord};
 use anyhow::{bail, Result};
 use host_sim::numerics::rms_max;
 use instrument::faults::Flags;
@@ -15,7 +15,7 @@ pub const LUMPED_HZ: f64 = 5859.375;
 
 /// What a series meter fixed at [`LUMPED_HZ`] would read on the true
 /// sensor of `r` (its line through its tab leads), pF.
-pub fn lumped(r: &Rec) -> Option<f64> {
+pub fn lumped(r: &LoggedRecord) -> Option<f64> {
     r.truth?.series_meter_pf(LUMPED_HZ)
 }
 
@@ -37,7 +37,7 @@ pub enum Motion {
 }
 
 impl Motion {
-    fn of(recs: &[&Rec]) -> Motion {
+    fn of(recs: &[&LoggedRecord]) -> Motion {
         let s: Vec<(f64, f64)> = recs
             .iter()
             .filter_map(|r| Some((r.t_s, r.truth?.stretch_mm)))
@@ -98,15 +98,15 @@ pub struct ChannelFigures {
 }
 
 /// The figures of every channel of a multiplexed run (`skin-qemu`).
-pub fn channels(recs: &[Rec]) -> Vec<ChannelFigures> {
+pub fn channels(recs: &[LoggedRecord]) -> Vec<ChannelFigures> {
     let mut ids: Vec<u8> = recs.iter().map(|r| r.channel).collect();
     ids.sort_unstable();
     ids.dedup();
     ids.into_iter()
         .map(|ch| {
-            let rs: Vec<&Rec> = recs.iter().filter(|r| r.channel == ch).collect();
-            let valid: Vec<&&Rec> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
-            let err = |r: &&&Rec| r.truth.map_or(f64::NAN, |t| r.c_pf - t.c_pf);
+            let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.channel == ch).collect();
+            let valid: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
+            let err = |r: &&&LoggedRecord| r.truth.map_or(f64::NAN, |t| r.c_pf - t.c_pf);
             let (rms, mx, _) = rms_max(valid.iter().map(err));
             let (rrms, rmx, _) = rms_max(
                 valid
@@ -179,20 +179,20 @@ pub struct SensorFigures {
 }
 
 /// The figures of every sensor of an array run (`skin-array`).
-pub fn sensors(recs: &[ToneRec]) -> Result<Vec<SensorFigures>> {
+pub fn sensors(recs: &[LoggedToneRecord]) -> Result<Vec<SensorFigures>> {
     let mut ids: Vec<u8> = recs.iter().map(|r| r.rec.channel).collect();
     ids.sort_unstable();
     ids.dedup();
     ids.into_iter()
         .map(|s| {
-            let rs: Vec<&ToneRec> = recs.iter().filter(|r| r.rec.channel == s).collect();
+            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s).collect();
             let (Some(first), Some(last)) = (rs.first(), rs.last()) else {
                 bail!("sensor {s}: no records");
             };
             if rs.len() < 2 || last.t_s() <= first.t_s() {
                 bail!("sensor {s}: too few records for a rate");
             }
-            let valid: Vec<&&ToneRec> = rs.iter().filter(|r| r.rec.flags.valid()).collect();
+            let valid: Vec<&&LoggedToneRecord> = rs.iter().filter(|r| r.rec.flags.valid()).collect();
             let (rms, mx, _) = rms_max(valid.iter().filter_map(|r| Some(100.0 * r.c_error()?)));
             let mut tones: Vec<u32> = rs.iter().flat_map(|r| r.rec.f_hz.map(|f| f as u32)).collect();
             tones.sort_unstable();

@@ -3,10 +3,10 @@
 //! model check on undeclared wiring; mains hum.
 
 use instrument::faults::Flags;
-use qemu_tests::records::{run_array, ToneRec};
+use qemu_tests::records::{run_array, LoggedToneRecord};
 
 /// (valid records, RMS and max relative error of C over them).
-fn stats(recs: &[&ToneRec]) -> (usize, f64, f64) {
+fn stats(recs: &[&LoggedToneRecord]) -> (usize, f64, f64) {
     let e: Vec<f64> = recs
         .iter()
         .filter(|r| r.rec.flags.valid())
@@ -26,7 +26,7 @@ fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
     assert!(!run.stdout.contains("drops"), "records dropped");
     let seconds = 10.0;
     for s in 0..16u8 {
-        let mine: Vec<&ToneRec> = recs.iter().filter(|r| r.rec.channel == s).collect();
+        let mine: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s).collect();
         let (valid, rms, max) = stats(&mine);
         let span = mine.last().unwrap().t_s() - mine[0].t_s();
         let rate = (mine.len() - 1) as f64 / span;
@@ -68,7 +68,7 @@ fn the_model_check_tells_undeclared_wiring_from_clean_sensors() {
     let (run, recs) = run_array("check").unwrap();
     run.ok().unwrap();
     for s in 0..16u8 {
-        let mine: Vec<&ToneRec> = recs
+        let mine: Vec<&LoggedToneRecord> = recs
             .iter()
             .filter(|r| r.rec.channel == s && r.rec.chi2 > 0.0)
             .collect();
@@ -88,7 +88,7 @@ fn hum_is_flagged_and_never_passes_as_valid() {
     let (run, recs) = run_array("hum").unwrap();
     run.ok().unwrap();
     for s in 0..16u8 {
-        let during: Vec<&ToneRec> = recs
+        let during: Vec<&LoggedToneRecord> = recs
             .iter()
             .filter(|r| r.rec.channel == s && (1.0..2.0).contains(&r.t_s()))
             .collect();

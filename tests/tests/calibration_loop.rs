@@ -9,11 +9,11 @@ use host_sim::dataset::read_dir;
 use host_sim::identify::{identify, Options};
 use host_sim::model::Effect;
 use host_sim::recording::{write_dataset, Roles};
-use qemu_tests::records::{run_scenario_args, Rec};
+use qemu_tests::records::{run_scenario_args, LoggedRecord};
 
 /// RMS and max of the corrected C against the truth (pF) on the channels'
 /// valid records.
-fn error(recs: &[Rec], channels: &[u8]) -> (f64, f64, usize) {
+fn error(recs: &[LoggedRecord], channels: &[u8]) -> (f64, f64, usize) {
     let e: Vec<f64> = recs
         .iter()
         .filter(|r| channels.contains(&r.channel) && r.valid() && r.c_pf > 0.0)

@@ -3,14 +3,14 @@
 //! `slow`), eight different sensors, faults, panics and hangs.
 
 use instrument::faults::Flags;
-use qemu_tests::records::{run_scenario, Rec};
+use qemu_tests::records::{run_scenario, LoggedRecord};
 use std::time::Duration;
 
-fn channel(recs: &[Rec], ch: u8) -> Vec<Rec> {
+fn channel(recs: &[LoggedRecord], ch: u8) -> Vec<LoggedRecord> {
     recs.iter().filter(|r| r.channel == ch).copied().collect()
 }
 
-fn rel_err(r: &Rec) -> f64 {
+fn rel_err(r: &LoggedRecord) -> f64 {
     let t = r.truth.expect("truth");
     (r.c_pf / t.c_pf - 1.0).abs()
 }
@@ -24,7 +24,7 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     assert!(ch0.len() > 200, "{}", ch0.len());
     // Within 1 % of the truth throughout (only the one-block settling
     // records after a frequency switch carry no value).
-    let measured: Vec<&Rec> = ch0.iter().filter(|r| !r.flags.has(Flags::SETTLING)).collect();
+    let measured: Vec<&LoggedRecord> = ch0.iter().filter(|r| !r.flags.has(Flags::SETTLING)).collect();
     assert!(measured.len() > 9 * ch0.len() / 10);
     for r in &measured {
         assert!(r.valid(), "{r:?}");
@@ -42,7 +42,7 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     assert!(t.c_pf - cs6k > 50.0, "6 kHz lumped {cs6k} vs {}", t.c_pf);
     // ...and raises it again afterwards (during the hold at 30 mm, where
     // the paper's electrodes recover).
-    let hold: Vec<&Rec> = ch0.iter().filter(|r| (2.5..5.0).contains(&r.t_s)).collect();
+    let hold: Vec<&LoggedRecord> = ch0.iter().filter(|r| (2.5..5.0).contains(&r.t_s)).collect();
     assert!(
         hold.iter().any(|r| r.freq_hz > peak.freq_hz),
         "never climbed back"
@@ -64,7 +64,7 @@ fn slow_stretch_keeps_the_high_frequency() {
     // After the first blocks, a 1 mm/s stretch never needs a lower
     // frequency: the policy keeps the one it climbed to (1953 Hz for the
     // paper's cycled electrodes, ωRC ≈ 2.5).
-    let later: Vec<&Rec> = ch0.iter().filter(|r| r.t_s > 0.5).collect();
+    let later: Vec<&LoggedRecord> = ch0.iter().filter(|r| r.t_s > 0.5).collect();
     assert!(later.len() > 100);
     let top = later[0].freq_hz;
     assert!(top > 1900.0, "{:?}", later[0]);
@@ -90,7 +90,7 @@ fn eight_different_sensors_all_reported_none_starved() {
     assert!(lo > 50 && hi - lo <= 1, "{counts:?}");
     for c in 0..8 {
         let ch = channel(&recs, c);
-        let valid: Vec<&Rec> = ch.iter().filter(|r| r.valid()).collect();
+        let valid: Vec<&LoggedRecord> = ch.iter().filter(|r| r.valid()).collect();
         assert!(valid.len() > ch.len() * 9 / 10, "channel {c}");
         let worst = valid.iter().map(|r| rel_err(r)).fold(0.0, f64::max);
         assert!(worst < 0.01, "channel {c}: {worst}");
@@ -106,7 +106,7 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
     assert_eq!(run.stdout.matches("start").count(), 1, "a reset happened");
     for (ch, flag) in [(1u8, Flags::OPEN), (2, Flags::CLIPPED), (3, Flags::RANGE)] {
         let c = channel(&recs, ch);
-        let inside: Vec<&Rec> = c.iter().filter(|r| (1.05..1.95).contains(&r.t_s)).collect();
+        let inside: Vec<&LoggedRecord> = c.iter().filter(|r| (1.05..1.95).contains(&r.t_s)).collect();
         assert!(!inside.is_empty());
         // The fault's flag, or settling right after the switch it caused.
         assert!(
@@ -115,13 +115,13 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
             inside.iter().find(|r| !r.flags.has(flag | Flags::SETTLING))
         );
         assert!(inside.iter().filter(|r| r.flags.has(flag)).count() * 10 >= inside.len() * 8);
-        let before: Vec<&Rec> = c.iter().filter(|r| (0.3..1.0).contains(&r.t_s)).collect();
+        let before: Vec<&LoggedRecord> = c.iter().filter(|r| (0.3..1.0).contains(&r.t_s)).collect();
         assert!(
             before.iter().all(|r| !r.flags.has(flag) && r.valid()),
             "channel {ch} before"
         );
         // The measurement resumes once the fault clears.
-        let after: Vec<&Rec> = c.iter().filter(|r| r.t_s >= 2.8).collect();
+        let after: Vec<&LoggedRecord> = c.iter().filter(|r| r.t_s >= 2.8).collect();
         assert!(
             !after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01),
             "channel {ch} after: {:?}",
@@ -150,7 +150,7 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
         (7, Flags::DISTURBED),
     ] {
         let c = channel(&recs, ch);
-        let inside: Vec<&Rec> = c.iter().filter(|r| (1.0..2.0).contains(&r.t_s)).collect();
+        let inside: Vec<&LoggedRecord> = c.iter().filter(|r| (1.0..2.0).contains(&r.t_s)).collect();
         assert!(inside.len() > 10);
         let wrong_before = c.iter().find(|r| r.t_s < 1.0 && r.t_s > 0.3 && !r.valid());
         assert!(wrong_before.is_none(), "channel {ch} before: {wrong_before:?}");
@@ -160,7 +160,7 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
         if ch != 4 {
             assert!(inside.iter().all(|r| !r.valid()), "channel {ch}");
         }
-        let after: Vec<&Rec> = c.iter().filter(|r| r.t_s >= 2.8).collect();
+        let after: Vec<&LoggedRecord> = c.iter().filter(|r| r.t_s >= 2.8).collect();
         assert!(
             !after.is_empty() && after.iter().all(|r| r.valid() && rel_err(r) < 0.01),
             "channel {ch} after"

@@ -5,7 +5,7 @@
 
 use anyhow::{bail, Context, Result};
 use host_sim::plot::{figure, Panel, Series};
-use host_sim::recording::{self, Rec, Roles, ToneRec};
+use host_sim::recording::{self, LoggedRecord, LoggedToneRecord, Roles};
 use qemu_tests::records;
 use qemu_tests::summary::{self, Motion};
 use std::fmt::Write as _;
@@ -44,9 +44,9 @@ fn c_panel(title: String, truth: Vec<(f64, f64)>, measured: Vec<Series>) -> Pane
 /// A moving channel's two panels: its capacitance (truth, the firmware,
 /// a fixed 6 kHz series meter), and the frequency the firmware chose with
 /// the electrode resistance.
-fn channel_panels(ch: u8, motion: Motion, recs: &[Rec]) -> [Panel; 2] {
-    let rs: Vec<&Rec> = recs.iter().filter(|r| r.channel == ch).collect();
-    let valid: Vec<&&Rec> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
+fn channel_panels(ch: u8, motion: Motion, recs: &[LoggedRecord]) -> [Panel; 2] {
+    let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.channel == ch).collect();
+    let valid: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
     let capacitance = c_panel(
         format!("channel {ch}: capacitance ({motion})"),
         rs.iter().filter_map(|r| Some((r.t_s, r.truth?.c_pf))).collect(),
@@ -146,7 +146,7 @@ pub fn run_array(out: &Path) -> Result<String> {
     let (run, recs) = records::run_array("paper")?;
     let run = run.ok()?;
     std::fs::write(out.join("array.log"), &run.stdout)?;
-    let per_tone: Vec<Rec> = recs.iter().flat_map(ToneRec::per_tone).collect();
+    let per_tone: Vec<LoggedRecord> = recs.iter().flat_map(LoggedToneRecord::per_tone).collect();
     let written = recording::write_dataset(out, &per_tone, &Roles::default())?;
     let figures = summary::sensors(&recs)?;
     let mut tones: Vec<u32> = figures.iter().flat_map(|s| s.tones.iter().copied()).collect();
@@ -165,7 +165,7 @@ pub fn run_array(out: &Path) -> Result<String> {
         .iter()
         .step_by(8)
         .map(|s| {
-            let rs: Vec<&ToneRec> = recs.iter().filter(|r| r.rec.channel == s.sensor).collect();
+            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s.sensor).collect();
             c_panel(
                 format!("sensor {}: capacitance, {:.0} records/s", s.sensor, s.rate),
                 rs.iter().filter_map(|r| Some((r.t_s(), r.truth?.c_pf))).collect(),

@@ -1,23 +1,27 @@
-//! The sensing-skin firmware on the STM32G474 (Nucleo-G474RE).
+//! The multiplexed sensing skin on the STM32G474 (Nucleo-G474RE): eight
+//! sensors read one at a time, each at the frequency its policy picks,
+//! through an auto-ranging transimpedance stage (`docs/firmware.md`).
 //!
-//! Analog front end it expects (see the README and `instrument::design`):
+//! Analog front end it expects (`instrument::design`):
 //! * PA4 (DAC1_OUT1): excitation, 1 V amplitude around 1.65 V, through a
-//!   buffer to the multiplexed sensors' top tab;
+//!   buffer to the selected sensor's top tab;
 //! * PA0 (ADC1_IN1): the excitation as applied (voltage channel);
-//! * PA1 (ADC2_IN2): the inverting transimpedance stage (100 kΩ) on the
-//!   bottom tab, biased at 1.65 V (current channel);
+//! * PA1 (ADC2_IN2): the inverting transimpedance stage on the bottom tab,
+//!   biased at 1.65 V (current channel), its feedback one of
+//!   `design::TIA_RANGES_OHM` through a 4:1 switch;
 //! * PB0, PB1, PB2: address lines A0..A2 of an 8-channel analog
-//!   multiplexer (ADG708 or similar) on both tabs.
+//!   multiplexer (ADG708 or similar) on both tabs; PB5, PB6 the range
+//!   switch's.
 //!
-//! Timing: TIM6 at 200 kHz triggers the DAC and both ADCs (dual regular
-//! simultaneous mode); DMA1 channel 1 moves the packed ADC pairs into a
-//! circular buffer of two slots (64 settling pairs + a 1024-pair block
-//! each), DMA1 channel 2 feeds the DAC from a matching buffer. The half and
-//! full transfer interrupts of channel 1 are the `dma_done` hardware task;
-//! the sequencer (`instrument::sequencer`, the same as in QEMU) says which
-//! slot completed, which channel to select and which frequency to write
-//! into the DAC half just finished. The hardware lives in
-//! `firmware::board` (one module per peripheral).
+//! * `init`: `board::setup` begins (reset cause, watchdog, clocks), the
+//!   DAC's first two slots, `board::front_end::multiplexed`, and
+//!   `board::setup` ends, handing DMA1 and the IWDG to the tasks.
+//! * `dma_done` (DMA1 channel 1's half and full transfer): the
+//!   completion (`board::dma::Completion`), the sequencer's step (which
+//!   slot completed, which channel and range to select, which frequency
+//!   to write into the DAC half just finished), then `process`.
+//! * `process`: the finished half demodulated in place, the channel's
+//!   record logged (defmt over RTT), the watchdog fed.
 #![no_std]
 #![no_main]
 

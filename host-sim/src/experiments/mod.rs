@@ -1,5 +1,5 @@
 //! The paper's experiments on the simulated skin, each writing CSV (the
-//! interchange format of `shared/data-format.md`, plus truth columns the
+//! interchange format of `docs/data-format.md`, plus truth columns the
 //! readers ignore), an SVG figure, and a markdown summary.
 
 mod accuracy;

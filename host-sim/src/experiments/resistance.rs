@@ -4,6 +4,10 @@ use super::*;
 
 /// Fig. 8 and 9: electrode resistance approaching a steady state, and in
 /// steady state at 10 and 20 mm/s.
+///
+/// One function of about 90 lines on purpose: it reads as the paper's two
+/// figures, each a run, its CSV, its rows of the summary and its panel,
+/// in the order the paper gives them.
 pub fn resistance(ctx: &Ctx) -> Result<String> {
     // Fig. 8: a rested sensor cycled at 10 mm/s for 10 minutes.
     let mut s = Sensor::rested(ctx.sensor);

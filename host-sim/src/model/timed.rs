@@ -53,6 +53,11 @@ impl std::fmt::Display for Averaging {
 /// trapezoids for the window, the exact first-order response of the
 /// piecewise-linear samples for τ); with an offset alone, the model at
 /// t + δ directly.
+///
+/// About 90 lines on purpose: the grid, its spacing and its node map are
+/// shared by the instant, windowed and first-order paths; the parts that
+/// stand alone ([`cumulative`], [`first_order`]) are functions of their
+/// own.
 pub(super) fn timed(
     file: &File,
     p: &Params,

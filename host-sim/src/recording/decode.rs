@@ -2,7 +2,7 @@
 //! [`instrument::wire`], from a decoded text log or raw defmt bytes with
 //! the firmware's ELF, each record paired with the truth of its block.
 
-use super::{Rec, ToneRec, Truth};
+use super::{BlockTruth, LoggedRecord, LoggedToneRecord};
 use anyhow::{bail, Context, Result};
 use instrument::wire::{self, Line, WireError};
 use std::collections::BTreeMap;
@@ -65,7 +65,7 @@ fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>> {
 /// Parse record and truth lines (numbered as in their source; other lines
 /// are skipped), pairing each record with the truth line of its block.
 /// `source` names the input in errors.
-pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
+pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<LoggedRecord>> {
     let mut out = vec![];
     let mut truth: BTreeMap<(u64, u8), wire::TruthLine> = BTreeMap::new();
     for item in wire_lines(source, lines) {
@@ -89,12 +89,12 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
                         clip(l)
                     );
                 }
-                if let Some(prev) = out.iter().rev().find(|p: &&Rec| p.channel == r.channel) {
+                if let Some(prev) = out.iter().rev().find(|p: &&LoggedRecord| p.channel == r.channel) {
                     if r.t_us as f64 * 1e-6 <= prev.t_s {
                         bail!("{source}:{n}: channel {} goes back in time", r.channel);
                     }
                 }
-                out.push(Rec {
+                out.push(LoggedRecord {
                     t_s: r.t_us as f64 * 1e-6,
                     channel: r.channel,
                     freq_hz: r.freq_hz as f64,
@@ -117,8 +117,8 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<Rec>> {
 /// its block and sensor. An error names the line and says why: a field
 /// that does not parse, a frequency that is not positive or tones out of
 /// order, a sensor going back in time, a single-tone `rec` line.
-pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRec>> {
-    let mut out: Vec<ToneRec> = vec![];
+pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<LoggedToneRecord>> {
+    let mut out: Vec<LoggedToneRecord> = vec![];
     let mut truth: BTreeMap<(u64, u8), wire::TruthLine> = BTreeMap::new();
     let mut last: BTreeMap<u8, u64> = BTreeMap::new();
     for item in wire_lines(source, lines) {
@@ -149,7 +149,7 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<ToneRe
                 }
                 last.insert(r.channel, r.t_us);
                 let t = truth.remove(&(r.t_us, r.channel)).map(truth_of);
-                out.push(ToneRec { rec: r, truth: t });
+                out.push(LoggedToneRecord { rec: r, truth: t });
             }
         }
     }
@@ -170,8 +170,8 @@ fn wire_lines<'a>(
 }
 
 /// The rig's view of a block, as the reports use it.
-fn truth_of(t: wire::TruthLine) -> Truth {
-    Truth {
+fn truth_of(t: wire::TruthLine) -> BlockTruth {
+    BlockTruth {
         c_pf: t.c_farad as f64 * 1e12,
         r_ohm: t.r_line_ohm as f64,
         stretch_mm: t.stretch_mm as f64,
@@ -190,7 +190,7 @@ fn clip(l: &str) -> String {
 }
 
 /// Read a recording: a decoded text log, or raw defmt bytes with `elf`.
-pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<Rec>> {
+pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<LoggedRecord>> {
     let bytes = read_regular(input, 1 << 30)?;
     let name = input.display().to_string();
     let lines = match elf {
@@ -204,7 +204,7 @@ pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<Rec>> {
     let recs = if array {
         parse_tones(&name, &lines)?
             .iter()
-            .flat_map(ToneRec::per_tone)
+            .flat_map(LoggedToneRecord::per_tone)
             .collect()
     } else {
         parse(&name, &lines)?

@@ -1,7 +1,9 @@
-//! Firmware recordings: the `rec` and `truth` lines of
+//! Firmware recordings: the `rec`, `tone` and `truth` lines of
 //! [`instrument::wire`] (from a decoded log, or raw defmt bytes with the
-//! firmware's ELF) turned into a data set of the interchange format
-//! (`docs/data-format.md`) that `residual` and `identify` read.
+//! firmware's ELF) turned into a data set of the project's format
+//! (`docs/data-format.md`) that `residual` and `identify` read. An array
+//! recording's `tone` record becomes a record per tone
+//! ([`LoggedToneRecord::per_tone`]).
 //!
 //! A data set from a recording:
 //! * `trace_ch{C}_{F}hz.csv`: one file per moving channel and excitation
@@ -40,7 +42,7 @@ pub const STATIC_SPREAD_MM: f64 = 0.5;
 
 /// The simulated truth of one block (QEMU), in the units of the data sets.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Truth {
+pub struct BlockTruth {
     /// True line capacitance, pF.
     pub c_pf: f64,
     /// True line resistance, Ω.
@@ -54,7 +56,7 @@ pub struct Truth {
     pub r_bottom_ohm: f64,
 }
 
-impl Truth {
+impl BlockTruth {
     /// What a series-R-C meter at `f_hz` reads on the true sensor, pF:
     /// its line (`r_ohm`, `c_pf`) through the tab leads and contacts, the
     /// part of the end-to-end resistances outside the line
@@ -74,7 +76,7 @@ impl Truth {
 
 /// One record, with the truth of its block when the recording has one.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Rec {
+pub struct LoggedRecord {
     /// Middle of the block, s since start.
     pub t_s: f64,
     /// Channel.
@@ -94,10 +96,10 @@ pub struct Rec {
     /// Flags.
     pub flags: Flags,
     /// The simulated truth of the same block (QEMU only).
-    pub truth: Option<Truth>,
+    pub truth: Option<BlockTruth>,
 }
 
-impl Rec {
+impl LoggedRecord {
     /// True if C can be trusted.
     pub fn valid(&self) -> bool {
         self.flags.valid()
@@ -122,14 +124,14 @@ impl Rec {
 /// One array record ([`instrument::tones::ToneRecord`]) with the truth of
 /// its block, if the recording has it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ToneRec {
+pub struct LoggedToneRecord {
     /// The record as the firmware wrote it.
     pub rec: instrument::tones::ToneRecord,
     /// The rig's view of its sensor during the block.
-    pub truth: Option<Truth>,
+    pub truth: Option<BlockTruth>,
 }
 
-impl ToneRec {
+impl LoggedToneRecord {
     /// Time of the block's middle, s.
     pub fn t_s(&self) -> f64 {
         self.rec.t_us as f64 * 1e-6
@@ -151,7 +153,7 @@ impl ToneRec {
     /// find what the line lacks: they keep their validity, and the line
     /// the check could not vouch for is left out (C and R 0, "not
     /// available").
-    pub fn per_tone(&self) -> [Rec; 2] {
+    pub fn per_tone(&self) -> [LoggedRecord; 2] {
         let r = &self.rec;
         let model = r.flags.has(Flags::MODEL);
         let flags = Flags(r.flags.0 & !Flags::MODEL);
@@ -161,7 +163,7 @@ impl ToneRec {
         };
         core::array::from_fn(|k| {
             let lumped = dsp_core::lumped::SeriesRc::from_impedance(r.z[k], r.f_hz[k]).ok();
-            Rec {
+            LoggedRecord {
                 t_s: self.t_s(),
                 channel: r.channel,
                 freq_hz: r.f_hz[k] as f64,
@@ -243,12 +245,12 @@ mod tests {
             (712e3, 210.0, 5859.375),
             (2.8e6, 230.0, 1953.125),
         ] {
-            let t = Truth {
+            let t = BlockTruth {
                 c_pf: c,
                 r_ohm: r,
                 r_top_ohm: r / 2.0,
                 r_bottom_ohm: r / 2.0,
-                ..Truth::default()
+                ..BlockTruth::default()
             };
             let z = LineModel::Continuous
                 .impedance(r as f32, (c * 1e-12) as f32, f as f32)
@@ -258,14 +260,14 @@ mod tests {
             assert!((got - cs).abs() < 1e-4 * c, "{got} vs {cs}");
             // Leads of 1.8× the line: in series, the imaginary part (and
             // so Cs) is the line's.
-            let leads = Truth {
+            let leads = BlockTruth {
                 r_top_ohm: 1.4 * r,
                 r_bottom_ohm: 1.4 * r,
                 ..t
             };
             assert!((leads.series_meter_pf(f).unwrap() - got).abs() < 1e-9 * c);
         }
-        assert_eq!(Truth::default().series_meter_pf(1e3), None);
+        assert_eq!(BlockTruth::default().series_meter_pf(1e3), None);
     }
 
     #[test]

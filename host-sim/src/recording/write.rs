@@ -2,7 +2,7 @@
 //! frequency, fragments, the calibration from the static channels, and
 //! the faults ([the format](../../../docs/data-format.md)).
 
-use super::{Rec, Roles, Truth, STATIC_SPREAD_MM};
+use super::{BlockTruth, LoggedRecord, Roles, STATIC_SPREAD_MM};
 use crate::model::prepared::MIN_TRACE_ROWS;
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;
@@ -25,9 +25,9 @@ pub struct Written {
 }
 
 /// Write `recs` as a data set in `dir` (see the module documentation).
-pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written> {
+pub fn write_dataset(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Written> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut channels: BTreeMap<u8, Vec<&Rec>> = BTreeMap::new();
+    let mut channels: BTreeMap<u8, Vec<&LoggedRecord>> = BTreeMap::new();
     for r in recs {
         channels.entry(r.channel).or_default().push(r);
     }
@@ -36,13 +36,13 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
         faults: write_faults(dir, recs)?,
         ..Written::default()
     };
-    let statics: Vec<(u8, &[&Rec])> = channels
+    let statics: Vec<(u8, &[&LoggedRecord])> = channels
         .iter()
         .filter(|(&ch, rs)| roles.is_static(ch, rs))
         .map(|(&ch, rs)| (ch, rs.as_slice()))
         .collect();
     out.calibration_points = write_calibration(dir, &statics, truth)?;
-    let mut groups: BTreeMap<(u8, u64), Vec<&Rec>> = BTreeMap::new();
+    let mut groups: BTreeMap<(u8, u64), Vec<&LoggedRecord>> = BTreeMap::new();
     for (&ch, rs) in &channels {
         if roles.is_trace(ch, rs) {
             for r in rs.iter().filter(|r| r.measured()) {
@@ -70,7 +70,7 @@ pub fn write_dataset(dir: &Path, recs: &[Rec], roles: &Roles) -> Result<Written>
 
 impl Roles {
     /// Is channel `ch` (records `rs`) a calibration point?
-    fn is_static(&self, ch: u8, rs: &[&Rec]) -> bool {
+    fn is_static(&self, ch: u8, rs: &[&LoggedRecord]) -> bool {
         match &self.statics {
             Some(list) => list.contains(&ch),
             // A channel with no valid record has no stretch to judge (its
@@ -80,7 +80,7 @@ impl Roles {
     }
 
     /// Are channel `ch`'s records (`rs`) traces?
-    fn is_trace(&self, ch: u8, rs: &[&Rec]) -> bool {
+    fn is_trace(&self, ch: u8, rs: &[&LoggedRecord]) -> bool {
         match &self.traces {
             Some(list) => list.contains(&ch),
             None => !self.is_static(ch, rs),
@@ -89,7 +89,7 @@ impl Roles {
 }
 
 /// The spread of the stretch over the valid records, mm (NaN if none).
-fn stretch_spread(rs: &[&Rec]) -> f64 {
+fn stretch_spread(rs: &[&LoggedRecord]) -> f64 {
     let s = rs.iter().filter(|r| r.valid()).map(|r| r.stretch());
     let (lo, hi) = s.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
         (a.min(v), b.max(v))
@@ -102,7 +102,7 @@ fn stretch_spread(rs: &[&Rec]) -> f64 {
 }
 
 /// `faults.csv`: every record flagged invalid. Returns how many.
-fn write_faults(dir: &Path, recs: &[Rec]) -> Result<usize> {
+fn write_faults(dir: &Path, recs: &[LoggedRecord]) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
     writeln!(faults, "time_s,channel,freq_hz,flags")?;
     let mut n = 0;
@@ -116,7 +116,7 @@ fn write_faults(dir: &Path, recs: &[Rec]) -> Result<usize> {
 
 /// `calibration.csv`: one point per static channel, the mean of its valid
 /// records at the frequency it was read at most. Returns how many.
-fn write_calibration(dir: &Path, statics: &[(u8, &[&Rec])], truth: bool) -> Result<usize> {
+fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool) -> Result<usize> {
     let mut cal = std::io::BufWriter::new(std::fs::File::create(dir.join("calibration.csv"))?);
     writeln!(
         cal,
@@ -129,7 +129,7 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&Rec])], truth: bool) -> Resu
     };
     writeln!(cal, "stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}")?;
     for &(ch, rs) in statics {
-        let good: Vec<&&Rec> = rs.iter().filter(|r| r.valid() && r.measured()).collect();
+        let good: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.measured()).collect();
         let mut count: BTreeMap<u64, usize> = BTreeMap::new();
         for r in &good {
             *count.entry(r.freq_hz.to_bits()).or_default() += 1;
@@ -137,11 +137,12 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&Rec])], truth: bool) -> Resu
         let Some((&f, _)) = count.iter().max_by_key(|(_, n)| **n) else {
             bail!("static channel {ch} has no valid record");
         };
-        let at: Vec<&&&Rec> = good.iter().filter(|r| r.freq_hz.to_bits() == f).collect();
+        let at: Vec<&&&LoggedRecord> = good.iter().filter(|r| r.freq_hz.to_bits() == f).collect();
         let n = at.len() as f64;
-        let mean = |g: &dyn Fn(&Rec) -> f64| at.iter().map(|r| g(r)).sum::<f64>() / n;
+        let mean = |g: &dyn Fn(&LoggedRecord) -> f64| at.iter().map(|r| g(r)).sum::<f64>() / n;
         let r_text = if truth {
-            let t = |g: fn(&Truth) -> f64| mean(&|r: &Rec| r.truth.as_ref().map_or(f64::NAN, g));
+            let t =
+                |g: fn(&BlockTruth) -> f64| mean(&|r: &LoggedRecord| r.truth.as_ref().map_or(f64::NAN, g));
             format!("{:.0},{:.0}", t(|t| t.r_top_ohm), t(|t| t.r_bottom_ohm))
         } else {
             format!("{:.0}", mean(&|r| r.r_ohm))
@@ -161,7 +162,7 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&Rec])], truth: bool) -> Resu
 
 /// One trace (or fragment) file: channel `ch`'s records `rs` at `f` Hz,
 /// with the rig's view where the recording has truth lines.
-fn write_trace(path: &Path, ch: u8, f: u64, rs: &[&Rec], truth: bool) -> Result<()> {
+fn write_trace(path: &Path, ch: u8, f: u64, rs: &[&LoggedRecord], truth: bool) -> Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     if truth {
         writeln!(
