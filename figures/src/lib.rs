@@ -101,6 +101,35 @@ pub fn check(file: &str, name: &str, body: &str) -> Result<(), String> {
     ))
 }
 
+/// The header every headline table of figures starts with.
+pub const TABLE_HEADER: &str = "| figure | value |\n|---|---|\n";
+
+/// A table of figures: [`TABLE_HEADER`], then a row per (figure, value).
+pub fn table(rows: &[(String, String)]) -> String {
+    let mut md = TABLE_HEADER.to_string();
+    for (figure, value) in rows {
+        md += &format!("| {figure} | {value} |\n");
+    }
+    md
+}
+
+/// Check (or rewrite, as [`check`] does) block `name` of `file` as one
+/// table: [`TABLE_HEADER`], then the rows of each table in `sources`
+/// ((file, block) pairs, each checked by the test that measures it), in
+/// order. So the README's one table of headline figures is made of rows
+/// the tests hold.
+pub fn assemble(file: &str, name: &str, sources: &[(&str, &str)]) -> Result<(), String> {
+    let mut body = TABLE_HEADER.to_string();
+    for (src, block) in sources {
+        let text = read(src, block)?;
+        let rows = text
+            .strip_prefix(TABLE_HEADER)
+            .ok_or_else(|| format!("{src}: block '{block}' is not a table of figures"))?;
+        body += rows;
+    }
+    check(file, name, &body)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -242,38 +242,57 @@ pub fn span(v: impl IntoIterator<Item = f64>, decimals: usize) -> String {
     }
 }
 
-/// The README's headline lines for a multiplexed run: one per moving
-/// channel.
+/// The headline figures of a multiplexed run: each moving channel's C
+/// error, and what a fixed 6 kHz series meter reads on the first (a
+/// table of `figures`).
 pub fn channel_headline(channels: &[ChannelFigures]) -> String {
-    let mut md = String::new();
-    for c in channels
+    let mut rows = vec![];
+    let moving: Vec<&ChannelFigures> = channels
         .iter()
         .filter(|c| matches!(c.motion, Motion::Moving { .. }))
-    {
-        let _ = writeln!(
-            md,
-            "- Multiplexed firmware, channel {} ({}): C within {:.3} % RMS ({:.3} % max) of the truth \
-             on {} of {} records flagged valid; a series meter fixed at 6 kHz is off by {:.1} pF RMS.",
-            c.channel, c.motion, c.c_pct.0, c.c_pct.1, c.valid, c.records, c.lumped_pf.0
-        );
+        .collect();
+    for c in &moving {
+        rows.push((
+            format!(
+                "C error, multiplexed firmware in QEMU, channel {} ({})",
+                c.channel, c.motion
+            ),
+            format!(
+                "{:.3} % RMS, {:.3} % max ({} of {} records valid)",
+                c.c_pct.0, c.c_pct.1, c.valid, c.records
+            ),
+        ));
     }
-    md
+    if let Some(c) = moving.first() {
+        rows.push((
+            format!(
+                "the same sensor (channel {}) read by a series meter fixed at 6 kHz",
+                c.channel
+            ),
+            format!("{:.1} pF RMS off", c.lumped_pf.0),
+        ));
+    }
+    figures::table(&rows)
 }
 
-/// The README's headline line for an array run.
+/// The headline figures of an array run (a table of `figures`).
 pub fn sensor_headline(sensors: &[SensorFigures]) -> String {
     let records: usize = sensors.iter().map(|s| s.records).sum();
     let valid: usize = sensors.iter().map(|s| s.valid).sum();
-    format!(
-        "- Array firmware, {} sensors at once: {} records/s each, C within {} % RMS per sensor \
-         ({} % max), {} of {} records valid.\n",
-        sensors.len(),
-        span(sensors.iter().map(|s| s.rate), 1),
-        span(sensors.iter().map(|s| s.c_pct.0), 3),
-        span(sensors.iter().map(|s| s.c_pct.1), 2),
-        valid,
-        records
-    )
+    figures::table(&[(
+        format!(
+            "C error, array firmware in QEMU, {} sensors at once, {} records/s each",
+            sensors.len(),
+            span(sensors.iter().map(|s| s.rate), 1)
+        ),
+        format!(
+            "{} % RMS, {} % max per sensor ({} of {} records valid)",
+            span(sensors.iter().map(|s| s.c_pct.0), 3),
+            span(sensors.iter().map(|s| s.c_pct.1), 2),
+            valid,
+            records
+        ),
+    )])
 }
 
 #[cfg(test)]

@@ -171,18 +171,26 @@ pub fn image_table() -> Result<String> {
     Ok(md)
 }
 
-/// The README's headline line on speed, from a `dsp-bench` run.
+/// The headline figures on speed, from a `dsp-bench` run (a table of
+/// `figures`).
 pub fn speed_headline(benches: &[Bench]) -> String {
     let get = |n: &str| benches.iter().find(|b| b.name == n).map_or(f64::NAN, |b| b.value);
-    format!(
-        "- Cortex-M4 at 170 MHz (instruction counts in QEMU): the array's 16 sensors × 250 records/s take \
-         {:.1} % of the CPU; a multiplexed block {:.1} %; demodulation {} instructions per sample pair \
-         (quartiq idsp's lock-in: {}).\n",
-        get("array_load_permille") / 10.0,
-        get("block_load_permille") / 10.0,
-        get("demod_pair"),
-        get("idsp_lockin_pair"),
-    )
+    figures::table(&[
+        (
+            "Cortex-M4 at 170 MHz: the array's 16 sensors × 250 records/s (QEMU instruction counts)"
+                .to_string(),
+            format!("{:.1} % of the CPU", get("array_load_permille") / 10.0),
+        ),
+        (
+            "Cortex-M4 at 170 MHz: one multiplexed block".to_string(),
+            format!("{:.1} % of the CPU", get("block_load_permille") / 10.0),
+        ),
+        (
+            "demodulation, instructions per sample pair (quartiq idsp's lock-in on the same block)"
+                .to_string(),
+            format!("{} ({})", get("demod_pair"), get("idsp_lockin_pair")),
+        ),
+    ])
 }
 
 #[cfg(test)]

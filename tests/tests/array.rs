@@ -50,7 +50,7 @@ fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
     // The README's headline and the accuracy page show this run's figures.
     let sensors = qemu_tests::summary::sensors(&recs).unwrap();
     figures::check(
-        "README.md",
+        "docs/figures.md",
         "headline-array",
         &qemu_tests::summary::sensor_headline(&sensors),
     )

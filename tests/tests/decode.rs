@@ -9,7 +9,7 @@ fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() 
     // The README's headline and the accuracy page show this run's figures.
     let channels = qemu_tests::summary::channels(&recs);
     figures::check(
-        "README.md",
+        "docs/figures.md",
         "headline-multiplexed",
         &qemu_tests::summary::channel_headline(&channels),
     )

@@ -30,7 +30,7 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
     )
     .unwrap();
     figures::check(
-        "README.md",
+        "docs/figures.md",
         "headline-speed",
         &qemu_tests::tables::speed_headline(&benches),
     )

@@ -163,8 +163,7 @@ mod app {
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             if cx.shared.done.lock(|d| *d) {
-                defmt::println!("end");
-                qemu::exit(0);
+                qemu::end();
             }
             rtic::pend(Interrupt::GPIOA);
         }
