@@ -1,0 +1,346 @@
+//! The record link: what leaves the device, defined once for the
+//! firmware and the host.
+//!
+//! A stream is a start frame, record frames and an end frame. Each frame
+//! is its [`Body`] with a sequence number, encoded with postcard, followed
+//! by the CRC-32 (ISO-HDLC) of those bytes, little-endian; the whole is
+//! COBS-encoded and ends with a zero byte, so that a receiver that joins
+//! late, or loses bytes, finds the next frame at the next zero.
+//!
+//! A receiver ([`Decoder`]) hands back every frame whose CRC holds and
+//! counts the rest; the sequence numbers tell it how many frames it
+//! lost. A record it hands back is one the device sent: a corrupted frame
+//! passes the CRC with a probability of 2⁻³².
+#![no_std]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+use serde::{Deserialize, Serialize};
+
+/// The version of this wire format, sent in every [`Start`] frame. A
+/// receiver refuses a stream of another version.
+pub const VERSION: u16 = 1;
+
+/// The longest frame on the wire, bytes: the longest body, its CRC, the
+/// COBS overhead and the closing zero.
+pub const MAX_FRAME: usize = 96;
+
+/// The longest body before the CRC and COBS, bytes.
+const MAX_BODY: usize = MAX_FRAME - 4 - 2 - 1;
+
+/// The CRC of a frame: CRC-32/ISO-HDLC (Ethernet's, zlib's).
+const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// One tone's measurement: its frequency and the sensor's impedance there.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Tone {
+    /// Frequency, Hz.
+    pub f_hz: f32,
+    /// Re Z, Ω.
+    pub z_re_ohm: f32,
+    /// Im Z, Ω.
+    pub z_im_ohm: f32,
+}
+
+/// One record: a sensor's block, its tones, the line, the stretch and the
+/// flags.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Middle of the block since start, µs.
+    pub t_us: u64,
+    /// Sensor.
+    pub sensor: u8,
+    /// The tones measured (one for the multiplexed firmware, two for the
+    /// array), lower first; the rest are zero.
+    pub tones: [Tone; 2],
+    /// Line capacitance, F (0: no line).
+    pub c_farad: f32,
+    /// Line resistance (both electrodes), Ω (0: no line).
+    pub r_ohm: f32,
+    /// Stretch from the sensor's calibration, mm.
+    pub stretch_mm: f32,
+    /// The frequency the policy chose for the sensor's next block, Hz.
+    pub chosen_hz: f32,
+    /// χ² of the two tones' line (0 for one tone).
+    pub chi2: f32,
+    /// 1σ relative error of C (0: not stated).
+    pub sigma_c: f32,
+    /// Flags (`instrument::faults::Flags`), 0 = valid.
+    pub flags: u16,
+}
+
+impl Record {
+    /// The tones measured: those with a frequency.
+    pub fn measured(&self) -> impl Iterator<Item = &Tone> {
+        self.tones.iter().filter(|t| t.f_hz > 0.0)
+    }
+}
+
+/// The first frame of a stream: what produced it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Start {
+    /// The wire format's version ([`VERSION`]).
+    pub version: u16,
+    /// The firmware's name and version, ASCII, padded with zeros.
+    pub firmware: [u8; 24],
+    /// A digest of the settings in force.
+    pub settings_digest: u32,
+    /// A digest of the calibrations in force.
+    pub calibration_digest: u32,
+    /// Sensors read.
+    pub sensors: u8,
+    /// The ADC's sample rate, Hz.
+    pub sample_rate_hz: u32,
+}
+
+impl Start {
+    /// The firmware's name and version as text.
+    pub fn firmware_str(&self) -> &str {
+        let n = self
+            .firmware
+            .iter()
+            .position(|&b| b == 0)
+            .unwrap_or(self.firmware.len());
+        core::str::from_utf8(&self.firmware[..n]).unwrap_or("?")
+    }
+
+    /// `text` as the firmware field (cut to its length).
+    pub fn firmware_field(text: &str) -> [u8; 24] {
+        let mut f = [0u8; 24];
+        for (d, s) in f.iter_mut().zip(text.bytes()) {
+            *d = s;
+        }
+        f
+    }
+}
+
+/// The last frame of a stream that ended as it should.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct End {
+    /// Records sent.
+    pub records: u32,
+    /// Records dropped before they were sent (the device's queue was
+    /// full).
+    pub dropped: u32,
+}
+
+/// What a frame carries.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Body {
+    /// The start of a stream.
+    Start(Start),
+    /// A record.
+    Record(Record),
+    /// The end of a stream.
+    End(End),
+}
+
+/// One frame: a body and its sequence number (0 for the start frame,
+/// then one more for each frame).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Frame {
+    /// Sequence number.
+    pub seq: u32,
+    /// What it carries.
+    pub body: Body,
+}
+
+/// Why a frame could not be encoded or decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Error {
+    /// The output buffer is shorter than the frame.
+    BufferTooSmall,
+    /// More bytes than a frame can have before the closing zero.
+    TooLong,
+    /// Not COBS.
+    Cobs,
+    /// Too short to hold a CRC.
+    TooShort,
+    /// The CRC does not hold: the bytes changed on the way.
+    Crc,
+    /// The CRC holds but the body is not one this version knows (an
+    /// unknown frame type, or a newer version's layout).
+    Body,
+}
+
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Error::BufferTooSmall => "the output buffer is too small for the frame",
+            Error::TooLong => "more bytes than a frame can have before its end",
+            Error::Cobs => "not a COBS frame",
+            Error::TooShort => "too short to be a frame",
+            Error::Crc => "the CRC does not match: the frame was corrupted",
+            Error::Body => "an unknown frame type or layout",
+        })
+    }
+}
+
+impl core::error::Error for Error {}
+
+/// Encode `frame` into `out`: the bytes to send, closing zero included.
+pub fn encode<'a>(frame: &Frame, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+    let mut raw = [0u8; MAX_BODY + 4];
+    let n = postcard::to_slice(frame, &mut raw[..MAX_BODY])
+        .map_err(|_| Error::BufferTooSmall)?
+        .len();
+    let crc = CRC.checksum(&raw[..n]);
+    raw[n..n + 4].copy_from_slice(&crc.to_le_bytes());
+    let need = cobs::max_encoding_length(n + 4) + 1;
+    if out.len() < need {
+        return Err(Error::BufferTooSmall);
+    }
+    let m = cobs::encode(&raw[..n + 4], out);
+    out[m] = 0;
+    Ok(&out[..=m])
+}
+
+/// Decode one frame from its COBS bytes (without the closing zero).
+pub fn decode(cobs_bytes: &[u8]) -> Result<Frame, Error> {
+    if cobs_bytes.len() > MAX_FRAME {
+        return Err(Error::TooLong);
+    }
+    let mut raw = [0u8; MAX_FRAME];
+    let n = cobs::decode(cobs_bytes, &mut raw).map_err(|_| Error::Cobs)?;
+    if n < 5 {
+        return Err(Error::TooShort);
+    }
+    let (body, crc) = raw[..n].split_at(n - 4);
+    let crc = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+    if CRC.checksum(body) != crc {
+        return Err(Error::Crc);
+    }
+    match postcard::take_from_bytes::<Frame>(body) {
+        Ok((frame, [])) => Ok(frame),
+        _ => Err(Error::Body),
+    }
+}
+
+/// What a [`Decoder`] has seen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Frames decoded.
+    pub frames: u64,
+    /// Frames refused (corrupted, too long, unknown).
+    pub bad: u64,
+    /// Frames the sequence numbers say never arrived (gaps).
+    pub lost: u64,
+    /// Frames received twice (a sequence number seen just before).
+    pub repeated: u64,
+    /// Bytes received.
+    pub bytes: u64,
+}
+
+/// A receiver: bytes in, frames out, in order.
+#[derive(Clone, Debug)]
+pub struct Decoder {
+    buf: [u8; MAX_FRAME],
+    len: usize,
+    overflow: bool,
+    next_seq: Option<u32>,
+    stats: Stats,
+}
+
+impl Default for Decoder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Decoder {
+    /// A receiver that has seen nothing.
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; MAX_FRAME],
+            len: 0,
+            overflow: false,
+            next_seq: None,
+            stats: Stats {
+                frames: 0,
+                bad: 0,
+                lost: 0,
+                repeated: 0,
+                bytes: 0,
+            },
+        }
+    }
+
+    /// What it has seen so far.
+    pub fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    /// Take one byte: a frame when it closes one that holds; an error
+    /// when it closes one that does not (counted, and the receiver goes
+    /// on at the next frame); nothing otherwise. A frame whose sequence
+    /// number repeats the last one's is dropped as a duplicate.
+    pub fn push(&mut self, byte: u8) -> Option<Result<Frame, Error>> {
+        self.stats.bytes += 1;
+        if byte != 0 {
+            if self.len < self.buf.len() {
+                self.buf[self.len] = byte;
+                self.len += 1;
+            } else {
+                self.overflow = true;
+            }
+            return None;
+        }
+        let (len, overflow) = (self.len, self.overflow);
+        self.len = 0;
+        self.overflow = false;
+        if len == 0 {
+            // Two zeros in a row: nothing between them.
+            return None;
+        }
+        let result = if overflow {
+            Err(Error::TooLong)
+        } else {
+            decode(&self.buf[..len])
+        };
+        match result {
+            Ok(frame) => self.sequence(frame).map(Ok),
+            Err(e) => {
+                self.stats.bad += 1;
+                Some(Err(e))
+            }
+        }
+    }
+
+    /// Account for `frame`'s sequence number; None for a duplicate.
+    fn sequence(&mut self, frame: Frame) -> Option<Frame> {
+        if let Some(next) = self.next_seq {
+            if frame.seq == next.wrapping_sub(1) {
+                self.stats.repeated += 1;
+                return None;
+            }
+            let gap = frame.seq.wrapping_sub(next);
+            if gap < u32::MAX / 2 {
+                self.stats.lost += u64::from(gap);
+            }
+        }
+        self.next_seq = Some(frame.seq.wrapping_add(1));
+        self.stats.frames += 1;
+        Some(frame)
+    }
+}
+
+/// The sender's side: numbers frames and encodes them.
+#[derive(Clone, Debug, Default)]
+pub struct Encoder {
+    seq: u32,
+}
+
+impl Encoder {
+    /// A sender whose next frame is the start frame (sequence 0).
+    pub const fn new() -> Self {
+        Self { seq: 0 }
+    }
+
+    /// Number `body` and encode it into `out`.
+    pub fn frame<'a>(&mut self, body: Body, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        let frame = Frame { seq: self.seq, body };
+        let bytes = encode(&frame, out)?;
+        self.seq = self.seq.wrapping_add(1);
+        Ok(bytes)
+    }
+}

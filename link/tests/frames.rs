@@ -1,0 +1,276 @@
+//! Frames round-trip; the longest fits `MAX_FRAME`; a stream corrupted
+//! in every way a serial line or a recording can corrupt it yields only
+//! frames that were sent, and counts the rest.
+
+use link::{
+    decode, encode, Body, Decoder, Encoder, End, Error, Frame, Record, Start, Tone, MAX_FRAME, VERSION,
+};
+use proptest::prelude::*;
+
+fn tone() -> impl Strategy<Value = Tone> {
+    (any::<f32>(), any::<f32>(), any::<f32>()).prop_map(|(f_hz, z_re_ohm, z_im_ohm)| Tone {
+        f_hz,
+        z_re_ohm,
+        z_im_ohm,
+    })
+}
+
+fn record() -> impl Strategy<Value = Record> {
+    (
+        any::<u64>(),
+        any::<u8>(),
+        [tone(), tone()],
+        any::<[f32; 6]>(),
+        any::<u16>(),
+    )
+        .prop_map(|(t_us, sensor, tones, v, flags)| Record {
+            t_us,
+            sensor,
+            tones,
+            c_farad: v[0],
+            r_ohm: v[1],
+            stretch_mm: v[2],
+            chosen_hz: v[3],
+            chi2: v[4],
+            sigma_c: v[5],
+            flags,
+        })
+}
+
+fn body() -> impl Strategy<Value = Body> {
+    prop_oneof![
+        record().prop_map(Body::Record),
+        (
+            any::<[u8; 24]>(),
+            any::<u32>(),
+            any::<u32>(),
+            any::<u8>(),
+            any::<u32>()
+        )
+            .prop_map(|(fw, s, c, n, r)| {
+                Body::Start(Start {
+                    version: VERSION,
+                    firmware: fw,
+                    settings_digest: s,
+                    calibration_digest: c,
+                    sensors: n,
+                    sample_rate_hz: r,
+                })
+            }),
+        (any::<u32>(), any::<u32>()).prop_map(|(records, dropped)| Body::End(End { records, dropped })),
+    ]
+}
+
+/// Equal bit for bit (NaNs included).
+fn same(a: &Frame, b: &Frame) -> bool {
+    let mut x = [0u8; MAX_FRAME];
+    let mut y = [0u8; MAX_FRAME];
+    encode(a, &mut x).ok() == encode(b, &mut y).ok()
+}
+
+proptest! {
+    #[test]
+    fn every_frame_round_trips_within_max_frame(seq in any::<u32>(), body in body()) {
+        let frame = Frame { seq, body };
+        let mut out = [0u8; MAX_FRAME];
+        let bytes = encode(&frame, &mut out).unwrap();
+        prop_assert!(bytes.len() <= MAX_FRAME);
+        prop_assert_eq!(*bytes.last().unwrap(), 0);
+        prop_assert!(!bytes[..bytes.len() - 1].contains(&0));
+        let back = decode(&bytes[..bytes.len() - 1]).unwrap();
+        prop_assert!(same(&back, &frame));
+    }
+}
+
+#[test]
+fn a_short_buffer_is_an_error_not_a_panic() {
+    let frame = Frame {
+        seq: 1,
+        body: Body::Record(Record::default()),
+    };
+    let mut out = [0u8; 8];
+    assert_eq!(encode(&frame, &mut out), Err(Error::BufferTooSmall));
+}
+
+/// A clean stream: a start frame, `n` records, an end frame.
+fn stream(n: u32) -> (Vec<u8>, Vec<Frame>) {
+    let mut enc = Encoder::new();
+    let mut bytes = vec![];
+    let mut frames = vec![];
+    let mut out = [0u8; MAX_FRAME];
+    let mut push = |body: Body, bytes: &mut Vec<u8>, frames: &mut Vec<Frame>| {
+        let seq = frames.len() as u32;
+        bytes.extend_from_slice(enc.frame(body, &mut out).unwrap());
+        frames.push(Frame { seq, body });
+    };
+    push(
+        Body::Start(Start {
+            version: VERSION,
+            firmware: Start::firmware_field("skin-array 0.1.0"),
+            settings_digest: 0xDEAD_BEEF,
+            calibration_digest: 0x0BAD_F00D,
+            sensors: 16,
+            sample_rate_hz: 25_000,
+        }),
+        &mut bytes,
+        &mut frames,
+    );
+    for k in 0..n {
+        let rec = Record {
+            t_us: 2000 + 4000 * u64::from(k / 16),
+            sensor: (k % 16) as u8,
+            tones: [
+                Tone {
+                    f_hz: 500.0,
+                    z_re_ohm: 4.1e5 + k as f32,
+                    z_im_ohm: -1.6e6,
+                },
+                Tone {
+                    f_hz: 2000.0,
+                    z_re_ohm: 2.0e5,
+                    z_im_ohm: -3.9e5 - k as f32,
+                },
+            ],
+            c_farad: 205e-12 + k as f32 * 1e-15,
+            r_ohm: 7.1e5,
+            stretch_mm: 0.01 * k as f32,
+            chosen_hz: 2000.0,
+            chi2: 1.5,
+            sigma_c: 4e-4,
+            flags: (k % 7 == 0) as u16 * 64,
+        };
+        push(Body::Record(rec), &mut bytes, &mut frames);
+    }
+    push(
+        Body::End(End {
+            records: n,
+            dropped: 0,
+        }),
+        &mut bytes,
+        &mut frames,
+    );
+    (bytes, frames)
+}
+
+fn replay(bytes: &[u8]) -> (Vec<Frame>, link::Stats) {
+    let mut d = Decoder::new();
+    let frames = bytes
+        .iter()
+        .filter_map(|&b| d.push(b))
+        .filter_map(Result::ok)
+        .collect();
+    (frames, d.stats())
+}
+
+#[test]
+fn a_clean_stream_replays_whole() {
+    let (bytes, sent) = stream(64);
+    let (got, stats) = replay(&bytes);
+    assert_eq!(got, sent);
+    assert_eq!((stats.bad, stats.lost, stats.repeated), (0, 0, 0));
+    println!(
+        "bytes per record frame: {:.1}",
+        bytes.len() as f64 / sent.len() as f64
+    );
+}
+
+/// Cases of corruption (the test command runs this many; the long fuzz
+/// command more, through `LINK_CASES`).
+fn cases() -> u64 {
+    std::env::var("LINK_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(100_000)
+}
+
+/// A small deterministic generator (xorshift64*), so that a failure
+/// names its case.
+struct Xs(u64);
+impl Xs {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// Corrupt `clean` one to four ways: bit flips, dropped, duplicated or
+/// inserted bytes, junk between frames, a truncated end.
+fn corrupt(clean: &[u8], rng: &mut Xs) -> Vec<u8> {
+    let mut b = clean.to_vec();
+    for _ in 0..1 + rng.below(4) {
+        if b.is_empty() {
+            break;
+        }
+        let at = rng.below(b.len());
+        match rng.below(6) {
+            0 => b[at] ^= 1 << rng.below(8),
+            1 => {
+                b.remove(at);
+            }
+            2 => {
+                let n = 1 + rng.below(8).min(b.len() - at - 1);
+                let run: Vec<u8> = b[at..at + n].to_vec();
+                b.splice(at..at, run);
+            }
+            3 => b.insert(at, rng.next() as u8),
+            4 => {
+                let junk: Vec<u8> = (0..1 + rng.below(40)).map(|_| rng.next() as u8).collect();
+                b.splice(at..at, junk);
+            }
+            _ => b.truncate(at),
+        }
+    }
+    b
+}
+
+#[test]
+fn a_corrupted_stream_yields_only_frames_that_were_sent() {
+    let (clean, sent) = stream(40);
+    let mut rng = Xs(0x9E37_79B9_7F4A_7C15);
+    let (mut got, mut bad, mut lost) = (0u64, 0u64, 0u64);
+    for case in 0..cases() {
+        let bytes = corrupt(&clean, &mut rng);
+        let (frames, stats) = replay(&bytes);
+        for f in &frames {
+            let original = sent.get(f.seq as usize);
+            assert!(
+                original.is_some_and(|o| same(o, f)),
+                "case {case}: a frame that was never sent: {f:?}"
+            );
+        }
+        got += frames.len() as u64;
+        bad += stats.bad;
+        lost += sent.len() as u64 - frames.len() as u64;
+    }
+    println!(
+        "{} corrupted streams: {got} frames out, all as sent; {bad} refused, {lost} lost",
+        cases()
+    );
+    assert!(got > 0 && bad > 0 && lost > 0);
+}
+
+#[test]
+fn a_repeated_frame_is_dropped_and_a_gap_counted() {
+    let (clean, sent) = stream(4);
+    // Frames end at zeros: duplicate frame 2, drop frame 4.
+    let ends: Vec<usize> = clean
+        .iter()
+        .enumerate()
+        .filter(|(_, &b)| b == 0)
+        .map(|(i, _)| i + 1)
+        .collect();
+    let f = |k: usize| &clean[if k == 0 { 0 } else { ends[k - 1] }..ends[k]];
+    let mut bytes = vec![];
+    for k in [0, 1, 2, 2, 3, 5] {
+        bytes.extend_from_slice(f(k));
+    }
+    let (got, stats) = replay(&bytes);
+    assert_eq!(got.iter().map(|f| f.seq).collect::<Vec<_>>(), [0, 1, 2, 3, 5]);
+    assert_eq!((stats.repeated, stats.lost), (1, 1));
+    assert!(got.iter().all(|f| same(f, &sent[f.seq as usize])));
+}
