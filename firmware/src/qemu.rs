@@ -17,6 +17,84 @@ pub fn end() -> ! {
     exit(0)
 }
 
+/// UART0 of the lm3s6965 as QEMU models it: a byte written to its data
+/// register leaves on the serial port QEMU connects (`-serial
+/// file:PATH`, or a socket): the record link's frames.
+pub struct Uart0 {
+    _owned: (),
+}
+
+/// UART0's data register.
+const UART0_DR: usize = 0x4000_C000;
+/// UART0's flag register; bit 5 is "transmit FIFO full".
+const UART0_FR: usize = 0x4000_C018;
+
+impl Uart0 {
+    /// UART0, for the one task that writes the link (the app's `init`
+    /// takes it once and hands it over as a resource).
+    pub fn take() -> Self {
+        Self { _owned: () }
+    }
+
+    /// Send `bytes`, waiting while the transmit FIFO is full.
+    #[allow(unsafe_code)]
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            // SAFETY: UART0's registers exist at these addresses on the
+            // lm3s6965; this value owns them (one per app, from `take`).
+            unsafe {
+                while core::ptr::read_volatile(UART0_FR as *const u32) & (1 << 5) != 0 {}
+                core::ptr::write_volatile(UART0_DR as *mut u32, u32::from(b));
+            }
+        }
+    }
+}
+
+/// The sending end of the record link on UART0: numbers, encodes and
+/// sends each frame.
+pub struct LinkSender {
+    uart: Uart0,
+    encoder: link::Encoder,
+    records: u32,
+}
+
+impl LinkSender {
+    /// The link on `uart`, its start frame sent.
+    pub fn start(mut uart: Uart0, start: link::Start) -> Self {
+        let mut encoder = link::Encoder::new();
+        let mut out = [0u8; link::MAX_FRAME];
+        if let Ok(bytes) = encoder.frame(link::Body::Start(start), &mut out) {
+            uart.write(bytes);
+        }
+        Self {
+            uart,
+            encoder,
+            records: 0,
+        }
+    }
+
+    /// Send one record.
+    pub fn record(&mut self, rec: link::Record) {
+        let mut out = [0u8; link::MAX_FRAME];
+        if let Ok(bytes) = self.encoder.frame(link::Body::Record(rec), &mut out) {
+            self.uart.write(bytes);
+            self.records = self.records.wrapping_add(1);
+        }
+    }
+
+    /// Send the end frame: `dropped` records never reached the link.
+    pub fn end(&mut self, dropped: u32) {
+        let mut out = [0u8; link::MAX_FRAME];
+        let end = link::End {
+            records: self.records,
+            dropped,
+        };
+        if let Ok(bytes) = self.encoder.frame(link::Body::End(end), &mut out) {
+            self.uart.write(bytes);
+        }
+    }
+}
+
 /// Bytes of the semihosting command line the QEMU apps accept.
 pub const COMMAND_LINE: usize = 256;
 

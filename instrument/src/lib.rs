@@ -14,6 +14,7 @@
 //! | [`channel`] | one sensor channel: demodulated block → record |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
+//! | [`frames`] | records as frames of the record link (`link`), and the digests of a start frame |
 //! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
@@ -37,6 +38,7 @@ pub mod config;
 pub mod design;
 pub mod effects;
 pub mod faults;
+pub mod frames;
 pub mod mux;
 pub mod policy;
 pub mod ranging;

@@ -60,6 +60,8 @@ pub struct Run {
     pub stderr: String,
     /// Exit code passed to `semihosting::process::exit` (None: killed).
     pub code: Option<i32>,
+    /// What the firmware sent on UART0: the record link's frames.
+    pub serial: Vec<u8>,
 }
 
 impl Run {
@@ -86,6 +88,8 @@ pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Ru
         sh.push_str(",arg=");
         sh.push_str(a);
     }
+    // UART0 to a file: the record link's byte stream.
+    let serial = tempfile::NamedTempFile::new().context("a file for UART0")?;
     let mut child = Command::new("qemu-system-arm")
         .args([
             "-machine",
@@ -97,6 +101,8 @@ pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Ru
             "none",
         ])
         .args(["-semihosting-config", &sh])
+        .arg("-serial")
+        .arg(format!("file:{}", serial.path().display()))
         .args(["-icount", "shift=7,align=off,sleep=off"])
         .arg("-kernel")
         .arg(elf)
@@ -131,6 +137,7 @@ pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Ru
         raw,
         stderr: t_err.join().unwrap_or_default(),
         code,
+        serial: std::fs::read(serial.path()).context("reading UART0's stream")?,
     })
 }
 

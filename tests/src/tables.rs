@@ -73,6 +73,11 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "array_latency_us",
         "latency from a block's last result to its last record",
     ),
+    (
+        "link_record_frame",
+        "an array record converted and encoded into its link frame (postcard, CRC-32, COBS)",
+    ),
+    ("link_record_bytes", "that frame's length on the wire"),
     ("micromath_", "micromath's f32 function, per call"),
     ("libm_", "libm's f32 function, per call"),
 ];

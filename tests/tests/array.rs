@@ -16,10 +16,18 @@ fn stats(recs: &[&LoggedToneRecord]) -> (usize, f64, f64) {
     (e.len(), rms, e.iter().fold(0.0f64, |m, v| m.max(v.abs())))
 }
 
+/// The `paper` run, shared by the tests of this file.
+fn paper() -> &'static (qemu_tests::Run, Vec<LoggedToneRecord>) {
+    static RUN: std::sync::OnceLock<(qemu_tests::Run, Vec<LoggedToneRecord>)> = std::sync::OnceLock::new();
+    RUN.get_or_init(|| {
+        let (run, recs) = run_array("paper").unwrap();
+        (run.ok().unwrap(), recs)
+    })
+}
+
 #[test]
 fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
-    let (run, recs) = run_array("paper").unwrap();
-    let run = run.ok().unwrap();
+    let (run, recs) = paper();
     assert!(run.stdout.contains("end"), "{}", run.stdout);
     assert!(!run.stdout.contains("overrun"));
     // The record queue (heapless SPSC, four blocks) never dropped one.
@@ -48,7 +56,7 @@ fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
         assert!(mine.iter().all(|r| r.truth.is_some()));
     }
     // The README's headline and the accuracy page show this run's figures.
-    let sensors = qemu_tests::summary::sensors(&recs).unwrap();
+    let sensors = qemu_tests::summary::sensors(recs).unwrap();
     figures::check(
         "docs/figures.md",
         "headline-array",
@@ -155,4 +163,131 @@ fn identify_reads_an_array_recording_and_finds_the_hidden_parasitic() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(f64::NAN);
     assert!((pf - 12.0).abs() < 0.5, "{pf} pF");
+}
+
+/// The record link: the frames on UART0 carry every record the defmt log
+/// does, value for value, and a corrupted copy of the stream yields only
+/// records that were sent.
+#[test]
+fn the_link_carries_every_record_and_survives_corruption() {
+    let (run, recs) = paper();
+    let tmp = tempfile::tempdir().unwrap();
+    let done = live::replay(&run.serial, tmp.path()).unwrap();
+    println!("{}", done.summary.line());
+    assert_eq!(done.outcome, live::Outcome::Complete);
+    assert_eq!(done.summary.records, recs.len());
+    assert_eq!((done.summary.link.bad, done.summary.link.lost), (0, 0));
+    assert_eq!(done.summary.dropped, Some(0));
+    assert!(!tmp.path().join(live::INCOMPLETE).exists());
+    // The same records, value for value, as the log's.
+    let mut d = link::Decoder::new();
+    let frames: Vec<link::Frame> = run
+        .serial
+        .iter()
+        .filter_map(|&b| d.push(b))
+        .map(Result::unwrap)
+        .collect();
+    let sent: Vec<link::Record> = frames
+        .iter()
+        .filter_map(|f| match f.body {
+            link::Body::Record(r) => Some(r),
+            _ => None,
+        })
+        .collect();
+    // The log's text carries C in pF and rounds each f32 to its shortest
+    // decimal: the same values within a part in 10⁶.
+    let near = |a: f32, b: f32| (a - b).abs() <= 1e-6 * a.abs().max(b.abs());
+    assert_eq!(sent.len(), recs.len());
+    for (l, r) in sent.iter().zip(recs.iter()) {
+        let (l, r) = (instrument::frames::to_tone_record(l), r.rec);
+        assert_eq!(
+            (l.t_us, l.channel, l.flags, l.f_hz),
+            (r.t_us, r.channel, r.flags, r.f_hz)
+        );
+        let (a, b) = (
+            [
+                l.z[0].re,
+                l.z[0].im,
+                l.z[1].re,
+                l.z[1].im,
+                l.c_farad,
+                l.r_ohm,
+                l.chi2,
+                l.sigma_c,
+                l.stretch_mm,
+            ],
+            [
+                r.z[0].re,
+                r.z[0].im,
+                r.z[1].re,
+                r.z[1].im,
+                r.c_farad,
+                r.r_ohm,
+                r.chi2,
+                r.sigma_c,
+                r.stretch_mm,
+            ],
+        );
+        assert!(
+            a.iter().zip(&b).all(|(x, y)| near(*x, *y)),
+            "{l:?} against the log's {r:?}"
+        );
+    }
+    assert!(done.written.traces.len() >= 16, "{:?}", done.written.traces);
+    // Corrupted: a window of 200 frames, a hundred thousand ways.
+    let end = run
+        .serial
+        .iter()
+        .enumerate()
+        .filter(|(_, &b)| b == 0)
+        .nth(199)
+        .unwrap()
+        .0
+        + 1;
+    let window = &run.serial[..end];
+    let mut rng = 0x2545_F491_4F6C_DD1Du64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng
+    };
+    let cases: u64 = std::env::var("LINK_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(100_000);
+    let (mut out, mut refused) = (0u64, 0u64);
+    for case in 0..cases {
+        let mut b = window.to_vec();
+        for _ in 0..1 + next() % 4 {
+            let at = (next() % b.len() as u64) as usize;
+            match next() % 6 {
+                0 => b[at] ^= 1 << (next() % 8),
+                1 => {
+                    b.remove(at);
+                }
+                2 => {
+                    let run: Vec<u8> = b[at..(at + 8).min(b.len())].to_vec();
+                    b.splice(at..at, run);
+                }
+                3 => b.insert(at, next() as u8),
+                4 => {
+                    let junk: Vec<u8> = (0..1 + next() % 40).map(|_| next() as u8).collect();
+                    b.splice(at..at, junk);
+                }
+                _ => b.truncate(at.max(1)),
+            }
+        }
+        let mut d = link::Decoder::new();
+        for f in b.iter().filter_map(|&x| d.push(x)).filter_map(Result::ok) {
+            assert!(
+                frames.get(f.seq as usize) == Some(&f),
+                "case {case}: a frame that was never sent: {f:?}"
+            );
+            out += 1;
+        }
+        refused += d.stats().bad;
+    }
+    println!("{cases} corrupted copies: {out} frames out, each as sent; {refused} refused");
+    assert!(out > 0 && refused > 0);
 }

@@ -172,10 +172,27 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
     assert!(channel(&recs, 0).iter().all(|r| !r.flags.has(fault_bits)));
 }
 
+/// A stream that stops without its end frame leaves the data received
+/// and the INCOMPLETE marker.
+fn incomplete(run: &qemu_tests::Run) {
+    let tmp = tempfile::tempdir().unwrap();
+    let done = live::replay(&run.serial, tmp.path()).unwrap();
+    assert!(
+        matches!(done.outcome, live::Outcome::Incomplete(_)),
+        "{:?}",
+        done.outcome
+    );
+    assert!(tmp.path().join(live::INCOMPLETE).is_file());
+    assert!(done.summary.records > 0, "{}", done.summary.line());
+    let csv = std::fs::read_to_string(tmp.path().join(live::RECORDS_CSV)).unwrap();
+    assert_eq!(csv.lines().count(), done.summary.records + 1);
+}
+
 #[test]
 fn panic_fails_with_a_clear_message() {
     let (run, _) = run_scenario("panic").unwrap();
     assert_eq!(run.code, Some(101));
+    incomplete(&run);
     let err = run.ok().unwrap_err().to_string();
     assert!(
         err.contains("101") && err.contains("PANIC") && err.contains("injected panic"),
@@ -188,5 +205,6 @@ fn hang_is_caught_by_the_watchdog() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let run = qemu_tests::run_qemu_args(&elf, &["hang"], Duration::from_secs(20)).unwrap();
     assert_eq!(run.code, None);
+    incomplete(&run);
     assert!(run.ok().unwrap_err().to_string().contains("watchdog"));
 }

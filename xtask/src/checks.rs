@@ -6,8 +6,10 @@ use anyhow::Result;
 use std::path::Path;
 
 /// The host crates rustdoc checks.
-const DOC_CRATES: [&str; 7] = [
+const DOC_CRATES: [&str; 9] = [
     "dsp-core",
+    "link",
+    "live",
     "instrument",
     "skin-sim",
     "host-sim",

@@ -16,7 +16,7 @@ use std::path::Path;
 /// (`out/paper`), then the Cortex-M4 instruction counts.
 pub fn all(root: &Path) -> Result<()> {
     println!("{}", run(&root.join("out/firmware"))?);
-    println!("{}", run_array(&root.join("out/array"))?);
+    println!("{}", run_array(&root.join("out/array"), &root.join("out/live"))?);
     let st = std::process::Command::new(crate::cargo::bin())
         .args(["run", "--release", "-q", "-p", "host-sim", "--", "paper", "--out"])
         .arg(root.join("out/paper"))
@@ -139,13 +139,17 @@ pub fn run(out: &Path) -> Result<String> {
 /// Run the array firmware's `paper` scenario in QEMU (`skin-array`:
 /// sixteen of the paper's sensors read at once under its 20 mm/s
 /// trapezoid) and write its log, data set (a trace per sensor and tone),
-/// plot and summary to `out`; returns the summary.
-pub fn run_array(out: &Path) -> Result<String> {
+/// plot and summary to `out`; its record link's stream and the data set
+/// `live` makes of it to `live_dir`. Returns the summary.
+pub fn run_array(out: &Path, live_dir: &Path) -> Result<String> {
     std::fs::create_dir_all(out)?;
     eprintln!("running the array firmware in QEMU (10 s, 16 sensors at once)...");
     let (run, recs) = records::run_array("paper")?;
     let run = run.ok()?;
     std::fs::write(out.join("array.log"), &run.stdout)?;
+    std::fs::create_dir_all(live_dir)?;
+    std::fs::write(live_dir.join("stream.bin"), &run.serial)?;
+    let link = live::replay(&run.serial, live_dir)?;
     let per_tone: Vec<LoggedRecord> = recs.iter().flat_map(LoggedToneRecord::per_tone).collect();
     let written = recording::write_dataset(out, &per_tone, &Roles::default())?;
     let figures = summary::sensors(&recs)?;
@@ -192,6 +196,20 @@ pub fn run_array(out: &Path) -> Result<String> {
         written.traces.len(),
         written.fragments.len()
     )?;
+    writeln!(
+        md,
+        "\n## The record link\n\nThe same records as frames on UART0 (postcard, CRC-32, COBS), kept as \
+         `{}/stream.bin` and written as a data set beside it by `live` ({}): {}.",
+        live_dir.display(),
+        match &link.outcome {
+            live::Outcome::Complete => "complete".to_string(),
+            live::Outcome::Incomplete(why) => format!("INCOMPLETE: {why}"),
+        },
+        link.summary.line()
+    )?;
+    if let live::Outcome::Incomplete(why) = link.outcome {
+        bail!("the record link's stream is incomplete: {why}");
+    }
     std::fs::write(out.join("summary.md"), &md)?;
     Ok(md)
 }

@@ -132,6 +132,7 @@ fn main() -> ! {
     math(syst, &insns);
     block_budget(syst, &insns);
     array_budget(syst, &insns);
+    link_frame(syst, &insns);
     qemu::exit(0)
 }
 
@@ -351,6 +352,32 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// One whole firmware block: demodulate 1024 pairs, then fault checks, line
 /// tracking, policy and calibration (`Channel::process`); and the rebuild of
 /// the demodulation reference after a frequency change.
+/// The record link: a record converted and encoded into its frame
+/// (postcard, CRC-32, COBS), and the frame's length on the wire.
+fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    let rec = instrument::tones::ToneRecord {
+        t_us: 12_345_678,
+        channel: 11,
+        f_hz: [500.0, 2000.0],
+        z: [Complex32::new(4.1e5, -1.6e6), Complex32::new(2.0e5, -3.9e5)],
+        c_farad: 205.1e-12,
+        r_ohm: 1.0e6,
+        chi2: 1.2,
+        sigma_c: 4e-4,
+        stretch_mm: 3.5,
+        flags: instrument::faults::Flags(0),
+    };
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let mut len = 0;
+    let n = insns(ticks(syst, || {
+        let body = link::Body::Record(instrument::frames::from_tone_record(black_box(&rec)));
+        len = enc.frame(body, black_box(&mut out)).map_or(0, <[u8]>::len);
+    }));
+    println!("bench link_record_frame {} insn/record", n);
+    println!("bench link_record_bytes {} bytes/record", len);
+}
+
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};

@@ -25,11 +25,12 @@ use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
-use firmware::qemu;
+use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::calib::{Calibrations, POINTS};
+use instrument::frames::{self, calibration_digest, Digest};
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
@@ -58,6 +59,8 @@ mod app {
         /// The block the DMA completed, its clipped inputs and its middle.
         frame: (Frame, [bool; INPUTS], u64),
         done: bool,
+        /// Records the queue had no room for.
+        dropped: u32,
     }
 
     #[local]
@@ -69,6 +72,7 @@ mod app {
         settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
+        link: LinkSender,
     }
 
     #[init(local = [
@@ -94,6 +98,17 @@ mod app {
             fixture: scenario.fixture(),
             ..ToneSettings::new(skin.front_end().dsp_front_end(), inverter, cal)
         };
+        let link = LinkSender::start(
+            Uart0::take(),
+            link::Start {
+                version: link::VERSION,
+                firmware: link::Start::firmware_field(concat!("skin-array ", env!("CARGO_PKG_VERSION"))),
+                settings_digest: Digest::of(&settings),
+                calibration_digest: calibration_digest(cal),
+                sensors: SENSORS as u8,
+                sample_rate_hz: RATE_HZ,
+            },
+        );
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",
             SENSORS as u8,
@@ -104,6 +119,7 @@ mod app {
             Shared {
                 frame: ([[[0; SCAN]; BLOCK_INSTANTS]; ADCS], [false; INPUTS], 0),
                 done: false,
+                dropped: 0,
             },
             Local {
                 skin,
@@ -113,17 +129,23 @@ mod app {
                 settings,
                 records: RecordSink::new(records),
                 logger,
+                link,
             },
         )
     }
 
-    #[idle(shared = [done], local = [logger])]
+    /// The logger: each record to defmt and to the link (UART0); the
+    /// link's end frame when the run is done.
+    #[idle(shared = [done, dropped], local = [logger, link])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             while let Some(rec) = cx.local.logger.dequeue() {
                 defmt::println!("{}", rec);
+                cx.local.link.record(frames::from_tone_record(&rec));
             }
             if cx.shared.done.lock(|d| *d) {
+                let dropped = cx.shared.dropped.lock(|d| *d);
+                cx.local.link.end(dropped);
                 qemu::end();
             }
             rtic::pend(Interrupt::GPIOA);
@@ -150,7 +172,7 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done], local = [reader, settings, end_block, records])]
+    #[task(priority = 1, shared = [frame, done, dropped], local = [reader, settings, end_block, records])]
     async fn process(mut cx: process::Context) {
         let reader = &mut *cx.local.reader;
         let (block, clipped, t_us) = cx
@@ -168,6 +190,7 @@ mod app {
         );
         if sink.drops() != before {
             defmt::println!("drops {=u32}", sink.drops());
+            cx.shared.dropped.lock(|d| *d = sink.drops());
         }
         if (t_us / BLOCK_US) + 1 >= *cx.local.end_block {
             cx.shared.done.lock(|d| *d = true);

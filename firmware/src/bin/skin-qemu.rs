@@ -23,7 +23,7 @@
 #![no_main]
 
 use dsp_core::fixture::Fixture;
-use firmware::qemu;
+use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
@@ -31,6 +31,7 @@ use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
 use instrument::effects::{Effect, EffectSet};
+use instrument::frames::{self, Digest};
 use instrument::mux::Mux;
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
 
@@ -98,6 +99,7 @@ mod app {
         seq: Sequencer,
         settings: Settings<'static, POINTS>,
         end_slot: u64,
+        link: LinkSender,
     }
 
     #[init]
@@ -153,6 +155,20 @@ mod app {
                 ranges,
                 scenario,
                 seq,
+                link: LinkSender::start(
+                    Uart0::take(),
+                    link::Start {
+                        version: link::VERSION,
+                        firmware: link::Start::firmware_field(concat!(
+                            "skin-qemu ",
+                            env!("CARGO_PKG_VERSION")
+                        )),
+                        settings_digest: Digest::of(&settings),
+                        calibration_digest: Digest::of(&settings.calibration.points),
+                        sensors: CHANNELS as u8,
+                        sample_rate_hz: instrument::design::SAMPLE_RATE,
+                    },
+                ),
                 settings,
                 end_slot: (scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS),
             },
@@ -209,7 +225,7 @@ mod app {
     }
 
     /// Demodulate, correct and log one block.
-    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot])]
+    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot, link])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let (ph, clipped, slot) = cx
@@ -234,10 +250,14 @@ mod app {
             })
         });
         match rec {
-            Some(rec) => defmt::println!("{}", rec),
+            Some(rec) => {
+                defmt::println!("{}", rec);
+                local.link.record(frames::from_record(&rec));
+            }
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
         if slot.index + 1 >= *local.end_slot {
+            local.link.end(0);
             cx.shared.done.lock(|d| *d = true);
         }
     }

@@ -1,0 +1,176 @@
+//! Records as frames of the record link ([`link`]): the one conversion
+//! each way between the instrument's records and the link's, and the
+//! digests a start frame carries.
+
+use crate::calib::Calibrations;
+use crate::channel::Record;
+use crate::faults::Flags;
+use crate::tones::ToneRecord;
+use core::f32::consts::TAU;
+use dsp_core::Complex32;
+use link::Tone;
+
+/// An array record as a link record. The chosen frequency is the policy's
+/// tone, the higher of the two.
+pub fn from_tone_record(r: &ToneRecord) -> link::Record {
+    let tone = |k: usize| Tone {
+        f_hz: r.f_hz[k],
+        z_re_ohm: r.z[k].re,
+        z_im_ohm: r.z[k].im,
+    };
+    link::Record {
+        t_us: r.t_us,
+        sensor: r.channel,
+        tones: [tone(0), tone(1)],
+        c_farad: r.c_farad,
+        r_ohm: r.r_ohm,
+        stretch_mm: r.stretch_mm,
+        chosen_hz: r.f_hz[1],
+        chi2: r.chi2,
+        sigma_c: r.sigma_c,
+        flags: r.flags.0,
+    }
+}
+
+/// A link record of the array as the array's record.
+pub fn to_tone_record(r: &link::Record) -> ToneRecord {
+    ToneRecord {
+        t_us: r.t_us,
+        channel: r.sensor,
+        f_hz: [r.tones[0].f_hz, r.tones[1].f_hz],
+        z: r.tones.map(|t| Complex32::new(t.z_re_ohm, t.z_im_ohm)),
+        c_farad: r.c_farad,
+        r_ohm: r.r_ohm,
+        chi2: r.chi2,
+        sigma_c: r.sigma_c,
+        stretch_mm: r.stretch_mm,
+        flags: Flags(r.flags),
+    }
+}
+
+/// A multiplexed record as a link record: its one tone's impedance from
+/// the lumped reading, Z = Rs − j/(ωCs) (zero when there is none).
+pub fn from_record(r: &Record) -> link::Record {
+    let measured = r.cs_farad > 0.0 && r.freq_hz > 0.0;
+    let tone = Tone {
+        f_hz: r.freq_hz,
+        z_re_ohm: if measured { r.rs_ohm } else { 0.0 },
+        z_im_ohm: if measured {
+            -1.0 / (TAU * r.freq_hz * r.cs_farad)
+        } else {
+            0.0
+        },
+    };
+    link::Record {
+        t_us: r.t_us,
+        sensor: r.channel,
+        tones: [tone, Tone::default()],
+        c_farad: r.c_farad,
+        r_ohm: r.r_ohm,
+        stretch_mm: r.stretch_mm,
+        chosen_hz: r.freq_hz,
+        chi2: 0.0,
+        sigma_c: 0.0,
+        flags: r.flags.0,
+    }
+}
+
+/// A CRC-32 over formatted text: the digests of settings and
+/// calibrations, the same on the host and the device (Rust formats an
+/// `f32` as its shortest exact decimal everywhere).
+pub struct Digest(crc::Digest<'static, u32>);
+
+/// The digests' CRC: CRC-32/ISO-HDLC.
+static DIGEST_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+impl Default for Digest {
+    fn default() -> Self {
+        Self(DIGEST_CRC.digest())
+    }
+}
+
+impl Digest {
+    /// The digest of `value`'s `Debug` text.
+    pub fn of(value: &impl core::fmt::Debug) -> u32 {
+        let mut d = Self::default();
+        let _ = core::fmt::write(&mut d, format_args!("{value:?}"));
+        d.finish()
+    }
+
+    /// The digest so far.
+    pub fn finish(self) -> u32 {
+        self.0.finalize()
+    }
+}
+
+impl core::fmt::Write for Digest {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        self.0.update(s.as_bytes());
+        Ok(())
+    }
+}
+
+/// The digest of the calibration every sensor of `S` is read with: a
+/// start frame's `calibration_digest`.
+pub fn calibration_digest<const N: usize, const S: usize>(cals: &Calibrations<'_, N, S>) -> u32 {
+    let mut d = Digest::default();
+    for s in 0..S {
+        let _ = core::fmt::write(&mut d, format_args!("{s}:{:?};", cals.of(s as u8).points));
+    }
+    d.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tone_record_survives_the_link() {
+        let r = ToneRecord {
+            t_us: 12_345_678,
+            channel: 7,
+            f_hz: [500.0, 2000.0],
+            z: [Complex32::new(4.1e5, -1.6e6), Complex32::new(2.0e5, -3.9e5)],
+            c_farad: 205.1e-12,
+            r_ohm: 1.0e6,
+            chi2: 1.2,
+            sigma_c: 4e-4,
+            stretch_mm: 3.5,
+            flags: Flags(Flags::MODEL),
+        };
+        assert_eq!(to_tone_record(&from_tone_record(&r)), r);
+    }
+
+    #[test]
+    fn a_multiplexed_record_carries_its_lumped_reading() {
+        let r = Record {
+            t_us: 2560,
+            channel: 3,
+            freq_hz: 1953.125,
+            cs_farad: 201.5e-12,
+            rs_ohm: 123_456.0,
+            c_farad: 209.9e-12,
+            r_ohm: 7e5,
+            stretch_mm: -0.1,
+            flags: Flags(Flags::SETTLING),
+        };
+        let l = from_record(&r);
+        let cs = -1.0 / (TAU * l.tones[0].f_hz * l.tones[0].z_im_ohm);
+        assert!((cs / r.cs_farad - 1.0).abs() < 1e-6, "{cs}");
+        assert_eq!(
+            (l.tones[0].z_re_ohm, l.chosen_hz, l.flags),
+            (r.rs_ohm, r.freq_hz, r.flags.0)
+        );
+        assert_eq!(l.measured().count(), 1);
+    }
+
+    #[test]
+    fn digests_tell_calibrations_apart() {
+        use crate::calib::{CalTable, REFERENCE};
+        let a: Calibrations<'_, 11, 16> = Calibrations::new(&REFERENCE);
+        let mut b = a.clone();
+        assert_eq!(calibration_digest(&a), calibration_digest(&b));
+        b.insert(3, CalTable::linear(150e-12, 100.0)).unwrap();
+        assert_ne!(calibration_digest(&a), calibration_digest(&b));
+    }
+}

@@ -1,0 +1,315 @@
+//! The host's end of the record link ([`link`]): a session reads a
+//! stream's bytes as they arrive, keeps them, turns its frames into
+//! records, writes them down as they come, and at the end writes the
+//! data set ([`host_sim::recording`]'s writer, the format of
+//! `docs/data-format.md`).
+//!
+//! A stream that ends without its end frame (the device crashed, hung or
+//! was unplugged) leaves an `INCOMPLETE` file beside the data that says
+//! so, and [`Session::finish`] returns [`Outcome::Incomplete`].
+
+use anyhow::{bail, Context, Result};
+use host_sim::recording::{self, LoggedRecord, LoggedToneRecord, Roles};
+use link::{Body, Decoder, Record, Start};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The records file written as records arrive.
+pub const RECORDS_CSV: &str = "records.csv";
+/// The marker of a stream that did not end with its end frame.
+pub const INCOMPLETE: &str = "INCOMPLETE";
+
+/// The header of [`RECORDS_CSV`].
+const RECORDS_HEADER: &str = "seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_c,flags";
+
+/// How a stream ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    /// With its end frame: every record the device sent, less those lost
+    /// on the way (counted).
+    Complete,
+    /// Without its end frame; the reason.
+    Incomplete(String),
+}
+
+/// A link session: bytes in; records, counts and files out.
+pub struct Session {
+    dir: PathBuf,
+    decoder: Decoder,
+    start: Option<Start>,
+    end: Option<link::End>,
+    records: Vec<Record>,
+    csv: std::io::BufWriter<std::fs::File>,
+    /// Frames after the end frame, or before the start frame.
+    stray: u64,
+}
+
+impl Session {
+    /// A session writing into `dir` (created; an earlier session's
+    /// [`INCOMPLETE`] marker removed).
+    pub fn new(dir: &Path) -> Result<Self> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let marker = dir.join(INCOMPLETE);
+        if marker.exists() {
+            std::fs::remove_file(&marker).with_context(|| format!("removing {}", marker.display()))?;
+        }
+        let path = dir.join(RECORDS_CSV);
+        let file = std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        let mut csv = std::io::BufWriter::new(file);
+        writeln!(csv, "{RECORDS_HEADER}")?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            decoder: Decoder::new(),
+            start: None,
+            end: None,
+            records: vec![],
+            csv,
+            stray: 0,
+        })
+    }
+
+    /// Take `bytes` as they arrived; the records they completed.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
+        let mut n = 0;
+        for &b in bytes {
+            let Some(Ok(frame)) = self.decoder.push(b) else {
+                continue;
+            };
+            match frame.body {
+                Body::Start(s) => {
+                    if s.version != link::VERSION {
+                        bail!(
+                            "the stream is of wire version {} and this tool reads version {}: update the host tools",
+                            s.version,
+                            link::VERSION
+                        );
+                    }
+                    if self.start.is_some() {
+                        // The device restarted: a second stream follows.
+                        self.stray += 1;
+                    }
+                    self.start = Some(s);
+                }
+                Body::Record(r) if self.start.is_some() && self.end.is_none() => {
+                    write_record(&mut self.csv, frame.seq, &r)?;
+                    self.records.push(r);
+                    n += 1;
+                }
+                Body::End(e) if self.start.is_some() => self.end = Some(e),
+                _ => self.stray += 1,
+            }
+        }
+        Ok(n)
+    }
+
+    /// The start frame, once received.
+    pub fn start(&self) -> Option<&Start> {
+        self.start.as_ref()
+    }
+
+    /// Records received so far.
+    pub fn records(&self) -> &[Record] {
+        &self.records
+    }
+
+    /// The link's counts so far.
+    pub fn stats(&self) -> link::Stats {
+        self.decoder.stats()
+    }
+
+    /// The end frame, once received.
+    pub fn end(&self) -> Option<&link::End> {
+        self.end.as_ref()
+    }
+
+    /// Flush the records written so far (a reader may be watching).
+    pub fn flush(&mut self) -> Result<()> {
+        self.csv.flush().context("writing records.csv")
+    }
+
+    /// The stream is over: write the data set of what arrived, and the
+    /// [`INCOMPLETE`] marker if it did not end with its end frame.
+    pub fn finish(mut self) -> Result<Finished> {
+        self.flush()?;
+        let summary = self.summary();
+        let outcome = match (&self.start, &self.end) {
+            (_, Some(_)) => Outcome::Complete,
+            (None, None) => Outcome::Incomplete("no start frame: nothing from the device".into()),
+            (Some(_), None) => Outcome::Incomplete(format!(
+                "the stream stopped after {} records without its end frame (a crash, a hang, or the link was cut)",
+                self.records.len()
+            )),
+        };
+        if let Outcome::Incomplete(why) = &outcome {
+            let marker = self.dir.join(INCOMPLETE);
+            std::fs::write(&marker, format!("{why}\n"))
+                .with_context(|| format!("writing {}", marker.display()))?;
+        }
+        let written = recording::write_dataset(&self.dir, &logged(&self.records), &Roles::default())?;
+        Ok(Finished {
+            outcome,
+            summary,
+            written,
+        })
+    }
+}
+
+/// The link's records as the data set writer takes them: an array record
+/// (two tones) as a record per tone, a multiplexed one as it is.
+pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
+    let mut out = vec![];
+    for r in records {
+        if r.measured().count() == 2 {
+            let tone = LoggedToneRecord {
+                rec: instrument::frames::to_tone_record(r),
+                truth: None,
+            };
+            out.extend(tone.per_tone());
+        } else {
+            let t = r.tones[0];
+            let lumped = dsp_core_lumped(t);
+            out.push(LoggedRecord {
+                t_s: r.t_us as f64 * 1e-6,
+                channel: r.sensor,
+                freq_hz: t.f_hz as f64,
+                cs_pf: lumped.0,
+                rs_ohm: lumped.1,
+                c_pf: r.c_farad as f64 * 1e12,
+                r_ohm: r.r_ohm as f64,
+                stretch_mm: r.stretch_mm as f64,
+                flags: instrument::faults::Flags(r.flags),
+                truth: None,
+            });
+        }
+    }
+    out
+}
+
+/// A tone's lumped Cs (pF) and Rs (Ω), (0, 0) where it has none.
+fn dsp_core_lumped(t: link::Tone) -> (f64, f64) {
+    if t.f_hz > 0.0 && t.z_im_ohm < 0.0 {
+        let w = std::f64::consts::TAU * t.f_hz as f64;
+        (-1e12 / (w * t.z_im_ohm as f64), t.z_re_ohm as f64)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+fn write_record(w: &mut impl Write, seq: u32, r: &Record) -> Result<()> {
+    let [a, b] = r.tones;
+    writeln!(
+        w,
+        "{seq},{},{},{},{},{},{},{},{},{:.4},{},{},{},{},{},{}",
+        r.t_us,
+        r.sensor,
+        a.f_hz,
+        a.z_re_ohm,
+        a.z_im_ohm,
+        b.f_hz,
+        b.z_re_ohm,
+        b.z_im_ohm,
+        r.c_farad as f64 * 1e12,
+        r.r_ohm,
+        r.stretch_mm,
+        r.chosen_hz,
+        r.chi2,
+        r.sigma_c,
+        r.flags
+    )
+    .context("writing records.csv")
+}
+
+/// What a session received, in numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// The firmware that sent it (from the start frame).
+    pub firmware: Option<String>,
+    /// Bytes received.
+    pub bytes: u64,
+    /// Records received.
+    pub records: usize,
+    /// Records flagged (not valid).
+    pub flagged: usize,
+    /// The link's counts: frames decoded, refused, lost, repeated.
+    pub link: link::Stats,
+    /// Records the device dropped before sending (from the end frame).
+    pub dropped: Option<u32>,
+    /// Sensors heard from.
+    pub sensors: usize,
+    /// Records per second per sensor: least and most.
+    pub rate: (f64, f64),
+}
+
+impl Summary {
+    /// Mean bytes on the wire per record.
+    pub fn bytes_per_record(&self) -> f64 {
+        self.bytes as f64 / self.records.max(1) as f64
+    }
+
+    /// One line for a terminal.
+    pub fn line(&self) -> String {
+        format!(
+            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
+            self.records,
+            self.sensors,
+            self.rate.0,
+            self.rate.1,
+            self.flagged,
+            self.bytes_per_record(),
+            self.link.bad,
+            self.link.lost,
+            self.link.repeated,
+            self.dropped.map_or(String::new(), |d| format!("; {d} dropped on the device"))
+        )
+    }
+}
+
+impl Session {
+    /// What the session has received so far.
+    pub fn summary(&self) -> Summary {
+        let mut per: std::collections::BTreeMap<u8, (usize, u64, u64)> = Default::default();
+        for r in &self.records {
+            let e = per.entry(r.sensor).or_insert((0, r.t_us, r.t_us));
+            e.0 += 1;
+            e.1 = e.1.min(r.t_us);
+            e.2 = e.2.max(r.t_us);
+        }
+        let rates: Vec<f64> = per
+            .values()
+            .filter(|(n, a, b)| *n > 1 && b > a)
+            .map(|&(n, a, b)| (n - 1) as f64 / ((b - a) as f64 * 1e-6))
+            .collect();
+        let stats = self.decoder.stats();
+        Summary {
+            firmware: self.start.map(|s| s.firmware_str().to_string()),
+            bytes: stats.bytes,
+            records: self.records.len(),
+            flagged: self.records.iter().filter(|r| r.flags != 0).count(),
+            link: stats,
+            dropped: self.end.map(|e| e.dropped),
+            sensors: per.len(),
+            rate: (
+                rates.iter().copied().fold(f64::NAN, f64::min),
+                rates.iter().copied().fold(f64::NAN, f64::max),
+            ),
+        }
+    }
+}
+
+/// A finished session.
+#[derive(Clone, Debug)]
+pub struct Finished {
+    /// How the stream ended.
+    pub outcome: Outcome,
+    /// What it received.
+    pub summary: Summary,
+    /// The data set's files.
+    pub written: recording::Written,
+}
+
+/// Replay a recorded stream's `bytes` into `dir`.
+pub fn replay(bytes: &[u8], dir: &Path) -> Result<Finished> {
+    let mut s = Session::new(dir)?;
+    s.push(bytes)?;
+    s.finish()
+}
