@@ -8,11 +8,14 @@
 //! was unplugged) leaves an `INCOMPLETE` file beside the data that says
 //! so, and [`Session::finish`] returns [`Outcome::Incomplete`].
 
+pub mod dashboard;
+
 use anyhow::{bail, Context, Result};
 use host_sim::recording::{self, LoggedRecord, LoggedToneRecord, Roles};
 use link::{Body, Decoder, Record, Start};
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// The records file written as records arrive.
 pub const RECORDS_CSV: &str = "records.csv";
@@ -312,4 +315,66 @@ pub fn replay(bytes: &[u8], dir: &Path) -> Result<Finished> {
     let mut s = Session::new(dir)?;
     s.push(bytes)?;
     s.finish()
+}
+
+/// Where bytes go: the session, and the records they complete to the
+/// dashboard when there is one.
+pub struct Sink<'a> {
+    /// The session.
+    pub session: &'a mut Session,
+    /// The dashboard, if one is served.
+    pub dashboard: Option<&'a dashboard::Dashboard>,
+}
+
+impl Sink<'_> {
+    /// Take `bytes` as they arrived.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<()> {
+        let before = self.session.records().len();
+        self.session.push(bytes)?;
+        if let Some(d) = self.dashboard {
+            d.push(&self.session.records()[before..]);
+        }
+        Ok(())
+    }
+}
+
+/// Read `source` until it ends (EOF, a closed socket, a port that
+/// vanished) or the stream's end frame arrives, keeping every byte in
+/// `stream.bin` and printing the link's health each second.
+pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path) -> Result<()> {
+    let raw_path = dir.join("stream.bin");
+    let mut raw =
+        std::fs::File::create(&raw_path).with_context(|| format!("creating {}", raw_path.display()))?;
+    let mut buf = [0u8; 4096];
+    let mut last = Instant::now();
+    loop {
+        let n = match source.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                ) =>
+            {
+                0
+            }
+            Err(e) => {
+                eprintln!("the source stopped: {e}");
+                break;
+            }
+        };
+        raw.write_all(&buf[..n]).context("keeping the raw stream")?;
+        sink.push(&buf[..n])?;
+        if last.elapsed() >= Duration::from_secs(1) {
+            last = Instant::now();
+            sink.session.flush()?;
+            eprintln!("{}", sink.session.summary().line());
+        }
+        if sink.session.end().is_some() {
+            break;
+        }
+    }
+    raw.flush()?;
+    Ok(())
 }

@@ -5,11 +5,12 @@
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use live::{Outcome, Session};
-use std::io::{Read, Write};
+use live::dashboard::Dashboard;
+use live::{follow, Outcome, Session, Sink};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Read a running skin's records.
 #[derive(Parser)]
@@ -31,6 +32,14 @@ struct Cli {
     /// set's files at the end, stream.bin with the raw bytes).
     #[arg(long, default_value = "out/live")]
     dataset: PathBuf,
+    /// Serve the live dashboard on this local address (127.0.0.1:PORT;
+    /// port 0 picks a free one); its address is printed first.
+    #[arg(long)]
+    serve: Option<std::net::SocketAddr>,
+    /// With --serve: keep serving this many seconds after the stream
+    /// ends (a replay ends at once).
+    #[arg(long, default_value_t = 0)]
+    linger: u64,
 }
 
 fn main() -> ExitCode {
@@ -48,27 +57,50 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<Outcome> {
+    let dashboard = match cli.serve {
+        Some(addr) if !addr.ip().is_loopback() => {
+            anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
+        }
+        Some(addr) => {
+            let d = Dashboard::serve(addr)?;
+            println!("dashboard: http://{}/", d.addr());
+            std::io::stdout().flush()?;
+            Some(d)
+        }
+        None => None,
+    };
     let mut session = Session::new(&cli.dataset)?;
+    let mut sink = Sink {
+        session: &mut session,
+        dashboard: dashboard.as_ref(),
+    };
     match (&cli.replay, &cli.serial, &cli.tcp) {
         (Some(path), _, _) => {
             let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-            session.push(&bytes)?;
+            sink.push(&bytes)?;
         }
         (None, Some(port), _) => {
             let port = serialport::new(port, cli.baud)
                 .timeout(Duration::from_millis(200))
                 .open()
                 .with_context(|| format!("opening the serial port {port} (in use, or not there?)"))?;
-            follow(port, &mut session, &cli.dataset)?;
+            follow(port, &mut sink, &cli.dataset)?;
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            follow(sock, &mut session, &cli.dataset)?;
+            follow(sock, &mut sink, &cli.dataset)?;
         }
         (None, None, None) => {
             anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")
         }
+    }
+    if let Some(d) = &dashboard {
+        d.end();
+    }
+    if dashboard.is_some() && cli.linger > 0 {
+        eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
+        std::thread::sleep(Duration::from_secs(cli.linger));
     }
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
@@ -79,45 +111,4 @@ fn run(cli: Cli) -> Result<Outcome> {
         finished.written.fragments.len()
     );
     Ok(finished.outcome)
-}
-
-/// Read `source` until it ends (EOF, a closed socket, a port that
-/// vanished) or the stream's end frame arrives, keeping every byte in
-/// `stream.bin` and printing the link's health each second.
-fn follow(mut source: impl Read, session: &mut Session, dir: &std::path::Path) -> Result<()> {
-    let raw_path = dir.join("stream.bin");
-    let mut raw =
-        std::fs::File::create(&raw_path).with_context(|| format!("creating {}", raw_path.display()))?;
-    let mut buf = [0u8; 4096];
-    let mut last = Instant::now();
-    loop {
-        let n = match source.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
-                ) =>
-            {
-                0
-            }
-            Err(e) => {
-                eprintln!("the source stopped: {e}");
-                break;
-            }
-        };
-        raw.write_all(&buf[..n]).context("keeping the raw stream")?;
-        session.push(&buf[..n])?;
-        if last.elapsed() >= Duration::from_secs(1) {
-            last = Instant::now();
-            session.flush()?;
-            eprintln!("{}", session.summary().line());
-        }
-        if session.end().is_some() {
-            break;
-        }
-    }
-    raw.flush()?;
-    Ok(())
 }

@@ -141,6 +141,38 @@ pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Ru
     })
 }
 
+/// Start `elf` in QEMU with semihosting arguments `args`, its UART0 a TCP
+/// server on 127.0.0.1:`port` that waits for its client before the
+/// firmware runs (as a user connects `live --tcp` to a running QEMU).
+pub fn spawn_qemu_tcp(elf: &Path, args: &[&str], port: u16) -> Result<std::process::Child> {
+    let mut sh = String::from("enable=on,target=native");
+    for a in args {
+        sh.push_str(",arg=");
+        sh.push_str(a);
+    }
+    Command::new("qemu-system-arm")
+        .args([
+            "-machine",
+            "lm3s6965evb",
+            "-cpu",
+            "cortex-m4",
+            "-nographic",
+            "-monitor",
+            "none",
+        ])
+        .args(["-semihosting-config", &sh])
+        .args(["-icount", "shift=7,align=off,sleep=off"])
+        .arg("-serial")
+        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .context("starting qemu-system-arm")
+}
+
 /// One `bench <name> <value> <unit>` line of the instruction-count bench.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bench {

@@ -208,3 +208,45 @@ fn hang_is_caught_by_the_watchdog() {
     incomplete(&run);
     assert!(run.ok().unwrap_err().to_string().contains("watchdog"));
 }
+
+/// `live` on a running QEMU: UART0 as a TCP socket, followed as it runs;
+/// the stream ends with its end frame, the raw bytes are kept.
+#[test]
+fn live_follows_a_running_qemu_over_its_socket() {
+    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut qemu = qemu_tests::spawn_qemu_tcp(&elf, &["slow"], port).unwrap();
+    // QEMU listens a moment after it starts.
+    let mut sock = None;
+    for _ in 0..100 {
+        match std::net::TcpStream::connect(("127.0.0.1", port)) {
+            Ok(s) => {
+                sock = Some(s);
+                break;
+            }
+            Err(_) => std::thread::sleep(Duration::from_millis(100)),
+        }
+    }
+    let sock = sock.expect("QEMU's UART0 socket");
+    sock.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let mut session = live::Session::new(tmp.path()).unwrap();
+    let mut sink = live::Sink {
+        session: &mut session,
+        dashboard: None,
+    };
+    live::follow(sock, &mut sink, tmp.path()).unwrap();
+    let status = qemu.wait().unwrap();
+    assert!(status.success(), "{status}");
+    let done = session.finish().unwrap();
+    println!("{}", done.summary.line());
+    assert_eq!(done.outcome, live::Outcome::Complete);
+    assert!(done.summary.records > 100, "{}", done.summary.line());
+    assert_eq!((done.summary.link.bad, done.summary.link.lost), (0, 0));
+    let kept = std::fs::read(tmp.path().join("stream.bin")).unwrap();
+    assert_eq!(kept.len() as u64, done.summary.bytes);
+}

@@ -59,5 +59,49 @@ pub fn regenerate(root: &Path) -> Result<()> {
     let update = [(figures::UPDATE_VAR, "1")];
     cargo::run_env(root, &args, &update)?;
     // The README's table from the rows just written.
-    cargo::run_env(root, &["test", "-p", "figures", "--test", "readme"], &update)
+    cargo::run_env(root, &["test", "-p", "figures", "--test", "readme"], &update)?;
+    dashboard_screenshot(root)
+}
+
+/// The dashboard on the main job's array stream (`out/live/stream.bin`),
+/// photographed by headless Chromium into `docs/dashboard.png`.
+fn dashboard_screenshot(root: &Path) -> Result<()> {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    cargo::run(root, &["build", "--release", "-p", "live"])?;
+    let mut child = Command::new(root.join("target/release/live"))
+        .arg("--replay")
+        .arg(root.join("out/live/stream.bin"))
+        .arg("--dataset")
+        .arg(root.join("out/live-docs"))
+        .args(["--serve", "127.0.0.1:0", "--linger", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .context("starting live")?;
+    let mut first = String::new();
+    if let Some(out) = child.stdout.take() {
+        BufReader::new(out).read_line(&mut first)?;
+    }
+    let url = first.trim().strip_prefix("dashboard: ").map(str::to_string);
+    let shot = root.join("docs/dashboard.png");
+    let st = match &url {
+        Some(url) => Command::new("chromium")
+            .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars"])
+            .args(["--virtual-time-budget=4000", "--window-size=1280,1250"])
+            .arg(format!("--screenshot={}", shot.display()))
+            .arg(url)
+            .stderr(Stdio::null())
+            .status()
+            .context("running chromium")?,
+        None => anyhow::bail!("live did not say where its dashboard is: {first}"),
+    };
+    let _ = child.kill();
+    let _ = child.wait();
+    anyhow::ensure!(
+        st.success() && shot.is_file(),
+        "chromium took no screenshot of {url:?}"
+    );
+    eprintln!("wrote docs/dashboard.png");
+    Ok(())
 }

@@ -1,11 +1,18 @@
-//! What a fresh Debian machine lacks: QEMU and ngspice (apt-get, as root
-//! or through sudo), and the Rust targets of `rust-toolchain.toml`.
+//! What a fresh Debian machine lacks (apt-get, as root or through sudo):
+//! QEMU, ngspice, Chromium (the dashboard's test) and npm (the
+//! dashboard's chart library); and the Rust targets of
+//! `rust-toolchain.toml`.
 
 use anyhow::{bail, Context, Result};
 use std::process::Command;
 
 /// The system packages the tests need: (a program on PATH, its package).
-const PACKAGES: [(&str, &str); 2] = [("qemu-system-arm", "qemu-system-arm"), ("ngspice", "ngspice")];
+const PACKAGES: [(&str, &str); 4] = [
+    ("qemu-system-arm", "qemu-system-arm"),
+    ("ngspice", "ngspice"),
+    ("chromium", "chromium"),
+    ("npm", "npm"),
+];
 
 /// The Cortex-M targets of `rust-toolchain.toml`.
 const TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv7m-none-eabi"];

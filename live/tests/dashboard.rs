@@ -1,0 +1,130 @@
+//! The dashboard in a real browser (headless Chromium, Debian's
+//! `chromium`, which `cargo xtask setup` installs): against a replay, the
+//! page shows every record it was sent, and a screenshot of its charts is
+//! written to `out/dashboard.png`.
+
+use link::{Body, Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+/// Two sensors on a slow triangle of stretch, `n` records each.
+fn stream(n: u32) -> Vec<u8> {
+    let mut enc = Encoder::new();
+    let mut out = [0u8; MAX_FRAME];
+    let start = Start {
+        version: VERSION,
+        firmware: Start::firmware_field("dashboard test"),
+        sensors: 2,
+        ..Start::default()
+    };
+    let mut bytes = enc.frame(Body::Start(start), &mut out).unwrap().to_vec();
+    for k in 0..n {
+        for sensor in 0..2u8 {
+            let s = 15.0 - ((k as f32 / n as f32) * 30.0 - 15.0).abs();
+            let rec = Record {
+                t_us: 4000 * u64::from(k) + 2000,
+                sensor,
+                tones: [
+                    Tone {
+                        f_hz: 500.0,
+                        z_re_ohm: 4e5,
+                        z_im_ohm: -1.6e6,
+                    },
+                    Tone {
+                        f_hz: 2000.0,
+                        z_re_ohm: 2e5,
+                        z_im_ohm: -3.9e5,
+                    },
+                ],
+                c_farad: (205.0 + 2.0 * s + 10.0 * f32::from(sensor)) * 1e-12,
+                r_ohm: 7e5 * (1.0 + 0.02 * s),
+                stretch_mm: s,
+                chosen_hz: if s > 10.0 { 1000.0 } else { 2000.0 },
+                flags: u16::from(k % 50 == 0) * 64,
+                ..Record::default()
+            };
+            bytes.extend_from_slice(enc.frame(Body::Record(rec), &mut out).unwrap());
+        }
+    }
+    let end = End {
+        records: 2 * n,
+        dropped: 0,
+    };
+    bytes.extend_from_slice(enc.frame(Body::End(end), &mut out).unwrap());
+    bytes
+}
+
+/// Headless Chromium on `url` with `args`; its stdout.
+fn chromium(url: &str, args: &[&str]) -> String {
+    let out = Command::new("chromium")
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars"])
+        .arg("--virtual-time-budget=4000")
+        .args(args)
+        .arg(url)
+        .stderr(Stdio::null())
+        .output()
+        .expect("chromium (Debian's package; `cargo xtask setup` installs it)");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn the_page_shows_every_record_it_was_sent() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("stream.bin");
+    std::fs::write(&file, stream(400)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
+        .arg("--replay")
+        .arg(&file)
+        .arg("--dataset")
+        .arg(tmp.path().join("ds"))
+        .args(["--serve", "127.0.0.1:0", "--linger", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let url = first
+        .trim()
+        .strip_prefix("dashboard: ")
+        .expect("the dashboard's address")
+        .to_string();
+    let dom = chromium(&url, &["--dump-dom"]);
+    let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../out/dashboard.png");
+    std::fs::create_dir_all(shot.parent().unwrap()).unwrap();
+    chromium(
+        &url,
+        &[
+            "--window-size=1280,1100",
+            &format!("--screenshot={}", shot.display()),
+        ],
+    );
+    let _ = child.kill();
+    let _ = child.wait();
+    let count = |id: &str| -> Option<u64> {
+        let tag = format!("id=\"{id}\">");
+        let at = dom.find(&tag)? + tag.len();
+        dom[at..].split('<').next()?.parse().ok()
+    };
+    assert_eq!(count("records"), Some(800), "{dom}");
+    assert_eq!(count("sensors"), Some(2));
+    assert_eq!(count("flagged"), Some(16));
+    assert!(dom.contains("sensor 0: C"), "no charts: {dom}");
+    assert!(
+        shot.is_file() && std::fs::metadata(&shot).unwrap().len() > 10_000,
+        "no screenshot"
+    );
+}
+
+#[test]
+fn the_dashboard_serves_this_machine_only() {
+    let out = Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(["--replay", "/dev/null", "--serve", "0.0.0.0:0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("serves this machine only"));
+}
