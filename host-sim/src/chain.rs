@@ -38,20 +38,7 @@ pub enum Meter {
     /// With `response_s` > 0, the (windowed) admittance then passes a
     /// first-order filter of that time constant (a lock-in's RC output
     /// filter), settled on the sensor at rest before the run.
-    Lcr {
-        /// Sampling interval, s.
-        interval_s: f64,
-        /// Relative noise (1 σ).
-        rel: f64,
-        /// Absolute capacitance noise (1 σ), F.
-        abs_farad: f64,
-        /// Integration window, s.
-        window_s: f64,
-        /// Time offset of the capacitance channel, s.
-        offset_s: f64,
-        /// First-order response time constant, s (0: none).
-        response_s: f64,
-    },
+    Lcr(LcrMeter),
 }
 
 impl Meter {
@@ -62,26 +49,21 @@ impl Meter {
     /// (the catalogue's [`Effect::MeterLag`] window and
     /// [`Effect::TimeOffset`] of the capacitance channel).
     pub const fn lcr(effects: &EffectSet) -> Meter {
-        Meter::Lcr {
+        Meter::Lcr(LcrMeter {
             interval_s: 0.02,
             rel: 2e-4,
             abs_farad: 0.02e-12,
             window_s: effects.get(Effect::MeterLag),
             offset_s: effects.get(Effect::TimeOffset),
             response_s: effects.get(Effect::MeterResponse),
-        }
+        })
     }
 
     /// How far before a reading's time the meter looks, s (≥ 0): the
     /// sensor must be at or before `t − lookback` when a run starts at t.
     pub fn lookback_s(&self) -> f64 {
         match *self {
-            Meter::Lcr {
-                window_s,
-                offset_s,
-                response_s,
-                ..
-            } => (window_s + 12.0 * response_s - offset_s).max(0.0),
+            Meter::Lcr(m) => (m.window_s + 12.0 * m.response_s - m.offset_s).max(0.0),
             Meter::Adc(_) => 0.0,
         }
     }
@@ -151,24 +133,7 @@ pub fn run(
     let span = (t_start, t_end);
     match setup.meter {
         Meter::Adc(fe) => run_adc(sensor, profile, &fe, &setup, span, tick),
-        Meter::Lcr {
-            interval_s,
-            rel,
-            abs_farad,
-            window_s,
-            offset_s,
-            response_s,
-        } => {
-            let lcr = LcrMeter {
-                interval_s,
-                rel,
-                abs_farad,
-                window_s,
-                offset_s,
-                response_s,
-            };
-            run_lcr(sensor, profile, &lcr, &setup, span, tick)
-        }
+        Meter::Lcr(lcr) => run_lcr(sensor, profile, &lcr, &setup, span, tick),
     }
 }
 
@@ -241,13 +206,20 @@ fn run_adc(
 }
 
 /// An LCR meter's settings ([`Meter::Lcr`]).
-struct LcrMeter {
-    interval_s: f64,
-    rel: f64,
-    abs_farad: f64,
-    window_s: f64,
-    offset_s: f64,
-    response_s: f64,
+#[derive(Clone, Copy, Debug)]
+pub struct LcrMeter {
+    /// Sampling interval, s.
+    pub interval_s: f64,
+    /// Relative noise (1 σ).
+    pub rel: f64,
+    /// Absolute capacitance noise (1 σ), F.
+    pub abs_farad: f64,
+    /// Integration window, s.
+    pub window_s: f64,
+    /// Time offset of the capacitance channel, s.
+    pub offset_s: f64,
+    /// First-order response time constant, s (0: none).
+    pub response_s: f64,
 }
 
 /// The mean admittance of the sensor over `[start, start + window_s]`,

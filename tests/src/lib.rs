@@ -80,32 +80,38 @@ pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
     run_qemu_args(elf, &[], watchdog)
 }
 
-/// Run `elf` in QEMU with semihosting arguments `args`; kill it after
-/// `watchdog`.
-pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Run> {
+/// The QEMU command for `elf` with semihosting arguments `args` and
+/// UART0 on `serial` (a `-serial` device: `file:PATH`, `tcp:…`).
+fn qemu(elf: &Path, args: &[&str], serial: &str) -> Command {
     let mut sh = String::from("enable=on,target=native");
     for a in args {
         sh.push_str(",arg=");
         sh.push_str(a);
     }
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args([
+        "-machine",
+        "lm3s6965evb",
+        "-cpu",
+        "cortex-m4",
+        "-nographic",
+        "-monitor",
+        "none",
+    ])
+    .args(["-semihosting-config", &sh])
+    .args(["-icount", "shift=7,align=off,sleep=off"])
+    .args(["-serial", serial])
+    .arg("-kernel")
+    .arg(elf);
+    cmd
+}
+
+/// Run `elf` in QEMU with semihosting arguments `args`; kill it after
+/// `watchdog`.
+pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Run> {
     // UART0 to a file: the record link's byte stream.
     let serial = tempfile::NamedTempFile::new().context("a file for UART0")?;
-    let mut child = Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            "lm3s6965evb",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-        ])
-        .args(["-semihosting-config", &sh])
-        .arg("-serial")
-        .arg(format!("file:{}", serial.path().display()))
-        .args(["-icount", "shift=7,align=off,sleep=off"])
-        .arg("-kernel")
-        .arg(elf)
+    let mut child = qemu(elf, args, &format!("file:{}", serial.path().display()))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -145,27 +151,7 @@ pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Ru
 /// server on 127.0.0.1:`port` that waits for its client before the
 /// firmware runs (as a user connects `live --tcp` to a running QEMU).
 pub fn spawn_qemu_tcp(elf: &Path, args: &[&str], port: u16) -> Result<std::process::Child> {
-    let mut sh = String::from("enable=on,target=native");
-    for a in args {
-        sh.push_str(",arg=");
-        sh.push_str(a);
-    }
-    Command::new("qemu-system-arm")
-        .args([
-            "-machine",
-            "lm3s6965evb",
-            "-cpu",
-            "cortex-m4",
-            "-nographic",
-            "-monitor",
-            "none",
-        ])
-        .args(["-semihosting-config", &sh])
-        .args(["-icount", "shift=7,align=off,sleep=off"])
-        .arg("-serial")
-        .arg(format!("tcp:127.0.0.1:{port},server=on,wait=on"))
-        .arg("-kernel")
-        .arg(elf)
+    qemu(elf, args, &format!("tcp:127.0.0.1:{port},server=on,wait=on"))
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())

@@ -125,23 +125,41 @@ fn main() -> Result<()> {
             eprintln!("wrote {}", out.display());
             Ok(())
         }
-        Cmd::Fuzz { cases } => cargo::run_env(
-            &root,
-            &[
-                "test",
-                "--release",
-                "-p",
-                "dsp-core",
-                "-p",
-                "instrument",
-                "-p",
-                "host-sim",
-                "--test",
-                "fuzz",
-                "--",
-                "--nocapture",
-            ],
-            &[("FUZZ_CASES", &cases.to_string())],
-        ),
+        Cmd::Fuzz { cases } => {
+            let n = cases.to_string();
+            cargo::run_env(
+                &root,
+                &[
+                    "test",
+                    "--release",
+                    "-p",
+                    "dsp-core",
+                    "-p",
+                    "instrument",
+                    "-p",
+                    "host-sim",
+                    "--test",
+                    "fuzz",
+                    "--",
+                    "--nocapture",
+                ],
+                &[("FUZZ_CASES", &n)],
+            )?;
+            // The record link: corrupted streams.
+            cargo::run_env(
+                &root,
+                &[
+                    "test",
+                    "--release",
+                    "-p",
+                    "link",
+                    "--test",
+                    "frames",
+                    "--",
+                    "--nocapture",
+                ],
+                &[("LINK_CASES", &n)],
+            )
+        }
     }
 }
