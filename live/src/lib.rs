@@ -45,7 +45,13 @@ pub struct Session {
     csv: std::io::BufWriter<std::fs::File>,
     /// Frames after the end frame, or before the start frame.
     stray: u64,
+    /// The first frames refused: where (the byte that closed them) and
+    /// why.
+    refused: Vec<(u64, link::Error)>,
 }
+
+/// How many refused frames a session describes (the rest are counted).
+pub const REFUSED_SHOWN: usize = 20;
 
 impl Session {
     /// A session writing into `dir` (created; an earlier session's
@@ -68,6 +74,7 @@ impl Session {
             records: vec![],
             csv,
             stray: 0,
+            refused: vec![],
         })
     }
 
@@ -75,8 +82,15 @@ impl Session {
     pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
         let mut n = 0;
         for &b in bytes {
-            let Some(Ok(frame)) = self.decoder.push(b) else {
-                continue;
+            let frame = match self.decoder.push(b) {
+                None => continue,
+                Some(Ok(frame)) => frame,
+                Some(Err(e)) => {
+                    if self.refused.len() < REFUSED_SHOWN {
+                        self.refused.push((self.decoder.stats().bytes, e));
+                    }
+                    continue;
+                }
             };
             match frame.body {
                 Body::Start(s) => {
@@ -118,6 +132,12 @@ impl Session {
     /// The link's counts so far.
     pub fn stats(&self) -> link::Stats {
         self.decoder.stats()
+    }
+
+    /// The first frames refused ([`REFUSED_SHOWN`] at most): the byte of
+    /// the stream that closed each (1-based), and why.
+    pub fn refused(&self) -> &[(u64, link::Error)] {
+        &self.refused
     }
 
     /// The end frame, once received.

@@ -102,6 +102,15 @@ fn run(cli: Cli) -> Result<Outcome> {
         eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
         std::thread::sleep(Duration::from_secs(cli.linger));
     }
+    for (at, why) in session.refused() {
+        eprintln!("a frame ending at byte {at} of the stream was refused: {why}");
+    }
+    if session.stats().bad > session.refused().len() as u64 {
+        eprintln!(
+            "… and {} more refused",
+            session.stats().bad - session.refused().len() as u64
+        );
+    }
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
     println!(

@@ -157,3 +157,24 @@ fn a_replay_rebuilds_the_same_data_set() {
         );
     }
 }
+
+#[test]
+fn a_refused_frame_is_named_with_its_place() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut bytes = stream(10, true, VERSION);
+    // Flip a bit in the third frame.
+    let third = bytes
+        .iter()
+        .enumerate()
+        .filter(|(_, &b)| b == 0)
+        .nth(1)
+        .unwrap()
+        .0
+        + 3;
+    bytes[third] ^= 0x10;
+    let (code, out, err) = live(&bytes, tmp.path());
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("refused: the CRC does not match"), "{err}");
+    assert!(err.contains("a frame ending at byte"), "{err}");
+    assert!(out.contains("9 records") && out.contains("1 refused"), "{out}");
+}
