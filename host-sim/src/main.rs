@@ -65,6 +65,10 @@ enum Cmd {
         /// Expected capacitance, to choose between two fitting lines.
         #[arg(long, value_parser = si::parse)]
         c_hint: Option<f64>,
+        /// The fraction of each electrode's resistance in its tab leads
+        /// (`lead_resistance`, as `identify` reports it; 0: no leads).
+        #[arg(long, default_value_t = 0.0)]
+        lead_resistance: f64,
     },
     /// Every paper experiment: CSV, SVG figures and summary.md in --out.
     Paper(RunArgs),
@@ -359,7 +363,8 @@ fn run(cli: Cli) -> Result<()> {
             f,
             model,
             c_hint,
-        } => invert(cs, rs, f, model, c_hint)?,
+            lead_resistance,
+        } => invert(cs, rs, f, model, c_hint, lead_resistance)?,
         Cmd::Paper(a) => {
             let c = ctx(&a, 600.0 + 9.0 * 10.0 * a.periods as f64)?;
             let (md, _) = exp::paper(&c)?;
@@ -453,9 +458,17 @@ fn model_table(r: f64, c: f64, f: &[f64], models: &[LineModel], csv: bool) -> Re
 }
 
 /// `invert`: the line behind one series reading.
-fn invert(cs: f64, rs: f64, f: f64, model: LineModel, c_hint: Option<f64>) -> Result<()> {
-    let line = meter::invert(model, cs, rs, f, c_hint)?;
-    println!("model: {}", model_name(model));
+fn invert(cs: f64, rs: f64, f: f64, model: LineModel, c_hint: Option<f64>, leads: f64) -> Result<()> {
+    let line = meter::invert_with_leads(model, leads, cs, rs, f, c_hint)?;
+    if leads > 0.0 {
+        println!(
+            "model: {}, {:.1} % of each electrode in its tab leads",
+            model_name(model),
+            100.0 * leads
+        );
+    } else {
+        println!("model: {}", model_name(model));
+    }
     println!("C   = {}", si::fmt(line.c_farad as f64, "F"));
     println!(
         "R   = {}  (top + bottom electrode)",

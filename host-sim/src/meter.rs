@@ -68,13 +68,35 @@ pub fn read(model: LineModel, r_ohm: f64, c_farad: f64, f_hz: f64) -> Result<Rea
 /// The line behind a series reading Cs (F), Rs (Ω) at `f_hz`; with
 /// `c_hint`, the branch closest to it where two lines fit.
 pub fn invert(model: LineModel, cs_farad: f64, rs_ohm: f64, f_hz: f64, c_hint: Option<f64>) -> Result<Line> {
+    invert_with_leads(model, 0.0, cs_farad, rs_ohm, f_hz, c_hint)
+}
+
+/// [`invert`] for a sensor with tab leads: a fraction `lead_fraction` of
+/// each electrode's end-to-end resistance lies in its leads, outside the
+/// capacitor (the catalogue's `lead_resistance`, as `identify` reports
+/// it); the line returned is the capacitor's, the leads taken out.
+pub fn invert_with_leads(
+    model: LineModel,
+    lead_fraction: f64,
+    cs_farad: f64,
+    rs_ohm: f64,
+    f_hz: f64,
+    c_hint: Option<f64>,
+) -> Result<Line> {
+    anyhow::ensure!(
+        (0.0..1.0).contains(&lead_fraction),
+        "--lead-resistance {lead_fraction}: the fraction of each electrode's resistance in its leads is within 0..1"
+    );
+    let lead_ratio = instrument::effects::EffectSet::NONE
+        .with(instrument::effects::Effect::LeadResistance, lead_fraction)
+        .lead_ratio();
     let series = SeriesRc {
         cs_farad: cs_farad as f32,
         rs_ohm: rs_ohm as f32,
     };
     let z: Complex32 = series.impedance(f_hz as f32);
-    let inv =
-        Inverter::with_x_max(model, dsp_core::invert::X_MAX_DEFAULT).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let inv = Inverter::with_leads(model, dsp_core::invert::X_MAX_DEFAULT, lead_ratio)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let r = match c_hint {
         Some(c) => inv.invert_near(z, f_hz as f32, c as f32),
         None => inv.invert(z, f_hz as f32),

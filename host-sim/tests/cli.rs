@@ -209,3 +209,45 @@ fn the_docs_show_what_model_and_invert_print() {
     md += "```\n";
     figures::check("docs/host-tools.md", "cli-sizing", &md).unwrap();
 }
+
+/// The paper's sensor (its tab leads: `lead_resistance` 0.6415) read by a
+/// series meter at 2 kHz: `invert` without its leads finds no line (or
+/// one far off); with them, its true 205 pF.
+#[test]
+fn invert_takes_the_tab_leads() {
+    let p = skin_sim::sensor::SensorParams::PAPER;
+    let z = skin_sim::sensor::Sensor::settled(p).impedance(2000.0);
+    let w = std::f64::consts::TAU * 2000.0;
+    let (cs, rs) = (format!("{:e}", -1.0 / (w * z.im)), format!("{:e}", z.re));
+    let c_true = p.capacitance(0.0) * 1e12;
+    let read = |extra: &[&str]| -> Option<f64> {
+        let mut args = vec![
+            "invert", "--cs", &cs, "--rs", &rs, "--f", "2k", "--c-hint", "205p",
+        ];
+        args.extend_from_slice(extra);
+        let (ok, out, _) = run(&args);
+        let c = out.lines().find(|l| l.starts_with("C "))?;
+        assert!(c.contains("pF"), "{c}");
+        ok.then(|| c.split_whitespace().nth(2)?.parse().ok()).flatten()
+    };
+    let without = read(&[]);
+    let with = read(&["--lead-resistance", "0.6415"]).expect("a line with the leads");
+    println!("C true {c_true:.2} pF: without leads {without:?} pF, with {with:.2} pF");
+    assert!((with / c_true - 1.0).abs() < 2e-3, "{with} against {c_true}");
+    assert!(
+        without.is_none_or(|c| (c / c_true - 1.0).abs() > 0.05),
+        "{without:?}"
+    );
+    let (ok, _, err) = run(&[
+        "invert",
+        "--cs",
+        "150p",
+        "--rs",
+        "200k",
+        "--f",
+        "6k",
+        "--lead-resistance",
+        "1.5",
+    ]);
+    assert!(!ok && err.contains("within 0..1"), "{err}");
+}
