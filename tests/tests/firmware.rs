@@ -250,3 +250,20 @@ fn live_follows_a_running_qemu_over_its_socket() {
     let kept = std::fs::read(tmp.path().join("stream.bin")).unwrap();
     assert_eq!(kept.len() as u64, done.summary.bytes);
 }
+
+/// A command line longer than the firmware reads is refused, not run as
+/// the default scenario (it used to be: a silent `paper20`).
+#[test]
+fn a_command_line_too_long_is_refused_not_defaulted() {
+    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    let long = format!("contact_resistance=1e3{}", "0".repeat(300));
+    let run = qemu_tests::run_qemu_args(&elf, &["paper20", &long], Duration::from_secs(60)).unwrap();
+    let log: Vec<String> = host_sim::recording::decode_defmt(&elf, &run.raw)
+        .unwrap()
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect();
+    assert_eq!(run.code, Some(2), "{log:?}");
+    assert!(log.iter().any(|l| l.contains("cannot be read")), "{log:?}");
+    assert!(!log.iter().any(|l| l.starts_with("start")), "{log:?}");
+}

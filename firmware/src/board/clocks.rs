@@ -89,6 +89,10 @@ pub fn array_peripherals(rcc: &rcc::RegisterBlock) {
 #[cfg(target_os = "none")]
 pub fn system(dp: &super::pac::Peripherals) {
     dp.RCC.apb1enr1().modify(|_, w| w.pwren().set_bit());
+    // A clock enable takes effect two cycles later: read it back before
+    // touching PWR (RM0440: "delay after an RCC peripheral clock
+    // enabling").
+    let _ = dp.RCC.apb1enr1().read();
     boost(&dp.PWR);
     flash_wait_states(&dp.FLASH);
     while dp.FLASH.acr().read().latency().bits() != 4 {}

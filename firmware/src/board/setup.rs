@@ -1,8 +1,9 @@
 //! The start and the end of `init` that both board applications share,
 //! and the peripherals their tasks own afterwards.
 //!
-//! [`begin`]: log why the board last reset, start the watchdog, bring the
-//! system clock to 170 MHz. Then the application configures its front
+//! [`begin`]: log why the board last reset, freeze the watchdog and the
+//! sample timers while a debugger halts the core, start the watchdog,
+//! bring the system clock to 170 MHz. Then the application configures its front
 //! end. [`finish`]: wait until the watchdog has taken its settings, feed
 //! it once, and hand the peripherals the tasks need over as owned values
 //! ([`Owned`]), so that no task reaches a peripheral through a raw
@@ -36,12 +37,14 @@ pub struct Owned {
     pub watchdog: Watchdog,
 }
 
-/// Log the cause of the last reset, start the watchdog (100 ms) and the
+/// Log the cause of the last reset, freeze the watchdog and the timers in
+/// debug, start the watchdog (100 ms) and the
 /// system clock (RM0440 6.1.5: boost, wait states, PLL at 170 MHz).
 #[cfg(target_os = "none")]
 pub fn begin(dp: &pac::Peripherals) {
     let cause = watchdog::take_reset_cause(&dp.RCC);
     defmt::println!("reset cause: {=str}", cause.as_str());
+    watchdog::freeze_in_debug(&dp.DBGMCU);
     watchdog::start(&dp.IWDG);
     clocks::system(dp);
 }

@@ -483,3 +483,13 @@ fn the_arrays_followers_dma_dac_and_timers() {
     assert_eq!(rcc.at(0x58), 1 << 4 | 1 << 5 | 1 << 28);
     assert_eq!(rcc.at(0x60), 1);
 }
+
+#[test]
+fn a_debugger_halt_freezes_the_watchdog_and_the_sample_timers() {
+    // DBGMCU_APB1FZR1 (offset 0x08, reset 0): DBG_TIM6_STOP bit 4,
+    // DBG_TIM7_STOP bit 5, DBG_IWDG_STOP bit 12 (RM0440, DBGMCU); the
+    // other bits as they were.
+    let mut dbg = Fake::new(&[(0x08, 1 << 21)]);
+    watchdog::freeze_in_debug(dbg.regs::<pac::dbgmcu::RegisterBlock>());
+    assert_eq!(dbg.at(0x08), 1 << 4 | 1 << 5 | 1 << 12 | 1 << 21);
+}

@@ -10,7 +10,7 @@
 //! A panic or a hard fault logs and resets at once (`runtime`); the next
 //! boot logs the cause read from RCC_CSR ([`ResetCause`]) and clears it.
 
-use super::pac::{iwdg, rcc};
+use super::pac::{dbgmcu, iwdg, rcc};
 
 /// LSI frequency, Hz (nominal).
 pub const LSI_HZ: u32 = 32_000;
@@ -28,6 +28,21 @@ pub fn start(iwdg: &iwdg::RegisterBlock) {
     iwdg.kr().write(|w| w.key().unlock());
     iwdg.pr().write(|w| w.pr().divide_by32());
     iwdg.rlr().write(|w| w.rl().set(RELOAD));
+}
+
+/// Freeze the watchdog and the sample timers while the core is halted by
+/// a debugger (DBGMCU_APB1FZR1: DBG_IWDG_STOP, DBG_TIM6_STOP,
+/// DBG_TIM7_STOP), so that a breakpoint held over 100 ms does not reset
+/// the board, and the DAC and ADCs stay in step with the code.
+pub fn freeze_in_debug(dbg: &dbgmcu::RegisterBlock) {
+    dbg.apb1l_fz().modify(|_, w| {
+        w.dbg_iwdg_stop()
+            .set_bit()
+            .dbg_timer6_stop()
+            .set_bit()
+            .dbg_tim7_stop()
+            .set_bit()
+    });
 }
 
 /// True once the prescaler and reload have reached the LSI domain.
