@@ -169,8 +169,13 @@ pub struct Table {
     pub kind: Kind,
     /// Where its electrode resistance comes from.
     pub resistance: Resistance,
-    /// Every data row, in file order.
+    /// Every data row the instrument vouched for, in file order.
     pub rows: Vec<Row>,
+    /// Rows the instrument flagged (a `flags` column other than 0): read
+    /// and checked like the others, then left out of [`Table::rows`], so
+    /// that no analysis fits a reading the instrument did not stand by;
+    /// the analyses say how many.
+    pub flagged: usize,
 }
 
 /// The largest data file read, bytes (a million-row trace is ~60 MB).
@@ -250,21 +255,34 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
         .clone();
     let header = Header::of(&name, &head, physical(1), kind)?;
     let mut rows: Vec<Row> = vec![];
+    let mut flagged = 0;
     for rec in rd.records() {
         let rec = rec.with_context(|| format!("{name}: malformed CSV"))?;
         let line = physical(rec.position().map_or(0, |p| p.line()));
         let row = header.row(&name, &rec, line)?;
         header.check_order(&name, &row, &rows, kind)?;
-        rows.push(row);
+        if header.flags(&name, &rec, line)? != 0 {
+            flagged += 1;
+        } else {
+            rows.push(row);
+        }
     }
     if rows.is_empty() {
-        bail!("{name}: no data rows");
+        bail!(
+            "{name}: no data rows{}",
+            if flagged > 0 {
+                format!(" the instrument vouched for ({flagged} flagged)")
+            } else {
+                String::new()
+            }
+        );
     }
     Ok(Table {
         path: path.to_path_buf(),
         kind,
         resistance: header.resistance,
         rows,
+        flagged,
     })
 }
 
@@ -372,6 +390,22 @@ impl Header {
             values[k] = v;
         }
         Ok(Row { values, line })
+    }
+
+    /// The row's `flags` (0 without the column): an error naming the place
+    /// unless a whole number of 16 bits.
+    fn flags(&self, name: &str, rec: &csv::StringRecord, line: u64) -> Result<u16> {
+        let Some(i) = self.flags_at else {
+            return Ok(0);
+        };
+        let field = rec.get(i).unwrap_or("");
+        field.parse::<u16>().map_err(|_| {
+            anyhow::anyhow!(
+                "{name}:{line}:{}: column 'flags': {} is not the instrument's flags (a whole number 0..65535)",
+                i + 1,
+                quote(field)
+            )
+        })
     }
 
     /// `row` after `rows`: time must increase, and a trace holds one

@@ -514,6 +514,15 @@ fn residual(dir: &Path, model: LineModel, raw_calibration: bool) -> Result<()> {
             r.rms_pf / r.noise_pf
         );
     }
+    for t in ds.traces.iter().chain(&ds.sweep).chain([&ds.calibration]) {
+        if t.flagged > 0 {
+            println!(
+                "\n{}: {} rows the instrument flagged, left out",
+                t.path.display(),
+                t.flagged
+            );
+        }
+    }
     Ok(())
 }
 

@@ -87,3 +87,70 @@ fn the_docs_show_the_example_data_sets_verdicts() {
     }
     figures::check("docs/identify.md", "example-residual", &md).unwrap();
 }
+
+/// Rows the instrument flagged are left out of the analyses, and said so:
+/// a trace whose disturbed rows read 5 pF off keeps the residual of its
+/// clean rows; a flags field that is not a number is refused by place.
+#[test]
+fn flagged_rows_are_left_out_and_counted() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/example");
+    let tmp = tempfile::tempdir().unwrap();
+    for e in std::fs::read_dir(&src).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "csv") {
+            std::fs::copy(&p, tmp.path().join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let name = "trace_20mmps_2000hz.csv";
+    let text = std::fs::read_to_string(src.join(name)).unwrap();
+    let mut out = String::new();
+    let cs_col = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|h| h == "cs_pf")
+        .unwrap();
+    for (k, line) in text.lines().enumerate() {
+        if k == 0 {
+            out += &format!("{line},flags\n");
+            continue;
+        }
+        let disturbed = k % 25 == 0;
+        let mut f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if disturbed {
+            let cs: f64 = f[cs_col].parse().unwrap();
+            f[cs_col] = format!("{:.3}", cs + 5.0);
+        }
+        out += &format!("{},{}\n", f.join(","), if disturbed { 64 } else { 0 });
+    }
+    std::fs::write(tmp.path().join(name), &out).unwrap();
+    let ds = read_dir(tmp.path()).unwrap();
+    let t = ds.traces.iter().find(|t| t.path.ends_with(name)).unwrap();
+    let rows = text.lines().count() - 1;
+    assert_eq!(t.flagged, rows / 25);
+    assert_eq!(t.rows.len(), rows - rows / 25);
+    let b = Baseline::from_calibration(&ds.calibration, LineModel::Continuous, true).unwrap();
+    let r = residuals(&ds, &b)
+        .into_iter()
+        .find(|r| r.file.contains("20mmps_2000"))
+        .unwrap();
+    assert!(r.rms_pf <= 1.5 * r.noise_pf, "{r:?}");
+    let cli = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("residual")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&cli.stdout);
+    assert!(
+        said.contains(&format!("{} rows the instrument flagged, left out", rows / 25)),
+        "{said}"
+    );
+    // A flags field that is not the instrument's flags.
+    std::fs::write(tmp.path().join(name), out.replacen(",64\n", ",x\n", 1)).unwrap();
+    let e = read_dir(tmp.path()).unwrap_err().to_string();
+    assert!(
+        e.contains(name) && e.contains("column 'flags'") && e.contains("'x'"),
+        "{e}"
+    );
+}

@@ -245,6 +245,8 @@ pub struct Report {
     /// Which electrode resistance the model used (the calibration's; the
     /// traces' where they differ).
     pub resistance: String,
+    /// Per file: rows the instrument flagged, left out of every fit.
+    pub flagged: Vec<(String, usize)>,
     /// The ranges searched (the time effects' scaled to the traces).
     pub search: Search,
     /// Traces' rows left out of the statistics, where a reading could
@@ -500,6 +502,20 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
             .map(|f| (f.name.clone(), f.rows_read, f.stride))
             .collect(),
         resistance: resistance_of(ds),
+        flagged: ds
+            .traces
+            .iter()
+            .chain(&ds.sweep)
+            .chain([&ds.calibration])
+            .filter(|t| t.flagged > 0)
+            .map(|t| {
+                let name = t
+                    .path
+                    .file_name()
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+                (name, t.flagged)
+            })
+            .collect(),
         search: prep.search,
         left_out: left_out(&prep),
         options,

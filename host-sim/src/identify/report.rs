@@ -127,6 +127,7 @@ impl Report {
             "rows": self.rows,
             "decimated": self.decimated.iter().map(|(f, n, k)| json!({"file": f, "rows_read": n, "kept_every": k})).collect::<Vec<_>>(),
             "resistance": self.resistance,
+            "flagged_rows": self.flagged.iter().map(|(f, n)| json!({"file": f, "rows": n})).collect::<Vec<_>>(),
             "search": {
                 "reach_s": self.search.reach_s,
                 "row_s": self.search.row_s,
@@ -284,6 +285,12 @@ impl Report {
     /// search, the rows left out.
     fn coverage_md(&self, md: &mut String) {
         use std::fmt::Write as _;
+        for (file, n) in &self.flagged {
+            let _ = writeln!(
+                md,
+                "{file}: {n} rows the instrument flagged, left out of every fit.\n"
+            );
+        }
         for (file, n, k) in &self.decimated {
             let _ = writeln!(
                 md,
