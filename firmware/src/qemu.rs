@@ -60,38 +60,43 @@ pub struct LinkSender {
 
 impl LinkSender {
     /// The link on `uart`, its start frame sent.
-    pub fn start(mut uart: Uart0, start: link::Start) -> Self {
-        let mut encoder = link::Encoder::new();
-        let mut out = [0u8; link::MAX_FRAME];
-        if let Ok(bytes) = encoder.frame(link::Body::Start(start), &mut out) {
-            uart.write(bytes);
-        }
-        Self {
+    pub fn start(uart: Uart0, start: link::Start) -> Self {
+        let mut link = Self {
             uart,
-            encoder,
+            encoder: link::Encoder::new(),
             records: 0,
+        };
+        link.send(link::Body::Start(start));
+        link
+    }
+
+    /// Number, encode and send one frame; false if it could not be
+    /// encoded (nothing is sent then).
+    fn send(&mut self, body: link::Body) -> bool {
+        let mut out = [0u8; link::MAX_FRAME];
+        match self.encoder.frame(body, &mut out) {
+            Ok(bytes) => {
+                self.uart.write(bytes);
+                true
+            }
+            Err(_) => false,
         }
     }
 
     /// Send one record.
     pub fn record(&mut self, rec: link::Record) {
-        let mut out = [0u8; link::MAX_FRAME];
-        if let Ok(bytes) = self.encoder.frame(link::Body::Record(rec), &mut out) {
-            self.uart.write(bytes);
+        if self.send(link::Body::Record(rec)) {
             self.records = self.records.wrapping_add(1);
         }
     }
 
     /// Send the end frame: `dropped` records never reached the link.
     pub fn end(&mut self, dropped: u32) {
-        let mut out = [0u8; link::MAX_FRAME];
         let end = link::End {
             records: self.records,
             dropped,
         };
-        if let Ok(bytes) = self.encoder.frame(link::Body::End(end), &mut out) {
-            self.uart.write(bytes);
-        }
+        self.send(link::Body::End(end));
     }
 }
 

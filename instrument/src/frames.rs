@@ -6,7 +6,7 @@ use crate::calib::Calibrations;
 use crate::channel::Record;
 use crate::faults::Flags;
 use crate::tones::ToneRecord;
-use core::f32::consts::TAU;
+use dsp_core::lumped::SeriesRc;
 use dsp_core::Complex32;
 use link::Tone;
 
@@ -51,15 +51,18 @@ pub fn to_tone_record(r: &link::Record) -> ToneRecord {
 /// A multiplexed record as a link record: its one tone's impedance from
 /// the lumped reading, Z = Rs − j/(ωCs) (zero when there is none).
 pub fn from_record(r: &Record) -> link::Record {
-    let measured = r.cs_farad > 0.0 && r.freq_hz > 0.0;
+    let z = match r.cs_farad > 0.0 && r.freq_hz > 0.0 {
+        true => SeriesRc {
+            cs_farad: r.cs_farad,
+            rs_ohm: r.rs_ohm,
+        }
+        .impedance(r.freq_hz),
+        false => Complex32::new(0.0, 0.0),
+    };
     let tone = Tone {
         f_hz: r.freq_hz,
-        z_re_ohm: if measured { r.rs_ohm } else { 0.0 },
-        z_im_ohm: if measured {
-            -1.0 / (TAU * r.freq_hz * r.cs_farad)
-        } else {
-            0.0
-        },
+        z_re_ohm: z.re,
+        z_im_ohm: z.im,
     };
     link::Record {
         t_us: r.t_us,
@@ -155,7 +158,7 @@ mod tests {
             flags: Flags(Flags::SETTLING),
         };
         let l = from_record(&r);
-        let cs = -1.0 / (TAU * l.tones[0].f_hz * l.tones[0].z_im_ohm);
+        let cs = -1.0 / (core::f32::consts::TAU * l.tones[0].f_hz * l.tones[0].z_im_ohm);
         assert!((cs / r.cs_farad - 1.0).abs() < 1e-6, "{cs}");
         assert_eq!(
             (l.tones[0].z_re_ohm, l.chosen_hz, l.flags),

@@ -11,6 +11,8 @@
 pub mod dashboard;
 
 use anyhow::{bail, Context, Result};
+use dsp_core::lumped::SeriesRc;
+use dsp_core::Complex32;
 use host_sim::recording::{self, LoggedRecord, LoggedToneRecord, Roles};
 use link::{Body, Decoder, Record, Start};
 use std::io::{Read, Write};
@@ -190,13 +192,15 @@ pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
             out.extend(tone.per_tone());
         } else {
             let t = r.tones[0];
-            let lumped = dsp_core_lumped(t);
+            // The lumped reading of its one tone, as `per_tone` takes an
+            // array record's (none where the tone has no capacitive Z).
+            let lumped = SeriesRc::from_impedance(Complex32::new(t.z_re_ohm, t.z_im_ohm), t.f_hz).ok();
             out.push(LoggedRecord {
                 t_s: r.t_us as f64 * 1e-6,
                 channel: r.sensor,
                 freq_hz: t.f_hz as f64,
-                cs_pf: lumped.0,
-                rs_ohm: lumped.1,
+                cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
+                rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),
                 c_pf: r.c_farad as f64 * 1e12,
                 r_ohm: r.r_ohm as f64,
                 stretch_mm: r.stretch_mm as f64,
@@ -206,16 +210,6 @@ pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
         }
     }
     out
-}
-
-/// A tone's lumped Cs (pF) and Rs (Ω), (0, 0) where it has none.
-fn dsp_core_lumped(t: link::Tone) -> (f64, f64) {
-    if t.f_hz > 0.0 && t.z_im_ohm < 0.0 {
-        let w = std::f64::consts::TAU * t.f_hz as f64;
-        (-1e12 / (w * t.z_im_ohm as f64), t.z_re_ohm as f64)
-    } else {
-        (0.0, 0.0)
-    }
 }
 
 fn write_record(w: &mut impl Write, seq: u32, r: &Record) -> Result<()> {
