@@ -29,11 +29,34 @@ pub fn root() -> PathBuf {
 /// Target triple of the QEMU and board builds.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 
-/// Build firmware binary `bin` in release mode with `features`; returns
-/// the ELF path.
+/// The firmware's compiler flags for every build the tests and xtask
+/// make, as `CARGO_ENCODED_RUSTFLAGS`: the clone's folder and cargo's home
+/// are remapped (`--remap-path-prefix`), so the panic locations an image
+/// carries in flash read `dsp-core/src/…` and `cargo/registry/…` wherever
+/// the repository was cloned, and image sizes (the benchmark table) are the
+/// same on every machine. Flags already in `RUSTFLAGS` come first.
+pub fn firmware_rustflags() -> String {
+    let home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
+    let mut flags: Vec<String> = std::env::var("RUSTFLAGS")
+        .unwrap_or_default()
+        .split_whitespace()
+        .map(str::to_string)
+        .collect();
+    if let Some(home) = home {
+        flags.push(format!("--remap-path-prefix={}=cargo", home.display()));
+    }
+    flags.push(format!("--remap-path-prefix={}=.", root().display()));
+    flags.join("\x1f")
+}
+
+/// Build firmware binary `bin` in release mode with `features` (and
+/// [`firmware_rustflags`]); returns the ELF path.
 pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
     let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     cmd.current_dir(root().join("firmware"))
+        .env("CARGO_ENCODED_RUSTFLAGS", firmware_rustflags())
         .args(["build", "--release", "--target", TARGET, "--bin", bin]);
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);

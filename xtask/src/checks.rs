@@ -128,7 +128,11 @@ fn docs(root: &Path) -> Result<()> {
 /// even with no board here; then the board's register tests on the host.
 fn board(root: &Path) -> Result<()> {
     let fw = root.join("firmware");
-    cargo::run(&fw, &["build-board"])?;
-    cargo::run(&fw, &["build-array-board"])?;
+    // With the tests' flags, so the images the budgets measure are not
+    // built twice.
+    let flags = qemu_tests::firmware_rustflags();
+    let env = [("CARGO_ENCODED_RUSTFLAGS", flags.as_str())];
+    cargo::run_env(&fw, &["build-board"], &env)?;
+    cargo::run_env(&fw, &["build-array-board"], &env)?;
     cargo::run(&fw, &["test", "--lib", "--features", "board"])
 }
