@@ -113,6 +113,11 @@ impl Tracker {
         self
     }
 
+    /// The band of C (ratios to the prior) an unlocked tracker accepts.
+    pub fn band(&self) -> (f32, f32) {
+        self.band
+    }
+
     /// The inverter in use.
     pub fn inverter(&self) -> &Inverter {
         &self.inverter

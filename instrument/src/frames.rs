@@ -1,8 +1,7 @@
 //! Records as frames of the record link ([`link`]): the one conversion
-//! each way between the instrument's records and the link's, and the
-//! digests a start frame carries.
+//! each way between the instrument's records and the link's (a start
+//! frame's digests: [`crate::digest`]).
 
-use crate::calib::Calibrations;
 use crate::channel::Record;
 use crate::faults::Flags;
 use crate::tones::ToneRecord;
@@ -78,51 +77,6 @@ pub fn from_record(r: &Record) -> link::Record {
     }
 }
 
-/// A CRC-32 over formatted text: the digests of settings and
-/// calibrations, the same on the host and the device (Rust formats an
-/// `f32` as its shortest exact decimal everywhere).
-pub struct Digest(crc::Digest<'static, u32>);
-
-/// The digests' CRC: CRC-32/ISO-HDLC.
-static DIGEST_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
-impl Default for Digest {
-    fn default() -> Self {
-        Self(DIGEST_CRC.digest())
-    }
-}
-
-impl Digest {
-    /// The digest of `value`'s `Debug` text.
-    pub fn of(value: &impl core::fmt::Debug) -> u32 {
-        let mut d = Self::default();
-        let _ = core::fmt::write(&mut d, format_args!("{value:?}"));
-        d.finish()
-    }
-
-    /// The digest so far.
-    pub fn finish(self) -> u32 {
-        self.0.finalize()
-    }
-}
-
-impl core::fmt::Write for Digest {
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
-        self.0.update(s.as_bytes());
-        Ok(())
-    }
-}
-
-/// The digest of the calibration every sensor of `S` is read with: a
-/// start frame's `calibration_digest`.
-pub fn calibration_digest<const N: usize, const S: usize>(cals: &Calibrations<'_, N, S>) -> u32 {
-    let mut d = Digest::default();
-    for s in 0..S {
-        let _ = core::fmt::write(&mut d, format_args!("{s}:{:?};", cals.of(s as u8).points));
-    }
-    d.finish()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -165,15 +119,5 @@ mod tests {
             (r.rs_ohm, r.freq_hz, r.flags.0)
         );
         assert_eq!(l.measured().count(), 1);
-    }
-
-    #[test]
-    fn digests_tell_calibrations_apart() {
-        use crate::calib::{CalTable, REFERENCE};
-        let a: Calibrations<'_, 11, 16> = Calibrations::new(&REFERENCE);
-        let mut b = a.clone();
-        assert_eq!(calibration_digest(&a), calibration_digest(&b));
-        b.insert(3, CalTable::linear(150e-12, 100.0)).unwrap();
-        assert_ne!(calibration_digest(&a), calibration_digest(&b));
     }
 }

@@ -4,6 +4,7 @@
 //! | module | what it holds |
 //! |---|---|
 //! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
+//! | [`digest`] | digests of settings and calibrations (a start frame's): CRC-32 over the values' bits |
 //! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor |
 //! | [`config`] | block, slot, channels, the excitation frequency set |
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
@@ -36,6 +37,7 @@ pub mod calib;
 pub mod channel;
 pub mod config;
 pub mod design;
+pub mod digest;
 pub mod effects;
 pub mod faults;
 pub mod frames;

@@ -21,6 +21,53 @@ use serde::{Deserialize, Serialize};
 /// receiver refuses a stream of another version.
 pub const VERSION: u16 = 1;
 
+/// The board link's baud rate: LPUART1 of the STM32G474 into the
+/// Nucleo-G474RE's STLINK-V3E, whose virtual COM port carries it to the
+/// host over USB. ST gives the STLINK-V3's virtual COM port "up to 15 MHz"
+/// (`docs/firmware.md` cites the page); LPUART1 at 170 MHz makes it
+/// within 0.02 % (its divider is 256 · 170 MHz / 15 MBd = 2901.3).
+pub const BOARD_BAUD: u32 = 15_000_000;
+
+/// Bits on the wire per byte: 8 data bits, no parity, a start and a stop
+/// bit (8N1).
+pub const BITS_PER_BYTE: u32 = 10;
+
+/// The most records a second the link is sized for: 16 sensors × 1000
+/// records/s, at most [`LOAD_LIMIT`] of [`BOARD_BAUD`] with every frame as
+/// long as a record's frame can be ([`longest_record_frame`]).
+pub const RECORDS_PER_S: u32 = 16 * 1000;
+
+/// The share of the baud rate the records may take, percent.
+pub const LOAD_LIMIT: u32 = 80;
+
+/// The longest a record's frame can be on the wire, bytes: every varint
+/// at its longest that a year's run can reach (sequence number `u32::MAX`,
+/// a time of a year in µs, every flag set).
+pub fn longest_record_frame() -> usize {
+    let worst = Record {
+        t_us: 366 * 86_400 * 1_000_000,
+        sensor: u8::MAX,
+        tones: [Tone {
+            f_hz: 1.0e5,
+            z_re_ohm: 1.0e6,
+            z_im_ohm: -1.0e7,
+        }; 2],
+        c_farad: 1.0e-9,
+        r_ohm: 1.0e6,
+        stretch_mm: 10.0,
+        chosen_hz: 1.0e4,
+        chi2: 100.0,
+        sigma_c: 1.0,
+        flags: u16::MAX,
+    };
+    let frame = Frame {
+        seq: u32::MAX,
+        body: Body::Record(worst),
+    };
+    let mut out = [0u8; MAX_FRAME];
+    encode(&frame, &mut out).map_or(MAX_FRAME, <[u8]>::len)
+}
+
 /// The longest frame on the wire, bytes: the longest body, its CRC, the
 /// COBS overhead and the closing zero.
 pub const MAX_FRAME: usize = 96;

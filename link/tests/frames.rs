@@ -274,3 +274,40 @@ fn a_repeated_frame_is_dropped_and_a_gap_counted() {
     assert_eq!((stats.repeated, stats.lost), (1, 1));
     assert!(got.iter().all(|f| same(f, &sent[f.seq as usize])));
 }
+
+#[test]
+fn sixteen_sensors_at_1000_records_a_second_take_at_most_80_percent_of_the_board_link() {
+    let frame = link::longest_record_frame();
+    let bits_per_s = u64::from(link::RECORDS_PER_S) * frame as u64 * u64::from(link::BITS_PER_BYTE);
+    let load = bits_per_s as f64 / f64::from(link::BOARD_BAUD);
+    let table = format!(
+        "| | |\n|---|---:|\n\
+         | the longest record frame (every varint at its longest) | {frame} B |\n\
+         | bits on the wire per byte (8N1) | {} |\n\
+         | records per second (16 sensors × 1000) | {} |\n\
+         | the link's load | {:.2} Mbit/s |\n\
+         | the board's baud rate | {:.0} MBd |\n\
+         | share of it | {:.1} % (at most {} %) |\n",
+        link::BITS_PER_BYTE,
+        link::RECORDS_PER_S,
+        bits_per_s as f64 / 1e6,
+        f64::from(link::BOARD_BAUD) / 1e6,
+        100.0 * load,
+        link::LOAD_LIMIT,
+    );
+    print!("{table}");
+    figures::check("docs/firmware.md", "link-budget", &table).unwrap();
+    assert!(frame < link::MAX_FRAME, "{frame}");
+    assert!(
+        load <= f64::from(link::LOAD_LIMIT) / 100.0,
+        "{:.1} %",
+        100.0 * load
+    );
+    // The figure is not vacuous: a typical frame is within a few bytes.
+    let mut out = [0u8; link::MAX_FRAME];
+    let typical = link::Encoder::new()
+        .frame(link::Body::Record(link::Record::default()), &mut out)
+        .unwrap()
+        .len();
+    assert!(typical + 16 > frame && typical < frame, "{typical} vs {frame}");
+}

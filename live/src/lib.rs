@@ -17,6 +17,7 @@ use host_sim::recording::{self, LoggedRecord, LoggedToneRecord, Roles};
 use link::{Body, Decoder, Record, Start};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// The records file written as records arrive.
@@ -161,7 +162,7 @@ impl Session {
             (_, Some(_)) => Outcome::Complete,
             (None, None) => Outcome::Incomplete("no start frame: nothing from the device".into()),
             (Some(_), None) => Outcome::Incomplete(format!(
-                "the stream stopped after {} records without its end frame (a crash, a hang, or the link was cut)",
+                "the stream stopped after {} records without its end frame (a crash, a hang, the link was cut, or it was stopped)",
                 self.records.len()
             )),
         };
@@ -352,31 +353,45 @@ impl Sink<'_> {
     }
 }
 
+/// Why [`follow`] stopped reading.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Stopped {
+    /// The stream's end frame arrived.
+    End,
+    /// The source ended: EOF, a closed socket, a port that vanished (why).
+    Source(String),
+    /// The user asked (`stop` was set: Ctrl-C).
+    Asked,
+}
+
 /// Read `source` until it ends (EOF, a closed socket, a port that
-/// vanished) or the stream's end frame arrives, keeping every byte in
-/// `stream.bin` and printing the link's health each second.
-pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path) -> Result<()> {
+/// vanished), the stream's end frame arrives or `stop` is set (checked at
+/// least every read timeout), keeping every byte in `stream.bin` and
+/// printing the link's health each second.
+pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path, stop: &AtomicBool) -> Result<Stopped> {
     let raw_path = dir.join("stream.bin");
     let mut raw =
         std::fs::File::create(&raw_path).with_context(|| format!("creating {}", raw_path.display()))?;
     let mut buf = [0u8; 4096];
     let mut last = Instant::now();
-    loop {
+    let stopped = loop {
+        if stop.load(Ordering::Relaxed) {
+            break Stopped::Asked;
+        }
         let n = match source.read(&mut buf) {
-            Ok(0) => break,
+            Ok(0) => break Stopped::Source("end of the stream".into()),
             Ok(n) => n,
             Err(e)
                 if matches!(
                     e.kind(),
-                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                    std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::Interrupted
                 ) =>
             {
                 0
             }
-            Err(e) => {
-                eprintln!("the source stopped: {e}");
-                break;
-            }
+            Err(e) => break Stopped::Source(e.to_string()),
         };
         raw.write_all(&buf[..n]).context("keeping the raw stream")?;
         sink.push(&buf[..n])?;
@@ -386,9 +401,9 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path) -> Result<()> 
             eprintln!("{}", sink.session.summary().line());
         }
         if sink.session.end().is_some() {
-            break;
+            break Stopped::End;
         }
-    }
+    };
     raw.flush()?;
-    Ok(())
+    Ok(stopped)
 }

@@ -6,10 +6,12 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use live::dashboard::Dashboard;
-use live::{follow, Outcome, Session, Sink};
+use live::{follow, Outcome, Session, Sink, Stopped};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Read a running skin's records.
@@ -22,8 +24,9 @@ struct Cli {
     /// Read a serial port (the Nucleo's ST-LINK virtual COM port, e.g. /dev/ttyACM0).
     #[arg(long, conflicts_with = "tcp")]
     serial: Option<String>,
-    /// The serial port's baud rate.
-    #[arg(long, default_value_t = 921_600)]
+    /// The serial port's baud rate: the board's (LPUART1 into the
+    /// ST-LINK's virtual COM port, 8N1).
+    #[arg(long, default_value_t = link::BOARD_BAUD)]
     baud: u32,
     /// Connect to a TCP socket (QEMU's `-serial tcp:HOST:PORT,server`).
     #[arg(long)]
@@ -56,6 +59,15 @@ fn main() -> ExitCode {
     }
 }
 
+/// Say why reading stopped, unless the stream ended as it should.
+fn report(stopped: Stopped) {
+    match stopped {
+        Stopped::End => {}
+        Stopped::Source(why) => eprintln!("the source stopped: {why}"),
+        Stopped::Asked => eprintln!("stopped by Ctrl-C"),
+    }
+}
+
 fn run(cli: Cli) -> Result<Outcome> {
     let dashboard = match cli.serve {
         Some(addr) if !addr.ip().is_loopback() => {
@@ -69,6 +81,12 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
         None => None,
     };
+    // Ctrl-C ends a live stream (a board's never ends by itself): the
+    // data set is written with what arrived, marked incomplete.
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("installing the Ctrl-C handler")?;
     let mut session = Session::new(&cli.dataset)?;
     let mut sink = Sink {
         session: &mut session,
@@ -84,12 +102,12 @@ fn run(cli: Cli) -> Result<Outcome> {
                 .timeout(Duration::from_millis(200))
                 .open()
                 .with_context(|| format!("opening the serial port {port} (in use, or not there?)"))?;
-            follow(port, &mut sink, &cli.dataset)?;
+            report(follow(port, &mut sink, &cli.dataset, &stop)?);
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            follow(sock, &mut sink, &cli.dataset)?;
+            report(follow(sock, &mut sink, &cli.dataset, &stop)?);
         }
         (None, None, None) => {
             anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")

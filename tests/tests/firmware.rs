@@ -239,7 +239,8 @@ fn live_follows_a_running_qemu_over_its_socket() {
         session: &mut session,
         dashboard: None,
     };
-    live::follow(sock, &mut sink, tmp.path()).unwrap();
+    let stopped = live::follow(sock, &mut sink, tmp.path(), &Default::default()).unwrap();
+    assert_eq!(stopped, live::Stopped::End);
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");
     let done = session.finish().unwrap();

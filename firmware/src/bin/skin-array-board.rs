@@ -24,7 +24,11 @@
 //! * `process`: offset binary to two's complement in place, the rails,
 //!   the comb on 17 inputs and 16 two-tone lines; the records go to a
 //!   `heapless` SPSC queue (four blocks), a full queue counts a drop.
-//! * `idle`: the logger, draining the queue to defmt over RTT.
+//! * `idle`: the link's writer, draining the queue into frames
+//!   ([`firmware::link_out`]); `link_tx` (DMA2 channel 1) sends them
+//!   through LPUART1, the ST-LINK's virtual COM port
+//!   ([`firmware::board::link`]). defmt over RTT carries log messages
+//!   only, and never blocks.
 //!
 //! A DMA transfer error or an ADC overrun (one stream out of step with
 //! the others) stops the feeding of the watchdog: the board restarts in
@@ -38,9 +42,11 @@ use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use firmware::board::dma::{self, Completion};
 use firmware::board::front_end::{self, AdcBlocks, ARRAY_PACER};
+use firmware::board::link::Transmitter;
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, pac};
+use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{
@@ -48,8 +54,13 @@ use instrument::array::{
     SENSOR_TIA_OHM,
 };
 use instrument::calib::{Calibrations, POINTS, REFERENCE};
+use instrument::digest::Digest;
+use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
+
+/// The link's byte queue: two blocks of frames.
+const LINK_BYTES: usize = 2048;
 
 /// The block period, µs.
 const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
@@ -84,6 +95,8 @@ mod app {
         settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
+        writer: FrameWriter<'static, LINK_BYTES>,
+        tx: Transmitter<'static, LINK_BYTES>,
     }
 
     #[init(local = [
@@ -91,6 +104,7 @@ mod app {
         adc: AdcBlocks = [[[[0; SCAN]; BLOCK_INSTANTS]; 2]; ADCS],
         table: [u16; DAC_TABLE] = [0; DAC_TABLE],
         cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&REFERENCE),
+        link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
@@ -117,6 +131,28 @@ mod app {
         let adc: &'static mut AdcBlocks = cx.local.adc;
         front_end::array(&dp, adc, table);
         let owned = setup::finish(dp);
+        let settings = ToneSettings::new(
+            FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
+            inverter,
+            cal,
+        );
+        let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
+        let writer = FrameWriter::start(
+            queue,
+            link::Start {
+                version: link::VERSION,
+                firmware: link::Start::firmware_field(concat!(
+                    "skin-array-board ",
+                    env!("CARGO_PKG_VERSION")
+                )),
+                settings_digest: Digest::of(&settings),
+                calibration_digest: Digest::of(cal),
+                sensors: SENSORS as u8,
+                sample_rate_hz: RATE_HZ,
+            },
+        );
+        let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
+        rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each",
             SENSORS as u8,
@@ -131,26 +167,36 @@ mod app {
                 bufs: DmaBufs(adc),
                 block: 0,
                 reader,
-                settings: ToneSettings::new(
-                    FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
-                    inverter,
-                    cal,
-                ),
+                settings,
                 records: RecordSink::new(records),
                 logger,
+                writer,
+                tx,
             },
         )
     }
 
-    /// The logger: the record queue to defmt.
-    #[idle(local = [logger])]
+    /// The link's writer: the record queue into frames, then the
+    /// transmitter woken.
+    #[idle(local = [logger, writer])]
     fn idle(cx: idle::Context) -> ! {
         loop {
+            let mut queued = false;
             while let Some(rec) = cx.local.logger.dequeue() {
-                defmt::println!("{}", rec);
+                queued |= cx.local.writer.record(frames::from_tone_record(&rec));
+            }
+            if queued {
+                rtic::pend(pac::Interrupt::DMA2_CH1);
             }
             cortex_m::asm::wfi();
         }
+    }
+
+    /// DMA2 channel 1 (or pended by the writer): the chunk sent released,
+    /// the next one started.
+    #[task(binds = DMA2_CH1, priority = 2, local = [tx])]
+    fn link_tx(cx: link_tx::Context) {
+        cx.local.tx.service();
     }
 
     /// DMA1 channel 5, half or full: block `k` is in every ADC's buffer.

@@ -30,7 +30,8 @@ use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::calib::{Calibrations, POINTS};
-use instrument::frames::{self, calibration_digest, Digest};
+use instrument::digest::Digest;
+use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
@@ -104,7 +105,7 @@ mod app {
                 version: link::VERSION,
                 firmware: link::Start::firmware_field(concat!("skin-array ", env!("CARGO_PKG_VERSION"))),
                 settings_digest: Digest::of(&settings),
-                calibration_digest: calibration_digest(cal),
+                calibration_digest: Digest::of(cal),
                 sensors: SENSORS as u8,
                 sample_rate_hz: RATE_HZ,
             },

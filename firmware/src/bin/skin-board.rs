@@ -21,21 +21,29 @@
 //!   slot completed, which channel and range to select, which frequency
 //!   to write into the DAC half just finished), then `process`.
 //! * `process`: the finished half demodulated in place, the channel's
-//!   record logged (defmt over RTT), the watchdog fed.
+//!   record queued on the record link ([`firmware::link_out`]), the
+//!   watchdog fed.
+//! * `link_tx` (DMA2 channel 1): the link's frames through LPUART1, the
+//!   ST-LINK's virtual COM port ([`firmware::board::link`]). defmt over
+//!   RTT carries log messages only, and never blocks.
 #![no_std]
 #![no_main]
 
 use firmware::board::dma::{self, Completion};
 use firmware::board::front_end::{self, AdcSlots, DacSlots, SLOTS};
+use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, pac};
+use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
 };
 use instrument::design;
+use instrument::digest::Digest;
+use instrument::frames;
 use instrument::mux::Mux;
 use instrument::ranging::Ranging;
 use instrument::sequencer::{Sequencer, Slot};
@@ -44,6 +52,9 @@ use instrument::sequencer::{Sequencer, Slot};
 pub type BoardMux = Mux<AnyPin, MUX_ADDRESS_LINES>;
 /// The transimpedance range switch on PB5, PB6.
 pub type RangeSwitch = Mux<AnyPin, RANGE_ADDRESS_LINES>;
+
+/// The link's byte queue: eight frames.
+const LINK_BYTES: usize = 512;
 
 /// The ADC DMA buffer, seen by the processing task only through the half
 /// the DMA has finished.
@@ -81,9 +92,18 @@ mod app {
         ranges: RangeSwitch,
         seq: Sequencer,
         settings: Settings<'static, POINTS>,
+        writer: FrameWriter<'static, LINK_BYTES>,
+        tx: Transmitter<'static, LINK_BYTES>,
     }
 
-    #[init(local = [adc: AdcSlots = [0; SLOTS * SLOT_PAIRS], dac: DacSlots = [2048; SLOTS * SLOT_PAIRS]])]
+    #[init(local = [
+        adc: AdcSlots = [0; SLOTS * SLOT_PAIRS],
+        // Zero, so that it lives in .bss and not as 4 KiB of initial
+        // values in flash: both slots are written below before the DAC
+        // starts.
+        dac: DacSlots = [0; SLOTS * SLOT_PAIRS],
+        link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         setup::begin(&dp);
@@ -107,6 +127,20 @@ mod app {
         let dac_buf: &'static mut DacSlots = cx.local.dac;
         front_end::multiplexed(&dp, adc_buf, dac_buf);
         let owned = setup::finish(dp);
+        let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
+        let writer = FrameWriter::start(
+            queue,
+            link::Start {
+                version: link::VERSION,
+                firmware: link::Start::firmware_field(concat!("skin-board ", env!("CARGO_PKG_VERSION"))),
+                settings_digest: Digest::of(&settings),
+                calibration_digest: Digest::of(settings.calibration),
+                sensors: CHANNELS as u8,
+                sample_rate_hz: design::SAMPLE_RATE,
+            },
+        );
+        let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
+        rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!("start {=u8} channels", CHANNELS as u8);
         (
             Shared { slot: None, channels },
@@ -119,6 +153,8 @@ mod app {
                 ranges,
                 seq,
                 settings,
+                writer,
+                tx,
             },
         )
     }
@@ -170,8 +206,16 @@ mod app {
         }
     }
 
-    /// Demodulate, correct and log one block, straight from the DMA buffer.
-    #[task(priority = 1, shared = [slot, channels], local = [adc_buf, settings, watchdog])]
+    /// DMA2 channel 1 (or pended by the writer): the chunk sent released,
+    /// the next one started.
+    #[task(binds = DMA2_CH1, priority = 2, local = [tx])]
+    fn link_tx(cx: link_tx::Context) {
+        cx.local.tx.service();
+    }
+
+    /// Demodulate, correct and queue one block's record, straight from
+    /// the DMA buffer.
+    #[task(priority = 1, shared = [slot, channels], local = [adc_buf, settings, watchdog, writer])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let Some(Finished { half, slot }) = cx.shared.slot.lock(|s| s.take()) else {
@@ -206,7 +250,11 @@ mod app {
             Some(channel.process(settings, ch, slot.block_mid_us(), &ph, clipped, slot.range))
         });
         match rec {
-            Some(rec) => defmt::println!("{}", rec),
+            Some(rec) => {
+                if local.writer.record(frames::from_record(&rec)) {
+                    rtic::pend(pac::Interrupt::DMA2_CH1);
+                }
+            }
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), ch),
         }
         // A block went all the way through: the chain is alive.

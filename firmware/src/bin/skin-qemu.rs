@@ -30,8 +30,9 @@ use instrument::channel::{Channel, Settings};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
+use instrument::digest::Digest;
 use instrument::effects::{Effect, EffectSet};
-use instrument::frames::{self, Digest};
+use instrument::frames;
 use instrument::mux::Mux;
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
 
@@ -164,7 +165,7 @@ mod app {
                             env!("CARGO_PKG_VERSION")
                         )),
                         settings_digest: Digest::of(&settings),
-                        calibration_digest: Digest::of(&settings.calibration.points),
+                        calibration_digest: Digest::of(settings.calibration),
                         sensors: CHANNELS as u8,
                         sample_rate_hz: instrument::design::SAMPLE_RATE,
                     },

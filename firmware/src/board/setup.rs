@@ -4,16 +4,19 @@
 //! [`begin`]: log why the board last reset, freeze the watchdog and the
 //! sample timers while a debugger halts the core, start the watchdog,
 //! bring the system clock to 170 MHz. Then the application configures its front
-//! end. [`finish`]: wait until the watchdog has taken its settings, feed
-//! it once, and hand the peripherals the tasks need over as owned values
-//! ([`Owned`]), so that no task reaches a peripheral through a raw
-//! pointer or `steal()`.
+//! end. [`finish`]: the record link's port (LPUART1 on the ST-LINK's
+//! virtual COM port, DMA2 to feed it), wait until the watchdog has taken
+//! its settings, feed it once, and hand the peripherals the tasks need
+//! over as owned values ([`Owned`]), so that no task reaches a peripheral
+//! through a raw pointer or `steal()`.
 
 #[cfg(target_os = "none")]
 use super::clocks;
 use super::pac;
 use super::scan::Adcs;
 use super::watchdog;
+#[cfg(target_os = "none")]
+use super::{link, lpuart};
 
 /// The independent watchdog, owned by the task that proves the chain is
 /// alive.
@@ -35,6 +38,17 @@ pub struct Owned {
     pub adcs: Adcs,
     /// The watchdog, fed by the processing task.
     pub watchdog: Watchdog,
+    /// The record link's port, for its transmitter (`board::link`).
+    pub link: LinkPort,
+}
+
+/// The record link's port: DMA2, whose channel 1 feeds LPUART1, and the
+/// address of LPUART1's data register.
+pub struct LinkPort {
+    /// DMA2, the link's alone.
+    pub dma: pac::DMA2,
+    /// LPUART1_TDR's address.
+    pub tdr: u32,
 }
 
 /// Log the cause of the last reset, freeze the watchdog and the timers in
@@ -53,11 +67,23 @@ pub fn begin(dp: &pac::Peripherals) {
 /// tasks own.
 #[cfg(target_os = "none")]
 pub fn finish(dp: pac::Peripherals) -> Owned {
+    lpuart::clocks(&dp.RCC);
+    link::clocks(&dp.RCC);
+    // Read back: the clocks are on before their registers are written.
+    let _ = dp.RCC.ahb1enr().read();
+    let _ = dp.RCC.apb1enr2().read();
+    lpuart::pins(&dp.GPIOA);
+    link::request(&dp.DMAMUX);
+    lpuart::transmitter(&dp.LPUART1, ::link::BOARD_BAUD);
     while !watchdog::ready(&dp.IWDG) {}
     watchdog::feed(&dp.IWDG);
     Owned {
         dma: dp.DMA1,
         adcs: Adcs::new(dp.ADC1, dp.ADC2, dp.ADC3, dp.ADC4, dp.ADC5),
         watchdog: Watchdog(dp.IWDG),
+        link: LinkPort {
+            tdr: lpuart::tdr_address(&dp.LPUART1),
+            dma: dp.DMA2,
+        },
     }
 }

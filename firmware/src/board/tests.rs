@@ -7,7 +7,7 @@
 
 use super::dma::Event;
 use super::scan::{Adc, INPUT_PINS, SCAN_ADCS};
-use super::{adc, clocks, dac, dma, opamp, pac, pins, scan, timer, watchdog};
+use super::{adc, clocks, dac, dma, link, lpuart, opamp, pac, pins, scan, timer, watchdog};
 use std::vec;
 use std::vec::Vec;
 
@@ -492,4 +492,87 @@ fn a_debugger_halt_freezes_the_watchdog_and_the_sample_timers() {
     let mut dbg = Fake::new(&[(0x08, 1 << 21)]);
     watchdog::freeze_in_debug(dbg.regs::<pac::dbgmcu::RegisterBlock>());
     assert_eq!(dbg.at(0x08), 1 << 4 | 1 << 5 | 1 << 12 | 1 << 21);
+}
+
+#[test]
+fn lpuart1_at_15_mbd_8n1_on_pa2_pa3_fed_by_dma() {
+    // The divider: 256 · 170 MHz / 15 MBd = 2901.33 → 2901, within
+    // 0.02 % of the baud rate, and inside the LPUART's range.
+    let brr = lpuart::brr(::link::BOARD_BAUD);
+    assert_eq!(brr, 2901);
+    assert!((0x300..=0xF_FFFF).contains(&brr));
+    let err = lpuart::actual_baud(brr) / f64::from(::link::BOARD_BAUD) - 1.0;
+    assert!(err.abs() < 2e-4, "{err}");
+    const { assert!(lpuart::KERNEL_HZ >= 3 * ::link::BOARD_BAUD) };
+    // RCC: LPUART1EN (APB1ENR2 bit 0), LPUART1SEL = PCLK (CCIPR 11:10 =
+    // 0b00, set from a non-reset value), DMA2EN (AHB1ENR bit 1).
+    let mut rcc = Fake::new(&[(0x88, 0b11 << 10)]);
+    lpuart::clocks(rcc.regs::<pac::rcc::RegisterBlock>());
+    link::clocks(rcc.regs::<pac::rcc::RegisterBlock>());
+    assert_eq!(rcc.at(0x5C), 1);
+    assert_eq!(rcc.at(0x88) & 0b11 << 10, 0);
+    assert_eq!(rcc.at(0x48), 1 << 1);
+    // GPIOA from its reset values (RM0440 9.4): MODER 0xABFF_FFFF,
+    // OSPEEDR 0x0C00_0000, PUPDR 0x6400_0000. PA2, PA3 alternate (0b10),
+    // AF12 in AFRL, PA2 very high speed, PA3 pulled up; SWD's pins
+    // (PA13, PA14) untouched.
+    let mut a = Fake::new(&[(0x00, 0xABFF_FFFF), (0x08, 0x0C00_0000), (0x0C, 0x6400_0000)]);
+    lpuart::pins(a.regs::<pac::gpioa::RegisterBlock>());
+    assert_eq!(a.at(0x00), 0xABFF_FFFF & !(0b0101 << 4));
+    assert_eq!(a.at(0x20), 12 << 8 | 12 << 12);
+    assert_eq!(a.at(0x08), 0x0C00_0000 | 0b11 << 4);
+    assert_eq!(a.at(0x0C), 0x6400_0000 | 0b01 << 6);
+    // LPUART1: BRR, CR3.DMAT (bit 7), CR1: FIFOEN (29), UE (0), TE (3);
+    // 8 data bits, no parity, one stop bit (M, PCE, STOP all zero).
+    let mut u = Fake::new(&[]);
+    lpuart::transmitter(u.regs::<pac::lpuart1::RegisterBlock>(), ::link::BOARD_BAUD);
+    assert_eq!(u.at(0x0C), 2901);
+    assert_eq!(u.at(0x08), 1 << 7);
+    assert_eq!(u.at(0x00), 1 << 29 | 1 | 1 << 3);
+    assert_eq!(u.at(0x04), 0);
+    // TDR is at 0x28.
+    assert_eq!(
+        lpuart::tdr_address(u.regs::<pac::lpuart1::RegisterBlock>()),
+        u.words.as_ptr() as u32 + 0x28
+    );
+}
+
+#[test]
+fn link_dma_memory_to_lpuart_once_and_its_states() {
+    // DMAMUX channel 8 serves DMA2 channel 1: LPUART1_TX is request 35.
+    let mut mux = Fake::new(&[]);
+    link::request(mux.regs::<pac::dmamux::RegisterBlock>());
+    assert_eq!(mux.at(0x20), 35);
+    let mut d = Fake::new(&[]);
+    link::transfer(d.regs::<pac::dma1::RegisterBlock>(), 0x2000_0400, 0x4000_8028, 62);
+    // CCR1: EN, TCIE, TEIE, memory → peripheral, MINC, bytes both sides,
+    // not circular, no half-transfer interrupt.
+    assert_eq!(d.at(0x08), 1 | 1 << 1 | 1 << 3 | 1 << 4 | 1 << 7);
+    assert_eq!(
+        (d.at(0x0C), d.at(0x10), d.at(0x14)),
+        (62, 0x4000_8028, 0x2000_0400)
+    );
+    // The flags: nothing sent is done; under way is busy; TCIF1 (bit 1)
+    // done; TEIF1 (bit 3) an error, which wins.
+    let mut d = Fake::new(&[]);
+    let regs = d.regs::<pac::dma1::RegisterBlock>();
+    assert_eq!(link::take_state(regs, false), link::State::Done);
+    assert_eq!(link::take_state(regs, true), link::State::Busy);
+    let mut d = Fake::new(&[(0x00, 0b0010)]);
+    assert_eq!(
+        link::take_state(d.regs::<pac::dma1::RegisterBlock>(), true),
+        link::State::Done
+    );
+    assert_eq!(d.at(0x04), 1, "CGIF1 written");
+    let mut d = Fake::new(&[(0x00, 0b1010)]);
+    assert_eq!(
+        link::take_state(d.regs::<pac::dma1::RegisterBlock>(), true),
+        link::State::Error
+    );
+    // Another channel's flags are not channel 1's.
+    let mut d = Fake::new(&[(0x00, 0b0010 << 4)]);
+    assert_eq!(
+        link::take_state(d.regs::<pac::dma1::RegisterBlock>(), true),
+        link::State::Busy
+    );
 }

@@ -1,0 +1,295 @@
+//! Digests of settings and calibrations, as a start frame carries them: a
+//! CRC-32 (ISO-HDLC) over the values field by field, in declaration
+//! order, every `f32` as its IEEE-754 bits and every integer as
+//! little-endian bytes. The same on the host and the device by
+//! construction, and with no float formatting on the device (which would
+//! cost the board image some 25 KiB of flash).
+//!
+//! A derived table (the inverter's grid) is not digested: what it is
+//! derived from is (the line model, its bound, the leads).
+
+use crate::calib::{CalTable, Calibrations};
+use crate::channel::Settings;
+use crate::faults::Thresholds;
+use crate::policy::Policy;
+use crate::ranging::Ranging;
+use crate::tones::ToneSettings;
+use dsp_core::demod::FrontEnd;
+use dsp_core::fixture::Fixture;
+use dsp_core::invert::Inverter;
+use dsp_core::tline::LineModel;
+use dsp_core::track::Tracker;
+use dsp_core::Complex32;
+
+/// The digests' CRC: CRC-32/ISO-HDLC.
+static DIGEST_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// A digest under way.
+pub struct Digest(crc::Digest<'static, u32>);
+
+impl Default for Digest {
+    fn default() -> Self {
+        Self(DIGEST_CRC.digest())
+    }
+}
+
+impl Digest {
+    /// The digest of `value`.
+    pub fn of(value: &impl Digestible) -> u32 {
+        let mut d = Self::default();
+        value.feed(&mut d);
+        d.finish()
+    }
+
+    /// Take `bytes`. Not inlined: a digest is taken once, at start, and
+    /// each field's call stays a call (inlined, the CRC's loop would be
+    /// repeated at every field: 4 KiB more flash on the board).
+    #[inline(never)]
+    pub fn bytes(&mut self, bytes: &[u8]) {
+        self.0.update(bytes);
+    }
+
+    /// The digest so far.
+    pub fn finish(self) -> u32 {
+        self.0.finalize()
+    }
+}
+
+/// What a digest can be taken of.
+pub trait Digestible {
+    /// Feed the value to `d`.
+    fn feed(&self, d: &mut Digest);
+}
+
+impl Digestible for f32 {
+    fn feed(&self, d: &mut Digest) {
+        d.bytes(&self.to_bits().to_le_bytes());
+    }
+}
+
+impl Digestible for u8 {
+    fn feed(&self, d: &mut Digest) {
+        d.bytes(&[*self]);
+    }
+}
+
+impl Digestible for u32 {
+    fn feed(&self, d: &mut Digest) {
+        d.bytes(&self.to_le_bytes());
+    }
+}
+
+impl<T: Digestible, const N: usize> Digestible for [T; N] {
+    fn feed(&self, d: &mut Digest) {
+        self.iter().for_each(|v| v.feed(d));
+    }
+}
+
+impl<A: Digestible, B: Digestible> Digestible for (A, B) {
+    fn feed(&self, d: &mut Digest) {
+        self.0.feed(d);
+        self.1.feed(d);
+    }
+}
+
+impl<T: Digestible + ?Sized> Digestible for &T {
+    fn feed(&self, d: &mut Digest) {
+        (**self).feed(d);
+    }
+}
+
+/// Feed each field of a value, in order.
+macro_rules! fields {
+    ($d:expr, $($v:expr),+ $(,)?) => {{
+        $( $v.feed($d); )+
+    }};
+}
+
+impl Digestible for Complex32 {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.re, self.im);
+    }
+}
+
+impl Digestible for LineModel {
+    fn feed(&self, d: &mut Digest) {
+        match self {
+            LineModel::Ladder(n) => fields!(d, 0u8, *n),
+            LineModel::Continuous => 1u8.feed(d),
+        }
+    }
+}
+
+impl Digestible for Inverter {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.model(), self.x_max(), self.lead_ratio());
+    }
+}
+
+impl Digestible for Tracker {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.inverter(), self.band());
+    }
+}
+
+impl Digestible for FrontEnd {
+    fn feed(&self, d: &mut Digest) {
+        self.gain.feed(d);
+    }
+}
+
+impl Digestible for Fixture {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.parallel_farad, self.series_ohm);
+    }
+}
+
+impl Digestible for Policy {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.x_limit,
+            self.hysteresis,
+            self.decay_per_s,
+            self.hold_s,
+            self.settle_blocks
+        );
+    }
+}
+
+impl Digestible for Thresholds {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.open_counts,
+            self.no_excitation_counts,
+            self.short_ohm,
+            self.r_max_ohm,
+            self.residual_counts,
+            self.residual_rel,
+            self.c_tolerance,
+            self.noise_counts,
+        );
+    }
+}
+
+impl Digestible for Ranging {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.ranges_ohm, self.half_scale, self.target, self.down);
+    }
+}
+
+impl<const N: usize> Digestible for CalTable<N> {
+    fn feed(&self, d: &mut Digest) {
+        self.points.feed(d);
+    }
+}
+
+/// Every sensor's table, each after its sensor number.
+impl<const N: usize, const S: usize> Digestible for Calibrations<'_, N, S> {
+    fn feed(&self, d: &mut Digest) {
+        for s in 0..S {
+            fields!(d, s as u8, self.of(s as u8));
+        }
+    }
+}
+
+impl<const N: usize> Digestible for Settings<'_, N> {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.policy,
+            self.thresholds,
+            self.front_ends,
+            self.ranging,
+            self.calibration,
+            self.tracker,
+            self.fixture,
+        );
+    }
+}
+
+impl<const N: usize> Digestible for ToneSettings<'_, N> {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.policy,
+            self.thresholds,
+            self.front_end,
+            self.inverter,
+            self.calibration,
+            self.fixture,
+            self.chi2_flag,
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::{POINTS, REFERENCE};
+
+    fn settings(cal: &CalTable<POINTS>) -> Settings<'_, POINTS> {
+        Settings::new(
+            [FrontEnd::transimpedance(1e5, true); crate::design::RANGES],
+            Ranging::DEFAULT,
+            cal,
+        )
+    }
+
+    #[test]
+    fn a_digest_is_the_crc_of_the_bits_in_order() {
+        // CRC-32/ISO-HDLC of the bytes 00 00 80 3F (1.0f32) then 07.
+        let mut d = Digest::default();
+        fields!(&mut d, 1.0f32, 7u8);
+        assert_eq!(d.finish(), DIGEST_CRC.checksum(&[0x00, 0x00, 0x80, 0x3F, 0x07]));
+    }
+
+    #[test]
+    fn every_setting_and_every_calibration_point_changes_the_digest() {
+        let base = Digest::of(&settings(&REFERENCE));
+        assert_eq!(base, Digest::of(&settings(&REFERENCE)), "deterministic");
+        let mut changed = std::vec::Vec::new();
+        let mut s = settings(&REFERENCE);
+        s.policy.x_limit *= 1.0 + f32::EPSILON;
+        changed.push(Digest::of(&s));
+        let mut s = settings(&REFERENCE);
+        s.thresholds.noise_counts += 1.0;
+        changed.push(Digest::of(&s));
+        let mut s = settings(&REFERENCE);
+        s.fixture.series_ohm = 1.0;
+        changed.push(Digest::of(&s));
+        let mut s = settings(&REFERENCE);
+        s.tracker = s.tracker.with_band(0.8, 1.5);
+        changed.push(Digest::of(&s));
+        let mut s = settings(&REFERENCE);
+        s.ranging.ranges_ohm[3] *= 2.0;
+        changed.push(Digest::of(&s));
+        for k in 0..POINTS {
+            let mut cal = REFERENCE;
+            cal.points[k].1 += 0.01;
+            changed.push(Digest::of(&settings(&cal)));
+            changed.push(Digest::of(&cal));
+        }
+        assert!(changed.iter().all(|&c| c != base));
+        changed.sort_unstable();
+        changed.dedup();
+        assert_eq!(changed.len(), 5 + 2 * POINTS, "all different");
+    }
+
+    #[test]
+    fn a_sensor_with_its_own_table_changes_the_calibrations_digest() {
+        let mut cals: Calibrations<'_, POINTS, 16> = Calibrations::new(&REFERENCE);
+        let base = Digest::of(&cals);
+        let mut own = REFERENCE;
+        own.points[0].0 *= 1.01;
+        assert!(cals.insert(5, own).is_ok());
+        let five = Digest::of(&cals);
+        let mut other: Calibrations<'_, POINTS, 16> = Calibrations::new(&REFERENCE);
+        assert!(other.insert(6, own).is_ok());
+        assert!(
+            base != five && five != Digest::of(&other),
+            "which sensor matters too"
+        );
+    }
+}

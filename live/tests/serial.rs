@@ -1,0 +1,103 @@
+//! `live --serial` on a real serial device: a pseudo-terminal pair
+//! stands in for the ST-LINK's virtual COM port (the same termios calls,
+//! the baud rate set as for the board). A stream with its end frame ends
+//! the run cleanly; a board's endless stream ends with Ctrl-C, its data
+//! set written and marked incomplete.
+
+mod common;
+
+use common::stream;
+use serialport::{SerialPort, TTYPort};
+use std::io::Write;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// `live --serial` on the pty's slave, writing into `dir`.
+fn live_on(slave: &TTYPort, dir: &std::path::Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(["--serial", &slave.name().unwrap(), "--dataset"])
+        .arg(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Wait for `child`, at most `secs`; its exit code and output.
+fn wait(mut child: Child, secs: u64) -> (Option<i32>, String, String) {
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(t0.elapsed() < Duration::from_secs(secs), "live did not stop");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Rows of records.csv (without its header).
+fn rows(dir: &std::path::Path) -> usize {
+    std::fs::read_to_string(dir.join("records.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1
+}
+
+#[test]
+fn a_stream_read_from_a_serial_port_ends_with_its_end_frame() {
+    let (mut master, slave) = TTYPort::pair().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let child = live_on(&slave, tmp.path());
+    // Give live time to open the port, then send in pieces as a UART does.
+    std::thread::sleep(Duration::from_millis(300));
+    let bytes = stream(40, true, link::VERSION);
+    for piece in bytes.chunks(37) {
+        master.write_all(piece).unwrap();
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    master.flush().unwrap();
+    let (code, stdout, stderr) = wait(child, 20);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert_eq!(rows(tmp.path()), 40);
+    assert!(!tmp.path().join("INCOMPLETE").exists());
+    assert_eq!(
+        std::fs::read(tmp.path().join("stream.bin")).unwrap(),
+        bytes,
+        "the raw bytes kept"
+    );
+    drop(slave);
+}
+
+#[test]
+fn ctrl_c_ends_an_endless_stream_with_its_data_set_marked_incomplete() {
+    let (mut master, slave) = TTYPort::pair().unwrap();
+    master.set_timeout(Duration::from_secs(1)).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let child = live_on(&slave, tmp.path());
+    std::thread::sleep(Duration::from_millis(300));
+    // A board's stream: a start and records, no end.
+    master.write_all(&stream(25, false, link::VERSION)).unwrap();
+    master.flush().unwrap();
+    // Wait until live has written them, then interrupt it.
+    let t0 = Instant::now();
+    while std::fs::read_to_string(tmp.path().join("records.csv")).map_or(0, |s| s.lines().count()) < 26 {
+        assert!(t0.elapsed() < Duration::from_secs(20), "records.csv never filled");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let (code, stdout, stderr) = wait(child, 20);
+    assert_eq!(code, Some(3), "{stdout}\n{stderr}");
+    assert!(stderr.contains("stopped by Ctrl-C"), "{stderr}");
+    assert_eq!(rows(tmp.path()), 25);
+    let marker = std::fs::read_to_string(tmp.path().join("INCOMPLETE")).unwrap();
+    assert!(marker.contains("25 records without its end frame"), "{marker}");
+    drop(slave);
+}
