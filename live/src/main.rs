@@ -59,11 +59,11 @@ fn main() -> ExitCode {
     }
 }
 
-/// Say why reading stopped, unless the stream ended as it should.
-fn report(stopped: Stopped) {
+/// Say why reading `what` stopped, unless the stream ended as it should.
+fn report(what: &str, stopped: Stopped) {
     match stopped {
         Stopped::End => {}
-        Stopped::Source(why) => eprintln!("the source stopped: {why}"),
+        Stopped::Source(why) => eprintln!("{what} stopped: {why}"),
         Stopped::Asked => eprintln!("stopped by Ctrl-C"),
     }
 }
@@ -97,17 +97,23 @@ fn run(cli: Cli) -> Result<Outcome> {
             let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
             sink.push(&bytes)?;
         }
-        (None, Some(port), _) => {
-            let port = serialport::new(port, cli.baud)
+        (None, Some(name), _) => {
+            let port = serialport::new(name, cli.baud)
                 .timeout(Duration::from_millis(200))
                 .open()
-                .with_context(|| format!("opening the serial port {port} (in use, or not there?)"))?;
-            report(follow(port, &mut sink, &cli.dataset, &stop)?);
+                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
+            report(
+                &format!("the serial port {name}"),
+                follow(port, &mut sink, &cli.dataset, &stop)?,
+            );
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            report(follow(sock, &mut sink, &cli.dataset, &stop)?);
+            report(
+                &format!("the socket {addr}"),
+                follow(sock, &mut sink, &cli.dataset, &stop)?,
+            );
         }
         (None, None, None) => {
             anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")

@@ -2,7 +2,8 @@
 //! stands in for the ST-LINK's virtual COM port (the same termios calls,
 //! the baud rate set as for the board). A stream with its end frame ends
 //! the run cleanly; a board's endless stream ends with Ctrl-C, its data
-//! set written and marked incomplete.
+//! set written and marked incomplete; a port that vanishes mid-stream is
+//! named and what arrived is kept; a port in use is refused by name.
 
 mod common;
 
@@ -11,6 +12,23 @@ use serialport::{SerialPort, TTYPort};
 use std::io::Write;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// A pseudo-terminal pair whose master is closed on exec: the `live`
+/// child must not hold it, or closing it here would not hang the port up
+/// (serialport opens it without `O_CLOEXEC`; `OwnedFd::try_clone` duplicates
+/// with `F_DUPFD_CLOEXEC`).
+fn pair() -> (TTYPort, TTYPort) {
+    use std::os::fd::{FromRawFd, IntoRawFd, OwnedFd};
+    let (master, slave) = TTYPort::pair().unwrap();
+    // SAFETY: the descriptor is the master's, given up by `into_raw_fd`;
+    // its clone is a fresh descriptor owned by the new port.
+    let owned = unsafe { OwnedFd::from_raw_fd(master.into_raw_fd()) };
+    let cloexec = owned.try_clone().unwrap();
+    drop(owned);
+    // SAFETY: a pty master descriptor nobody else owns.
+    let master = unsafe { TTYPort::from_raw_fd(cloexec.into_raw_fd()) };
+    (master, slave)
+}
 
 /// `live --serial` on the pty's slave, writing into `dir`.
 fn live_on(slave: &TTYPort, dir: &std::path::Path) -> Child {
@@ -49,7 +67,7 @@ fn rows(dir: &std::path::Path) -> usize {
 
 #[test]
 fn a_stream_read_from_a_serial_port_ends_with_its_end_frame() {
-    let (mut master, slave) = TTYPort::pair().unwrap();
+    let (mut master, slave) = pair();
     let tmp = tempfile::tempdir().unwrap();
     let child = live_on(&slave, tmp.path());
     // Give live time to open the port, then send in pieces as a UART does.
@@ -74,7 +92,7 @@ fn a_stream_read_from_a_serial_port_ends_with_its_end_frame() {
 
 #[test]
 fn ctrl_c_ends_an_endless_stream_with_its_data_set_marked_incomplete() {
-    let (mut master, slave) = TTYPort::pair().unwrap();
+    let (mut master, slave) = pair();
     master.set_timeout(Duration::from_secs(1)).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let child = live_on(&slave, tmp.path());
@@ -100,4 +118,43 @@ fn ctrl_c_ends_an_endless_stream_with_its_data_set_marked_incomplete() {
     let marker = std::fs::read_to_string(tmp.path().join("INCOMPLETE")).unwrap();
     assert!(marker.contains("25 records without its end frame"), "{marker}");
     drop(slave);
+}
+
+#[test]
+fn a_port_that_vanishes_mid_stream_is_named_and_its_records_kept() {
+    let (mut master, slave) = pair();
+    let name = slave.name().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let child = live_on(&slave, tmp.path());
+    std::thread::sleep(Duration::from_millis(300));
+    master.write_all(&stream(12, false, link::VERSION)).unwrap();
+    master.flush().unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    // Unplugged: both ends of the pseudo-terminal go away.
+    drop(master);
+    drop(slave);
+    let (code, stdout, stderr) = wait(child, 20);
+    assert_eq!(code, Some(3), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains(&format!("the serial port {name} stopped")),
+        "{stderr}"
+    );
+    assert_eq!(rows(tmp.path()), 12);
+    assert!(tmp.path().join("INCOMPLETE").exists());
+}
+
+#[test]
+fn a_port_already_in_use_is_refused_by_name() {
+    let (_master, slave) = pair();
+    let name = slave.name().unwrap();
+    // Another program holds the port (opened exclusively, as serialport
+    // does by default).
+    let _held = serialport::new(&name, 115_200).open_native().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = wait(live_on(&slave, tmp.path()), 20);
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stderr.contains(&format!("opening the serial port {name} (in use, or not there?)")),
+        "{stderr}"
+    );
 }
