@@ -311,3 +311,39 @@ fn sixteen_sensors_at_1000_records_a_second_take_at_most_80_percent_of_the_board
         .len();
     assert!(typical + 16 > frame && typical < frame, "{typical} vs {frame}");
 }
+
+/// A frame as a newer sender might send it: `tag` as the body's variant,
+/// `payload` after it, sealed with a valid CRC and COBS.
+fn sealed(seq: u8, tag: u8, payload: &[u8]) -> Vec<u8> {
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+    let mut raw = vec![seq, tag];
+    raw.extend_from_slice(payload);
+    raw.extend_from_slice(&crc.checksum(&raw).to_le_bytes());
+    let mut out = vec![0u8; cobs::max_encoding_length(raw.len()) + 1];
+    let n = cobs::encode(&raw, &mut out);
+    out.truncate(n);
+    out.push(0);
+    out
+}
+
+#[test]
+fn an_unknown_frame_type_is_refused_and_counted_and_the_stream_goes_on() {
+    let (clean, sent) = stream(3);
+    // Frame type 7 does not exist: its CRC holds, its body does not parse.
+    let mut bytes = sealed(1, 7, &[1, 2, 3]);
+    bytes.extend_from_slice(&clean);
+    let mut d = Decoder::new();
+    let mut got = vec![];
+    let mut errors = vec![];
+    for &b in &bytes {
+        match d.push(b) {
+            Some(Ok(f)) => got.push(f),
+            Some(Err(e)) => errors.push(e),
+            None => {}
+        }
+    }
+    assert_eq!(errors, vec![Error::Body]);
+    assert_eq!(errors[0].to_string(), "an unknown frame type or layout");
+    assert_eq!(got.len(), sent.len());
+    assert_eq!(d.stats().bad, 1);
+}
