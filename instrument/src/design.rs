@@ -57,6 +57,9 @@ pub const DAC_AMPLITUDE_Q15: i16 = (EXCITATION_VOLT / BIAS_VOLT * 32768.0) as i1
 /// The reference sensor the default calibration describes: capacitance
 /// at rest (prestretched, 0 mm), F.
 pub const SENSOR_C_REST_FARAD: f64 = 210e-12;
+/// The reference sensor's electrode resistance at rest, both electrodes
+/// end to end, Ω (the paper's carbon-black electrodes, ≈ 350 kΩ each).
+pub const SENSOR_R_REST_OHM: f64 = 700e3;
 /// The reference sensor's active length at rest, mm: C = C_rest·(1 +
 /// s/length) (uniaxial stretch of an incompressible film).
 pub const SENSOR_REST_LENGTH_MM: f64 = 100.0;

@@ -13,6 +13,8 @@
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`channel`] | one sensor channel: demodulated block → record |
+//! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
+//! | [`store`] | those settings in flash, two slots (A/B): a power cut leaves the old set or the new |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
 //! | [`frames`] | records as frames of the record link (`link`), and the digests of a start frame |
@@ -46,5 +48,7 @@ pub mod policy;
 pub mod ranging;
 pub mod reader;
 pub mod sequencer;
+pub mod store;
+pub mod stored;
 pub mod tones;
 pub mod wire;

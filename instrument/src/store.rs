@@ -1,0 +1,224 @@
+//! The stored settings ([`Stored`]) in flash, in two slots (A/B), so that
+//! power lost at any instant of an update leaves either the set in force
+//! or the new one, never a corrupt one and never none.
+//!
+//! A slot is whole erase pages: a header, then the set's postcard bytes.
+//! An update goes to the slot not in force: erase it, write the body,
+//! then the header last, carrying a generation one above the one in force
+//! and the CRC-32 of the body, itself closed by its own CRC. At start the
+//! valid slot with the newer generation is the set in force; a slot whose
+//! header or body does not check (never written, half erased, half
+//! written) is not valid. The slot in force is never written, so a cut
+//! anywhere in an update leaves it as it was.
+//!
+//! Why two slots and not `sequential-storage`: its updates are atomic per
+//! item, and a set (about 2 KiB) is larger than an item fits on the
+//! G474's 2 KiB pages; splitting it into items would give up the "old or
+//! new, never a mix" of a whole set.
+//!
+//! Over any `embedded-storage` [`NorFlash`]: the board's flash
+//! (`firmware::board::flash`), a host file in QEMU, a RAM model in tests.
+
+use crate::stored::{Refused, Stored, MAX_BYTES};
+use embedded_storage::nor_flash::NorFlash;
+
+/// "SKN1": a slot header.
+const MAGIC: u32 = 0x534B_4E31;
+
+/// A slot's header, bytes: magic, generation, body length, body CRC,
+/// header CRC, padding; a multiple of any write size up to 32 bytes.
+pub const HEADER: usize = 32;
+
+/// The CRC of bodies and headers: CRC-32/ISO-HDLC.
+static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Why the store could not do what was asked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StoreError<E> {
+    /// The flash reported an error (the set in force is unchanged).
+    Flash(E),
+    /// The set breaks a rule (nothing was written).
+    Refused(Refused),
+    /// The slots do not fit the flash's pages and words.
+    Layout(&'static str),
+    /// What was written does not read back (the set in force is
+    /// unchanged).
+    Verify,
+}
+
+/// A slot's header.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Header {
+    generation: u32,
+    len: u32,
+    body_crc: u32,
+}
+
+impl Header {
+    fn to_bytes(self) -> [u8; HEADER] {
+        let mut b = [0xFF; HEADER];
+        b[0..4].copy_from_slice(&MAGIC.to_le_bytes());
+        b[4..8].copy_from_slice(&self.generation.to_le_bytes());
+        b[8..12].copy_from_slice(&self.len.to_le_bytes());
+        b[12..16].copy_from_slice(&self.body_crc.to_le_bytes());
+        let crc = CRC.checksum(&b[0..16]);
+        b[16..20].copy_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    fn from_bytes(b: &[u8; HEADER]) -> Option<Self> {
+        let word = |k: usize| u32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+        if word(0) != MAGIC || word(16) != CRC.checksum(&b[0..16]) {
+            return None;
+        }
+        let h = Self {
+            generation: word(4),
+            len: word(8),
+            body_crc: word(12),
+        };
+        (h.len as usize <= MAX_BYTES).then_some(h)
+    }
+}
+
+/// `a` is a later generation than `b` (wrapping).
+fn newer(a: u32, b: u32) -> bool {
+    (a.wrapping_sub(b) as i32) > 0
+}
+
+/// The set in force and its generation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Loaded {
+    /// The set.
+    pub set: Stored,
+    /// Its generation (one more for each update).
+    pub generation: u32,
+    /// Its slot (0 or 1).
+    pub slot: usize,
+}
+
+/// The two slots on a flash.
+pub struct Store<F> {
+    flash: F,
+    base: u32,
+    slot_bytes: u32,
+}
+
+impl<F: NorFlash> Store<F> {
+    /// Two slots of `slot_bytes` each from `base` on `flash`: both whole
+    /// erase pages, large enough for a header and the longest set.
+    pub fn new(flash: F, base: u32, slot_bytes: u32) -> Result<Self, StoreError<F::Error>> {
+        let page = F::ERASE_SIZE as u32;
+        if base % page != 0 || slot_bytes % page != 0 {
+            return Err(StoreError::Layout("the slots must be whole erase pages"));
+        }
+        if (slot_bytes as usize) < HEADER + MAX_BYTES || HEADER % F::WRITE_SIZE != 0 {
+            return Err(StoreError::Layout(
+                "a slot must hold a header and the longest set",
+            ));
+        }
+        if u64::from(base) + 2 * u64::from(slot_bytes) > flash.capacity() as u64 {
+            return Err(StoreError::Layout("the slots must lie within the flash"));
+        }
+        Ok(Self {
+            flash,
+            base,
+            slot_bytes,
+        })
+    }
+
+    /// The flash back.
+    pub fn release(self) -> F {
+        self.flash
+    }
+
+    fn slot_at(&self, slot: usize) -> u32 {
+        self.base + slot as u32 * self.slot_bytes
+    }
+
+    /// Slot `slot`'s set, if the slot holds a whole valid one.
+    fn read_slot(&mut self, slot: usize) -> Result<Option<(Header, Stored)>, F::Error> {
+        let at = self.slot_at(slot);
+        let mut h = [0u8; HEADER];
+        self.flash.read(at, &mut h)?;
+        let Some(header) = Header::from_bytes(&h) else {
+            return Ok(None);
+        };
+        let mut body = [0u8; MAX_BYTES];
+        let body = &mut body[..header.len as usize];
+        self.flash.read(at + HEADER as u32, body)?;
+        if CRC.checksum(body) != header.body_crc {
+            return Ok(None);
+        }
+        Ok(match Stored::from_bytes(body) {
+            Some(Ok(set)) => Some((header, set)),
+            _ => None,
+        })
+    }
+
+    /// The set in force: the valid slot of the newer generation; None if
+    /// neither slot holds a valid set (a new device).
+    pub fn load(&mut self) -> Result<Option<Loaded>, StoreError<F::Error>> {
+        let a = self.read_slot(0).map_err(StoreError::Flash)?;
+        let b = self.read_slot(1).map_err(StoreError::Flash)?;
+        let pick = |(h, set): (Header, Stored), slot| Loaded {
+            set,
+            generation: h.generation,
+            slot,
+        };
+        Ok(match (a, b) {
+            (Some(a), Some(b)) if newer(b.0.generation, a.0.generation) => Some(pick(b, 1)),
+            (Some(a), _) => Some(pick(a, 0)),
+            (None, Some(b)) => Some(pick(b, 1)),
+            (None, None) => None,
+        })
+    }
+
+    /// Check `set` and make it the set in force (in the slot not in
+    /// force); its generation. On any error the set in force is
+    /// unchanged.
+    pub fn save(&mut self, set: &Stored) -> Result<u32, StoreError<F::Error>> {
+        set.check().map_err(StoreError::Refused)?;
+        let mut body = [0xFFu8; MAX_BYTES];
+        let len = set
+            .to_bytes(&mut body)
+            .ok_or(StoreError::Layout("the set is longer than a slot holds"))?
+            .len();
+        let current = self.load()?;
+        let (slot, generation) = match current {
+            Some(c) => (1 - c.slot, c.generation.wrapping_add(1)),
+            None => (0, 1),
+        };
+        let at = self.slot_at(slot);
+        self.flash
+            .erase(at, at + self.slot_bytes)
+            .map_err(StoreError::Flash)?;
+        // The body padded with erased bytes to whole words.
+        let padded = len.div_ceil(F::WRITE_SIZE) * F::WRITE_SIZE;
+        body[len..padded].fill(0xFF);
+        self.flash
+            .write(at + HEADER as u32, &body[..padded])
+            .map_err(StoreError::Flash)?;
+        let header = Header {
+            generation,
+            len: len as u32,
+            body_crc: CRC.checksum(&body[..len]),
+        };
+        self.flash
+            .write(at, &header.to_bytes())
+            .map_err(StoreError::Flash)?;
+        match self.read_slot(slot).map_err(StoreError::Flash)? {
+            Some((h, back)) if h == header && back == *set => Ok(generation),
+            _ => {
+                // Not what was written: take the slot out of the running
+                // (an erased slot is not valid), the set in force stays.
+                self.flash
+                    .erase(at, at + self.slot_bytes)
+                    .map_err(StoreError::Flash)?;
+                Err(StoreError::Verify)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

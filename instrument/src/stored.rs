@@ -1,0 +1,382 @@
+//! The settings a device keeps in flash: each sensor's calibration and
+//! wiring, the tone policy and its limits, the record rate. Versioned,
+//! serialised with postcard, and checked as a whole before it is used or
+//! stored ([`Stored::check`]): a value outside its range, a table that
+//! does not ascend, or a value that is not finite is refused by name, and
+//! the set in force is kept. [`crate::store`] keeps it in flash.
+//!
+//! Ranges come from the sensors and the instrument, not from our
+//! generator: a DE sensor of a few mm² to a few cm² is 1 pF–10 nF with
+//! electrodes of 1 kΩ–100 MΩ ([`SensorSettings`]); leads are at most
+//! [`LEAD_MAX`] line resistances; a fixture adds at most 1 nF and 10 MΩ.
+
+use crate::calib::POINTS;
+use crate::config::PERIODS;
+use dsp_core::invert::LEAD_MAX;
+use serde::{Deserialize, Serialize};
+
+/// The version of the stored layout; a device refuses a set of another.
+pub const FORMAT_VERSION: u16 = 1;
+
+/// Sensors a set describes (the array's sixteen; the multiplexed board
+/// uses the first eight).
+pub const SENSORS_MAX: usize = 16;
+
+/// The most bytes a set takes serialised (checked by a test against the
+/// longest set).
+pub const MAX_BYTES: usize = 2048;
+
+/// One sensor: what it is, how it is wired, how its C reads as stretch.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensorSettings {
+    /// Read, or left out (an empty socket).
+    pub in_use: bool,
+    /// Capacitance at rest, F (1 pF … 10 nF).
+    pub nominal_c_farad: f32,
+    /// Electrode resistance (both electrodes, end to end) at rest, Ω
+    /// (1 kΩ … 100 MΩ).
+    pub nominal_r_ohm: f32,
+    /// Series resistance of the read end's tab leads per line resistance,
+    /// ℓ (0 … [`LEAD_MAX`]; 0: no leads).
+    pub lead_ratio: f32,
+    /// Contact resistance in series (both tabs), Ω (0 … 10 MΩ).
+    pub contact_ohm: f32,
+    /// Parasitic capacitance in parallel at the meter (cable, fixture), F
+    /// (0 … 1 nF).
+    pub parasitic_farad: f32,
+    /// The stretch calibration: (C in F, stretch in mm), ascending in both.
+    pub table: [(f32, f32); POINTS],
+    /// The table was measured on this sensor; false: stretch is not
+    /// calibrated (records say so) and the table is not used.
+    pub calibrated: bool,
+}
+
+/// The tone policy and its limits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PolicySettings {
+    /// Largest x = 2π·f·R̂·C allowed at the remembered peak (0.5 … 16).
+    pub x_limit: f32,
+    /// Relative margin below `x_limit` required to switch up (0 … 0.5).
+    pub hysteresis: f32,
+    /// Fraction the remembered peak decays per second (0 … 10).
+    pub decay_per_s: f32,
+    /// Least time between switches up, s (0 … 60).
+    pub hold_s: f32,
+    /// Blocks discarded after a switch (0 … 16).
+    pub settle_blocks: u8,
+    /// The lowest and highest tone of the frequency set the policy may
+    /// use (indices, lowest first, within the set).
+    pub tones: (u8, u8),
+}
+
+/// Everything a device keeps.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Stored {
+    /// [`FORMAT_VERSION`].
+    pub version: u16,
+    /// One record per sensor every this many blocks (1 … 250).
+    pub record_every: u8,
+    /// The tone policy.
+    pub policy: PolicySettings,
+    /// Each sensor.
+    pub sensors: [SensorSettings; SENSORS_MAX],
+}
+
+/// A setting, as a refusal names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// [`Stored::version`].
+    Version,
+    /// [`Stored::record_every`].
+    RecordEvery,
+    /// A field of [`PolicySettings`], by name.
+    Policy(&'static str),
+    /// A field of sensor `.0`'s [`SensorSettings`], by name.
+    Sensor(u8, &'static str),
+}
+
+/// Why a set was refused: the setting and the rule it breaks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Refused {
+    /// The setting.
+    pub field: Field,
+    /// The rule, in words.
+    pub reason: &'static str,
+}
+
+impl core::fmt::Display for Refused {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.field {
+            Field::Version => write!(f, "version: {}", self.reason),
+            Field::RecordEvery => write!(f, "record_every: {}", self.reason),
+            Field::Policy(name) => write!(f, "policy.{name}: {}", self.reason),
+            Field::Sensor(s, name) => write!(f, "sensor {s} {name}: {}", self.reason),
+        }
+    }
+}
+
+/// `v` finite and within `lo..=hi`, or refused as `field`.
+fn within(v: f32, lo: f32, hi: f32, field: Field, reason: &'static str) -> Result<(), Refused> {
+    match v.is_finite() && (lo..=hi).contains(&v) {
+        true => Ok(()),
+        false => Err(Refused { field, reason }),
+    }
+}
+
+impl SensorSettings {
+    /// A sensor nothing is known of: in use, the reference sensor's
+    /// nominal values, no leads, no wiring, stretch not calibrated (the
+    /// table a placeholder: C over its plausible span, stretch zero…one
+    /// millimetre, never used while `calibrated` is false).
+    pub fn unknown(nominal_c_farad: f32, nominal_r_ohm: f32) -> Self {
+        Self {
+            in_use: true,
+            nominal_c_farad,
+            nominal_r_ohm,
+            lead_ratio: 0.0,
+            contact_ohm: 0.0,
+            parasitic_farad: 0.0,
+            table: core::array::from_fn(|k| {
+                let u = k as f32 / (POINTS - 1) as f32;
+                (nominal_c_farad * (1.0 + u), u)
+            }),
+            calibrated: false,
+        }
+    }
+
+    /// Check sensor `s`'s values.
+    pub fn check(&self, s: u8) -> Result<(), Refused> {
+        let f = |name| Field::Sensor(s, name);
+        within(
+            self.nominal_c_farad,
+            1e-12,
+            1e-8,
+            f("nominal_c_farad"),
+            "must be 1 pF … 10 nF",
+        )?;
+        within(
+            self.nominal_r_ohm,
+            1e3,
+            1e8,
+            f("nominal_r_ohm"),
+            "must be 1 kΩ … 100 MΩ",
+        )?;
+        within(
+            self.lead_ratio,
+            0.0,
+            LEAD_MAX,
+            f("lead_ratio"),
+            "must be 0 … 50 line resistances",
+        )?;
+        within(self.contact_ohm, 0.0, 1e7, f("contact_ohm"), "must be 0 … 10 MΩ")?;
+        within(
+            self.parasitic_farad,
+            0.0,
+            1e-9,
+            f("parasitic_farad"),
+            "must be 0 … 1 nF",
+        )?;
+        for &(c, mm) in &self.table {
+            within(c, 1e-12, 1e-7, f("table"), "C must be 1 pF … 100 nF")?;
+            within(mm, -1e3, 1e3, f("table"), "stretch must be within ±1 m")?;
+        }
+        if !self.table.windows(2).all(|w| w[1].0 > w[0].0 && w[1].1 > w[0].1) {
+            return Err(Refused {
+                field: f("table"),
+                reason: "must ascend in C and in stretch",
+            });
+        }
+        Ok(())
+    }
+}
+
+impl PolicySettings {
+    /// The policy's defaults ([`crate::policy::Policy::DEFAULT`]) over the
+    /// whole frequency set.
+    pub const DEFAULT: Self = Self {
+        x_limit: crate::policy::Policy::DEFAULT.x_limit,
+        hysteresis: crate::policy::Policy::DEFAULT.hysteresis,
+        decay_per_s: crate::policy::Policy::DEFAULT.decay_per_s,
+        hold_s: crate::policy::Policy::DEFAULT.hold_s,
+        settle_blocks: crate::policy::Policy::DEFAULT.settle_blocks,
+        tones: (0, PERIODS.len() as u8 - 1),
+    };
+
+    /// Check the policy's values.
+    pub fn check(&self) -> Result<(), Refused> {
+        within(
+            self.x_limit,
+            0.5,
+            16.0,
+            Field::Policy("x_limit"),
+            "must be 0.5 … 16",
+        )?;
+        within(
+            self.hysteresis,
+            0.0,
+            0.5,
+            Field::Policy("hysteresis"),
+            "must be 0 … 0.5",
+        )?;
+        within(
+            self.decay_per_s,
+            0.0,
+            10.0,
+            Field::Policy("decay_per_s"),
+            "must be 0 … 10 per s",
+        )?;
+        within(
+            self.hold_s,
+            0.0,
+            60.0,
+            Field::Policy("hold_s"),
+            "must be 0 … 60 s",
+        )?;
+        if self.settle_blocks > 16 {
+            return Err(Refused {
+                field: Field::Policy("settle_blocks"),
+                reason: "must be 0 … 16",
+            });
+        }
+        let (lo, hi) = self.tones;
+        if !(lo <= hi && usize::from(hi) < PERIODS.len()) {
+            return Err(Refused {
+                field: Field::Policy("tones"),
+                reason: "must be two indices of the frequency set, lowest first",
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Stored {
+    /// A set for sensors nothing is known of
+    /// ([`SensorSettings::unknown`] with the reference sensor's nominal
+    /// values), every sensor in use, the default policy, a record every
+    /// block.
+    pub fn uncalibrated() -> Self {
+        let s = SensorSettings::unknown(
+            crate::design::SENSOR_C_REST_FARAD as f32,
+            crate::design::SENSOR_R_REST_OHM as f32,
+        );
+        Self {
+            version: FORMAT_VERSION,
+            record_every: 1,
+            policy: PolicySettings::DEFAULT,
+            sensors: [s; SENSORS_MAX],
+        }
+    }
+
+    /// Check the whole set: the first setting out of its range, by name.
+    pub fn check(&self) -> Result<(), Refused> {
+        if self.version != FORMAT_VERSION {
+            return Err(Refused {
+                field: Field::Version,
+                reason: "a layout this firmware does not read",
+            });
+        }
+        if self.record_every == 0 || self.record_every > 250 {
+            return Err(Refused {
+                field: Field::RecordEvery,
+                reason: "must be 1 … 250 blocks",
+            });
+        }
+        self.policy.check()?;
+        for (s, sensor) in self.sensors.iter().enumerate() {
+            sensor.check(s as u8)?;
+        }
+        Ok(())
+    }
+
+    /// Serialise into `out` (at least [`MAX_BYTES`]); the bytes written.
+    pub fn to_bytes<'a>(&self, out: &'a mut [u8]) -> Option<&'a mut [u8]> {
+        postcard::to_slice(self, out).ok()
+    }
+
+    /// Read a set from `bytes` and check it: None if it does not parse,
+    /// the refusal if it parses and breaks a rule.
+    pub fn from_bytes(bytes: &[u8]) -> Option<Result<Self, Refused>> {
+        let set: Self = postcard::from_bytes(bytes).ok()?;
+        Some(set.check().map(|()| set))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    fn longest() -> Stored {
+        let mut s = Stored::uncalibrated();
+        for (k, sensor) in s.sensors.iter_mut().enumerate() {
+            sensor.calibrated = true;
+            sensor.lead_ratio = 0.64;
+            sensor.contact_ohm = 1234.5;
+            sensor.parasitic_farad = 12e-12 + k as f32 * 1e-13;
+        }
+        s.record_every = 250;
+        s
+    }
+
+    #[test]
+    fn a_set_round_trips_and_fits_its_bound() {
+        let s = longest();
+        assert_eq!(s.check(), Ok(()));
+        let mut buf = [0u8; MAX_BYTES];
+        let n = s.to_bytes(&mut buf).unwrap().len();
+        assert!(n <= MAX_BYTES && n > 16 * POINTS * 8, "{n} bytes");
+        assert_eq!(Stored::from_bytes(&buf[..n]), Some(Ok(s)));
+        assert_eq!(Stored::from_bytes(&buf[..n - 1]), None, "cut short");
+    }
+
+    #[test]
+    fn every_rule_refuses_by_name() {
+        let base = Stored::uncalibrated();
+        assert_eq!(base.check(), Ok(()));
+        let mut cases: std::vec::Vec<(Stored, &str)> = std::vec::Vec::new();
+        let mut s = base;
+        s.version = 2;
+        cases.push((s, "version:"));
+        let mut s = base;
+        s.record_every = 0;
+        cases.push((s, "record_every:"));
+        let mut s = base;
+        s.policy.x_limit = f32::NAN;
+        cases.push((s, "policy.x_limit:"));
+        let mut s = base;
+        s.policy.tones = (3, 1);
+        cases.push((s, "policy.tones:"));
+        let mut s = base;
+        s.policy.settle_blocks = 17;
+        cases.push((s, "policy.settle_blocks:"));
+        let mut s = base;
+        s.sensors[5].nominal_c_farad = 0.0;
+        cases.push((s, "sensor 5 nominal_c_farad:"));
+        let mut s = base;
+        s.sensors[15].nominal_r_ohm = 1e9;
+        cases.push((s, "sensor 15 nominal_r_ohm:"));
+        let mut s = base;
+        s.sensors[0].lead_ratio = -0.1;
+        cases.push((s, "sensor 0 lead_ratio:"));
+        let mut s = base;
+        s.sensors[2].contact_ohm = f32::INFINITY;
+        cases.push((s, "sensor 2 contact_ohm:"));
+        let mut s = base;
+        s.sensors[3].parasitic_farad = 2e-9;
+        cases.push((s, "sensor 3 parasitic_farad:"));
+        let mut s = base;
+        s.sensors[7].table.swap(3, 4);
+        cases.push((s, "sensor 7 table: must ascend"));
+        let mut s = base;
+        s.sensors[7].table[10].1 = s.sensors[7].table[9].1;
+        cases.push((s, "sensor 7 table: must ascend"));
+        for (s, want) in cases {
+            let why = s.check().unwrap_err().to_string();
+            assert!(why.starts_with(want), "{why} (wanted {want})");
+            // Refused on the way in too.
+            let mut buf = [0u8; MAX_BYTES];
+            let n = s.to_bytes(&mut buf).unwrap().len();
+            assert!(matches!(Stored::from_bytes(&buf[..n]), Some(Err(_))));
+        }
+    }
+}
