@@ -7,7 +7,7 @@
 
 use super::dma::Event;
 use super::scan::{Adc, INPUT_PINS, SCAN_ADCS};
-use super::{adc, clocks, dac, dma, link, lpuart, opamp, pac, pins, scan, timer, watchdog};
+use super::{adc, clocks, dac, dma, flash, link, lpuart, opamp, pac, pins, scan, timer, watchdog};
 use std::vec;
 use std::vec::Vec;
 
@@ -575,4 +575,80 @@ fn link_dma_memory_to_lpuart_once_and_its_states() {
         link::take_state(d.regs::<pac::dma1::RegisterBlock>(), true),
         link::State::Busy
     );
+}
+
+#[test]
+fn settings_flash_pages_unlock_erase_program_and_error_flags() {
+    use flash::{FlashError, Page};
+    // The last 8 KiB: dual bank, bank 2 pages 124…127 (2 KiB each);
+    // single bank, pages 126 and 127 (4 KiB each).
+    assert_eq!(flash::SETTINGS_BASE + flash::SETTINGS_BYTES, 0x0808_0000);
+    let p = |bank2, number| Some(Page { bank2, number });
+    assert_eq!(
+        flash::pages(flash::SETTINGS_BASE, true),
+        [p(true, 124), p(true, 125)]
+    );
+    assert_eq!(
+        flash::pages(flash::SETTINGS_BASE + 4096, true),
+        [p(true, 126), p(true, 127)]
+    );
+    assert_eq!(flash::pages(flash::SETTINGS_BASE, false), [p(false, 126), None]);
+    assert_eq!(flash::pages(0x0800_0000, true), [p(false, 0), p(false, 1)]);
+    // Unlock (CR resets locked, 0xC000_0000): the second key last in KEYR
+    // (offset 0x08).
+    let mut f = Fake::new(&[(0x14, 0xC000_0000)]);
+    flash::unlock(f.regs::<pac::flash::RegisterBlock>());
+    assert_eq!(f.at(0x08), 0xCDEF_89AB);
+    // Page erase: PER (bit 1), PNB (bits 3…9), BKER (bit 11), then STRT
+    // (bit 16); never LOCK (bit 31) or OPTLOCK (bit 30), which CR resets
+    // with (a write from the reset value would lock the flash mid-way).
+    let mut f = Fake::new(&[(0x14, 0xC000_0000)]);
+    flash::start_erase(
+        f.regs::<pac::flash::RegisterBlock>(),
+        Page {
+            bank2: true,
+            number: 125,
+        },
+    );
+    assert_eq!(f.at(0x14), 1 << 1 | 125 << 3 | 1 << 11 | 1 << 16);
+    // Programming: PG (bit 0) alone; the end clears it; lock sets LOCK
+    // (and OPTLOCK, as at reset).
+    flash::start_program(f.regs::<pac::flash::RegisterBlock>());
+    assert_eq!(f.at(0x14), 1);
+    flash::end_operation(f.regs::<pac::flash::RegisterBlock>());
+    assert_eq!(f.at(0x14), 0);
+    flash::lock(f.regs::<pac::flash::RegisterBlock>());
+    assert_eq!(f.at(0x14), 0xC000_0000);
+    // The data cache reset: DCEN (bit 10) back on, DCRST (bit 12) off,
+    // the rest of ACR (4 wait states, prefetch, ICEN) kept.
+    let mut f = Fake::new(&[(0x00, 4 | 1 << 8 | 1 << 9 | 1 << 10)]);
+    flash::reset_data_cache(f.regs::<pac::flash::RegisterBlock>());
+    assert_eq!(f.at(0x00), 4 | 1 << 8 | 1 << 9 | 1 << 10);
+    // Error flags (SR at 0x10): each one named, cleared by writing it
+    // back; BSY (bit 16) is neither an error nor written.
+    let cases = [
+        (1 << 1, FlashError::Operation),
+        (1 << 3, FlashError::Programming),
+        (1 << 4, FlashError::WriteProtected),
+        (1 << 5, FlashError::Alignment),
+        (1 << 6, FlashError::Size),
+        (1 << 7, FlashError::Sequence),
+        (1 << 8, FlashError::Miss),
+        (1 << 9, FlashError::Fast),
+    ];
+    for (bit, e) in cases {
+        let mut f = Fake::new(&[(0x10, bit | 1 << 16 | 1)]);
+        assert_eq!(flash::take_errors(f.regs::<pac::flash::RegisterBlock>()), Err(e));
+        assert_eq!(f.at(0x10), bit | 1, "written back to clear");
+    }
+    let mut f = Fake::new(&[(0x10, 1 << 16 | 1)]);
+    assert!(flash::busy(f.regs::<pac::flash::RegisterBlock>()));
+    assert_eq!(flash::take_errors(f.regs::<pac::flash::RegisterBlock>()), Ok(()));
+    assert_eq!(f.at(0x10), 1, "EOP cleared, BSY not written");
+    // The region: aligned and within 8 KiB.
+    assert_eq!(flash::in_region(0, 8192, 4096), Ok(()));
+    assert_eq!(flash::in_region(8, 16, 8), Ok(()));
+    assert_eq!(flash::in_region(4, 8, 8), Err(FlashError::Bounds));
+    assert_eq!(flash::in_region(8184, 16, 8), Err(FlashError::Bounds));
+    assert_eq!(flash::in_region(u32::MAX - 3, 8, 1), Err(FlashError::Bounds));
 }
