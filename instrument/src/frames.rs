@@ -3,6 +3,7 @@
 //! frame's digests: [`crate::digest`]).
 
 use crate::channel::Record;
+use crate::digest::{Digest, Digestible};
 use crate::faults::Flags;
 use crate::tones::ToneRecord;
 use dsp_core::lumped::SeriesRc;
@@ -74,6 +75,26 @@ pub fn from_record(r: &Record) -> link::Record {
         chi2: 0.0,
         sigma_c: 0.0,
         flags: r.flags.0,
+    }
+}
+
+/// A stream's start frame: the firmware's name and version, the digests
+/// of the settings and calibrations in force, the sensors and the sample
+/// rate.
+pub fn start(
+    firmware: &str,
+    settings: &impl Digestible,
+    calibration: &impl Digestible,
+    sensors: usize,
+    sample_rate_hz: u32,
+) -> link::Start {
+    link::Start {
+        version: link::VERSION,
+        firmware: link::Start::firmware_field(firmware),
+        settings_digest: Digest::of(settings),
+        calibration_digest: Digest::of(calibration),
+        sensors: sensors as u8,
+        sample_rate_hz,
     }
 }
 

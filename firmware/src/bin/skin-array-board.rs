@@ -54,7 +54,6 @@ use instrument::array::{
     SENSOR_TIA_OHM,
 };
 use instrument::calib::{Calibrations, POINTS, REFERENCE};
-use instrument::digest::Digest;
 use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
@@ -139,17 +138,13 @@ mod app {
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
-            link::Start {
-                version: link::VERSION,
-                firmware: link::Start::firmware_field(concat!(
-                    "skin-array-board ",
-                    env!("CARGO_PKG_VERSION")
-                )),
-                settings_digest: Digest::of(&settings),
-                calibration_digest: Digest::of(cal),
-                sensors: SENSORS as u8,
-                sample_rate_hz: RATE_HZ,
-            },
+            frames::start(
+                concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
+                &settings,
+                cal,
+                SENSORS,
+                RATE_HZ,
+            ),
         );
         let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
         rtic::pend(pac::Interrupt::DMA2_CH1);

@@ -30,7 +30,6 @@ use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::calib::{Calibrations, POINTS};
-use instrument::digest::Digest;
 use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::tones::{ToneRecord, ToneSettings};
@@ -101,14 +100,13 @@ mod app {
         };
         let link = LinkSender::start(
             Uart0::take(),
-            link::Start {
-                version: link::VERSION,
-                firmware: link::Start::firmware_field(concat!("skin-array ", env!("CARGO_PKG_VERSION"))),
-                settings_digest: Digest::of(&settings),
-                calibration_digest: Digest::of(cal),
-                sensors: SENSORS as u8,
-                sample_rate_hz: RATE_HZ,
-            },
+            frames::start(
+                concat!("skin-array ", env!("CARGO_PKG_VERSION")),
+                &settings,
+                cal,
+                SENSORS,
+                RATE_HZ,
+            ),
         );
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",

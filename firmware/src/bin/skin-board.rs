@@ -42,7 +42,6 @@ use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
 };
 use instrument::design;
-use instrument::digest::Digest;
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::ranging::Ranging;
@@ -130,14 +129,13 @@ mod app {
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
-            link::Start {
-                version: link::VERSION,
-                firmware: link::Start::firmware_field(concat!("skin-board ", env!("CARGO_PKG_VERSION"))),
-                settings_digest: Digest::of(&settings),
-                calibration_digest: Digest::of(settings.calibration),
-                sensors: CHANNELS as u8,
-                sample_rate_hz: design::SAMPLE_RATE,
-            },
+            frames::start(
+                concat!("skin-board ", env!("CARGO_PKG_VERSION")),
+                &settings,
+                settings.calibration,
+                CHANNELS,
+                design::SAMPLE_RATE,
+            ),
         );
         let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
         rtic::pend(pac::Interrupt::DMA2_CH1);

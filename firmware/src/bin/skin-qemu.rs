@@ -30,7 +30,6 @@ use instrument::channel::{Channel, Settings};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
-use instrument::digest::Digest;
 use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
 use instrument::mux::Mux;
@@ -158,17 +157,13 @@ mod app {
                 seq,
                 link: LinkSender::start(
                     Uart0::take(),
-                    link::Start {
-                        version: link::VERSION,
-                        firmware: link::Start::firmware_field(concat!(
-                            "skin-qemu ",
-                            env!("CARGO_PKG_VERSION")
-                        )),
-                        settings_digest: Digest::of(&settings),
-                        calibration_digest: Digest::of(settings.calibration),
-                        sensors: CHANNELS as u8,
-                        sample_rate_hz: instrument::design::SAMPLE_RATE,
-                    },
+                    frames::start(
+                        concat!("skin-qemu ", env!("CARGO_PKG_VERSION")),
+                        &settings,
+                        settings.calibration,
+                        CHANNELS,
+                        instrument::design::SAMPLE_RATE,
+                    ),
                 ),
                 settings,
                 end_slot: (scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS),
