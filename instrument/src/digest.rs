@@ -13,6 +13,7 @@ use crate::channel::Settings;
 use crate::faults::Thresholds;
 use crate::policy::Policy;
 use crate::ranging::Ranging;
+use crate::stored::{PolicySettings, SensorSettings, Stored};
 use crate::tones::ToneSettings;
 use dsp_core::demod::FrontEnd;
 use dsp_core::fixture::Fixture;
@@ -70,6 +71,18 @@ impl Digestible for f32 {
 impl Digestible for u8 {
     fn feed(&self, d: &mut Digest) {
         d.bytes(&[*self]);
+    }
+}
+
+impl Digestible for bool {
+    fn feed(&self, d: &mut Digest) {
+        d.bytes(&[u8::from(*self)]);
+    }
+}
+
+impl Digestible for u16 {
+    fn feed(&self, d: &mut Digest) {
+        d.bytes(&self.to_le_bytes());
     }
 }
 
@@ -221,6 +234,43 @@ impl<const N: usize> Digestible for ToneSettings<'_, N> {
             self.fixture,
             self.chi2_flag,
         );
+    }
+}
+
+impl Digestible for SensorSettings {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.in_use,
+            self.nominal_c_farad,
+            self.nominal_r_ohm,
+            self.lead_ratio,
+            self.contact_ohm,
+            self.parasitic_farad,
+            self.table,
+            self.calibrated,
+        );
+    }
+}
+
+impl Digestible for PolicySettings {
+    fn feed(&self, d: &mut Digest) {
+        fields!(
+            d,
+            self.x_limit,
+            self.hysteresis,
+            self.decay_per_s,
+            self.hold_s,
+            self.settle_blocks,
+            self.tones,
+        );
+    }
+}
+
+/// A stored set, as a device keeps it.
+impl Digestible for Stored {
+    fn feed(&self, d: &mut Digest) {
+        fields!(d, self.version, self.record_every, self.policy, self.sensors);
     }
 }
 

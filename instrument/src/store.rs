@@ -220,5 +220,93 @@ impl<F: NorFlash> Store<F> {
     }
 }
 
+/// NOR flash in a byte buffer, with the board's units (8-byte words,
+/// 4 KiB erase units) and NOR's rule (a word is programmed only where it
+/// is erased): a flash image on the host (QEMU's settings file, a tool
+/// preparing one).
+pub struct RamFlash<'a> {
+    mem: &'a mut [u8],
+}
+
+/// Why a [`RamFlash`] operation failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RamFlashError {
+    /// Outside the buffer, or not aligned.
+    Bounds,
+    /// A word programmed that was not erased.
+    NotErased,
+}
+
+impl embedded_storage::nor_flash::NorFlashError for RamFlashError {
+    fn kind(&self) -> embedded_storage::nor_flash::NorFlashErrorKind {
+        use embedded_storage::nor_flash::NorFlashErrorKind;
+        match self {
+            RamFlashError::Bounds => NorFlashErrorKind::OutOfBounds,
+            RamFlashError::NotErased => NorFlashErrorKind::Other,
+        }
+    }
+}
+
+impl<'a> RamFlash<'a> {
+    /// Over `mem` (its length a multiple of 4 KiB; all 0xFF is erased).
+    pub fn new(mem: &'a mut [u8]) -> Self {
+        Self { mem }
+    }
+}
+
+impl embedded_storage::nor_flash::ErrorType for RamFlash<'_> {
+    type Error = RamFlashError;
+}
+
+impl embedded_storage::nor_flash::ReadNorFlash for RamFlash<'_> {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), RamFlashError> {
+        let at = offset as usize;
+        let src = self.mem.get(at..at + bytes.len()).ok_or(RamFlashError::Bounds)?;
+        bytes.copy_from_slice(src);
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        self.mem.len()
+    }
+}
+
+impl NorFlash for RamFlash<'_> {
+    const WRITE_SIZE: usize = 8;
+    const ERASE_SIZE: usize = 4096;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), RamFlashError> {
+        let (from, to) = (from as usize, to as usize);
+        if from % Self::ERASE_SIZE != 0 || to % Self::ERASE_SIZE != 0 || from > to || to > self.mem.len() {
+            return Err(RamFlashError::Bounds);
+        }
+        self.mem[from..to].fill(0xFF);
+        Ok(())
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), RamFlashError> {
+        let at = offset as usize;
+        if at % Self::WRITE_SIZE != 0
+            || bytes.len() % Self::WRITE_SIZE != 0
+            || at + bytes.len() > self.mem.len()
+        {
+            return Err(RamFlashError::Bounds);
+        }
+        let dst = &mut self.mem[at..at + bytes.len()];
+        if dst.iter().any(|&b| b != 0xFF) {
+            return Err(RamFlashError::NotErased);
+        }
+        dst.copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
+/// The settings' region on every image: two slots of 4 KiB.
+pub const REGION_BYTES: usize = 8192;
+/// A slot, bytes.
+pub const SLOT_BYTES: u32 = 4096;
+
 #[cfg(test)]
 mod tests;

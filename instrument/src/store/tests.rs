@@ -302,3 +302,20 @@ impl Store<Model> {
         &self.flash
     }
 }
+
+#[test]
+fn a_ram_flash_image_holds_a_set_as_the_board_would() {
+    let mut mem = vec![0xFFu8; REGION_BYTES];
+    {
+        let mut s = Store::new(RamFlash::new(&mut mem), 0, SLOT_BYTES).unwrap();
+        assert_eq!(s.save(&set(2)), Ok(1));
+    }
+    // The image again, as a restart would find it.
+    let mut again = Store::new(RamFlash::new(&mut mem), 0, SLOT_BYTES).unwrap();
+    assert_eq!(again.load().unwrap().map(|l| l.set), Some(set(2)));
+    // NOR's rule holds: no programming over programmed words.
+    let mut f = RamFlash::new(&mut mem);
+    assert_eq!(f.write(0, &[0u8; 8]), Err(RamFlashError::NotErased));
+    assert_eq!(f.write(4, &[0u8; 8]), Err(RamFlashError::Bounds));
+    assert_eq!(f.erase(0, 100), Err(RamFlashError::Bounds));
+}
