@@ -8,6 +8,7 @@
 //! | `scenario` | (feature `qemu`) the simulated skin and front end of the QEMU runs |
 //! | `array_skin` | (feature `qemu`) the simulated skin of the array's QEMU runs: sixteen sensors, the comb front end |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
+//! | `qemu_flash` | (QEMU target) the settings' flash in a host file through semihosting: settings survive a restart |
 //! | `link_out` | the record link's sending end on the board: frames into a byte queue a DMA channel drains (`bbqueue`); never waits, counts drops |
 //! | `records` | the array's record queue between acquisition and logger (`heapless`): never waits, counts drops |
 //! | `board` | (feature `board`) the STM32G474's hardware, one module per peripheral; its logging, panics and faults on the target |
@@ -25,6 +26,8 @@ pub mod board;
 pub mod link_out;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;
+#[cfg(all(target_os = "none", feature = "qemu"))]
+pub mod qemu_flash;
 pub mod records;
 #[cfg(feature = "qemu")]
 pub mod scenario;

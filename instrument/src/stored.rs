@@ -267,6 +267,49 @@ impl Stored {
         }
     }
 
+    /// The set a multiplexed instrument runs with: its calibration table,
+    /// wiring and tab leads for each of its `channels` sensors (the rest
+    /// not in use), nominal C from the table's first point, nominal R
+    /// `r_ohm`, its policy.
+    pub fn of_multiplexed(
+        settings: &crate::channel::Settings<'_, POINTS>,
+        lead_ratio: f32,
+        r_ohm: f32,
+        channels: usize,
+    ) -> Self {
+        let table = settings.calibration.points;
+        let sensor = SensorSettings {
+            in_use: true,
+            nominal_c_farad: table[0].0,
+            nominal_r_ohm: r_ohm,
+            lead_ratio,
+            contact_ohm: settings.fixture.series_ohm,
+            parasitic_farad: settings.fixture.parallel_farad,
+            table,
+            calibrated: true,
+        };
+        let p = settings.policy;
+        Self {
+            version: FORMAT_VERSION,
+            record_every: 1,
+            policy: PolicySettings {
+                x_limit: p.x_limit,
+                hysteresis: p.hysteresis,
+                decay_per_s: p.decay_per_s,
+                hold_s: p.hold_s,
+                settle_blocks: p.settle_blocks,
+                ..PolicySettings::DEFAULT
+            },
+            sensors: {
+                let mut sensors = [sensor; SENSORS_MAX];
+                for (s, x) in sensors.iter_mut().enumerate() {
+                    x.in_use = s < channels;
+                }
+                sensors
+            },
+        }
+    }
+
     /// Check the whole set: the first setting out of its range, by name.
     pub fn check(&self) -> Result<(), Refused> {
         if self.version != FORMAT_VERSION {

@@ -19,21 +19,27 @@
 //! effects `host-sim identify` found, as `id=value` in SI units
 //! (`<id>=1.2e-11`, ids from [`instrument::effects`]): the firmware de-embeds the wiring
 //! they describe ([`instrument::effects::EffectSet::fixture`]).
+//! `flash=PATH` keeps the settings' flash in a host file
+//! ([`firmware::qemu_flash`]): the run says what is stored there, and with
+//! `save` stores the settings it measures with.
 #![no_std]
 #![no_main]
 
 use dsp_core::fixture::Fixture;
 use firmware::qemu::{self, LinkSender, Uart0};
+use firmware::qemu_flash;
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
+use instrument::design::SENSOR_R_REST_OHM;
 use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
+use instrument::stored::Stored;
 
 /// A block as the DMA leaves it.
 pub struct Block {
@@ -45,11 +51,25 @@ pub struct Block {
     pub slot: Slot,
 }
 
+/// What the command line asks for.
+struct Args {
+    scenario: Scenario,
+    /// The wiring to de-embed.
+    fixture: Fixture,
+    /// The line model's tab-lead ratio.
+    lead_ratio: f32,
+    /// `flash=PATH`: the settings' flash in this host file.
+    flash: Option<heapless::Vec<u8, 128>>,
+    /// `save`: store the settings this run measures with.
+    save: bool,
+}
+
 /// The scenario (first argument), the wiring calibration and the tab-lead
 /// ratio of the line model (optional further arguments: `id=value` of the
 /// catalogue's static effects, SI; without `lead_resistance`, the ratio
-/// installed for the scenario's sensor).
-fn arguments() -> (Scenario, Fixture, f32) {
+/// installed for the scenario's sensor); `flash=PATH` keeps the settings'
+/// flash in a host file, and `save` stores the settings of this run there.
+fn arguments() -> Args {
     qemu::with_args(|args| {
         let name = args.next().unwrap_or("paper20");
         let scenario = Scenario::parse(name).unwrap_or_else(|| {
@@ -57,7 +77,22 @@ fn arguments() -> (Scenario, Fixture, f32) {
             qemu::exit(2)
         });
         let mut effects = EffectSet::NONE;
+        let (mut flash, mut save) = (None, false);
         for arg in args {
+            if let Some(path) = arg.strip_prefix("flash=") {
+                // NUL-terminated for the host's open.
+                let mut p = heapless::Vec::new();
+                if p.extend_from_slice(path.as_bytes()).is_err() || p.push(0).is_err() {
+                    defmt::println!("flash=: the path is longer than 127 bytes");
+                    qemu::exit(2)
+                }
+                flash = Some(p);
+                continue;
+            }
+            if arg == "save" {
+                save = true;
+                continue;
+            }
             match effects.apply(arg) {
                 Ok(e) if e.is_static() => {}
                 Ok(_) => {
@@ -70,11 +105,17 @@ fn arguments() -> (Scenario, Fixture, f32) {
                 }
             }
         }
-        let leads = match effects.get(Effect::LeadResistance) > 0.0 {
+        let lead_ratio = match effects.get(Effect::LeadResistance) > 0.0 {
             true => effects.lead_ratio(),
             false => scenario.lead_ratio(),
         };
-        (scenario, effects.fixture(), leads)
+        Args {
+            scenario,
+            fixture: effects.fixture(),
+            lead_ratio,
+            flash,
+            save,
+        }
     })
 }
 
@@ -104,7 +145,13 @@ mod app {
 
     #[init]
     fn init(_: init::Context) -> (Shared, Local) {
-        let (scenario, fixture, lead_ratio) = arguments();
+        let Args {
+            scenario,
+            fixture,
+            lead_ratio,
+            flash,
+            save,
+        } = arguments();
         let skin = Skin::new(scenario);
         let Ok(tracker) = instrument::channel::tracker_with_leads(lead_ratio) else {
             defmt::println!("tab-lead ratio {=f32} beyond the line model's range", lead_ratio);
@@ -119,6 +166,14 @@ mod app {
                 scenario.calibration(),
             )
         };
+        if let Some(path) = flash {
+            let Ok(path) = core::ffi::CStr::from_bytes_with_nul(&path) else {
+                defmt::println!("flash=: the path holds a NUL");
+                qemu::exit(2)
+            };
+            let set = Stored::of_multiplexed(&settings, lead_ratio, SENSOR_R_REST_OHM as f32, CHANNELS);
+            qemu_flash::keep(path, save.then_some(&set));
+        }
         let cal = settings.calibration;
         let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
             Some(i) => Channel::pinned(cal.rest_capacitance(), i),

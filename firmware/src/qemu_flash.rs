@@ -1,0 +1,185 @@
+//! The settings' flash in QEMU: 8 KiB of NOR flash kept in a host file
+//! through semihosting, so that stored settings survive a restart of
+//! QEMU. The same units and rule as the board's (`board::flash`: 8-byte
+//! words, 4 KiB erase units, a word programmed only where erased), so
+//! `instrument::store` runs unchanged; a missing file is a new device
+//! (erased), a file of another length is refused.
+
+use core::ffi::CStr;
+use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
+use instrument::store::REGION_BYTES;
+use semihosting::fs::{File, OpenOptions};
+use semihosting::io::{Read, Seek, SeekFrom, Write};
+
+/// Why an operation on the file failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileFlashError {
+    /// The host refused a file operation.
+    Host,
+    /// Outside the region, or not aligned.
+    Bounds,
+    /// A word programmed that was not erased.
+    NotErased,
+    /// The file is not 8 KiB.
+    Length,
+}
+
+impl NorFlashError for FileFlashError {
+    fn kind(&self) -> NorFlashErrorKind {
+        match self {
+            FileFlashError::Bounds => NorFlashErrorKind::OutOfBounds,
+            _ => NorFlashErrorKind::Other,
+        }
+    }
+}
+
+/// The settings' flash in a host file.
+pub struct FileFlash {
+    file: File,
+}
+
+/// Erased bytes, a unit's worth at a time.
+const ERASED: [u8; 256] = [0xFF; 256];
+
+impl FileFlash {
+    /// The flash in the file at `path` (relative to QEMU's folder):
+    /// opened if it is there, created erased if not.
+    pub fn open(path: &CStr) -> Result<Self, FileFlashError> {
+        if let Ok(file) = OpenOptions::new().read(true).write(true).open(path) {
+            let len = file.metadata().map_err(|_| FileFlashError::Host)?.len();
+            return match len == REGION_BYTES as u64 {
+                true => Ok(Self { file }),
+                false => Err(FileFlashError::Length),
+            };
+        }
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(path)
+            .map_err(|_| FileFlashError::Host)?;
+        let mut flash = Self { file };
+        flash.fill(0, REGION_BYTES)?;
+        Ok(flash)
+    }
+
+    fn seek(&mut self, at: usize) -> Result<(), FileFlashError> {
+        self.file
+            .seek(SeekFrom::Start(at as u64))
+            .map(|_| ())
+            .map_err(|_| FileFlashError::Host)
+    }
+
+    /// `len` erased bytes from `at`.
+    fn fill(&mut self, at: usize, len: usize) -> Result<(), FileFlashError> {
+        self.seek(at)?;
+        let mut left = len;
+        while left > 0 {
+            let n = left.min(ERASED.len());
+            self.file
+                .write_all(&ERASED[..n])
+                .map_err(|_| FileFlashError::Host)?;
+            left -= n;
+        }
+        Ok(())
+    }
+}
+
+/// `offset .. offset + len` within the region and aligned to `align`.
+fn in_region(offset: u32, len: usize, align: usize) -> Result<usize, FileFlashError> {
+    let at = offset as usize;
+    match at % align == 0 && len % align == 0 && at.checked_add(len).is_some_and(|e| e <= REGION_BYTES) {
+        true => Ok(at),
+        false => Err(FileFlashError::Bounds),
+    }
+}
+
+impl ErrorType for FileFlash {
+    type Error = FileFlashError;
+}
+
+impl ReadNorFlash for FileFlash {
+    const READ_SIZE: usize = 1;
+
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FileFlashError> {
+        let at = in_region(offset, bytes.len(), 1)?;
+        self.seek(at)?;
+        self.file.read_exact(bytes).map_err(|_| FileFlashError::Host)
+    }
+
+    fn capacity(&self) -> usize {
+        REGION_BYTES
+    }
+}
+
+impl NorFlash for FileFlash {
+    const WRITE_SIZE: usize = 8;
+    const ERASE_SIZE: usize = 4096;
+
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), FileFlashError> {
+        if to < from {
+            return Err(FileFlashError::Bounds);
+        }
+        let at = in_region(from, (to - from) as usize, Self::ERASE_SIZE)?;
+        self.fill(at, (to - from) as usize)
+    }
+
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FileFlashError> {
+        let at = in_region(offset, bytes.len(), Self::WRITE_SIZE)?;
+        // NOR: only erased words take a program.
+        let mut word = [0u8; 8];
+        for k in (0..bytes.len()).step_by(8) {
+            self.read(offset + k as u32, &mut word)?;
+            if word.iter().any(|&b| b != 0xFF) {
+                return Err(FileFlashError::NotErased);
+            }
+        }
+        self.seek(at)?;
+        self.file.write_all(bytes).map_err(|_| FileFlashError::Host)
+    }
+}
+
+/// The stored settings at start, in the flash file at `path`: say what is
+/// stored (`settings: none stored`, or its generation and digest); with
+/// `save`, store `save` as the new set and say so. A file that cannot be
+/// opened or a set refused ends the run with exit code 2, as a bad
+/// command line does.
+pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) {
+    use instrument::digest::Digest;
+    use instrument::store::{Store, StoreError, SLOT_BYTES};
+    let flash = FileFlash::open(path).unwrap_or_else(|e| {
+        defmt::println!(
+            "settings: the flash file cannot be used ({})",
+            defmt::Debug2Format(&e)
+        );
+        crate::qemu::exit(2)
+    });
+    let Ok(mut store) = Store::new(flash, 0, SLOT_BYTES) else {
+        defmt::println!("settings: the slots do not fit the flash");
+        crate::qemu::exit(2)
+    };
+    match store.load() {
+        Ok(Some(l)) => defmt::println!(
+            "settings: generation {=u32} digest {=u32:#010x}",
+            l.generation,
+            Digest::of(&l.set)
+        ),
+        Ok(None) => defmt::println!("settings: none stored"),
+        Err(e) => defmt::println!("settings: cannot be read ({})", defmt::Debug2Format(&e)),
+    }
+    if let Some(set) = save {
+        match store.save(set) {
+            Ok(g) => defmt::println!(
+                "settings saved: generation {=u32} digest {=u32:#010x}",
+                g,
+                Digest::of(set)
+            ),
+            Err(StoreError::Refused(r)) => {
+                defmt::println!("settings refused: {}", defmt::Display2Format(&r));
+                crate::qemu::exit(2)
+            }
+            Err(e) => defmt::println!("settings not saved ({})", defmt::Debug2Format(&e)),
+        }
+    }
+}
