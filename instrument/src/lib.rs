@@ -13,6 +13,7 @@
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`channel`] | one sensor channel: demodulated block → record |
+//! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop; each acknowledged or refused |
 //! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
 //! | [`store`] | those settings in flash, two slots (A/B): a power cut leaves the old set or the new |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
@@ -37,6 +38,7 @@ extern crate std;
 pub mod array;
 pub mod calib;
 pub mod channel;
+pub mod commands;
 pub mod config;
 pub mod design;
 pub mod digest;

@@ -82,45 +82,146 @@ pub struct Stored {
     pub sensors: [SensorSettings; SENSORS_MAX],
 }
 
-/// A setting, as a refusal names it.
+/// A rule a set must keep: the setting it is about and what it asks.
+/// Its number ([`Rule::code`]) is what a device's refusal carries over
+/// the link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Field {
-    /// [`Stored::version`].
+#[repr(u8)]
+pub enum Rule {
+    /// The layout's version.
     Version,
-    /// [`Stored::record_every`].
+    /// `record_every`.
     RecordEvery,
-    /// A field of [`PolicySettings`], by name.
-    Policy(&'static str),
-    /// A field of sensor `.0`'s [`SensorSettings`], by name.
-    Sensor(u8, &'static str),
+    /// `policy.x_limit`.
+    XLimit,
+    /// `policy.hysteresis`.
+    Hysteresis,
+    /// `policy.decay_per_s`.
+    DecayPerS,
+    /// `policy.hold_s`.
+    HoldS,
+    /// `policy.settle_blocks`.
+    SettleBlocks,
+    /// `policy.tones`.
+    Tones,
+    /// A sensor's `nominal_c_farad`.
+    NominalC,
+    /// A sensor's `nominal_r_ohm`.
+    NominalR,
+    /// A sensor's `lead_ratio`.
+    LeadRatio,
+    /// A sensor's `contact_ohm`.
+    ContactOhm,
+    /// A sensor's `parasitic_farad`.
+    ParasiticFarad,
+    /// A sensor's table: each point's range.
+    TableRange,
+    /// A sensor's table: its order.
+    TableOrder,
 }
 
-/// Why a set was refused: the setting and the rule it breaks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Refused {
-    /// The setting.
-    pub field: Field,
-    /// The rule, in words.
-    pub reason: &'static str,
-}
+impl Rule {
+    /// Every rule, by code.
+    pub const ALL: [Rule; 15] = [
+        Rule::Version,
+        Rule::RecordEvery,
+        Rule::XLimit,
+        Rule::Hysteresis,
+        Rule::DecayPerS,
+        Rule::HoldS,
+        Rule::SettleBlocks,
+        Rule::Tones,
+        Rule::NominalC,
+        Rule::NominalR,
+        Rule::LeadRatio,
+        Rule::ContactOhm,
+        Rule::ParasiticFarad,
+        Rule::TableRange,
+        Rule::TableOrder,
+    ];
 
-impl core::fmt::Display for Refused {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self.field {
-            Field::Version => write!(f, "version: {}", self.reason),
-            Field::RecordEvery => write!(f, "record_every: {}", self.reason),
-            Field::Policy(name) => write!(f, "policy.{name}: {}", self.reason),
-            Field::Sensor(s, name) => write!(f, "sensor {s} {name}: {}", self.reason),
+    /// Its number on the link.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The rule of number `code`.
+    pub fn from_code(code: u8) -> Option<Self> {
+        Self::ALL.get(usize::from(code)).copied()
+    }
+
+    /// The setting, as `config` names it.
+    pub fn field(self) -> &'static str {
+        match self {
+            Rule::Version => "version",
+            Rule::RecordEvery => "record_every",
+            Rule::XLimit => "policy.x_limit",
+            Rule::Hysteresis => "policy.hysteresis",
+            Rule::DecayPerS => "policy.decay_per_s",
+            Rule::HoldS => "policy.hold_s",
+            Rule::SettleBlocks => "policy.settle_blocks",
+            Rule::Tones => "policy.tones",
+            Rule::NominalC => "nominal_c_farad",
+            Rule::NominalR => "nominal_r_ohm",
+            Rule::LeadRatio => "lead_ratio",
+            Rule::ContactOhm => "contact_ohm",
+            Rule::ParasiticFarad => "parasitic_farad",
+            Rule::TableRange | Rule::TableOrder => "table",
+        }
+    }
+
+    /// What it asks.
+    pub fn text(self) -> &'static str {
+        match self {
+            Rule::Version => "a layout this firmware does not read",
+            Rule::RecordEvery => "must be 1 … 250 blocks",
+            Rule::XLimit => "must be 0.5 … 16",
+            Rule::Hysteresis => "must be 0 … 0.5",
+            Rule::DecayPerS => "must be 0 … 10 per s",
+            Rule::HoldS => "must be 0 … 60 s",
+            Rule::SettleBlocks => "must be 0 … 16",
+            Rule::Tones => "must be two indices of the frequency set, lowest first",
+            Rule::NominalC => "must be 1 pF … 10 nF",
+            Rule::NominalR => "must be 1 kΩ … 100 MΩ",
+            Rule::LeadRatio => "must be 0 … 50 line resistances",
+            Rule::ContactOhm => "must be 0 … 10 MΩ",
+            Rule::ParasiticFarad => "must be 0 … 1 nF",
+            Rule::TableRange => "C must be 1 pF … 100 nF and stretch within ±1 m",
+            Rule::TableOrder => "must ascend in C and in stretch",
         }
     }
 }
 
-/// `v` finite and within `lo..=hi`, or refused as `field`.
-fn within(v: f32, lo: f32, hi: f32, field: Field, reason: &'static str) -> Result<(), Refused> {
+/// Why a set was refused: the rule it breaks, and the sensor for a
+/// sensor's setting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Refused {
+    /// The sensor, for a sensor's setting.
+    pub sensor: Option<u8>,
+    /// The rule.
+    pub rule: Rule,
+}
+
+impl core::fmt::Display for Refused {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        if let Some(s) = self.sensor {
+            write!(f, "sensor {s} ")?;
+        }
+        write!(f, "{}: {}", self.rule.field(), self.rule.text())
+    }
+}
+
+/// `v` finite and within `lo..=hi`, or refused.
+fn within(v: f32, lo: f32, hi: f32, sensor: Option<u8>, rule: Rule) -> Result<(), Refused> {
     match v.is_finite() && (lo..=hi).contains(&v) {
         true => Ok(()),
-        false => Err(Refused { field, reason }),
+        false => Err(Refused { sensor, rule }),
     }
+}
+
+/// Refused by `rule`, for no sensor.
+fn refused(rule: Rule) -> Refused {
+    Refused { sensor: None, rule }
 }
 
 impl SensorSettings {
@@ -146,44 +247,20 @@ impl SensorSettings {
 
     /// Check sensor `s`'s values.
     pub fn check(&self, s: u8) -> Result<(), Refused> {
-        let f = |name| Field::Sensor(s, name);
-        within(
-            self.nominal_c_farad,
-            1e-12,
-            1e-8,
-            f("nominal_c_farad"),
-            "must be 1 pF … 10 nF",
-        )?;
-        within(
-            self.nominal_r_ohm,
-            1e3,
-            1e8,
-            f("nominal_r_ohm"),
-            "must be 1 kΩ … 100 MΩ",
-        )?;
-        within(
-            self.lead_ratio,
-            0.0,
-            LEAD_MAX,
-            f("lead_ratio"),
-            "must be 0 … 50 line resistances",
-        )?;
-        within(self.contact_ohm, 0.0, 1e7, f("contact_ohm"), "must be 0 … 10 MΩ")?;
-        within(
-            self.parasitic_farad,
-            0.0,
-            1e-9,
-            f("parasitic_farad"),
-            "must be 0 … 1 nF",
-        )?;
+        let at = Some(s);
+        within(self.nominal_c_farad, 1e-12, 1e-8, at, Rule::NominalC)?;
+        within(self.nominal_r_ohm, 1e3, 1e8, at, Rule::NominalR)?;
+        within(self.lead_ratio, 0.0, LEAD_MAX, at, Rule::LeadRatio)?;
+        within(self.contact_ohm, 0.0, 1e7, at, Rule::ContactOhm)?;
+        within(self.parasitic_farad, 0.0, 1e-9, at, Rule::ParasiticFarad)?;
         for &(c, mm) in &self.table {
-            within(c, 1e-12, 1e-7, f("table"), "C must be 1 pF … 100 nF")?;
-            within(mm, -1e3, 1e3, f("table"), "stretch must be within ±1 m")?;
+            within(c, 1e-12, 1e-7, at, Rule::TableRange)?;
+            within(mm, -1e3, 1e3, at, Rule::TableRange)?;
         }
         if !self.table.windows(2).all(|w| w[1].0 > w[0].0 && w[1].1 > w[0].1) {
             return Err(Refused {
-                field: f("table"),
-                reason: "must ascend in C and in stretch",
+                sensor: at,
+                rule: Rule::TableOrder,
             });
         }
         Ok(())
@@ -204,46 +281,16 @@ impl PolicySettings {
 
     /// Check the policy's values.
     pub fn check(&self) -> Result<(), Refused> {
-        within(
-            self.x_limit,
-            0.5,
-            16.0,
-            Field::Policy("x_limit"),
-            "must be 0.5 … 16",
-        )?;
-        within(
-            self.hysteresis,
-            0.0,
-            0.5,
-            Field::Policy("hysteresis"),
-            "must be 0 … 0.5",
-        )?;
-        within(
-            self.decay_per_s,
-            0.0,
-            10.0,
-            Field::Policy("decay_per_s"),
-            "must be 0 … 10 per s",
-        )?;
-        within(
-            self.hold_s,
-            0.0,
-            60.0,
-            Field::Policy("hold_s"),
-            "must be 0 … 60 s",
-        )?;
+        within(self.x_limit, 0.5, 16.0, None, Rule::XLimit)?;
+        within(self.hysteresis, 0.0, 0.5, None, Rule::Hysteresis)?;
+        within(self.decay_per_s, 0.0, 10.0, None, Rule::DecayPerS)?;
+        within(self.hold_s, 0.0, 60.0, None, Rule::HoldS)?;
         if self.settle_blocks > 16 {
-            return Err(Refused {
-                field: Field::Policy("settle_blocks"),
-                reason: "must be 0 … 16",
-            });
+            return Err(refused(Rule::SettleBlocks));
         }
         let (lo, hi) = self.tones;
         if !(lo <= hi && usize::from(hi) < PERIODS.len()) {
-            return Err(Refused {
-                field: Field::Policy("tones"),
-                reason: "must be two indices of the frequency set, lowest first",
-            });
+            return Err(refused(Rule::Tones));
         }
         Ok(())
     }
@@ -313,16 +360,10 @@ impl Stored {
     /// Check the whole set: the first setting out of its range, by name.
     pub fn check(&self) -> Result<(), Refused> {
         if self.version != FORMAT_VERSION {
-            return Err(Refused {
-                field: Field::Version,
-                reason: "a layout this firmware does not read",
-            });
+            return Err(refused(Rule::Version));
         }
         if self.record_every == 0 || self.record_every > 250 {
-            return Err(Refused {
-                field: Field::RecordEvery,
-                reason: "must be 1 … 250 blocks",
-            });
+            return Err(refused(Rule::RecordEvery));
         }
         self.policy.check()?;
         for (s, sensor) in self.sensors.iter().enumerate() {
@@ -379,7 +420,7 @@ mod tests {
         let mut cases: std::vec::Vec<(Stored, &str)> = std::vec::Vec::new();
         let mut s = base;
         s.version = 2;
-        cases.push((s, "version:"));
+        cases.push((s, "version: a layout"));
         let mut s = base;
         s.record_every = 0;
         cases.push((s, "record_every:"));
@@ -421,5 +462,14 @@ mod tests {
             let n = s.to_bytes(&mut buf).unwrap().len();
             assert!(matches!(Stored::from_bytes(&buf[..n]), Some(Err(_))));
         }
+    }
+
+    #[test]
+    fn a_rule_crosses_the_link_as_its_code() {
+        for (k, r) in Rule::ALL.iter().enumerate() {
+            assert_eq!(usize::from(r.code()), k);
+            assert_eq!(Rule::from_code(r.code()), Some(*r));
+        }
+        assert_eq!(Rule::from_code(Rule::ALL.len() as u8), None);
     }
 }

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 /// The version of this wire format, sent in every [`Start`] frame. A
 /// receiver refuses a stream of another version.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 
 /// The board link's baud rate: LPUART1 of the STM32G474 into the
 /// Nucleo-G474RE's STLINK-V3E, whose virtual COM port carries it to the
@@ -171,6 +171,103 @@ pub struct End {
     pub dropped: u32,
 }
 
+/// Bytes of a stored set in one frame.
+pub const CHUNK: usize = 32;
+
+/// A piece of a stored set's bytes (`instrument::stored::Stored`,
+/// postcard): `len` bytes of `bytes` at `offset`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Chunk {
+    /// Where the piece starts in the set's bytes.
+    pub offset: u16,
+    /// Bytes used of `bytes`.
+    pub len: u8,
+    /// The bytes (the rest zero).
+    pub bytes: [u8; CHUNK],
+}
+
+impl Chunk {
+    /// The bytes used.
+    pub fn data(&self) -> &[u8] {
+        &self.bytes[..usize::from(self.len).min(CHUNK)]
+    }
+}
+
+/// What the host asks of the device, down the same link as the records
+/// come up. The device answers each with a [`Reply`] naming its sequence
+/// number.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Request {
+    /// Send the stored set ([`Reply::Chunk`]s, then an [`Reply::Ack`];
+    /// refused as [`Reason::NothingStored`] on a new device).
+    ReadSettings,
+    /// The next piece of a new set, in order from offset 0.
+    WriteChunk(Chunk),
+    /// The new set is whole: `len` bytes whose CRC-32 is `crc`. Check it
+    /// and store it; the set in force is kept if anything is wrong.
+    Commit {
+        /// The set's length, bytes.
+        len: u16,
+        /// CRC-32/ISO-HDLC of its bytes.
+        crc: u32,
+    },
+    /// Start measuring.
+    Start,
+    /// Stop measuring (the stream's end frame follows).
+    Stop,
+}
+
+/// Why the device refused a request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Reason {
+    /// A piece that does not follow the last one.
+    OutOfOrder,
+    /// More bytes than a set can have.
+    TooLong,
+    /// The length or CRC of the pieces received does not match the commit.
+    Mismatch,
+    /// The bytes are not a set of this firmware's layout.
+    Malformed,
+    /// The set breaks a rule: `rule` is `instrument::stored::Rule`'s code,
+    /// `sensor` the sensor (255: not a sensor's setting).
+    Setting {
+        /// The sensor, or 255.
+        sensor: u8,
+        /// The rule's code.
+        rule: u8,
+    },
+    /// The flash failed; the set in force is unchanged.
+    Flash,
+    /// No set is stored (a new device).
+    NothingStored,
+}
+
+/// The device's answer to the request of sequence number `to`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reply {
+    /// Done as asked; for a commit, the new set's generation.
+    Ack {
+        /// The request's sequence number.
+        to: u32,
+        /// The stored set's generation after a commit (0 otherwise).
+        generation: u32,
+    },
+    /// Refused, and why; nothing changed.
+    Refused {
+        /// The request's sequence number.
+        to: u32,
+        /// Why.
+        reason: Reason,
+    },
+    /// A piece of the stored set, answering [`Request::ReadSettings`].
+    Chunk {
+        /// The request's sequence number.
+        to: u32,
+        /// The piece.
+        chunk: Chunk,
+    },
+}
+
 /// What a frame carries.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Body {
@@ -180,6 +277,10 @@ pub enum Body {
     Record(Record),
     /// The end of a stream.
     End(End),
+    /// A request from the host.
+    Request(Request),
+    /// The device's reply.
+    Reply(Reply),
 }
 
 /// One frame: a body and its sequence number (0 for the start frame,

@@ -347,3 +347,39 @@ fn an_unknown_frame_type_is_refused_and_counted_and_the_stream_goes_on() {
     assert_eq!(got.len(), sent.len());
     assert_eq!(d.stats().bad, 1);
 }
+
+#[test]
+fn requests_and_replies_at_their_longest_fit_a_frame() {
+    use link::{Chunk, Reason, Reply, Request, CHUNK};
+    let chunk = Chunk {
+        offset: u16::MAX,
+        len: CHUNK as u8,
+        bytes: [0xA5; CHUNK],
+    };
+    let bodies = [
+        Body::Request(Request::WriteChunk(chunk)),
+        Body::Request(Request::Commit {
+            len: u16::MAX,
+            crc: u32::MAX,
+        }),
+        Body::Reply(Reply::Chunk { to: u32::MAX, chunk }),
+        Body::Reply(Reply::Refused {
+            to: u32::MAX,
+            reason: Reason::Setting {
+                sensor: 255,
+                rule: 255,
+            },
+        }),
+        Body::Reply(Reply::Ack {
+            to: u32::MAX,
+            generation: u32::MAX,
+        }),
+    ];
+    for body in bodies {
+        let frame = Frame { seq: u32::MAX, body };
+        let mut out = [0u8; MAX_FRAME];
+        let bytes = encode(&frame, &mut out).unwrap();
+        assert_eq!(decode(&bytes[..bytes.len() - 1]), Ok(frame));
+    }
+    assert_eq!(chunk.data().len(), CHUNK);
+}

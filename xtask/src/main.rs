@@ -12,8 +12,10 @@
 //! * `example-data`: the example data set (`data/example`) from rig-sim.
 //! * `survey`: `identify` over the physical ranges on both generators,
 //!   many seeds.
-//! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each; the
-//!   test command runs them with fewer.
+//! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each, the
+//!   record link's corrupted streams as many, the device's fuzzed command
+//!   streams a hundredth as many (each a whole stream); the test command
+//!   runs them with fewer.
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -159,6 +161,23 @@ fn main() -> Result<()> {
                     "--nocapture",
                 ],
                 &[("LINK_CASES", &n)],
+            )?;
+            // The device's requests: fuzzed command streams against a
+            // store (each case a whole stream of uploads and damage).
+            let streams = (cases / 100).max(1000).to_string();
+            cargo::run_env(
+                &root,
+                &[
+                    "test",
+                    "--release",
+                    "-p",
+                    "instrument",
+                    "--lib",
+                    "commands",
+                    "--",
+                    "--nocapture",
+                ],
+                &[("COMMAND_CASES", &streams)],
             )
         }
     }

@@ -1,0 +1,186 @@
+//! The device's side of the link's requests ([`link::Request`]): read the
+//! stored settings, write a new set in pieces and commit it, start, stop.
+//! Each request is answered ([`link::Reply`]): acknowledged, or refused
+//! with a reason, and then nothing changed. A new set is stored only by a
+//! commit whose length and CRC match the pieces received in order, whose
+//! bytes are a set of this layout, and which keeps every rule
+//! ([`crate::stored::Stored::check`]); the store keeps the set in force
+//! through any failure ([`crate::store`]).
+
+use crate::store::{Store, StoreError};
+use crate::stored::{Stored, MAX_BYTES};
+use embedded_storage::nor_flash::NorFlash;
+use link::{Chunk, Reason, Reply, Request, CHUNK};
+
+/// The CRC of a committed set: CRC-32/ISO-HDLC, as the link's.
+static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// The CRC-32 a commit of `bytes` carries.
+pub fn crc(bytes: &[u8]) -> u32 {
+    CRC.checksum(bytes)
+}
+
+/// What the application must do after a request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Action {
+    /// Nothing more.
+    None,
+    /// Start measuring.
+    Start,
+    /// Stop measuring.
+    Stop,
+    /// A new set is in force: apply it.
+    Apply,
+}
+
+/// The pieces of a new set received so far.
+pub struct Commands {
+    staged: [u8; MAX_BYTES],
+    len: usize,
+}
+
+impl Default for Commands {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Commands {
+    /// Nothing received.
+    pub const fn new() -> Self {
+        Self {
+            staged: [0; MAX_BYTES],
+            len: 0,
+        }
+    }
+
+    /// Answer request `req` (sequence number `seq`) with the settings in
+    /// `store`, passing each reply to `reply` in order; what the
+    /// application must do.
+    pub fn handle<F: NorFlash>(
+        &mut self,
+        seq: u32,
+        req: &Request,
+        store: &mut Store<F>,
+        mut reply: impl FnMut(Reply),
+    ) -> Action {
+        let ack = |generation| Reply::Ack { to: seq, generation };
+        let refuse = |reason| Reply::Refused { to: seq, reason };
+        match *req {
+            Request::Start => {
+                reply(ack(0));
+                Action::Start
+            }
+            Request::Stop => {
+                reply(ack(0));
+                Action::Stop
+            }
+            Request::WriteChunk(chunk) => {
+                // A piece at 0 begins a new set.
+                if chunk.offset == 0 {
+                    self.len = 0;
+                }
+                let data = chunk.data();
+                let reason = if usize::from(chunk.offset) != self.len || usize::from(chunk.len) > CHUNK {
+                    Some(Reason::OutOfOrder)
+                } else if self.len + data.len() > MAX_BYTES {
+                    Some(Reason::TooLong)
+                } else {
+                    None
+                };
+                match reason {
+                    Some(r) => {
+                        self.len = 0;
+                        reply(refuse(r));
+                    }
+                    None => {
+                        self.staged[self.len..self.len + data.len()].copy_from_slice(data);
+                        self.len += data.len();
+                        reply(ack(0));
+                    }
+                }
+                Action::None
+            }
+            Request::Commit { len, crc: want } => {
+                let bytes = &self.staged[..self.len];
+                let outcome = if usize::from(len) != bytes.len() || crc(bytes) != want {
+                    Err(Reason::Mismatch)
+                } else {
+                    match Stored::from_bytes(bytes) {
+                        None => Err(Reason::Malformed),
+                        Some(Err(r)) => Err(setting(r)),
+                        Some(Ok(set)) => match store.save(&set) {
+                            Ok(g) => Ok(g),
+                            Err(StoreError::Refused(r)) => Err(setting(r)),
+                            Err(_) => Err(Reason::Flash),
+                        },
+                    }
+                };
+                self.len = 0;
+                match outcome {
+                    Ok(g) => {
+                        reply(ack(g));
+                        Action::Apply
+                    }
+                    Err(r) => {
+                        reply(refuse(r));
+                        Action::None
+                    }
+                }
+            }
+            Request::ReadSettings => {
+                match store.load() {
+                    Ok(Some(l)) => {
+                        let mut buf = [0u8; MAX_BYTES];
+                        let bytes = l.set.to_bytes(&mut buf).map_or(&[][..], |b| &*b);
+                        for (k, piece) in bytes.chunks(CHUNK).enumerate() {
+                            let mut chunk = Chunk {
+                                offset: (k * CHUNK) as u16,
+                                len: piece.len() as u8,
+                                bytes: [0; CHUNK],
+                            };
+                            chunk.bytes[..piece.len()].copy_from_slice(piece);
+                            reply(Reply::Chunk { to: seq, chunk });
+                        }
+                        reply(ack(l.generation));
+                    }
+                    Ok(None) => reply(refuse(Reason::NothingStored)),
+                    Err(_) => reply(refuse(Reason::Flash)),
+                }
+                Action::None
+            }
+        }
+    }
+}
+
+/// A refused set's reason on the link.
+fn setting(r: crate::stored::Refused) -> Reason {
+    Reason::Setting {
+        sensor: r.sensor.unwrap_or(255),
+        rule: r.rule.code(),
+    }
+}
+
+/// A set as the requests that store it: its pieces, then the commit.
+pub fn upload(set: &Stored, mut request: impl FnMut(Request)) {
+    let mut buf = [0u8; MAX_BYTES];
+    let Some(bytes) = set.to_bytes(&mut buf) else {
+        return;
+    };
+    for (k, piece) in bytes.chunks(CHUNK).enumerate() {
+        let mut chunk = Chunk {
+            offset: (k * CHUNK) as u16,
+            len: piece.len() as u8,
+            bytes: [0; CHUNK],
+        };
+        chunk.bytes[..piece.len()].copy_from_slice(piece);
+        request(Request::WriteChunk(chunk));
+    }
+    request(Request::Commit {
+        len: bytes.len() as u16,
+        crc: crc(bytes),
+    });
+}
+
+#[cfg(test)]
+mod tests;
