@@ -4,7 +4,7 @@
 //! health each second.
 
 use anyhow::{Context, Result};
-use clap::Parser;
+use clap::{Parser, Subcommand};
 use live::dashboard::Dashboard;
 use live::{follow, Outcome, Session, Sink, Stopped};
 use std::io::Write;
@@ -14,10 +14,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-/// Read a running skin's records.
+/// Read a running skin's records; `live config` reads and writes the
+/// settings a device keeps.
 #[derive(Parser)]
-#[command(name = "live", version)]
+#[command(name = "live", version, args_conflicts_with_subcommands = true)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Replay a recorded stream (the raw bytes a session kept).
     #[arg(long, conflicts_with_all = ["serial", "tcp"])]
     replay: Option<PathBuf>,
@@ -45,8 +48,94 @@ struct Cli {
     linger: u64,
 }
 
+#[derive(Subcommand)]
+enum Command {
+    /// The settings a device keeps, as `name = value` lines.
+    Config {
+        #[command(subcommand)]
+        action: ConfigAction,
+    },
+}
+
+#[derive(Subcommand)]
+enum ConfigAction {
+    /// Print every setting of the set in force.
+    #[command(after_help = live::config::help())]
+    Get {
+        /// A settings flash image (QEMU's: `skin-qemu flash=PATH`).
+        #[arg(long)]
+        flash: PathBuf,
+    },
+    /// Change settings (`name=value` …), check the whole set with the
+    /// device's rules, and store it; nothing is written if any is refused.
+    #[command(after_help = live::config::help())]
+    Set {
+        /// A settings flash image (created erased if missing).
+        #[arg(long)]
+        flash: PathBuf,
+        /// `name=value` (`live config get` lists the names).
+        #[arg(required = true)]
+        assignments: Vec<String>,
+    },
+}
+
+/// `live config …`.
+fn config(action: ConfigAction) -> Result<()> {
+    use live::config::{assign, entries, read_image, write_image};
+    match action {
+        ConfigAction::Get { flash } => {
+            let (set, generation) = match read_image(&flash)? {
+                Some(found) => found,
+                None => {
+                    println!("# nothing stored in {}: a new device's defaults", flash.display());
+                    (instrument::stored::Stored::uncalibrated(), 0)
+                }
+            };
+            // Written whole or stopped quietly when the reader goes
+            // (`| head`).
+            let mut out = std::io::stdout().lock();
+            let mut lines = vec![];
+            if generation > 0 {
+                lines.push(format!("# {}: generation {generation}", flash.display()));
+            }
+            lines.extend(entries(&set).into_iter().map(|(n, v)| format!("{n} = {v}")));
+            for line in lines {
+                match writeln!(out, "{line}") {
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+                    other => other?,
+                }
+            }
+        }
+        ConfigAction::Set { flash, assignments } => {
+            // A new image starts from a new device's defaults.
+            let stored = match flash.exists() {
+                true => read_image(&flash)?,
+                false => None,
+            };
+            let mut set = stored.map_or_else(instrument::stored::Stored::uncalibrated, |(s, _)| s);
+            for a in &assignments {
+                let (name, value) = a.split_once('=').with_context(|| format!("'{a}': name=value"))?;
+                assign(&mut set, name.trim(), value)?;
+            }
+            let generation = write_image(&flash, &set)?;
+            println!("stored in {}: generation {generation}", flash.display());
+        }
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let cli = Cli::parse();
+    if let Some(Command::Config { action }) = cli.command {
+        return match config(action) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+    match run(cli) {
         Ok(Outcome::Complete) => ExitCode::SUCCESS,
         Ok(Outcome::Incomplete(why)) => {
             eprintln!("incomplete: {why}");
