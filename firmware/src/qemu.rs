@@ -24,16 +24,38 @@ pub struct Uart0 {
     _owned: (),
 }
 
+/// UART0's line control register.
+const UART0_LCRH: usize = 0x4000_C02C;
 /// UART0's data register.
 const UART0_DR: usize = 0x4000_C000;
-/// UART0's flag register; bit 5 is "transmit FIFO full".
+/// UART0's flag register; bit 5 is "transmit FIFO full", bit 4 "receive
+/// FIFO empty".
 const UART0_FR: usize = 0x4000_C018;
 
 impl Uart0 {
     /// UART0, for the one task that writes the link (the app's `init`
     /// takes it once and hands it over as a resource).
     pub fn take() -> Self {
+        // SAFETY: UART0's line control register; FEN (bit 4) turns both
+        // 16-byte FIFOs on, so that a poll after each block takes up to
+        // 16 received bytes, not one; WLEN 8 bits (bits 5-6).
+        #[allow(unsafe_code)]
+        unsafe {
+            core::ptr::write_volatile(UART0_LCRH as *mut u32, 1 << 4 | 0b11 << 5);
+        }
         Self { _owned: () }
+    }
+
+    /// The next byte received, if one is waiting (never waits).
+    #[allow(unsafe_code)]
+    pub fn read(&mut self) -> Option<u8> {
+        // SAFETY: as for `write`: UART0's registers, owned by this value.
+        unsafe {
+            match core::ptr::read_volatile(UART0_FR as *const u32) & (1 << 4) != 0 {
+                true => None,
+                false => Some(core::ptr::read_volatile(UART0_DR as *const u32) as u8),
+            }
+        }
     }
 
     /// Send `bytes`, waiting while the transmit FIFO is full.
@@ -56,6 +78,7 @@ pub struct LinkSender {
     uart: Uart0,
     encoder: link::Encoder,
     records: u32,
+    requests: link::Decoder,
 }
 
 impl LinkSender {
@@ -65,6 +88,7 @@ impl LinkSender {
             uart,
             encoder: link::Encoder::new(),
             records: 0,
+            requests: link::Decoder::new(),
         };
         link.send(link::Body::Start(start));
         link
@@ -88,6 +112,27 @@ impl LinkSender {
         if self.send(link::Body::Record(rec)) {
             self.records = self.records.wrapping_add(1);
         }
+    }
+
+    /// Send a reply to a request.
+    pub fn reply(&mut self, reply: link::Reply) {
+        self.send(link::Body::Reply(reply));
+    }
+
+    /// The next request the host sent down the link, with its sequence
+    /// number, from the bytes received so far (never waits; frames that
+    /// are not requests, or do not check, are passed over).
+    pub fn request(&mut self) -> Option<(u32, link::Request)> {
+        while let Some(b) = self.uart.read() {
+            if let Some(Ok(link::Frame {
+                seq,
+                body: link::Body::Request(r),
+            })) = self.requests.push(b)
+            {
+                return Some((seq, r));
+            }
+        }
+        None
     }
 
     /// Send the end frame: `dropped` records never reached the link.

@@ -142,10 +142,10 @@ impl NorFlash for FileFlash {
 
 /// The stored settings at start, in the flash file at `path`: say what is
 /// stored (`settings: none stored`, or its generation and digest); with
-/// `save`, store `save` as the new set and say so. A file that cannot be
-/// opened or a set refused ends the run with exit code 2, as a bad
-/// command line does.
-pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) {
+/// `save`, store `save` as the new set and say so; the store, for the
+/// requests that come down the link. A file that cannot be opened or a
+/// set refused ends the run with exit code 2, as a bad command line does.
+pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) -> instrument::store::Store<FileFlash> {
     use instrument::digest::Digest;
     use instrument::store::{Store, StoreError, SLOT_BYTES};
     let flash = FileFlash::open(path).unwrap_or_else(|e| {
@@ -182,4 +182,5 @@ pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) {
             Err(e) => defmt::println!("settings not saved ({})", defmt::Debug2Format(&e)),
         }
     }
+    store
 }

@@ -182,6 +182,22 @@ pub fn spawn_qemu_tcp(elf: &Path, args: &[&str], port: u16) -> Result<std::proce
         .context("starting qemu-system-arm")
 }
 
+/// [`spawn_qemu_tcp`] on a free port, and the client's connection to
+/// UART0 (QEMU listens a moment after it starts; read timeout 200 ms).
+pub fn connect_qemu_tcp(elf: &Path, args: &[&str]) -> Result<(std::process::Child, std::net::TcpStream)> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let mut child = spawn_qemu_tcp(elf, args, port)?;
+    for _ in 0..100 {
+        if let Ok(s) = std::net::TcpStream::connect(("127.0.0.1", port)) {
+            s.set_read_timeout(Some(Duration::from_millis(200)))?;
+            return Ok((child, s));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = child.kill();
+    bail!("QEMU's UART0 socket on port {port} never listened")
+}
+
 /// One `bench <name> <value> <unit>` line of the instruction-count bench.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bench {

@@ -214,25 +214,7 @@ fn hang_is_caught_by_the_watchdog() {
 #[test]
 fn live_follows_a_running_qemu_over_its_socket() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let mut qemu = qemu_tests::spawn_qemu_tcp(&elf, &["slow"], port).unwrap();
-    // QEMU listens a moment after it starts.
-    let mut sock = None;
-    for _ in 0..100 {
-        match std::net::TcpStream::connect(("127.0.0.1", port)) {
-            Ok(s) => {
-                sock = Some(s);
-                break;
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(100)),
-        }
-    }
-    let sock = sock.expect("QEMU's UART0 socket");
-    sock.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["slow"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let mut session = live::Session::new(tmp.path()).unwrap();
     let mut sink = live::Sink {

@@ -3,7 +3,11 @@
 //! host reads that file with the same store and finds the same set and
 //! digest, changes one sensor and writes it back, and the next run of the
 //! firmware loads the host's set. A flash file of the wrong size is
-//! refused with exit code 2.
+//! refused with exit code 2. Down the link (UART0's socket): a read of a
+//! new device is refused as such, a set that breaks a rule is refused by
+//! sensor and rule, a good one is stored and acknowledged with its
+//! generation, a stop ends the stream with its end frame, and the next
+//! start runs with the set that came down the link.
 
 use instrument::digest::Digest;
 use instrument::store::{RamFlash, Store, REGION_BYTES, SLOT_BYTES};
@@ -87,4 +91,122 @@ fn a_flash_file_of_the_wrong_size_is_refused() {
         "{log:?}"
     );
     assert!(!log.iter().any(|l| l.starts_with("start")), "{log:?}");
+}
+
+/// Frames from the device, decoded on a thread as they arrive.
+fn frames(mut sock: std::net::TcpStream) -> std::sync::mpsc::Receiver<link::Frame> {
+    use std::io::Read;
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut dec = link::Decoder::new();
+        let mut buf = [0u8; 4096];
+        loop {
+            match sock.read(&mut buf) {
+                Ok(0) => return,
+                Ok(n) => {
+                    for &b in &buf[..n] {
+                        if let Some(Ok(f)) = dec.push(b) {
+                            if tx.send(f).is_err() {
+                                return;
+                            }
+                        }
+                    }
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(_) => return,
+            }
+        }
+    });
+    rx
+}
+
+/// The next reply from the device, passing over records.
+fn reply(rx: &std::sync::mpsc::Receiver<link::Frame>) -> link::Reply {
+    loop {
+        let f = rx.recv_timeout(Duration::from_secs(120)).expect("a reply");
+        if let link::Body::Reply(r) = f.body {
+            return r;
+        }
+    }
+}
+
+#[test]
+fn a_set_written_down_the_link_is_stored_and_in_force_after_a_restart() {
+    use instrument::commands::upload;
+    use std::io::Write;
+    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("settings.bin");
+    let flash = format!("flash={}", path.display());
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash]).unwrap();
+    let rx = frames(sock.try_clone().unwrap());
+    let mut sock = sock;
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let mut send = |req: link::Request, sock: &mut std::net::TcpStream| {
+        let bytes = enc.frame(link::Body::Request(req), &mut out).unwrap();
+        sock.write_all(bytes).unwrap();
+    };
+    // A new device: nothing to read.
+    send(link::Request::ReadSettings, &mut sock);
+    assert!(matches!(
+        reply(&rx),
+        link::Reply::Refused {
+            reason: link::Reason::NothingStored,
+            ..
+        }
+    ));
+    // A set that breaks a rule is refused by name and code.
+    let mut bad = instrument::stored::Stored::uncalibrated();
+    bad.sensors[4].lead_ratio = 80.0;
+    let mut reqs = vec![];
+    upload(&bad, |r| reqs.push(r));
+    for r in &reqs {
+        send(*r, &mut sock);
+    }
+    let mut last = reply(&rx);
+    for _ in 1..reqs.len() {
+        last = reply(&rx);
+    }
+    let want = link::Reason::Setting {
+        sensor: 4,
+        rule: instrument::stored::Rule::LeadRatio.code(),
+    };
+    assert!(
+        matches!(last, link::Reply::Refused { reason, .. } if reason == want),
+        "{last:?}"
+    );
+    // A good one is stored: generation 1.
+    let mut good = instrument::stored::Stored::uncalibrated();
+    good.sensors[2].parasitic_farad = 7e-12;
+    good.record_every = 2;
+    let mut reqs = vec![];
+    upload(&good, |r| reqs.push(r));
+    for r in &reqs {
+        send(*r, &mut sock);
+    }
+    for _ in 1..reqs.len() {
+        assert!(matches!(reply(&rx), link::Reply::Ack { generation: 0, .. }));
+    }
+    assert!(matches!(reply(&rx), link::Reply::Ack { generation: 1, .. }));
+    // Stop: the stream ends with its end frame and the run with exit 0.
+    send(link::Request::Stop, &mut sock);
+    assert!(matches!(reply(&rx), link::Reply::Ack { .. }));
+    let end = loop {
+        let f = rx.recv_timeout(Duration::from_secs(120)).expect("the end frame");
+        if let link::Body::End(e) = f.body {
+            break e;
+        }
+    };
+    assert!(end.records > 0, "{end:?}");
+    let status = qemu.wait().unwrap();
+    assert!(status.success(), "{status}");
+    // The next start finds the set that came down the link.
+    let (code, log) = run(&["faults", &flash]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&good));
 }

@@ -21,16 +21,19 @@
 //! they describe ([`instrument::effects::EffectSet::fixture`]).
 //! `flash=PATH` keeps the settings' flash in a host file
 //! ([`firmware::qemu_flash`]): the run says what is stored there, and with
-//! `save` stores the settings it measures with.
+//! `save` stores the settings it measures with. Requests down the link
+//! (UART0's receive side: read and write the stored settings, stop) are
+//! answered after each block ([`instrument::commands`]).
 #![no_std]
 #![no_main]
 
 use dsp_core::fixture::Fixture;
 use firmware::qemu::{self, LinkSender, Uart0};
-use firmware::qemu_flash;
+use firmware::qemu_flash::{self, FileFlash};
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
+use instrument::commands::{Action, Commands};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
@@ -39,6 +42,7 @@ use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
+use instrument::store::Store;
 use instrument::stored::Stored;
 
 /// A block as the DMA leaves it.
@@ -141,6 +145,8 @@ mod app {
         settings: Settings<'static, POINTS>,
         end_slot: u64,
         link: LinkSender,
+        store: Option<Store<FileFlash>>,
+        commands: Commands,
     }
 
     #[init]
@@ -166,13 +172,14 @@ mod app {
                 scenario.calibration(),
             )
         };
+        let mut store = None;
         if let Some(path) = flash {
             let Ok(path) = core::ffi::CStr::from_bytes_with_nul(&path) else {
                 defmt::println!("flash=: the path holds a NUL");
                 qemu::exit(2)
             };
             let set = Stored::of_multiplexed(&settings, lead_ratio, SENSOR_R_REST_OHM as f32, CHANNELS);
-            qemu_flash::keep(path, save.then_some(&set));
+            store = Some(qemu_flash::keep(path, save.then_some(&set)));
         }
         let cal = settings.calibration;
         let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
@@ -210,6 +217,8 @@ mod app {
                 ranges,
                 scenario,
                 seq,
+                store,
+                commands: Commands::new(),
                 link: LinkSender::start(
                     Uart0::take(),
                     frames::start(
@@ -275,10 +284,16 @@ mod app {
         }
     }
 
-    /// Demodulate, correct and log one block.
-    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot, link])]
+    /// Demodulate, correct and log one block; then the requests the host
+    /// sent down the link, answered there.
+    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot, link, store, commands])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
+        // Stopped (by request, or at the scenario's end): the end frame
+        // is sent, nothing more is.
+        if cx.shared.done.lock(|d| *d) {
+            return;
+        }
         let (ph, clipped, slot) = cx
             .shared
             .block
@@ -307,7 +322,27 @@ mod app {
             }
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
-        if slot.index + 1 >= *local.end_slot {
+        let mut stop = false;
+        while let Some((seq, req)) = local.link.request() {
+            let link = &mut *local.link;
+            let action = match local.store.as_mut() {
+                Some(store) => local.commands.handle(seq, &req, store, |r| link.reply(r)),
+                // No flash: the settings cannot be kept.
+                None => {
+                    link.reply(link::Reply::Refused {
+                        to: seq,
+                        reason: link::Reason::Flash,
+                    });
+                    Action::None
+                }
+            };
+            match action {
+                Action::Stop => stop = true,
+                Action::Apply => defmt::println!("settings: a new set stored, in force from the next start"),
+                Action::Start | Action::None => {}
+            }
+        }
+        if stop || slot.index + 1 >= *local.end_slot {
             local.link.end(0);
             cx.shared.done.lock(|d| *d = true);
         }
