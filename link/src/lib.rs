@@ -484,6 +484,11 @@ impl Encoder {
         Self { seq: 0 }
     }
 
+    /// The sequence number the next frame gets.
+    pub fn next_seq(&self) -> u32 {
+        self.seq
+    }
+
     /// Number `body` and encode it into `out`.
     pub fn frame<'a>(&mut self, body: Body, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
         let frame = Frame { seq: self.seq, body };

@@ -263,3 +263,154 @@ mod tests {
         assert!(err("record_every", "300", &mut set).contains("not a whole number"));
     }
 }
+
+/// A device on the link: requests down, replies up (records passed over).
+pub struct Device<S> {
+    port: S,
+    encoder: link::Encoder,
+    decoder: link::Decoder,
+    buf: std::collections::VecDeque<u8>,
+    timeout: std::time::Duration,
+}
+
+impl<S: std::io::Read + std::io::Write> Device<S> {
+    /// The device at the other end of `port` (reads on it time out, so
+    /// that a silent device is an error, not a hang).
+    pub fn new(port: S, timeout: std::time::Duration) -> Self {
+        Self {
+            port,
+            encoder: link::Encoder::new(),
+            decoder: link::Decoder::new(),
+            buf: std::collections::VecDeque::new(),
+            timeout,
+        }
+    }
+
+    fn send(&mut self, req: link::Request) -> Result<u32> {
+        let mut out = [0u8; link::MAX_FRAME];
+        let seq = self.encoder.next_seq();
+        let bytes = self
+            .encoder
+            .frame(link::Body::Request(req), &mut out)
+            .map_err(|e| anyhow!("encoding a request: {e}"))?;
+        self.port.write_all(bytes).context("writing to the device")?;
+        Ok(seq)
+    }
+
+    /// The next reply to request `seq`.
+    fn reply(&mut self, seq: u32) -> Result<link::Reply> {
+        let start = std::time::Instant::now();
+        let mut chunk = [0u8; 4096];
+        loop {
+            while let Some(b) = self.buf.pop_front() {
+                if let Some(Ok(link::Frame {
+                    body: link::Body::Reply(r),
+                    ..
+                })) = self.decoder.push(b)
+                {
+                    let to = match r {
+                        link::Reply::Ack { to, .. }
+                        | link::Reply::Refused { to, .. }
+                        | link::Reply::Chunk { to, .. } => to,
+                    };
+                    if to == seq {
+                        return Ok(r);
+                    }
+                }
+            }
+            if start.elapsed() > self.timeout {
+                bail!("no reply from the device in {:?}", self.timeout);
+            }
+            match self.port.read(&mut chunk) {
+                Ok(0) => bail!("the device closed the link"),
+                Ok(n) => self.buf.extend(&chunk[..n]),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(e) => return Err(e).context("reading from the device"),
+            }
+        }
+    }
+
+    /// The set stored on the device and its generation; None on a new
+    /// device.
+    pub fn read(&mut self) -> Result<Option<(Stored, u32)>> {
+        let seq = self.send(link::Request::ReadSettings)?;
+        let mut bytes = vec![];
+        loop {
+            match self.reply(seq)? {
+                link::Reply::Chunk { chunk, .. } => {
+                    if usize::from(chunk.offset) != bytes.len() {
+                        bail!("the device's pieces came out of order");
+                    }
+                    bytes.extend_from_slice(chunk.data());
+                }
+                link::Reply::Ack { generation, .. } => {
+                    return match Stored::from_bytes(&bytes) {
+                        Some(Ok(set)) => Ok(Some((set, generation))),
+                        Some(Err(r)) => bail!("the device's set breaks a rule: {r}"),
+                        None => bail!("the device's set is not of this layout (update the host tools?)"),
+                    };
+                }
+                link::Reply::Refused {
+                    reason: link::Reason::NothingStored,
+                    ..
+                } => return Ok(None),
+                link::Reply::Refused { reason, .. } => {
+                    bail!("the device refused to read: {}", reason_text(reason))
+                }
+            }
+        }
+    }
+
+    /// Store `set` on the device; its generation.
+    pub fn write(&mut self, set: &Stored) -> Result<u32> {
+        set.check().map_err(|r| anyhow!("refused: {r}"))?;
+        let mut reqs = vec![];
+        instrument::commands::upload(set, |r| reqs.push(r));
+        for req in reqs {
+            let seq = self.send(req)?;
+            match self.reply(seq)? {
+                link::Reply::Ack { generation, .. } if matches!(req, link::Request::Commit { .. }) => {
+                    return Ok(generation)
+                }
+                link::Reply::Ack { .. } => {}
+                link::Reply::Refused { reason, .. } => bail!("the device refused: {}", reason_text(reason)),
+                link::Reply::Chunk { .. } => bail!("the device answered a write with a read"),
+            }
+        }
+        bail!("the set's upload had no commit")
+    }
+
+    /// Ask the device to stop measuring (its stream's end frame follows).
+    pub fn stop(&mut self) -> Result<()> {
+        let seq = self.send(link::Request::Stop)?;
+        match self.reply(seq)? {
+            link::Reply::Ack { .. } => Ok(()),
+            other => bail!("the device did not stop: {other:?}"),
+        }
+    }
+}
+
+/// A refusal in words.
+pub fn reason_text(reason: link::Reason) -> String {
+    use instrument::stored::{Refused, Rule};
+    match reason {
+        link::Reason::Setting { sensor, rule } => match Rule::from_code(rule) {
+            Some(rule) => Refused {
+                sensor: (sensor != 255).then_some(sensor),
+                rule,
+            }
+            .to_string(),
+            None => format!("rule {rule} (a newer firmware's?)"),
+        },
+        link::Reason::OutOfOrder => "a piece came out of order".into(),
+        link::Reason::TooLong => "more bytes than a set can have".into(),
+        link::Reason::Mismatch => "the pieces do not match the commit's length and CRC".into(),
+        link::Reason::Malformed => "not a set of the device's layout".into(),
+        link::Reason::Flash => "the device's flash failed (its set in force is kept)".into(),
+        link::Reason::NothingStored => "nothing is stored".into(),
+    }
+}

@@ -62,43 +62,112 @@ enum ConfigAction {
     /// Print every setting of the set in force.
     #[command(after_help = live::config::help())]
     Get {
-        /// A settings flash image (QEMU's: `skin-qemu flash=PATH`).
-        #[arg(long)]
-        flash: PathBuf,
+        #[command(flatten)]
+        target: Target,
     },
     /// Change settings (`name=value` …), check the whole set with the
     /// device's rules, and store it; nothing is written if any is refused.
     #[command(after_help = live::config::help())]
     Set {
-        /// A settings flash image (created erased if missing).
-        #[arg(long)]
-        flash: PathBuf,
+        #[command(flatten)]
+        target: Target,
         /// `name=value` (`live config get` lists the names).
         #[arg(required = true)]
         assignments: Vec<String>,
     },
 }
 
-/// `live config …`.
-fn config(action: ConfigAction) -> Result<()> {
-    use live::config::{assign, entries, read_image, write_image};
-    match action {
-        ConfigAction::Get { flash } => {
-            let (set, generation) = match read_image(&flash)? {
-                Some(found) => found,
-                None => {
-                    println!("# nothing stored in {}: a new device's defaults", flash.display());
-                    (instrument::stored::Stored::uncalibrated(), 0)
+/// Where the settings are: a flash image, or a device on the link.
+#[derive(clap::Args)]
+#[group(required = true, multiple = false)]
+struct Target {
+    /// A settings flash image (QEMU's: `skin-qemu flash=PATH`; created
+    /// erased by `set` if missing).
+    #[arg(long)]
+    flash: Option<PathBuf>,
+    /// A running device on a TCP socket (QEMU's `-serial tcp:…`).
+    #[arg(long)]
+    tcp: Option<String>,
+    /// A device on a serial port (the board's ST-LINK virtual COM port).
+    #[arg(long)]
+    serial: Option<String>,
+}
+
+/// How long a device may take to answer a request.
+const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// The settings where `target` says: read, and (with `set`) written.
+fn with_target(
+    target: &Target,
+    change: Option<&dyn Fn(Option<instrument::stored::Stored>) -> Result<instrument::stored::Stored>>,
+) -> Result<(instrument::stored::Stored, u32, bool)> {
+    use live::config::{read_image, write_image, Device};
+    let device = |port: Box<dyn ReadWrite>| Device::new(port, REPLY_TIMEOUT);
+    let mut dev = match (&target.flash, &target.tcp, &target.serial) {
+        (Some(flash), _, _) => {
+            let stored = match flash.exists() || change.is_none() {
+                true => read_image(flash)?,
+                false => None,
+            };
+            return match change {
+                None => Ok(stored.map_or(
+                    (instrument::stored::Stored::uncalibrated(), 0, false),
+                    |(s, g)| (s, g, true),
+                )),
+                Some(f) => {
+                    let set = f(stored.map(|(s, _)| s))?;
+                    let g = write_image(flash, &set)?;
+                    Ok((set, g, true))
                 }
             };
+        }
+        (None, Some(addr), _) => {
+            let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+            sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+            device(Box::new(sock))
+        }
+        (None, None, Some(name)) => {
+            let port = serialport::new(name, link::BOARD_BAUD)
+                .timeout(Duration::from_millis(200))
+                .open()
+                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
+            device(Box::new(port))
+        }
+        (None, None, None) => anyhow::bail!("say where: --flash FILE, --tcp HOST:PORT or --serial PORT"),
+    };
+    let stored = dev.read()?;
+    match change {
+        None => Ok(stored.map_or(
+            (instrument::stored::Stored::uncalibrated(), 0, false),
+            |(s, g)| (s, g, true),
+        )),
+        Some(f) => {
+            let set = f(stored.map(|(s, _)| s))?;
+            let g = dev.write(&set)?;
+            Ok((set, g, true))
+        }
+    }
+}
+
+/// A port that reads and writes.
+trait ReadWrite: std::io::Read + std::io::Write {}
+impl<T: std::io::Read + std::io::Write> ReadWrite for T {}
+
+/// `live config …`.
+fn config(action: ConfigAction) -> Result<()> {
+    use live::config::{assign, entries};
+    match action {
+        ConfigAction::Get { target } => {
+            let (set, generation, stored) = with_target(&target, None)?;
+            let mut lines = vec![];
+            match stored {
+                true => lines.push(format!("# generation {generation}")),
+                false => lines.push("# nothing stored: a new device's defaults".to_string()),
+            }
+            lines.extend(entries(&set).into_iter().map(|(n, v)| format!("{n} = {v}")));
             // Written whole or stopped quietly when the reader goes
             // (`| head`).
             let mut out = std::io::stdout().lock();
-            let mut lines = vec![];
-            if generation > 0 {
-                lines.push(format!("# {}: generation {generation}", flash.display()));
-            }
-            lines.extend(entries(&set).into_iter().map(|(n, v)| format!("{n} = {v}")));
             for line in lines {
                 match writeln!(out, "{line}") {
                     Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
@@ -106,19 +175,18 @@ fn config(action: ConfigAction) -> Result<()> {
                 }
             }
         }
-        ConfigAction::Set { flash, assignments } => {
-            // A new image starts from a new device's defaults.
-            let stored = match flash.exists() {
-                true => read_image(&flash)?,
-                false => None,
+        ConfigAction::Set { target, assignments } => {
+            let change = |current: Option<instrument::stored::Stored>| {
+                // A new device starts from its defaults.
+                let mut set = current.unwrap_or_else(instrument::stored::Stored::uncalibrated);
+                for a in &assignments {
+                    let (name, value) = a.split_once('=').with_context(|| format!("'{a}': name=value"))?;
+                    assign(&mut set, name.trim(), value)?;
+                }
+                Ok(set)
             };
-            let mut set = stored.map_or_else(instrument::stored::Stored::uncalibrated, |(s, _)| s);
-            for a in &assignments {
-                let (name, value) = a.split_once('=').with_context(|| format!("'{a}': name=value"))?;
-                assign(&mut set, name.trim(), value)?;
-            }
-            let generation = write_image(&flash, &set)?;
-            println!("stored in {}: generation {generation}", flash.display());
+            let (_, generation, _) = with_target(&target, Some(&change))?;
+            println!("stored: generation {generation}");
         }
     }
     Ok(())

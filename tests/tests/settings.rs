@@ -210,3 +210,22 @@ fn a_set_written_down_the_link_is_stored_and_in_force_after_a_restart() {
     assert_eq!(code, Some(0), "{log:?}");
     assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&good));
 }
+
+#[test]
+fn live_config_reads_and_writes_a_running_device() {
+    use live::config::Device;
+    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let flash = format!("flash={}", tmp.path().join("settings.bin").display());
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash]).unwrap();
+    let mut dev = Device::new(sock, Duration::from_secs(60));
+    assert_eq!(dev.read().unwrap(), None, "a new device");
+    let mut set = instrument::stored::Stored::uncalibrated();
+    set.sensors[6].contact_ohm = 1500.0;
+    assert_eq!(dev.write(&set).unwrap(), 1);
+    set.policy.x_limit = 3.0;
+    assert_eq!(dev.write(&set).unwrap(), 2);
+    assert_eq!(dev.read().unwrap(), Some((set, 2)));
+    dev.stop().unwrap();
+    assert!(qemu.wait().unwrap().success());
+}
