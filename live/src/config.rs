@@ -233,37 +233,6 @@ pub fn write_image(path: &Path, set: &Stored) -> Result<u32> {
     Ok(generation)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_setting_reads_back_as_it_was_written() {
-        let mut set = Stored::uncalibrated();
-        set.sensors[3].parasitic_farad = 4.7e-12;
-        set.sensors[3].lead_ratio = 0.6415;
-        set.policy.tones = (1, 3);
-        let mut again = Stored::uncalibrated();
-        for (name, value) in entries(&set) {
-            assign(&mut again, &name, &value).unwrap();
-        }
-        assert_eq!(again, set);
-        assert_eq!(entries(&set).len(), 7 + 8 * SENSORS_MAX);
-    }
-
-    #[test]
-    fn bad_names_and_values_say_which_and_why() {
-        let mut set = Stored::uncalibrated();
-        let err = |n: &str, v: &str, s: &mut Stored| assign(s, n, v).unwrap_err().to_string();
-        assert!(err("sensor.16.lead_ratio", "1", &mut set).contains("sensors are 0 … 15"));
-        assert!(err("sensor.2.colour", "1", &mut set).contains("no such setting"));
-        assert!(err("policy.x_limit", "four", &mut set).contains("not a number"));
-        assert!(err("sensor.0.in_use", "yes", &mut set).contains("true or false"));
-        assert!(err("sensor.0.table", "1e-10:0", &mut set).contains("11 points"));
-        assert!(err("record_every", "300", &mut set).contains("not a whole number"));
-    }
-}
-
 /// A device on the link: requests down, replies up (records passed over).
 pub struct Device<S> {
     port: S,
@@ -412,5 +381,36 @@ pub fn reason_text(reason: link::Reason) -> String {
         link::Reason::Malformed => "not a set of the device's layout".into(),
         link::Reason::Flash => "the device's flash failed (its set in force is kept)".into(),
         link::Reason::NothingStored => "nothing is stored".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_setting_reads_back_as_it_was_written() {
+        let mut set = Stored::uncalibrated();
+        set.sensors[3].parasitic_farad = 4.7e-12;
+        set.sensors[3].lead_ratio = 0.6415;
+        set.policy.tones = (1, 3);
+        let mut again = Stored::uncalibrated();
+        for (name, value) in entries(&set) {
+            assign(&mut again, &name, &value).unwrap();
+        }
+        assert_eq!(again, set);
+        assert_eq!(entries(&set).len(), 7 + 8 * SENSORS_MAX);
+    }
+
+    #[test]
+    fn bad_names_and_values_say_which_and_why() {
+        let mut set = Stored::uncalibrated();
+        let err = |n: &str, v: &str, s: &mut Stored| assign(s, n, v).unwrap_err().to_string();
+        assert!(err("sensor.16.lead_ratio", "1", &mut set).contains("sensors are 0 … 15"));
+        assert!(err("sensor.2.colour", "1", &mut set).contains("no such setting"));
+        assert!(err("policy.x_limit", "four", &mut set).contains("not a number"));
+        assert!(err("sensor.0.in_use", "yes", &mut set).contains("true or false"));
+        assert!(err("sensor.0.table", "1e-10:0", &mut set).contains("11 points"));
+        assert!(err("record_every", "300", &mut set).contains("not a whole number"));
     }
 }
