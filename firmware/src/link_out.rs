@@ -35,16 +35,20 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
             records: 0,
             dropped: 0,
         };
-        w.queue(link::Body::Start(start));
+        w.queue(|e, out| e.start(&start, out));
         w
     }
 
-    /// Number, encode and queue one frame; false if it was dropped (no
-    /// room, or it could not be encoded). Either way its sequence number
-    /// is spent.
-    fn queue(&mut self, body: link::Body) -> bool {
+    /// Number, encode (with `encode`, one of [`link::Encoder`]'s
+    /// per-body encoders: the image holds only the serialisers it uses)
+    /// and queue one frame; false if it was dropped (no room, or it could
+    /// not be encoded). Either way its sequence number is spent.
+    fn queue(
+        &mut self,
+        encode: impl for<'b> FnOnce(&mut link::Encoder, &'b mut [u8]) -> Result<&'b [u8], link::Error>,
+    ) -> bool {
         let mut out = [0u8; link::MAX_FRAME];
-        let Ok(bytes) = self.encoder.frame(body, &mut out) else {
+        let Ok(bytes) = encode(&mut self.encoder, &mut out) else {
             return false;
         };
         match self.producer.grant_exact(bytes.len()) {
@@ -59,12 +63,18 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
 
     /// Queue one record; false (and counted) if there was no room.
     pub fn record(&mut self, rec: link::Record) -> bool {
-        let sent = self.queue(link::Body::Record(rec));
+        let sent = self.queue(|e, out| e.record(&rec, out));
         match sent {
             true => self.records = self.records.wrapping_add(1),
             false => self.dropped = self.dropped.saturating_add(1),
         }
         sent
+    }
+
+    /// Queue a reply to a request; false if there was no room (the host
+    /// asks again after its timeout).
+    pub fn reply(&mut self, reply: link::Reply) -> bool {
+        self.queue(|e, out| e.reply(&reply, out))
     }
 
     /// Queue the end frame: `upstream` records were dropped before they
@@ -74,7 +84,7 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
             records: self.records,
             dropped: self.dropped.saturating_add(upstream),
         };
-        self.queue(link::Body::End(end))
+        self.queue(|e, out| e.end(&end, out))
     }
 
     /// Records queued since the start.

@@ -90,15 +90,19 @@ impl LinkSender {
             records: 0,
             requests: link::Decoder::new(),
         };
-        link.send(link::Body::Start(start));
+        link.send(|e, out| e.start(&start, out));
         link
     }
 
-    /// Number, encode and send one frame; false if it could not be
-    /// encoded (nothing is sent then).
-    fn send(&mut self, body: link::Body) -> bool {
+    /// Number, encode (with one of [`link::Encoder`]'s per-body
+    /// encoders) and send one frame; false if it could not be encoded
+    /// (nothing is sent then).
+    fn send(
+        &mut self,
+        encode: impl for<'b> FnOnce(&mut link::Encoder, &'b mut [u8]) -> Result<&'b [u8], link::Error>,
+    ) -> bool {
         let mut out = [0u8; link::MAX_FRAME];
-        match self.encoder.frame(body, &mut out) {
+        match encode(&mut self.encoder, &mut out) {
             Ok(bytes) => {
                 self.uart.write(bytes);
                 true
@@ -109,14 +113,14 @@ impl LinkSender {
 
     /// Send one record.
     pub fn record(&mut self, rec: link::Record) {
-        if self.send(link::Body::Record(rec)) {
+        if self.send(|e, out| e.record(&rec, out)) {
             self.records = self.records.wrapping_add(1);
         }
     }
 
     /// Send a reply to a request.
     pub fn reply(&mut self, reply: link::Reply) {
-        self.send(link::Body::Reply(reply));
+        self.send(|e, out| e.reply(&reply, out));
     }
 
     /// The next request the host sent down the link, with its sequence
@@ -141,7 +145,7 @@ impl LinkSender {
             records: self.records,
             dropped,
         };
-        self.send(link::Body::End(end));
+        self.send(|e, out| e.end(&end, out));
     }
 }
 

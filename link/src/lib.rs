@@ -328,8 +328,14 @@ impl core::error::Error for Error {}
 
 /// Encode `frame` into `out`: the bytes to send, closing zero included.
 pub fn encode<'a>(frame: &Frame, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+    seal(frame, out)
+}
+
+/// `value`'s postcard bytes, its CRC, COBS and the closing zero, into
+/// `out`.
+fn seal<'a, T: Serialize>(value: &T, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
     let mut raw = [0u8; MAX_BODY + 4];
-    let n = postcard::to_slice(frame, &mut raw[..MAX_BODY])
+    let n = postcard::to_slice(value, &mut raw[..MAX_BODY])
         .map_err(|_| Error::BufferTooSmall)?
         .len();
     let crc = CRC.checksum(&raw[..n]);
@@ -487,6 +493,42 @@ impl Encoder {
     /// The sequence number the next frame gets.
     pub fn next_seq(&self) -> u32 {
         self.seq
+    }
+
+    /// Number and encode a body given as its variant's index in [`Body`]
+    /// and its payload: the same bytes as [`Encoder::frame`] (postcard
+    /// writes an enum as its variant's index, then the variant), but the
+    /// image holds the serialiser of that payload only (the device sends
+    /// records and replies, not requests).
+    fn part<'a, T: Serialize>(
+        &mut self,
+        variant: u32,
+        payload: &T,
+        out: &'a mut [u8],
+    ) -> Result<&'a [u8], Error> {
+        let bytes = seal(&(self.seq, variant, payload), out)?;
+        self.seq = self.seq.wrapping_add(1);
+        Ok(bytes)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::Start`].
+    pub fn start<'a>(&mut self, start: &Start, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(0, start, out)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::Record`].
+    pub fn record<'a>(&mut self, record: &Record, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(1, record, out)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::End`].
+    pub fn end<'a>(&mut self, end: &End, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(2, end, out)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::Reply`].
+    pub fn reply<'a>(&mut self, reply: &Reply, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(4, reply, out)
     }
 
     /// Number `body` and encode it into `out`.

@@ -383,3 +383,49 @@ fn requests_and_replies_at_their_longest_fit_a_frame() {
     }
     assert_eq!(chunk.data().len(), CHUNK);
 }
+
+#[test]
+fn the_devices_encoders_write_the_same_bytes_as_the_generic_one() {
+    use link::{Reason, Reply};
+    let rec = Record {
+        t_us: 123_456_789,
+        sensor: 9,
+        c_farad: 2.1e-10,
+        flags: 300,
+        ..Record::default()
+    };
+    let start = Start {
+        version: VERSION,
+        sensors: 16,
+        ..Start::default()
+    };
+    let end = End {
+        records: 7,
+        dropped: 1,
+    };
+    let reply = Reply::Refused {
+        to: 40_000,
+        reason: Reason::Setting { sensor: 3, rule: 9 },
+    };
+    let (mut a, mut b) = (Encoder::new(), Encoder::new());
+    for _ in 0..200 {
+        let (mut x, mut y) = ([0u8; MAX_FRAME], [0u8; MAX_FRAME]);
+        assert_eq!(
+            a.start(&start, &mut x).unwrap(),
+            b.frame(Body::Start(start), &mut y).unwrap()
+        );
+        assert_eq!(
+            a.record(&rec, &mut x).unwrap(),
+            b.frame(Body::Record(rec), &mut y).unwrap()
+        );
+        assert_eq!(
+            a.end(&end, &mut x).unwrap(),
+            b.frame(Body::End(end), &mut y).unwrap()
+        );
+        assert_eq!(
+            a.reply(&reply, &mut x).unwrap(),
+            b.frame(Body::Reply(reply), &mut y).unwrap()
+        );
+    }
+    assert_eq!(a.next_seq(), 800);
+}

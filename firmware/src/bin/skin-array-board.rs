@@ -28,7 +28,10 @@
 //!   ([`firmware::link_out`]); `link_tx` (DMA2 channel 1) sends them
 //!   through LPUART1, the ST-LINK's virtual COM port
 //!   ([`firmware::board::link`]). defmt over RTT carries log messages
-//!   only, and never blocks.
+//!   only, and never blocks. The host's requests come back on the same
+//!   port (DMA2 channel 2 round a ring): `idle` answers them with the
+//!   settings stored in the last 8 KiB of flash
+//!   ([`firmware::board::flash`], [`instrument::store`]).
 //!
 //! A DMA transfer error or an ADC overrun (one stream out of step with
 //! the others) stops the feeding of the watchdog: the board restarts in
@@ -41,8 +44,9 @@ use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use firmware::board::dma::{self, Completion};
+use firmware::board::flash::SettingsFlash;
 use firmware::board::front_end::{self, AdcBlocks, ARRAY_PACER};
-use firmware::board::link::Transmitter;
+use firmware::board::link::{self, Receiver, RxRing, Transmitter, RX_BYTES};
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, pac};
@@ -54,8 +58,11 @@ use instrument::array::{
     SENSOR_TIA_OHM,
 };
 use instrument::calib::{Calibrations, POINTS, REFERENCE};
+use instrument::commands::{Action, Commands};
+use instrument::digest::Digest;
 use instrument::frames;
 use instrument::reader::ArrayReader;
+use instrument::store::{Store, SLOT_BYTES};
 use instrument::tones::{ToneRecord, ToneSettings};
 
 /// The link's byte queue: two blocks of frames.
@@ -73,6 +80,15 @@ pub struct DmaBufs(*mut AdcBlocks);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBufs {}
 
+/// The receive ring DMA2 channel 2 writes round, read by `idle` behind
+/// the DMA's position only.
+pub struct Ring(*const u8);
+
+// SAFETY: the pointer is to a 'static ring; `idle` only reads the bytes
+// the DMA has written (`Receiver::take`), with volatile reads.
+#[allow(unsafe_code)]
+unsafe impl Send for Ring {}
+
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
     use super::*;
@@ -81,6 +97,9 @@ mod app {
     struct Shared {
         /// The block just completed: its DMA half and its index.
         finished: Option<(usize, u64)>,
+        /// The link's port: its transmit task, and `idle` for the receive
+        /// position.
+        tx: Transmitter<'static, LINK_BYTES>,
     }
 
     #[local]
@@ -95,7 +114,12 @@ mod app {
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         writer: FrameWriter<'static, LINK_BYTES>,
-        tx: Transmitter<'static, LINK_BYTES>,
+        ring: Ring,
+        rx: Receiver,
+        requests: ::link::Decoder,
+        commands: Commands,
+        store: Store<SettingsFlash>,
+        sending: bool,
     }
 
     #[init(local = [
@@ -104,6 +128,7 @@ mod app {
         table: [u16; DAC_TABLE] = [0; DAC_TABLE],
         cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&REFERENCE),
         link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
+        rx_ring: RxRing = [0; RX_BYTES],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
@@ -146,7 +171,24 @@ mod app {
                 RATE_HZ,
             ),
         );
+        let ring: &'static mut RxRing = cx.local.rx_ring;
+        link::receive(&owned.link.dma, owned.link.rdr, ring.as_ptr() as u32);
         let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
+        let Ok(mut store) = Store::new(SettingsFlash::new(owned.flash), 0, SLOT_BYTES) else {
+            defmt::println!("settings: the slots do not fit the flash; watchdog reset follows");
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        match store.load() {
+            Ok(Some(l)) => defmt::println!(
+                "settings: generation {=u32} digest {=u32:#010x}",
+                l.generation,
+                Digest::of(&l.set)
+            ),
+            Ok(None) => defmt::println!("settings: none stored"),
+            Err(_) => defmt::println!("settings: the flash cannot be read"),
+        }
         rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each",
@@ -154,7 +196,7 @@ mod app {
             RATE_HZ / BLOCK_INSTANTS as u32
         );
         (
-            Shared { finished: None },
+            Shared { finished: None, tx },
             Local {
                 dma: owned.dma,
                 adcs: owned.adcs,
@@ -166,19 +208,62 @@ mod app {
                 records: RecordSink::new(records),
                 logger,
                 writer,
-                tx,
+                ring: Ring(ring.as_ptr()),
+                rx: Receiver::new(),
+                requests: ::link::Decoder::new(),
+                commands: Commands::new(),
+                store,
+                sending: true,
             },
         )
     }
 
-    /// The link's writer: the record queue into frames, then the
-    /// transmitter woken.
-    #[idle(local = [logger, writer])]
-    fn idle(cx: idle::Context) -> ! {
+    /// The link's writer: the record queue into frames; the host's
+    /// requests from the receive ring, answered
+    /// ([`instrument::commands`]: the stored settings, start, stop); then
+    /// the transmitter woken.
+    #[idle(shared = [tx], local = [logger, writer, ring, rx, requests, commands, store, sending])]
+    fn idle(mut cx: idle::Context) -> ! {
         loop {
+            let l = &mut cx.local;
             let mut queued = false;
-            while let Some(rec) = cx.local.logger.dequeue() {
-                queued |= cx.local.writer.record(frames::from_tone_record(&rec));
+            while let Some(rec) = l.logger.dequeue() {
+                if *l.sending {
+                    queued |= l.writer.record(frames::from_tone_record(&rec));
+                }
+            }
+            let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
+            let ring = l.ring.0;
+            let mut request = None;
+            // SAFETY: within the 'static ring; the DMA has written these
+            // bytes and writes others.
+            #[allow(unsafe_code)]
+            let byte = |k: usize| unsafe { core::ptr::read_volatile(ring.add(k)) };
+            l.rx.take(remaining, byte, |b| {
+                if let Some(Ok(::link::Frame {
+                    seq,
+                    body: ::link::Body::Request(r),
+                })) = l.requests.push(b)
+                {
+                    request = Some((seq, r));
+                }
+            });
+            if let Some((seq, req)) = request {
+                let writer = &mut *l.writer;
+                match l.commands.handle(seq, &req, &mut *l.store, |r| {
+                    writer.reply(r);
+                }) {
+                    Action::Start => *l.sending = true,
+                    Action::Stop => {
+                        *l.sending = false;
+                        writer.end(0);
+                    }
+                    Action::Apply => {
+                        defmt::println!("settings: a new set stored, in force from the next start")
+                    }
+                    Action::None => {}
+                }
+                queued = true;
             }
             if queued {
                 rtic::pend(pac::Interrupt::DMA2_CH1);
@@ -189,9 +274,9 @@ mod app {
 
     /// DMA2 channel 1 (or pended by the writer): the chunk sent released,
     /// the next one started.
-    #[task(binds = DMA2_CH1, priority = 2, local = [tx])]
-    fn link_tx(cx: link_tx::Context) {
-        cx.local.tx.service();
+    #[task(binds = DMA2_CH1, priority = 2, shared = [tx])]
+    fn link_tx(mut cx: link_tx::Context) {
+        cx.shared.tx.lock(|t| t.service());
     }
 
     /// DMA1 channel 5, half or full: block `k` is in every ADC's buffer.

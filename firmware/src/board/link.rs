@@ -1,6 +1,8 @@
-//! The record link's transmitter: DMA2 channel 1 moves the link's queued
-//! frames ([`crate::link_out`]) into LPUART1's data register
-//! ([`super::lpuart`]), one contiguous chunk at a time.
+//! The record link's port: DMA2 channel 1 moves the link's queued frames
+//! ([`crate::link_out`]) into LPUART1's data register
+//! ([`super::lpuart`]), one contiguous chunk at a time; DMA2 channel 2
+//! moves what LPUART1 receives (the host's requests) round a ring
+//! ([`RxRing`]), read by position ([`Receiver`]).
 //!
 //! DMA2 is the link's alone (DMA1 paces the measurement), so the
 //! transmitter owns it outright. Its task runs on the channel's
@@ -17,15 +19,81 @@ pub const REQ_LPUART1_TX: u8 = 35;
 /// The DMAMUX channel of DMA2 channel 1 (DMAMUX channels 8–15 serve DMA2).
 pub const MUX_CHANNEL: usize = 8;
 
+/// DMAMUX request of LPUART1_RX (RM0440 table 91).
+pub const REQ_LPUART1_RX: u8 = 34;
+
+/// The DMAMUX channel of DMA2 channel 2.
+pub const RX_MUX_CHANNEL: usize = 9;
+
+/// The receive ring, bytes: four of the longest request (the host sends
+/// one and waits for its reply).
+pub const RX_BYTES: usize = 256;
+
+/// The receive ring's storage.
+pub type RxRing = [u8; RX_BYTES];
+
 /// The most bytes one transfer moves (CNDTR is 16 bits).
 const MAX_CHUNK: usize = u16::MAX as usize;
 
-/// DMAMUX channel 8 (DMA2 channel 1) ← LPUART1_TX.
+/// DMAMUX channel 8 (DMA2 channel 1) ← LPUART1_TX, channel 9 (DMA2
+/// channel 2) ← LPUART1_RX.
 #[allow(unsafe_code)]
 pub fn request(mux: &dmamux::RegisterBlock) {
-    // SAFETY: a request line of the G474's DMAMUX (1..=115).
+    // SAFETY: request lines of the G474's DMAMUX (1..=115).
     mux.ccr(MUX_CHANNEL)
         .write(|w| unsafe { w.dmareq_id().bits(REQ_LPUART1_TX) });
+    mux.ccr(RX_MUX_CHANNEL)
+        .write(|w| unsafe { w.dmareq_id().bits(REQ_LPUART1_RX) });
+}
+
+/// Channel 2: from the receive data register `from` round the ring at
+/// `to`, bytes, circular, no interrupts (the ring is read by position).
+#[allow(unsafe_code)]
+pub fn receive(dma: &dma1::RegisterBlock, from: u32, to: u32) {
+    let ch = dma.ch(1);
+    // SAFETY: any address is a valid value of these registers; the caller
+    // gives LPUART1's RDR and a 'static ring of RX_BYTES.
+    ch.par().write(|w| unsafe { w.pa().bits(from) });
+    ch.mar().write(|w| unsafe { w.ma().bits(to) });
+    ch.ndtr().write(|w| w.ndt().set(RX_BYTES as u16));
+    ch.cr().write(|w| {
+        w.dir()
+            .from_peripheral()
+            .psize()
+            .bits8()
+            .msize()
+            .bits8()
+            .minc()
+            .set_bit()
+            .circ()
+            .set_bit()
+            .en()
+            .set_bit()
+    });
+}
+
+/// Where the host's bytes have been read up to in the ring.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Receiver {
+    read: usize,
+}
+
+impl Receiver {
+    /// Nothing read yet.
+    pub const fn new() -> Self {
+        Self { read: 0 }
+    }
+
+    /// The bytes the DMA has written since the last call, in order, given
+    /// its remaining count (channel 2's CNDTR) and a way to read a byte of
+    /// the ring (a volatile read on the device).
+    pub fn take(&mut self, remaining: u16, byte: impl Fn(usize) -> u8, mut f: impl FnMut(u8)) {
+        let write = (RX_BYTES - usize::from(remaining).min(RX_BYTES)) % RX_BYTES;
+        while self.read != write {
+            f(byte(self.read));
+            self.read = (self.read + 1) % RX_BYTES;
+        }
+    }
 }
 
 /// DMA2's clock.
@@ -142,5 +210,10 @@ impl<'a, const N: usize> Transmitter<'a, N> {
     /// Transfers that stopped on a bus error since the start.
     pub fn errors(&self) -> u32 {
         self.errors
+    }
+
+    /// The receive channel's remaining count (for [`Receiver::take`]).
+    pub fn rx_remaining(&self) -> u16 {
+        self.dma.ch(1).ndtr().read().ndt().bits()
     }
 }

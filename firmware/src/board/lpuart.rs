@@ -1,8 +1,9 @@
 //! LPUART1 on PA2 (TX) and PA3 (RX), alternate function 12: the
 //! Nucleo-G474RE's STLINK-V3E virtual COM port, which carries the record
 //! link's frames to the host over the ST-LINK's USB
-//! ([`link::BOARD_BAUD`], 8N1). Transmit only for now; its data register
-//! is fed by DMA2 channel 1 ([`super::link`]).
+//! ([`link::BOARD_BAUD`], 8N1). Its transmit data register is fed by DMA2
+//! channel 1, and DMA2 channel 2 moves what it receives (the host's
+//! requests) into a ring ([`super::link`]).
 //!
 //! Order (RM0440 37.5.2, "character transmission procedure"): the kernel
 //! clock (PCLK1, 170 MHz: APB1 runs undivided), the pins, the baud rate,
@@ -49,14 +50,23 @@ pub fn pins(gpioa: &gpioa::RegisterBlock) {
         .modify(|_, w| w.moder2().alternate().moder3().alternate());
 }
 
-/// 8N1 at `baud`, transmit requests to the DMA, the FIFO on, the LPUART
-/// enabled, then the transmitter.
+/// 8N1 at `baud`, both directions through the DMA, the FIFO on, the
+/// LPUART enabled, then the transmitter and the receiver. A receive
+/// overrun does not stop the DMA (OVRDIS): a lost byte is a frame the
+/// host's CRC and sequence numbers account for.
 #[allow(unsafe_code)]
-pub fn transmitter(lpuart: &lpuart1::RegisterBlock, baud: u32) {
+pub fn enable(lpuart: &lpuart1::RegisterBlock, baud: u32) {
     // SAFETY: BRR is a 20-bit field; `brr` of a baud rate the kernel
     // clock can make is in 0x300..=0xFFFFF (asserted by the host tests).
     lpuart.brr().write(|w| unsafe { w.brr().bits(brr(baud)) });
-    lpuart.cr3().write(|w| w.dmat().enabled());
+    lpuart
+        .cr3()
+        .write(|w| w.dmat().enabled().dmar().enabled().ovrdis().set_bit());
     lpuart.cr1().write(|w| w.fifoen().set_bit().ue().enabled());
-    lpuart.cr1().modify(|_, w| w.te().enabled());
+    lpuart.cr1().modify(|_, w| w.te().enabled().re().enabled());
+}
+
+/// LPUART1_RDR's address: where DMA2 channel 2 reads.
+pub fn rdr_address(lpuart: &lpuart1::RegisterBlock) -> u32 {
+    lpuart.rdr().as_ptr() as u32
 }

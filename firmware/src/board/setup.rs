@@ -40,15 +40,19 @@ pub struct Owned {
     pub watchdog: Watchdog,
     /// The record link's port, for its transmitter (`board::link`).
     pub link: LinkPort,
+    /// The flash controller, for the stored settings (`board::flash`).
+    pub flash: pac::FLASH,
 }
 
-/// The record link's port: DMA2, whose channel 1 feeds LPUART1, and the
-/// address of LPUART1's data register.
+/// The record link's port: DMA2, whose channel 1 feeds LPUART1 and whose
+/// channel 2 empties it, and the addresses of LPUART1's data registers.
 pub struct LinkPort {
     /// DMA2, the link's alone.
     pub dma: pac::DMA2,
     /// LPUART1_TDR's address.
     pub tdr: u32,
+    /// LPUART1_RDR's address.
+    pub rdr: u32,
 }
 
 /// Log the cause of the last reset, freeze the watchdog and the timers in
@@ -74,7 +78,7 @@ pub fn finish(dp: pac::Peripherals) -> Owned {
     let _ = dp.RCC.apb1enr2().read();
     lpuart::pins(&dp.GPIOA);
     link::request(&dp.DMAMUX);
-    lpuart::transmitter(&dp.LPUART1, ::link::BOARD_BAUD);
+    lpuart::enable(&dp.LPUART1, ::link::BOARD_BAUD);
     while !watchdog::ready(&dp.IWDG) {}
     watchdog::feed(&dp.IWDG);
     Owned {
@@ -83,7 +87,9 @@ pub fn finish(dp: pac::Peripherals) -> Owned {
         watchdog: Watchdog(dp.IWDG),
         link: LinkPort {
             tdr: lpuart::tdr_address(&dp.LPUART1),
+            rdr: lpuart::rdr_address(&dp.LPUART1),
             dma: dp.DMA2,
         },
+        flash: dp.FLASH,
     }
 }

@@ -522,27 +522,54 @@ fn lpuart1_at_15_mbd_8n1_on_pa2_pa3_fed_by_dma() {
     assert_eq!(a.at(0x20), 12 << 8 | 12 << 12);
     assert_eq!(a.at(0x08), 0x0C00_0000 | 0b11 << 4);
     assert_eq!(a.at(0x0C), 0x6400_0000 | 0b01 << 6);
-    // LPUART1: BRR, CR3.DMAT (bit 7), CR1: FIFOEN (29), UE (0), TE (3);
-    // 8 data bits, no parity, one stop bit (M, PCE, STOP all zero).
+    // LPUART1: BRR, CR3: DMAR (6), DMAT (7), OVRDIS (12); CR1: FIFOEN
+    // (29), UE (0), TE (3), RE (2); 8 data bits, no parity, one stop bit
+    // (M, PCE, STOP all zero).
     let mut u = Fake::new(&[]);
-    lpuart::transmitter(u.regs::<pac::lpuart1::RegisterBlock>(), ::link::BOARD_BAUD);
+    lpuart::enable(u.regs::<pac::lpuart1::RegisterBlock>(), ::link::BOARD_BAUD);
     assert_eq!(u.at(0x0C), 2901);
-    assert_eq!(u.at(0x08), 1 << 7);
-    assert_eq!(u.at(0x00), 1 << 29 | 1 | 1 << 3);
+    assert_eq!(u.at(0x08), 1 << 6 | 1 << 7 | 1 << 12);
+    assert_eq!(u.at(0x00), 1 << 29 | 1 | 1 << 3 | 1 << 2);
     assert_eq!(u.at(0x04), 0);
-    // TDR is at 0x28.
+    // TDR is at 0x28, RDR at 0x24.
     assert_eq!(
         lpuart::tdr_address(u.regs::<pac::lpuart1::RegisterBlock>()),
         u.words.as_ptr() as u32 + 0x28
+    );
+    assert_eq!(
+        lpuart::rdr_address(u.regs::<pac::lpuart1::RegisterBlock>()),
+        u.words.as_ptr() as u32 + 0x24
     );
 }
 
 #[test]
 fn link_dma_memory_to_lpuart_once_and_its_states() {
-    // DMAMUX channel 8 serves DMA2 channel 1: LPUART1_TX is request 35.
+    // DMAMUX channels 8 and 9 serve DMA2 channels 1 and 2: LPUART1_TX is
+    // request 35, LPUART1_RX 34.
     let mut mux = Fake::new(&[]);
     link::request(mux.regs::<pac::dmamux::RegisterBlock>());
-    assert_eq!(mux.at(0x20), 35);
+    assert_eq!((mux.at(0x20), mux.at(0x24)), (35, 34));
+    // Channel 2 (CCR at 0x1C): peripheral → memory, bytes, MINC, CIRC,
+    // no interrupts, round a ring of 256.
+    let mut d = Fake::new(&[]);
+    link::receive(d.regs::<pac::dma1::RegisterBlock>(), 0x4000_8024, 0x2000_0800);
+    assert_eq!(d.at(0x1C), 1 | 1 << 5 | 1 << 7);
+    assert_eq!(
+        (d.at(0x20), d.at(0x24), d.at(0x28)),
+        (256, 0x4000_8024, 0x2000_0800)
+    );
+    // The ring read by position, across its wrap.
+    let ring: Vec<u8> = (0..=255u8).collect();
+    let mut rx = link::Receiver::new();
+    let mut got = vec![];
+    rx.take(256 - 10, |k| ring[k], |b| got.push(b));
+    assert_eq!(got, (0..10).collect::<Vec<u8>>());
+    got.clear();
+    rx.take(256, |k| ring[k], |b| got.push(b));
+    assert_eq!(got, (10..=255).collect::<Vec<u8>>(), "the DMA wrapped to 0");
+    got.clear();
+    rx.take(256 - 3, |k| ring[k], |b| got.push(b));
+    assert_eq!(got, vec![0, 1, 2]);
     let mut d = Fake::new(&[]);
     link::transfer(d.regs::<pac::dma1::RegisterBlock>(), 0x2000_0400, 0x4000_8028, 62);
     // CCR1: EN, TCIE, TEIE, memory → peripheral, MINC, bytes both sides,
