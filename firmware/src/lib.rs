@@ -10,6 +10,7 @@
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //! | `qemu_flash` | (QEMU target) the settings' flash in a host file through semihosting: settings survive a restart |
 //! | `link_out` | the record link's sending end on the board: frames into a byte queue a DMA channel drains (`bbqueue`); never waits, counts drops |
+//! | `settings_log` | (target) what a device says of its stored settings at start |
 //! | `records` | the array's record queue between acquisition and logger (`heapless`): never waits, counts drops |
 //! | `board` | (feature `board`) the STM32G474's hardware, one module per peripheral; its logging, panics and faults on the target |
 #![no_std]
@@ -31,3 +32,5 @@ pub mod qemu_flash;
 pub mod records;
 #[cfg(feature = "qemu")]
 pub mod scenario;
+#[cfg(target_os = "none")]
+pub mod settings_log;

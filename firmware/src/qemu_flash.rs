@@ -159,15 +159,7 @@ pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) -> instrumen
         defmt::println!("settings: the slots do not fit the flash");
         crate::qemu::exit(2)
     };
-    match store.load() {
-        Ok(Some(l)) => defmt::println!(
-            "settings: generation {=u32} digest {=u32:#010x}",
-            l.generation,
-            Digest::of(&l.set)
-        ),
-        Ok(None) => defmt::println!("settings: none stored"),
-        Err(e) => defmt::println!("settings: cannot be read ({})", defmt::Debug2Format(&e)),
-    }
+    crate::settings_log::announce(&store.load());
     if let Some(set) = save {
         match store.save(set) {
             Ok(g) => defmt::println!(

@@ -133,15 +133,7 @@ impl Commands {
                     Ok(Some(l)) => {
                         let mut buf = [0u8; MAX_BYTES];
                         let bytes = l.set.to_bytes(&mut buf).map_or(&[][..], |b| &*b);
-                        for (k, piece) in bytes.chunks(CHUNK).enumerate() {
-                            let mut chunk = Chunk {
-                                offset: (k * CHUNK) as u16,
-                                len: piece.len() as u8,
-                                bytes: [0; CHUNK],
-                            };
-                            chunk.bytes[..piece.len()].copy_from_slice(piece);
-                            reply(Reply::Chunk { to: seq, chunk });
-                        }
+                        pieces(bytes, |chunk| reply(Reply::Chunk { to: seq, chunk }));
                         reply(ack(l.generation));
                     }
                     Ok(None) => reply(refuse(Reason::NothingStored)),
@@ -150,6 +142,19 @@ impl Commands {
                 Action::None
             }
         }
+    }
+}
+
+/// `bytes` as the link's pieces, in order.
+pub fn pieces(bytes: &[u8], mut f: impl FnMut(Chunk)) {
+    for (k, piece) in bytes.chunks(CHUNK).enumerate() {
+        let mut chunk = Chunk {
+            offset: (k * CHUNK) as u16,
+            len: piece.len() as u8,
+            bytes: [0; CHUNK],
+        };
+        chunk.bytes[..piece.len()].copy_from_slice(piece);
+        f(chunk);
     }
 }
 
@@ -167,15 +172,7 @@ pub fn upload(set: &Stored, mut request: impl FnMut(Request)) {
     let Some(bytes) = set.to_bytes(&mut buf) else {
         return;
     };
-    for (k, piece) in bytes.chunks(CHUNK).enumerate() {
-        let mut chunk = Chunk {
-            offset: (k * CHUNK) as u16,
-            len: piece.len() as u8,
-            bytes: [0; CHUNK],
-        };
-        chunk.bytes[..piece.len()].copy_from_slice(piece);
-        request(Request::WriteChunk(chunk));
-    }
+    pieces(bytes, |chunk| request(Request::WriteChunk(chunk)));
     request(Request::Commit {
         len: bytes.len() as u16,
         crc: crc(bytes),

@@ -59,7 +59,6 @@ use instrument::array::{
 };
 use instrument::calib::{Calibrations, POINTS, REFERENCE};
 use instrument::commands::{Action, Commands};
-use instrument::digest::Digest;
 use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::store::{Store, SLOT_BYTES};
@@ -180,15 +179,7 @@ mod app {
                 cortex_m::asm::wfi();
             }
         };
-        match store.load() {
-            Ok(Some(l)) => defmt::println!(
-                "settings: generation {=u32} digest {=u32:#010x}",
-                l.generation,
-                Digest::of(&l.set)
-            ),
-            Ok(None) => defmt::println!("settings: none stored"),
-            Err(_) => defmt::println!("settings: the flash cannot be read"),
-        }
+        firmware::settings_log::announce(&store.load());
         rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each",

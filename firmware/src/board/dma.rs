@@ -19,9 +19,10 @@ pub fn requests(mux: &dmamux::RegisterBlock) {
     mux.ccr(1).write(|w| unsafe { w.dmareq_id().bits(REQ_DAC1_CH1) });
 }
 
-/// A channel's peripheral and memory addresses and its transfer count.
+/// A channel's peripheral and memory addresses and its transfer count
+/// (DMA1's here, DMA2's for the link).
 #[allow(unsafe_code)]
-fn addresses(ch: &dma1::CH, peripheral: u32, memory: u32, count: u16) {
+pub(super) fn addresses(ch: &dma1::CH, peripheral: u32, memory: u32, count: u16) {
     // SAFETY: any address is a valid value of these registers; the callers
     // give a data register and a 'static buffer.
     ch.par().write(|w| unsafe { w.pa().bits(peripheral) });

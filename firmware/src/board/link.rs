@@ -48,14 +48,10 @@ pub fn request(mux: &dmamux::RegisterBlock) {
 
 /// Channel 2: from the receive data register `from` round the ring at
 /// `to`, bytes, circular, no interrupts (the ring is read by position).
-#[allow(unsafe_code)]
 pub fn receive(dma: &dma1::RegisterBlock, from: u32, to: u32) {
     let ch = dma.ch(1);
-    // SAFETY: any address is a valid value of these registers; the caller
-    // gives LPUART1's RDR and a 'static ring of RX_BYTES.
-    ch.par().write(|w| unsafe { w.pa().bits(from) });
-    ch.mar().write(|w| unsafe { w.ma().bits(to) });
-    ch.ndtr().write(|w| w.ndt().set(RX_BYTES as u16));
+    // LPUART1's RDR, and a 'static ring of RX_BYTES.
+    super::dma::addresses(ch, from, to, RX_BYTES as u16);
     ch.cr().write(|w| {
         w.dir()
             .from_peripheral()
@@ -104,16 +100,12 @@ pub fn clocks(rcc: &pac::rcc::RegisterBlock) {
 /// Channel 1: `bytes` bytes from `from` to the data register `to`, once,
 /// with transfer-complete and transfer-error interrupts. The channel is
 /// disabled first: its count and addresses can only be written then.
-#[allow(unsafe_code)]
 pub fn transfer(dma: &dma1::RegisterBlock, from: u32, to: u32, bytes: u16) {
     let ch = dma.ch(0);
     ch.cr().write(|w| w.en().clear_bit());
-    // SAFETY: any address is a valid value of these registers; the caller
-    // gives LPUART1's TDR and bytes that stay put until the transfer
-    // completes (the queue's, not yet released).
-    ch.par().write(|w| unsafe { w.pa().bits(to) });
-    ch.mar().write(|w| unsafe { w.ma().bits(from) });
-    ch.ndtr().write(|w| w.ndt().set(bytes));
+    // LPUART1's TDR, and bytes that stay put until the transfer completes
+    // (the queue's, not yet released).
+    super::dma::addresses(ch, to, from, bytes);
     ch.cr().write(|w| {
         w.dir()
             .from_memory()

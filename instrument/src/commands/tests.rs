@@ -144,15 +144,7 @@ fn each_refusal_keeps_the_set_in_force() {
     // Bytes that are not a set, with a matching length and CRC.
     let junk = [0x55u8; 40];
     let mut reqs = vec![];
-    for (k, piece) in junk.chunks(CHUNK).enumerate() {
-        let mut chunk = Chunk {
-            offset: (k * CHUNK) as u16,
-            len: piece.len() as u8,
-            bytes: [0; CHUNK],
-        };
-        chunk.bytes[..piece.len()].copy_from_slice(piece);
-        reqs.push(Request::WriteChunk(chunk));
-    }
+    pieces(&junk, |c| reqs.push(Request::WriteChunk(c)));
     reqs.push(Request::Commit {
         len: 40,
         crc: crc(&junk),
