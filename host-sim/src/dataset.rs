@@ -208,8 +208,32 @@ fn read_bytes(path: &Path) -> Result<Vec<u8>> {
             meta.len()
         );
     }
-    std::fs::read(path).with_context(|| format!("{name}: cannot read"))
+    // At most the size the file reports: a file of the kernel's (/proc)
+    // reports 0 and would otherwise be read without end, or block.
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    std::fs::File::open(path)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, meta.len()), &mut bytes))
+        .with_context(|| format!("{name}: cannot read"))?;
+    Ok(bytes)
 }
+
+/// The most a data set's files may hold together, bytes.
+pub const MAX_DATASET_BYTES: u64 = 1 << 30;
+
+/// The physical bounds of each of [`COLUMNS`]: no sensor, rig or
+/// instrument gives a value outside them (a value outside is a unit
+/// error or a corrupted file), with its unit for the message.
+const BOUNDS: [(f64, f64, &str); 9] = [
+    (-1e7, 1e7, "s"),
+    (-1e4, 1e4, "mm"),
+    (1e-3, 1e9, "Hz"),
+    (1e-3, 1e9, "pF"),
+    (0.0, 1e12, "Ω"),
+    (0.0, 1e12, "Ω"),
+    (0.0, 1e12, "Ω"),
+    (0.0, 1e12, "Ω"),
+    (0.0, 1e9, "pF"),
+];
 
 /// `bytes` as text, or the line and column of the first byte that is not
 /// UTF-8.
@@ -387,6 +411,13 @@ impl Header {
                     i + 1
                 );
             }
+            let (lo, hi, unit) = BOUNDS[k];
+            if !(lo..=hi).contains(&v) && !(v == 0.0 && !positive) {
+                bail!(
+                    "{name}:{line}:{}: column '{col}': {v:e} is outside {lo:e} … {hi:e} {unit} (no sensor or instrument gives it: a unit error, or a corrupted file?)",
+                    i + 1
+                );
+            }
             values[k] = v;
         }
         Ok(Row { values, line })
@@ -457,22 +488,57 @@ pub fn read_dir(dir: &Path) -> Result<DataSet> {
     if !cal.exists() {
         bail!("{}: missing calibration.csv", dir.display());
     }
-    let calibration = read_table(&cal, Kind::Calibration)?;
     let sweep_path = dir.join("sweep.csv");
-    let sweep = if sweep_path.is_file() {
-        Some(read_table(&sweep_path, Kind::Sweep)?)
-    } else {
-        None
-    };
-    let mut names: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("{}: cannot list", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            let n = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-            n.starts_with("trace_") && n.ends_with(".csv")
-        })
-        .collect();
+    // There (as anything: a FIFO or a device is refused by the reader),
+    // or not there at all.
+    let has_sweep = sweep_path.symlink_metadata().is_ok();
+    let mut names: Vec<PathBuf> = vec![];
+    for entry in std::fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))? {
+        let path = entry
+            .with_context(|| format!("{}: cannot list", dir.display()))?
+            .path();
+        let Some(n) = path.file_name().and_then(|n| n.to_str()) else {
+            let shown = path
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned();
+            if shown.to_lowercase().starts_with("trace_") {
+                bail!("{}: '{shown}': a trace's name must be UTF-8 text", dir.display());
+            }
+            continue;
+        };
+        let lower = n.to_lowercase();
+        if lower.starts_with("trace_") && lower.ends_with(".csv") {
+            if !(n.starts_with("trace_") && n.ends_with(".csv")) {
+                bail!(
+                    "{}: '{n}': a trace is named trace_*.csv, in lower case (rename it, or it would be left out)",
+                    dir.display()
+                );
+            }
+            names.push(path);
+        }
+    }
     names.sort();
+    // Every file's size before any is read: a data set's files together
+    // hold at most MAX_DATASET_BYTES.
+    let total: u64 = names
+        .iter()
+        .chain([&cal, &sweep_path])
+        .filter_map(|p| p.metadata().ok())
+        .map(|m| m.len())
+        .sum();
+    if total > MAX_DATASET_BYTES {
+        bail!(
+            "{}: its files hold {total} bytes together, more than the {MAX_DATASET_BYTES} a data set may have",
+            dir.display()
+        );
+    }
+    let calibration = read_table(&cal, Kind::Calibration)?;
+    let sweep = match has_sweep {
+        true => Some(read_table(&sweep_path, Kind::Sweep)?),
+        false => None,
+    };
     let traces = names
         .iter()
         .map(|p| read_table(p, Kind::Trace))

@@ -161,3 +161,116 @@ fn rejections_name_file_line_column_and_reason() {
         .to_string()
         .contains("nope.csv: cannot open"));
 }
+
+/// A minimal data set in `d`: a calibration and one trace.
+fn minimal(d: &Path) {
+    write(
+        d,
+        "calibration.csv",
+        "stretch_mm,freq_hz,cs_pf,r_top_ohm,r_bottom_ohm\n0,1000,200,3e5,3e5\n10,1000,220,3.3e5,3.3e5\n20,1000,240,3.6e5,3.6e5\n",
+    );
+    write(
+        d,
+        "trace_a.csv",
+        "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf\n0,0,3e5,3e5,1000,200\n0.1,1,3e5,3e5,1000,202\n",
+    );
+}
+
+#[test]
+fn values_no_sensor_gives_are_refused_with_their_place() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let head = "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf\n";
+    for (k, (row, col, what)) in [
+        ("0,0,1,1,500,1e308", ":2:6:", "cs_pf"),
+        ("0,0,1,1,500,1e-320", ":2:6:", "cs_pf"),
+        ("1e300,0,1,1,500,200", ":2:1:", "time_s"),
+        ("0,0,1e15,1,500,200", ":2:3:", "r_top_ohm"),
+        ("0,0,1,1,1e30,200", ":2:5:", "freq_hz"),
+        ("0,-2e4,1,1,500,200", ":2:2:", "stretch_mm"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let p = write(d, &format!("trace_{k}.csv"), &format!("{head}{row}\n"));
+        let err = read_table(&p, Kind::Trace).unwrap_err().to_string();
+        assert!(
+            err.contains(col) && err.contains(what) && err.contains("is outside"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn a_data_set_folder_hides_nothing_and_reads_no_device() {
+    // A sweep.csv that is not a regular file is an error, not "no sweep".
+    for kind in ["dir", "fifo", "device"] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        minimal(d);
+        let sweep = d.join("sweep.csv");
+        match kind {
+            "dir" => std::fs::create_dir(&sweep).unwrap(),
+            "fifo" => assert!(std::process::Command::new("mkfifo")
+                .arg(&sweep)
+                .status()
+                .unwrap()
+                .success()),
+            _ => std::os::unix::fs::symlink("/dev/zero", &sweep).unwrap(),
+        }
+        let err = read_dir(d).unwrap_err().to_string();
+        assert!(
+            err.contains("sweep.csv") && err.contains("not a regular file"),
+            "{kind}: {err}"
+        );
+    }
+    // A trace named in upper case is not left out without a word.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    minimal(d);
+    write(
+        d,
+        "trace_b.CSV",
+        "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf\n0,0,1,1,500,200\n",
+    );
+    let err = read_dir(d).unwrap_err().to_string();
+    assert!(
+        err.contains("'trace_b.CSV'") && err.contains("lower case"),
+        "{err}"
+    );
+    // Nor one whose name is not UTF-8.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    minimal(d);
+    use std::os::unix::ffi::OsStrExt;
+    let odd = d.join(std::ffi::OsStr::from_bytes(b"trace_\xff.csv"));
+    std::fs::write(odd, "x").unwrap();
+    let err = read_dir(d).unwrap_err().to_string();
+    assert!(err.contains("must be UTF-8"), "{err}");
+    // A file of the kernel's (size 0, endless or blocking to read) is read
+    // by its size: nothing, and an error, at once.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    minimal(d);
+    std::os::unix::fs::symlink("/proc/self/pagemap", d.join("trace_b.csv")).unwrap();
+    let err = read_dir(d).unwrap_err().to_string();
+    assert!(err.contains("trace_b.csv"), "{err}");
+    // The files of a data set together: at most 1 GiB, checked before any
+    // is read (sparse files: nothing is written to disk).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    minimal(d);
+    for k in 0..5 {
+        let f = std::fs::File::create(d.join(format!("trace_big{k}.csv"))).unwrap();
+        f.set_len(250 << 20).unwrap();
+    }
+    let err = read_dir(d).unwrap_err().to_string();
+    assert!(
+        err.contains("more than the 1073741824 a data set may have"),
+        "{err}"
+    );
+    // And the minimal set itself reads.
+    let dir = tempfile::tempdir().unwrap();
+    minimal(dir.path());
+    assert_eq!(read_dir(dir.path()).unwrap().traces.len(), 1);
+}
