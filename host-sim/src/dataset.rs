@@ -412,7 +412,7 @@ impl Header {
                 );
             }
             let (lo, hi, unit) = BOUNDS[k];
-            if !(lo..=hi).contains(&v) && !(v == 0.0 && !positive) {
+            if !(lo..=hi).contains(&v) {
                 bail!(
                     "{name}:{line}:{}: column '{col}': {v:e} is outside {lo:e} … {hi:e} {unit} (no sensor or instrument gives it: a unit error, or a corrupted file?)",
                     i + 1
