@@ -349,9 +349,6 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     println!("bench twotone_tracked_worst {} insn/record", tracked_worst);
 }
 
-/// One whole firmware block: demodulate 1024 pairs, then fault checks, line
-/// tracking, policy and calibration (`Channel::process`); and the rebuild of
-/// the demodulation reference after a frequency change.
 /// The record link: a record converted and encoded into its frame
 /// (postcard, CRC-32, COBS), and the frame's length on the wire.
 fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
@@ -379,6 +376,9 @@ fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     println!("bench link_record_bytes {} bytes/record", len);
 }
 
+/// One whole firmware block: demodulate 1024 pairs, then fault checks, line
+/// tracking, policy and calibration (`Channel::process`); and the rebuild of
+/// the demodulation reference after a frequency change.
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};
