@@ -3,9 +3,11 @@
 //! block of the five ADCs' scans, as the board's DMA would.
 
 use dsp_core::fixture::Fixture;
+use dsp_core::tline::ModelError;
 use instrument::array::{tones_hz, Frame, SENSORS, TONES};
-use instrument::calib::{Calibrations, POINTS};
+use instrument::calib::POINTS;
 use instrument::effects::Effect;
+use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::wire;
 use skin_sim::array::{ArrayFrontEnd, INPUTS};
 use skin_sim::frontend::Disturbance;
@@ -86,20 +88,16 @@ impl ArrayScenario {
         }
     }
 
-    /// The firmware's calibration of the skin: the paper's table for
-    /// every sensor.
-    pub fn calibrations(&self) -> Calibrations<'static, POINTS, SENSORS> {
-        Calibrations::new(&PAPER_CALIBRATION)
-    }
-
-    /// The tab-lead ratio installed: the paper's.
-    pub fn lead_ratio(&self) -> f32 {
-        SensorParams::PAPER.effects.lead_ratio()
-    }
-
-    /// No wiring is declared.
-    pub fn fixture(&self) -> Fixture {
-        Fixture::NONE
+    /// The firmware's description of the skin (the test rig knows its
+    /// simulated sensors, as a calibration run would): every sensor on
+    /// the paper's table with the paper's tab leads, no wiring declared.
+    /// Written into `sensors` in place.
+    pub fn describe(&self, sensors: &mut Sensors<POINTS, SENSORS>) -> Result<(), ModelError> {
+        let lead = SensorParams::PAPER.effects.lead_ratio();
+        for s in 0..SENSORS {
+            *sensors.of_mut(s as u8) = Measured::calibrated(PAPER_CALIBRATION, lead, Fixture::NONE)?;
+        }
+        Ok(())
     }
 }
 

@@ -7,7 +7,9 @@
 
 use core::ffi::CStr;
 use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
-use instrument::store::REGION_BYTES;
+use instrument::digest::Digest;
+use instrument::store::{Store, StoreError, REGION_BYTES, SLOT_BYTES};
+use instrument::stored::Stored;
 use semihosting::fs::{File, OpenOptions};
 use semihosting::io::{Read, Seek, SeekFrom, Write};
 
@@ -142,12 +144,12 @@ impl NorFlash for FileFlash {
 
 /// The stored settings at start, in the flash file at `path`: say what is
 /// stored (`settings: none stored`, or its generation and digest); with
-/// `save`, store `save` as the new set and say so; the store, for the
-/// requests that come down the link. A file that cannot be opened or a
-/// set refused ends the run with exit code 2, as a bad command line does.
-pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) -> instrument::store::Store<FileFlash> {
-    use instrument::digest::Digest;
-    use instrument::store::{Store, StoreError, SLOT_BYTES};
+/// `save`, store `save` as the new set and say so. Returns the store, for
+/// the requests that come down the link, and the set it now holds (None:
+/// nothing stored, or the flash unreadable). A file that cannot be opened
+/// or a set refused ends the run with exit code 2, as a bad command line
+/// does.
+pub fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>) {
     let flash = FileFlash::open(path).unwrap_or_else(|e| {
         defmt::println!(
             "settings: the flash file cannot be used ({})",
@@ -159,14 +161,19 @@ pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) -> instrumen
         defmt::println!("settings: the slots do not fit the flash");
         crate::qemu::exit(2)
     };
-    crate::settings_log::announce(&store.load());
-    if let Some(set) = save {
-        match store.save(set) {
-            Ok(g) => defmt::println!(
-                "settings saved: generation {=u32} digest {=u32:#010x}",
-                g,
-                Digest::of(set)
-            ),
+    let loaded = store.load();
+    crate::settings_log::announce(&loaded);
+    let mut set = loaded.ok().flatten().map(|l| l.set);
+    if let Some(new) = save {
+        match store.save(new) {
+            Ok(g) => {
+                defmt::println!(
+                    "settings saved: generation {=u32} digest {=u32:#010x}",
+                    g,
+                    Digest::of(new)
+                );
+                set = Some(*new);
+            }
             Err(StoreError::Refused(r)) => {
                 defmt::println!("settings refused: {}", defmt::Display2Format(&r));
                 crate::qemu::exit(2)
@@ -174,5 +181,5 @@ pub fn keep(path: &CStr, save: Option<&instrument::stored::Stored>) -> instrumen
             Err(e) => defmt::println!("settings not saved ({})", defmt::Debug2Format(&e)),
         }
     }
-    store
+    (store, set)
 }

@@ -7,14 +7,16 @@
 //! C and R.
 
 use crate::numerics::series_cs;
+use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
 use dsp_core::Oscillator;
 use instrument::calib;
-use instrument::channel::{self, Channel, Settings};
+use instrument::channel::{Channel, Settings};
 use instrument::config::{self, PERIODS};
 use instrument::effects::{Effect, EffectSet};
+use instrument::sensor::{Sensor as Measured, Sensors};
 use num_complex::Complex64;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
@@ -160,11 +162,10 @@ fn run_adc(
     let f = config::freq_hz(index) as f64;
     let osc = Oscillator::from_ftw(config::ftw(index));
     let ranging = fe.ranging();
-    let settings = Settings {
-        tracker: channel::tracker_with_leads(setup.lead_ratio)
-            .expect("a calibration's lead ratio is in range"),
-        ..Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &calib::REFERENCE)
-    };
+    let sensor_model = Measured::calibrated(calib::REFERENCE, setup.lead_ratio, Fixture::NONE)
+        .expect("a calibration's lead ratio is in range");
+    let sensors = Sensors::<{ calib::POINTS }, 1>::all(sensor_model);
+    let settings = Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &sensors);
     let mut ch = Channel::pinned(setup.prior_farad as f32, index);
     let slot = (config::BLOCK_PAIRS + config::SETTLE_PAIRS) as f64 / fs;
     let settle = config::SETTLE_PAIRS as f64 / fs;

@@ -10,6 +10,7 @@
 //! of at most [`MAX_FILE_BYTES`], and never drops rows.
 
 use anyhow::{bail, Context, Result};
+use instrument::faults::Flags;
 use std::path::{Path, PathBuf};
 
 /// Which file of a data set.
@@ -171,7 +172,8 @@ pub struct Table {
     pub resistance: Resistance,
     /// Every data row the instrument vouched for, in file order.
     pub rows: Vec<Row>,
-    /// Rows the instrument flagged (a `flags` column other than 0): read
+    /// Rows the instrument flagged (a `flags` column with a fault bit;
+    /// [`Flags::UNCALIBRATED`] is a status, not a fault): read
     /// and checked like the others, then left out of [`Table::rows`], so
     /// that no analysis fits a reading the instrument did not stand by;
     /// the analyses say how many.
@@ -285,7 +287,7 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
         let line = physical(rec.position().map_or(0, |p| p.line()));
         let row = header.row(&name, &rec, line)?;
         header.check_order(&name, &row, &rows, kind)?;
-        if header.flags(&name, &rec, line)? != 0 {
+        if !Flags(header.flags(&name, &rec, line)?).valid() {
             flagged += 1;
         } else {
             rows.push(row);
@@ -397,9 +399,10 @@ impl Header {
             // An instrument's own r_line_ohm is modelled only where no
             // four-terminal resistances are given, and is 0 in a record the
             // instrument flagged (no line estimate).
-            let flagged = self
-                .flags_at
-                .is_some_and(|i| rec.get(i).is_some_and(|f| f.trim() != "0"));
+            let flagged = self.flags_at.is_some_and(|i| {
+                rec.get(i)
+                    .is_some_and(|f| f.trim().parse::<u16>().map_or(true, |f| !Flags(f).valid()))
+            });
             let positive = match *col {
                 "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "cs_sigma_pf" => true,
                 "r_line_ohm" => self.resistance == Resistance::InstrumentLine && !flagged,

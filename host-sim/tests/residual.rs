@@ -90,7 +90,8 @@ fn the_docs_show_the_example_data_sets_verdicts() {
 
 /// Rows the instrument flagged are left out of the analyses, and said so:
 /// a trace whose disturbed rows read 5 pF off keeps the residual of its
-/// clean rows; a flags field that is not a number is refused by place.
+/// clean rows, and rows whose only flag is the status UNCALIBRATED are
+/// kept; a flags field that is not a number is refused by place.
 #[test]
 fn flagged_rows_are_left_out_and_counted() {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/example");
@@ -122,7 +123,14 @@ fn flagged_rows_are_left_out_and_counted() {
             let cs: f64 = f[cs_col].parse().unwrap();
             f[cs_col] = format!("{:.3}", cs + 5.0);
         }
-        out += &format!("{},{}\n", f.join(","), if disturbed { 64 } else { 0 });
+        // DISTURBED (64) is a fault; UNCALIBRATED (512) a status the
+        // rows keep.
+        let flags = match (disturbed, k % 2) {
+            (true, _) => 64 | 512,
+            (false, 1) => 512,
+            _ => 0,
+        };
+        out += &format!("{},{flags}\n", f.join(","));
     }
     std::fs::write(tmp.path().join(name), &out).unwrap();
     let ds = read_dir(tmp.path()).unwrap();
@@ -147,7 +155,7 @@ fn flagged_rows_are_left_out_and_counted() {
         "{said}"
     );
     // A flags field that is not the instrument's flags.
-    std::fs::write(tmp.path().join(name), out.replacen(",64\n", ",x\n", 1)).unwrap();
+    std::fs::write(tmp.path().join(name), out.replacen(",576\n", ",x\n", 1)).unwrap();
     let e = read_dir(tmp.path()).unwrap_err().to_string();
     assert!(
         e.contains(name) && e.contains("column 'flags'") && e.contains("'x'"),

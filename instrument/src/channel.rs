@@ -1,22 +1,21 @@
 //! One sensor channel: from the demodulated phasors of a block to a
 //! record, with fault checks, line tracking and the frequency policy.
 
-use crate::calib::CalTable;
 use crate::config::freq_hz;
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
+use crate::sensor::Sensors;
 use crate::sequencer::Plan;
 use dsp_core::demod::{FrontEnd, Phasors};
-use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
 
-/// What every channel shares.
+/// What every channel shares, and each channel's sensor.
 #[derive(Clone, Copy, Debug)]
-pub struct Settings<'a, const N: usize> {
+pub struct Settings<'a, const N: usize, const S: usize> {
     /// Frequency policy.
     pub policy: Policy,
     /// Fault thresholds.
@@ -25,29 +24,21 @@ pub struct Settings<'a, const N: usize> {
     pub front_ends: [FrontEnd; RANGES],
     /// Auto-ranging of the transimpedance stage.
     pub ranging: Ranging,
-    /// Stretch calibration.
-    pub calibration: &'a CalTable<N>,
-    /// Line tracking (the inverter's grid, shared by all channels).
-    pub tracker: Tracker,
-    /// Wiring de-embedded before the line inversion (contacts, parasitic
-    /// capacitance), as `host-sim identify` found it.
-    pub fixture: Fixture,
+    /// Each channel's sensor: its line, its wiring, its stretch table.
+    pub sensors: &'a Sensors<N, S>,
 }
 
-impl<'a, const N: usize> Settings<'a, N> {
+impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
     /// The settings every multiplexed application starts from: the
-    /// default policy and thresholds, the continuous line without leads,
-    /// no wiring to de-embed; the front end's ranges and the stretch
-    /// calibration are the application's.
-    pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging, calibration: &'a CalTable<N>) -> Self {
+    /// default policy and thresholds; the front end's ranges and the
+    /// sensors are the application's.
+    pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging, sensors: &'a Sensors<N, S>) -> Self {
         Self {
             policy: Policy::DEFAULT,
             thresholds: Thresholds::DEFAULT,
             front_ends,
             ranging,
-            calibration,
-            tracker: tracker(),
-            fixture: Fixture::NONE,
+            sensors,
         }
     }
 }
@@ -148,9 +139,9 @@ impl Channel {
     /// Turn the phasors of the block just measured at the current frequency
     /// through transimpedance range `range` into a record, and update the
     /// policy and the range.
-    pub fn process<const N: usize>(
+    pub fn process<const N: usize, const S: usize>(
         &mut self,
-        s: &Settings<N>,
+        s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
         ph: &Phasors,
@@ -164,9 +155,9 @@ impl Channel {
         rec
     }
 
-    fn measure<const N: usize>(
+    fn measure<const N: usize, const S: usize>(
         &mut self,
-        s: &Settings<N>,
+        s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
         ph: &Phasors,
@@ -186,6 +177,10 @@ impl Channel {
             freq_hz: f,
             ..Record::default()
         };
+        let sensor = s.sensors.of(channel);
+        if !sensor.calibrated {
+            rec.flags.set(Flags::UNCALIBRATED);
+        }
         if self.policy.settling > 0 {
             self.policy.settling -= 1;
             rec.flags.set(Flags::SETTLING);
@@ -223,15 +218,15 @@ impl Channel {
         }
         // The lumped reading stays what the meter saw; the line is what is
         // left behind the wiring.
-        let Ok(z) = s.fixture.remove(z, f) else {
+        let Ok(z) = sensor.fixture.remove(z, f) else {
             rec.flags.set(Flags::OPEN);
             return rec;
         };
-        match s.tracker.update(&mut self.track, z, f) {
+        match sensor.tracker.update(&mut self.track, z, f) {
             Ok(t) => {
                 rec.c_farad = t.line.c_farad;
                 rec.r_ohm = t.line.r_ohm;
-                rec.stretch_mm = s.calibration.stretch(t.line.c_farad);
+                rec.stretch_mm = sensor.stretch(t.line.c_farad).unwrap_or(0.0);
                 if t.held {
                     rec.flags.set(Flags::HELD);
                 } else {

@@ -8,11 +8,12 @@
 //! A derived table (the inverter's grid) is not digested: what it is
 //! derived from is (the line model, its bound, the leads).
 
-use crate::calib::{CalTable, Calibrations};
+use crate::calib::CalTable;
 use crate::channel::Settings;
 use crate::faults::Thresholds;
 use crate::policy::Policy;
 use crate::ranging::Ranging;
+use crate::sensor::{Calibration, Sensor, Sensors};
 use crate::stored::{PolicySettings, SensorSettings, Stored};
 use crate::tones::ToneSettings;
 use dsp_core::demod::FrontEnd;
@@ -165,7 +166,8 @@ impl Digestible for Policy {
             self.hysteresis,
             self.decay_per_s,
             self.hold_s,
-            self.settle_blocks
+            self.settle_blocks,
+            self.tones
         );
     }
 }
@@ -198,16 +200,41 @@ impl<const N: usize> Digestible for CalTable<N> {
     }
 }
 
-/// Every sensor's table, each after its sensor number.
-impl<const N: usize, const S: usize> Digestible for Calibrations<'_, N, S> {
+/// A sensor: how it is read, then its calibration.
+impl<const N: usize> Digestible for Sensor<N> {
     fn feed(&self, d: &mut Digest) {
-        for s in 0..S {
-            fields!(d, s as u8, self.of(s as u8));
+        fields!(
+            d,
+            self.in_use,
+            self.tracker,
+            self.fixture,
+            self.rest_farad,
+            self.calibrated,
+            self.table,
+        );
+    }
+}
+
+/// Every entry, in order.
+impl<const N: usize, const S: usize> Digestible for Sensors<N, S> {
+    fn feed(&self, d: &mut Digest) {
+        for s in self.iter() {
+            s.feed(d);
         }
     }
 }
 
-impl<const N: usize> Digestible for Settings<'_, N> {
+/// Every entry's calibration (whether it has one, and its table), each
+/// after its entry number.
+impl<const N: usize, const S: usize> Digestible for Calibration<'_, N, S> {
+    fn feed(&self, d: &mut Digest) {
+        for (k, s) in self.0.iter().enumerate() {
+            fields!(d, k as u8, s.calibrated, s.table);
+        }
+    }
+}
+
+impl<const N: usize, const S: usize> Digestible for Settings<'_, N, S> {
     fn feed(&self, d: &mut Digest) {
         fields!(
             d,
@@ -215,9 +242,7 @@ impl<const N: usize> Digestible for Settings<'_, N> {
             self.thresholds,
             self.front_ends,
             self.ranging,
-            self.calibration,
-            self.tracker,
-            self.fixture,
+            self.sensors,
         );
     }
 }
@@ -229,9 +254,7 @@ impl<const N: usize> Digestible for ToneSettings<'_, N> {
             self.policy,
             self.thresholds,
             self.front_end,
-            self.inverter,
-            self.calibration,
-            self.fixture,
+            self.sensors,
             self.chi2_flag,
         );
     }
@@ -279,12 +302,23 @@ mod tests {
     use super::*;
     use crate::calib::{POINTS, REFERENCE};
 
-    fn settings(cal: &CalTable<POINTS>) -> Settings<'_, POINTS> {
+    fn sensors(cal: &CalTable<POINTS>) -> Sensors<POINTS, 8> {
+        Sensors::all(Sensor::calibrated(*cal, 0.0, Fixture::NONE).unwrap())
+    }
+
+    fn settings(sensors: &Sensors<POINTS, 8>) -> Settings<'_, POINTS, 8> {
         Settings::new(
             [FrontEnd::transimpedance(1e5, true); crate::design::RANGES],
             Ranging::DEFAULT,
-            cal,
+            sensors,
         )
+    }
+
+    /// The digest of the settings on `sensors` changed by `f`.
+    fn with(sensors: &Sensors<POINTS, 8>, f: impl FnOnce(&mut Settings<'_, POINTS, 8>)) -> u32 {
+        let mut s = settings(sensors);
+        f(&mut s);
+        Digest::of(&s)
     }
 
     #[test]
@@ -297,49 +331,56 @@ mod tests {
 
     #[test]
     fn every_setting_and_every_calibration_point_changes_the_digest() {
-        let base = Digest::of(&settings(&REFERENCE));
-        assert_eq!(base, Digest::of(&settings(&REFERENCE)), "deterministic");
-        let mut changed = std::vec::Vec::new();
-        let mut s = settings(&REFERENCE);
-        s.policy.x_limit *= 1.0 + f32::EPSILON;
-        changed.push(Digest::of(&s));
-        let mut s = settings(&REFERENCE);
-        s.thresholds.noise_counts += 1.0;
-        changed.push(Digest::of(&s));
-        let mut s = settings(&REFERENCE);
-        s.fixture.series_ohm = 1.0;
-        changed.push(Digest::of(&s));
-        let mut s = settings(&REFERENCE);
-        s.tracker = s.tracker.with_band(0.8, 1.5);
-        changed.push(Digest::of(&s));
-        let mut s = settings(&REFERENCE);
-        s.ranging.ranges_ohm[3] *= 2.0;
-        changed.push(Digest::of(&s));
+        let reference = sensors(&REFERENCE);
+        let base = Digest::of(&settings(&reference));
+        assert_eq!(base, Digest::of(&settings(&reference)), "deterministic");
+        let mut changed = std::vec![
+            with(&reference, |s| s.policy.x_limit *= 1.0 + f32::EPSILON),
+            with(&reference, |s| s.policy.tones.1 = 3),
+            with(&reference, |s| s.thresholds.noise_counts += 1.0),
+            with(&reference, |s| s.ranging.ranges_ohm[3] *= 2.0),
+        ];
+        let sensor_changes: [fn(&mut Sensors<POINTS, 8>); 5] = [
+            |x| x.of_mut(2).fixture.series_ohm = 1.0,
+            |x| x.of_mut(0).tracker = x.of(0).tracker.with_band(0.8, 1.5),
+            |x| x.of_mut(7).tracker = crate::channel::tracker_with_leads(0.5).unwrap(),
+            |x| x.of_mut(7).in_use = false,
+            |x| x.of_mut(1).calibrated = false,
+        ];
+        for f in sensor_changes {
+            let mut x = reference;
+            f(&mut x);
+            changed.push(Digest::of(&settings(&x)));
+        }
+        let mut x = reference;
+        x.of_mut(1).calibrated = false;
+        changed.push(Digest::of(&x.calibration()));
+        let base_cal = Digest::of(&reference.calibration());
         for k in 0..POINTS {
             let mut cal = REFERENCE;
             cal.points[k].1 += 0.01;
-            changed.push(Digest::of(&settings(&cal)));
-            changed.push(Digest::of(&cal));
+            let x = sensors(&cal);
+            changed.push(Digest::of(&settings(&x)));
+            let c = Digest::of(&x.calibration());
+            assert_ne!(c, base_cal);
+            changed.push(c);
         }
         assert!(changed.iter().all(|&c| c != base));
         changed.sort_unstable();
         changed.dedup();
-        assert_eq!(changed.len(), 5 + 2 * POINTS, "all different");
+        assert_eq!(changed.len(), 10 + 2 * POINTS, "all different");
     }
 
     #[test]
-    fn a_sensor_with_its_own_table_changes_the_calibrations_digest() {
-        let mut cals: Calibrations<'_, POINTS, 16> = Calibrations::new(&REFERENCE);
-        let base = Digest::of(&cals);
-        let mut own = REFERENCE;
-        own.points[0].0 *= 1.01;
-        assert!(cals.insert(5, own).is_ok());
-        let five = Digest::of(&cals);
-        let mut other: Calibrations<'_, POINTS, 16> = Calibrations::new(&REFERENCE);
-        assert!(other.insert(6, own).is_ok());
-        assert!(
-            base != five && five != Digest::of(&other),
-            "which sensor matters too"
-        );
+    fn which_sensor_holds_a_table_changes_the_calibration_digest() {
+        let plain = Sensors::<POINTS, 16>::all(Sensor::uncalibrated(200e-12));
+        let base = Digest::of(&plain.calibration());
+        let own = Sensor::calibrated(REFERENCE, 0.0, Fixture::NONE).unwrap();
+        let mut five = plain;
+        *five.of_mut(5) = own;
+        let mut six = plain;
+        *six.of_mut(6) = own;
+        let (d5, d6) = (Digest::of(&five.calibration()), Digest::of(&six.calibration()));
+        assert!(base != d5 && d5 != d6, "which sensor matters too");
     }
 }

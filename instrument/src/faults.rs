@@ -36,6 +36,10 @@ impl Flags {
     /// [`dsp_core::twotone::Solution`] above its flag): a contact, a
     /// parasitic, a disturbance the line does not have.
     pub const MODEL: u16 = 1 << 8;
+    /// Status, not a fault: the sensor has no stretch calibration of its
+    /// own, so the record's stretch is not a measurement (it reads 0).
+    /// C and R are the line's, and valid as the other bits say.
+    pub const UNCALIBRATED: u16 = 1 << 9;
 
     /// Is `bit` set?
     pub fn has(self, bit: u16) -> bool {

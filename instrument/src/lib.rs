@@ -12,6 +12,7 @@
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
+//! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
 //! | [`channel`] | one sensor channel: demodulated block → record |
 //! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop; each acknowledged or refused |
 //! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
@@ -49,6 +50,7 @@ pub mod mux;
 pub mod policy;
 pub mod ranging;
 pub mod reader;
+pub mod sensor;
 pub mod sequencer;
 pub mod store;
 pub mod stored;

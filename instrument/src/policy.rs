@@ -38,6 +38,9 @@ pub struct Policy {
     pub hold_s: f32,
     /// Blocks discarded after a switch.
     pub settle_blocks: u8,
+    /// The lowest and the highest index of the frequency set the policy
+    /// may choose (the highest beyond the set means its last).
+    pub tones: (u8, u8),
 }
 
 impl Policy {
@@ -50,6 +53,7 @@ impl Policy {
         decay_per_s: 0.5,
         hold_s: 0.5,
         settle_blocks: 1,
+        tones: (0, u8::MAX),
     };
 }
 
@@ -111,14 +115,13 @@ impl Policy {
         st.since_switch_s = (st.since_switch_s + dt_s).min(f32::MAX);
         let decayed = st.r_peak * (1.0 - self.decay_per_s * dt_s).max(0.0);
         st.r_peak = decayed.max(r_ohm);
-        let mut target = st.index.min(set_hz.len().saturating_sub(1));
-        while target > 0 && x(target, st.r_peak) > self.x_limit {
+        let (lo, hi) = self.limits(set_hz.len());
+        let mut target = st.index.clamp(lo, hi);
+        while target > lo && x(target, st.r_peak) > self.x_limit {
             target -= 1;
         }
         if target == st.index && st.since_switch_s >= self.hold_s {
-            while target + 1 < set_hz.len()
-                && x(target + 1, st.r_peak) <= self.x_limit * (1.0 - self.hysteresis)
-            {
+            while target < hi && x(target + 1, st.r_peak) <= self.x_limit * (1.0 - self.hysteresis) {
                 target += 1;
             }
         }
@@ -132,15 +135,58 @@ impl Policy {
         }
     }
 
+    /// The indices of a set of `len` frequencies the policy may use,
+    /// lowest first (`tones` within the set).
+    pub fn limits(&self, len: usize) -> (usize, usize) {
+        let last = len.saturating_sub(1);
+        let hi = usize::from(self.tones.1).min(last);
+        (usize::from(self.tones.0).min(hi), hi)
+    }
+
     /// The frequency to use after a fault that left no measurement: the
-    /// lowest, which tolerates the most resistance.
+    /// lowest allowed, which tolerates the most resistance.
     pub fn fallback(&self, st: &mut PolicyState) -> bool {
-        let changed = st.index != 0;
+        let lo = self.limits(PERIODS.len()).0;
+        let changed = st.index != lo;
         if changed {
-            st.index = 0;
+            st.index = lo;
             st.since_switch_s = 0.0;
             st.settling = self.settle_blocks;
         }
         changed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_policy_stays_within_its_tones() {
+        let p = Policy {
+            tones: (1, 3),
+            hold_s: 0.0,
+            ..Policy::DEFAULT
+        };
+        let mut st = PolicyState::new();
+        // A tiny line: every tone is allowed. From the start (index 0) the
+        // policy steps into its limits, then climbs to 3, not 4.
+        p.update(&mut st, 1e3, 1e-12, 0.01);
+        assert_eq!(st.index, 1);
+        p.update(&mut st, 1e3, 1e-12, 0.01);
+        assert_eq!(st.index, 3);
+        // A huge line: down to 1, not 0.
+        p.update(&mut st, 1e9, 1e-9, 0.01);
+        assert_eq!(st.index, 1);
+        st.index = 4;
+        p.fallback(&mut st);
+        assert_eq!(st.index, 1);
+        // Limits beyond the set end at its last entry.
+        let wide = Policy {
+            tones: (9, 200),
+            ..Policy::DEFAULT
+        };
+        assert_eq!(wide.limits(PERIODS.len()), (4, 4));
+        assert_eq!(Policy::DEFAULT.limits(PERIODS.len()), (0, 4));
     }
 }

@@ -12,7 +12,7 @@
 use crate::array::{
     adc_position, input_of, skew_rotation, Rows, BLOCK_INSTANTS, COMB, SENSORS, TONES, VOLTAGE_INPUT,
 };
-use crate::calib::Calibrations;
+use crate::sensor::Sensors;
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
 use dsp_core::Complex32;
@@ -37,12 +37,11 @@ pub struct ArrayReader {
 }
 
 impl ArrayReader {
-    /// Sixteen channels, each resting at its calibration's rest
-    /// capacitance.
-    pub fn new<const N: usize>(calibration: &Calibrations<'_, N, SENSORS>) -> Result<Self, CombError> {
+    /// Sixteen channels, each resting at its sensor's rest capacitance.
+    pub fn new<const N: usize>(sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
         Ok(Self {
             comb: Comb::new(COMB)?,
-            channels: core::array::from_fn(|s| ToneChannel::new(calibration.of(s as u8).rest_capacitance())),
+            channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
             rotations: core::array::from_fn(skew_rotation),
         })
     }
@@ -61,11 +60,11 @@ impl ArrayReader {
     }
 
     /// Every sensor's record of the block whose middle is at `t_us`, in
-    /// sensor order, to `record`; `clipped(input)` says an ADC result of
-    /// that input hit a rail.
+    /// sensor order, to `record` (sensors not in use give none);
+    /// `clipped(input)` says an ADC result of that input hit a rail.
     pub fn solve<const N: usize>(
         &mut self,
-        settings: &ToneSettings<N>,
+        settings: &ToneSettings<'_, N>,
         t_us: u64,
         block: &Demodulated,
         clipped: impl Fn(usize) -> bool,
@@ -74,6 +73,9 @@ impl ArrayReader {
         let v = Input::of(block.v);
         let v_clipped = clipped(VOLTAGE_INPUT);
         for (s, ch) in self.channels.iter_mut().enumerate() {
+            if !settings.sensors.of(s as u8).in_use {
+                continue;
+            }
             record(ch.process(
                 settings,
                 s as u8,

@@ -276,8 +276,20 @@ impl PolicySettings {
         decay_per_s: crate::policy::Policy::DEFAULT.decay_per_s,
         hold_s: crate::policy::Policy::DEFAULT.hold_s,
         settle_blocks: crate::policy::Policy::DEFAULT.settle_blocks,
-        tones: (0, PERIODS.len() as u8 - 1),
+        tones: (crate::policy::Policy::DEFAULT.tones.0, PERIODS.len() as u8 - 1),
     };
+
+    /// The policy these settings describe.
+    pub fn policy(&self) -> crate::policy::Policy {
+        crate::policy::Policy {
+            x_limit: self.x_limit,
+            hysteresis: self.hysteresis,
+            decay_per_s: self.decay_per_s,
+            hold_s: self.hold_s,
+            settle_blocks: self.settle_blocks,
+            tones: self.tones,
+        }
+    }
 
     /// Check the policy's values.
     pub fn check(&self) -> Result<(), Refused> {
@@ -314,28 +326,16 @@ impl Stored {
         }
     }
 
-    /// The set a multiplexed instrument runs with: its calibration table,
-    /// wiring and tab leads for each of its `channels` sensors (the rest
-    /// not in use), nominal C from the table's first point, nominal R
-    /// `r_ohm`, its policy.
-    pub fn of_multiplexed(
-        settings: &crate::channel::Settings<'_, POINTS>,
-        lead_ratio: f32,
+    /// The set an instrument runs with: each of its sensors (entry
+    /// `min(s, S − 1)` for sensor `s`), the first `sensors` in use and the
+    /// rest not, nominal R `r_ohm`, its policy.
+    pub fn of_sensors<const S: usize>(
+        sensors: &crate::sensor::Sensors<POINTS, S>,
+        policy: &crate::policy::Policy,
         r_ohm: f32,
-        channels: usize,
+        in_use: usize,
     ) -> Self {
-        let table = settings.calibration.points;
-        let sensor = SensorSettings {
-            in_use: true,
-            nominal_c_farad: table[0].0,
-            nominal_r_ohm: r_ohm,
-            lead_ratio,
-            contact_ohm: settings.fixture.series_ohm,
-            parasitic_farad: settings.fixture.parallel_farad,
-            table,
-            calibrated: true,
-        };
-        let p = settings.policy;
+        let p = policy;
         Self {
             version: FORMAT_VERSION,
             record_every: 1,
@@ -345,15 +345,15 @@ impl Stored {
                 decay_per_s: p.decay_per_s,
                 hold_s: p.hold_s,
                 settle_blocks: p.settle_blocks,
-                ..PolicySettings::DEFAULT
+                tones: {
+                    let (lo, hi) = p.limits(PERIODS.len());
+                    (lo as u8, hi as u8)
+                },
             },
-            sensors: {
-                let mut sensors = [sensor; SENSORS_MAX];
-                for (s, x) in sensors.iter_mut().enumerate() {
-                    x.in_use = s < channels;
-                }
-                sensors
-            },
+            sensors: core::array::from_fn(|s| SensorSettings {
+                in_use: s < in_use,
+                ..sensors.of(s as u8).settings(r_ohm)
+            }),
         }
     }
 

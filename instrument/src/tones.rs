@@ -15,17 +15,15 @@
 
 use crate::array::SENSORS;
 use crate::array::{tone_hz, tones_hz, TONES};
-use crate::calib::Calibrations;
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
+use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
-use dsp_core::fixture::Fixture;
-use dsp_core::invert::Inverter;
 use dsp_core::twotone::{self, Tone};
 use dsp_core::Complex32;
 
-/// What every sensor of the array shares.
+/// What every sensor of the array shares, and each sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct ToneSettings<'a, const N: usize> {
     /// Tone policy (its `settle_blocks` is not used: nothing settles).
@@ -34,35 +32,24 @@ pub struct ToneSettings<'a, const N: usize> {
     pub thresholds: Thresholds,
     /// The transimpedance k in Z = k·V/I.
     pub front_end: FrontEnd,
-    /// The line model and its inversion.
-    pub inverter: Inverter,
-    /// Stretch calibration: each sensor's table.
-    pub calibration: &'a Calibrations<'a, N, SENSORS>,
-    /// Wiring de-embedded before the line (as `host-sim identify` found
-    /// it).
-    pub fixture: Fixture,
+    /// Each sensor: its line model and inversion (its tab leads), its
+    /// wiring, its stretch table.
+    pub sensors: &'a Sensors<N, SENSORS>,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
 }
 
 impl<'a, const N: usize> ToneSettings<'a, N> {
     /// The settings every array application starts from: the default
-    /// policy, the array's thresholds, no wiring to de-embed, the model
-    /// check's flag at a 10⁻⁴ false rate for the block's residual degrees
-    /// of freedom; the front end, the line model and the calibrations are
-    /// the application's.
-    pub fn new(
-        front_end: FrontEnd,
-        inverter: Inverter,
-        calibration: &'a Calibrations<'a, N, SENSORS>,
-    ) -> Self {
+    /// policy, the array's thresholds, the model check's flag at a 10⁻⁴
+    /// false rate for the block's residual degrees of freedom; the front
+    /// end and the sensors are the application's.
+    pub fn new(front_end: FrontEnd, sensors: &'a Sensors<N, SENSORS>) -> Self {
         Self {
             policy: Policy::DEFAULT,
             thresholds: Thresholds::ARRAY,
             front_end,
-            inverter,
-            calibration,
-            fixture: Fixture::NONE,
+            sensors,
             chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
         }
     }
@@ -150,7 +137,7 @@ impl ToneChannel {
     #[allow(clippy::too_many_arguments)]
     pub fn process<const N: usize>(
         &mut self,
-        s: &ToneSettings<N>,
+        s: &ToneSettings<'_, N>,
         channel: u8,
         t_us: u64,
         v: &Input,
@@ -169,6 +156,10 @@ impl ToneChannel {
             f_hz: pair.map(tone_hz),
             ..ToneRecord::default()
         };
+        let sensor = s.sensors.of(channel);
+        if !sensor.calibrated {
+            rec.flags.set(Flags::UNCALIBRATED);
+        }
         let th = &s.thresholds;
         if clipped {
             rec.flags.set(Flags::CLIPPED);
@@ -215,7 +206,7 @@ impl ToneChannel {
         }
         // The line is what is left behind the wiring.
         for t in tones.iter_mut() {
-            match s.fixture.remove(t.z, t.f_hz) {
+            match sensor.fixture.remove(t.z, t.f_hz) {
                 Ok(z) => t.z = z,
                 Err(_) => {
                     rec.flags.set(Flags::OPEN);
@@ -226,12 +217,12 @@ impl ToneChannel {
         let hint = self.line.map_or(self.prior_farad, |(_, c)| c);
         let tracked = self
             .line
-            .map(|(r, c)| twotone::solve_from(&s.inverter, &tones, r, c));
+            .map(|(r, c)| twotone::solve_from(sensor.tracker.inverter(), &tones, r, c));
         let solution = match tracked {
             Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
             // Lost, or never locked: from the single-tone inversions, the
             // better of the two.
-            other => match (other, twotone::solve(&s.inverter, &tones, hint)) {
+            other => match (other, twotone::solve(sensor.tracker.inverter(), &tones, hint)) {
                 (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
                 (Some(Ok(t)), Err(_)) => Ok(t),
                 (_, fresh) => fresh,
@@ -250,7 +241,7 @@ impl ToneChannel {
         rec.r_ohm = sol.line.r_ohm;
         rec.chi2 = sol.chi2;
         rec.sigma_c = sol.sigma_ln_c;
-        rec.stretch_mm = s.calibration.of(channel).stretch(sol.line.c_farad);
+        rec.stretch_mm = sensor.stretch(sol.line.c_farad).unwrap_or(0.0);
         if sol.chi2 > s.chi2_flag {
             rec.flags.set(Flags::MODEL);
         }

@@ -2,12 +2,14 @@
 //! calibration, and a channel fed by the simulated sensor.
 
 use dsp_core::demod::Demodulator;
+use dsp_core::fixture::Fixture;
 use dsp_core::Oscillator;
 use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
 use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::{Policy, PolicyState};
+use instrument::sensor::{Sensor as Measured, Sensors};
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -89,11 +91,11 @@ fn indices_beyond_the_frequency_set_saturate() {
 
 /// Run one channel on a simulated sensor; returns the records.
 /// The reference channel settings for front end `fe`.
-fn settings(fe: &FrontEndParams) -> Settings<'static, POINTS> {
+fn settings(fe: &FrontEndParams) -> Settings<'static, POINTS, 1> {
     Settings::new(
         fe.ranging().front_ends(fe.v_gain as f32),
         fe.ranging(),
-        &REFERENCE,
+        reference(),
     )
 }
 
@@ -370,7 +372,7 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
 /// impedance), each read through the range the channel planned; returns
 /// (record, range it was read through, ADC clipped).
 fn blocks(
-    settings: &Settings<'static, POINTS>,
+    settings: &Settings<'_, POINTS, 1>,
     fe: &FrontEndParams,
     ch: &mut Channel,
     z: impl Fn(f64) -> num_complex::Complex64,
@@ -408,10 +410,11 @@ fn the_range_follows_the_sensor() {
     let paper = Sensor::settled(SensorParams::PAPER);
     let c_true = paper.truth().c_farad;
     let leads = SensorParams::PAPER.effects.lead_ratio();
+    let paper_sensors = Sensors::all(Measured::calibrated(REFERENCE, leads, Fixture::NONE).unwrap());
     let with = |ranging| Settings {
         front_ends: instrument::ranging::Ranging::front_ends(&ranging, 1.0),
         ranging,
-        tracker: instrument::channel::tracker_with_leads(leads).unwrap(),
+        sensors: &paper_sensors,
         ..settings(&fe)
     };
     let mut valid = [0usize; 2];
@@ -467,4 +470,10 @@ fn the_range_follows_the_sensor() {
             .all(|(r, _, clipped)| !clipped && r.flags.valid()),
         "{back:?}"
     );
+}
+
+/// Every channel on the reference sensor's table, without leads.
+fn reference() -> &'static Sensors<POINTS, 1> {
+    static SENSORS: std::sync::OnceLock<Sensors<POINTS, 1>> = std::sync::OnceLock::new();
+    SENSORS.get_or_init(|| Sensors::all(Measured::calibrated(REFERENCE, 0.0, Fixture::NONE).unwrap()))
 }

@@ -16,10 +16,12 @@
 //! blocks); `cargo xtask fuzz` runs 1 000 000.
 
 use dsp_core::demod::{Demodulator, Moments, Phasors};
+use dsp_core::fixture::Fixture;
 use dsp_core::Oscillator;
 use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
 use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
+use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::wire;
 use num_complex::Complex;
 use proptest::prelude::*;
@@ -43,9 +45,9 @@ fn config(default: u32) -> ProptestConfig {
     }
 }
 
-fn settings() -> Settings<'static, POINTS> {
+fn settings() -> Settings<'static, POINTS, 1> {
     let ranging = FrontEndParams::REFERENCE.ranging();
-    Settings::new(ranging.front_ends(1.0), ranging, &REFERENCE)
+    Settings::new(ranging.front_ends(1.0), ranging, reference())
 }
 
 /// Sums of a block: anything an i64 holds, and the realistic sizes often.
@@ -201,4 +203,10 @@ proptest! {
             }
         }
     }
+}
+
+/// Every channel on the reference sensor's table, without leads.
+fn reference() -> &'static Sensors<POINTS, 1> {
+    static SENSORS: std::sync::OnceLock<Sensors<POINTS, 1>> = std::sync::OnceLock::new();
+    SENSORS.get_or_init(|| Sensors::all(Measured::calibrated(REFERENCE, 0.0, Fixture::NONE).unwrap()))
 }

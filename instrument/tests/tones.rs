@@ -4,13 +4,13 @@
 //! (`instrument::reader`: the chain the firmware's `skin-array` runs in
 //! QEMU and `skin-array-board` on the board).
 
-use dsp_core::invert::Inverter;
-use dsp_core::tline::LineModel;
+use dsp_core::fixture::Fixture;
 use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
-use instrument::calib::{CalTable, Calibrations, POINTS};
+use instrument::calib::{CalTable, POINTS};
 use instrument::effects::Effect;
 use instrument::faults::Flags;
 use instrument::reader::ArrayReader;
+use instrument::sensor::{self as skin_sensor, Sensors};
 use instrument::tones::{ToneRecord, ToneSettings};
 use skin_sim::array::ArrayFrontEnd;
 use skin_sim::frontend::Disturbance;
@@ -35,12 +35,12 @@ fn run(
     seconds: f64,
     seed: u64,
 ) -> Run {
-    run_with(&Calibrations::new(paper_cal()), params, profile, seconds, seed)
+    run_with(&[*paper_cal(); SENSORS], params, profile, seconds, seed)
 }
 
-/// [`run`], each sensor on its table of `cals`.
+/// [`run`], sensor s on table `tables[s]` (with the paper's leads).
 fn run_with(
-    cals: &Calibrations<'_, POINTS, SENSORS>,
+    tables: &[CalTable<POINTS>; SENSORS],
     params: impl Fn(usize) -> SensorParams,
     profile: impl Fn(usize) -> Profile<'static>,
     seconds: f64,
@@ -48,13 +48,11 @@ fn run_with(
 ) -> Run {
     let fe = ArrayFrontEnd::REFERENCE;
     let paper = SensorParams::PAPER;
-    let settings = ToneSettings::new(
-        fe.dsp_front_end(),
-        Inverter::with_leads(LineModel::Continuous, 16.0, paper.effects.lead_ratio()).unwrap(),
-        cals,
-    );
+    let lead = paper.effects.lead_ratio();
+    let each = Sensors::from_fn(|s| skin_sensor::Sensor::calibrated(tables[s], lead, Fixture::NONE).unwrap());
+    let settings = ToneSettings::new(fe.dsp_front_end(), &each);
     let mut sensors: Vec<Sensor> = (0..SENSORS).map(|s| Sensor::settled(params(s))).collect();
-    let mut reader = ArrayReader::new(cals).unwrap();
+    let mut reader = ArrayReader::new(&each).unwrap();
     let mut rng = Rng::new(seed);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
     let blocks = (seconds * RATE_HZ as f64 / BLOCK_INSTANTS as f64) as u64;
@@ -224,12 +222,9 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
     let own: Vec<CalTable<POINTS>> = (0..SENSORS)
         .map(|s| CalTable::linear(c_rest(s), SensorParams::PAPER.rest_length_mm))
         .collect();
-    let mut cals = Calibrations::<POINTS, SENSORS>::new(paper_cal());
-    for (s, t) in own.iter().enumerate() {
-        cals.insert(s as u8, *t).unwrap();
-    }
+    let tables: [CalTable<POINTS>; SENSORS] = core::array::from_fn(|s| own[s]);
     let profile = |s: usize| Profile::Table(leaked_delay(s as f64 * 0.6));
-    let out = run_with(&cals, params, profile, 10.0, 3);
+    let out = run_with(&tables, params, profile, 10.0, 3);
     // The stretch each record gives against the stretch its sensor's C
     // means, and the same with one table for all.
     let shared = paper_cal();

@@ -303,7 +303,11 @@ impl Session {
             firmware: self.start.map(|s| s.firmware_str().to_string()),
             bytes: stats.bytes,
             records: self.records.len(),
-            flagged: self.records.iter().filter(|r| r.flags != 0).count(),
+            flagged: self
+                .records
+                .iter()
+                .filter(|r| !instrument::faults::Flags(r.flags).valid())
+                .count(),
             link: stats,
             dropped: self.end.map(|e| e.dropped),
             sensors: per.len(),

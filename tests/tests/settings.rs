@@ -229,3 +229,109 @@ fn live_config_reads_and_writes_a_running_device() {
     dev.stop().unwrap();
     assert!(qemu.wait().unwrap().success());
 }
+
+/// The `rec` lines of a log and the truth beside each: (record, true
+/// stretch mm).
+fn records_with_truth(log: &[String]) -> Vec<(instrument::channel::Record, f32)> {
+    use instrument::wire::{parse, Line};
+    let mut truth = std::collections::HashMap::new();
+    let mut recs = vec![];
+    for l in log {
+        match parse(l) {
+            Ok(Line::Truth(t)) => {
+                truth.insert((t.t_us, t.channel), t.stretch_mm);
+            }
+            Ok(Line::Rec(r)) => recs.push(r),
+            _ => {}
+        }
+    }
+    recs.into_iter()
+        .map(|r| {
+            let s = truth[&(r.t_us, r.channel)];
+            (r, s)
+        })
+        .collect()
+}
+
+/// RMS of the stretch error of the valid records, mm, and how many.
+fn stretch_rms(recs: &[(instrument::channel::Record, f32)]) -> (f64, usize) {
+    let errs: Vec<f64> = recs
+        .iter()
+        .filter(|(r, _)| r.flags.valid())
+        .map(|(r, s)| (r.stretch_mm - s) as f64)
+        .collect();
+    let n = errs.len();
+    (
+        (errs.iter().map(|e| e * e).sum::<f64>() / n.max(1) as f64).sqrt(),
+        n,
+    )
+}
+
+#[test]
+fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
+    use instrument::calib::CalTable;
+    use instrument::design::SENSOR_REST_LENGTH_MM;
+    use instrument::faults::Flags;
+    use instrument::stored::Stored;
+    // "eight": eight sensors of 150–290 pF (20 pF apart), no leads.
+    let c_rest = |ch: usize| (150.0 + 20.0 * ch as f64) * 1e-12;
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("settings.bin");
+    let flash = format!("flash={}", path.display());
+
+    // Nothing stored: C and R from the line alone; stretch not claimed.
+    let (code, log) = run(&["eight", &flash]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert!(
+        log.iter()
+            .any(|l| l.starts_with("settings: measuring uncalibrated")),
+        "{log:?}"
+    );
+    let start = log.iter().find(|l| l.starts_with("start 8 channels")).unwrap();
+    assert!(
+        start.ends_with("tab-lead ratio 0.0, stretch calibrated false"),
+        "{start}"
+    );
+    let recs = records_with_truth(&log);
+    assert!(recs.len() > 100, "{}", recs.len());
+    assert!(recs
+        .iter()
+        .all(|(r, _)| r.flags.has(Flags::UNCALIBRATED) && r.stretch_mm == 0.0));
+    let valid = recs.iter().filter(|(r, _)| r.flags.valid()).count();
+    assert!(
+        valid * 10 > recs.len() * 8,
+        "C stays valid: {valid} of {}",
+        recs.len()
+    );
+
+    // The host stores each sensor's own table; the next start measures
+    // with them.
+    let mut set = Stored::uncalibrated();
+    for (ch, s) in set.sensors.iter_mut().enumerate() {
+        s.in_use = ch < 8;
+        s.nominal_c_farad = c_rest(ch.min(7)) as f32;
+        s.table = CalTable::linear(c_rest(ch.min(7)), SENSOR_REST_LENGTH_MM).points;
+        s.calibrated = true;
+    }
+    let mut image = vec![0xFFu8; REGION_BYTES];
+    let mut store = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES).unwrap();
+    assert_eq!(store.save(&set), Ok(1));
+    let _ = store.release();
+    std::fs::write(&path, &image).unwrap();
+    let (code, log) = run(&["eight", &flash]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&set));
+    let recs = records_with_truth(&log);
+    assert!(recs.iter().all(|(r, _)| !r.flags.has(Flags::UNCALIBRATED)));
+    let (own, n) = stretch_rms(&recs);
+    assert!(n * 10 > recs.len() * 8, "{n} of {}", recs.len());
+    assert!(own < 0.05, "stretch RMS on each sensor's own table: {own:.3} mm");
+
+    // The same skin on one table for all (the rig's, no flash): each
+    // sensor's stretch is off by its difference from the reference.
+    let (code, log) = run(&["eight"]);
+    assert_eq!(code, Some(0), "{log:?}");
+    let (shared, _) = stretch_rms(&records_with_truth(&log));
+    assert!(shared > 10.0, "stretch RMS on one table: {shared:.1} mm");
+    println!("stretch RMS: own tables {own:.3} mm, one table {shared:.1} mm");
+}

@@ -398,10 +398,15 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         let (yr, yi) = (ang_re / d, -ang_im / d);
         *p = [(1240.0 * c) as i16, (-1000.0 * (yr * c - yi * s)) as i16];
     }
+    let Ok(sensor) = instrument::sensor::Sensor::calibrated(REFERENCE, 0.0, dsp_core::fixture::Fixture::NONE)
+    else {
+        qemu::exit(5)
+    };
+    let sensors = instrument::sensor::Sensors::<{ instrument::calib::POINTS }, 1>::all(sensor);
     let settings = Settings::new(
         instrument::ranging::Ranging::DEFAULT.front_ends(instrument::design::V_GAIN as f32),
         instrument::ranging::Ranging::DEFAULT,
-        &REFERENCE,
+        &sensors,
     );
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     ch.policy.index = fidx;
@@ -444,15 +449,17 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use skin_sim::sensor::{Sensor, SensorParams};
     let fe = ArrayFrontEnd::REFERENCE;
     let p = SensorParams::PAPER;
-    let cal = &skin_sim::sensor::PAPER_CALIBRATION;
-    let Ok(inverter) = Inverter::with_leads(LineModel::Continuous, 16.0, p.effects.lead_ratio()) else {
+    let cal = skin_sim::sensor::PAPER_CALIBRATION;
+    let Ok(paper) =
+        instrument::sensor::Sensor::calibrated(cal, p.effects.lead_ratio(), dsp_core::fixture::Fixture::NONE)
+    else {
         qemu::exit(5)
     };
-    let cals = instrument::calib::Calibrations::<{ instrument::calib::POINTS }, SENSORS>::new(cal);
-    let Ok(mut reader) = ArrayReader::new(&cals) else {
+    let sensors = instrument::sensor::Sensors::all(paper);
+    let settings = ToneSettings::new(fe.dsp_front_end(), &sensors);
+    let Ok(mut reader) = ArrayReader::new(&sensors) else {
         qemu::exit(5)
     };
-    let settings = ToneSettings::new(fe.dsp_front_end(), inverter, &cals);
     let hz = tones_hz().map(|f| f as f64);
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);

@@ -33,16 +33,21 @@
 //!   settings stored in the last 8 KiB of flash
 //!   ([`firmware::board::flash`], [`instrument::store`]).
 //!
+//! The board measures with the set stored there at start: each sensor's
+//! tab leads, wiring and stretch table ([`instrument::sensor`]). With
+//! none stored it reads every sensor as one nothing was measured on: the
+//! line alone, stretch marked not calibrated. A set that comes down the
+//! link is in force from the next start.
+//!
 //! A DMA transfer error or an ADC overrun (one stream out of step with
 //! the others) stops the feeding of the watchdog: the board restarts in
 //! 100 ms and measures again, and the next boot logs the cause.
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
+
 use dsp_core::demod::FrontEnd;
-use dsp_core::invert::Inverter;
-use dsp_core::tline::LineModel;
-use dsp_core::track::Tracker;
 use firmware::board::dma::{self, Completion};
 use firmware::board::flash::SettingsFlash;
 use firmware::board::front_end::{self, AdcBlocks, ARRAY_PACER};
@@ -57,11 +62,13 @@ use instrument::array::{
     clipped, dac_table, from_offset_binary, Rows, ADCS, BLOCK_INSTANTS, DAC_TABLE, RATE_HZ, SCAN, SENSORS,
     SENSOR_TIA_OHM,
 };
-use instrument::calib::{Calibrations, POINTS, REFERENCE};
+use instrument::calib::POINTS;
 use instrument::commands::{Action, Commands};
 use instrument::frames;
 use instrument::reader::ArrayReader;
+use instrument::sensor::{Sensor, Sensors};
 use instrument::store::{Store, SLOT_BYTES};
+use instrument::stored::Stored;
 use instrument::tones::{ToneRecord, ToneSettings};
 
 /// The link's byte queue: two blocks of frames.
@@ -123,9 +130,10 @@ mod app {
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
+        // Sixteen sensors' lines and tables (10 KiB), built in place.
+        sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
         adc: AdcBlocks = [[[[0; SCAN]; BLOCK_INSTANTS]; 2]; ADCS],
         table: [u16; DAC_TABLE] = [0; DAC_TABLE],
-        cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&REFERENCE),
         link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
         rx_ring: RxRing = [0; RX_BYTES],
     ])]
@@ -134,38 +142,55 @@ mod app {
         setup::begin(&dp);
         clocks::array_peripherals(&dp.RCC);
         let (records, logger) = cx.local.queue.split();
-        // Every sensor on the reference table until a calibration run
-        // gives it its own (`Calibrations::insert`).
-        let cal: &'static Calibrations<'static, POINTS, SENSORS> = cx.local.cals;
-        let Ok(reader) = ArrayReader::new(cal) else {
-            defmt::println!("comb: bad tone set; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
-        };
-        let Ok(inverter) = Inverter::with_x_max(LineModel::Continuous, Tracker::X_MAX) else {
-            defmt::println!("inverter: bad bound; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
-        };
         let table: &'static mut [u16; DAC_TABLE] = cx.local.table;
         dac_table(table);
         let adc: &'static mut AdcBlocks = cx.local.adc;
         front_end::array(&dp, adc, table);
         let owned = setup::finish(dp);
-        let settings = ToneSettings::new(
-            FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
-            inverter,
-            cal,
-        );
+        let Ok(mut store) = Store::new(SettingsFlash::new(owned.flash), 0, SLOT_BYTES) else {
+            defmt::println!("settings: the slots do not fit the flash; watchdog reset follows");
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        // The stored set; with none, sensors nothing was measured on.
+        let loaded = store.load();
+        firmware::settings_log::announce(&loaded);
+        let set = match loaded {
+            Ok(Some(l)) => l.set,
+            _ => {
+                defmt::println!(
+                    "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
+                );
+                Stored::uncalibrated()
+            }
+        };
+        let sensors: &'static mut Sensors<POINTS, SENSORS> =
+            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(0.0)));
+        let Ok(()) = sensors.load(&set) else {
+            defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        let sensors: &'static Sensors<POINTS, SENSORS> = sensors;
+        let Ok(reader) = ArrayReader::new(sensors) else {
+            defmt::println!("comb: bad tone set; watchdog reset follows");
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        let settings = ToneSettings {
+            policy: set.policy.policy(),
+            ..ToneSettings::new(FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true), sensors)
+        };
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
             frames::start(
                 concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
                 &settings,
-                cal,
+                &settings.sensors.calibration(),
                 SENSORS,
                 RATE_HZ,
             ),
@@ -173,13 +198,6 @@ mod app {
         let ring: &'static mut RxRing = cx.local.rx_ring;
         link::receive(&owned.link.dma, owned.link.rdr, ring.as_ptr() as u32);
         let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
-        let Ok(mut store) = Store::new(SettingsFlash::new(owned.flash), 0, SLOT_BYTES) else {
-            defmt::println!("settings: the slots do not fit the flash; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
-        };
-        firmware::settings_log::announce(&store.load());
         rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each",

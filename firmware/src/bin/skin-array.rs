@@ -21,17 +21,17 @@
 #![no_std]
 #![no_main]
 
-use dsp_core::invert::Inverter;
-use dsp_core::tline::LineModel;
-use dsp_core::track::Tracker;
+use core::mem::MaybeUninit;
+
 use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
-use instrument::calib::{Calibrations, POINTS};
+use instrument::calib::POINTS;
 use instrument::frames;
 use instrument::reader::ArrayReader;
+use instrument::sensor::{Sensor, Sensors};
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
@@ -77,33 +77,29 @@ mod app {
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
-        cals: Calibrations<'static, POINTS, SENSORS> = Calibrations::new(&instrument::calib::REFERENCE),
+        // Sixteen sensors' lines and tables (10 KiB), built in place.
+        sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let (records, logger) = cx.local.queue.split();
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);
-        let cal: &'static mut Calibrations<'static, POINTS, SENSORS> = cx.local.cals;
-        *cal = scenario.calibrations();
-        let cal: &'static Calibrations<'static, POINTS, SENSORS> = cal;
-        let Ok(reader) = ArrayReader::new(cal) else {
+        let sensors: &'static mut Sensors<POINTS, SENSORS> =
+            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(0.0)));
+        if scenario.describe(sensors).is_err() {
+            qemu::exit(3)
+        }
+        let sensors: &'static Sensors<POINTS, SENSORS> = sensors;
+        let Ok(reader) = ArrayReader::new(sensors) else {
             qemu::exit(3)
         };
-        let inverter =
-            match Inverter::with_leads(LineModel::Continuous, Tracker::X_MAX, scenario.lead_ratio()) {
-                Ok(i) => i,
-                Err(_) => qemu::exit(3),
-            };
-        let settings = ToneSettings {
-            fixture: scenario.fixture(),
-            ..ToneSettings::new(skin.front_end().dsp_front_end(), inverter, cal)
-        };
+        let settings = ToneSettings::new(skin.front_end().dsp_front_end(), sensors);
         let link = LinkSender::start(
             Uart0::take(),
             frames::start(
                 concat!("skin-array ", env!("CARGO_PKG_VERSION")),
                 &settings,
-                cal,
+                &settings.sensors.calibration(),
                 SENSORS,
                 RATE_HZ,
             ),

@@ -26,8 +26,15 @@
 //! * `link_tx` (DMA2 channel 1): the link's frames through LPUART1, the
 //!   ST-LINK's virtual COM port ([`firmware::board::link`]). defmt over
 //!   RTT carries log messages only, and never blocks.
+//!
+//! This image keeps no settings: every sensor is read with the line
+//! model alone (no tab leads, no wiring) and its stretch is marked not
+//! calibrated (`Flags::UNCALIBRATED`). `skin-array-board` keeps each
+//! sensor's calibration in flash.
 #![no_std]
 #![no_main]
+
+use core::mem::MaybeUninit;
 
 use firmware::board::dma::{self, Completion};
 use firmware::board::front_end::{self, AdcSlots, DacSlots, SLOTS};
@@ -36,7 +43,7 @@ use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, pac};
 use firmware::link_out::{FrameWriter, LinkQueue};
-use instrument::calib::{POINTS, REFERENCE};
+use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
@@ -45,6 +52,7 @@ use instrument::design;
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::ranging::Ranging;
+use instrument::sensor::{Sensor, Sensors};
 use instrument::sequencer::{Sequencer, Slot};
 
 /// The multiplexer on PB0..PB2.
@@ -90,7 +98,7 @@ mod app {
         mux: BoardMux,
         ranges: RangeSwitch,
         seq: Sequencer,
-        settings: Settings<'static, POINTS>,
+        settings: Settings<'static, POINTS, 1>,
         writer: FrameWriter<'static, LINK_BYTES>,
         tx: Transmitter<'static, LINK_BYTES>,
     }
@@ -102,17 +110,22 @@ mod app {
         // starts.
         dac: DacSlots = [0; SLOTS * SLOT_PAIRS],
         link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
+        sensors: MaybeUninit<Sensors<POINTS, 1>> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         setup::begin(&dp);
         clocks::peripherals(&dp.RCC);
+        // This image keeps no settings (its 64 KiB leave no room for the
+        // store): every sensor is read as one nothing was measured on.
         let settings = Settings::new(
             Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
             Ranging::DEFAULT,
-            &REFERENCE,
+            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(
+                design::SENSOR_C_REST_FARAD as f32,
+            ))),
         );
-        let channels = [Channel::new(settings.calibration.rest_capacitance()); CHANNELS];
+        let channels = [Channel::new(settings.sensors.of(0).rest_farad); CHANNELS];
         // Slots 0 and 1 play their channels at their start frequencies.
         let (seq, slots) = Sequencer::start(|c| channels[c as usize].plan());
         let (first, second) = cx.local.dac.split_at_mut(SLOT_PAIRS);
@@ -132,7 +145,7 @@ mod app {
             frames::start(
                 concat!("skin-board ", env!("CARGO_PKG_VERSION")),
                 &settings,
-                settings.calibration,
+                &settings.sensors.calibration(),
                 CHANNELS,
                 design::SAMPLE_RATE,
             ),

@@ -27,6 +27,8 @@
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
+
 use dsp_core::fixture::Fixture;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash};
@@ -41,6 +43,8 @@ use instrument::design::SENSOR_R_REST_OHM;
 use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
 use instrument::mux::Mux;
+use instrument::policy::Policy;
+use instrument::sensor::{Sensor, Sensors};
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
 use instrument::store::Store;
 use instrument::stored::Stored;
@@ -142,15 +146,18 @@ mod app {
         ranges: Mux<SimPin, RANGE_ADDRESS_LINES>,
         scenario: Scenario,
         seq: Sequencer,
-        settings: Settings<'static, POINTS>,
+        settings: Settings<'static, POINTS, CHANNELS>,
         end_slot: u64,
         link: LinkSender,
         store: Option<Store<FileFlash>>,
         commands: Commands,
     }
 
-    #[init]
-    fn init(_: init::Context) -> (Shared, Local) {
+    #[init(local = [
+        // Eight sensors' lines and tables (5 KiB), built in place.
+        sensors: MaybeUninit<Sensors<POINTS, CHANNELS>> = MaybeUninit::uninit(),
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
         let Args {
             scenario,
             fixture,
@@ -159,47 +166,74 @@ mod app {
             save,
         } = arguments();
         let skin = Skin::new(scenario);
-        let Ok(tracker) = instrument::channel::tracker_with_leads(lead_ratio) else {
+        // The sensors as the command line describes them (the test rig
+        // knows its simulated sensor, as a calibration run would).
+        let Ok(rig) = Sensor::calibrated(*scenario.calibration(), lead_ratio, fixture) else {
             defmt::println!("tab-lead ratio {=f32} beyond the line model's range", lead_ratio);
             qemu::exit(2)
         };
+        let rig = Stored::of_sensors(
+            &Sensors::<POINTS, 1>::all(rig),
+            &Policy::DEFAULT,
+            SENSOR_R_REST_OHM as f32,
+            CHANNELS,
+        );
+        // With a flash: the set it holds (after `save`, the rig's), or,
+        // with nothing stored, sensors nothing was measured on.
+        let (store, set) = match flash {
+            Some(path) => {
+                let Ok(path) = core::ffi::CStr::from_bytes_with_nul(&path) else {
+                    defmt::println!("flash=: the path holds a NUL");
+                    qemu::exit(2)
+                };
+                let (store, set) = qemu_flash::keep(path, save.then_some(&rig));
+                let set = set.unwrap_or_else(|| {
+                    defmt::println!(
+                        "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
+                    );
+                    Stored::uncalibrated()
+                });
+                (Some(store), set)
+            }
+            None => (None, rig),
+        };
+        let sensors: &'static mut Sensors<POINTS, CHANNELS> =
+            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(0.0)));
+        let Ok(()) = sensors.load(&set) else {
+            defmt::println!("settings: a tab-lead ratio beyond the line model's range");
+            qemu::exit(2)
+        };
         let settings = Settings {
-            tracker,
-            fixture,
+            policy: set.policy.policy(),
             ..Settings::new(
                 skin.ranging().front_ends(skin.front_end().v_gain as f32),
                 skin.ranging(),
-                scenario.calibration(),
+                sensors,
             )
         };
-        let mut store = None;
-        if let Some(path) = flash {
-            let Ok(path) = core::ffi::CStr::from_bytes_with_nul(&path) else {
-                defmt::println!("flash=: the path holds a NUL");
-                qemu::exit(2)
-            };
-            let set = Stored::of_multiplexed(&settings, lead_ratio, SENSOR_R_REST_OHM as f32, CHANNELS);
-            store = Some(qemu_flash::keep(path, save.then_some(&set)));
-        }
-        let cal = settings.calibration;
-        let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| match scenario.pinned(ch) {
-            Some(i) => Channel::pinned(cal.rest_capacitance(), i),
-            None => Channel::new(cal.rest_capacitance()),
+        let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| {
+            let rest = settings.sensors.of(ch as u8).rest_farad;
+            match scenario.pinned(ch) {
+                Some(i) => Channel::pinned(rest, i),
+                None => Channel::new(rest),
+            }
         });
         // As on the board: slots 0 and 1 are planned, slot 0's channel
         // selected; the simulated DMA then completes one slot per pend.
         let (seq, first) = Sequencer::start(|c| channels[c as usize].plan());
+        let zero = settings.sensors.of(0);
         let mut mux = Mux::new(mux_pins());
         let Ok(_) = mux.select(first[0].channel);
         let mut ranges = Mux::new(range_pins());
         let Ok(_) = ranges.select(first[0].range);
         defmt::println!(
-            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm, tab-lead ratio {=f32}",
+            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm, tab-lead ratio {=f32}, stretch calibrated {=bool}",
             CHANNELS as u8,
             defmt::Debug2Format(&scenario),
-            fixture.parallel_farad * 1e12,
-            fixture.series_ohm,
-            lead_ratio
+            zero.fixture.parallel_farad * 1e12,
+            zero.fixture.series_ohm,
+            zero.tracker.inverter().lead_ratio(),
+            zero.calibrated
         );
         (
             Shared {
@@ -224,7 +258,7 @@ mod app {
                     frames::start(
                         concat!("skin-qemu ", env!("CARGO_PKG_VERSION")),
                         &settings,
-                        settings.calibration,
+                        &settings.sensors.calibration(),
                         CHANNELS,
                         instrument::design::SAMPLE_RATE,
                     ),
@@ -316,6 +350,9 @@ mod app {
             })
         });
         match rec {
+            // An empty socket: measured (its channel keeps its turn), not
+            // reported.
+            Some(_) if !settings.sensors.of(slot.channel).in_use => {}
             Some(rec) => {
                 defmt::println!("{}", rec);
                 local.link.record(frames::from_record(&rec));
