@@ -63,6 +63,14 @@ impl<const N: usize> CalTable<N> {
         a.1 + (b.1 - a.1) * (c - a.0) / dc
     }
 
+    /// True if `c` (F) lies within the table's span of capacitance, give
+    /// or take `margin` (relative): beyond it stretch is extrapolated.
+    pub fn covers(&self, c: f32, margin: f32) -> bool {
+        let () = Self::TWO_POINTS;
+        let (lo, hi) = (self.points[0].0, self.points[N - 1].0);
+        c >= lo * (1.0 - margin) && c <= hi * (1.0 + margin)
+    }
+
     /// Capacitance at rest (stretch 0), F: the prior of the line tracker.
     pub fn rest_capacitance(&self) -> f32 {
         let () = Self::TWO_POINTS;

@@ -26,6 +26,9 @@ pub struct Settings<'a, const N: usize, const S: usize> {
     pub ranging: Ranging,
     /// Each channel's sensor: its line, its wiring, its stretch table.
     pub sensors: &'a Sensors<N, S>,
+    /// One record reported in every this many blocks of a channel
+    /// ([`Channel::due`]).
+    pub record_every: u8,
 }
 
 impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
@@ -39,6 +42,7 @@ impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
             front_ends,
             ranging,
             sensors,
+            record_every: 1,
         }
     }
 }
@@ -58,6 +62,30 @@ pub fn tracker() -> Tracker {
 /// 0..=`dsp_core::invert::LEAD_MAX`.
 pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, dsp_core::tline::ModelError> {
     Tracker::with_leads(LineModel::Continuous, Tracker::X_MAX, lead_ratio)
+}
+
+/// One record reported in every `every` blocks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Decimation {
+    since: u8,
+}
+
+impl Decimation {
+    /// The next block is reported.
+    pub const fn new() -> Self {
+        Self { since: 0 }
+    }
+
+    /// Whether this block is reported: one in every `every` (0 counts as
+    /// 1), the first one included.
+    pub fn due(&mut self, every: u8) -> bool {
+        let due = self.since == 0;
+        self.since += 1;
+        if self.since >= every {
+            self.since = 0;
+        }
+        due
+    }
 }
 
 /// One measurement record.
@@ -94,6 +122,8 @@ pub struct Channel {
     pinned: bool,
     /// Transimpedance range for the next block.
     range: u8,
+    /// Which records are reported.
+    reports: Decimation,
 }
 
 impl Channel {
@@ -105,7 +135,16 @@ impl Channel {
             last_t_us: None,
             pinned: false,
             range: 0,
+            reports: Decimation::new(),
         }
+    }
+
+    /// Whether the record of the block just measured is reported
+    /// ([`Decimation::due`]; `every`: the settings' `record_every`). The
+    /// blocks between are measured all the same (the tracker and the
+    /// policy follow every one).
+    pub fn due(&mut self, every: u8) -> bool {
+        self.reports.due(every)
     }
 
     /// A channel held at frequency index `index` whatever the policy
@@ -226,7 +265,9 @@ impl Channel {
             Ok(t) => {
                 rec.c_farad = t.line.c_farad;
                 rec.r_ohm = t.line.r_ohm;
-                rec.stretch_mm = sensor.stretch(t.line.c_farad).unwrap_or(0.0);
+                let (stretch, status) = sensor.read(t.line.c_farad, th.c_tolerance);
+                rec.stretch_mm = stretch;
+                rec.flags.set(status);
                 if t.held {
                     rec.flags.set(Flags::HELD);
                 } else {
@@ -255,5 +296,20 @@ impl Channel {
             }
         }
         rec
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_record_in_every_n_is_reported_the_first_included() {
+        for every in [0u8, 1, 2, 3, 250] {
+            let mut d = Decimation::new();
+            let due: std::vec::Vec<bool> = (0..600).map(|_| d.due(every)).collect();
+            let n = usize::from(every.max(1));
+            assert!(due.iter().enumerate().all(|(k, &x)| x == (k % n == 0)), "{every}");
+        }
     }
 }

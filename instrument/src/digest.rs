@@ -243,6 +243,7 @@ impl<const N: usize, const S: usize> Digestible for Settings<'_, N, S> {
             self.front_ends,
             self.ranging,
             self.sensors,
+            self.record_every,
         );
     }
 }
@@ -256,6 +257,7 @@ impl<const N: usize> Digestible for ToneSettings<'_, N> {
             self.front_end,
             self.sensors,
             self.chi2_flag,
+            self.record_every,
         );
     }
 }

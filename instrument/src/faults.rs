@@ -40,6 +40,12 @@ impl Flags {
     /// own, so the record's stretch is not a measurement (it reads 0).
     /// C and R are the line's, and valid as the other bits say.
     pub const UNCALIBRATED: u16 = 1 << 9;
+    /// Status, not a fault: C lies outside its sensor's calibrated span
+    /// (below the table's first point or above its last by more than
+    /// [`Thresholds::c_tolerance`]), so the stretch is an extrapolation;
+    /// at rest, the sensor is not the one the table was measured on (a
+    /// swapped sensor, or a table of another). C and R stand.
+    pub const OFF_TABLE: u16 = 1 << 10;
 
     /// Is `bit` set?
     pub fn has(self, bit: u16) -> bool {
@@ -49,6 +55,12 @@ impl Flags {
     /// Set `bit`.
     pub fn set(&mut self, bit: u16) {
         self.0 |= bit;
+    }
+
+    /// True if the stretch of the record can be trusted: its C is valid,
+    /// its sensor calibrated, and C within the calibrated span.
+    pub fn stretch_valid(self) -> bool {
+        self.valid() && self.0 & (Self::UNCALIBRATED | Self::OFF_TABLE) == 0
     }
 
     /// True if the capacitance of the record can be trusted.

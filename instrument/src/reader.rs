@@ -12,6 +12,7 @@
 use crate::array::{
     adc_position, input_of, skew_rotation, Rows, BLOCK_INSTANTS, COMB, SENSORS, TONES, VOLTAGE_INPUT,
 };
+use crate::channel::Decimation;
 use crate::sensor::Sensors;
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
@@ -34,6 +35,8 @@ pub struct ArrayReader {
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
     rotations: [[Complex32; TONES]; SENSORS],
+    /// Which blocks are reported.
+    reports: Decimation,
 }
 
 impl ArrayReader {
@@ -43,6 +46,7 @@ impl ArrayReader {
             comb: Comb::new(COMB)?,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
             rotations: core::array::from_fn(skew_rotation),
+            reports: Decimation::new(),
         })
     }
 
@@ -60,7 +64,9 @@ impl ArrayReader {
     }
 
     /// Every sensor's record of the block whose middle is at `t_us`, in
-    /// sensor order, to `record` (sensors not in use give none);
+    /// sensor order, to `record` (sensors not in use give none; and
+    /// only one block in every `settings.record_every` is reported, the
+    /// first included: the others are solved all the same);
     /// `clipped(input)` says an ADC result of that input hit a rail.
     pub fn solve<const N: usize>(
         &mut self,
@@ -72,11 +78,12 @@ impl ArrayReader {
     ) {
         let v = Input::of(block.v);
         let v_clipped = clipped(VOLTAGE_INPUT);
+        let report = self.reports.due(settings.record_every);
         for (s, ch) in self.channels.iter_mut().enumerate() {
             if !settings.sensors.of(s as u8).in_use {
                 continue;
             }
-            record(ch.process(
+            let rec = ch.process(
                 settings,
                 s as u8,
                 t_us,
@@ -84,7 +91,10 @@ impl ArrayReader {
                 &Input::of(block.i[s]),
                 clipped(input_of(s)) || v_clipped,
                 &self.rotations[s],
-            ));
+            );
+            if report {
+                record(rec);
+            }
         }
     }
 }

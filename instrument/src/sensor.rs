@@ -11,6 +11,7 @@
 //! constants.
 
 use crate::calib::{CalTable, POINTS};
+use crate::faults::Flags;
 use crate::stored::{SensorSettings, Stored, SENSORS_MAX};
 use dsp_core::fixture::Fixture;
 use dsp_core::tline::ModelError;
@@ -41,6 +42,18 @@ impl<const N: usize> Sensor<N> {
     /// calibration of its own.
     pub fn stretch(&self, c: f32) -> Option<f32> {
         self.calibrated.then(|| self.table.stretch(c))
+    }
+
+    /// The record's stretch and status flags for line capacitance `c`
+    /// (F): the table's stretch, or 0 with [`Flags::UNCALIBRATED`]; with
+    /// [`Flags::OFF_TABLE`] where `c` lies beyond the table's span by
+    /// more than `margin` (relative).
+    pub fn read(&self, c: f32, margin: f32) -> (f32, u16) {
+        match self.stretch(c) {
+            None => (0.0, Flags::UNCALIBRATED),
+            Some(s) if self.table.covers(c, margin) => (s, 0),
+            Some(s) => (s, Flags::OFF_TABLE),
+        }
     }
 }
 
@@ -207,6 +220,22 @@ mod tests {
         assert_eq!(c.stretch(REFERENCE.points[4].0), Some(want));
         assert_eq!(c.tracker.inverter().lead_ratio(), 0.64);
         assert!(Sensor::calibrated(REFERENCE, 51.0, Fixture::NONE).is_err());
+    }
+
+    #[test]
+    fn a_reading_beyond_the_table_is_marked_off_it() {
+        let s = Sensor::calibrated(REFERENCE, 0.0, Fixture::NONE).unwrap();
+        let (lo, hi) = (REFERENCE.points[0].0, REFERENCE.points[POINTS - 1].0);
+        let m = 0.008;
+        assert_eq!(s.read(lo, m), (0.0, 0));
+        assert_eq!(s.read(lo * 0.995, m).1, 0, "within the margin");
+        assert_eq!(s.read(lo * 0.99, m).1, Flags::OFF_TABLE);
+        assert_eq!(s.read(hi * 1.005, m).1, 0);
+        assert_eq!(s.read(hi * 1.01, m).1, Flags::OFF_TABLE);
+        assert_eq!(s.read(f32::NAN, m).1, Flags::OFF_TABLE);
+        assert_eq!(Sensor::uncalibrated(lo).read(lo, m), (0.0, Flags::UNCALIBRATED));
+        assert!(!Flags(Flags::OFF_TABLE).stretch_valid() && Flags(Flags::OFF_TABLE).valid());
+        assert!(!Flags(Flags::UNCALIBRATED).stretch_valid() && Flags(0).stretch_valid());
     }
 
     #[test]

@@ -37,6 +37,9 @@ pub struct ToneSettings<'a, const N: usize> {
     pub sensors: &'a Sensors<N, SENSORS>,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
+    /// One block's records reported in every this many
+    /// ([`crate::reader::ArrayReader::solve`]).
+    pub record_every: u8,
 }
 
 impl<'a, const N: usize> ToneSettings<'a, N> {
@@ -51,6 +54,7 @@ impl<'a, const N: usize> ToneSettings<'a, N> {
             front_end,
             sensors,
             chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
+            record_every: 1,
         }
     }
 }
@@ -241,7 +245,9 @@ impl ToneChannel {
         rec.r_ohm = sol.line.r_ohm;
         rec.chi2 = sol.chi2;
         rec.sigma_c = sol.sigma_ln_c;
-        rec.stretch_mm = sensor.stretch(sol.line.c_farad).unwrap_or(0.0);
+        let (stretch, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
+        rec.stretch_mm = stretch;
+        rec.flags.set(status);
         if sol.chi2 > s.chi2_flag {
             rec.flags.set(Flags::MODEL);
         }

@@ -303,10 +303,12 @@ fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
         "C stays valid: {valid} of {}",
         recs.len()
     );
+    let every_block = recs.len();
 
-    // The host stores each sensor's own table; the next start measures
-    // with them.
+    // The host stores each sensor's own table, and a record every other
+    // block; the next start measures with them.
     let mut set = Stored::uncalibrated();
+    set.record_every = 2;
     for (ch, s) in set.sensors.iter_mut().enumerate() {
         s.in_use = ch < 8;
         s.nominal_c_farad = c_rest(ch.min(7)) as f32;
@@ -323,6 +325,11 @@ fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
     assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&set));
     let recs = records_with_truth(&log);
     assert!(recs.iter().all(|(r, _)| !r.flags.has(Flags::UNCALIBRATED)));
+    assert!(
+        recs.len().abs_diff(every_block / 2) <= 8,
+        "every other block: {} records, {every_block} before",
+        recs.len()
+    );
     let (own, n) = stretch_rms(&recs);
     assert!(n * 10 > recs.len() * 8, "{n} of {}", recs.len());
     assert!(own < 0.05, "stretch RMS on each sensor's own table: {own:.3} mm");

@@ -182,6 +182,7 @@ mod app {
         };
         let settings = ToneSettings {
             policy: set.policy.policy(),
+            record_every: set.record_every,
             ..ToneSettings::new(FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true), sensors)
         };
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;

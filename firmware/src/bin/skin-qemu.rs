@@ -205,6 +205,7 @@ mod app {
         };
         let settings = Settings {
             policy: set.policy.policy(),
+            record_every: set.record_every,
             ..Settings::new(
                 skin.ranging().front_ends(skin.front_end().v_gain as f32),
                 skin.ranging(),
@@ -339,21 +340,24 @@ mod app {
             // policy switched after the slot was prepared): skip it, as the
             // board does.
             (channel.freq_index() == slot.fidx).then(|| {
-                channel.process(
+                let rec = channel.process(
                     settings,
                     slot.channel,
                     slot.block_mid_us(),
                     &ph,
                     clipped,
                     slot.range,
-                )
+                );
+                (rec, channel.due(settings.record_every))
             })
         });
         match rec {
             // An empty socket: measured (its channel keeps its turn), not
-            // reported.
+            // reported; nor the blocks between those `record_every` asks
+            // for.
             Some(_) if !settings.sensors.of(slot.channel).in_use => {}
-            Some(rec) => {
+            Some((_, false)) => {}
+            Some((rec, true)) => {
                 defmt::println!("{}", rec);
                 local.link.record(frames::from_record(&rec));
             }
