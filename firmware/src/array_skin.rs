@@ -6,8 +6,10 @@ use dsp_core::fixture::Fixture;
 use dsp_core::tline::ModelError;
 use instrument::array::{tones_hz, Frame, SENSORS, TONES};
 use instrument::calib::POINTS;
-use instrument::effects::Effect;
+use instrument::effects::{Effect, EffectSet};
+use instrument::policy::Policy;
 use instrument::sensor::{Sensor as Measured, Sensors};
+use instrument::stored::Stored;
 use instrument::wire;
 use skin_sim::array::{ArrayFrontEnd, INPUTS};
 use skin_sim::frontend::Disturbance;
@@ -34,6 +36,31 @@ pub enum ArrayScenario {
     /// sensors 0–3 on the 20 mm/s trapezoid (staggered), 4–15 held at
     /// 0–30 mm (the static calibration).
     Identify,
+    /// A skin of sixteen different sensors ([`drawn`]), none the
+    /// reference, on the paper's 20 mm/s trapezoid (staggered).
+    Skin,
+}
+
+/// Sensor `s` of the `skin` scenario, drawn at a fixed seed from the
+/// spread of hand-made sensors and their wiring: rest C 0.8–1.2 times the
+/// paper's (film thickness and area), electrode resistance 0.5–1.5 times
+/// (carbon-black loading), 0–20 pF of cable and fixture capacitance, and
+/// tab leads from none to the paper sensor's share of each electrode
+/// (uniform draws).
+pub fn drawn(s: usize) -> SensorParams {
+    let mut rng = Rng::new(0x5e45_0000 + s as u64);
+    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+    let mut p = SensorParams::PAPER;
+    p.c_rest_farad *= u(0.8, 1.2);
+    let k = u(0.5, 1.5);
+    p.top.r_rest_ohm *= k;
+    p.bottom.r_rest_ohm *= k;
+    let leads = u(0.0, 1.0) * SensorParams::PAPER.effects.get(Effect::LeadResistance);
+    let parasitic = u(0.0, 20e-12);
+    p.effects = EffectSet::NONE
+        .with(Effect::LeadResistance, leads)
+        .with(Effect::ParasiticCapacitance, parasitic);
+    p
 }
 
 /// The undeclared cable capacitance of the `identify` scenario, pF.
@@ -47,6 +74,7 @@ impl ArrayScenario {
             "check" => Self::Check,
             "hum" => Self::Hum,
             "identify" => Self::Identify,
+            "skin" => Self::Skin,
             _ => return None,
         })
     }
@@ -56,7 +84,7 @@ impl ArrayScenario {
         match self {
             Self::Paper => 10.0,
             Self::Check | Self::Hum => 3.0,
-            Self::Identify => 10.0,
+            Self::Identify | Self::Skin => 10.0,
         }
     }
 
@@ -75,6 +103,7 @@ impl ArrayScenario {
                 p = SensorParams::REFERENCE;
                 p.effects = p.effects.with(Effect::ParasiticCapacitance, HIDDEN_PF * 1e-12);
             }
+            Self::Skin => p = drawn(s),
             _ => {}
         }
         p
@@ -91,20 +120,25 @@ impl ArrayScenario {
     /// The firmware's description of the skin (the test rig knows its
     /// simulated sensors, as a calibration run would): every sensor on
     /// the paper's table with the paper's tab leads, no wiring declared.
-    /// Written into `sensors` in place.
-    pub fn describe(&self, sensors: &mut Sensors<POINTS, SENSORS>) -> Result<(), ModelError> {
+    /// As a stored set, the default policy, every sensor in use.
+    pub fn rig(&self) -> Result<Stored, ModelError> {
         let lead = SensorParams::PAPER.effects.lead_ratio();
-        for s in 0..SENSORS {
-            *sensors.of_mut(s as u8) = Measured::calibrated(PAPER_CALIBRATION, lead, Fixture::NONE)?;
-        }
-        Ok(())
+        let paper = Measured::calibrated(PAPER_CALIBRATION, lead, Fixture::NONE)?;
+        Ok(Stored::of_sensors(
+            &Sensors::<POINTS, 1>::all(paper),
+            &Policy::DEFAULT,
+            instrument::design::SENSOR_R_REST_OHM as f32,
+            SENSORS,
+        ))
     }
 }
 
 /// How far ahead in its cycle sensor `s` runs, s.
 fn lead_s(scenario: ArrayScenario, s: usize) -> f64 {
     match scenario {
-        ArrayScenario::Paper | ArrayScenario::Hum | ArrayScenario::Identify => 0.6 * s as f64,
+        ArrayScenario::Paper | ArrayScenario::Hum | ArrayScenario::Identify | ArrayScenario::Skin => {
+            0.6 * s as f64
+        }
         ArrayScenario::Check => 0.0,
     }
 }

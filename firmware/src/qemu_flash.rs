@@ -183,3 +183,87 @@ pub fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Sto
     }
     (store, set)
 }
+
+/// The command line's settings options: `flash=PATH` (the settings'
+/// flash in a host file) and `save` (store the run's own set there).
+#[derive(Default)]
+pub struct FlashArgs {
+    /// `flash=PATH`, NUL-terminated for the host's open.
+    path: Option<heapless::Vec<u8, 128>>,
+    /// `save`.
+    save: bool,
+}
+
+impl FlashArgs {
+    /// Take `arg` if it is one of these options (true); a path longer
+    /// than 127 bytes ends the run with exit code 2.
+    pub fn take(&mut self, arg: &str) -> bool {
+        if let Some(path) = arg.strip_prefix("flash=") {
+            let mut p = heapless::Vec::new();
+            if p.extend_from_slice(path.as_bytes()).is_err() || p.push(0).is_err() {
+                defmt::println!("flash=: the path is longer than 127 bytes");
+                crate::qemu::exit(2)
+            }
+            self.path = Some(p);
+            return true;
+        }
+        if arg == "save" {
+            self.save = true;
+            return true;
+        }
+        false
+    }
+
+    /// The set a run measures with: with `flash=`, the set the file holds
+    /// (after `save`, `rig`, the test rig's description of its simulated
+    /// skin), or with nothing stored, sensors nothing was measured on
+    /// ([`Stored::uncalibrated`], and the log says so); without it,
+    /// `rig`. And the store, for the requests down the link.
+    #[inline(never)]
+    pub fn set_in_force(&self, rig: &Stored) -> (Option<Store<FileFlash>>, Stored) {
+        let Some(path) = &self.path else {
+            return (None, *rig);
+        };
+        let Ok(path) = CStr::from_bytes_with_nul(path) else {
+            defmt::println!("flash=: the path holds a NUL");
+            crate::qemu::exit(2)
+        };
+        let (store, set) = keep(path, self.save.then_some(rig));
+        let set = set.unwrap_or_else(|| {
+            defmt::println!("settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)");
+            Stored::uncalibrated()
+        });
+        (Some(store), set)
+    }
+}
+
+/// Answer the requests the host sent down the link: with the store,
+/// [`instrument::commands`]; without one, every request refused (the
+/// settings cannot be kept). True if the host asked to stop.
+pub fn answer(
+    link: &mut crate::qemu::LinkSender,
+    commands: &mut instrument::commands::Commands,
+    store: Option<&mut Store<FileFlash>>,
+) -> bool {
+    use instrument::commands::Action;
+    let mut stop = false;
+    let mut store = store;
+    while let Some((seq, req)) = link.request() {
+        let action = match store.as_deref_mut() {
+            Some(store) => commands.handle(seq, &req, store, |r| link.reply(r)),
+            None => {
+                link.reply(link::Reply::Refused {
+                    to: seq,
+                    reason: link::Reason::Flash,
+                });
+                Action::None
+            }
+        };
+        match action {
+            Action::Stop => stop = true,
+            Action::Apply => defmt::println!("settings: a new set stored, in force from the next start"),
+            Action::Start | Action::None => {}
+        }
+    }
+    stop
+}

@@ -1,6 +1,7 @@
-//! What a device says of its stored settings at start: `settings: none
-//! stored`, or the generation and digest of the set in force (the digest
-//! a host computes of the same set with `instrument::digest`).
+//! What a device says of its stored settings at start (`settings: none
+//! stored`, or the generation and digest of the set in force: the digest
+//! a host computes of the same set with `instrument::digest`), and the
+//! sensors it builds from them.
 
 use instrument::digest::Digest;
 use instrument::store::{Loaded, StoreError};
@@ -16,4 +17,21 @@ pub fn announce<E>(loaded: &Result<Option<Loaded>, StoreError<E>>) {
         Ok(None) => defmt::println!("settings: none stored"),
         Err(_) => defmt::println!("settings: the flash cannot be read"),
     }
+}
+
+/// The sensors of stored set `set`, built where they stay (`slot`, a
+/// static): sixteen are 10 KiB, and a frame of its own keeps their
+/// building off the stack of the caller (an RTIC `init` that also reads
+/// the flash). An error for a lead ratio beyond the line model (a set
+/// that passed its check has none).
+#[inline(never)]
+pub fn sensors_in<const S: usize>(
+    slot: &'static mut core::mem::MaybeUninit<instrument::sensor::Sensors<{ instrument::calib::POINTS }, S>>,
+    set: &instrument::stored::Stored,
+) -> Result<&'static instrument::sensor::Sensors<{ instrument::calib::POINTS }, S>, dsp_core::tline::ModelError>
+{
+    use instrument::sensor::{Sensor, Sensors};
+    let sensors = slot.write(Sensors::all(Sensor::uncalibrated(0.0)));
+    sensors.load(set)?;
+    Ok(sensors)
 }

@@ -155,22 +155,48 @@ impl<F: NorFlash> Store<F> {
         })
     }
 
+    /// Slot `slot`'s header, if the slot holds a whole valid set. Its own
+    /// frame: the set it parses (1.8 KiB) is not kept on the caller's
+    /// stack.
+    #[inline(never)]
+    fn valid_header(&mut self, slot: usize) -> Result<Option<Header>, F::Error> {
+        Ok(self.read_slot(slot)?.map(|(h, _)| h))
+    }
+
+    /// The slot in force and its generation: the valid slot of the newer
+    /// generation; None if neither slot holds a valid set.
+    fn current(&mut self) -> Result<Option<(usize, u32)>, F::Error> {
+        let a = self.valid_header(0)?;
+        let b = self.valid_header(1)?;
+        Ok(match (a, b) {
+            (Some(a), Some(b)) if newer(b.generation, a.generation) => Some((1, b.generation)),
+            (Some(a), _) => Some((0, a.generation)),
+            (None, Some(b)) => Some((1, b.generation)),
+            (None, None) => None,
+        })
+    }
+
     /// The set in force: the valid slot of the newer generation; None if
     /// neither slot holds a valid set (a new device).
     pub fn load(&mut self) -> Result<Option<Loaded>, StoreError<F::Error>> {
-        let a = self.read_slot(0).map_err(StoreError::Flash)?;
-        let b = self.read_slot(1).map_err(StoreError::Flash)?;
-        let pick = |(h, set): (Header, Stored), slot| Loaded {
-            set,
-            generation: h.generation,
-            slot,
+        let Some((slot, _)) = self.current().map_err(StoreError::Flash)? else {
+            return Ok(None);
         };
-        Ok(match (a, b) {
-            (Some(a), Some(b)) if newer(b.0.generation, a.0.generation) => Some(pick(b, 1)),
-            (Some(a), _) => Some(pick(a, 0)),
-            (None, Some(b)) => Some(pick(b, 1)),
-            (None, None) => None,
-        })
+        Ok(self
+            .read_slot(slot)
+            .map_err(StoreError::Flash)?
+            .map(|(h, set)| Loaded {
+                set,
+                generation: h.generation,
+                slot,
+            }))
+    }
+
+    /// Slot `slot` holds `header` and `set` (read back after a write), in
+    /// a frame of its own.
+    #[inline(never)]
+    fn written_as(&mut self, slot: usize, header: &Header, set: &Stored) -> Result<bool, F::Error> {
+        Ok(matches!(self.read_slot(slot)?, Some((h, back)) if h == *header && back == *set))
     }
 
     /// Check `set` and make it the set in force (in the slot not in
@@ -183,9 +209,8 @@ impl<F: NorFlash> Store<F> {
             .to_bytes(&mut body)
             .ok_or(StoreError::Layout("the set is longer than a slot holds"))?
             .len();
-        let current = self.load()?;
-        let (slot, generation) = match current {
-            Some(c) => (1 - c.slot, c.generation.wrapping_add(1)),
+        let (slot, generation) = match self.current().map_err(StoreError::Flash)? {
+            Some((slot, generation)) => (1 - slot, generation.wrapping_add(1)),
             None => (0, 1),
         };
         let at = self.slot_at(slot);
@@ -206,9 +231,9 @@ impl<F: NorFlash> Store<F> {
         self.flash
             .write(at, &header.to_bytes())
             .map_err(StoreError::Flash)?;
-        match self.read_slot(slot).map_err(StoreError::Flash)? {
-            Some((h, back)) if h == header && back == *set => Ok(generation),
-            _ => {
+        match self.written_as(slot, &header, set).map_err(StoreError::Flash)? {
+            true => Ok(generation),
+            false => {
                 // Not what was written: take the slot out of the running
                 // (an erased slot is not valid), the set in force stays.
                 self.flash

@@ -66,7 +66,7 @@ use instrument::calib::POINTS;
 use instrument::commands::{Action, Commands};
 use instrument::frames;
 use instrument::reader::ArrayReader;
-use instrument::sensor::{Sensor, Sensors};
+use instrument::sensor::Sensors;
 use instrument::store::{Store, SLOT_BYTES};
 use instrument::stored::Stored;
 use instrument::tones::{ToneRecord, ToneSettings};
@@ -165,15 +165,12 @@ mod app {
                 Stored::uncalibrated()
             }
         };
-        let sensors: &'static mut Sensors<POINTS, SENSORS> =
-            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(0.0)));
-        let Ok(()) = sensors.load(&set) else {
+        let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
             loop {
                 cortex_m::asm::wfi();
             }
         };
-        let sensors: &'static Sensors<POINTS, SENSORS> = sensors;
         let Ok(reader) = ArrayReader::new(sensors) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             loop {

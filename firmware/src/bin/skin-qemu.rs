@@ -31,11 +31,11 @@ use core::mem::MaybeUninit;
 
 use dsp_core::fixture::Fixture;
 use firmware::qemu::{self, LinkSender, Uart0};
-use firmware::qemu_flash::{self, FileFlash};
+use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
-use instrument::commands::{Action, Commands};
+use instrument::commands::Commands;
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
 };
@@ -66,10 +66,8 @@ struct Args {
     fixture: Fixture,
     /// The line model's tab-lead ratio.
     lead_ratio: f32,
-    /// `flash=PATH`: the settings' flash in this host file.
-    flash: Option<heapless::Vec<u8, 128>>,
-    /// `save`: store the settings this run measures with.
-    save: bool,
+    /// `flash=PATH` and `save`.
+    flash: FlashArgs,
 }
 
 /// The scenario (first argument), the wiring calibration and the tab-lead
@@ -85,20 +83,9 @@ fn arguments() -> Args {
             qemu::exit(2)
         });
         let mut effects = EffectSet::NONE;
-        let (mut flash, mut save) = (None, false);
+        let mut flash = FlashArgs::default();
         for arg in args {
-            if let Some(path) = arg.strip_prefix("flash=") {
-                // NUL-terminated for the host's open.
-                let mut p = heapless::Vec::new();
-                if p.extend_from_slice(path.as_bytes()).is_err() || p.push(0).is_err() {
-                    defmt::println!("flash=: the path is longer than 127 bytes");
-                    qemu::exit(2)
-                }
-                flash = Some(p);
-                continue;
-            }
-            if arg == "save" {
-                save = true;
+            if flash.take(arg) {
                 continue;
             }
             match effects.apply(arg) {
@@ -122,7 +109,6 @@ fn arguments() -> Args {
             fixture: effects.fixture(),
             lead_ratio,
             flash,
-            save,
         }
     })
 }
@@ -163,7 +149,6 @@ mod app {
             fixture,
             lead_ratio,
             flash,
-            save,
         } = arguments();
         let skin = Skin::new(scenario);
         // The sensors as the command line describes them (the test rig
@@ -178,28 +163,8 @@ mod app {
             SENSOR_R_REST_OHM as f32,
             CHANNELS,
         );
-        // With a flash: the set it holds (after `save`, the rig's), or,
-        // with nothing stored, sensors nothing was measured on.
-        let (store, set) = match flash {
-            Some(path) => {
-                let Ok(path) = core::ffi::CStr::from_bytes_with_nul(&path) else {
-                    defmt::println!("flash=: the path holds a NUL");
-                    qemu::exit(2)
-                };
-                let (store, set) = qemu_flash::keep(path, save.then_some(&rig));
-                let set = set.unwrap_or_else(|| {
-                    defmt::println!(
-                        "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
-                    );
-                    Stored::uncalibrated()
-                });
-                (Some(store), set)
-            }
-            None => (None, rig),
-        };
-        let sensors: &'static mut Sensors<POINTS, CHANNELS> =
-            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(0.0)));
-        let Ok(()) = sensors.load(&set) else {
+        let (store, set) = flash.set_in_force(&rig);
+        let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
@@ -363,26 +328,7 @@ mod app {
             }
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
-        let mut stop = false;
-        while let Some((seq, req)) = local.link.request() {
-            let link = &mut *local.link;
-            let action = match local.store.as_mut() {
-                Some(store) => local.commands.handle(seq, &req, store, |r| link.reply(r)),
-                // No flash: the settings cannot be kept.
-                None => {
-                    link.reply(link::Reply::Refused {
-                        to: seq,
-                        reason: link::Reason::Flash,
-                    });
-                    Action::None
-                }
-            };
-            match action {
-                Action::Stop => stop = true,
-                Action::Apply => defmt::println!("settings: a new set stored, in force from the next start"),
-                Action::Start | Action::None => {}
-            }
-        }
+        let stop = qemu_flash::answer(local.link, local.commands, local.store.as_mut());
         if stop || slot.index + 1 >= *local.end_slot {
             local.link.end(0);
             cx.shared.done.lock(|d| *d = true);
