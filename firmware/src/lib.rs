@@ -34,3 +34,5 @@ pub mod records;
 pub mod scenario;
 #[cfg(target_os = "none")]
 pub mod settings_log;
+#[cfg(all(target_os = "none", feature = "qemu"))]
+pub mod stack;

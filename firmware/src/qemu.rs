@@ -10,9 +10,12 @@ pub fn exit(code: i32) -> ! {
     semihosting::process::exit(code)
 }
 
-/// The end of a run that went through: the `end` line the harness looks
-/// for, then exit code 0.
+/// The end of a run that went through: how deep the stack went
+/// ([`crate::stack`], from the paint of `init`), the `end` line the
+/// harness looks for, then exit code 0.
 pub fn end() -> ! {
+    let (used, free) = crate::stack::high_water();
+    defmt::println!("stack {=u32} bytes used, {=u32} never touched", used, free);
     defmt::println!("end");
     exit(0)
 }

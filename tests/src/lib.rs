@@ -325,3 +325,30 @@ pub const BOARD_BUDGET: (u64, u64) = (64 * 1024, 16 * 1024);
 /// The array issue's board budgets (16 sensors at once): flash and
 /// static RAM, bytes.
 pub const ARRAY_BOARD_BUDGET: (u64, u64) = (128 * 1024, 64 * 1024);
+
+/// The least stack a QEMU run must leave never touched, bytes: there is
+/// no stack guard (`firmware::stack`), so a run that came this close is a
+/// failure before it is a corruption.
+pub const STACK_MARGIN: u32 = 4096;
+
+/// (bytes of stack used at the deepest, bytes never touched), from a
+/// decoded log's `stack … bytes used, … never touched` line.
+pub fn stack<'a>(mut lines: impl Iterator<Item = &'a str>) -> Option<(u32, u32)> {
+    let line = lines.find(|l| l.starts_with("stack ") && l.ends_with("never touched"))?;
+    let mut n = line
+        .split(|c: char| !c.is_ascii_digit())
+        .filter(|w| !w.is_empty())
+        .map(|w| w.parse::<u32>().ok());
+    Some((n.next()??, n.next()??))
+}
+
+/// Assert a decoded log reports its stack, with at least
+/// [`STACK_MARGIN`] bytes never touched; the figures, printed.
+pub fn assert_stack_margin<'a>(what: &str, lines: impl Iterator<Item = &'a str>) {
+    let (used, free) = stack(lines).unwrap_or_else(|| panic!("{what}: no stack line"));
+    println!("{what}: stack {used} bytes used, {free} never touched");
+    assert!(
+        free >= STACK_MARGIN,
+        "{what}: {free} bytes of stack never touched, less than {STACK_MARGIN}"
+    );
+}

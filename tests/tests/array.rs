@@ -29,6 +29,7 @@ fn paper() -> &'static (qemu_tests::Run, Vec<LoggedToneRecord>) {
 fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
     let (run, recs) = paper();
     assert!(run.stdout.contains("end"), "{}", run.stdout);
+    qemu_tests::assert_stack_margin("skin-array paper", run.stdout.lines());
     assert!(!run.stdout.contains("overrun"));
     // The record queue (heapless SPSC, four blocks) never dropped one.
     assert!(!run.stdout.contains("drops"), "records dropped");

@@ -20,6 +20,7 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     let (run, recs) = run_scenario("paper20").unwrap();
     let run = run.ok().unwrap();
     assert!(run.stdout.contains("end"), "{}", run.stdout);
+    qemu_tests::assert_stack_margin("skin-qemu paper20", run.stdout.lines());
     let ch0 = channel(&recs, 0);
     assert!(ch0.len() > 200, "{}", ch0.len());
     // Within 1 % of the truth throughout (only the one-block settling

@@ -45,6 +45,7 @@ fn settings_stored_by_the_firmware_come_back_after_a_restart_and_from_the_host()
     // A new device: nothing stored; it stores what it measures with.
     let (code, log) = run(&["faults", &flash, "save"]);
     assert_eq!(code, Some(0), "{log:?}");
+    qemu_tests::assert_stack_margin("skin-qemu saving its settings", log.iter().map(String::as_str));
     assert!(log.iter().any(|l| l == "settings: none stored"), "{log:?}");
     let saved = digest_in(&log, "settings saved: generation 1");
 

@@ -90,6 +90,7 @@ mod app {
         sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        firmware::stack::paint();
         let (records, logger) = cx.local.queue.split();
         let scenario = scenario();
         let skin = ArraySkin::new(scenario);

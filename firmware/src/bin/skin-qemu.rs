@@ -144,6 +144,7 @@ mod app {
         sensors: MaybeUninit<Sensors<POINTS, CHANNELS>> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
+        firmware::stack::paint();
         let Args {
             scenario,
             fixture,
