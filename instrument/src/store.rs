@@ -135,8 +135,9 @@ impl<F: NorFlash> Store<F> {
         self.base + slot as u32 * self.slot_bytes
     }
 
-    /// Slot `slot`'s set, if the slot holds a whole valid one.
-    fn read_slot(&mut self, slot: usize) -> Result<Option<(Header, Stored)>, F::Error> {
+    /// Slot `slot`'s header, if the slot holds a whole valid set: the set
+    /// then in `out` (otherwise `out` is anything).
+    fn read_slot(&mut self, slot: usize, out: &mut Stored) -> Result<Option<Header>, F::Error> {
         let at = self.slot_at(slot);
         let mut h = [0u8; HEADER];
         self.flash.read(at, &mut h)?;
@@ -149,10 +150,7 @@ impl<F: NorFlash> Store<F> {
         if CRC.checksum(body) != header.body_crc {
             return Ok(None);
         }
-        Ok(match Stored::from_bytes(body) {
-            Some(Ok(set)) => Some((header, set)),
-            _ => None,
-        })
+        Ok(out.read_from(body).then_some(header))
     }
 
     /// Slot `slot`'s header, if the slot holds a whole valid set. Its own
@@ -160,7 +158,8 @@ impl<F: NorFlash> Store<F> {
     /// stack.
     #[inline(never)]
     fn valid_header(&mut self, slot: usize) -> Result<Option<Header>, F::Error> {
-        Ok(self.read_slot(slot)?.map(|(h, _)| h))
+        let mut scratch = Stored::uncalibrated();
+        self.read_slot(slot, &mut scratch)
     }
 
     /// The slot in force and its generation: the valid slot of the newer
@@ -182,10 +181,11 @@ impl<F: NorFlash> Store<F> {
         let Some((slot, _)) = self.current().map_err(StoreError::Flash)? else {
             return Ok(None);
         };
+        let mut set = Stored::uncalibrated();
         Ok(self
-            .read_slot(slot)
+            .read_slot(slot, &mut set)
             .map_err(StoreError::Flash)?
-            .map(|(h, set)| Loaded {
+            .map(|h| Loaded {
                 set,
                 generation: h.generation,
                 slot,
@@ -196,7 +196,8 @@ impl<F: NorFlash> Store<F> {
     /// a frame of its own.
     #[inline(never)]
     fn written_as(&mut self, slot: usize, header: &Header, set: &Stored) -> Result<bool, F::Error> {
-        Ok(matches!(self.read_slot(slot)?, Some((h, back)) if h == *header && back == *set))
+        let mut back = Stored::uncalibrated();
+        Ok(matches!(self.read_slot(slot, &mut back)?, Some(h) if h == *header && back == *set))
     }
 
     /// Check `set` and make it the set in force (in the slot not in

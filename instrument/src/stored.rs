@@ -385,6 +385,13 @@ impl Stored {
         Some(set.check().map(|()| set))
     }
 
+    /// [`Stored::from_bytes`] into `self`, in place (a device keeps one
+    /// set on its stack, not three): true if `bytes` hold a set that
+    /// passes its check; `self` is then that set, and otherwise anything.
+    pub fn read_from(&mut self, bytes: &[u8]) -> bool {
+        self.parse(bytes).is_some() && self.check().is_ok()
+    }
+
     /// Read the serialised set `bytes` into `self`, piece by piece (the
     /// layout postcard gives the whole: the fields in order, a fixed
     /// array as its elements), so that a device parses it with one set on

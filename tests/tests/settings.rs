@@ -16,7 +16,12 @@ use std::time::Duration;
 
 /// Run `skin-qemu` with `args`; its exit code and its log's lines.
 fn run(args: &[&str]) -> (Option<i32>, Vec<String>) {
-    let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
+    run_image("skin-qemu", args)
+}
+
+/// Run image `bin` with `args`; its exit code and its log's lines.
+fn run_image(bin: &str, args: &[&str]) -> (Option<i32>, Vec<String>) {
+    let elf = qemu_tests::build_firmware(bin, &["qemu"]).unwrap();
     let run = qemu_tests::run_qemu_args(&elf, args, Duration::from_secs(600)).unwrap();
     let log = host_sim::recording::decode_defmt(&elf, &run.raw)
         .unwrap()
@@ -342,4 +347,70 @@ fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
     let (shared, _) = stretch_rms(&records_with_truth(&log));
     assert!(shared > 10.0, "stretch RMS on one table: {shared:.1} mm");
     println!("stretch RMS: own tables {own:.3} mm, one table {shared:.1} mm");
+}
+
+/// The array keeps its settings too: with nothing stored it reads every
+/// sensor uncalibrated; a set the host stores (sensor 5 an empty socket,
+/// sensor 2 on a table, a record every other block) is the one it
+/// measures with after a restart; `save` stores the rig's over it. Every
+/// run keeps the stack's margin.
+#[test]
+fn the_array_measures_with_its_stored_set() {
+    use instrument::faults::Flags;
+    use instrument::stored::Stored;
+    use instrument::tones::ToneRecord;
+    use instrument::wire::{parse, Line};
+    let tones = |log: &[String]| -> Vec<ToneRecord> {
+        log.iter()
+            .filter_map(|l| match parse(l) {
+                Ok(Line::Tone(r)) => Some(r),
+                _ => None,
+            })
+            .collect()
+    };
+    let per_sensor = |recs: &[ToneRecord], s: u8| recs.iter().filter(|r| r.channel == s).count();
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("array.bin");
+    let flash = format!("flash={}", path.display());
+    let (code, log) = run_image("skin-array", &["check", &flash]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert!(log.iter().any(|l| l == "settings: none stored"), "{log:?}");
+    qemu_tests::assert_stack_margin("skin-array, a new flash", log.iter().map(String::as_str));
+    let first = tones(&log);
+    assert!(first.len() > 16 * 500, "{}", first.len());
+    assert!(first
+        .iter()
+        .all(|r| r.flags.has(Flags::UNCALIBRATED) && r.stretch_mm == 0.0));
+
+    let mut set = Stored::uncalibrated();
+    set.sensors[5].in_use = false;
+    set.sensors[2].table = instrument::calib::REFERENCE.points;
+    set.sensors[2].calibrated = true;
+    set.record_every = 2;
+    let mut image = vec![0xFFu8; REGION_BYTES];
+    let mut store = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES).unwrap();
+    assert_eq!(store.save(&set), Ok(1));
+    let _ = store.release();
+    std::fs::write(&path, &image).unwrap();
+    let (code, log) = run_image("skin-array", &["check", &flash]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&set));
+    qemu_tests::assert_stack_margin("skin-array, a stored set", log.iter().map(String::as_str));
+    let second = tones(&log);
+    assert_eq!(per_sensor(&second, 5), 0, "an empty socket");
+    assert!(second
+        .iter()
+        .all(|r| r.flags.has(Flags::UNCALIBRATED) == (r.channel != 2)));
+    assert!(per_sensor(&second, 0).abs_diff(per_sensor(&first, 0) / 2) <= 1);
+
+    // `save`: the rig's set (every sensor on the paper's table) stored
+    // over the host's and measured with.
+    let (code, log) = run_image("skin-array", &["check", &flash, "save"]);
+    assert_eq!(code, Some(0), "{log:?}");
+    assert!(
+        log.iter().any(|l| l.starts_with("settings saved: generation 2")),
+        "{log:?}"
+    );
+    assert!(tones(&log).iter().all(|r| !r.flags.has(Flags::UNCALIBRATED)));
+    qemu_tests::assert_stack_margin("skin-array saving its settings", log.iter().map(String::as_str));
 }

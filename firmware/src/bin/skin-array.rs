@@ -17,44 +17,56 @@
 //!
 //! Records are `tone` lines of [`instrument::wire`], decoded on the host.
 //! The scenario is the first semihosting argument (`paper`, `check`,
-//! `hum`, `identify`, `skin`). The firmware measures with the test rig's
-//! description of its skin ([`ArrayScenario::rig`]). It keeps no settings
-//! flash: its `init` already takes 20 KiB of QEMU's 64 KiB for the
-//! stack, and the store's path (reading and writing a set) some 15 KiB
-//! more, which leaves no margin (`skin-qemu` keeps one).
+//! `hum`, `identify`, `skin`). Without further arguments the firmware
+//! measures with the test rig's description of its skin
+//! ([`ArrayScenario::rig`]); `flash=PATH` keeps the settings' flash in a
+//! host file ([`firmware::qemu_flash`]) and measures with the set stored
+//! there (uncalibrated with none; `save` stores the rig's first), and
+//! `idle` answers the host's requests down the link (UART0's receive
+//! side): read and write the stored settings, stop. The skin, the reader
+//! and the block are built where they stay ([`qemu::place`]), so that
+//! `init` leaves the stack to the store's path.
 #![no_std]
 #![no_main]
 
 use core::mem::MaybeUninit;
 
+use dsp_core::comb::CombError;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
 use firmware::qemu::{self, LinkSender, Uart0};
+use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::calib::POINTS;
+use instrument::commands::Commands;
 use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::sensor::Sensors;
+use instrument::store::Store;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
 /// The block period, µs.
 const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
 
-/// The scenario named by the first semihosting argument.
-fn scenario() -> ArrayScenario {
+/// The scenario named by the first semihosting argument, and the
+/// settings' options (`flash=PATH`, `save`) after it.
+fn arguments() -> (ArrayScenario, FlashArgs) {
     qemu::with_args(|args| {
         let name = args.next().unwrap_or("paper");
         let scenario = ArrayScenario::parse(name).unwrap_or_else(|| {
             defmt::println!("unknown scenario {=str}", name);
             qemu::exit(2)
         });
-        if let Some(arg) = args.next() {
-            defmt::println!("unknown argument '{=str}'", arg);
-            qemu::exit(2)
+        let mut flash = FlashArgs::default();
+        for arg in args {
+            if !flash.take(arg) {
+                defmt::println!("unknown argument '{=str}'", arg);
+                qemu::exit(2)
+            }
         }
-        scenario
+        (scenario, flash)
     })
 }
 
@@ -66,7 +78,7 @@ mod app {
     #[shared]
     struct Shared {
         /// The block the DMA completed, its clipped inputs and its middle.
-        frame: (Frame, [bool; INPUTS], u64),
+        frame: (&'static mut Frame, [bool; INPUTS], u64),
         done: bool,
         /// Records the queue had no room for.
         dropped: u32,
@@ -74,32 +86,40 @@ mod app {
 
     #[local]
     struct Local {
-        skin: ArraySkin,
+        skin: &'static mut ArraySkin,
         block: u64,
         end_block: u64,
-        reader: ArrayReader,
+        reader: &'static mut ArrayReader,
         settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         link: LinkSender,
+        store: Option<Store<FileFlash>>,
+        commands: Commands,
     }
 
     #[init(local = [
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
         // Sixteen sensors' lines and tables (10 KiB), built in place.
         sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
+        // The simulated skin (6.5 KiB), the reader (5.6 KiB) and the
+        // block (4 KiB) where they stay, off `init`'s stack.
+        skin_slot: MaybeUninit<ArraySkin> = MaybeUninit::uninit(),
+        reader_slot: MaybeUninit<Result<ArrayReader, CombError>> = MaybeUninit::uninit(),
+        frame_slot: Frame = [[[0; SCAN]; BLOCK_INSTANTS]; ADCS],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         firmware::stack::paint();
         let (records, logger) = cx.local.queue.split();
-        let scenario = scenario();
-        let skin = ArraySkin::new(scenario);
-        let Ok(set) = scenario.rig() else { qemu::exit(3) };
+        let (scenario, flash) = arguments();
+        let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario));
+        let Ok(rig) = scenario.rig() else { qemu::exit(3) };
+        let (store, set) = flash.set_in_force(&rig);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = ArrayReader::new(sensors) else {
+        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::new(sensors)) else {
             qemu::exit(3)
         };
         let settings = ToneSettings {
@@ -125,7 +145,7 @@ mod app {
         );
         (
             Shared {
-                frame: ([[[0; SCAN]; BLOCK_INSTANTS]; ADCS], [false; INPUTS], 0),
+                frame: (cx.local.frame_slot, [false; INPUTS], 0),
                 done: false,
                 dropped: 0,
             },
@@ -138,18 +158,24 @@ mod app {
                 records: RecordSink::new(records),
                 logger,
                 link,
+                store,
+                commands: Commands::new(),
             },
         )
     }
 
     /// The logger: each record to defmt and to the link (UART0); the
-    /// link's end frame when the run is done.
-    #[idle(shared = [done, dropped], local = [logger, link])]
+    /// host's requests down the link answered (the stored settings, stop);
+    /// the link's end frame when the run is done or the host stops it.
+    #[idle(shared = [done, dropped], local = [logger, link, store, commands])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             while let Some(rec) = cx.local.logger.dequeue() {
                 defmt::println!("{}", rec);
                 cx.local.link.record(frames::from_tone_record(&rec));
+            }
+            if qemu_flash::answer(cx.local.link, cx.local.commands, cx.local.store.as_mut()) {
+                cx.shared.done.lock(|d| *d = true);
             }
             if cx.shared.done.lock(|d| *d) {
                 let dropped = cx.shared.dropped.lock(|d| *d);
@@ -165,7 +191,7 @@ mod app {
     fn dma_done(mut cx: dma_done::Context) {
         let t_us = *cx.local.block * BLOCK_US + BLOCK_US / 2;
         *cx.local.block += 1;
-        let skin = &mut *cx.local.skin;
+        let skin = &mut **cx.local.skin;
         let mut truth = [wire::TruthLine::default(); SENSORS];
         cx.shared.frame.lock(|(frame, clipped, t)| {
             *clipped = skin.block(t_us, frame, &mut truth);
@@ -182,7 +208,7 @@ mod app {
     /// Demodulate every input, solve every sensor, log the records.
     #[task(priority = 1, shared = [frame, done, dropped], local = [reader, settings, end_block, records])]
     async fn process(mut cx: process::Context) {
-        let reader = &mut *cx.local.reader;
+        let reader = &mut **cx.local.reader;
         let (block, clipped, t_us) = cx
             .shared
             .frame
