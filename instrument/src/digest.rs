@@ -14,7 +14,7 @@ use crate::faults::Thresholds;
 use crate::policy::Policy;
 use crate::ranging::Ranging;
 use crate::sensor::{Calibration, Sensor, Sensors};
-use crate::stored::{PolicySettings, SensorSettings, Stored};
+use crate::stored::{SensorSettings, Stored};
 use crate::tones::ToneSettings;
 use dsp_core::demod::FrontEnd;
 use dsp_core::fixture::Fixture;
@@ -274,20 +274,6 @@ impl Digestible for SensorSettings {
             self.parasitic_farad,
             self.table,
             self.calibrated,
-        );
-    }
-}
-
-impl Digestible for PolicySettings {
-    fn feed(&self, d: &mut Digest) {
-        fields!(
-            d,
-            self.x_limit,
-            self.hysteresis,
-            self.decay_per_s,
-            self.hold_s,
-            self.settle_blocks,
-            self.tones,
         );
     }
 }

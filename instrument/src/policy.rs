@@ -25,21 +25,25 @@
 use crate::config::{freq_hz, PERIODS};
 use core::f32::consts::TAU;
 
-/// Policy parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Policy parameters, as a device keeps them
+/// ([`crate::stored::Stored::policy`], checked by [`Policy::check`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Policy {
-    /// Largest x = 2π·f·R̂·C allowed at the remembered peak resistance.
+    /// Largest x = 2π·f·R̂·C allowed at the remembered peak resistance
+    /// (0.5 … 16).
     pub x_limit: f32,
-    /// Relative margin below `x_limit` required before switching up.
+    /// Relative margin below `x_limit` required before switching up
+    /// (0 … 0.5).
     pub hysteresis: f32,
-    /// Fraction by which the remembered peak decays per second.
+    /// Fraction by which the remembered peak decays per second (0 … 10).
     pub decay_per_s: f32,
-    /// Minimum time between switches up, s.
+    /// Minimum time between switches up, s (0 … 60).
     pub hold_s: f32,
-    /// Blocks discarded after a switch.
+    /// Blocks discarded after a switch (0 … 16).
     pub settle_blocks: u8,
     /// The lowest and the highest index of the frequency set the policy
-    /// may choose (the highest beyond the set means its last).
+    /// may choose, lowest first (a device's set must keep them within
+    /// the set; here, the highest beyond it means its last).
     pub tones: (u8, u8),
 }
 
@@ -53,7 +57,7 @@ impl Policy {
         decay_per_s: 0.5,
         hold_s: 0.5,
         settle_blocks: 1,
-        tones: (0, u8::MAX),
+        tones: (0, PERIODS.len() as u8 - 1),
     };
 }
 

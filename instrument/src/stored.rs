@@ -12,6 +12,7 @@
 
 use crate::calib::POINTS;
 use crate::config::PERIODS;
+use crate::policy::Policy;
 use dsp_core::invert::LEAD_MAX;
 use serde::{Deserialize, Serialize};
 
@@ -51,24 +52,6 @@ pub struct SensorSettings {
     pub calibrated: bool,
 }
 
-/// The tone policy and its limits.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PolicySettings {
-    /// Largest x = 2π·f·R̂·C allowed at the remembered peak (0.5 … 16).
-    pub x_limit: f32,
-    /// Relative margin below `x_limit` required to switch up (0 … 0.5).
-    pub hysteresis: f32,
-    /// Fraction the remembered peak decays per second (0 … 10).
-    pub decay_per_s: f32,
-    /// Least time between switches up, s (0 … 60).
-    pub hold_s: f32,
-    /// Blocks discarded after a switch (0 … 16).
-    pub settle_blocks: u8,
-    /// The lowest and highest tone of the frequency set the policy may
-    /// use (indices, lowest first, within the set).
-    pub tones: (u8, u8),
-}
-
 /// Everything a device keeps.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Stored {
@@ -76,8 +59,8 @@ pub struct Stored {
     pub version: u16,
     /// One record per sensor every this many blocks (1 … 250).
     pub record_every: u8,
-    /// The tone policy.
-    pub policy: PolicySettings,
+    /// The tone policy and its limits.
+    pub policy: Policy,
     /// Each sensor.
     pub sensors: [SensorSettings; SENSORS_MAX],
 }
@@ -267,30 +250,7 @@ impl SensorSettings {
     }
 }
 
-impl PolicySettings {
-    /// The policy's defaults ([`crate::policy::Policy::DEFAULT`]) over the
-    /// whole frequency set.
-    pub const DEFAULT: Self = Self {
-        x_limit: crate::policy::Policy::DEFAULT.x_limit,
-        hysteresis: crate::policy::Policy::DEFAULT.hysteresis,
-        decay_per_s: crate::policy::Policy::DEFAULT.decay_per_s,
-        hold_s: crate::policy::Policy::DEFAULT.hold_s,
-        settle_blocks: crate::policy::Policy::DEFAULT.settle_blocks,
-        tones: (crate::policy::Policy::DEFAULT.tones.0, PERIODS.len() as u8 - 1),
-    };
-
-    /// The policy these settings describe.
-    pub fn policy(&self) -> crate::policy::Policy {
-        crate::policy::Policy {
-            x_limit: self.x_limit,
-            hysteresis: self.hysteresis,
-            decay_per_s: self.decay_per_s,
-            hold_s: self.hold_s,
-            settle_blocks: self.settle_blocks,
-            tones: self.tones,
-        }
-    }
-
+impl Policy {
     /// Check the policy's values.
     pub fn check(&self) -> Result<(), Refused> {
         within(self.x_limit, 0.5, 16.0, None, Rule::XLimit)?;
@@ -321,7 +281,7 @@ impl Stored {
         Self {
             version: FORMAT_VERSION,
             record_every: 1,
-            policy: PolicySettings::DEFAULT,
+            policy: Policy::DEFAULT,
             sensors: [s; SENSORS_MAX],
         }
     }
@@ -331,7 +291,7 @@ impl Stored {
     /// rest not, nominal R `r_ohm`, its policy.
     pub fn of_sensors<const S: usize>(
         sensors: &crate::sensor::Sensors<POINTS, S>,
-        policy: &crate::policy::Policy,
+        policy: &Policy,
         r_ohm: f32,
         in_use: usize,
     ) -> Self {
@@ -339,16 +299,13 @@ impl Stored {
         Self {
             version: FORMAT_VERSION,
             record_every: 1,
-            policy: PolicySettings {
-                x_limit: p.x_limit,
-                hysteresis: p.hysteresis,
-                decay_per_s: p.decay_per_s,
-                hold_s: p.hold_s,
-                settle_blocks: p.settle_blocks,
+            policy: Policy {
+                // Within the set, as the check asks.
                 tones: {
                     let (lo, hi) = p.limits(PERIODS.len());
                     (lo as u8, hi as u8)
                 },
+                ..*p
             },
             sensors: core::array::from_fn(|s| SensorSettings {
                 in_use: s < in_use,
@@ -398,7 +355,7 @@ impl Stored {
     /// its stack rather than serde's copies of sixteen sensors (7 KiB).
     fn parse(&mut self, bytes: &[u8]) -> Option<()> {
         let ((version, record_every, policy), mut rest) =
-            postcard::take_from_bytes::<(u16, u8, PolicySettings)>(bytes).ok()?;
+            postcard::take_from_bytes::<(u16, u8, Policy)>(bytes).ok()?;
         (self.version, self.record_every, self.policy) = (version, record_every, policy);
         for sensor in self.sensors.iter_mut() {
             let (s, r) = postcard::take_from_bytes::<SensorSettings>(rest).ok()?;

@@ -178,7 +178,7 @@ mod app {
             }
         };
         let settings = ToneSettings {
-            policy: set.policy.policy(),
+            policy: set.policy,
             record_every: set.record_every,
             ..ToneSettings::new(FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true), sensors)
         };

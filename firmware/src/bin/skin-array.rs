@@ -123,7 +123,7 @@ mod app {
             qemu::exit(3)
         };
         let settings = ToneSettings {
-            policy: set.policy.policy(),
+            policy: set.policy,
             record_every: set.record_every,
             ..ToneSettings::new(skin.front_end().dsp_front_end(), sensors)
         };

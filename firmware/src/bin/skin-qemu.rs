@@ -170,7 +170,7 @@ mod app {
             qemu::exit(2)
         };
         let settings = Settings {
-            policy: set.policy.policy(),
+            policy: set.policy,
             record_every: set.record_every,
             ..Settings::new(
                 skin.ranging().front_ends(skin.front_end().v_gain as f32),
