@@ -149,7 +149,7 @@ impl NorFlash for FileFlash {
 /// nothing stored, or the flash unreadable). A file that cannot be opened
 /// or a set refused ends the run with exit code 2, as a bad command line
 /// does.
-pub fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>) {
+fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>) {
     let flash = FileFlash::open(path).unwrap_or_else(|e| {
         defmt::println!(
             "settings: the flash file cannot be used ({})",
@@ -185,13 +185,18 @@ pub fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Sto
 }
 
 /// The command line's settings options: `flash=PATH` (the settings'
-/// flash in a host file) and `save` (store the run's own set there).
+/// flash in a host file), `save` (store the run's own set there) and
+/// `until-stop` (measure past the scenario's end, until the host's stop
+/// request: a host that talks to the device is never raced by the
+/// scenario's clock).
 #[derive(Default)]
 pub struct FlashArgs {
     /// `flash=PATH`, NUL-terminated for the host's open.
     path: Option<heapless::Vec<u8, 128>>,
     /// `save`.
     save: bool,
+    /// `until-stop`.
+    until_stop: bool,
 }
 
 impl FlashArgs {
@@ -211,7 +216,21 @@ impl FlashArgs {
             self.save = true;
             return true;
         }
+        if arg == "until-stop" {
+            self.until_stop = true;
+            return true;
+        }
         false
+    }
+
+    /// The step (block or slot) at which a run of `steps` steps ends:
+    /// `steps`, or never with `until-stop` (the host's stop ends it).
+    pub fn end_step(&self, steps: u64) -> u64 {
+        if self.until_stop {
+            u64::MAX
+        } else {
+            steps
+        }
     }
 
     /// The set a run measures with: with `flash=`, the set the file holds

@@ -148,7 +148,7 @@ fn a_set_written_down_the_link_is_stored_and_in_force_after_a_restart() {
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("settings.bin");
     let flash = format!("flash={}", path.display());
-    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash]).unwrap();
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash, "until-stop"]).unwrap();
     let rx = frames(sock.try_clone().unwrap());
     let mut sock = sock;
     let mut enc = link::Encoder::new();
@@ -223,7 +223,7 @@ fn live_config_reads_and_writes_a_running_device() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let flash = format!("flash={}", tmp.path().join("settings.bin").display());
-    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash]).unwrap();
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash, "until-stop"]).unwrap();
     let mut dev = Device::new(sock, Duration::from_secs(60));
     assert_eq!(dev.read().unwrap(), None, "a new device");
     let mut set = instrument::stored::Stored::uncalibrated();
@@ -321,11 +321,7 @@ fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
         s.table = CalTable::linear(c_rest(ch.min(7)), SENSOR_REST_LENGTH_MM).points;
         s.calibrated = true;
     }
-    let mut image = vec![0xFFu8; REGION_BYTES];
-    let mut store = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES).unwrap();
-    assert_eq!(store.save(&set), Ok(1));
-    let _ = store.release();
-    std::fs::write(&path, &image).unwrap();
+    assert_eq!(live::config::write_image(&path, &set).unwrap(), 1);
     let (code, log) = run(&["eight", &flash]);
     assert_eq!(code, Some(0), "{log:?}");
     assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&set));
@@ -387,11 +383,7 @@ fn the_array_measures_with_its_stored_set() {
     set.sensors[2].table = instrument::calib::REFERENCE.points;
     set.sensors[2].calibrated = true;
     set.record_every = 2;
-    let mut image = vec![0xFFu8; REGION_BYTES];
-    let mut store = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES).unwrap();
-    assert_eq!(store.save(&set), Ok(1));
-    let _ = store.release();
-    std::fs::write(&path, &image).unwrap();
+    assert_eq!(live::config::write_image(&path, &set).unwrap(), 1);
     let (code, log) = run_image("skin-array", &["check", &flash]);
     assert_eq!(code, Some(0), "{log:?}");
     assert_eq!(digest_in(&log, "settings: generation 1"), Digest::of(&set));

@@ -21,8 +21,9 @@
 //! measures with the test rig's description of its skin
 //! ([`ArrayScenario::rig`]); `flash=PATH` keeps the settings' flash in a
 //! host file ([`firmware::qemu_flash`]) and measures with the set stored
-//! there (uncalibrated with none; `save` stores the rig's first), and
-//! `idle` answers the host's requests down the link (UART0's receive
+//! there (uncalibrated with none; `save` stores the rig's first;
+//! `until-stop` measures past the scenario's end until the host stops
+//! it), and `idle` answers the host's requests down the link (UART0's receive
 //! side): read and write the stored settings, stop. The skin, the reader
 //! and the block are built where they stay ([`qemu::place`]), so that
 //! `init` leaves the stack to the store's path.
@@ -51,7 +52,7 @@ use instrument::wire;
 const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
 
 /// The scenario named by the first semihosting argument, and the
-/// settings' options (`flash=PATH`, `save`) after it.
+/// settings' options (`flash=PATH`, `save`, `until-stop`) after it.
 fn arguments() -> (ArrayScenario, FlashArgs) {
     qemu::with_args(|args| {
         let name = args.next().unwrap_or("paper");
@@ -152,7 +153,7 @@ mod app {
             Local {
                 skin,
                 block: 0,
-                end_block: (scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US,
+                end_block: flash.end_step((scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US),
                 reader,
                 settings,
                 records: RecordSink::new(records),

@@ -21,7 +21,8 @@
 //! they describe ([`instrument::effects::EffectSet::fixture`]).
 //! `flash=PATH` keeps the settings' flash in a host file
 //! ([`firmware::qemu_flash`]): the run says what is stored there, and with
-//! `save` stores the settings it measures with. Requests down the link
+//! `save` stores the settings it measures with; `until-stop` measures
+//! past the scenario's end until the host's stop request. Requests down the link
 //! (UART0's receive side: read and write the stored settings, stop) are
 //! answered after each block ([`instrument::commands`]).
 #![no_std]
@@ -231,7 +232,7 @@ mod app {
                     ),
                 ),
                 settings,
-                end_slot: (scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS),
+                end_slot: flash.end_step((scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS)),
             },
         )
     }
