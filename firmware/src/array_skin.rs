@@ -39,6 +39,9 @@ pub enum ArrayScenario {
     /// A skin of sixteen different sensors ([`drawn`]), none the
     /// reference, on the paper's 20 mm/s trapezoid (staggered).
     Skin,
+    /// A calibration run on the same sixteen sensors as `skin`: all held
+    /// together at 0, 3, …, 30 mm in turn ([`skin_sim::stairs`]).
+    Stairs,
 }
 
 /// Sensor `s` of the `skin` scenario, drawn at a fixed seed from the
@@ -75,6 +78,7 @@ impl ArrayScenario {
             "hum" => Self::Hum,
             "identify" => Self::Identify,
             "skin" => Self::Skin,
+            "stairs" => Self::Stairs,
             _ => return None,
         })
     }
@@ -85,6 +89,7 @@ impl ArrayScenario {
             Self::Paper => 10.0,
             Self::Check | Self::Hum => 3.0,
             Self::Identify | Self::Skin => 10.0,
+            Self::Stairs => skin_sim::stairs::DURATION_S as f32,
         }
     }
 
@@ -103,7 +108,7 @@ impl ArrayScenario {
                 p = SensorParams::REFERENCE;
                 p.effects = p.effects.with(Effect::ParasiticCapacitance, HIDDEN_PF * 1e-12);
             }
-            Self::Skin => p = drawn(s),
+            Self::Skin | Self::Stairs => p = drawn(s),
             _ => {}
         }
         p
@@ -113,6 +118,7 @@ impl ArrayScenario {
     pub fn profile(&self, s: usize) -> Profile<'static> {
         match (self, s) {
             (Self::Identify, 4..) => Profile::Constant(30.0 * (s - 4) as f64 / 11.0),
+            (Self::Stairs, _) => skin_sim::stairs::PROFILE,
             _ => Profile::paper(20.0),
         }
     }
@@ -139,7 +145,7 @@ fn lead_s(scenario: ArrayScenario, s: usize) -> f64 {
         ArrayScenario::Paper | ArrayScenario::Hum | ArrayScenario::Identify | ArrayScenario::Skin => {
             0.6 * s as f64
         }
-        ArrayScenario::Check => 0.0,
+        ArrayScenario::Check | ArrayScenario::Stairs => 0.0,
     }
 }
 

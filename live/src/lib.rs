@@ -8,6 +8,7 @@
 //! was unplugged) leaves an `INCOMPLETE` file beside the data that says
 //! so, and [`Session::finish`] returns [`Outcome::Incomplete`].
 
+pub mod calibrate;
 pub mod config;
 pub mod dashboard;
 

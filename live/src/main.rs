@@ -55,7 +55,46 @@ enum Command {
         #[command(subcommand)]
         action: ConfigAction,
     },
+    /// Calibrate each sensor from records taken while the skin is held at
+    /// known stretches: its line, tab leads, contact and parasitic
+    /// capacitance fitted, its stretch table built, the set stored on the
+    /// device (which measures with it from its next start).
+    #[command(after_help = CALIBRATE_HELP)]
+    Calibrate {
+        #[command(flatten)]
+        target: Target,
+        /// The holds: CSV `stretch_mm,from_s,to_s`, one line per stretch
+        /// held (at least two), spans in the device's clock (s since its
+        /// start; leave out the settling after each move).
+        #[arg(long)]
+        holds: PathBuf,
+        /// Fit the records of a recorded stream (`stream.bin`) instead of
+        /// reading them from the device (needed with --flash).
+        #[arg(long)]
+        replay: Option<PathBuf>,
+        /// Write the report (Markdown) here too.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Keep the records read from the device (the raw stream) here.
+        #[arg(long)]
+        keep: Option<PathBuf>,
+        /// Fit and report, store nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Stop the device once the set is stored.
+        #[arg(long)]
+        stop: bool,
+    },
 }
+
+const CALIBRATE_HELP: &str = "\
+How: start the device with nothing stored (or its old set), relaxed; hold the
+skin still at each stretch of the holds file in turn (0 mm first, then at
+least one more; 0, 3, ..., 30 mm gives the table its eleven points). Each
+sensor's fit is checked: a fit that does not explain its data, a C that does
+not grow with stretch, or values beyond the device's ranges are refused, and
+that sensor keeps what the device held. The report gives each fitted value
+with its 1 sigma and names what the data could not tell apart.";
 
 #[derive(Subcommand)]
 enum ConfigAction {
@@ -192,10 +231,95 @@ fn config(action: ConfigAction) -> Result<()> {
     Ok(())
 }
 
+/// `live calibrate …`.
+fn calibrate(
+    target: Target,
+    holds: PathBuf,
+    replay: Option<PathBuf>,
+    report: Option<PathBuf>,
+    keep: Option<PathBuf>,
+    dry_run: bool,
+    stop: bool,
+) -> Result<()> {
+    use live::calibrate::{self as cal, Options};
+    let holds = cal::read_holds(&holds)?;
+    let opts = Options::default();
+    let text = match (&replay, &target.flash) {
+        (Some(path), _) => {
+            let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+            let records = cal::records_of(&bytes);
+            // A flash image not yet made is a new device.
+            let base = match &target.flash {
+                Some(f) if !f.exists() => instrument::stored::Stored::uncalibrated(),
+                _ => with_target(&target, None)?.0,
+            };
+            let (set, outcomes) = cal::calibrate(&records, &holds, &base, &opts);
+            let text = cal::report(&holds, &outcomes);
+            if !outcomes.iter().any(|o| matches!(o, cal::Outcome::Fitted(_))) {
+                anyhow::bail!("no sensor could be calibrated:\n{text}");
+            }
+            if !dry_run {
+                let change = |_: Option<instrument::stored::Stored>| Ok(set);
+                let (_, generation, _) = with_target(&target, Some(&change))?;
+                println!("stored: generation {generation}");
+            }
+            text
+        }
+        (None, Some(_)) => anyhow::bail!("--flash holds no records: give the recorded stream with --replay"),
+        (None, None) => {
+            if dry_run {
+                anyhow::bail!("--dry-run fits a recording: give it with --replay");
+            }
+            let done = match (&target.tcp, &target.serial) {
+                (Some(addr), _) => {
+                    let sock = std::net::TcpStream::connect(addr)
+                        .with_context(|| format!("connecting to {addr}"))?;
+                    sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+                    cal::on_device(sock, &holds, &opts, stop, REPLY_TIMEOUT)?
+                }
+                (None, Some(name)) => {
+                    let port = serialport::new(name, link::BOARD_BAUD)
+                        .timeout(Duration::from_millis(200))
+                        .open()
+                        .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
+                    cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT)?
+                }
+                (None, None) => anyhow::bail!("say where: --flash FILE, --tcp HOST:PORT or --serial PORT"),
+            };
+            if let Some(path) = &keep {
+                std::fs::write(path, &done.stream).with_context(|| format!("writing {}", path.display()))?;
+            }
+            println!(
+                "stored: generation {} (in force from the device's next start)",
+                done.generation
+            );
+            cal::report(&holds, &done.outcomes)
+        }
+    };
+    println!("{text}");
+    if let Some(path) = &report {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    if let Some(Command::Config { action }) = cli.command {
-        return match config(action) {
+    let mut cli = Cli::parse();
+    let done = match cli.command.take() {
+        Some(Command::Config { action }) => Some(config(action)),
+        Some(Command::Calibrate {
+            target,
+            holds,
+            replay,
+            report,
+            keep,
+            dry_run,
+            stop,
+        }) => Some(calibrate(target, holds, replay, report, keep, dry_run, stop)),
+        None => None,
+    };
+    if let Some(done) = done {
+        return match done {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");

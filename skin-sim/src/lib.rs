@@ -5,6 +5,7 @@
 //! | module | what it models |
 //! |---|---|
 //! | [`profile`] | stretch against time: the paper's trapezoids, ramps, steps, tables |
+//! | [`stairs`] | a calibration run: the skin held at 0, 3, …, 30 mm in turn, and the spans the host fits |
 //! | [`electrode`] | electrode resistance: static stretch dependence, rate-dependent peaks, transients at rest, slow settling |
 //! | [`sensor`] | the sensor on a fine grid ([`sensor::SEGMENTS`] segments), its impedance read from one end, optional non-ideal effects |
 //! | [`frontend`] | excitation, transimpedance stage and ADC: blocks of paired samples |
@@ -22,5 +23,6 @@ pub mod frontend;
 pub mod profile;
 pub mod rng;
 pub mod sensor;
+pub mod stairs;
 
 pub use num_complex::Complex64;

@@ -17,7 +17,7 @@
 //!
 //! Records are `tone` lines of [`instrument::wire`], decoded on the host.
 //! The scenario is the first semihosting argument (`paper`, `check`,
-//! `hum`, `identify`, `skin`). Without further arguments the firmware
+//! `hum`, `identify`, `skin`, `stairs`). Without further arguments the firmware
 //! measures with the test rig's description of its skin
 //! ([`ArrayScenario::rig`]); `flash=PATH` keeps the settings' flash in a
 //! host file ([`firmware::qemu_flash`]) and measures with the set stored

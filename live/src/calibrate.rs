@@ -1,0 +1,977 @@
+//! `live calibrate`: each sensor's line, its tab leads and its wiring
+//! fitted from the records a device took while the skin was held at known
+//! stretches, and its stretch table from the same fit.
+//!
+//! # What is fitted
+//! For each sensor, from the measured impedances Z (the records' two
+//! tones, Ω, before any de-embedding) within each hold:
+//!
+//! ```text
+//! Z = 1 / (1/(Z_line(R, C) + ℓ·R + R_s) + jω·C_p),   Z_line = R·coth(γ)/γ,  γ = √(jωRC)
+//! ```
+//!
+//! the uniform line of the firmware (`dsp_core::tline`), its tab leads ℓ
+//! (line resistances in series at the read end), a series contact R_s
+//! and a parasitic capacitance C_p at the meter: the three the device
+//! keeps per sensor (`instrument::stored::SensorSettings`). C is one
+//! unknown per hold (it follows stretch alone); R one per part of a hold
+//! ([`Options::parts`]), since the electrodes' resistance still recovers
+//! from the move before it. The fit is weighted least squares
+//! (Levenberg–Marquardt) on each part's mean impedance per tone, with the
+//! scatter of its records as σ, floored at [`SIGMA_FLOOR`] of |Z|.
+//!
+//! # What the data cannot tell apart
+//! Leads and contact are both a series resistance: only the way the
+//! series part follows the line's resistance from hold to hold tells
+//! them apart (leads scale with R, a contact does not). The report gives
+//! each fitted value with its 1σ and the correlation of the pair, and
+//! names the pair as unresolved where they trade against each other;
+//! the fit's C is what the table is built on either way.
+//!
+//! # When a sensor is refused
+//! A fit that does not explain its data (χ²/dof above [`CHI2_MAX`]), a
+//! C that does not ascend with stretch, a hold with too few usable
+//! records, or values outside the device's ranges: that sensor keeps what
+//! the device held, and the report says why.
+
+use anyhow::{bail, Context, Result};
+use instrument::calib::POINTS;
+use instrument::faults::Flags;
+use instrument::stored::{SensorSettings, Stored, SENSORS_MAX};
+use num_complex::Complex64;
+use std::f64::consts::TAU;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The floor of each mean impedance's σ, relative to |Z|: below it the
+/// front end's own calibration, not the noise, limits (a transimpedance
+/// and a phase known to 10⁻⁴).
+pub const SIGMA_FLOOR: f64 = 1e-4;
+
+/// The largest χ²/dof a sensor's fit may leave: beyond it the model does
+/// not explain the data and the sensor is refused.
+pub const CHI2_MAX: f64 = 4.0;
+
+/// Correlation beyond which two fitted values are reported as trading
+/// against each other.
+pub const DEGENERATE: f64 = 0.95;
+
+/// Flags of records whose impedances are not used (biased tones, no
+/// tones, or the block after a tone switch).
+const UNUSABLE: u16 = Flags::CLIPPED | Flags::OPEN | Flags::SHORTED | Flags::DISTURBED | Flags::SETTLING;
+
+/// One hold: the skin at a known stretch for a span of the device's
+/// clock.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hold {
+    /// Stretch held, mm.
+    pub stretch_mm: f64,
+    /// Start of the span, s since the device's start.
+    pub from_s: f64,
+    /// End of the span, s.
+    pub to_s: f64,
+}
+
+/// The header of a holds file.
+pub const HOLDS_HEADER: &str = "stretch_mm,from_s,to_s";
+
+/// Read a holds file: CSV with the header [`HOLDS_HEADER`], one hold per
+/// line. Errors name the file, line, column and reason; at least two
+/// holds at different stretches, spans that do not overlap.
+pub fn read_holds(path: &Path) -> Result<Vec<Hold>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    parse_holds(&text).map_err(|e| anyhow::anyhow!("{}:{e}", path.display()))
+}
+
+/// [`read_holds`] on text; errors start with `line:column: `.
+pub fn parse_holds(text: &str) -> Result<Vec<Hold>> {
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.trim() == HOLDS_HEADER => {}
+        _ => bail!("1:1: the header must be '{HOLDS_HEADER}'"),
+    }
+    let mut holds: Vec<Hold> = vec![];
+    for (i, line) in lines {
+        let n = i + 1;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let mut v = [0.0f64; 3];
+        let mut col = 1;
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 3 {
+            bail!("{n}:1: {} fields, not 3 ({HOLDS_HEADER})", fields.len());
+        }
+        for (k, f) in fields.iter().enumerate() {
+            v[k] = match f.trim().parse::<f64>() {
+                Ok(x) if x.is_finite() => x,
+                _ => bail!("{n}:{col}: '{}' is not a finite number", f.trim()),
+            };
+            col += f.len() + 1;
+        }
+        let h = Hold {
+            stretch_mm: v[0],
+            from_s: v[1],
+            to_s: v[2],
+        };
+        if !(h.from_s >= 0.0 && h.to_s > h.from_s) {
+            bail!("{n}:1: the span must start at 0 s or later and end after it starts");
+        }
+        if !(0.0..=1000.0).contains(&h.stretch_mm) {
+            bail!("{n}:1: stretch {} mm is outside 0 … 1000 mm", h.stretch_mm);
+        }
+        if let Some(p) = holds.iter().find(|p| p.from_s < h.to_s && h.from_s < p.to_s) {
+            bail!("{n}:1: its span overlaps the hold at {} mm", p.stretch_mm);
+        }
+        if holds.iter().any(|p| p.stretch_mm == h.stretch_mm) {
+            bail!("{n}:1: a second hold at {} mm", h.stretch_mm);
+        }
+        holds.push(h);
+    }
+    if holds.len() < 2 {
+        bail!(
+            "{}:1: {} holds: a calibration needs two stretches at least",
+            text.lines().count(),
+            holds.len()
+        );
+    }
+    Ok(holds)
+}
+
+/// Write a holds file (read back by [`read_holds`]).
+pub fn write_holds(path: &Path, holds: &[Hold]) -> Result<()> {
+    let mut s = format!("{HOLDS_HEADER}\n");
+    for h in holds {
+        writeln!(s, "{},{},{}", h.stretch_mm, h.from_s, h.to_s)?;
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// How the fit splits and weighs the records.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Parts of each hold, each with its own electrode resistance.
+    pub parts: usize,
+    /// Records a part of a hold needs at one tone to be used.
+    pub min_records: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            parts: 3,
+            min_records: 5,
+        }
+    }
+}
+
+/// One mean impedance: a part of a hold, at one tone.
+#[derive(Clone, Copy, Debug)]
+struct Obs {
+    /// Hold (index into the sorted holds).
+    hold: usize,
+    /// Resistance unknown (hold and part).
+    part: usize,
+    /// Hz.
+    f_hz: f64,
+    /// Mean Z, Ω.
+    z: Complex64,
+    /// σ of each component of the mean, Ω.
+    sigma: f64,
+}
+
+/// The line's impedance with leads, contact and parasitic capacitance.
+fn model(f_hz: f64, r: f64, c: f64, lead: f64, rs: f64, cp: f64) -> Complex64 {
+    let w = TAU * f_hz;
+    let g = Complex64::new(0.0, w * r * c).sqrt();
+    let line = r * (g.cosh() / g.sinh()) / g;
+    let zs = line + lead * r + rs;
+    (zs.inv() + Complex64::new(0.0, w * cp)).inv()
+}
+
+/// Scale of the global unknowns in the fit's vector: ℓ, R_s/100 kΩ, C_p/pF.
+const SCALE: [f64; 3] = [1.0, 1e5, 1e-12];
+/// Their bounds, SI (the device's ranges, `instrument::stored`).
+const BOUNDS: [(f64, f64); 3] = [(0.0, dsp_core::invert::LEAD_MAX as f64), (0.0, 10e6), (0.0, 1e-9)];
+
+/// A sensor's fit.
+#[derive(Clone, Debug)]
+pub struct SensorFit {
+    /// Sensor.
+    pub sensor: u8,
+    /// Records used.
+    pub records: usize,
+    /// Tab leads ℓ, contact R_s (Ω), parasitic C_p (F).
+    pub values: [f64; 3],
+    /// Their 1σ (NaN: at a bound, not free).
+    pub sigma: [f64; 3],
+    /// Correlation of leads and contact.
+    pub rho_lead_contact: f64,
+    /// Line C at each hold, F (in the holds' order of stretch).
+    pub c_farad: Vec<f64>,
+    /// Line R at each hold (mean of its parts), Ω.
+    pub r_ohm: Vec<f64>,
+    /// χ²/dof of the fit, and dof.
+    pub chi2_dof: f64,
+    /// Degrees of freedom.
+    pub dof: usize,
+    /// Each hold's C as the device read it (its records' mean), F.
+    pub c_read_farad: Vec<f64>,
+}
+
+/// The outcome for one sensor.
+#[derive(Clone, Debug)]
+pub enum Outcome {
+    /// Fitted and checked.
+    Fitted(SensorFit),
+    /// Refused: why. The device keeps what it held for this sensor.
+    Refused(String),
+    /// Not in use in the set calibrated.
+    NotInUse,
+}
+
+/// Fit one sensor from its records (`records` all of sensor `sensor`).
+pub fn fit_sensor(
+    sensor: u8,
+    records: &[&link::Record],
+    holds: &[Hold],
+    opts: &Options,
+) -> Result<SensorFit, String> {
+    let mut order: Vec<usize> = (0..holds.len()).collect();
+    order.sort_by(|&a, &b| holds[a].stretch_mm.total_cmp(&holds[b].stretch_mm));
+    let parts = opts.parts.max(1);
+    let mut obs = vec![];
+    let mut used = 0;
+    let mut c_read = vec![];
+    for (k, &h) in order.iter().enumerate() {
+        let hold = holds[h];
+        let span = hold.to_s - hold.from_s;
+        let mut any = false;
+        let mut c_sum = (0.0, 0usize);
+        for p in 0..parts {
+            let (a, b) = (
+                hold.from_s + span * p as f64 / parts as f64,
+                hold.from_s + span * (p + 1) as f64 / parts as f64,
+            );
+            // Per tone: the records' impedances.
+            let mut tones: Vec<(f32, Vec<Complex64>)> = vec![];
+            for r in records {
+                let t = r.t_us as f64 * 1e-6;
+                if !(t >= a && t < b) || r.flags & UNUSABLE != 0 {
+                    continue;
+                }
+                used += 1;
+                if r.c_farad > 0.0 {
+                    c_sum = (c_sum.0 + r.c_farad as f64, c_sum.1 + 1);
+                }
+                for tone in r.tones.iter().filter(|t| t.f_hz > 0.0) {
+                    let z = Complex64::new(tone.z_re_ohm as f64, tone.z_im_ohm as f64);
+                    if !(z.re.is_finite() && z.im.is_finite() && z.im < 0.0) {
+                        continue;
+                    }
+                    match tones.iter_mut().find(|(f, _)| *f == tone.f_hz) {
+                        Some((_, v)) => v.push(z),
+                        None => tones.push((tone.f_hz, vec![z])),
+                    }
+                }
+            }
+            for (f, zs) in tones {
+                if zs.len() < opts.min_records {
+                    continue;
+                }
+                let n = zs.len() as f64;
+                let mean = zs.iter().sum::<Complex64>() / n;
+                let var = zs.iter().map(|z| (z - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
+                let sigma = (var / n).sqrt().max(SIGMA_FLOOR * mean.norm());
+                obs.push(Obs {
+                    hold: k,
+                    part: k * parts + p,
+                    f_hz: f as f64,
+                    z: mean,
+                    sigma,
+                });
+                any = true;
+            }
+        }
+        if !any {
+            return Err(format!(
+                "no usable records in the hold at {} mm ({:.2}–{:.2} s)",
+                hold.stretch_mm, hold.from_s, hold.to_s
+            ));
+        }
+        c_read.push(if c_sum.1 > 0 {
+            c_sum.0 / c_sum.1 as f64
+        } else {
+            f64::NAN
+        });
+    }
+    let n_holds = order.len();
+    let n_parts = n_holds * parts;
+    // Unknowns: 3 globals, ln C per hold, ln R per part (parts without
+    // observations stay at their start and are not counted).
+    let mut has_part = vec![false; n_parts];
+    for o in &obs {
+        has_part[o.part] = true;
+    }
+    let n_par = 3 + n_holds + n_parts;
+    // Start: each part's lumped reading at its lowest tone (C = −1/(ωX),
+    // R = 3·Re Z, the line's low-frequency resistance).
+    let mut start = vec![0.0; n_par];
+    for k in 0..n_holds {
+        let lowest = obs
+            .iter()
+            .filter(|o| o.hold == k)
+            .min_by(|a, b| a.f_hz.total_cmp(&b.f_hz))
+            .expect("a hold with observations");
+        start[3 + k] = (-1.0 / (TAU * lowest.f_hz * lowest.z.im)).ln();
+        for p in 0..parts {
+            let part = k * parts + p;
+            let o = obs
+                .iter()
+                .filter(|o| o.part == part)
+                .min_by(|a, b| a.f_hz.total_cmp(&b.f_hz))
+                .unwrap_or(lowest);
+            start[3 + n_holds + part] = (3.0 * o.z.re).max(1e3).ln();
+        }
+    }
+    let residuals = |x: &[f64], out: &mut Vec<f64>| {
+        out.clear();
+        let (lead, rs, cp) = (x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2]);
+        for o in &obs {
+            let c = x[3 + o.hold].exp();
+            let r = x[3 + n_holds + o.part].exp();
+            let d = (model(o.f_hz, r, c, lead, rs, cp) - o.z) / o.sigma;
+            out.push(d.re);
+            out.push(d.im);
+        }
+    };
+    let bounds: Vec<(f64, f64)> = (0..n_par)
+        .map(|i| match i {
+            0..=2 => (BOUNDS[i].0 / SCALE[i], BOUNDS[i].1 / SCALE[i]),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        })
+        .collect();
+    // Several starts for the globals: the fit is not convex in them.
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    for lead in [0.0, 0.3, 1.0] {
+        for cp in [0.0, 10.0] {
+            let mut x = start.clone();
+            x[0] = lead;
+            x[2] = cp;
+            let (cost, x) = levenberg_marquardt(&residuals, x, &bounds, &has_part);
+            if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                best = Some((cost, x));
+            }
+        }
+    }
+    let (cost, x) = best.expect("a start");
+    // Free unknowns: globals off their bounds, every C, every observed R.
+    let free: Vec<usize> = (0..n_par)
+        .filter(|&i| match i {
+            0..=2 => x[i] > bounds[i].0 + 1e-9 && x[i] < bounds[i].1 - 1e-9,
+            i if i < 3 + n_holds => true,
+            i => has_part[i - 3 - n_holds],
+        })
+        .collect();
+    let m = 2 * obs.len();
+    if m <= free.len() {
+        return Err(format!(
+            "{} mean impedances for {} unknowns: hold longer, or at more stretches",
+            obs.len(),
+            free.len()
+        ));
+    }
+    let dof = m - free.len();
+    let chi2_dof = cost / dof as f64;
+    // Covariance of the free unknowns, scaled by χ²/dof when above 1.
+    let jac = jacobian(&residuals, &x, &free);
+    let mut jtj = vec![vec![0.0; free.len()]; free.len()];
+    for (a, row) in jtj.iter_mut().enumerate() {
+        for (b, v) in row.iter_mut().enumerate() {
+            *v = (0..m).map(|i| jac[a][i] * jac[b][i]).sum();
+        }
+    }
+    let cov = invert(&jtj).map(|c| {
+        let s = chi2_dof.max(1.0);
+        c.into_iter()
+            .map(|row| row.into_iter().map(|v| v * s).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    });
+    let mut sigma = [f64::NAN; 3];
+    let mut rho = f64::NAN;
+    if let Some(cov) = &cov {
+        let at = |i: usize| free.iter().position(|&f| f == i);
+        for (g, s) in sigma.iter_mut().enumerate() {
+            if let Some(a) = at(g) {
+                *s = cov[a][a].sqrt() * SCALE[g];
+            }
+        }
+        if let (Some(a), Some(b)) = (at(0), at(1)) {
+            rho = cov[a][b] / (cov[a][a] * cov[b][b]).sqrt();
+        }
+    }
+    let c: Vec<f64> = (0..n_holds).map(|k| x[3 + k].exp()).collect();
+    let r: Vec<f64> = (0..n_holds)
+        .map(|k| {
+            let rs: Vec<f64> = (0..parts)
+                .filter(|p| has_part[k * parts + p])
+                .map(|p| x[3 + n_holds + k * parts + p].exp())
+                .collect();
+            rs.iter().sum::<f64>() / rs.len() as f64
+        })
+        .collect();
+    let fit = SensorFit {
+        sensor,
+        records: used,
+        values: [x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2]],
+        sigma,
+        rho_lead_contact: rho,
+        c_farad: c,
+        r_ohm: r,
+        chi2_dof,
+        dof,
+        c_read_farad: c_read,
+    };
+    if chi2_dof.is_nan() || chi2_dof > CHI2_MAX {
+        return Err(format!(
+            "the line with leads, contact and parasitic capacitance does not explain its data \
+             (χ²/dof = {chi2_dof:.1} > {CHI2_MAX}): an effect it lacks, or a stretch that moved during a hold"
+        ));
+    }
+    if let Some(k) = (1..n_holds).find(|&k| fit.c_farad[k] <= fit.c_farad[k - 1]) {
+        return Err(format!(
+            "C does not grow with stretch: {:.2} pF at {} mm, {:.2} pF at {} mm",
+            fit.c_farad[k - 1] * 1e12,
+            holds[order[k - 1]].stretch_mm,
+            fit.c_farad[k] * 1e12,
+            holds[order[k]].stretch_mm
+        ));
+    }
+    Ok(fit)
+}
+
+impl SensorFit {
+    /// The stretches of the holds, ascending (as `c_farad`).
+    fn stretches(holds: &[Hold]) -> Vec<f64> {
+        let mut s: Vec<f64> = holds.iter().map(|h| h.stretch_mm).collect();
+        s.sort_by(f64::total_cmp);
+        s
+    }
+
+    /// The stretch table: [`POINTS`] points evenly over the holds' span
+    /// of stretch, C by linear interpolation between the holds' fitted C.
+    pub fn table(&self, holds: &[Hold]) -> [(f32, f32); POINTS] {
+        let s = Self::stretches(holds);
+        let (lo, hi) = (s[0], s[s.len() - 1]);
+        core::array::from_fn(|j| {
+            let sj = lo + (hi - lo) * j as f64 / (POINTS - 1) as f64;
+            let k = s.partition_point(|&v| v <= sj).clamp(1, s.len() - 1);
+            let (s0, s1, c0, c1) = (s[k - 1], s[k], self.c_farad[k - 1], self.c_farad[k]);
+            let c = c0 + (c1 - c0) * (sj - s0) / (s1 - s0);
+            (c as f32, sj as f32)
+        })
+    }
+
+    /// The sensor's stored settings from this fit.
+    pub fn settings(&self, holds: &[Hold]) -> SensorSettings {
+        let table = self.table(holds);
+        SensorSettings {
+            in_use: true,
+            nominal_c_farad: table[0].0,
+            nominal_r_ohm: self.r_ohm[0] as f32,
+            lead_ratio: self.values[0] as f32,
+            contact_ohm: self.values[1] as f32,
+            parasitic_farad: self.values[2] as f32,
+            table,
+            calibrated: true,
+        }
+    }
+
+    /// What the data cannot tell apart, in words (empty: every value
+    /// resolved).
+    pub fn unresolved(&self) -> Vec<String> {
+        let mut out = vec![];
+        if self.rho_lead_contact.abs() > DEGENERATE {
+            out.push(format!(
+                "tab leads and contact trade against each other (correlation {:.3}): holds whose \
+                 electrode resistance differs more, or a short across the sensor's far end, would \
+                 separate them",
+                self.rho_lead_contact
+            ));
+        }
+        // At 0 a value is simply absent; at its upper bound the fit
+        // wanted more than the device takes.
+        for (g, name) in ["leads", "contact", "parasitic capacitance"].iter().enumerate() {
+            if self.sigma[g].is_nan() && self.values[g] > BOUNDS[g].0 {
+                out.push(format!(
+                    "{name}: at the device's limit ({}): the fit wanted more",
+                    fmt_value(g, self.values[g])
+                ));
+            }
+        }
+        out
+    }
+}
+
+/// A global value in its unit.
+fn fmt_value(g: usize, v: f64) -> String {
+    match g {
+        0 => format!("{v:.4}"),
+        1 => format!("{:.2} kΩ", v / 1e3),
+        _ => format!("{:.2} pF", v * 1e12),
+    }
+}
+
+/// Every sensor of `base` in use, fitted from `records`; the set to store
+/// (each fitted sensor from its fit, the others as `base` has them), and
+/// each sensor's outcome.
+pub fn calibrate(
+    records: &[link::Record],
+    holds: &[Hold],
+    base: &Stored,
+    opts: &Options,
+) -> (Stored, Vec<Outcome>) {
+    let mut set = *base;
+    let mut outcomes = vec![];
+    for s in 0..SENSORS_MAX {
+        if !base.sensors[s].in_use {
+            outcomes.push(Outcome::NotInUse);
+            continue;
+        }
+        let mine: Vec<&link::Record> = records.iter().filter(|r| usize::from(r.sensor) == s).collect();
+        let outcome = match fit_sensor(s as u8, &mine, holds, opts) {
+            Ok(fit) => {
+                let mut trial = set;
+                trial.sensors[s] = fit.settings(holds);
+                match trial.check() {
+                    Ok(()) => {
+                        set = trial;
+                        Outcome::Fitted(fit)
+                    }
+                    Err(r) => Outcome::Refused(format!("the fit breaks the device's rule: {r}")),
+                }
+            }
+            Err(why) => Outcome::Refused(why),
+        };
+        outcomes.push(outcome);
+    }
+    (set, outcomes)
+}
+
+/// The report of a calibration, Markdown: a row per sensor, then what the
+/// data left unresolved and why sensors were refused.
+pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
+    let mut md = String::new();
+    let reference = instrument::calib::REFERENCE;
+    let s = SensorFit::stretches(holds);
+    let _ = writeln!(
+        md,
+        "{} holds ({:?} mm). Per sensor: the fitted tab leads ℓ, contact and parasitic capacitance \
+         (±1σ), C and R at rest, χ²/dof, how far the uncalibrated reading's C is from the fitted \
+         line's (RMS over the holds), and the stretch error the reference sensor's table would give \
+         on the uncalibrated reading (RMS over the holds) against the new table's (its points are \
+         the fit's, so 0 at the holds: the measurement after the restart is the test).\n",
+        holds.len(),
+        s
+    );
+    md.push_str("| sensor | records | ℓ | contact kΩ | parasitic pF | C rest pF | R rest kΩ | χ²/dof | uncalibrated C off | stretch RMS, reference table | outcome |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let mut notes = vec![];
+    for (i, o) in outcomes.iter().enumerate() {
+        match o {
+            Outcome::NotInUse => {}
+            Outcome::Refused(why) => {
+                let _ = writeln!(md, "| {i} | | | | | | | | | | refused |");
+                notes.push(format!(
+                    "sensor {i} refused: {why}; the device keeps its set for it"
+                ));
+            }
+            Outcome::Fitted(f) => {
+                let pm = |g: usize, k: f64, d: usize| match f.sigma[g].is_nan() {
+                    true if f.values[g] <= BOUNDS[g].0 => "none".to_string(),
+                    true => format!("{:.*} (limit)", d, f.values[g] * k),
+                    false => format!("{:.*} ± {:.*}", d, f.values[g] * k, d, f.sigma[g] * k),
+                };
+                let off = rms(f
+                    .c_read_farad
+                    .iter()
+                    .zip(&f.c_farad)
+                    .map(|(r, c)| 100.0 * (r / c - 1.0)));
+                let before = rms(f
+                    .c_read_farad
+                    .iter()
+                    .zip(&s)
+                    .map(|(c, s)| reference.stretch(*c as f32) as f64 - s));
+                let _ = writeln!(
+                    md,
+                    "| {i} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
+                    f.records,
+                    pm(0, 1.0, 4),
+                    pm(1, 1e-3, 2),
+                    pm(2, 1e12, 2),
+                    f.c_farad[0] * 1e12,
+                    f.r_ohm[0] / 1e3,
+                    f.chi2_dof,
+                );
+                for u in f.unresolved() {
+                    notes.push(format!("sensor {i}: {u}"));
+                }
+            }
+        }
+    }
+    if !notes.is_empty() {
+        md.push('\n');
+        for n in notes {
+            let _ = writeln!(md, "- {n}");
+        }
+    }
+    md
+}
+
+/// The records in a recorded stream (frames that fail their check are
+/// passed over, as `live` counts them).
+pub fn records_of(bytes: &[u8]) -> Vec<link::Record> {
+    let mut dec = link::Decoder::new();
+    bytes
+        .iter()
+        .filter_map(|&b| match dec.push(b) {
+            Some(Ok(link::Frame {
+                body: link::Body::Record(r),
+                ..
+            })) => Some(r),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Read records from a device until its clock has passed `until_s` (a
+/// record of every sensor seen so far beyond it), or `timeout` passes
+/// with none arriving. The records, and the raw bytes read.
+pub fn collect(
+    port: &mut impl std::io::Read,
+    until_s: f64,
+    timeout: std::time::Duration,
+) -> Result<(Vec<link::Record>, Vec<u8>)> {
+    let mut dec = link::Decoder::new();
+    let mut records = vec![];
+    let mut raw = vec![];
+    let mut chunk = [0u8; 4096];
+    let mut last = std::time::Instant::now();
+    let until_us = (until_s * 1e6) as u64;
+    let mut seen = [false; 256];
+    let mut beyond = [false; 256];
+    loop {
+        match port.read(&mut chunk) {
+            Ok(0) => bail!(
+                "the device closed the link at {:.2} s of its clock, before the last hold's end ({until_s} s)",
+                records.last().map_or(0.0, |r: &link::Record| r.t_us as f64 * 1e-6)
+            ),
+            Ok(n) => {
+                last = std::time::Instant::now();
+                raw.extend_from_slice(&chunk[..n]);
+                for &b in &chunk[..n] {
+                    if let Some(Ok(link::Frame {
+                        body: link::Body::Record(r),
+                        ..
+                    })) = dec.push(b)
+                    {
+                        seen[usize::from(r.sensor)] = true;
+                        if r.t_us > until_us {
+                            beyond[usize::from(r.sensor)] = true;
+                        }
+                        records.push(r);
+                    }
+                }
+                if beyond.iter().any(|&b| b) && seen.iter().zip(&beyond).all(|(s, b)| !s || *b) {
+                    return Ok((records, raw));
+                }
+            }
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                if last.elapsed() > timeout {
+                    bail!("no records from the device in {timeout:?}");
+                }
+            }
+            Err(e) => return Err(e).context("reading from the device"),
+        }
+    }
+}
+
+/// A calibration done on a device.
+#[derive(Debug)]
+pub struct Done {
+    /// The set stored.
+    pub set: Stored,
+    /// Its generation on the device.
+    pub generation: u32,
+    /// Each sensor's outcome.
+    pub outcomes: Vec<Outcome>,
+    /// The raw bytes of the records the fit used.
+    pub stream: Vec<u8>,
+}
+
+/// Calibrate the device at the other end of `port` while it runs through
+/// `holds`: its records until the last hold ends, each sensor fitted, the
+/// set written down the link (the device checks it and stores it; it
+/// measures with it from its next start), and, with `stop`, the device
+/// stopped.
+pub fn on_device<S: std::io::Read + std::io::Write>(
+    mut port: S,
+    holds: &[Hold],
+    opts: &Options,
+    stop: bool,
+    timeout: std::time::Duration,
+) -> Result<Done> {
+    let until = holds.iter().map(|h| h.to_s).fold(0.0, f64::max);
+    let (records, stream) = collect(&mut port, until, timeout)?;
+    let mut dev = crate::config::Device::new(port, timeout);
+    let base = dev.read()?.map_or_else(Stored::uncalibrated, |(s, _)| s);
+    let (set, outcomes) = calibrate(&records, holds, &base, opts);
+    if !outcomes.iter().any(|o| matches!(o, Outcome::Fitted(_))) {
+        bail!("no sensor could be calibrated:\n{}", report(holds, &outcomes));
+    }
+    let generation = dev.write(&set)?;
+    if stop {
+        dev.stop()?;
+    }
+    Ok(Done {
+        set,
+        generation,
+        outcomes,
+        stream,
+    })
+}
+
+/// RMS of `v` (NaN if empty).
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    (s / n as f64).sqrt()
+}
+
+/// Forward-difference Jacobian of `f` at `x` over unknowns `free`:
+/// `jac[a][i]` = ∂f_i/∂x_free[a].
+fn jacobian(f: &impl Fn(&[f64], &mut Vec<f64>), x: &[f64], free: &[usize]) -> Vec<Vec<f64>> {
+    let mut r0 = vec![];
+    f(x, &mut r0);
+    let mut xp = x.to_vec();
+    let mut r1 = vec![];
+    free.iter()
+        .map(|&i| {
+            let h = 1e-6 * x[i].abs().max(1e-3);
+            xp[i] = x[i] + h;
+            f(&xp, &mut r1);
+            xp[i] = x[i];
+            r1.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect()
+        })
+        .collect()
+}
+
+/// Levenberg–Marquardt on ½‖f‖² with box bounds (steps projected onto
+/// them); unknowns with `active[i − first R] == false` are held. The
+/// final cost ‖f‖² and the unknowns.
+fn levenberg_marquardt(
+    f: &impl Fn(&[f64], &mut Vec<f64>),
+    mut x: Vec<f64>,
+    bounds: &[(f64, f64)],
+    has_part: &[bool],
+) -> (f64, Vec<f64>) {
+    let n_r = has_part.len();
+    let first_r = x.len() - n_r;
+    let free: Vec<usize> = (0..x.len())
+        .filter(|&i| i < first_r || has_part[i - first_r])
+        .collect();
+    for (v, b) in x.iter_mut().zip(bounds) {
+        *v = v.clamp(b.0, b.1);
+    }
+    let cost = |x: &[f64]| {
+        let mut r = vec![];
+        f(x, &mut r);
+        let c: f64 = r.iter().map(|v| v * v).sum();
+        if c.is_finite() {
+            c
+        } else {
+            f64::INFINITY
+        }
+    };
+    let mut c = cost(&x);
+    let mut lambda = 1e-3;
+    let mut r = vec![];
+    for _ in 0..200 {
+        f(&x, &mut r);
+        let jac = jacobian(f, &x, &free);
+        let n = free.len();
+        let mut a = vec![vec![0.0; n]; n];
+        let mut g = vec![0.0; n];
+        for i in 0..n {
+            g[i] = -(0..r.len()).map(|k| jac[i][k] * r[k]).sum::<f64>();
+            for j in i..n {
+                let v: f64 = (0..r.len()).map(|k| jac[i][k] * jac[j][k]).sum();
+                a[i][j] = v;
+                a[j][i] = v;
+            }
+        }
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut m = a.clone();
+            for (i, row) in m.iter_mut().enumerate() {
+                row[i] += lambda * a[i][i].max(1e-12);
+            }
+            let Some(step) = host_sim::numerics::solve(m, g.clone()) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut xn = x.clone();
+            for (k, &i) in free.iter().enumerate() {
+                xn[i] = (x[i] + step[k]).clamp(bounds[i].0, bounds[i].1);
+            }
+            let cn = cost(&xn);
+            if cn < c {
+                let done = (c - cn) <= 1e-10 * c.max(1e-300);
+                x = xn;
+                c = cn;
+                lambda = (lambda / 3.0).max(1e-12);
+                improved = !done;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    (c, x)
+}
+
+/// The inverse of a symmetric positive definite matrix (None: singular).
+fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+    let n = a.len();
+    let mut cols = vec![];
+    for j in 0..n {
+        let mut e = vec![0.0; n];
+        e[j] = 1.0;
+        cols.push(host_sim::numerics::solve(a.to_vec(), e)?);
+    }
+    Some((0..n).map(|i| (0..n).map(|j| cols[j][i]).collect()).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records of one sensor at each hold, from the model with known
+    /// leads, contact and parasitic capacitance, with noise.
+    fn records(lead: f64, rs: f64, cp: f64, holds: &[Hold]) -> Vec<link::Record> {
+        let mut out = vec![];
+        let mut seed = 0x1234_5678u64;
+        let mut noise = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for h in holds {
+            let c = 200e-12 * (1.0 + h.stretch_mm / 100.0);
+            let mut t = h.from_s;
+            while t < h.to_s {
+                // The electrodes' resistance falls with stretch and
+                // recovers during the hold.
+                let r = 700e3 * (1.0 - 0.004 * h.stretch_mm) * (1.0 + 0.05 * (h.from_s - t).exp());
+                let tones = [2000.0f32, 4000.0].map(|f| {
+                    let z = model(f as f64, r, c, lead, rs, cp);
+                    let z = z * Complex64::new(1.0 + 2e-4 * noise(), 2e-4 * noise());
+                    link::Tone {
+                        f_hz: f,
+                        z_re_ohm: z.re as f32,
+                        z_im_ohm: z.im as f32,
+                    }
+                });
+                out.push(link::Record {
+                    t_us: (t * 1e6) as u64,
+                    sensor: 0,
+                    tones,
+                    c_farad: (c * 0.97) as f32,
+                    r_ohm: r as f32,
+                    flags: Flags::UNCALIBRATED | Flags::MODEL,
+                    ..Default::default()
+                });
+                t += 0.004;
+            }
+        }
+        out
+    }
+
+    fn stairs() -> Vec<Hold> {
+        (0..11)
+            .map(|k| Hold {
+                stretch_mm: 3.0 * k as f64,
+                from_s: 1.0 * k as f64,
+                to_s: 1.0 * k as f64 + 0.6,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_fit_finds_the_leads_contact_and_parasitic_it_was_given() {
+        let holds = stairs();
+        for (lead, rs, cp) in [(0.0, 0.0, 0.0), (0.64, 0.0, 12e-12), (0.3, 20e3, 5e-12)] {
+            let recs = records(lead, rs, cp, &holds);
+            let refs: Vec<&link::Record> = recs.iter().collect();
+            let fit = fit_sensor(0, &refs, &holds, &Options::default()).unwrap();
+            println!("{:?} {:?} χ²/dof {:.2}", fit.values, fit.sigma, fit.chi2_dof);
+            assert!((fit.values[0] - lead).abs() < 0.02, "{fit:?}");
+            assert!((fit.values[1] - rs).abs() < 5e3, "{fit:?}");
+            assert!((fit.values[2] - cp).abs() < 0.3e-12, "{fit:?}");
+            for (k, h) in holds.iter().enumerate() {
+                let c = 200e-12 * (1.0 + h.stretch_mm / 100.0);
+                assert!((fit.c_farad[k] / c - 1.0).abs() < 2e-4, "{k}: {fit:?}");
+            }
+            assert!(fit.chi2_dof < 2.0);
+            let set = fit.settings(&holds);
+            assert!(set.table.windows(2).all(|w| w[1].0 > w[0].0 && w[1].1 > w[0].1));
+            assert_eq!(set.table[POINTS - 1].1, 30.0);
+        }
+    }
+
+    #[test]
+    fn a_sensor_the_model_does_not_explain_is_refused_and_kept() {
+        let holds = stairs();
+        let mut recs = records(0.3, 0.0, 5e-12, &holds);
+        // A stretch that moved during the holds: C off by 2 % in the
+        // second half of each.
+        for r in recs.iter_mut() {
+            let t = r.t_us as f64 * 1e-6;
+            if t.fract() > 0.3 {
+                for tone in r.tones.iter_mut() {
+                    tone.z_im_ohm *= 0.98;
+                }
+            }
+        }
+        let base = Stored::uncalibrated();
+        let (set, out) = calibrate(&recs, &holds, &base, &Options::default());
+        assert!(
+            matches!(&out[0], Outcome::Refused(why) if why.contains("does not explain")),
+            "{out:?}"
+        );
+        assert_eq!(set.sensors[0], base.sensors[0]);
+        // The other sensors have no records: refused, kept.
+        assert!(matches!(&out[1], Outcome::Refused(why) if why.contains("no usable records")));
+        assert!(report(&holds, &out).contains("sensor 0 refused"));
+    }
+
+    #[test]
+    fn holds_files_say_where_they_are_wrong() {
+        let ok = "stretch_mm,from_s,to_s\n0,0.2,1\n10,1.5,2\n";
+        assert_eq!(parse_holds(ok).unwrap().len(), 2);
+        let err = |t: &str| parse_holds(t).unwrap_err().to_string();
+        assert!(err("s,f,t\n").starts_with("1:1: the header"));
+        assert!(err("stretch_mm,from_s,to_s\n0,0.2,x\n").starts_with("2:7: 'x' is not"));
+        assert!(err("stretch_mm,from_s,to_s\n0,0.2,1\n5,0.5,1.5\n").contains("overlaps"));
+        assert!(err("stretch_mm,from_s,to_s\n0,0.2,1\n").contains("two stretches"));
+        assert!(err("stretch_mm,from_s,to_s\n0,1,0.5\n").contains("end after"));
+        assert!(err("stretch_mm,from_s,to_s\n0,0,1\n0,2,3\n").contains("a second hold"));
+        assert!(err("stretch_mm,from_s,to_s\n0,0,1,4\n").contains("4 fields"));
+        let tmp = tempfile::tempdir().unwrap();
+        let p = tmp.path().join("holds.csv");
+        let holds = stairs();
+        write_holds(&p, &holds).unwrap();
+        assert_eq!(read_holds(&p).unwrap(), holds);
+    }
+}
