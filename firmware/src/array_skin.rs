@@ -6,7 +6,7 @@ use dsp_core::fixture::Fixture;
 use dsp_core::tline::ModelError;
 use instrument::array::{tones_hz, Frame, SENSORS, TONES};
 use instrument::calib::POINTS;
-use instrument::effects::{Effect, EffectSet};
+use instrument::effects::Effect;
 use instrument::policy::Policy;
 use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::stored::Stored;
@@ -36,34 +36,12 @@ pub enum ArrayScenario {
     /// sensors 0–3 on the 20 mm/s trapezoid (staggered), 4–15 held at
     /// 0–30 mm (the static calibration).
     Identify,
-    /// A skin of sixteen different sensors ([`drawn`]), none the
+    /// A skin of sixteen different sensors ([`SensorParams::hand_made`]), none the
     /// reference, on the paper's 20 mm/s trapezoid (staggered).
     Skin,
     /// A calibration run on the same sixteen sensors as `skin`: all held
     /// together at 0, 3, …, 30 mm in turn ([`skin_sim::stairs`]).
     Stairs,
-}
-
-/// Sensor `s` of the `skin` scenario, drawn at a fixed seed from the
-/// spread of hand-made sensors and their wiring: rest C 0.8–1.2 times the
-/// paper's (film thickness and area), electrode resistance 0.5–1.5 times
-/// (carbon-black loading), 0–20 pF of cable and fixture capacitance, and
-/// tab leads from none to the paper sensor's share of each electrode
-/// (uniform draws).
-pub fn drawn(s: usize) -> SensorParams {
-    let mut rng = Rng::new(0x5e45_0000 + s as u64);
-    let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
-    let mut p = SensorParams::PAPER;
-    p.c_rest_farad *= u(0.8, 1.2);
-    let k = u(0.5, 1.5);
-    p.top.r_rest_ohm *= k;
-    p.bottom.r_rest_ohm *= k;
-    let leads = u(0.0, 1.0) * SensorParams::PAPER.effects.get(Effect::LeadResistance);
-    let parasitic = u(0.0, 20e-12);
-    p.effects = EffectSet::NONE
-        .with(Effect::LeadResistance, leads)
-        .with(Effect::ParasiticCapacitance, parasitic);
-    p
 }
 
 /// The undeclared cable capacitance of the `identify` scenario, pF.
@@ -108,7 +86,7 @@ impl ArrayScenario {
                 p = SensorParams::REFERENCE;
                 p.effects = p.effects.with(Effect::ParasiticCapacitance, HIDDEN_PF * 1e-12);
             }
-            Self::Skin | Self::Stairs => p = drawn(s),
+            Self::Skin | Self::Stairs => p = SensorParams::hand_made(s),
             _ => {}
         }
         p

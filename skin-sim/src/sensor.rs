@@ -73,6 +73,29 @@ impl SensorParams {
         effects: EffectSet::NONE.with(Effect::LeadResistance, 0.6415),
     };
 
+    /// Sensor `s` of a skin of hand-made sensors (the array's `skin` and
+    /// `stairs` scenarios), drawn at a fixed seed from the spread of such
+    /// sensors and their wiring: rest C 0.8–1.2 times the paper's (film
+    /// thickness and area), electrode resistance 0.5–1.5 times
+    /// (carbon-black loading), 0–20 pF of cable and fixture capacitance,
+    /// and tab leads from none to the paper sensor's share of each
+    /// electrode (uniform draws).
+    pub fn hand_made(s: usize) -> Self {
+        let mut rng = crate::rng::Rng::new(0x5e45_0000 + s as u64);
+        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let mut p = Self::PAPER;
+        p.c_rest_farad *= u(0.8, 1.2);
+        let k = u(0.5, 1.5);
+        p.top.r_rest_ohm *= k;
+        p.bottom.r_rest_ohm *= k;
+        let leads = u(0.0, 1.0) * Self::PAPER.effects.get(Effect::LeadResistance);
+        let parasitic = u(0.0, 20e-12);
+        p.effects = EffectSet::NONE
+            .with(Effect::LeadResistance, leads)
+            .with(Effect::ParasiticCapacitance, parasitic);
+        p
+    }
+
     /// True capacitance at a uniform stretch `s` (mm), F.
     pub fn capacitance(&self, s: f64) -> f64 {
         self.c_rest_farad * (1.0 + s / self.rest_length_mm)

@@ -7,6 +7,7 @@
 //! instructions executed. Only stdout is compared (QEMU prints "Timer with
 //! period zero" on stderr).
 
+pub mod calibration;
 pub mod records;
 pub mod summary;
 pub mod tables;

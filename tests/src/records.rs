@@ -27,10 +27,15 @@ pub fn run_scenario_args(args: &[&str]) -> Result<(crate::Run, Vec<LoggedRecord>
 /// Build the array firmware (`skin-array`), run `scenario`, decode its
 /// records.
 pub fn run_array(scenario: &str) -> Result<(crate::Run, Vec<LoggedToneRecord>)> {
+    run_array_args(&[scenario])
+}
+
+/// [`run_array`] with further semihosting arguments after the name.
+pub fn run_array_args(args: &[&str]) -> Result<(crate::Run, Vec<LoggedToneRecord>)> {
     let elf = crate::build_firmware("skin-array", &["qemu"])?;
-    let run = crate::run_qemu_args(&elf, &[scenario], std::time::Duration::from_secs(900))?;
+    let run = crate::run_qemu_args(&elf, args, std::time::Duration::from_secs(900))?;
     let lines = host_sim::recording::decode_defmt(&elf, &run.raw)?;
-    let recs = host_sim::recording::parse_tones(&format!("QEMU array run {scenario}"), &lines)?;
+    let recs = host_sim::recording::parse_tones(&format!("QEMU array run {}", args.join(" ")), &lines)?;
     Ok((
         crate::Run {
             stdout: lines.into_iter().map(|(_, l)| l).collect::<Vec<_>>().join("\n"),

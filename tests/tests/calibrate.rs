@@ -1,0 +1,81 @@
+//! The calibration workflow in QEMU (`qemu_tests::calibration`): sixteen
+//! hand-made sensors calibrated over the link, QEMU restarted, the
+//! settings back, each sensor's stretch within 0.1 mm RMS where the skin
+//! holds still (0.125 mm over the whole trapezoid: the slowest electrodes'
+//! records carry more noise, and say so), and no record marked valid more
+//! than 1 % off in C.
+
+use live::calibrate::Outcome;
+use skin_sim::sensor::SensorParams;
+
+#[test]
+fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
+    let tmp = tempfile::tempdir().unwrap();
+    let w = qemu_tests::calibration::run(tmp.path()).unwrap();
+    println!("{}\n{}", w.report, w.table());
+    assert!(
+        w.came_back,
+        "the restarted device names the set written (generation {})",
+        w.generation
+    );
+    assert_eq!(w.generation, 1);
+    // Each sensor fitted, its wiring and leads where the simulation put
+    // them (what the fit's C rests on).
+    for (s, o) in w.outcomes.iter().enumerate() {
+        let Outcome::Fitted(f) = o else {
+            panic!("sensor {s}: {o:?}");
+        };
+        let truth = SensorParams::hand_made(s);
+        let lead = truth.effects.lead_ratio() as f64;
+        let cp = truth
+            .effects
+            .get(instrument::effects::Effect::ParasiticCapacitance);
+        assert!(
+            (f.values[0] - lead).abs() < 0.03 + 3.0 * f.sigma[0].max(0.0),
+            "sensor {s}: ℓ {:.4} ± {:.4}, truth {lead:.4}",
+            f.values[0],
+            f.sigma[0]
+        );
+        assert!(
+            (f.values[2] - cp).abs() < 1e-12,
+            "sensor {s}: C_p {:.2} pF, truth {:.2} pF",
+            f.values[2] * 1e12,
+            cp * 1e12
+        );
+        assert!(w.set.sensors[s].calibrated);
+    }
+    for s in &w.sensors {
+        // What the calibration controls: the table and the line's C,
+        // seen where the skin holds still.
+        assert!(
+            s.after_still_moving_mm.0 <= 0.1,
+            "sensor {}: {:.3} mm RMS held still",
+            s.sensor,
+            s.after_still_moving_mm.0
+        );
+        // Moving, the slowest electrodes (read at the lowest tones) add
+        // the noise their records state.
+        assert!(
+            s.after_mm <= 0.125,
+            "sensor {}: {:.3} mm RMS after",
+            s.sensor,
+            s.after_mm
+        );
+        assert_eq!(
+            s.c_off.1, 0,
+            "sensor {}: valid records > 1 % off in C after",
+            s.sensor
+        );
+        // Records beyond the instrument's range are flagged, not read.
+        assert!(
+            s.after_valid.0 * 10 >= s.after_valid.1 * 7,
+            "sensor {}: {} of {} valid",
+            s.sensor,
+            s.after_valid.0,
+            s.after_valid.1
+        );
+    }
+    // Before, the reference sensor's constants read these sensors wrong.
+    let worse = w.sensors.iter().filter(|s| s.before_all_mm > 1.0).count();
+    assert!(worse >= 12, "{}", w.table());
+}
