@@ -18,7 +18,7 @@
 //! Each sensor's stretch error against the truth, before and after, and
 //! the records marked valid more than 1 % off in C.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use host_sim::recording::LoggedToneRecord;
 use instrument::digest::Digest;
 use instrument::stored::Stored;
@@ -126,7 +126,8 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     let before = std::thread::spawn(|| crate::records::run_array_args(&["skin"]));
     // 2. The calibration, over the link.
     let holds = stairs_holds();
-    let (mut qemu, sock) = crate::connect_qemu_tcp(&elf, &["stairs", &flash_arg, "until-stop"])?;
+    let log = dir.join("calibration-run.defmt");
+    let (mut qemu, sock) = crate::connect_qemu_tcp_logged(&elf, &["stairs", &flash_arg, "until-stop"], &log)?;
     let done = cal::on_device(
         sock,
         &holds,
@@ -137,14 +138,40 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     let status = match &done {
         Ok(_) => qemu.wait()?,
         Err(_) => {
-            let _ = qemu.kill();
+            // Ended by itself (its log says why), or still running.
+            std::thread::sleep(Duration::from_millis(500));
+            if qemu.try_wait()?.is_none() {
+                let _ = qemu.kill();
+            }
             qemu.wait()?
         }
     };
-    let done = done.context("calibrating over the link")?;
+    // What the device said, for a run that went wrong.
+    let said = || {
+        let raw = std::fs::read(&log).unwrap_or_default();
+        let lines = host_sim::recording::decode_defmt(&elf, &raw).unwrap_or_default();
+        let tail: Vec<String> = lines
+            .iter()
+            .rev()
+            .take(12)
+            .rev()
+            .map(|(_, l)| l.clone())
+            .collect();
+        let err = std::fs::read_to_string(log.with_extension("err")).unwrap_or_default();
+        format!(
+            "QEMU {status}; its log ends:\n{}\nQEMU said: {err}",
+            tail.join("\n")
+        )
+    };
+    let done = match done {
+        Ok(d) => d,
+        Err(e) => return Err(e.context(format!("calibrating over the link ({})", said()))),
+    };
     if !status.success() {
-        bail!("the calibration run ended with {status}");
+        bail!("the calibration run ended badly: {}", said());
     }
+    let _ = std::fs::remove_file(&log);
+    let _ = std::fs::remove_file(log.with_extension("err"));
     let report = cal::report(&holds, &done.outcomes);
     // 3. After: a restart on the same flash.
     let (run, after) = crate::records::run_array_args(&["skin", &flash_arg])?;

@@ -187,7 +187,31 @@ pub fn spawn_qemu_tcp(elf: &Path, args: &[&str], port: u16) -> Result<std::proce
 /// UART0 (QEMU listens a moment after it starts; read timeout 200 ms).
 pub fn connect_qemu_tcp(elf: &Path, args: &[&str]) -> Result<(std::process::Child, std::net::TcpStream)> {
     let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
-    let mut child = spawn_qemu_tcp(elf, args, port)?;
+    let child = spawn_qemu_tcp(elf, args, port)?;
+    connect(child, port)
+}
+
+/// [`connect_qemu_tcp`] with the image's semihosting output (its defmt
+/// log) kept in `log` and QEMU's own messages in `log` + `.err`, for a
+/// run whose failure must be explained.
+pub fn connect_qemu_tcp_logged(
+    elf: &Path,
+    args: &[&str],
+    log: &Path,
+) -> Result<(std::process::Child, std::net::TcpStream)> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let err = log.with_extension("err");
+    let child = qemu(elf, args, &format!("tcp:127.0.0.1:{port},server=on,wait=on"))
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(log).with_context(|| format!("creating {}", log.display()))?)
+        .stderr(std::fs::File::create(&err).with_context(|| format!("creating {}", err.display()))?)
+        .spawn()
+        .context("starting qemu-system-arm")?;
+    connect(child, port)
+}
+
+/// The client's connection to `child`'s UART0 on `port`.
+fn connect(mut child: std::process::Child, port: u16) -> Result<(std::process::Child, std::net::TcpStream)> {
     for _ in 0..100 {
         if let Ok(s) = std::net::TcpStream::connect(("127.0.0.1", port)) {
             s.set_read_timeout(Some(Duration::from_millis(200)))?;

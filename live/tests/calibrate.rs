@@ -1,0 +1,185 @@
+//! `live calibrate` on a recorded stream: two sensors held at five
+//! stretches, their impedances from a fine R-C ladder (not the fit's
+//! closed form) behind known leads, contact and cable capacitance; the
+//! set stored in a flash image is read back by `live config get`; a bad
+//! holds file is refused with its line and column, and nothing stored.
+
+use num_complex::Complex64;
+use std::f64::consts::TAU;
+use std::process::Command;
+
+fn live(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A ladder of 400 elements (series R/n, shunt C/n), open at its far
+/// end, behind series `rs` and with `cp` across the meter.
+fn ladder(f: f64, r: f64, c: f64, rs: f64, cp: f64) -> Complex64 {
+    let n = 400;
+    let w = TAU * f;
+    let (rn, yn) = (
+        Complex64::new(r / n as f64, 0.0),
+        Complex64::new(0.0, w * c / n as f64),
+    );
+    let mut z = yn.inv();
+    for _ in 1..n {
+        z = (yn + (z + rn).inv()).inv();
+    }
+    let z = z + rn + rs;
+    (z.inv() + Complex64::new(0.0, w * cp)).inv()
+}
+
+/// The sensors: (line R at rest Ω, C at rest F, leads as a share of R,
+/// contact Ω, cable F).
+const SENSORS: [(f64, f64, f64, f64, f64); 2] = [
+    (700e3, 210e-12, 0.4, 0.0, 8e-12),
+    (1.2e6, 180e-12, 0.0, 15e3, 3e-12),
+];
+
+/// Stretches held, mm.
+const HOLDS: [f64; 5] = [0.0, 5.0, 10.0, 20.0, 30.0];
+
+fn stream() -> Vec<u8> {
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let mut bytes = vec![];
+    let mut seed = 7u64;
+    let mut noise = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 3e-4
+    };
+    for (k, &s) in HOLDS.iter().enumerate() {
+        for i in 0..150 {
+            let t = k as f64 + 0.004 * i as f64;
+            for (sensor, &(r0, c0, lead, rs, cp)) in SENSORS.iter().enumerate() {
+                // C grows with stretch; R falls a little, and recovers
+                // from the move during the hold.
+                let c = c0 * (1.0 + s / 100.0);
+                let r = r0 * (1.0 - 0.003 * s) * (1.0 + 0.04 * (-(t - k as f64) / 0.3).exp());
+                let tones = [1000.0f32, 2000.0].map(|f| {
+                    let z =
+                        ladder(f as f64, r, c, rs + lead * r, cp) * Complex64::new(1.0 + noise(), noise());
+                    link::Tone {
+                        f_hz: f,
+                        z_re_ohm: z.re as f32,
+                        z_im_ohm: z.im as f32,
+                    }
+                });
+                let rec = link::Record {
+                    t_us: (t * 1e6) as u64,
+                    sensor: sensor as u8,
+                    tones,
+                    c_farad: c as f32,
+                    r_ohm: r as f32,
+                    flags: instrument::faults::Flags::UNCALIBRATED,
+                    ..Default::default()
+                };
+                bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());
+            }
+        }
+    }
+    bytes
+}
+
+#[test]
+fn a_recorded_calibration_is_fitted_stored_and_read_back() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    std::fs::write(p("stream.bin"), stream()).unwrap();
+    let mut holds = String::from("stretch_mm,from_s,to_s\n");
+    for (k, s) in HOLDS.iter().enumerate() {
+        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
+    }
+    std::fs::write(p("holds.csv"), &holds).unwrap();
+    // Eight sensors in use on a new device: two with records.
+    let (code, _, err) = live(&[
+        "config",
+        "set",
+        "--flash",
+        &p("flash.bin"),
+        "sensor.0.in_use=true",
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, out, err) = live(&[
+        "calibrate",
+        "--replay",
+        &p("stream.bin"),
+        "--holds",
+        &p("holds.csv"),
+        "--flash",
+        &p("flash.bin"),
+        "--report",
+        &p("report.md"),
+    ]);
+    assert_eq!(code, Some(0), "{err}\n{out}");
+    assert!(out.contains("stored: generation 2"), "{out}");
+    assert!(out.contains("sensor 2 refused: no usable records"), "{out}");
+    assert_eq!(
+        std::fs::read_to_string(p("report.md")).unwrap().trim(),
+        out.lines().skip(1).collect::<Vec<_>>().join("\n").trim()
+    );
+    let (code, got, _) = live(&["config", "get", "--flash", &p("flash.bin")]);
+    assert_eq!(code, Some(0));
+    let value = |name: &str| -> f64 {
+        let line = got
+            .lines()
+            .find(|l| l.starts_with(&format!("{name} = ")))
+            .unwrap_or_else(|| panic!("{name}: {got}"));
+        line.rsplit(" = ").next().unwrap().parse().unwrap()
+    };
+    for (s, &(_, c0, lead, rs, cp)) in SENSORS.iter().enumerate() {
+        assert!(
+            got.lines().any(|l| l == format!("sensor.{s}.calibrated = true")),
+            "{got}"
+        );
+        let l = value(&format!("sensor.{s}.lead_ratio"));
+        let contact = value(&format!("sensor.{s}.contact_ohm"));
+        let para = value(&format!("sensor.{s}.parasitic_farad"));
+        let c = value(&format!("sensor.{s}.nominal_c_farad"));
+        assert!((l - lead).abs() < 0.01, "sensor {s}: ℓ {l}");
+        assert!((contact - rs).abs() < 3e3, "sensor {s}: contact {contact}");
+        assert!((para - cp).abs() < 0.2e-12, "sensor {s}: C_p {para}");
+        assert!((c / c0 - 1.0).abs() < 5e-4, "sensor {s}: C {c}");
+    }
+    assert!(got.lines().any(|l| l == "sensor.2.calibrated = false"), "{got}");
+
+    // A holds file with a bad number: refused where, nothing stored.
+    let before = std::fs::read(p("flash.bin")).unwrap();
+    std::fs::write(p("bad.csv"), "stretch_mm,from_s,to_s\n0,0.1,0.6\n5,1.1,x\n").unwrap();
+    let (code, _, err) = live(&[
+        "calibrate",
+        "--replay",
+        &p("stream.bin"),
+        "--holds",
+        &p("bad.csv"),
+        "--flash",
+        &p("flash.bin"),
+    ]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("bad.csv:3:7: 'x' is not a finite number"), "{err}");
+    assert_eq!(std::fs::read(p("flash.bin")).unwrap(), before);
+    // --dry-run stores nothing.
+    let (code, out, err) = live(&[
+        "calibrate",
+        "--replay",
+        &p("stream.bin"),
+        "--holds",
+        &p("holds.csv"),
+        "--flash",
+        &p("flash.bin"),
+        "--dry-run",
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!out.contains("stored: generation"), "{out}");
+    assert_eq!(std::fs::read(p("flash.bin")).unwrap(), before);
+}
