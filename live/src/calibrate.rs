@@ -643,61 +643,104 @@ pub fn records_of(bytes: &[u8]) -> Vec<link::Record> {
         .collect()
 }
 
-/// Read records from a device until its clock has passed `until_s` (a
-/// record of every sensor seen so far beyond it), or `timeout` passes
-/// with none arriving. The records, and the raw bytes read.
+/// A device's records as they arrive, and its clock (the newest record's
+/// time).
+struct Clock<S> {
+    port: S,
+    dec: link::Decoder,
+    records: Vec<link::Record>,
+    raw: Vec<u8>,
+    /// The newest record's time, s since the device's start.
+    now_s: f64,
+    timeout: std::time::Duration,
+}
+
+impl<S: std::io::Read> Clock<S> {
+    fn new(port: S, timeout: std::time::Duration) -> Self {
+        Self {
+            port,
+            dec: link::Decoder::new(),
+            records: vec![],
+            raw: vec![],
+            now_s: f64::NEG_INFINITY,
+            timeout,
+        }
+    }
+
+    /// One read: the bytes' records taken, and whether the read filled
+    /// its buffer (more is waiting). An error if the device closed the
+    /// link or sent nothing for the timeout.
+    fn pump(&mut self, quiet_since: &mut std::time::Instant) -> Result<bool> {
+        let mut chunk = [0u8; 4096];
+        match self.port.read(&mut chunk) {
+            Ok(0) => bail!(
+                "the device closed the link at {:.2} s of its clock",
+                self.now_s.max(0.0)
+            ),
+            Ok(n) => {
+                *quiet_since = std::time::Instant::now();
+                self.raw.extend_from_slice(&chunk[..n]);
+                for &b in &chunk[..n] {
+                    if let Some(Ok(link::Frame {
+                        body: link::Body::Record(r),
+                        ..
+                    })) = self.dec.push(b)
+                    {
+                        self.now_s = self.now_s.max(r.t_us as f64 * 1e-6);
+                        self.records.push(r);
+                    }
+                }
+                Ok(n == chunk.len())
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                if quiet_since.elapsed() > self.timeout {
+                    bail!("no records from the device in {:?}", self.timeout);
+                }
+                Ok(false)
+            }
+            Err(e) => Err(e).context("reading from the device"),
+        }
+    }
+
+    /// Read until the device's clock has passed `t_s`.
+    fn until(&mut self, t_s: f64) -> Result<()> {
+        let mut quiet = std::time::Instant::now();
+        while self.now_s <= t_s {
+            self.pump(&mut quiet)?;
+        }
+        Ok(())
+    }
+
+    /// Read what is waiting, so that the clock is the device's now.
+    fn catch_up(&mut self) -> Result<()> {
+        let mut quiet = std::time::Instant::now();
+        while self.pump(&mut quiet)? || self.now_s == f64::NEG_INFINITY {}
+        Ok(())
+    }
+}
+
+/// Read a recorded stream's worth of records from a device until its
+/// clock has passed `until_s`. The records, and the raw bytes read.
 pub fn collect(
     port: &mut impl std::io::Read,
     until_s: f64,
     timeout: std::time::Duration,
 ) -> Result<(Vec<link::Record>, Vec<u8>)> {
-    let mut dec = link::Decoder::new();
-    let mut records = vec![];
-    let mut raw = vec![];
-    let mut chunk = [0u8; 4096];
-    let mut last = std::time::Instant::now();
-    let until_us = (until_s * 1e6) as u64;
-    let mut seen = [false; 256];
-    let mut beyond = [false; 256];
-    loop {
-        match port.read(&mut chunk) {
-            Ok(0) => bail!(
-                "the device closed the link at {:.2} s of its clock, before the last hold's end ({until_s} s)",
-                records.last().map_or(0.0, |r: &link::Record| r.t_us as f64 * 1e-6)
-            ),
-            Ok(n) => {
-                last = std::time::Instant::now();
-                raw.extend_from_slice(&chunk[..n]);
-                for &b in &chunk[..n] {
-                    if let Some(Ok(link::Frame {
-                        body: link::Body::Record(r),
-                        ..
-                    })) = dec.push(b)
-                    {
-                        seen[usize::from(r.sensor)] = true;
-                        if r.t_us > until_us {
-                            beyond[usize::from(r.sensor)] = true;
-                        }
-                        records.push(r);
-                    }
-                }
-                if beyond.iter().any(|&b| b) && seen.iter().zip(&beyond).all(|(s, b)| !s || *b) {
-                    return Ok((records, raw));
-                }
-            }
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
-                if last.elapsed() > timeout {
-                    bail!("no records from the device in {timeout:?}");
-                }
-            }
-            Err(e) => return Err(e).context("reading from the device"),
-        }
-    }
+    let mut clock = Clock::new(port, timeout);
+    clock.until(until_s)?;
+    Ok((clock.records, clock.raw))
 }
 
 /// A calibration done on a device.
 #[derive(Debug)]
 pub struct Done {
+    /// The holds the fit used.
+    pub holds: Vec<Hold>,
     /// The set stored.
     pub set: Stored,
     /// Its generation on the device.
@@ -708,36 +751,110 @@ pub struct Done {
     pub stream: Vec<u8>,
 }
 
-/// Calibrate the device at the other end of `port` while it runs through
-/// `holds`: its records until the last hold ends, each sensor fitted, the
-/// set written down the link (the device checks it and stores it; it
-/// measures with it from its next start), and, with `stop`, the device
-/// stopped.
-pub fn on_device<S: std::io::Read + std::io::Write>(
-    mut port: S,
-    holds: &[Hold],
+/// Fit the records the clock read, write the set down the link, and stop
+/// the device if asked.
+fn finish<S: std::io::Read + std::io::Write>(
+    clock: Clock<S>,
+    holds: Vec<Hold>,
     opts: &Options,
     stop: bool,
-    timeout: std::time::Duration,
 ) -> Result<Done> {
-    let until = holds.iter().map(|h| h.to_s).fold(0.0, f64::max);
-    let (records, stream) = collect(&mut port, until, timeout)?;
-    let mut dev = crate::config::Device::new(port, timeout);
+    let timeout = clock.timeout;
+    let mut dev = crate::config::Device::new(clock.port, timeout);
     let base = dev.read()?.map_or_else(Stored::uncalibrated, |(s, _)| s);
-    let (set, outcomes) = calibrate(&records, holds, &base, opts);
+    let (set, outcomes) = calibrate(&clock.records, &holds, &base, opts);
     if !outcomes.iter().any(|o| matches!(o, Outcome::Fitted(_))) {
-        bail!("no sensor could be calibrated:\n{}", report(holds, &outcomes));
+        bail!("no sensor could be calibrated:\n{}", report(&holds, &outcomes));
     }
     let generation = dev.write(&set)?;
     if stop {
         dev.stop()?;
     }
     Ok(Done {
+        holds,
         set,
         generation,
         outcomes,
-        stream,
+        stream: clock.raw,
     })
+}
+
+/// Calibrate the device at the other end of `port` while it runs through
+/// `holds` (spans of its clock): its records until the last hold ends,
+/// each sensor fitted, the set written down the link (the device checks
+/// it and stores it; it measures with it from its next start), and, with
+/// `stop`, the device stopped.
+pub fn on_device<S: std::io::Read + std::io::Write>(
+    port: S,
+    holds: &[Hold],
+    opts: &Options,
+    stop: bool,
+    timeout: std::time::Duration,
+) -> Result<Done> {
+    let mut clock = Clock::new(port, timeout);
+    clock.until(holds.iter().map(|h| h.to_s).fold(0.0, f64::max))?;
+    finish(clock, holds.to_vec(), opts, stop)
+}
+
+/// When a guided step's hold begins.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Ready {
+    /// Now (the user pressed Enter).
+    Now,
+    /// At this time of the device's clock, s (a stage that moves on a
+    /// schedule).
+    At(f64),
+}
+
+/// A guided calibration: the stretches to hold in turn, how long each
+/// move settles and each hold is measured.
+#[derive(Clone, Debug)]
+pub struct Guide {
+    /// Stretches, mm, in the order held (0 first).
+    pub at_mm: Vec<f64>,
+    /// Left out after each move, s.
+    pub settle_s: f64,
+    /// Measured at each stretch, s.
+    pub hold_s: f64,
+}
+
+/// Calibrate the device at the other end of `port`, step by step: for
+/// each stretch of `guide`, `ready(k, stretch_mm, device_now_s)` says
+/// when the skin is held there (after asking the user, or from a
+/// schedule); the hold is measured from then plus the settling for
+/// `hold_s` of the device's clock. Then as [`on_device`]: fitted, written,
+/// stopped if asked.
+pub fn guided<S: std::io::Read + std::io::Write>(
+    port: S,
+    guide: &Guide,
+    mut ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+    opts: &Options,
+    stop: bool,
+    timeout: std::time::Duration,
+) -> Result<Done> {
+    if guide.at_mm.len() < 2 {
+        bail!("a calibration needs two stretches at least");
+    }
+    if !(guide.hold_s > 0.0 && guide.settle_s >= 0.0) {
+        bail!("the hold must last, and the settling cannot be negative");
+    }
+    let mut clock = Clock::new(port, timeout);
+    let mut holds = vec![];
+    for (k, &s) in guide.at_mm.iter().enumerate() {
+        clock.catch_up()?;
+        let t0 = match ready(k, s, clock.now_s)? {
+            Ready::Now => clock.now_s,
+            Ready::At(t) => t.max(clock.now_s),
+        };
+        let hold = Hold {
+            stretch_mm: s,
+            from_s: t0 + guide.settle_s,
+            to_s: t0 + guide.settle_s + guide.hold_s,
+        };
+        clock.until(hold.to_s)?;
+        holds.push(hold);
+    }
+    finish(clock, holds, opts, stop)
 }
 
 /// RMS of `v` (NaN if empty).

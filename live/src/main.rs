@@ -66,8 +66,18 @@ enum Command {
         /// The holds: CSV `stretch_mm,from_s,to_s`, one line per stretch
         /// held (at least two), spans in the device's clock (s since its
         /// start; leave out the settling after each move).
-        #[arg(long)]
-        holds: PathBuf,
+        #[arg(long, required_unless_present = "at", conflicts_with = "at")]
+        holds: Option<PathBuf>,
+        /// Guided: the stretches to hold in turn, mm (e.g. 0,10,20,30);
+        /// for each, hold the skin still and press Enter.
+        #[arg(long, value_delimiter = ',')]
+        at: Option<Vec<f64>>,
+        /// Guided: seconds measured at each stretch (the device's clock).
+        #[arg(long, default_value_t = 2.0)]
+        hold_s: f64,
+        /// Guided: seconds left out after Enter (the electrodes settle).
+        #[arg(long, default_value_t = 0.25)]
+        settle_s: f64,
         /// Fit the records of a recorded stream (`stream.bin`) instead of
         /// reading them from the device (needed with --flash).
         #[arg(long)]
@@ -88,9 +98,11 @@ enum Command {
 }
 
 const CALIBRATE_HELP: &str = "\
-How: start the device with nothing stored (or its old set), relaxed; hold the
-skin still at each stretch of the holds file in turn (0 mm first, then at
-least one more; 0, 3, ..., 30 mm gives the table its eleven points). Each
+How: start the device with nothing stored (or its old set), relaxed. Guided
+(--at 0,10,20,30): for each stretch, hold the skin still, press Enter; the
+device's records over the next --hold-s seconds are that stretch's. Or hold
+the skin at each stretch of a holds file in turn (0 mm first, then at least
+one more; 0, 3, ..., 30 mm gives the table its eleven points). Each
 sensor's fit is checked: a fit that does not explain its data, a C that does
 not grow with stretch, or values beyond the device's ranges are refused, and
 that sensor keeps what the device held. The report gives each fitted value
@@ -231,18 +243,52 @@ fn config(action: ConfigAction) -> Result<()> {
     Ok(())
 }
 
-/// `live calibrate …`.
-fn calibrate(
+/// `live calibrate`'s options.
+struct CalibrateArgs {
     target: Target,
-    holds: PathBuf,
+    holds: Option<PathBuf>,
+    guide: Option<live::calibrate::Guide>,
     replay: Option<PathBuf>,
     report: Option<PathBuf>,
     keep: Option<PathBuf>,
     dry_run: bool,
     stop: bool,
-) -> Result<()> {
+}
+
+/// Guided: ask for each stretch on stderr, wait for Enter on stdin.
+fn ask(k: usize, stretch_mm: f64, now_s: f64) -> Result<live::calibrate::Ready> {
+    eprint!(
+        "[{}] the device at {now_s:.1} s: hold the skin still at {stretch_mm} mm, then press Enter ",
+        k + 1
+    );
+    std::io::stderr().flush()?;
+    let mut line = String::new();
+    if std::io::stdin().read_line(&mut line)? == 0 {
+        anyhow::bail!("no answer (stdin closed): calibration abandoned, nothing stored");
+    }
+    Ok(live::calibrate::Ready::Now)
+}
+
+/// `live calibrate …`.
+fn calibrate(a: CalibrateArgs) -> Result<()> {
     use live::calibrate::{self as cal, Options};
-    let holds = cal::read_holds(&holds)?;
+    let CalibrateArgs {
+        target,
+        holds,
+        guide,
+        replay,
+        report,
+        keep,
+        dry_run,
+        stop,
+    } = a;
+    let holds = match (&holds, &guide) {
+        (Some(path), _) => cal::read_holds(path)?,
+        (None, Some(_)) if replay.is_some() => {
+            anyhow::bail!("--at guides a live device: a recording needs --holds")
+        }
+        _ => vec![],
+    };
     let opts = Options::default();
     let text = match (&replay, &target.flash) {
         (Some(path), _) => {
@@ -270,19 +316,23 @@ fn calibrate(
             if dry_run {
                 anyhow::bail!("--dry-run fits a recording: give it with --replay");
             }
+            let run = |port: Box<dyn ReadWrite>| match &guide {
+                Some(g) => cal::guided(port, g, ask, &opts, stop, REPLY_TIMEOUT),
+                None => cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT),
+            };
             let done = match (&target.tcp, &target.serial) {
                 (Some(addr), _) => {
                     let sock = std::net::TcpStream::connect(addr)
                         .with_context(|| format!("connecting to {addr}"))?;
                     sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-                    cal::on_device(sock, &holds, &opts, stop, REPLY_TIMEOUT)?
+                    run(Box::new(sock))?
                 }
                 (None, Some(name)) => {
                     let port = serialport::new(name, link::BOARD_BAUD)
                         .timeout(Duration::from_millis(200))
                         .open()
                         .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
-                    cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT)?
+                    run(Box::new(port))?
                 }
                 (None, None) => anyhow::bail!("say where: --flash FILE, --tcp HOST:PORT or --serial PORT"),
             };
@@ -293,7 +343,7 @@ fn calibrate(
                 "stored: generation {} (in force from the device's next start)",
                 done.generation
             );
-            cal::report(&holds, &done.outcomes)
+            cal::report(&done.holds, &done.outcomes)
         }
     };
     println!("{text}");
@@ -310,12 +360,28 @@ fn main() -> ExitCode {
         Some(Command::Calibrate {
             target,
             holds,
+            at,
+            hold_s,
+            settle_s,
             replay,
             report,
             keep,
             dry_run,
             stop,
-        }) => Some(calibrate(target, holds, replay, report, keep, dry_run, stop)),
+        }) => Some(calibrate(CalibrateArgs {
+            target,
+            holds,
+            guide: at.map(|at_mm| live::calibrate::Guide {
+                at_mm,
+                settle_s,
+                hold_s,
+            }),
+            replay,
+            report,
+            keep,
+            dry_run,
+            stop,
+        })),
         None => None,
     };
     if let Some(done) = done {

@@ -128,9 +128,21 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     let holds = stairs_holds();
     let log = dir.join("calibration-run.defmt");
     let (mut qemu, sock) = crate::connect_qemu_tcp_logged(&elf, &["stairs", &flash_arg, "until-stop"], &log)?;
-    let done = cal::on_device(
+    // Guided, as a user on a stage that keeps to the stairs' schedule:
+    // each hold begins when the stairs reach its stretch.
+    let guide = cal::Guide {
+        at_mm: holds.iter().map(|h| h.stretch_mm).collect(),
+        settle_s: skin_sim::stairs::SETTLE_S,
+        hold_s: skin_sim::stairs::HOLD_S - skin_sim::stairs::SETTLE_S,
+    };
+    let starts: Vec<f64> = holds
+        .iter()
+        .map(|h| h.from_s - skin_sim::stairs::SETTLE_S)
+        .collect();
+    let done = cal::guided(
         sock,
-        &holds,
+        &guide,
+        |k, _, _| Ok(cal::Ready::At(starts[k])),
         &cal::Options::default(),
         true,
         Duration::from_secs(120),
@@ -172,7 +184,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     }
     let _ = std::fs::remove_file(&log);
     let _ = std::fs::remove_file(log.with_extension("err"));
-    let report = cal::report(&holds, &done.outcomes);
+    let report = cal::report(&done.holds, &done.outcomes);
     // 3. After: a restart on the same flash.
     let (run, after) = crate::records::run_array_args(&["skin", &flash_arg])?;
     let run = run.ok()?;
@@ -228,7 +240,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
         });
     }
     Ok(Workflow {
-        holds,
+        holds: done.holds,
         report,
         set: done.set,
         generation: done.generation,
