@@ -26,6 +26,13 @@ pub enum FileFlashError {
     Length,
 }
 
+/// A host file has no ECC: an error is the host's, never torn bytes.
+impl instrument::store::Corruption for FileFlashError {
+    fn corrupt(&self) -> bool {
+        false
+    }
+}
+
 impl NorFlashError for FileFlashError {
     fn kind(&self) -> NorFlashErrorKind {
         match self {

@@ -63,7 +63,10 @@ impl Commands {
         req: &Request,
         store: &mut Store<F>,
         mut reply: impl FnMut(Reply),
-    ) -> Action {
+    ) -> Action
+    where
+        F::Error: crate::store::Corruption,
+    {
         let ack = |generation| Reply::Ack { to: seq, generation };
         let refuse = |reason| Reply::Refused { to: seq, reason };
         match *req {

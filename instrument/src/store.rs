@@ -18,6 +18,13 @@
 //!
 //! Over any `embedded-storage` [`NorFlash`]: the board's flash
 //! (`firmware::board::flash`), a host file in QEMU, a RAM model in tests.
+//!
+//! A word whose programming or erasing the power cut can read back as
+//! an error rather than as bytes: the G474's flash keeps an ECC per
+//! double word and raises a double-error detection on a torn one
+//! (RM0440 3.3.4). Such a read ([`Corruption::corrupt`]) makes its slot
+//! not valid, as a CRC mismatch does; any other flash error stays an
+//! error.
 
 use crate::stored::{Refused, Stored, MAX_BYTES};
 use embedded_storage::nor_flash::NorFlash;
@@ -31,6 +38,13 @@ pub const HEADER: usize = 32;
 
 /// The CRC of bodies and headers: CRC-32/ISO-HDLC.
 static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// Whether a flash error says the bytes read cannot be trusted (a torn
+/// word's ECC failed), not that the flash failed.
+pub trait Corruption {
+    /// The bytes read are corrupt.
+    fn corrupt(&self) -> bool;
+}
 
 /// Why the store could not do what was asked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,7 +117,10 @@ pub struct Store<F> {
     slot_bytes: u32,
 }
 
-impl<F: NorFlash> Store<F> {
+impl<F: NorFlash> Store<F>
+where
+    F::Error: Corruption,
+{
     /// Two slots of `slot_bytes` each from `base` on `flash`: both whole
     /// erase pages, large enough for a header and the longest set.
     pub fn new(flash: F, base: u32, slot_bytes: u32) -> Result<Self, StoreError<F::Error>> {
@@ -140,13 +157,19 @@ impl<F: NorFlash> Store<F> {
     fn read_slot(&mut self, slot: usize, out: &mut Stored) -> Result<Option<Header>, F::Error> {
         let at = self.slot_at(slot);
         let mut h = [0u8; HEADER];
-        self.flash.read(at, &mut h)?;
+        match self.flash.read(at, &mut h) {
+            Err(e) if e.corrupt() => return Ok(None),
+            other => other?,
+        }
         let Some(header) = Header::from_bytes(&h) else {
             return Ok(None);
         };
         let mut body = [0u8; MAX_BYTES];
         let body = &mut body[..header.len as usize];
-        self.flash.read(at + HEADER as u32, body)?;
+        match self.flash.read(at + HEADER as u32, body) {
+            Err(e) if e.corrupt() => return Ok(None),
+            other => other?,
+        }
         if CRC.checksum(body) != header.body_crc {
             return Ok(None);
         }
@@ -261,6 +284,13 @@ pub enum RamFlashError {
     Bounds,
     /// A word programmed that was not erased.
     NotErased,
+}
+
+/// A RAM image has no ECC: its bytes are what they are.
+impl Corruption for RamFlashError {
+    fn corrupt(&self) -> bool {
+        false
+    }
 }
 
 impl embedded_storage::nor_flash::NorFlashError for RamFlashError {

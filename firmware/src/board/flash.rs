@@ -13,6 +13,15 @@
 //! fetching from bank 1 while they are written (read while write); in
 //! single-bank mode pages are 4 KiB. The erase unit here is 4 KiB either
 //! way.
+//!
+//! Every double word carries an ECC (RM0440 3.3.4). A double word whose
+//! programming or erase the power cut can fail it: reading it sets
+//! FLASH_ECCR.ECCD and raises an NMI. The NMI handler
+//! (`board::runtime`) hands it to [`take_ecc_nmi`]: a failure within the
+//! settings is cleared and counted, and the read that met it returns
+//! [`FlashError::Ecc`], which the store takes as a slot that holds no set
+//! (the other slot's set stays in force); anywhere else (the program)
+//! the board resets.
 
 use super::pac::flash;
 
@@ -91,6 +100,56 @@ pub enum FlashError {
     Fast,
     /// An offset or length outside the settings' region, or not aligned.
     Bounds,
+    /// A double word read whose ECC failed (two bits wrong): torn by a
+    /// power cut; its bytes are not to be trusted.
+    Ecc,
+}
+
+impl instrument::store::Corruption for FlashError {
+    fn corrupt(&self) -> bool {
+        *self == FlashError::Ecc
+    }
+}
+
+/// FLASH_ECCR: ECCD, a double error detected (RM0440 3.7.8, bit 31).
+pub const ECCR_ECCD: u32 = 1 << 31;
+/// FLASH_ECCR: ECCD2, a double error in the second double word of a
+/// 128-bit read (bit 29).
+pub const ECCR_ECCD2: u32 = 1 << 29;
+/// FLASH_ECCR: BK_ECC, the failure is in bank 2 (bit 21).
+pub const ECCR_BK_ECC: u32 = 1 << 21;
+/// FLASH_ECCR: ADDR_ECC, the failing address within its bank, bytes
+/// (bits 18:0).
+pub const ECCR_ADDR_ECC: u32 = 0x0007_FFFF;
+
+/// The address of the double word whose double ECC error FLASH_ECCR
+/// `eccr` reports (None: no double error): ADDR_ECC within the bank
+/// BK_ECC names in dual-bank mode, within the whole flash otherwise.
+pub fn ecc_failure(eccr: u32, dual_bank: bool) -> Option<u32> {
+    if eccr & (ECCR_ECCD | ECCR_ECCD2) == 0 {
+        return None;
+    }
+    let bank = match dual_bank && eccr & ECCR_BK_ECC != 0 {
+        true => BANK_BYTES,
+        false => 0,
+    };
+    Some(FLASH_BASE + bank + (eccr & ECCR_ADDR_ECC & !(WORD - 1)))
+}
+
+/// Whether `address` lies in the settings' region.
+pub fn in_settings(address: u32) -> bool {
+    (SETTINGS_BASE..SETTINGS_BASE + SETTINGS_BYTES).contains(&address)
+}
+
+/// The double ECC error FLASH_ECCR reports, if it lies in the settings:
+/// its flags cleared (written back as 1; ECCIE kept), its address.
+/// None, and nothing written, for none or one elsewhere.
+pub fn take_settings_ecc(regs: &flash::RegisterBlock) -> Option<u32> {
+    let eccr = regs.eccr().read().bits();
+    let dual_bank = regs.optr().read().dbank().bit_is_set();
+    let address = ecc_failure(eccr, dual_bank).filter(|&a| in_settings(a))?;
+    regs.eccr().modify(|_, w| w.eccd().set_bit().eccd2().set_bit());
+    Some(address)
 }
 
 /// The error flags of FLASH_SR, and their errors, first found first.
@@ -202,6 +261,27 @@ mod device {
     use super::*;
     use embedded_storage::nor_flash::{ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash};
 
+    use core::sync::atomic::{AtomicU32, Ordering};
+
+    /// Double ECC errors met in the settings since start (the NMI
+    /// handler counts them; a read compares the count before and after).
+    static SETTINGS_ECC_ERRORS: AtomicU32 = AtomicU32::new(0);
+
+    /// The NMI's cause, if it is a double ECC error within the settings:
+    /// counted, FLASH_ECCR's flags cleared, true (the read that met it
+    /// returns [`FlashError::Ecc`]). False for any other NMI.
+    #[allow(unsafe_code)]
+    pub fn take_ecc_nmi() -> bool {
+        // SAFETY: the NMI preempts everything; ECCR and OPTR are read,
+        // and ECCR's detection flags cleared by writing 1.
+        let regs = unsafe { super::super::pac::FLASH::steal() };
+        let ours = take_settings_ecc(&regs).is_some();
+        if ours {
+            SETTINGS_ECC_ERRORS.fetch_add(1, Ordering::Relaxed);
+        }
+        ours
+    }
+
     impl NorFlashError for FlashError {
         fn kind(&self) -> NorFlashErrorKind {
             match self {
@@ -241,12 +321,17 @@ mod device {
         #[allow(unsafe_code)]
         fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
             in_region(offset, bytes.len(), 1)?;
+            let before = SETTINGS_ECC_ERRORS.load(Ordering::Relaxed);
             let at = (SETTINGS_BASE + offset) as *const u8;
             for (k, b) in bytes.iter_mut().enumerate() {
                 // SAFETY: within the settings' region of flash (checked).
                 *b = unsafe { core::ptr::read_volatile(at.add(k)) };
             }
-            Ok(())
+            // A torn double word raised its NMI during the loop.
+            match SETTINGS_ECC_ERRORS.load(Ordering::Relaxed) == before {
+                true => Ok(()),
+                false => Err(FlashError::Ecc),
+            }
         }
 
         fn capacity(&self) -> usize {
@@ -311,4 +396,4 @@ mod device {
 }
 
 #[cfg(target_os = "none")]
-pub use device::SettingsFlash;
+pub use device::{take_ecc_nmi, SettingsFlash};

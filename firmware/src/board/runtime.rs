@@ -1,5 +1,6 @@
 //! The one place that owns logging, panics and faults on the board: defmt
-//! over RTT (read by probe-rs); a panic or hard fault logs and resets the
+//! over RTT (read by probe-rs); a panic, a hard fault or an NMI (other
+//! than the settings' ECC, which a read returns as an error) logs and resets the
 //! board, whose next boot logs the cause (`watchdog::take_reset_cause`)
 //! and measures again. A sensing skin left alone must come back, not wait
 //! in a breakpoint for a debugger.
@@ -25,6 +26,22 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     defmt::println!("HARDFAULT pc={=u32:#x}", frame.pc());
     cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// An NMI: a double ECC error in the settings' flash (a double word a
+/// power cut tore) is the read's error, not a fault
+/// ([`super::flash::take_ecc_nmi`]); any other (a torn program word, the
+/// clock security system) logs and resets, as a hard fault does.
+/// (`unsafe` as cortex-m-rt asks of an NMI handler: it must not share
+/// state with code it preempts except through atomics, which it keeps.)
+#[cortex_m_rt::exception]
+#[allow(non_snake_case)]
+#[allow(unsafe_code)]
+unsafe fn NonMaskableInt() {
+    if !super::flash::take_ecc_nmi() {
+        defmt::println!("NMI");
+        cortex_m::peripheral::SCB::sys_reset()
+    }
 }
 
 defmt::timestamp!("");

@@ -679,3 +679,37 @@ fn settings_flash_pages_unlock_erase_program_and_error_flags() {
     assert_eq!(flash::in_region(8184, 16, 8), Err(FlashError::Bounds));
     assert_eq!(flash::in_region(u32::MAX - 3, 8, 1), Err(FlashError::Bounds));
 }
+
+#[test]
+fn a_torn_settings_word_is_a_read_error_and_any_other_ecc_failure_is_not() {
+    use flash::{ecc_failure, in_settings, take_settings_ecc};
+    // FLASH_ECCR (RM0440 3.7.8): ECCD bit 31, ECCD2 bit 29, ECCC bit 30
+    // (a corrected single error), BK_ECC bit 21, ADDR_ECC bits 18:0 (the
+    // double word's address within its bank).
+    // Dual bank: the settings' first double word, bank 2 at 0x3_E000.
+    assert_eq!(ecc_failure(0x8023_E000, true), Some(0x0807_E000));
+    assert!(in_settings(0x0807_E000) && in_settings(0x0807_FFF8));
+    // Single bank: the same address, 0x7_E008 within the one bank.
+    assert_eq!(ecc_failure(0x8007_E008, false), Some(0x0807_E008));
+    // ECCD2 alone (the second double word of a 128-bit read).
+    assert_eq!(ecc_failure(0x2023_E010, true), Some(0x0807_E010));
+    // A corrected error is no failure; a program word is not the settings'.
+    assert_eq!(ecc_failure(0x4023_E000, true), None);
+    assert_eq!(ecc_failure(0x8000_1000, true), Some(0x0800_1000));
+    assert!(!in_settings(0x0800_1000) && !in_settings(0x0808_0000));
+    // Taken: ECCR at 0x18, OPTR at 0x20 (DBANK bit 22). The flags are
+    // written back as 1 to clear them, ECCIE (bit 24) kept.
+    let mut f = Fake::new(&[(0x18, 0x8123_E000), (0x20, 1 << 22)]);
+    assert_eq!(
+        take_settings_ecc(f.regs::<pac::flash::RegisterBlock>()),
+        Some(0x0807_E000)
+    );
+    assert_eq!(
+        f.at(0x18) & (1 << 31 | 1 << 29 | 1 << 24),
+        1 << 31 | 1 << 29 | 1 << 24
+    );
+    // Not the settings': nothing cleared (the NMI resets the board).
+    let mut f = Fake::new(&[(0x18, 0x8000_1000), (0x20, 1 << 22)]);
+    assert_eq!(take_settings_ecc(f.regs::<pac::flash::RegisterBlock>()), None);
+    assert_eq!(f.at(0x18), 0x8000_1000);
+}

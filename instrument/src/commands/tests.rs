@@ -25,7 +25,10 @@ fn requests(set: &Stored) -> Vec<Request> {
 }
 
 /// Handle `reqs` in order (sequence numbers from 1); every reply.
-fn run<F: NorFlash>(c: &mut Commands, store: &mut Store<F>, reqs: &[Request]) -> Vec<Reply> {
+fn run<F: NorFlash>(c: &mut Commands, store: &mut Store<F>, reqs: &[Request]) -> Vec<Reply>
+where
+    F::Error: crate::store::Corruption,
+{
     let mut replies = vec![];
     for (k, r) in reqs.iter().enumerate() {
         c.handle(k as u32 + 1, r, store, |rep| replies.push(rep));

@@ -1,7 +1,10 @@
 //! The store against a model of NOR flash that loses power: at any
 //! operation of an update, the operation under way is left half done (a
 //! page partly erased, a word partly programmed: random bits), and every
-//! later one fails. Then the device restarts and loads.
+//! later one fails. Then the device restarts and loads. As on the G474,
+//! each double word carries an ECC: a torn word may read back as an ECC
+//! error instead of bytes (RM0440 3.3.4: a double error, an NMI the board
+//! turns into a read error).
 
 use super::*;
 use crate::stored::SENSORS_MAX;
@@ -24,8 +27,16 @@ enum ModelError {
     PowerLost,
     /// A word programmed that was not erased (the G474's PROGERR).
     NotErased,
+    /// A word whose ECC does not check (double error detected).
+    Ecc,
     /// Outside the flash, or not aligned.
     Bounds,
+}
+
+impl Corruption for ModelError {
+    fn corrupt(&self) -> bool {
+        *self == ModelError::Ecc
+    }
 }
 
 impl NorFlashError for ModelError {
@@ -42,6 +53,8 @@ impl NorFlashError for ModelError {
 #[derive(Clone)]
 struct Model {
     mem: Vec<u8>,
+    /// Words whose ECC does not check (torn by a cut).
+    torn: Vec<bool>,
     ops_left: Option<usize>,
     ops: usize,
     dead: bool,
@@ -52,6 +65,7 @@ impl Model {
     fn new(pages: usize) -> Self {
         Self {
             mem: vec![0xFF; pages * PAGE],
+            torn: vec![false; pages * PAGE / WORD],
             ops_left: None,
             ops: 0,
             dead: false,
@@ -97,6 +111,9 @@ impl ReadNorFlash for Model {
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), ModelError> {
         let at = offset as usize;
         let src = self.mem.get(at..at + bytes.len()).ok_or(ModelError::Bounds)?;
+        if (at / WORD..(at + bytes.len()).div_ceil(WORD)).any(|w| self.torn[w]) {
+            return Err(ModelError::Ecc);
+        }
         bytes.copy_from_slice(src);
         Ok(())
     }
@@ -127,9 +144,16 @@ impl NorFlash for Model {
                         _ => r,
                     };
                 }
+                // Some words' ECC no longer checks.
+                for w in page / WORD..(page + PAGE) / WORD {
+                    if self.random() % 4 == 0 {
+                        self.torn[w] = true;
+                    }
+                }
                 return Err(ModelError::PowerLost);
             }
             self.mem[page..page + PAGE].fill(0xFF);
+            self.torn[page / WORD..(page + PAGE) / WORD].fill(false);
         }
         Ok(())
     }
@@ -150,6 +174,8 @@ impl NorFlash for Model {
                     let r = self.random();
                     self.mem[dst + k] = b | r;
                 }
+                // Half the time its ECC is torn too.
+                self.torn[dst / WORD] = self.random() % 2 == 0;
                 return Err(ModelError::PowerLost);
             }
             self.mem[dst..dst + WORD].copy_from_slice(word);
