@@ -263,16 +263,25 @@ impl FlashArgs {
     }
 }
 
+/// What the host's requests asked of the application.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Asked {
+    /// Stop measuring.
+    pub stop: bool,
+    /// Sweep every tone pair, this many blocks each (a calibration step).
+    pub sweep: Option<u16>,
+}
+
 /// Answer the requests the host sent down the link: with the store,
 /// [`instrument::commands`]; without one, every request refused (the
-/// settings cannot be kept). True if the host asked to stop.
+/// settings cannot be kept). What the host asked for.
 pub fn answer(
     link: &mut crate::qemu::LinkSender,
     commands: &mut instrument::commands::Commands,
     store: Option<&mut Store<FileFlash>>,
-) -> bool {
+) -> Asked {
     use instrument::commands::Action;
-    let mut stop = false;
+    let mut asked = Asked::default();
     let mut store = store;
     while let Some((seq, req)) = link.request() {
         let action = match store.as_deref_mut() {
@@ -286,10 +295,11 @@ pub fn answer(
             }
         };
         match action {
-            Action::Stop => stop = true,
+            Action::Stop => asked.stop = true,
+            Action::Sweep(n) => asked.sweep = Some(n),
             Action::Apply => defmt::println!("settings: a new set stored, in force from the next start"),
             Action::Start | Action::None => {}
         }
     }
-    stop
+    asked
 }

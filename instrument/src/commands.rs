@@ -1,5 +1,6 @@
 //! The device's side of the link's requests ([`link::Request`]): read the
-//! stored settings, write a new set in pieces and commit it, start, stop.
+//! stored settings, write a new set in pieces and commit it, start, stop,
+//! sweep the tones for a calibration step.
 //! Each request is answered ([`link::Reply`]): acknowledged, or refused
 //! with a reason, and then nothing changed. A new set is stored only by a
 //! commit whose length and CRC match the pieces received in order, whose
@@ -31,12 +32,17 @@ pub enum Action {
     Stop,
     /// A new set is in force: apply it.
     Apply,
+    /// Sweep every tone pair, this many blocks each (a calibration
+    /// step; [`crate::sweep::Sweep`]).
+    Sweep(u16),
 }
 
 /// The pieces of a new set received so far.
 pub struct Commands {
     staged: [u8; MAX_BYTES],
     len: usize,
+    /// The application sweeps tone pairs ([`Commands::sweeping`]).
+    sweeps: bool,
 }
 
 impl Default for Commands {
@@ -46,11 +52,22 @@ impl Default for Commands {
 }
 
 impl Commands {
-    /// Nothing received.
+    /// Nothing received; sweep requests refused as
+    /// [`Reason::Unsupported`].
     pub const fn new() -> Self {
         Self {
             staged: [0; MAX_BYTES],
             len: 0,
+            sweeps: false,
+        }
+    }
+
+    /// For an application that sweeps its tone pairs (the array): sweep
+    /// requests acknowledged, [`Action::Sweep`].
+    pub const fn sweeping() -> Self {
+        Self {
+            sweeps: true,
+            ..Self::new()
         }
     }
 
@@ -77,6 +94,18 @@ impl Commands {
             Request::Stop => {
                 reply(ack(0));
                 Action::Stop
+            }
+            Request::Sweep { blocks_per_pair } => {
+                if !self.sweeps {
+                    reply(refuse(Reason::Unsupported));
+                    Action::None
+                } else if !(1..=link::SWEEP_MAX_BLOCKS).contains(&blocks_per_pair) {
+                    reply(refuse(Reason::OutOfRange));
+                    Action::None
+                } else {
+                    reply(ack(0));
+                    Action::Sweep(blocks_per_pair)
+                }
             }
             Request::WriteChunk(chunk) => {
                 // A piece at 0 begins a new set.

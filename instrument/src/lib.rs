@@ -14,7 +14,7 @@
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
 //! | [`channel`] | one sensor channel: demodulated block → record |
-//! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop; each acknowledged or refused |
+//! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop, sweep; each acknowledged or refused |
 //! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
 //! | [`store`] | those settings in flash, two slots (A/B): a power cut leaves the old set or the new |
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
@@ -23,6 +23,7 @@
 //! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
+//! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain
 //! chain runs the same [`channel::Channel`] on the simulated skin. It is
@@ -54,5 +55,6 @@ pub mod sensor;
 pub mod sequencer;
 pub mod store;
 pub mod stored;
+pub mod sweep;
 pub mod tones;
 pub mod wire;

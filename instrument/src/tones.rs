@@ -40,6 +40,10 @@ pub struct ToneSettings<'a, const N: usize> {
     /// One block's records reported in every this many
     /// ([`crate::reader::ArrayReader::solve`]).
     pub record_every: u8,
+    /// The pair (its upper tone index) every sensor is measured at in
+    /// this block, whatever the policy says: a calibration step's sweep
+    /// ([`crate::sweep::Sweep`]); None: the policy's.
+    pub sweep: Option<u8>,
 }
 
 impl<'a, const N: usize> ToneSettings<'a, N> {
@@ -55,6 +59,7 @@ impl<'a, const N: usize> ToneSettings<'a, N> {
             sensors,
             chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
             record_every: 1,
+            sweep: None,
         }
     }
 }
@@ -129,7 +134,13 @@ impl ToneChannel {
 
     /// The comb tones the next block is read at, lower first.
     pub fn pair(&self) -> [usize; 2] {
-        let hi = self.policy.index.clamp(1, TONES - 1);
+        Self::pair_of(self.policy.index as u8)
+    }
+
+    /// The pair whose upper tone index is `hi` (clamped to 1 … TONES −
+    /// 1): it and the tone two below (or the lowest).
+    pub fn pair_of(hi: u8) -> [usize; 2] {
+        let hi = usize::from(hi).clamp(1, TONES - 1);
         [hi.saturating_sub(2), hi]
     }
 
@@ -153,7 +164,7 @@ impl ToneChannel {
             .last_t_us
             .map_or(0.0, |t0| t_us.saturating_sub(t0) as f32 * 1e-6);
         self.last_t_us = Some(t_us);
-        let pair = self.pair();
+        let pair = s.sweep.map_or_else(|| self.pair(), Self::pair_of);
         let mut rec = ToneRecord {
             t_us,
             channel,

@@ -334,3 +334,66 @@ fn one_block_in_every_n_is_reported_and_empty_sockets_never() {
     assert_eq!(got.len(), 3 * 15);
     assert!(got.iter().all(|g| g.1 != 3));
 }
+
+/// A calibration step's sweep: each block at the pair the sweep names,
+/// whatever the policy says; every tone of the comb measured within it,
+/// and the line read as well at each pair; then the policy again.
+#[test]
+fn a_sweep_measures_every_sensor_at_every_pair_then_gives_the_policy_back() {
+    use instrument::sweep::Sweep;
+    let fe = ArrayFrontEnd::REFERENCE;
+    let paper = SensorParams::PAPER;
+    let lead = paper.effects.lead_ratio();
+    let each = Sensors::all(skin_sensor::Sensor::calibrated(*paper_cal(), lead, Fixture::NONE).unwrap());
+    let mut settings = ToneSettings::new(fe.dsp_front_end(), &each);
+    let mut sensors: Vec<Sensor> = (0..SENSORS).map(|_| Sensor::settled(paper)).collect();
+    let mut reader = ArrayReader::new(&each).unwrap();
+    let mut rng = Rng::new(11);
+    let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
+    let hz = instrument::array::tones_hz().map(|f| f as f64);
+    let mut sweep = Sweep::new();
+    let mut pairs = vec![];
+    for b in 0..400u64 {
+        if b == 200 {
+            sweep.start(40);
+        }
+        settings.sweep = sweep.next_block();
+        let t_us = b * 4000 + 2000;
+        let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
+        let mut truth = 0.0;
+        for (s, sensor) in sensors.iter_mut().enumerate() {
+            sensor.advance(&Profile::Constant(10.0), t_us as f64 * 1e-6);
+            z[s] = sensor.impedances(&hz);
+            truth = sensor.truth().c_farad;
+        }
+        let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
+        let block = reader.demodulate(|a| &frame[a]);
+        let mut recs = vec![];
+        reader.solve(&settings, t_us, &block, |i| clipped[i], |r| recs.push(r));
+        let r = recs[0];
+        pairs.push((b, r.f_hz, settings.sweep));
+        if b >= 200 && r.flags.valid() {
+            assert!((r.c_farad as f64 / truth - 1.0).abs() < 0.005, "block {b}: {r:?}");
+        }
+    }
+    // Before: the policy's pair; during: the sweep's four, 40 blocks each;
+    // after: the policy's again.
+    let tones = instrument::array::tones_hz();
+    for (b, f, forced) in &pairs {
+        match b {
+            200..=359 => {
+                let hi = 1 + ((b - 200) / 40) as u8;
+                assert_eq!(*forced, Some(hi));
+                let [lo, hi] = instrument::tones::ToneChannel::pair_of(hi);
+                assert_eq!(*f, [tones[lo], tones[hi]], "block {b}");
+            }
+            _ => assert_eq!(*forced, None, "block {b}"),
+        }
+    }
+    let during: std::collections::BTreeSet<u32> = pairs[200..360]
+        .iter()
+        .flat_map(|p| p.1.map(|f| f as u32))
+        .collect();
+    assert_eq!(during.len(), TONES, "every tone of the comb: {during:?}");
+    assert_eq!(pairs[399].1, pairs[199].1, "the policy's pair again");
+}

@@ -215,7 +215,20 @@ pub enum Request {
     Start,
     /// Stop measuring (the stream's end frame follows).
     Stop,
+    /// A calibration step: for the next `4 × blocks_per_pair` blocks each
+    /// sensor's records step through every tone pair the device has, a
+    /// sweep of frequencies for the hold under way; then the tone policy
+    /// again (1 … [`SWEEP_MAX_BLOCKS`] blocks per pair; refused by a
+    /// device without tone pairs).
+    Sweep {
+        /// Blocks measured at each pair.
+        blocks_per_pair: u16,
+    },
 }
+
+/// The most blocks per pair a [`Request::Sweep`] takes (4 s at 250
+/// blocks/s).
+pub const SWEEP_MAX_BLOCKS: u16 = 1000;
 
 /// Why the device refused a request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -240,6 +253,11 @@ pub enum Reason {
     Flash,
     /// No set is stored (a new device).
     NothingStored,
+    /// A value outside the request's range.
+    OutOfRange,
+    /// This device does not do what was asked (a sweep on a device of
+    /// one tone).
+    Unsupported,
 }
 
 /// The device's answer to the request of sequence number `to`.

@@ -15,8 +15,9 @@
 //! and a parasitic capacitance C_p at the meter: the three the device
 //! keeps per sensor (`instrument::stored::SensorSettings`). C is one
 //! unknown per hold (it follows stretch alone); R one per part of a hold
-//! ([`Options::parts`]), since the electrodes' resistance still recovers
-//! from the move before it. The fit is weighted least squares
+//! ([`Options::parts`]) and pair of tones (a sweep measures each pair at
+//! its own time), since the electrodes' resistance still recovers from
+//! the move before it. The fit is weighted least squares
 //! (Levenberg–Marquardt) on each part's mean impedance per tone, with the
 //! scatter of its records as σ, floored at [`SIGMA_FLOOR`] of |Z|.
 //!
@@ -165,6 +166,10 @@ impl Default for Options {
     }
 }
 
+/// The impedances of a part of a hold, per tone (Hz as the records
+/// carry it).
+type Tones = Vec<(f32, Vec<Complex64>)>;
+
 /// One mean impedance: a part of a hold, at one tone.
 #[derive(Clone, Copy, Debug)]
 struct Obs {
@@ -241,6 +246,8 @@ pub fn fit_sensor(
     order.sort_by(|&a, &b| holds[a].stretch_mm.total_cmp(&holds[b].stretch_mm));
     let parts = opts.parts.max(1);
     let mut obs = vec![];
+    // The hold of each part (a slice of a hold at one pair of tones).
+    let mut part_hold: Vec<usize> = vec![];
     let mut used = 0;
     let mut c_read = vec![];
     for (k, &h) in order.iter().enumerate() {
@@ -253,8 +260,10 @@ pub fn fit_sensor(
                 hold.from_s + span * p as f64 / parts as f64,
                 hold.from_s + span * (p + 1) as f64 / parts as f64,
             );
-            // Per tone: the records' impedances.
-            let mut tones: Vec<(f32, Vec<Complex64>)> = vec![];
+            // Per pair of tones (a sweep steps through them; each pair's
+            // records were taken at their own time of the hold, so each
+            // has its own resistance), per tone: the records' impedances.
+            let mut groups: Vec<([u32; 2], Tones)> = vec![];
             for r in records {
                 let t = r.t_us as f64 * 1e-6;
                 if !(t >= a && t < b) || r.flags & UNUSABLE != 0 {
@@ -264,6 +273,14 @@ pub fn fit_sensor(
                 if r.c_farad > 0.0 {
                     c_sum = (c_sum.0 + r.c_farad as f64, c_sum.1 + 1);
                 }
+                let key = r.tones.map(|t| t.f_hz.to_bits());
+                let tones = match groups.iter().position(|(k, _)| *k == key) {
+                    Some(g) => &mut groups[g].1,
+                    None => {
+                        groups.push((key, vec![]));
+                        &mut groups.last_mut().expect("just pushed").1
+                    }
+                };
                 for tone in r.tones.iter().filter(|t| t.f_hz > 0.0) {
                     let z = Complex64::new(tone.z_re_ohm as f64, tone.z_im_ohm as f64);
                     if !(z.re.is_finite() && z.im.is_finite() && z.im < 0.0) {
@@ -275,22 +292,30 @@ pub fn fit_sensor(
                     }
                 }
             }
-            for (f, zs) in tones {
-                if zs.len() < opts.min_records {
-                    continue;
+            for (_, tones) in groups {
+                let part = part_hold.len();
+                let mut seen = false;
+                for (f, zs) in tones {
+                    if zs.len() < opts.min_records {
+                        continue;
+                    }
+                    let n = zs.len() as f64;
+                    let mean = zs.iter().sum::<Complex64>() / n;
+                    let var = zs.iter().map(|z| (z - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
+                    let sigma = (var / n).sqrt().max(SIGMA_FLOOR * mean.norm());
+                    obs.push(Obs {
+                        hold: k,
+                        part,
+                        f_hz: f as f64,
+                        z: mean,
+                        sigma,
+                    });
+                    seen = true;
                 }
-                let n = zs.len() as f64;
-                let mean = zs.iter().sum::<Complex64>() / n;
-                let var = zs.iter().map(|z| (z - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
-                let sigma = (var / n).sqrt().max(SIGMA_FLOOR * mean.norm());
-                obs.push(Obs {
-                    hold: k,
-                    part: k * parts + p,
-                    f_hz: f as f64,
-                    z: mean,
-                    sigma,
-                });
-                any = true;
+                if seen {
+                    part_hold.push(k);
+                    any = true;
+                }
             }
         }
         if !any {
@@ -306,13 +331,10 @@ pub fn fit_sensor(
         });
     }
     let n_holds = order.len();
-    let n_parts = n_holds * parts;
-    // Unknowns: 3 globals, ln C per hold, ln R per part (parts without
-    // observations stay at their start and are not counted).
-    let mut has_part = vec![false; n_parts];
-    for o in &obs {
-        has_part[o.part] = true;
-    }
+    let n_parts = part_hold.len();
+    // Unknowns: 3 globals, ln C per hold, ln R per part (every part has
+    // observations).
+    let has_part = vec![true; n_parts];
     let n_par = 3 + n_holds + n_parts;
     // Start: each part's lumped reading at its lowest tone (C = −1/(ωX),
     // R = 3·Re Z, the line's low-frequency resistance).
@@ -324,8 +346,7 @@ pub fn fit_sensor(
             .min_by(|a, b| a.f_hz.total_cmp(&b.f_hz))
             .expect("a hold with observations");
         start[3 + k] = (-1.0 / (TAU * lowest.f_hz * lowest.z.im)).ln();
-        for p in 0..parts {
-            let part = k * parts + p;
+        for part in (0..n_parts).filter(|&p| part_hold[p] == k) {
             let o = obs
                 .iter()
                 .filter(|o| o.part == part)
@@ -413,9 +434,9 @@ pub fn fit_sensor(
     let c: Vec<f64> = (0..n_holds).map(|k| x[3 + k].exp()).collect();
     let r: Vec<f64> = (0..n_holds)
         .map(|k| {
-            let rs: Vec<f64> = (0..parts)
-                .filter(|p| has_part[k * parts + p])
-                .map(|p| x[3 + n_holds + k * parts + p].exp())
+            let rs: Vec<f64> = (0..n_parts)
+                .filter(|&p| part_hold[p] == k)
+                .map(|p| x[3 + n_holds + p].exp())
                 .collect();
             rs.iter().sum::<f64>() / rs.len() as f64
         })
@@ -648,7 +669,10 @@ pub fn records_of(bytes: &[u8]) -> Vec<link::Record> {
 struct Clock<S> {
     port: S,
     dec: link::Decoder,
+    enc: link::Encoder,
     records: Vec<link::Record>,
+    /// The device's replies to requests sent through the clock.
+    replies: Vec<link::Reply>,
     raw: Vec<u8>,
     /// The newest record's time, s since the device's start.
     now_s: f64,
@@ -660,7 +684,9 @@ impl<S: std::io::Read> Clock<S> {
         Self {
             port,
             dec: link::Decoder::new(),
+            enc: link::Encoder::new(),
             records: vec![],
+            replies: vec![],
             raw: vec![],
             now_s: f64::NEG_INFINITY,
             timeout,
@@ -681,13 +707,19 @@ impl<S: std::io::Read> Clock<S> {
                 *quiet_since = std::time::Instant::now();
                 self.raw.extend_from_slice(&chunk[..n]);
                 for &b in &chunk[..n] {
-                    if let Some(Ok(link::Frame {
-                        body: link::Body::Record(r),
-                        ..
-                    })) = self.dec.push(b)
-                    {
-                        self.now_s = self.now_s.max(r.t_us as f64 * 1e-6);
-                        self.records.push(r);
+                    match self.dec.push(b) {
+                        Some(Ok(link::Frame {
+                            body: link::Body::Record(r),
+                            ..
+                        })) => {
+                            self.now_s = self.now_s.max(r.t_us as f64 * 1e-6);
+                            self.records.push(r);
+                        }
+                        Some(Ok(link::Frame {
+                            body: link::Body::Reply(r),
+                            ..
+                        })) => self.replies.push(r),
+                        _ => {}
                     }
                 }
                 Ok(n == chunk.len())
@@ -714,6 +746,19 @@ impl<S: std::io::Read> Clock<S> {
             self.pump(&mut quiet)?;
         }
         Ok(())
+    }
+
+    /// Send `req` (its reply, when it comes, joins `replies`).
+    fn request(&mut self, req: link::Request) -> Result<()>
+    where
+        S: std::io::Write,
+    {
+        let mut out = [0u8; link::MAX_FRAME];
+        let bytes = self
+            .enc
+            .frame(link::Body::Request(req), &mut out)
+            .map_err(|e| anyhow::anyhow!("encoding a request: {e}"))?;
+        self.port.write_all(bytes).context("writing to the device")
     }
 
     /// Read what is waiting, so that the clock is the device's now.
@@ -749,6 +794,9 @@ pub struct Done {
     pub outcomes: Vec<Outcome>,
     /// The raw bytes of the records the fit used.
     pub stream: Vec<u8>,
+    /// What the device said of the steps' sweeps: acknowledged, or why
+    /// not (measured at the policy's tones then).
+    pub sweeps: Vec<String>,
 }
 
 /// Fit the records the clock read, write the set down the link, and stop
@@ -770,12 +818,23 @@ fn finish<S: std::io::Read + std::io::Write>(
     if stop {
         dev.stop()?;
     }
+    let sweeps = clock
+        .replies
+        .iter()
+        .map(|r| match r {
+            link::Reply::Refused { reason, .. } => {
+                format!("sweep refused: {}", crate::config::reason_text(*reason))
+            }
+            _ => "swept".to_string(),
+        })
+        .collect();
     Ok(Done {
         holds,
         set,
         generation,
         outcomes,
         stream: clock.raw,
+        sweeps,
     })
 }
 
@@ -816,6 +875,19 @@ pub struct Guide {
     pub settle_s: f64,
     /// Measured at each stretch, s.
     pub hold_s: f64,
+    /// Ask the device to sweep its tone pairs over each hold (a
+    /// calibration step: every sensor measured at every tone of the
+    /// comb); a device without tone pairs refuses and measures at its
+    /// policy's tone.
+    pub sweep: bool,
+}
+
+/// Blocks per pair of a sweep over `span_s` of the array's clock
+/// (`link::Request::Sweep`: four pairs), at most the link's limit.
+pub fn sweep_blocks(span_s: f64) -> u16 {
+    let block_s = instrument::array::BLOCK_INSTANTS as f64 / instrument::array::RATE_HZ as f64;
+    let pairs = instrument::sweep::PAIRS.len() as f64;
+    ((span_s / (pairs * block_s)).ceil() as u16).clamp(1, link::SWEEP_MAX_BLOCKS)
 }
 
 /// Calibrate the device at the other end of `port`, step by step: for
@@ -846,6 +918,12 @@ pub fn guided<S: std::io::Read + std::io::Write>(
             Ready::Now => clock.now_s,
             Ready::At(t) => t.max(clock.now_s),
         };
+        if guide.sweep {
+            clock.until(t0)?;
+            clock.request(link::Request::Sweep {
+                blocks_per_pair: sweep_blocks(guide.settle_s + guide.hold_s),
+            })?;
+        }
         let hold = Hold {
             stretch_mm: s,
             from_s: t0 + guide.settle_s,

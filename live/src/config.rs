@@ -381,6 +381,8 @@ pub fn reason_text(reason: link::Reason) -> String {
         link::Reason::Malformed => "not a set of the device's layout".into(),
         link::Reason::Flash => "the device's flash failed (its set in force is kept)".into(),
         link::Reason::NothingStored => "nothing is stored".into(),
+        link::Reason::OutOfRange => "a value outside the request's range".into(),
+        link::Reason::Unsupported => "this device does not do that (a sweep on a device of one tone)".into(),
     }
 }
 

@@ -339,6 +339,9 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             if let Some(path) = &keep {
                 std::fs::write(path, &done.stream).with_context(|| format!("writing {}", path.display()))?;
             }
+            for (k, said) in done.sweeps.iter().enumerate().filter(|(_, s)| *s != "swept") {
+                eprintln!("hold {}: {said}", k + 1);
+            }
             println!(
                 "stored: generation {} (in force from the device's next start)",
                 done.generation
@@ -375,6 +378,7 @@ fn main() -> ExitCode {
                 at_mm,
                 settle_s,
                 hold_s,
+                sweep: true,
             }),
             replay,
             report,

@@ -79,6 +79,8 @@ pub struct Workflow {
     pub after: Vec<LoggedToneRecord>,
     /// The link's raw stream of the calibration run.
     pub stream: Vec<u8>,
+    /// What the device answered each hold's sweep.
+    pub sweeps: Vec<String>,
 }
 
 /// The holds of the stairs scenario, as a user's holds file gives them.
@@ -134,6 +136,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
         at_mm: holds.iter().map(|h| h.stretch_mm).collect(),
         settle_s: skin_sim::stairs::SETTLE_S,
         hold_s: skin_sim::stairs::HOLD_S - skin_sim::stairs::SETTLE_S,
+        sweep: true,
     };
     let starts: Vec<f64> = holds
         .iter()
@@ -249,6 +252,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
         sensors,
         after,
         stream: done.stream,
+        sweeps: done.sweeps,
     })
 }
 

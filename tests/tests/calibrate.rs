@@ -19,8 +19,12 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
         w.generation
     );
     assert_eq!(w.generation, 1);
+    // Each hold a calibration step: the device swept its tone pairs.
+    assert_eq!(w.sweeps.len(), w.holds.len(), "{:?}", w.sweeps);
+    assert!(w.sweeps.iter().all(|s| s == "swept"), "{:?}", w.sweeps);
     // Each sensor fitted, its wiring and leads where the simulation put
-    // them (what the fit's C rests on).
+    // them (what the fit's C rests on): the sweep at each hold measures
+    // every sensor at all five tones.
     for (s, o) in w.outcomes.iter().enumerate() {
         let Outcome::Fitted(f) = o else {
             panic!("sensor {s}: {o:?}");
@@ -31,13 +35,13 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
             .effects
             .get(instrument::effects::Effect::ParasiticCapacitance);
         assert!(
-            (f.values[0] - lead).abs() < 0.03 + 3.0 * f.sigma[0].max(0.0),
+            (f.values[0] - lead).abs() < 0.003 + 3.0 * f.sigma[0].max(0.0),
             "sensor {s}: ℓ {:.4} ± {:.4}, truth {lead:.4}",
             f.values[0],
             f.sigma[0]
         );
         assert!(
-            (f.values[2] - cp).abs() < 1e-12,
+            (f.values[2] - cp).abs() < 0.1e-12,
             "sensor {s}: C_p {:.2} pF, truth {:.2} pF",
             f.values[2] * 1e12,
             cp * 1e12

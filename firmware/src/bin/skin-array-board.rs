@@ -69,6 +69,7 @@ use instrument::reader::ArrayReader;
 use instrument::sensor::Sensors;
 use instrument::store::{Store, SLOT_BYTES};
 use instrument::stored::Stored;
+use instrument::sweep::Sweep;
 use instrument::tones::{ToneRecord, ToneSettings};
 
 /// The link's byte queue: two blocks of frames.
@@ -106,6 +107,9 @@ mod app {
         /// The link's port: its transmit task, and `idle` for the receive
         /// position.
         tx: Transmitter<'static, LINK_BYTES>,
+        /// A calibration step's sweep of the tone pairs, if one is under
+        /// way.
+        sweep: Sweep,
     }
 
     #[local]
@@ -203,7 +207,11 @@ mod app {
             RATE_HZ / BLOCK_INSTANTS as u32
         );
         (
-            Shared { finished: None, tx },
+            Shared {
+                finished: None,
+                tx,
+                sweep: Sweep::new(),
+            },
             Local {
                 dma: owned.dma,
                 adcs: owned.adcs,
@@ -218,7 +226,7 @@ mod app {
                 ring: Ring(ring.as_ptr()),
                 rx: Receiver::new(),
                 requests: ::link::Decoder::new(),
-                commands: Commands::new(),
+                commands: Commands::sweeping(),
                 store,
                 sending: true,
             },
@@ -227,9 +235,10 @@ mod app {
 
     /// The link's writer: the record queue into frames; the host's
     /// requests from the receive ring, answered
-    /// ([`instrument::commands`]: the stored settings, start, stop); then
+    /// ([`instrument::commands`]: the stored settings, start, stop, a
+    /// calibration step's sweep); then
     /// the transmitter woken.
-    #[idle(shared = [tx], local = [logger, writer, ring, rx, requests, commands, store, sending])]
+    #[idle(shared = [tx, sweep], local = [logger, writer, ring, rx, requests, commands, store, sending])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let l = &mut cx.local;
@@ -268,6 +277,7 @@ mod app {
                     Action::Apply => {
                         defmt::println!("settings: a new set stored, in force from the next start")
                     }
+                    Action::Sweep(n) => cx.shared.sweep.lock(|s| s.start(n)),
                     Action::None => {}
                 }
                 queued = true;
@@ -316,11 +326,12 @@ mod app {
     }
 
     /// The block's records, straight from the DMA buffers.
-    #[task(priority = 1, shared = [finished], local = [bufs, reader, settings, records, watchdog])]
+    #[task(priority = 1, shared = [finished, sweep], local = [bufs, reader, settings, records, watchdog])]
     async fn process(mut cx: process::Context) {
         let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
         };
+        cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let bufs = cx.local.bufs.0;
         // SAFETY: the DMA finished this half of every buffer and writes
         // the other ones for the next 4 ms; this task takes 1.1 ms.

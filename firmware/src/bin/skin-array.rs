@@ -45,6 +45,7 @@ use instrument::frames;
 use instrument::reader::ArrayReader;
 use instrument::sensor::Sensors;
 use instrument::store::Store;
+use instrument::sweep::Sweep;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
@@ -83,6 +84,9 @@ mod app {
         done: bool,
         /// Records the queue had no room for.
         dropped: u32,
+        /// A calibration step's sweep of the tone pairs, if one is under
+        /// way.
+        sweep: Sweep,
     }
 
     #[local]
@@ -149,6 +153,7 @@ mod app {
                 frame: (cx.local.frame_slot, [false; INPUTS], 0),
                 done: false,
                 dropped: 0,
+                sweep: Sweep::new(),
             },
             Local {
                 skin,
@@ -160,7 +165,7 @@ mod app {
                 logger,
                 link,
                 store,
-                commands: Commands::new(),
+                commands: Commands::sweeping(),
             },
         )
     }
@@ -168,14 +173,18 @@ mod app {
     /// The logger: each record to defmt and to the link (UART0); the
     /// host's requests down the link answered (the stored settings, stop);
     /// the link's end frame when the run is done or the host stops it.
-    #[idle(shared = [done, dropped], local = [logger, link, store, commands])]
+    #[idle(shared = [done, dropped, sweep], local = [logger, link, store, commands])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             while let Some(rec) = cx.local.logger.dequeue() {
                 defmt::println!("{}", rec);
                 cx.local.link.record(frames::from_tone_record(&rec));
             }
-            if qemu_flash::answer(cx.local.link, cx.local.commands, cx.local.store.as_mut()) {
+            let asked = qemu_flash::answer(cx.local.link, cx.local.commands, cx.local.store.as_mut());
+            if let Some(n) = asked.sweep {
+                cx.shared.sweep.lock(|s| s.start(n));
+            }
+            if asked.stop {
                 cx.shared.done.lock(|d| *d = true);
             }
             if cx.shared.done.lock(|d| *d) {
@@ -207,8 +216,9 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done, dropped], local = [reader, settings, end_block, records])]
+    #[task(priority = 1, shared = [frame, done, dropped, sweep], local = [reader, settings, end_block, records])]
     async fn process(mut cx: process::Context) {
+        cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
         let (block, clipped, t_us) = cx
             .shared

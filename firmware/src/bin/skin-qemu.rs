@@ -330,7 +330,7 @@ mod app {
             }
             None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
-        let stop = qemu_flash::answer(local.link, local.commands, local.store.as_mut());
+        let stop = qemu_flash::answer(local.link, local.commands, local.store.as_mut()).stop;
         if stop || slot.index + 1 >= *local.end_slot {
             local.link.end(0);
             cx.shared.done.lock(|d| *d = true);

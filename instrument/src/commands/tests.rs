@@ -236,7 +236,11 @@ fn a_fuzzed_command_stream_changes_the_set_only_through_an_acknowledged_commit()
     for case in 0..cases() {
         let mut mem = vec![0xFFu8; REGION_BYTES];
         let mut store = Store::new(RamFlash::new(&mut mem), 0, SLOT_BYTES).unwrap();
-        let mut c = Commands::new();
+        let mut c = if case % 2 == 0 {
+            Commands::new()
+        } else {
+            Commands::sweeping()
+        };
         // The host's side: a stream of frames, some good uploads, some
         // broken ones, some random requests, then damage on the wire.
         let mut enc = link::Encoder::new();
@@ -268,7 +272,13 @@ fn a_fuzzed_command_stream_changes_the_set_only_through_an_acknowledged_commit()
                         }
                     })
                     .collect(),
-                _ => vec![Request::Start, Request::Stop],
+                _ => vec![
+                    Request::Start,
+                    Request::Stop,
+                    Request::Sweep {
+                        blocks_per_pair: rng.next() as u16,
+                    },
+                ],
             };
             if rng.below(3) == 0 && !reqs.is_empty() {
                 let k = rng.below(reqs.len() as u64) as usize;
@@ -328,4 +338,50 @@ fn a_fuzzed_command_stream_changes_the_set_only_through_an_acknowledged_commit()
         "{stores_changed} changes in {} cases",
         cases()
     );
+}
+
+#[test]
+fn a_sweep_is_a_step_the_array_takes_and_a_single_tone_device_refuses() {
+    let mut mem = vec![0xFFu8; REGION_BYTES];
+    let mut store = Store::new(RamFlash::new(&mut mem), 0, SLOT_BYTES).unwrap();
+    let mut actions = vec![];
+    let mut ask = |c: &mut Commands, store: &mut Store<RamFlash>, n: u16| {
+        let mut replies = vec![];
+        actions.push(c.handle(7, &Request::Sweep { blocks_per_pair: n }, store, |r| {
+            replies.push(r)
+        }));
+        replies
+    };
+    let mut array = Commands::sweeping();
+    assert_eq!(
+        ask(&mut array, &mut store, 50),
+        [Reply::Ack { to: 7, generation: 0 }]
+    );
+    assert_eq!(
+        ask(&mut array, &mut store, 0),
+        [Reply::Refused {
+            to: 7,
+            reason: Reason::OutOfRange
+        }]
+    );
+    assert_eq!(
+        ask(&mut array, &mut store, link::SWEEP_MAX_BLOCKS + 1),
+        [Reply::Refused {
+            to: 7,
+            reason: Reason::OutOfRange
+        }]
+    );
+    let mut mux = Commands::new();
+    assert_eq!(
+        ask(&mut mux, &mut store, 50),
+        [Reply::Refused {
+            to: 7,
+            reason: Reason::Unsupported
+        }]
+    );
+    assert_eq!(
+        actions,
+        [Action::Sweep(50), Action::None, Action::None, Action::None]
+    );
+    assert_eq!(store.load(), Ok(None), "nothing stored by a sweep");
 }
