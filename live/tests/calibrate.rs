@@ -6,19 +6,8 @@
 
 use num_complex::Complex64;
 use std::f64::consts::TAU;
-use std::process::Command;
-
-fn live(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::live;
 
 /// A ladder of 400 elements (series R/n, shunt C/n), open at its far
 /// end, behind series `rs` and with `cp` across the meter.
@@ -110,17 +99,21 @@ fn a_recorded_calibration_is_fitted_stored_and_read_back() {
         "sensor.0.in_use=true",
     ]);
     assert_eq!(code, Some(0), "{err}");
-    let (code, out, err) = live(&[
-        "calibrate",
-        "--replay",
-        &p("stream.bin"),
-        "--holds",
-        &p("holds.csv"),
-        "--flash",
-        &p("flash.bin"),
-        "--report",
-        &p("report.md"),
-    ]);
+    // The recording fitted into the image, with `more` options.
+    let calibrate = |holds: &str, more: &[&str]| {
+        let mut args = vec![
+            "calibrate",
+            "--replay",
+            &p("stream.bin"),
+            "--holds",
+            holds,
+            "--flash",
+            &p("flash.bin"),
+        ];
+        args.extend_from_slice(more);
+        live(&args)
+    };
+    let (code, out, err) = calibrate(&p("holds.csv"), &["--report", &p("report.md")]);
     assert_eq!(code, Some(0), "{err}\n{out}");
     assert!(out.contains("stored: generation 2"), "{out}");
     assert!(out.contains("sensor 2 refused: no usable records"), "{out}");
@@ -156,29 +149,12 @@ fn a_recorded_calibration_is_fitted_stored_and_read_back() {
     // A holds file with a bad number: refused where, nothing stored.
     let before = std::fs::read(p("flash.bin")).unwrap();
     std::fs::write(p("bad.csv"), "stretch_mm,from_s,to_s\n0,0.1,0.6\n5,1.1,x\n").unwrap();
-    let (code, _, err) = live(&[
-        "calibrate",
-        "--replay",
-        &p("stream.bin"),
-        "--holds",
-        &p("bad.csv"),
-        "--flash",
-        &p("flash.bin"),
-    ]);
+    let (code, _, err) = calibrate(&p("bad.csv"), &[]);
     assert_eq!(code, Some(1));
     assert!(err.contains("bad.csv:3:7: 'x' is not a finite number"), "{err}");
     assert_eq!(std::fs::read(p("flash.bin")).unwrap(), before);
     // --dry-run stores nothing.
-    let (code, out, err) = live(&[
-        "calibrate",
-        "--replay",
-        &p("stream.bin"),
-        "--holds",
-        &p("holds.csv"),
-        "--flash",
-        &p("flash.bin"),
-        "--dry-run",
-    ]);
+    let (code, out, err) = calibrate(&p("holds.csv"), &["--dry-run"]);
     assert_eq!(code, Some(0), "{err}");
     assert!(!out.contains("stored: generation"), "{out}");
     assert_eq!(std::fs::read(p("flash.bin")).unwrap(), before);

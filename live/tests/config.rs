@@ -2,19 +2,8 @@
 //! back; a refused value names the setting and its range and leaves the
 //! file byte for byte as it was; `--help` names every setting.
 
-use std::process::Command;
-
-fn live(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::live;
 
 #[test]
 fn settings_set_are_read_back_and_a_refused_value_changes_nothing() {

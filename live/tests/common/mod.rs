@@ -1,9 +1,11 @@
-//! What the tests of `live` share: streams as a device sends them.
+//! What the tests of `live` share: streams as a device sends them, and
+//! the binary run as a user runs it.
 
 use link::{Body, Encoder, End, Record, Start, Tone, MAX_FRAME};
 
 /// A stream of `n` single-tone records from two sensors, with its end
 /// frame or not, of wire version `version`.
+#[allow(dead_code)]
 pub fn stream(n: u32, end: bool, version: u16) -> Vec<u8> {
     let mut enc = Encoder::new();
     let mut out = [0u8; MAX_FRAME];
@@ -49,4 +51,18 @@ pub fn stream(n: u32, end: bool, version: u16) -> Vec<u8> {
         bytes.extend_from_slice(enc.frame(Body::End(e), &mut out).unwrap());
     }
     bytes
+}
+
+/// Run the `live` binary with `args`: its exit code, stdout and stderr.
+#[allow(dead_code)]
+pub fn live(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
