@@ -100,15 +100,16 @@ fn a_recorded_calibration_is_fitted_stored_and_read_back() {
     ]);
     assert_eq!(code, Some(0), "{err}");
     // The recording fitted into the image, with `more` options.
+    let (stream, flash) = (p("stream.bin"), p("flash.bin"));
     let calibrate = |holds: &str, more: &[&str]| {
         let mut args = vec![
             "calibrate",
             "--replay",
-            &p("stream.bin"),
+            &stream,
             "--holds",
             holds,
             "--flash",
-            &p("flash.bin"),
+            &flash,
         ];
         args.extend_from_slice(more);
         live(&args)
