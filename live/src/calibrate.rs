@@ -648,6 +648,100 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
     md
 }
 
+/// One sensor measured again at known stretches (a device running with
+/// its calibration).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Check {
+    /// Sensor.
+    pub sensor: u8,
+    /// Per hold (in the holds' order): the stretch held, mm, and the mean
+    /// stretch of the records whose stretch the device vouched for (NaN:
+    /// none).
+    pub holds: Vec<(f64, f64)>,
+    /// Records in the holds, and those whose stretch is vouched for.
+    pub records: (usize, usize),
+}
+
+impl Check {
+    /// RMS of the holds' errors, mm (NaN where a hold had no vouched
+    /// record).
+    pub fn rms_mm(&self) -> f64 {
+        rms(self.holds.iter().map(|(want, got)| got - want))
+    }
+}
+
+/// Each sensor's stretch at each hold, as the device read it: what a
+/// calibration is judged by after the device restarted with it.
+pub fn verify(records: &[link::Record], holds: &[Hold]) -> Vec<Check> {
+    let mut sensors: Vec<u8> = records.iter().map(|r| r.sensor).collect();
+    sensors.sort_unstable();
+    sensors.dedup();
+    sensors
+        .into_iter()
+        .map(|s| {
+            let mut all = (0, 0);
+            let holds = holds
+                .iter()
+                .map(|h| {
+                    let (mut sum, mut n) = (0.0, 0usize);
+                    for r in records.iter().filter(|r| r.sensor == s) {
+                        let t = r.t_us as f64 * 1e-6;
+                        if t < h.from_s || t >= h.to_s {
+                            continue;
+                        }
+                        all.0 += 1;
+                        if Flags(r.flags).stretch_valid() {
+                            all.1 += 1;
+                            sum += r.stretch_mm as f64;
+                            n += 1;
+                        }
+                    }
+                    (h.stretch_mm, if n > 0 { sum / n as f64 } else { f64::NAN })
+                })
+                .collect();
+            Check {
+                sensor: s,
+                holds,
+                records: all,
+            }
+        })
+        .collect()
+}
+
+/// The report of a check, Markdown: a row per sensor.
+pub fn check_report(holds: &[Hold], checks: &[Check]) -> String {
+    let mut md = format!(
+        "{} holds ({:?} mm), each sensor's stretch as the device read it (the mean of the records whose \
+         stretch it vouched for) against the stretch held.\n\n| sensor | stretch RMS over the holds | worst hold | \
+         records vouched for |\n|---|---|---|---|\n",
+        holds.len(),
+        holds.iter().map(|h| h.stretch_mm).collect::<Vec<_>>()
+    );
+    for c in checks {
+        let worst = c
+            .holds
+            .iter()
+            .filter(|(_, got)| !got.is_nan())
+            .max_by(|a, b| (a.1 - a.0).abs().total_cmp(&(b.1 - b.0).abs()))
+            .map_or(String::new(), |(want, got)| {
+                format!("{:+.3} mm at {want} mm", got - want)
+            });
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} of {} |",
+            c.sensor,
+            match c.rms_mm() {
+                v if v.is_nan() => "not vouched for at every hold".to_string(),
+                v => format!("{v:.3} mm"),
+            },
+            worst,
+            c.records.1,
+            c.records.0
+        );
+    }
+    md
+}
+
 /// The records in a recorded stream (frames that fail their check are
 /// passed over, as `live` counts them).
 pub fn records_of(bytes: &[u8]) -> Vec<link::Record> {
@@ -899,18 +993,52 @@ pub fn sweep_blocks(span_s: f64) -> u16 {
 pub fn guided<S: std::io::Read + std::io::Write>(
     port: S,
     guide: &Guide,
-    mut ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+    ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
     opts: &Options,
     stop: bool,
     timeout: std::time::Duration,
 ) -> Result<Done> {
+    let mut clock = Clock::new(port, timeout);
+    let holds = gather(&mut clock, guide, ready)?;
+    finish(clock, holds, opts, stop)
+}
+
+/// A device measured again, step by step as [`guided`] (no sweep: the
+/// device reads as it will in use), nothing written, stopped after if
+/// `stop`: each sensor's stretch at each hold ([`verify`]), the holds,
+/// and the raw stream.
+pub fn verify_guided<S: std::io::Read + std::io::Write>(
+    port: S,
+    guide: &Guide,
+    ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+    stop: bool,
+    timeout: std::time::Duration,
+) -> Result<(Vec<Hold>, Vec<Check>, Vec<u8>)> {
+    let mut clock = Clock::new(port, timeout);
+    let guide = Guide {
+        sweep: false,
+        ..guide.clone()
+    };
+    let holds = gather(&mut clock, &guide, ready)?;
+    let checks = verify(&clock.records, &holds);
+    if stop {
+        crate::config::Device::new(clock.port, timeout).stop()?;
+    }
+    Ok((holds, checks, clock.raw))
+}
+
+/// The holds of a guided run, the clock reading through them.
+fn gather<S: std::io::Read + std::io::Write>(
+    clock: &mut Clock<S>,
+    guide: &Guide,
+    mut ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+) -> Result<Vec<Hold>> {
     if guide.at_mm.len() < 2 {
         bail!("a calibration needs two stretches at least");
     }
     if !(guide.hold_s > 0.0 && guide.settle_s >= 0.0) {
         bail!("the hold must last, and the settling cannot be negative");
     }
-    let mut clock = Clock::new(port, timeout);
     let mut holds = vec![];
     for (k, &s) in guide.at_mm.iter().enumerate() {
         clock.catch_up()?;
@@ -932,7 +1060,7 @@ pub fn guided<S: std::io::Read + std::io::Write>(
         clock.until(hold.to_s)?;
         holds.push(hold);
     }
-    finish(clock, holds, opts, stop)
+    Ok(holds)
 }
 
 /// RMS of `v` (NaN if empty).

@@ -91,6 +91,11 @@ enum Command {
         /// Fit and report, store nothing.
         #[arg(long)]
         dry_run: bool,
+        /// Measure again instead: each sensor's stretch at each hold as
+        /// the device reads it (restart it first, so that it measures
+        /// with the set stored), against the stretch held; nothing stored.
+        #[arg(long, conflicts_with = "dry_run")]
+        verify: bool,
         /// Stop the device once the set is stored.
         #[arg(long)]
         stop: bool,
@@ -252,6 +257,7 @@ struct CalibrateArgs {
     report: Option<PathBuf>,
     keep: Option<PathBuf>,
     dry_run: bool,
+    verify: bool,
     stop: bool,
 }
 
@@ -280,6 +286,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         report,
         keep,
         dry_run,
+        verify,
         stop,
     } = a;
     let holds = match (&holds, &guide) {
@@ -290,6 +297,9 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         _ => vec![],
     };
     let opts = Options::default();
+    if verify {
+        return verify_device(target, holds, guide, replay, report, keep, stop);
+    }
     let text = match (&replay, &target.flash) {
         (Some(path), _) => {
             let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
@@ -356,6 +366,74 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     Ok(())
 }
 
+/// `live calibrate --verify`: the device measured again at known
+/// stretches, nothing stored.
+fn verify_device(
+    target: Target,
+    holds: Vec<live::calibrate::Hold>,
+    guide: Option<live::calibrate::Guide>,
+    replay: Option<PathBuf>,
+    report: Option<PathBuf>,
+    keep: Option<PathBuf>,
+    stop: bool,
+) -> Result<()> {
+    use live::calibrate as cal;
+    let (holds, checks, stream) = match &replay {
+        Some(path) => {
+            let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+            let checks = cal::verify(&cal::records_of(&bytes), &holds);
+            (holds, checks, vec![])
+        }
+        None => {
+            let port: Box<dyn ReadWrite> = match (&target.tcp, &target.serial) {
+                (Some(addr), _) => {
+                    let sock = std::net::TcpStream::connect(addr)
+                        .with_context(|| format!("connecting to {addr}"))?;
+                    sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+                    Box::new(sock)
+                }
+                (None, Some(name)) => Box::new(
+                    serialport::new(name, link::BOARD_BAUD)
+                        .timeout(Duration::from_millis(200))
+                        .open()
+                        .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?,
+                ),
+                (None, None) => {
+                    anyhow::bail!("--verify measures a device: --tcp HOST:PORT or --serial PORT, or --replay")
+                }
+            };
+            let (holds, checks, stream, port) = match &guide {
+                Some(g) => {
+                    let (h, c, s) = cal::verify_guided(port, g, ask, stop, REPLY_TIMEOUT)?;
+                    (h, c, s, None)
+                }
+                None => {
+                    let mut port = port;
+                    let until = holds.iter().map(|h| h.to_s).fold(0.0, f64::max);
+                    let (records, stream) = cal::collect(&mut port, until, REPLY_TIMEOUT)?;
+                    let checks = cal::verify(&records, &holds);
+                    (holds, checks, stream, Some(port))
+                }
+            };
+            if stop {
+                if let Some(port) = port {
+                    live::config::Device::new(port, REPLY_TIMEOUT).stop()?;
+                }
+            }
+            (holds, checks, stream)
+        }
+    };
+    if let Some(path) = &keep {
+        std::fs::write(path, &stream).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let text = cal::check_report(&holds, &checks);
+    println!("{text}");
+    if let Some(path) = &report {
+        std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let mut cli = Cli::parse();
     let done = match cli.command.take() {
@@ -370,6 +448,7 @@ fn main() -> ExitCode {
             report,
             keep,
             dry_run,
+            verify,
             stop,
         }) => Some(calibrate(CalibrateArgs {
             target,
@@ -384,6 +463,7 @@ fn main() -> ExitCode {
             report,
             keep,
             dry_run,
+            verify,
             stop,
         })),
         None => None,

@@ -160,3 +160,72 @@ fn a_recorded_calibration_is_fitted_stored_and_read_back() {
     assert!(!out.contains("stored: generation"), "{out}");
     assert_eq!(std::fs::read(p("flash.bin")).unwrap(), before);
 }
+
+/// `--verify` on a recording of a calibrated device held at the same
+/// stretches: each sensor's stretch against the stretch held; a sensor
+/// whose stretch the device did not vouch for is named so.
+#[test]
+fn a_device_measured_again_is_judged_by_its_stretch_at_each_hold() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let mut bytes = vec![];
+    let mut holds = String::from("stretch_mm,from_s,to_s\n");
+    for (k, s) in HOLDS.iter().enumerate() {
+        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
+        for i in 0..150 {
+            let t = k as f64 + 0.004 * i as f64;
+            // Sensor 0 reads 0.02 mm long; sensor 1 1 % long; sensor 2
+            // is not calibrated.
+            for (sensor, stretch, flags) in [
+                (0u8, s + 0.02, 0),
+                (1, s * 1.01, 0),
+                (2, 0.0, instrument::faults::Flags::UNCALIBRATED),
+            ] {
+                let rec = link::Record {
+                    t_us: (t * 1e6) as u64,
+                    sensor,
+                    stretch_mm: stretch as f32,
+                    c_farad: 200e-12,
+                    flags,
+                    ..Default::default()
+                };
+                bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());
+            }
+        }
+    }
+    std::fs::write(p("again.bin"), bytes).unwrap();
+    std::fs::write(p("holds.csv"), holds).unwrap();
+    let (code, out, err) = live(&[
+        "calibrate",
+        "--verify",
+        "--replay",
+        &p("again.bin"),
+        "--holds",
+        &p("holds.csv"),
+        "--flash",
+        &p("unused.bin"),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let row = |s: u8| {
+        out.lines()
+            .find(|l| l.starts_with(&format!("| {s} |")))
+            .unwrap_or_default()
+    };
+    assert!(row(0).starts_with("| 0 | 0.020 mm | +0.020 mm at "), "{out}");
+    let rms1 = (HOLDS.iter().map(|s| (0.01 * s) * (0.01 * s)).sum::<f64>() / 5.0).sqrt();
+    assert!(
+        row(1).starts_with(&format!("| 1 | {rms1:.3} mm | +0.300 mm at 30 mm |")),
+        "{out}"
+    );
+    assert!(
+        row(2).starts_with("| 2 | not vouched for at every hold |  | 0 of "),
+        "{out}"
+    );
+    // Every record in the holds counted, all vouched for on sensor 0.
+    let counts = row(0).split('|').nth(4).unwrap().trim().to_string();
+    let (vouched, of) = counts.split_once(" of ").unwrap();
+    assert_eq!(vouched, of, "{out}");
+    assert!(!tmp.path().join("unused.bin").exists(), "nothing stored");
+}
