@@ -347,6 +347,10 @@ fn main() -> ExitCode {
     }
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<Incomplete>() => {
+            eprintln!("incomplete: {e}");
+            ExitCode::from(3)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
@@ -481,8 +485,24 @@ fn invert(cs: f64, rs: f64, f: f64, model: LineModel, c_hint: Option<f64>, leads
 /// `decode`: a firmware recording to a data set.
 fn decode(input: &Path, elf: Option<&Path>, out: &Path, roles: host_sim::recording::Roles) -> Result<()> {
     use host_sim::recording;
-    let recs = recording::read(input, elf)?;
+    let (recs, ended) = recording::read_recording(input, elf)?;
     let w = recording::write_dataset(out, &recs, &roles)?;
+    // A run cut short is said so beside its data, as `live` does.
+    let marker = out.join("INCOMPLETE");
+    match ended {
+        true => match std::fs::remove_file(&marker) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
+            _ => {}
+        },
+        false => std::fs::write(
+            &marker,
+            format!(
+                "{}: no '{}' line: the run was cut short (a crash, a hang, or a recording stopped by hand)\n",
+                input.display(),
+                recording::END
+            ),
+        )?,
+    }
     println!(
         "{} records → {} trace files ({} rows), {} fragments (runs shorter than a trace), {} calibration points, {} faults in {}",
         recs.len(),
@@ -493,11 +513,42 @@ fn decode(input: &Path, elf: Option<&Path>, out: &Path, roles: host_sim::recordi
         w.faults,
         out.display()
     );
+    if !ended {
+        return Err(Incomplete(format!(
+            "{}: no '{}' line: the run was cut short (a crash, a hang, or a recording stopped by hand); \
+             the data set holds what it recorded, marked INCOMPLETE",
+            input.display(),
+            recording::END
+        ))
+        .into());
+    }
     Ok(())
+}
+
+/// A recording cut short: its data set written, marked; exit status 3
+/// (as `live`'s for a stream cut short).
+#[derive(Debug)]
+struct Incomplete(String);
+
+impl std::fmt::Display for Incomplete {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Incomplete {}
+
+/// Say so when the data set in `dir` was recorded by a run cut short
+/// (`decode`'s or `live`'s INCOMPLETE mark).
+fn note_incomplete(dir: &Path) {
+    if let Ok(why) = std::fs::read_to_string(dir.join("INCOMPLETE")) {
+        eprintln!("note: {} is marked INCOMPLETE: {}", dir.display(), why.trim());
+    }
 }
 
 /// `residual`: the baseline's residual per trace.
 fn residual(dir: &Path, model: LineModel, raw_calibration: bool) -> Result<()> {
+    note_incomplete(dir);
     let ds = host_sim::dataset::read_dir(dir)?;
     let b = host_sim::baseline::Baseline::from_calibration(&ds.calibration, model, !raw_calibration)?;
     println!("electrode resistance: {}\n", ds.calibration.resistance);
@@ -530,6 +581,7 @@ fn residual(dir: &Path, model: LineModel, raw_calibration: bool) -> Result<()> {
 /// written all or none.
 fn identify(dir: &Path, out: &Path, no_sweep: bool, predict_paper: bool) -> Result<()> {
     use host_sim::identify;
+    note_incomplete(dir);
     let options = identify::Options {
         sweep: !no_sweep,
         ..Default::default()

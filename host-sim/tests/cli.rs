@@ -251,3 +251,52 @@ fn invert_takes_the_tab_leads() {
     ]);
     assert!(!ok && err.contains("within 0..1"), "{err}");
 }
+
+/// `decode` of a log cut short (no `end` line: a crash, a hang, a
+/// recording stopped by hand) writes what it holds, marks it INCOMPLETE
+/// and exits with status 3; the whole log exits 0 and takes the mark
+/// away.
+#[test]
+fn a_recording_cut_short_is_decoded_marked_and_not_passed_as_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut log = String::from("start array\n");
+    for k in 0..60u64 {
+        log.push_str(&format!(
+            "tone {} 3 500 400000 -1600000 2000 200000 -390000 205.1 1000000 1.2 0.0004 0.1 0\n",
+            2000 + 4000 * k
+        ));
+    }
+    let (cut, whole) = (tmp.path().join("cut.log"), tmp.path().join("whole.log"));
+    std::fs::write(&cut, &log).unwrap();
+    std::fs::write(
+        &whole,
+        format!("{log}stack 100 bytes used, 900 never touched\nend\n"),
+    )
+    .unwrap();
+    let out = tmp.path().join("set");
+    let decode = |input: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .arg("decode")
+            .arg(input)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let o = decode(&cut);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(
+        err.contains("incomplete: ") && err.contains("no 'end' line"),
+        "{err}"
+    );
+    let mark = std::fs::read_to_string(out.join("INCOMPLETE")).unwrap();
+    assert!(mark.contains("cut.log"), "{mark}");
+    assert!(out.join("faults.csv").exists() || out.join("calibration.csv").exists());
+    let o = decode(&whole);
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !out.join("INCOMPLETE").exists(),
+        "the mark of the earlier run taken away"
+    );
+}

@@ -191,11 +191,37 @@ fn clip(l: &str) -> String {
 
 /// Read a recording: a decoded text log, or raw defmt bytes with `elf`.
 pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<LoggedRecord>> {
+    Ok(read_recording(input, elf)?.0)
+}
+
+/// The line a QEMU image logs last (`firmware::qemu::end`): a log
+/// without it was cut short (a crash, a hang, a recording stopped by
+/// hand).
+pub const END: &str = "end";
+
+/// Whether a log's text holds its end line.
+fn ends(text: &str) -> bool {
+    text.lines().any(|l| {
+        let l = l.trim_end();
+        l == END || l.ends_with(&format!(" {END}"))
+    })
+}
+
+/// [`read`], and whether the recording ended as a run does (its
+/// [`END`] line): false for one cut short.
+pub fn read_recording(input: &Path, elf: Option<&Path>) -> Result<(Vec<LoggedRecord>, bool)> {
     let bytes = read_regular(input, 1 << 30)?;
     let name = input.display().to_string();
-    let lines = match elf {
-        Some(elf) => decode_defmt(elf, &bytes)?,
-        None => log_lines(&String::from_utf8_lossy(&bytes)),
+    let (lines, ended) = match elf {
+        Some(elf) => {
+            let all = decode_defmt(elf, &bytes)?;
+            let ended = all.iter().any(|(_, l)| l.trim_end() == END);
+            (all, ended)
+        }
+        None => {
+            let text = String::from_utf8_lossy(&bytes);
+            (log_lines(&text), ends(&text))
+        }
     };
     // An array recording ('tone' lines) gives a record per tone.
     let array = lines
@@ -216,5 +242,5 @@ pub fn read(input: &Path, elf: Option<&Path>) -> Result<Vec<LoggedRecord>> {
             wire::TONE
         );
     }
-    Ok(recs)
+    Ok((recs, ended))
 }

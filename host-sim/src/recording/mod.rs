@@ -31,7 +31,7 @@
 mod decode;
 mod write;
 
-pub use decode::{decode_defmt, log_lines, parse, parse_tones, read};
+pub use decode::{decode_defmt, log_lines, parse, parse_tones, read, read_recording, END};
 pub use write::{write_dataset, Written};
 
 use instrument::faults::Flags;
