@@ -300,3 +300,56 @@ fn a_recording_cut_short_is_decoded_marked_and_not_passed_as_whole() {
         "the mark of the earlier run taken away"
     );
 }
+
+/// `decode` replaces the data set in its folder whole: the files of an
+/// earlier recording's channels are gone, files that are not the data
+/// set's stay, and no staging folder is left behind.
+#[test]
+fn a_data_set_written_again_holds_nothing_stale() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = |ch: u8| {
+        let mut s = String::new();
+        for k in 0..60u64 {
+            s.push_str(&format!(
+                "tone {} {ch} 500 400000 -1600000 2000 200000 -390000 {} 1000000 1.2 0.0004 {} 0\n",
+                2000 + 4000 * k,
+                205.0 + k as f64 * 0.5,
+                k as f64 * 0.2
+            ));
+        }
+        s + "end\n"
+    };
+    let out = tmp.path().join("set");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let decode = |ch: u8| {
+        let path = tmp.path().join(format!("ch{ch}.log"));
+        std::fs::write(&path, log(ch)).unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .arg("decode")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let mut names: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    let first = decode(3);
+    assert!(first.iter().any(|n| n.starts_with("trace_ch3_")), "{first:?}");
+    let second = decode(4);
+    assert!(second.iter().any(|n| n.starts_with("trace_ch4_")), "{second:?}");
+    assert!(!second.iter().any(|n| n.contains("ch3")), "stale: {second:?}");
+    assert!(second.contains(&"notes.txt".to_string()), "{second:?}");
+    assert!(
+        !second
+            .iter()
+            .any(|n| n.starts_with(".dataset-") || n == "INCOMPLETE"),
+        "{second:?}"
+    );
+}

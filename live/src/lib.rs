@@ -168,12 +168,12 @@ impl Session {
                 self.records.len()
             )),
         };
+        let written = recording::write_dataset(&self.dir, &logged(&self.records), &Roles::default())?;
         if let Outcome::Incomplete(why) = &outcome {
             let marker = self.dir.join(INCOMPLETE);
             std::fs::write(&marker, format!("{why}\n"))
                 .with_context(|| format!("writing {}", marker.display()))?;
         }
-        let written = recording::write_dataset(&self.dir, &logged(&self.records), &Roles::default())?;
         Ok(Finished {
             outcome,
             summary,

@@ -24,9 +24,73 @@ pub struct Written {
     pub faults: usize,
 }
 
-/// Write `recs` as a data set in `dir` (see the module documentation).
+/// The mark a data set carries while it is being replaced: a run killed
+/// then leaves it, and the readers say so (`decode` also leaves it, with
+/// another reason, on a recording cut short).
+pub const INCOMPLETE: &str = "INCOMPLETE";
+
+/// Whether `name` is a file a data set written here consists of.
+fn ours(name: &str) -> bool {
+    name == "calibration.csv"
+        || name == "faults.csv"
+        || ((name.starts_with("trace_ch") || name.starts_with("fragment_ch")) && name.ends_with("hz.csv"))
+}
+
+/// Write `recs` as a data set in `dir` (see the module documentation),
+/// replacing the data set there: the files are written in a staging
+/// folder first; then, with `dir` marked [`INCOMPLETE`], the old set's
+/// files are taken away, the new ones renamed in, and the mark removed
+/// (or put back as it was, when `dir` carried one already).
+/// A failure before that leaves the old set as it was; other files in
+/// `dir` (logs, plots) are left alone.
 pub fn write_dataset(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Written> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let stage = tempfile::Builder::new()
+        .prefix(".dataset-")
+        .tempdir_in(dir)
+        .with_context(|| format!("a staging folder in {}", dir.display()))?;
+    let staged = write_files(stage.path(), recs, roles)?;
+    // A mark already there (a recording cut short) says more than ours:
+    // it stays.
+    let mark = dir.join(INCOMPLETE);
+    let prior = std::fs::read(&mark).ok();
+    std::fs::write(
+        &mark,
+        "a data set being replaced: the run writing it did not finish\n",
+    )
+    .with_context(|| format!("writing {}", mark.display()))?;
+    for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+        let entry = entry?;
+        if entry.file_type()?.is_file() && ours(&entry.file_name().to_string_lossy()) {
+            std::fs::remove_file(entry.path())
+                .with_context(|| format!("removing {}", entry.path().display()))?;
+        }
+    }
+    for entry in std::fs::read_dir(stage.path())? {
+        let entry = entry?;
+        let to = dir.join(entry.file_name());
+        std::fs::rename(entry.path(), &to).with_context(|| format!("moving into {}", to.display()))?;
+    }
+    match prior {
+        Some(text) => std::fs::write(&mark, text),
+        None => std::fs::remove_file(&mark),
+    }
+    .with_context(|| format!("restoring {}", mark.display()))?;
+    let moved = |paths: Vec<PathBuf>| -> Vec<PathBuf> {
+        paths
+            .into_iter()
+            .map(|p| dir.join(p.file_name().expect("a file")))
+            .collect()
+    };
+    Ok(Written {
+        traces: moved(staged.traces),
+        fragments: moved(staged.fragments),
+        ..staged
+    })
+}
+
+/// The data set's files, in `dir`.
+fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Written> {
     let mut channels: BTreeMap<u8, Vec<&LoggedRecord>> = BTreeMap::new();
     for r in recs {
         channels.entry(r.channel).or_default().push(r);
