@@ -628,7 +628,7 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                     f.records,
                     pm(0, 1.0, 4),
                     pm(1, 1e-3, 2),
-                    pm(2, 1e12, 2),
+                    pm(2, 1e12, 3),
                     f.c_farad[0] * 1e12,
                     f.r_ohm[0] / 1e3,
                     f.chi2_dof,

@@ -276,7 +276,9 @@ pub fn run_calibration(out: &Path) -> Result<String> {
          down the link (generation {}) and stopped it. QEMU restarted on the same flash: the set came \
          back{}. Then the skin on the paper's 20 mm/s trapezoid, read with the reference sensor's \
          constants (before) and with its own calibration (after):\n\n{}\n\
-         {fitted} of 16 sensors fitted; the worst stretch RMS after is {:.3} mm. `report.md` is \
+         {fitted} of 16 sensors fitted; the worst stretch RMS after is {:.3} mm, and {:.3} mm where the \
+         skin holds still: in motion the slowest electrodes, read at the lowest tones while their \
+         resistance peaks, scatter as their records' own σ says (error/σ RMS {}). `report.md` is \
          `live calibrate`'s own report:\n\n{}",
         w.generation,
         if w.came_back {
@@ -286,6 +288,11 @@ pub fn run_calibration(out: &Path) -> Result<String> {
         },
         w.table(),
         w.worst_after_mm(),
+        w.sensors
+            .iter()
+            .map(|s| s.after_still_moving_mm.0)
+            .fold(0.0, f64::max),
+        qemu_tests::summary::span(w.sensors.iter().map(|s| s.after_z_rms), 2),
         w.report
     );
     std::fs::write(out.join("summary.md"), &md)?;
