@@ -353,3 +353,43 @@ fn a_data_set_written_again_holds_nothing_stale() {
         "{second:?}"
     );
 }
+
+/// Every record of a recording is in the data set or in `faults.csv`
+/// with why: a flagged one by its flags' names, one whose tone is not a
+/// lossy capacitor (inductive) by that reason.
+#[test]
+fn no_record_is_left_out_without_a_word() {
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("r.log");
+    // Sensor 2: its second tone inductive (Im Z > 0), flags 0; sensor 5
+    // flagged MODEL and UNCERTAIN (384); then the end.
+    std::fs::write(
+        &log,
+        "tone 2000 2 500 400000 -1600000 2000 200000 390000 205.1 1000000 1.2 0.0004 0.1 0\n\
+         tone 2000 5 500 400000 -1600000 2000 200000 -390000 205.1 1000000 40 0.0004 0.1 384\n\
+         end\n",
+    )
+    .unwrap();
+    let out = tmp.path().join("set");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("decode")
+        .arg(&log)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let faults = std::fs::read_to_string(out.join("faults.csv")).unwrap();
+    assert!(
+        faults.starts_with("time_s,channel,freq_hz,flags,reason\n"),
+        "{faults}"
+    );
+    assert!(
+        faults.contains(",2,2000,0,no lumped reading: the tone's impedance is not a lossy capacitor's"),
+        "{faults}"
+    );
+    // The flagged record's two tones, each with its flags named (MODEL is
+    // the line's, which the per-tone rows leave out).
+    assert_eq!(faults.matches(",5,").count(), 2, "{faults}");
+    assert!(faults.contains(",5,500,128,UNCERTAIN"), "{faults}");
+}

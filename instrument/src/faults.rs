@@ -47,6 +47,31 @@ impl Flags {
     /// swapped sensor, or a table of another). C and R stand.
     pub const OFF_TABLE: u16 = 1 << 10;
 
+    /// Every flag and its name, in bit order (as
+    /// `docs/data-format.md` names them).
+    pub const NAMES: [(u16, &'static str); 11] = [
+        (Self::CLIPPED, "CLIPPED"),
+        (Self::OPEN, "OPEN"),
+        (Self::SHORTED, "SHORTED"),
+        (Self::RANGE, "RANGE"),
+        (Self::SETTLING, "SETTLING"),
+        (Self::HELD, "HELD"),
+        (Self::DISTURBED, "DISTURBED"),
+        (Self::UNCERTAIN, "UNCERTAIN"),
+        (Self::MODEL, "MODEL"),
+        (Self::UNCALIBRATED, "UNCALIBRATED"),
+        (Self::OFF_TABLE, "OFF_TABLE"),
+    ];
+
+    /// The names of the flags set, in bit order (bits without a name are
+    /// left out).
+    pub fn names(self) -> impl Iterator<Item = &'static str> {
+        Self::NAMES
+            .into_iter()
+            .filter(move |(bit, _)| self.has(*bit))
+            .map(|(_, name)| name)
+    }
+
     /// Is `bit` set?
     pub fn has(self, bit: u16) -> bool {
         self.0 & bit != 0
@@ -199,5 +224,23 @@ impl Thresholds {
         let limit = |amplitude: f32| self.residual_counts.max(self.residual_rel * amplitude);
         // NaN never passes.
         !(rv <= limit(ph.v_amplitude()) && ri <= limit(ph.i_amplitude()))
+    }
+}
+
+#[cfg(test)]
+mod names_tests {
+    use super::Flags;
+
+    #[test]
+    fn every_flag_has_its_name_in_bit_order() {
+        for (k, (bit, _)) in Flags::NAMES.iter().enumerate() {
+            assert_eq!(*bit, 1 << k);
+        }
+        let f = Flags(Flags::OPEN | Flags::MODEL | Flags::OFF_TABLE | 1 << 14);
+        assert_eq!(
+            f.names().collect::<std::vec::Vec<_>>(),
+            ["OPEN", "MODEL", "OFF_TABLE"]
+        );
+        assert_eq!(Flags(0).names().count(), 0);
     }
 }

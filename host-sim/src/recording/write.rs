@@ -168,10 +168,22 @@ fn stretch_spread(rs: &[&LoggedRecord]) -> f64 {
 /// `faults.csv`: every record flagged invalid. Returns how many.
 fn write_faults(dir: &Path, recs: &[LoggedRecord]) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
-    writeln!(faults, "time_s,channel,freq_hz,flags")?;
+    writeln!(faults, "time_s,channel,freq_hz,flags,reason")?;
     let mut n = 0;
-    for r in recs.iter().filter(|r| !r.valid()) {
-        writeln!(faults, "{:.6},{},{},{}", r.t_s, r.channel, r.freq_hz, r.flags.0)?;
+    for r in recs {
+        // Flagged, or valid but with no lumped reading (its tone's
+        // impedance not a lossy capacitor's, e.g. inductive): listed
+        // either way, never dropped without a word.
+        let reason = match (r.valid(), r.measured()) {
+            (false, _) => r.flags.names().collect::<Vec<_>>().join(" "),
+            (true, false) => "no lumped reading: the tone's impedance is not a lossy capacitor's".into(),
+            (true, true) => continue,
+        };
+        writeln!(
+            faults,
+            "{:.6},{},{},{},{reason}",
+            r.t_s, r.channel, r.freq_hz, r.flags.0
+        )?;
         n += 1;
     }
     faults.flush()?;
