@@ -393,3 +393,65 @@ fn no_record_is_left_out_without_a_word() {
     assert_eq!(faults.matches(",5,").count(), 2, "{faults}");
     assert!(faults.contains(",5,500,128,UNCERTAIN"), "{faults}");
 }
+
+/// A real recording (no truth, so no ohmmeter): a record whose two tones
+/// failed the model check has no line resistance to be modelled with; it
+/// goes to `faults.csv` with that reason instead of into a trace with
+/// r_line 0, which the reader (rightly) refuses, and the data set decoded
+/// is one `residual` reads.
+#[test]
+fn a_record_without_its_line_is_listed_not_written_as_a_row_nobody_can_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut log = String::new();
+    let tone = |t: u64, ch: u8, c: f64, r: f64, s: f64, flags: u16| {
+        // The measured tones of a 210 pF, 700 kΩ line at 500 and 2000 Hz,
+        // near enough for a data set.
+        format!("tone {t} {ch} 500 260000 -1500000 2000 130000 -360000 {c} {r} 1.2 0.0004 {s} {flags}\n")
+    };
+    for k in 0..60u64 {
+        let t = 2000 + 4000 * k;
+        // Channel 3 moves; one record failed the model check (MODEL).
+        let flags = if k == 30 { 256 } else { 0 };
+        log.push_str(&tone(t, 3, 210.0 + k as f64 * 0.5, 700e3, k as f64 * 0.2, flags));
+        // Channels 4-6 are held at 0, 10 and 20 mm.
+        for (ch, s) in [(4u8, 0.0), (5, 10.0), (6, 20.0)] {
+            log.push_str(&tone(t, ch, 210.0 * (1.0 + s / 100.0), 700e3, s, 0));
+        }
+    }
+    log.push_str("end\n");
+    let path = tmp.path().join("r.log");
+    std::fs::write(&path, log).unwrap();
+    let set = tmp.path().join("set");
+    let run = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&[
+        "decode".as_ref(),
+        path.as_os_str(),
+        "--out".as_ref(),
+        set.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let faults = std::fs::read_to_string(set.join("faults.csv")).unwrap();
+    assert_eq!(
+        faults.matches("no line resistance to model it with").count(),
+        2,
+        "{faults}"
+    );
+    for f in ["trace_ch3_500hz.csv", "trace_ch3_2000hz.csv"] {
+        let trace = std::fs::read_to_string(set.join(f)).unwrap();
+        assert_eq!(
+            trace
+                .lines()
+                .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+                .count(),
+            59,
+            "{f}"
+        );
+    }
+    let o = run(&["residual".as_ref(), set.as_os_str()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

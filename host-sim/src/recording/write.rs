@@ -97,7 +97,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
     }
     let truth = recs.iter().any(|r| r.truth.is_some());
     let mut out = Written {
-        faults: write_faults(dir, recs)?,
+        faults: write_faults(dir, recs, truth)?,
         ..Written::default()
     };
     let statics: Vec<(u8, &[&LoggedRecord])> = channels
@@ -109,7 +109,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
     let mut groups: BTreeMap<(u8, u64), Vec<&LoggedRecord>> = BTreeMap::new();
     for (&ch, rs) in &channels {
         if roles.is_trace(ch, rs) {
-            for r in rs.iter().filter(|r| r.measured()) {
+            for r in rs.iter().filter(|r| r.measured() && unusable(r, truth).is_none()) {
                 groups.entry((ch, r.freq_hz.round() as u64)).or_default().push(r);
             }
         }
@@ -166,18 +166,31 @@ fn stretch_spread(rs: &[&LoggedRecord]) -> f64 {
 }
 
 /// `faults.csv`: every record flagged invalid. Returns how many.
-fn write_faults(dir: &Path, recs: &[LoggedRecord]) -> Result<usize> {
+/// Why a valid record cannot be a trace row, if it cannot: without the
+/// rig's resistances (a real recording) a row is modelled with its line's
+/// resistance, which a record that failed the model check does not have.
+fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
+    match r.measured() {
+        false => Some("no lumped reading: the tone's impedance is not a lossy capacitor's"),
+        true if !truth && (r.r_ohm.is_nan() || r.r_ohm <= 0.0) => Some(
+            "no line resistance to model it with: the two tones failed the model check (MODEL), and the recording has no ohmmeter",
+        ),
+        true => None,
+    }
+}
+
+fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
     writeln!(faults, "time_s,channel,freq_hz,flags,reason")?;
     let mut n = 0;
     for r in recs {
-        // Flagged, or valid but with no lumped reading (its tone's
-        // impedance not a lossy capacitor's, e.g. inductive): listed
-        // either way, never dropped without a word.
-        let reason = match (r.valid(), r.measured()) {
+        // Flagged, or valid but not a row a trace can hold (no lumped
+        // reading, or no resistance to model it with): listed either
+        // way, never dropped without a word.
+        let reason = match (r.valid(), unusable(r, truth)) {
             (false, _) => r.flags.names().collect::<Vec<_>>().join(" "),
-            (true, false) => "no lumped reading: the tone's impedance is not a lossy capacitor's".into(),
-            (true, true) => continue,
+            (true, Some(why)) => why.to_string(),
+            (true, None) => continue,
         };
         writeln!(
             faults,
@@ -205,7 +218,10 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool
     };
     writeln!(cal, "stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}")?;
     for &(ch, rs) in statics {
-        let good: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.measured()).collect();
+        let good: Vec<&&LoggedRecord> = rs
+            .iter()
+            .filter(|r| r.valid() && unusable(r, truth).is_none())
+            .collect();
         let mut count: BTreeMap<u64, usize> = BTreeMap::new();
         for r in &good {
             *count.entry(r.freq_hz.to_bits()).or_default() += 1;
