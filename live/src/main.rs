@@ -177,19 +177,7 @@ fn with_target(
                 }
             };
         }
-        (None, Some(addr), _) => {
-            let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
-            sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            device(Box::new(sock))
-        }
-        (None, None, Some(name)) => {
-            let port = serialport::new(name, link::BOARD_BAUD)
-                .timeout(Duration::from_millis(200))
-                .open()
-                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
-            device(Box::new(port))
-        }
-        (None, None, None) => anyhow::bail!("say where: --flash FILE, --tcp HOST:PORT or --serial PORT"),
+        _ => device(open_device(target)?),
     };
     let stored = dev.read()?;
     match change {
@@ -202,6 +190,25 @@ fn with_target(
             let g = dev.write(&set)?;
             Ok((set, g, true))
         }
+    }
+}
+
+/// The device `target` names on a socket or a serial port (reads time
+/// out after 200 ms, so that a silent device is noticed).
+fn open_device(target: &Target) -> Result<Box<dyn ReadWrite>> {
+    match (&target.tcp, &target.serial) {
+        (Some(addr), _) => {
+            let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+            sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+            Ok(Box::new(sock))
+        }
+        (None, Some(name)) => Ok(Box::new(
+            serialport::new(name, link::BOARD_BAUD)
+                .timeout(Duration::from_millis(200))
+                .open()
+                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?,
+        )),
+        (None, None) => anyhow::bail!("say where the device is: --tcp HOST:PORT or --serial PORT"),
     }
 }
 
@@ -326,25 +333,10 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
             if dry_run {
                 anyhow::bail!("--dry-run fits a recording: give it with --replay");
             }
-            let run = |port: Box<dyn ReadWrite>| match &guide {
-                Some(g) => cal::guided(port, g, ask, &opts, stop, REPLY_TIMEOUT),
-                None => cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT),
-            };
-            let done = match (&target.tcp, &target.serial) {
-                (Some(addr), _) => {
-                    let sock = std::net::TcpStream::connect(addr)
-                        .with_context(|| format!("connecting to {addr}"))?;
-                    sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-                    run(Box::new(sock))?
-                }
-                (None, Some(name)) => {
-                    let port = serialport::new(name, link::BOARD_BAUD)
-                        .timeout(Duration::from_millis(200))
-                        .open()
-                        .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
-                    run(Box::new(port))?
-                }
-                (None, None) => anyhow::bail!("say where: --flash FILE, --tcp HOST:PORT or --serial PORT"),
+            let port = open_device(&target)?;
+            let done = match &guide {
+                Some(g) => cal::guided(port, g, ask, &opts, stop, REPLY_TIMEOUT)?,
+                None => cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT)?,
             };
             if let Some(path) = &keep {
                 std::fs::write(path, &done.stream).with_context(|| format!("writing {}", path.display()))?;
@@ -385,23 +377,8 @@ fn verify_device(
             (holds, checks, vec![])
         }
         None => {
-            let port: Box<dyn ReadWrite> = match (&target.tcp, &target.serial) {
-                (Some(addr), _) => {
-                    let sock = std::net::TcpStream::connect(addr)
-                        .with_context(|| format!("connecting to {addr}"))?;
-                    sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-                    Box::new(sock)
-                }
-                (None, Some(name)) => Box::new(
-                    serialport::new(name, link::BOARD_BAUD)
-                        .timeout(Duration::from_millis(200))
-                        .open()
-                        .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?,
-                ),
-                (None, None) => {
-                    anyhow::bail!("--verify measures a device: --tcp HOST:PORT or --serial PORT, or --replay")
-                }
-            };
+            let port =
+                open_device(&target).context("--verify measures a device, or a recording with --replay")?;
             let (holds, checks, stream, port) = match &guide {
                 Some(g) => {
                     let (h, c, s) = cal::verify_guided(port, g, ask, stop, REPLY_TIMEOUT)?;
