@@ -237,6 +237,16 @@ const BOUNDS: [(f64, f64, &str); 9] = [
     (0.0, 1e9, "pF"),
 ];
 
+/// Whether `v` lies within the physical bounds of column `col` (one of
+/// [`COLUMNS`]; any other column has none): what the reader accepts, so
+/// that a writer never writes a row its own reader refuses.
+pub fn within_bounds(col: &str, v: f64) -> bool {
+    match COLUMNS.iter().position(|c| *c == col) {
+        Some(k) => (BOUNDS[k].0..=BOUNDS[k].1).contains(&v),
+        None => true,
+    }
+}
+
 /// `bytes` as text, or the line and column of the first byte that is not
 /// UTF-8.
 fn utf8(name: &str, bytes: Vec<u8>) -> Result<String> {

@@ -410,9 +410,17 @@ fn a_record_without_its_line_is_listed_not_written_as_a_row_nobody_can_read() {
     };
     for k in 0..60u64 {
         let t = 2000 + 4000 * k;
-        // Channel 3 moves; one record failed the model check (MODEL).
+        // Channel 3 moves; one record failed the model check (MODEL); one
+        // holds an impossible C (3e38 pF, a corrupted record marked
+        // valid), one an impossible tone (1e30 Hz).
         let flags = if k == 30 { 256 } else { 0 };
-        log.push_str(&tone(t, 3, 210.0 + k as f64 * 0.5, 700e3, k as f64 * 0.2, flags));
+        let c = if k == 40 { 3e38 } else { 210.0 + k as f64 * 0.5 };
+        let line = tone(t, 3, c, 700e3, k as f64 * 0.2, flags);
+        log.push_str(&if k == 50 {
+            line.replacen(" 2000 ", " 1e30 ", 1)
+        } else {
+            line
+        });
         // Channels 4-6 are held at 0, 10 and 20 mm.
         for (ch, s) in [(4u8, 0.0), (5, 10.0), (6, 20.0)] {
             log.push_str(&tone(t, ch, 210.0 * (1.0 + s / 100.0), 700e3, s, 0));
@@ -441,16 +449,20 @@ fn a_record_without_its_line_is_listed_not_written_as_a_row_nobody_can_read() {
         2,
         "{faults}"
     );
-    for f in ["trace_ch3_500hz.csv", "trace_ch3_2000hz.csv"] {
+    // The impossible values: both tones of the 3e38 pF record, the 1e30 Hz
+    // tone (its 500 Hz tone is a good reading).
+    assert_eq!(
+        faults.matches("a value outside what any sensor").count(),
+        3,
+        "{faults}"
+    );
+    for (f, rows) in [("trace_ch3_500hz.csv", 58), ("trace_ch3_2000hz.csv", 57)] {
         let trace = std::fs::read_to_string(set.join(f)).unwrap();
-        assert_eq!(
-            trace
-                .lines()
-                .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
-                .count(),
-            59,
-            "{f}"
-        );
+        let n = trace
+            .lines()
+            .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+            .count();
+        assert_eq!(n, rows, "{f}");
     }
     let o = run(&["residual".as_ref(), set.as_os_str()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

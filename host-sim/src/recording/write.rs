@@ -170,8 +170,22 @@ fn stretch_spread(rs: &[&LoggedRecord]) -> f64 {
 /// rig's resistances (a real recording) a row is modelled with its line's
 /// resistance, which a record that failed the model check does not have.
 fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
+    use crate::dataset::within_bounds;
+    let plausible = within_bounds("time_s", r.t_s)
+        && within_bounds("stretch_mm", r.stretch())
+        && within_bounds("freq_hz", r.freq_hz)
+        && within_bounds("cs_pf", r.cs_pf)
+        && within_bounds("rs_ohm", r.rs_ohm)
+        && (truth || r.r_ohm <= 0.0 || within_bounds("r_line_ohm", r.r_ohm))
+        && (r.c_pf <= 0.0 || within_bounds("cs_pf", r.c_pf))
+        && r.truth.is_none_or(|t| {
+            within_bounds("r_top_ohm", t.r_top_ohm) && within_bounds("r_bottom_ohm", t.r_bottom_ohm)
+        });
     match r.measured() {
         false => Some("no lumped reading: the tone's impedance is not a lossy capacitor's"),
+        true if !plausible => Some(
+            "a value outside what any sensor or instrument gives (a corrupted record, or a unit error): not written as a reading",
+        ),
         true if !truth && (r.r_ohm.is_nan() || r.r_ohm <= 0.0) => Some(
             "no line resistance to model it with: the two tones failed the model check (MODEL), and the recording has no ohmmeter",
         ),
