@@ -60,46 +60,7 @@ enum Command {
     /// capacitance fitted, its stretch table built, the set stored on the
     /// device (which measures with it from its next start).
     #[command(after_help = CALIBRATE_HELP)]
-    Calibrate {
-        #[command(flatten)]
-        target: Target,
-        /// The holds: CSV `stretch_mm,from_s,to_s`, one line per stretch
-        /// held (at least two), spans in the device's clock (s since its
-        /// start; leave out the settling after each move).
-        #[arg(long, required_unless_present = "at", conflicts_with = "at")]
-        holds: Option<PathBuf>,
-        /// Guided: the stretches to hold in turn, mm (e.g. 0,10,20,30);
-        /// for each, hold the skin still and press Enter.
-        #[arg(long, value_delimiter = ',')]
-        at: Option<Vec<f64>>,
-        /// Guided: seconds measured at each stretch (the device's clock).
-        #[arg(long, default_value_t = 2.0)]
-        hold_s: f64,
-        /// Guided: seconds left out after Enter (the electrodes settle).
-        #[arg(long, default_value_t = 0.25)]
-        settle_s: f64,
-        /// Fit the records of a recorded stream (`stream.bin`) instead of
-        /// reading them from the device (needed with --flash).
-        #[arg(long)]
-        replay: Option<PathBuf>,
-        /// Write the report (Markdown) here too.
-        #[arg(long)]
-        report: Option<PathBuf>,
-        /// Keep the records read from the device (the raw stream) here.
-        #[arg(long)]
-        keep: Option<PathBuf>,
-        /// Fit and report, store nothing.
-        #[arg(long)]
-        dry_run: bool,
-        /// Measure again instead: each sensor's stretch at each hold as
-        /// the device reads it (restart it first, so that it measures
-        /// with the set stored), against the stretch held; nothing stored.
-        #[arg(long, conflicts_with = "dry_run")]
-        verify: bool,
-        /// Stop the device once the set is stored.
-        #[arg(long)]
-        stop: bool,
-    },
+    Calibrate(CalibrateArgs),
 }
 
 const CALIBRATE_HELP: &str = "\
@@ -256,15 +217,45 @@ fn config(action: ConfigAction) -> Result<()> {
 }
 
 /// `live calibrate`'s options.
+#[derive(clap::Args)]
 struct CalibrateArgs {
+    #[command(flatten)]
     target: Target,
+    /// The holds: CSV `stretch_mm,from_s,to_s`, one line per stretch
+    /// held (at least two), spans in the device's clock (s since its
+    /// start; leave out the settling after each move).
+    #[arg(long, required_unless_present = "at", conflicts_with = "at")]
     holds: Option<PathBuf>,
-    guide: Option<live::calibrate::Guide>,
+    /// Guided: the stretches to hold in turn, mm (e.g. 0,10,20,30);
+    /// for each, hold the skin still and press Enter.
+    #[arg(long, value_delimiter = ',')]
+    at: Option<Vec<f64>>,
+    /// Guided: seconds measured at each stretch (the device's clock).
+    #[arg(long, default_value_t = 2.0)]
+    hold_s: f64,
+    /// Guided: seconds left out after Enter (the electrodes settle).
+    #[arg(long, default_value_t = 0.25)]
+    settle_s: f64,
+    /// Fit the records of a recorded stream (`stream.bin`) instead of
+    /// reading them from the device (needed with --flash).
+    #[arg(long)]
     replay: Option<PathBuf>,
+    /// Write the report (Markdown) here too.
+    #[arg(long)]
     report: Option<PathBuf>,
+    /// Keep the records read from the device (the raw stream) here.
+    #[arg(long)]
     keep: Option<PathBuf>,
+    /// Fit and report, store nothing.
+    #[arg(long)]
     dry_run: bool,
+    /// Measure again instead: each sensor's stretch at each hold as
+    /// the device reads it (restart it first, so that it measures
+    /// with the set stored), against the stretch held; nothing stored.
+    #[arg(long, conflicts_with = "dry_run")]
     verify: bool,
+    /// Stop the device once the set is stored.
+    #[arg(long)]
     stop: bool,
 }
 
@@ -288,7 +279,9 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     let CalibrateArgs {
         target,
         holds,
-        guide,
+        at,
+        hold_s,
+        settle_s,
         replay,
         report,
         keep,
@@ -296,6 +289,12 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         verify,
         stop,
     } = a;
+    let guide = at.map(|at_mm| cal::Guide {
+        at_mm,
+        settle_s,
+        hold_s,
+        sweep: true,
+    });
     let holds = match (&holds, &guide) {
         (Some(path), _) => cal::read_holds(path)?,
         (None, Some(_)) if replay.is_some() => {
@@ -415,34 +414,7 @@ fn main() -> ExitCode {
     let mut cli = Cli::parse();
     let done = match cli.command.take() {
         Some(Command::Config { action }) => Some(config(action)),
-        Some(Command::Calibrate {
-            target,
-            holds,
-            at,
-            hold_s,
-            settle_s,
-            replay,
-            report,
-            keep,
-            dry_run,
-            verify,
-            stop,
-        }) => Some(calibrate(CalibrateArgs {
-            target,
-            holds,
-            guide: at.map(|at_mm| live::calibrate::Guide {
-                at_mm,
-                settle_s,
-                hold_s,
-                sweep: true,
-            }),
-            replay,
-            report,
-            keep,
-            dry_run,
-            verify,
-            stop,
-        })),
+        Some(Command::Calibrate(args)) => Some(calibrate(args)),
         None => None,
     };
     if let Some(done) = done {
