@@ -19,6 +19,7 @@
 //! the records marked valid more than 1 % off in C.
 
 use anyhow::{bail, Result};
+use host_sim::numerics::rms_max;
 use host_sim::recording::LoggedToneRecord;
 use instrument::digest::Digest;
 use instrument::stored::Stored;
@@ -93,12 +94,6 @@ pub fn stairs_holds() -> Vec<Hold> {
             to_s: h.to_s,
         })
         .collect()
-}
-
-/// RMS and max of `v`.
-fn rms_max(v: &[f64]) -> (f64, f64) {
-    let rms = (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt();
-    (rms, v.iter().fold(0.0f64, |m, e| m.max(e.abs())))
 }
 
 /// Records of the trapezoid runs whose stretch the truth can judge: after
@@ -225,16 +220,16 @@ pub fn run(dir: &Path) -> Result<Workflow> {
             .filter(|r| r.rec.flags.stretch_valid())
             .filter_map(|r| Some(r.c_error()? / r.rec.sigma_c as f64))
             .collect();
-        let (after_mm, after_max_mm) = rms_max(&after_valid);
+        let (after_mm, after_max_mm, _) = rms_max(after_valid.iter().copied());
         sensors.push(SensorFigures {
             sensor: s,
-            before_all_mm: rms_max(&before_all).0,
+            before_all_mm: rms_max(before_all).0,
             before_valid: (b.iter().filter(|r| r.rec.flags.stretch_valid()).count(), b.len()),
             after_mm,
             after_max_mm,
             after_mean_mm: after_valid.iter().sum::<f64>() / after_valid.len().max(1) as f64,
-            after_still_moving_mm: (rms_max(&still).0, rms_max(&moving).0),
-            after_z_rms: rms_max(&z).0,
+            after_still_moving_mm: (rms_max(still).0, rms_max(moving).0),
+            after_z_rms: rms_max(z).0,
             after_valid: (after_valid.len(), a.len()),
             c_off: (
                 b.iter().filter(|r| c_off(r)).count(),
