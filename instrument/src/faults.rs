@@ -107,9 +107,11 @@ impl Flags {
 const EXCITATION_COUNTS: f32 = (design::EXCITATION_VOLT * design::V_GAIN * design::ADC_OFFSET_CODE as f64
     / design::ADC_HALF_SCALE_VOLT) as f32;
 
-/// One tone of the array's excitation at its voltage input, counts.
-const ARRAY_TONE_COUNTS: f32 =
-    (crate::array::TONE_VOLT / design::ADC_HALF_SCALE_VOLT * crate::array::HALF_SCALE as f64) as f32;
+/// The smallest tone of the array's excitation (its highest, 6 kHz) at
+/// its voltage input, counts.
+const ARRAY_TONE_COUNTS: f32 = (crate::array::TONE_VOLTS[crate::array::TONES - 1]
+    / design::ADC_HALF_SCALE_VOLT
+    * crate::array::HALF_SCALE as f64) as f32;
 
 /// Thresholds of the fault checks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -168,11 +170,12 @@ impl Thresholds {
     };
 
     /// Thresholds for the array ([`crate::array`]: 16-bit oversampled
-    /// results, 0.3 V tones, 330 kΩ transimpedance). The smallest real
-    /// current, the paper's cycled sensor (≈ 1.9 MΩ) at 500 Hz, gives
-    /// ≈ 1000 counts and a tone of the excitation ≈ 5960; a clean block's
-    /// residual is the ADC's ≈ 3.05 counts. Open below 60 counts, no
-    /// excitation below a sixth; disturbed above 6.4 counts (2.1× the
+    /// results, tones of 0.69 V at 500 Hz falling as 1/√f to 0.20 V at
+    /// 6 kHz, 330 kΩ transimpedance). The smallest real current, the
+    /// paper's cycled sensor (≈ 1.9 MΩ) at 500 Hz, gives ≈ 2300 counts and
+    /// the excitation's smallest tone ≈ 3930; a clean block's residual is
+    /// the ADC's ≈ 3.05 counts. Open below 60 counts, no excitation below a
+    /// sixth of the smallest tone; disturbed above 6.4 counts (2.1× the
     /// noise, as the board's 1.5 against 0.76) or 2 % of the largest tone.
     pub const ARRAY: Self = Self {
         open_counts: 60.0,

@@ -187,28 +187,33 @@ impl ToneChannel {
         }; 2];
         let (rv, ri) = (v.levels.residual, i.levels.residual);
         let n = v.tones.n.min(i.tones.n);
+        // Both tones' impedances are kept whenever the excitation is
+        // there, also on a record flagged open or shorted: an open
+        // fixture's cable is measured so (`live calibrate --open`).
         for (j, &k) in pair.iter().enumerate() {
             let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
             let z = match Tones::ratio(&v.tones, &i.tones, k) {
-                Some(r) if ai >= th.open_counts && av >= th.no_excitation_counts => {
-                    r * s.front_end.gain * rotation[k]
-                }
+                Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
                 _ => {
                     rec.flags.set(Flags::OPEN);
                     return rec;
                 }
             };
             rec.z[j] = z;
-            // A lossy capacitor: Re Z ≥ 0 and Im Z < 0, and not a short.
-            if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
+            if ai < th.open_counts {
+                rec.flags.set(Flags::OPEN);
+            } else if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
+                // Not a lossy capacitor (Re Z ≥ 0, Im Z < 0), or a short.
                 rec.flags.set(Flags::SHORTED);
-                return rec;
             }
             tones[j] = Tone {
                 z,
                 f_hz: rec.f_hz[j],
                 sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
             };
+        }
+        if rec.flags.has(Flags::OPEN) || rec.flags.has(Flags::SHORTED) {
+            return rec;
         }
         // What no tone of the comb explains, against the largest tone.
         let limit = |a: f32| th.residual_counts.max(th.residual_rel * a);

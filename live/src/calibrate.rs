@@ -155,6 +155,11 @@ pub struct Options {
     pub parts: usize,
     /// Records a part of a hold needs at one tone to be used.
     pub min_records: usize,
+    /// The span of the device's clock (from, to: s) in which every
+    /// sensor was unplugged and its cable left on the front end (an
+    /// open fixture): what each sensor reads then is its cable's
+    /// admittance jω·C_p, fitted together with the holds.
+    pub open: Option<Span>,
 }
 
 impl Default for Options {
@@ -162,28 +167,41 @@ impl Default for Options {
         Self {
             parts: 3,
             min_records: 5,
+            open: None,
         }
     }
 }
+
+/// Flags of records whose tones are not used in an open fixture's span
+/// (an open sensor is flagged open or off its table, and is measured).
+const UNUSABLE_OPEN: u16 = Flags::CLIPPED | Flags::DISTURBED | Flags::SETTLING;
 
 /// The impedances of a part of a hold, per tone (Hz as the records
 /// carry it).
 type Tones = Vec<(f32, Vec<Complex64>)>;
 
-/// One mean impedance: a part of a hold, at one tone.
+/// One mean impedance: a part of a hold, at one tone; or the open
+/// fixture's mean admittance at one tone.
 #[derive(Clone, Copy, Debug)]
 struct Obs {
-    /// Hold (index into the sorted holds).
+    /// Hold (index into the sorted holds; [`OPEN`] for the open
+    /// fixture).
     hold: usize,
     /// Resistance unknown (hold and part).
     part: usize,
     /// Hz.
     f_hz: f64,
-    /// Mean Z, Ω.
+    /// Mean Z, Ω (the open fixture's: mean Y, S).
     z: Complex64,
-    /// σ of each component of the mean, Ω.
+    /// σ of each component of the mean, Ω (S).
     sigma: f64,
 }
+
+/// A span of the device's clock: from, to, s.
+pub type Span = (f64, f64);
+
+/// [`Obs::hold`] of the open fixture.
+const OPEN: usize = usize::MAX;
 
 /// The line's impedance with leads, contact and parasitic capacitance.
 fn model(f_hz: f64, r: f64, c: f64, lead: f64, rs: f64, cp: f64) -> Complex64 {
@@ -222,6 +240,9 @@ pub struct SensorFit {
     pub dof: usize,
     /// Each hold's C as the device read it (its records' mean), F.
     pub c_read_farad: Vec<f64>,
+    /// The open fixture's C_p alone (Im Y/ω over its tones, weighted)
+    /// and its 1σ, F; None without an open fixture.
+    pub open_cp: Option<(f64, f64)>,
 }
 
 /// The outcome for one sensor.
@@ -330,6 +351,62 @@ pub fn fit_sensor(
             f64::NAN
         });
     }
+    // The open fixture: per tone, the mean admittance (an open's
+    // impedance is large and its noise is not; its admittance is
+    // small, and its noise additive).
+    let mut open_records = 0;
+    if let Some((a, b)) = opts.open {
+        let mut tones: Vec<(f32, Vec<Complex64>)> = vec![];
+        for r in records {
+            let t = r.t_us as f64 * 1e-6;
+            if !(t >= a && t < b) || r.flags & UNUSABLE_OPEN != 0 {
+                continue;
+            }
+            open_records += 1;
+            for tone in r.tones.iter().filter(|t| t.f_hz > 0.0) {
+                let y = Complex64::new(tone.z_re_ohm as f64, tone.z_im_ohm as f64).inv();
+                if !(y.re.is_finite() && y.im.is_finite()) {
+                    continue;
+                }
+                match tones.iter_mut().find(|(f, _)| *f == tone.f_hz) {
+                    Some((_, v)) => v.push(y),
+                    None => tones.push((tone.f_hz, vec![y])),
+                }
+            }
+        }
+        for (f, ys) in tones.into_iter().filter(|(_, v)| v.len() >= opts.min_records) {
+            let n = ys.len() as f64;
+            let mean = ys.iter().sum::<Complex64>() / n;
+            let var = ys.iter().map(|y| (y - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
+            obs.push(Obs {
+                hold: OPEN,
+                part: OPEN,
+                f_hz: f as f64,
+                z: mean,
+                // Floored as the holds' (relative to |Y| of 1 pF at
+                // the tone, for a cable of none).
+                sigma: (var / n)
+                    .sqrt()
+                    .max(SIGMA_FLOOR * mean.norm().max(TAU * f as f64 * 1e-12)),
+            });
+        }
+        if !obs.iter().any(|o| o.hold == OPEN) {
+            return Err(format!(
+                "no usable records in the open fixture's span ({a:.2}–{b:.2} s)"
+            ));
+        }
+    }
+    used += open_records;
+    let open_cp = {
+        let (mut sw, mut swx) = (0.0, 0.0);
+        for o in obs.iter().filter(|o| o.hold == OPEN) {
+            let w = TAU * o.f_hz;
+            let weight = (w / o.sigma).powi(2);
+            sw += weight;
+            swx += weight * o.z.im / w;
+        }
+        (sw > 0.0).then(|| (swx / sw, sw.sqrt().recip()))
+    };
     let n_holds = order.len();
     let n_parts = part_hold.len();
     // Unknowns: 3 globals, ln C per hold, ln R per part (every part has
@@ -359,6 +436,12 @@ pub fn fit_sensor(
         out.clear();
         let (lead, rs, cp) = (x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2]);
         for o in &obs {
+            if o.hold == OPEN {
+                let d = (Complex64::new(0.0, TAU * o.f_hz * cp) - o.z) / o.sigma;
+                out.push(d.re);
+                out.push(d.im);
+                continue;
+            }
             let c = x[3 + o.hold].exp();
             let r = x[3 + n_holds + o.part].exp();
             let d = (model(o.f_hz, r, c, lead, rs, cp) - o.z) / o.sigma;
@@ -452,6 +535,7 @@ pub fn fit_sensor(
         chi2_dof,
         dof,
         c_read_farad: c_read,
+        open_cp,
     };
     if chi2_dof.is_nan() || chi2_dof > CHI2_MAX {
         return Err(format!(
@@ -595,13 +679,29 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
         holds.len(),
         s
     );
-    md.push_str("| sensor | records | ℓ | contact kΩ | parasitic pF | C rest pF | R rest kΩ | χ²/dof | uncalibrated C off | stretch RMS, reference table | outcome |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+    let open = outcomes
+        .iter()
+        .any(|o| matches!(o, Outcome::Fitted(f) if f.open_cp.is_some()));
+    if open {
+        md.push_str(
+            "With an open fixture (every sensor unplugged, its cable left on): its records are fitted \
+             with the holds, and its C_p alone is in the last column.\n\n",
+        );
+    }
+    md.push_str("| sensor | records | ℓ | contact kΩ | parasitic pF | C rest pF | R rest kΩ | χ²/dof | uncalibrated C off | stretch RMS, reference table | outcome |");
+    md.push_str(if open { " open fixture pF |\n" } else { "\n" });
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|");
+    md.push_str(if open { "---|\n" } else { "\n" });
     let mut notes = vec![];
     for (i, o) in outcomes.iter().enumerate() {
         match o {
             Outcome::NotInUse => {}
             Outcome::Refused(why) => {
-                let _ = writeln!(md, "| {i} | | | | | | | | | | refused |");
+                let _ = writeln!(
+                    md,
+                    "| {i} | | | | | | | | | | refused |{}",
+                    if open { " |" } else { "" }
+                );
                 notes.push(format!(
                     "sensor {i} refused: {why}; the device keeps its set for it"
                 ));
@@ -622,7 +722,7 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                     .iter()
                     .zip(&s)
                     .map(|(c, s)| reference.stretch(*c as f32) as f64 - s));
-                let _ = writeln!(
+                let _ = write!(
                     md,
                     "| {i} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
                     f.records,
@@ -633,6 +733,11 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                     f.r_ohm[0] / 1e3,
                     f.chi2_dof,
                 );
+                let _ = match (open, f.open_cp) {
+                    (false, _) => writeln!(md),
+                    (true, Some((c, e))) => writeln!(md, " {:.3} ± {:.3} |", c * 1e12, e * 1e12),
+                    (true, None) => writeln!(md, " |"),
+                };
                 for u in f.unresolved() {
                     notes.push(format!("sensor {i}: {u}"));
                 }
@@ -891,6 +996,8 @@ pub struct Done {
     /// What the device said of the steps' sweeps: acknowledged, or why
     /// not (measured at the policy's tones then).
     pub sweeps: Vec<String>,
+    /// The open fixture's span, if one was measured.
+    pub open: Option<Span>,
 }
 
 /// Fit the records the clock read, write the set down the link, and stop
@@ -929,6 +1036,7 @@ fn finish<S: std::io::Read + std::io::Write>(
         outcomes,
         stream: clock.raw,
         sweeps,
+        open: opts.open,
     })
 }
 
@@ -959,10 +1067,22 @@ pub enum Ready {
     At(f64),
 }
 
+/// A step of a guided calibration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// Every sensor unplugged, its cable left on the front end (the open
+    /// fixture: first, if asked for).
+    Open,
+    /// The skin held at this stretch, mm (sensors plugged in).
+    Stretch(f64),
+}
+
 /// A guided calibration: the stretches to hold in turn, how long each
 /// move settles and each hold is measured.
 #[derive(Clone, Debug)]
 pub struct Guide {
+    /// Measure an open fixture first ([`Step::Open`]).
+    pub open: bool,
     /// Stretches, mm, in the order held (0 first).
     pub at_mm: Vec<f64>,
     /// Left out after each move, s.
@@ -985,22 +1105,26 @@ pub fn sweep_blocks(span_s: f64) -> u16 {
 }
 
 /// Calibrate the device at the other end of `port`, step by step: for
-/// each stretch of `guide`, `ready(k, stretch_mm, device_now_s)` says
-/// when the skin is held there (after asking the user, or from a
-/// schedule); the hold is measured from then plus the settling for
-/// `hold_s` of the device's clock. Then as [`on_device`]: fitted, written,
-/// stopped if asked.
+/// each step of `guide` (the open fixture if asked, then each stretch),
+/// `ready(k, step, device_now_s)` says when it is in place (after asking
+/// the user, or from a schedule); it is measured from then plus the
+/// settling for `hold_s` of the device's clock. Then as [`on_device`]:
+/// fitted (with the open fixture's span), written, stopped if asked.
 pub fn guided<S: std::io::Read + std::io::Write>(
     port: S,
     guide: &Guide,
-    ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+    ready: impl FnMut(usize, Step, f64) -> Result<Ready>,
     opts: &Options,
     stop: bool,
     timeout: std::time::Duration,
 ) -> Result<Done> {
     let mut clock = Clock::new(port, timeout);
-    let holds = gather(&mut clock, guide, ready)?;
-    finish(clock, holds, opts, stop)
+    let (holds, open) = gather(&mut clock, guide, ready)?;
+    let opts = Options {
+        open: open.or(opts.open),
+        ..*opts
+    };
+    finish(clock, holds, &opts, stop)
 }
 
 /// A device measured again, step by step as [`guided`] (no sweep: the
@@ -1010,16 +1134,17 @@ pub fn guided<S: std::io::Read + std::io::Write>(
 pub fn verify_guided<S: std::io::Read + std::io::Write>(
     port: S,
     guide: &Guide,
-    ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
+    ready: impl FnMut(usize, Step, f64) -> Result<Ready>,
     stop: bool,
     timeout: std::time::Duration,
 ) -> Result<(Vec<Hold>, Vec<Check>, Vec<u8>)> {
     let mut clock = Clock::new(port, timeout);
     let guide = Guide {
         sweep: false,
+        open: false,
         ..guide.clone()
     };
-    let holds = gather(&mut clock, &guide, ready)?;
+    let (holds, _) = gather(&mut clock, &guide, ready)?;
     let checks = verify(&clock.records, &holds);
     if stop {
         crate::config::Device::new(clock.port, timeout).stop()?;
@@ -1027,12 +1152,13 @@ pub fn verify_guided<S: std::io::Read + std::io::Write>(
     Ok((holds, checks, clock.raw))
 }
 
-/// The holds of a guided run, the clock reading through them.
+/// The holds of a guided run and the open fixture's span, the clock
+/// reading through them.
 fn gather<S: std::io::Read + std::io::Write>(
     clock: &mut Clock<S>,
     guide: &Guide,
-    mut ready: impl FnMut(usize, f64, f64) -> Result<Ready>,
-) -> Result<Vec<Hold>> {
+    mut ready: impl FnMut(usize, Step, f64) -> Result<Ready>,
+) -> Result<(Vec<Hold>, Option<Span>)> {
     if guide.at_mm.len() < 2 {
         bail!("a calibration needs two stretches at least");
     }
@@ -1040,9 +1166,15 @@ fn gather<S: std::io::Read + std::io::Write>(
         bail!("the hold must last, and the settling cannot be negative");
     }
     let mut holds = vec![];
-    for (k, &s) in guide.at_mm.iter().enumerate() {
+    let mut open = None;
+    let steps = guide
+        .open
+        .then_some(Step::Open)
+        .into_iter()
+        .chain(guide.at_mm.iter().map(|&s| Step::Stretch(s)));
+    for (k, step) in steps.enumerate() {
         clock.catch_up()?;
-        let t0 = match ready(k, s, clock.now_s)? {
+        let t0 = match ready(k, step, clock.now_s)? {
             Ready::Now => clock.now_s,
             Ready::At(t) => t.max(clock.now_s),
         };
@@ -1052,15 +1184,18 @@ fn gather<S: std::io::Read + std::io::Write>(
                 blocks_per_pair: sweep_blocks(guide.settle_s + guide.hold_s),
             })?;
         }
-        let hold = Hold {
-            stretch_mm: s,
-            from_s: t0 + guide.settle_s,
-            to_s: t0 + guide.settle_s + guide.hold_s,
-        };
-        clock.until(hold.to_s)?;
-        holds.push(hold);
+        let (from_s, to_s) = (t0 + guide.settle_s, t0 + guide.settle_s + guide.hold_s);
+        clock.until(to_s)?;
+        match step {
+            Step::Open => open = Some((from_s, to_s)),
+            Step::Stretch(stretch_mm) => holds.push(Hold {
+                stretch_mm,
+                from_s,
+                to_s,
+            }),
+        }
     }
-    Ok(holds)
+    Ok((holds, open))
 }
 
 /// RMS of `v` (NaN if empty).

@@ -230,6 +230,16 @@ struct CalibrateArgs {
     /// for each, hold the skin still and press Enter.
     #[arg(long, value_delimiter = ',')]
     at: Option<Vec<f64>>,
+    /// Guided: first measure an open fixture: every sensor unplugged,
+    /// its cable left on the board; the cables' capacitance is then
+    /// measured, not only fitted.
+    #[arg(long, requires = "at")]
+    open: bool,
+    /// The open fixture's span in a recording or a holds run: FROM,TO
+    /// (s of the device's clock) in which every sensor was unplugged,
+    /// its cable left on.
+    #[arg(long, value_delimiter = ',', value_name = "FROM,TO", conflicts_with = "at")]
+    open_at: Option<Vec<f64>>,
     /// Guided: seconds measured at each stretch (the device's clock).
     #[arg(long, default_value_t = 2.0)]
     hold_s: f64,
@@ -259,10 +269,16 @@ struct CalibrateArgs {
     stop: bool,
 }
 
-/// Guided: ask for each stretch on stderr, wait for Enter on stdin.
-fn ask(k: usize, stretch_mm: f64, now_s: f64) -> Result<live::calibrate::Ready> {
+/// Guided: ask for each step on stderr, wait for Enter on stdin.
+fn ask(k: usize, step: live::calibrate::Step, now_s: f64) -> Result<live::calibrate::Ready> {
+    use live::calibrate::Step;
+    let what = match step {
+        Step::Open => "unplug every sensor, leaving its cable on the board (the open fixture)".to_string(),
+        Step::Stretch(mm) if k > 0 => format!("with the sensors plugged in, hold the skin still at {mm} mm"),
+        Step::Stretch(mm) => format!("hold the skin still at {mm} mm"),
+    };
     eprint!(
-        "[{}] the device at {now_s:.1} s: hold the skin still at {stretch_mm} mm, then press Enter ",
+        "[{}] the device at {now_s:.1} s: {what}, then press Enter ",
         k + 1
     );
     std::io::stderr().flush()?;
@@ -280,6 +296,8 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         target,
         holds,
         at,
+        open,
+        open_at,
         hold_s,
         settle_s,
         replay,
@@ -290,6 +308,7 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         stop,
     } = a;
     let guide = at.map(|at_mm| cal::Guide {
+        open,
         at_mm,
         settle_s,
         hold_s,
@@ -302,7 +321,14 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         }
         _ => vec![],
     };
-    let opts = Options::default();
+    let opts = Options {
+        open: match open_at.as_deref() {
+            Some(&[from, to]) if from >= 0.0 && to > from => Some((from, to)),
+            Some(v) => anyhow::bail!("--open-at {v:?}: FROM,TO with 0 ≤ FROM < TO (s)"),
+            None => None,
+        },
+        ..Options::default()
+    };
     if verify {
         return verify_device(target, holds, guide, replay, report, keep, stop);
     }

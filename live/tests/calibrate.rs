@@ -77,8 +77,35 @@ fn stream() -> Vec<u8> {
             }
         }
     }
+    // Then an open fixture (OPEN_AT): each sensor unplugged, its cable
+    // left on; the device flags the records open and keeps both tones.
+    for i in 0..150 {
+        let t = OPEN_AT.0 + 0.004 * i as f64;
+        for (sensor, &(_, _, _, _, cp)) in SENSORS.iter().enumerate() {
+            let tones = [1000.0f32, 2000.0].map(|f| {
+                let y = Complex64::new(0.0, TAU * f as f64 * cp);
+                let z = y.inv() * Complex64::new(1.0 + 10.0 * noise(), 10.0 * noise());
+                link::Tone {
+                    f_hz: f,
+                    z_re_ohm: z.re as f32,
+                    z_im_ohm: z.im as f32,
+                }
+            });
+            let rec = link::Record {
+                t_us: (t * 1e6) as u64,
+                sensor: sensor as u8,
+                tones,
+                flags: instrument::faults::Flags::UNCALIBRATED | instrument::faults::Flags::OPEN,
+                ..Default::default()
+            };
+            bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());
+        }
+    }
     bytes
 }
+
+/// The open fixture's span in [`stream`], s.
+const OPEN_AT: (f64, f64) = (5.0, 5.6);
 
 #[test]
 fn a_recorded_calibration_is_fitted_stored_and_read_back() {
@@ -228,4 +255,86 @@ fn a_device_measured_again_is_judged_by_its_stretch_at_each_hold() {
     let (vouched, of) = counts.split_once(" of ").unwrap();
     assert_eq!(vouched, of, "{out}");
     assert!(!tmp.path().join("unused.bin").exists(), "nothing stored");
+}
+
+/// An open fixture measures each cable's capacitance: with `--open-at`
+/// the report gives it alone (within 1 % here, where the records' noise
+/// is 10× the holds') and the fit's C_p, fitted with it, is as close
+/// and no less certain; a span with no records is refused by name.
+#[test]
+fn an_open_fixture_measures_the_cables() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    std::fs::write(p("stream.bin"), stream()).unwrap();
+    let mut holds = String::from("stretch_mm,from_s,to_s\n");
+    for (k, s) in HOLDS.iter().enumerate() {
+        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
+    }
+    std::fs::write(p("holds.csv"), &holds).unwrap();
+    let run = |more: &[&str]| {
+        let (stream, holds, flash) = (p("stream.bin"), p("holds.csv"), p("flash.bin"));
+        let mut args = vec![
+            "calibrate",
+            "--replay",
+            &stream,
+            "--holds",
+            &holds,
+            "--flash",
+            &flash,
+            "--dry-run",
+        ];
+        args.extend_from_slice(more);
+        live(&args)
+    };
+    // Per sensor: the parasitic column (value, σ) and the open column.
+    type PlusMinus = (f64, f64);
+    let table = |out: &str| -> Vec<(PlusMinus, Option<PlusMinus>)> {
+        let pm = |c: &str| {
+            let mut v = c.split('±').map(|x| x.trim().parse::<f64>().unwrap());
+            (v.next().unwrap(), v.next().unwrap())
+        };
+        out.lines()
+            .filter(|l| l.starts_with("| 0 |") || l.starts_with("| 1 |"))
+            .map(|l| {
+                let c: Vec<&str> = l.split('|').map(str::trim).collect();
+                (pm(c[5]), (c.len() > 13).then(|| pm(c[12])))
+            })
+            .collect()
+    };
+    let (code, without, err) = run(&[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(!without.contains("open fixture"), "{without}");
+    let at = format!("{},{}", OPEN_AT.0, OPEN_AT.1);
+    let (code, with, err) = run(&["--open-at", &at]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(with.contains("With an open fixture"), "{with}");
+    let (a, b) = (table(&without), table(&with));
+    assert_eq!((a.len(), b.len()), (2, 2), "{without}\n{with}");
+    for (s, &(_, _, _, _, cp)) in SENSORS.iter().enumerate() {
+        let cp = cp * 1e12;
+        let (alone, sigma) = b[s].1.expect("an open column");
+        assert!(
+            (alone - cp).abs() < 0.01 * cp && sigma < 0.01 * cp,
+            "sensor {s}: {alone} ± {sigma} pF"
+        );
+        let ((fit, fit_sigma), (old, old_sigma)) = (b[s].0, a[s].0);
+        assert!(
+            (fit - cp).abs() <= (old - cp).abs() + 0.005,
+            "sensor {s}: {fit} against {old} pF"
+        );
+        assert!(
+            fit_sigma <= old_sigma,
+            "sensor {s}: ± {fit_sigma} against ± {old_sigma} pF"
+        );
+    }
+    // A span with no records: refused for every sensor, so nothing fits.
+    let (code, _, err) = run(&["--open-at", "20,21"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("no usable records in the open fixture's span (20.00–21.00 s)"),
+        "{err}"
+    );
+    let (code, _, err) = run(&["--open-at", "3,1"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("--open-at"), "{err}");
 }

@@ -19,7 +19,7 @@ use crate::rng::Rng;
 use dsp_core::cossin::cossin;
 use instrument::array::{
     adc_position, input_of, Frame, BLOCK_INSTANTS, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN,
-    SCAN_STEP_S, SENSORS, SENSOR_TIA_OHM, TONES, TONE_VOLT, VOLTAGE_INPUT,
+    SCAN_STEP_S, SENSORS, SENSOR_TIA_OHM, TONES, TONE_VOLTS, VOLTAGE_INPUT,
 };
 use instrument::design;
 use num_complex::Complex64;
@@ -29,8 +29,8 @@ pub use instrument::array::INPUTS;
 /// The array front end's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArrayFrontEnd {
-    /// Each tone's amplitude at the sensors, V.
-    pub tone_volt: f64,
+    /// Each tone's amplitude at the sensors, V, lowest tone first.
+    pub tone_volts: [f64; TONES],
     /// Gain from the excitation to its ADC input, V/V.
     pub v_gain: f64,
     /// Every sensor's transimpedance, Ω.
@@ -44,7 +44,7 @@ pub struct ArrayFrontEnd {
 impl ArrayFrontEnd {
     /// As designed ([`instrument::array`]).
     pub const REFERENCE: Self = Self {
-        tone_volt: TONE_VOLT,
+        tone_volts: TONE_VOLTS,
         v_gain: 1.0,
         tia_ohm: SENSOR_TIA_OHM,
         half_scale_volt: design::ADC_HALF_SCALE_VOLT,
@@ -71,12 +71,12 @@ impl ArrayFrontEnd {
         let lsb = self.half_scale_volt / HALF_SCALE as f64;
         // Per input and tone: the cos and sin coefficients of its code.
         let mut coef = [[(0f32, 0f32); TONES]; INPUTS];
-        for c in coef[VOLTAGE_INPUT].iter_mut() {
-            *c = ((self.tone_volt * self.v_gain / lsb) as f32, 0.0);
+        for (c, &a) in coef[VOLTAGE_INPUT].iter_mut().zip(&self.tone_volts) {
+            *c = ((a * self.v_gain / lsb) as f32, 0.0);
         }
         for (s, zs) in z.iter().enumerate() {
             for (k, zk) in zs.iter().enumerate() {
-                let y = Complex64::new(self.tone_volt, 0.0) / zk;
+                let y = Complex64::new(self.tone_volts[k], 0.0) / zk;
                 let g = -self.tia_ohm / lsb;
                 coef[input_of(s)][k] = ((g * y.re) as f32, (g * y.im) as f32);
             }

@@ -128,6 +128,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     // Guided, as a user on a stage that keeps to the stairs' schedule:
     // each hold begins when the stairs reach its stretch.
     let guide = cal::Guide {
+        open: false,
         at_mm: holds.iter().map(|h| h.stretch_mm).collect(),
         settle_s: skin_sim::stairs::SETTLE_S,
         hold_s: skin_sim::stairs::HOLD_S - skin_sim::stairs::SETTLE_S,

@@ -1,9 +1,9 @@
 //! The calibration workflow in QEMU (`qemu_tests::calibration`): sixteen
 //! hand-made sensors calibrated over the link, QEMU restarted, the
-//! settings back, each sensor's stretch within 0.1 mm RMS where the skin
-//! holds still (0.125 mm over the whole trapezoid: the slowest electrodes'
-//! records carry more noise, and say so), and no record marked valid more
-//! than 1 % off in C.
+//! settings back, each sensor's stretch within 0.1 mm RMS over the whole
+//! trapezoid (issue 28's goal; measured 0.017–0.050 mm) and 0.05 mm where
+//! the skin holds still, and no record marked valid more than 1 % off in
+//! C.
 
 use live::calibrate::Outcome;
 use skin_sim::sensor::SensorParams;
@@ -52,15 +52,17 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
         // What the calibration controls: the table and the line's C,
         // seen where the skin holds still.
         assert!(
-            s.after_still_moving_mm.0 <= 0.1,
+            s.after_still_moving_mm.0 <= 0.05,
             "sensor {}: {:.3} mm RMS held still",
             s.sensor,
             s.after_still_moving_mm.0
         );
-        // Moving, the slowest electrodes (read at the lowest tones) add
-        // the noise their records state.
+        // Moving, the slowest electrodes (read at the lowest tones, near
+        // the line's peak of D) add the noise their records state: the
+        // comb's 1/√f amplitudes keep it down (with a flat comb the
+        // worst sensor was 0.107 mm).
         assert!(
-            s.after_mm <= 0.125,
+            s.after_mm <= 0.1,
             "sensor {}: {:.3} mm RMS after",
             s.sensor,
             s.after_mm
