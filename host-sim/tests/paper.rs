@@ -137,9 +137,10 @@ fn elements_converge_to_the_measurement() {
 }
 
 /// The simulated paper's sensor (`SensorParams::PAPER`) against every
-/// number of the paper's text: the static numbers within their printed
-/// precision, the dynamic ones it was set from within 20 %, and the
-/// out-of-fit predictions computed and reported, matched or not.
+/// number of the paper's text: only the predictions are judged (within
+/// the printed precision, or off); the inputs and fitted numbers are
+/// reproduced to their printed precision and the dynamic ones the
+/// dynamics were set from within 10 %, but never called "within".
 #[test]
 fn the_papers_sensor_holds_every_static_number_of_the_text() {
     let dir = tempfile::tempdir().unwrap();
@@ -150,6 +151,7 @@ fn the_papers_sensor_holds_every_static_number_of_the_text() {
     let cal = exp::calibration(&c).unwrap();
     let out = exp::compare(&c, &claims, &runs, &cal).unwrap();
     let table = exp::table(&out);
+    println!("{table}");
     let modelled = claims
         .iter()
         .filter(|c| c.role != "geometry" && c.role != "setup")
@@ -158,9 +160,14 @@ fn the_papers_sensor_holds_every_static_number_of_the_text() {
     for o in &out {
         let c = &o.claim;
         assert!(o.sim.is_finite(), "{}", c.id);
-        assert!(table.contains(&format!("| {} |", c.id)), "{}", c.id);
+        let row = table
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} |", c.id)))
+            .unwrap_or_else(|| panic!("{}", c.id));
+        let judged = row.ends_with("| within |") || row.ends_with("| **off** |");
+        assert_eq!(judged, c.role == "predict", "{row}");
         match c.role.as_str() {
-            "fit" | "input" | "dynamic" => assert!(
+            "fit" | "input" => assert!(
                 o.within(),
                 "{}: paper {} vs simulation {} (tolerance {})",
                 c.id,
@@ -168,10 +175,45 @@ fn the_papers_sensor_holds_every_static_number_of_the_text() {
                 o.sim,
                 c.tolerance()
             ),
+            "dynamic" => assert!(
+                o.deviation().abs() <= 0.1 * c.value.abs(),
+                "{}: paper {} vs simulation {}",
+                c.id,
+                c.value,
+                o.sim
+            ),
             "predict" => {}
             r => panic!("{}: unknown use {r}", c.id),
         }
     }
+    // Tolerances are the printed precision: ±5.0 pF on the relaxed
+    // 180 pF (a 20 % band, ±36 pF, would test nothing).
+    let relaxed = out.iter().find(|o| o.claim.id == "relaxed_2k_20").unwrap();
+    assert!((relaxed.claim.tolerance() - 5.02).abs() < 0.01);
+    // The predictions the model misses are named.
+    let missed = exp::misses(&out);
+    assert!(
+        table.contains(&format!("the model misses {}.", missed.join(", "))),
+        "{table}"
+    );
+    // Fig. 13's order: the paper's simulation nearer the measurement as
+    // n grows, and 60 elements no better than 30.
+    let fig13 = out.iter().find(|o| o.claim.id == "fig13_order").unwrap();
+    let meas = &runs
+        .iter()
+        .find(|r| r.rate == 10.0 && r.freq_hz == 6000.0)
+        .unwrap()
+        .readings;
+    let (holds, rms) = exp::fig13_order(meas, &cal);
+    assert_eq!(fig13.sim, holds);
+    println!("Fig. 13 RMS by n: {rms:?}");
+    assert!(out.iter().any(|o| o.claim.id == "undershoot_500_20"));
+    // Every parameter of the paper's sensor says how it is known: the
+    // tab leads assumed.
+    let prov = exp::provenance(&c.sensor);
+    let leads = prov.iter().find(|p| p.0.starts_with("tab leads")).unwrap();
+    assert_eq!(leads.2, exp::Known::Assumed);
+    assert!(exp::provenance_table(&c.sensor).contains("| 0.6415 | **assumed** |"));
     // The static ratios are held to the printed precision (±1.25 %).
     let sweep = out.iter().filter(|o| o.claim.id.starts_with("sweep_6k")).count();
     assert_eq!(sweep, 3);

@@ -68,10 +68,15 @@ fn the_papers_dynamic_numbers_are_predicted_out_of_fit() {
             .find(|o| o.claim.id == id)
             .unwrap_or_else(|| panic!("{id}"))
     };
+    // The numbers the dynamics were set from: reproduced within 10 %,
+    // and not judged.
     for id in ["relaxed_2k_20", "undershoot_2k_10", "undershoot_2k_20"] {
-        assert!(get(id).within(), "{id}: {}", get(id).sim);
+        let o = get(id);
+        assert!((o.deviation() / o.claim.value).abs() <= 0.1, "{id}: {}", o.sim);
+        assert_eq!(o.verdict(), "set the dynamics");
     }
     assert!(get("undershoot_500_10").within());
+    assert_eq!(get("undershoot_500_10").verdict(), "within");
     for (id, low) in [("sim_diff_2k", 10.0), ("sim_diff_6k", 20.0)] {
         let o = get(id);
         assert!(o.sim.is_finite() && o.sim > low && !o.within(), "{id}: {}", o.sim);

@@ -13,7 +13,10 @@ mod writers;
 
 pub use accuracy::{accuracy, Accuracy};
 pub use capacitance::{capacitance, lcr_runs};
-pub use claims::{compare, parse_claims, predict_paper, table, Claim, Outcome, CLAIMS_CSV};
+pub use claims::{
+    compare, fig13_order, misses, parse_claims, predict_paper, provenance, provenance_table, table, Claim,
+    Known, Outcome, CLAIMS_CSV,
+};
 pub use dataset::dataset;
 pub use elements::{calibration, elements};
 pub use resistance::resistance;
@@ -217,6 +220,8 @@ pub fn paper(ctx: &Ctx) -> Result<(String, Vec<Accuracy>)> {
     let outcomes = compare(ctx, &claims, &runs, &cal)?;
     md += "\n";
     md += &table(&outcomes);
+    md += "\n";
+    md += &provenance_table(&ctx.sensor);
     ctx.progress.set_message("accuracy, ADC chain");
     let (m, acc) = accuracy(ctx)?;
     md += "\n";
