@@ -37,6 +37,10 @@ impl Film {
     };
 }
 
+/// The bench's row interval, s (50 readings a second, the paper's LCR
+/// meter's rate).
+pub const ROW_S: f64 = 0.02;
+
 /// Everything the bench needs to make a data set.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bench {
@@ -73,7 +77,7 @@ impl Bench {
             film: Film::BENCH,
             effects,
             meter,
-            row_s: 0.02,
+            row_s: ROW_S,
             seed,
         }
     }
@@ -143,7 +147,7 @@ impl Bench {
     /// meter's dynamics and its noise act on the same millisecond samples
     /// in one loop, the order a bench's instruments see them in.
     pub fn trace(&self, cycle: &Cycle, freq_hz: f64, rng: &mut ChaCha8Rng) -> Vec<Row> {
-        let (before, after) = self.meter.reach();
+        let (before, after) = self.meter.reach(self.row_s);
         let t_end = cycle.duration_s();
         let t0 = -before - 1.0;
         let damage = Damage::new(&self.sensor, &self.film, cycle, t0, t_end + after + 1.0);
@@ -206,6 +210,37 @@ impl Bench {
                     out.push(if frac > 0.0 { zt + (y - zt) * decay } else { y });
                 }
                 out
+            }
+            Dynamics::MovingMean { .. } | Dynamics::Ewma { .. } => {
+                // One reading per row at the row's time, from `back`
+                // rows before the first; row k reads the kernel over the
+                // readings up to k − delay.
+                let back = self.meter.dynamics.rows_back();
+                let reading = |j: usize| z_at((j as f64 - back as f64) * row_s + offset);
+                let inst: Vec<num_complex::Complex64> = (0..rows + back).map(reading).collect();
+                match self.meter.dynamics {
+                    Dynamics::MovingMean { readings, delay } => {
+                        let n = readings.max(1);
+                        (0..rows)
+                            .map(|k| {
+                                let last = k + back - delay;
+                                inst[last + 1 - n..=last].iter().sum::<num_complex::Complex64>() / n as f64
+                            })
+                            .collect()
+                    }
+                    Dynamics::Ewma { weight, delay } => {
+                        let mut y = inst[0];
+                        let filtered: Vec<num_complex::Complex64> = inst
+                            .iter()
+                            .map(|&x| {
+                                y = x * weight + y * (1.0 - weight);
+                                y
+                            })
+                            .collect();
+                        (0..rows).map(|k| filtered[k + back - delay]).collect()
+                    }
+                    _ => unreachable!("a discrete kernel"),
+                }
             }
         };
         let noise = self.meter.noise;
@@ -388,5 +423,78 @@ mod tests {
             // Both rounded to the meter's 0.001 pF.
             assert!(worst <= 0.0011, "centred {centred}: {worst}");
         }
+    }
+
+    /// The discrete meters: a moving mean of N row readings, or an
+    /// exponentially weighted one, each some rows late, against the same
+    /// bench's instant readings row by row.
+    #[test]
+    fn discrete_meters_average_their_own_readings() {
+        let quiet = crate::meter::Noise {
+            floor_pf: 0.0,
+            relative_500hz: 0.0,
+            drift_pf: 0.0,
+            resistance_relative: 0.0,
+            ..crate::meter::Noise::BENCH
+        };
+        let mk = |dynamics| {
+            Bench::new(
+                Effects::default(),
+                Meter {
+                    dynamics,
+                    offset_s: 0.0,
+                    noise: quiet,
+                },
+                1,
+            )
+        };
+        let c = Cycle::bench(20.0, 1);
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let inst = mk(Dynamics::Instant).trace(&c, 2000.0, &mut rng);
+        let mean = mk(Dynamics::MovingMean {
+            readings: 5,
+            delay: 2,
+        })
+        .trace(&c, 2000.0, &mut rng);
+        let (w, d) = (0.3, 1);
+        let ewma = mk(Dynamics::Ewma { weight: w, delay: d }).trace(&c, 2000.0, &mut rng);
+        assert_eq!((mean.len(), ewma.len()), (inst.len(), inst.len()));
+        let (mut worst_mean, mut worst_ewma): (f64, f64) = (0.0, 0.0);
+        let mut y = inst[0].cs_pf;
+        for k in 0..inst.len() {
+            if k >= 6 {
+                let want = inst[k - 6..=k - 2].iter().map(|r| r.cs_pf).sum::<f64>() / 5.0;
+                worst_mean = worst_mean.max((mean[k].cs_pf - want).abs());
+            }
+            if k >= d {
+                y = w * inst[k - d].cs_pf + (1.0 - w) * y;
+                // Settled after 40 rows (0.7⁴⁰ < 10⁻⁶ of the start).
+                if k >= 40 {
+                    worst_ewma = worst_ewma.max((ewma[k].cs_pf - y).abs());
+                }
+            }
+        }
+        // Rounded to 0.001 pF on both sides.
+        assert!(
+            worst_mean <= 0.0011 && worst_ewma <= 0.0011,
+            "{worst_mean} {worst_ewma}"
+        );
+        // It moves: the kernels are not the instant readings.
+        let moved = (0..inst.len())
+            .map(|k| (mean[k].cs_pf - inst[k].cs_pf).abs())
+            .fold(0.0, f64::max);
+        assert!(moved > 0.1, "{moved}");
+        // Centroids: (N − 1)/2 + delay rows, (1 − w)/w + delay rows.
+        let row = 0.02;
+        let m = Dynamics::MovingMean {
+            readings: 5,
+            delay: 2,
+        };
+        assert!((m.centroid_s(row) - 4.0 * row).abs() < 1e-12);
+        let e = Dynamics::Ewma {
+            weight: 0.25,
+            delay: 1,
+        };
+        assert!((e.centroid_s(row) - 4.0 * row).abs() < 1e-12);
     }
 }

@@ -9,6 +9,7 @@
 //! well as trailing, a first-order meter average, per-tab contacts that
 //! differ.
 
+use crate::bench::ROW_S;
 use crate::meter::{Dynamics, Meter};
 use crate::sensor::{ColeCole, Effects};
 use rand::Rng;
@@ -37,6 +38,12 @@ pub enum Family {
     Window,
     /// The meter's first-order average, τ 10 ms–0.5 s.
     FirstOrder,
+    /// A meter reporting the mean of its last 2–16 readings (one per
+    /// row), 0–3 rows late: a digital meter's or logger's averaging.
+    MovingMean,
+    /// A meter reporting an exponentially weighted mean of its readings
+    /// (weight of the newest 0.05–0.7), 0–3 rows late: a digital filter.
+    Ewma,
     /// The capacitance channel's time offset, 5 ms–0.5 s either way.
     Offset,
     /// Tab leads, 5–80 % of each electrode's resistance.
@@ -51,7 +58,7 @@ pub enum Family {
 
 impl Family {
     /// The families an analysis is expected to name.
-    pub const IN_LIBRARY: [Family; 11] = [
+    pub const IN_LIBRARY: [Family; 13] = [
         Family::Contact,
         Family::Parasitic,
         Family::ResistanceProfile,
@@ -60,6 +67,8 @@ impl Family {
         Family::Leakage,
         Family::Window,
         Family::FirstOrder,
+        Family::MovingMean,
+        Family::Ewma,
         Family::Offset,
         Family::Leads,
         Family::FilmDispersion,
@@ -79,6 +88,8 @@ impl Family {
             Family::Leakage => "leakage",
             Family::Window => "window",
             Family::FirstOrder => "first_order",
+            Family::MovingMean => "moving_mean",
+            Family::Ewma => "ewma",
             Family::Offset => "offset",
             Family::Leads => "leads",
             Family::FilmDispersion => "film_dispersion",
@@ -98,7 +109,10 @@ impl Family {
             Family::StretchTilt => &["nonuniform_stretch", "stretch_bulge"],
             Family::StretchBulge => &["stretch_bulge", "nonuniform_stretch"],
             Family::Leakage => &["dielectric_leakage"],
-            Family::Window | Family::FirstOrder => &["meter_lag", "meter_response"],
+            // A meter's averaging, whichever kernel names it.
+            Family::Window | Family::FirstOrder | Family::MovingMean | Family::Ewma => {
+                &["meter_lag", "meter_response", "meter_mean", "meter_ewma"]
+            }
             Family::Offset => &["time_offset"],
             Family::Leads => &["lead_resistance"],
             Family::FilmDispersion => &["electrode_dispersion"],
@@ -115,12 +129,13 @@ impl Family {
 
     /// [`Family::named_right`] for a set drawn at `v` and recorded every
     /// `row_s`: a meter kernel whose centroid (T/2 of a window, τ of a
-    /// first-order response) is under one row interval is resolved from
-    /// nothing but a delay, so `time_offset` names it right too.
+    /// first-order response, the drawn centroid of a discrete meter) is
+    /// under one row interval is resolved from nothing but a delay, so
+    /// `time_offset` names it right too.
     pub fn named_right_at(self, ids: &[&str], v: f64, row_s: f64) -> bool {
         let centroid = match self {
             Family::Window => 0.5 * v.abs(),
-            Family::FirstOrder => v,
+            Family::FirstOrder | Family::MovingMean | Family::Ewma => v,
             _ => f64::INFINITY,
         };
         self.named_right(ids) || (centroid < row_s && ids == ["time_offset"])
@@ -128,7 +143,8 @@ impl Family {
 
     /// A random strength over the family's physical range: the effects
     /// and the meter of one data set, and the value drawn (SI; for a
-    /// window, negative when centred).
+    /// window, negative when centred; for a discrete meter, its kernel's
+    /// centroid at the bench's 20 ms rows, s).
     pub fn draw(self, rng: &mut impl Rng) -> (Effects, Meter, f64) {
         let log = |rng: &mut dyn rand::RngCore, lo: f64, hi: f64| lo * (hi / lo).powf(rng.gen::<f64>());
         let sign = |rng: &mut dyn rand::RngCore| if rng.gen::<bool>() { 1.0 } else { -1.0 };
@@ -172,6 +188,20 @@ impl Family {
             Family::FirstOrder => {
                 v = log(rng, 0.01, 0.7);
                 meter.dynamics = Dynamics::FirstOrder { tau_s: v };
+            }
+            Family::MovingMean => {
+                meter.dynamics = Dynamics::MovingMean {
+                    readings: rng.gen_range(2..=16),
+                    delay: rng.gen_range(0..=3),
+                };
+                v = meter.dynamics.centroid_s(ROW_S);
+            }
+            Family::Ewma => {
+                meter.dynamics = Dynamics::Ewma {
+                    weight: log(rng, 0.05, 0.7),
+                    delay: rng.gen_range(0..=3),
+                };
+                v = meter.dynamics.centroid_s(ROW_S);
             }
             Family::Offset => {
                 v = sign(rng) * log(rng, 5e-3, 1.4);

@@ -32,6 +32,67 @@ pub enum Dynamics {
         /// Time constant, s.
         tau_s: f64,
     },
+    /// A meter that takes one reading per row, at the row's time, and
+    /// reports the mean of its last `readings` readings, `delay` rows late
+    /// (a digital meter's or logger's running average, a buffered
+    /// channel): row k is the mean of readings k − delay − readings + 1
+    /// … k − delay.
+    MovingMean {
+        /// Readings averaged (≥ 1).
+        readings: usize,
+        /// Rows of delay.
+        delay: usize,
+    },
+    /// A meter that takes one reading per row and reports an
+    /// exponentially weighted mean of them, `delay` rows late (a digital
+    /// filter setting): y_k = w·x_(k − delay) + (1 − w)·y_(k − 1).
+    Ewma {
+        /// Weight w of the newest reading, 0 < w ≤ 1.
+        weight: f64,
+        /// Rows of delay.
+        delay: usize,
+    },
+}
+
+impl Dynamics {
+    /// Readings before a row a discrete kernel reaches back: its length
+    /// and delay (an exponential's until its weights fall under 10⁻⁵).
+    pub fn rows_back(&self) -> usize {
+        match *self {
+            Dynamics::MovingMean { readings, delay } => readings.max(1) - 1 + delay,
+            Dynamics::Ewma { weight, delay } => {
+                let w = weight.clamp(1e-3, 1.0);
+                let memory = if w >= 1.0 {
+                    0.0
+                } else {
+                    (1e-5f64).ln() / (1.0 - w).ln()
+                };
+                memory.ceil() as usize + delay
+            }
+            _ => 0,
+        }
+    }
+
+    /// The kernel's centroid, s, for rows every `row_s`: T/2 of a
+    /// trailing window (0 centred), τ of a first-order average, the mean
+    /// age of a discrete kernel's readings with its delay.
+    pub fn centroid_s(&self, row_s: f64) -> f64 {
+        match *self {
+            Dynamics::Instant => 0.0,
+            Dynamics::Window { length_s, centred } => {
+                if centred {
+                    0.0
+                } else {
+                    0.5 * length_s
+                }
+            }
+            Dynamics::FirstOrder { tau_s } => tau_s,
+            Dynamics::MovingMean { readings, delay } => {
+                (0.5 * (readings.max(1) - 1) as f64 + delay as f64) * row_s
+            }
+            Dynamics::Ewma { weight, delay } => ((1.0 - weight) / weight + delay as f64) * row_s,
+        }
+    }
 }
 
 /// The noise of the instruments.
@@ -90,8 +151,9 @@ impl Meter {
         noise: Noise::BENCH,
     };
 
-    /// How far before and after the time stamp the meter looks, s.
-    pub fn reach(&self) -> (f64, f64) {
+    /// How far before and after the time stamp the meter looks, s, with
+    /// rows every `row_s`.
+    pub fn reach(&self, row_s: f64) -> (f64, f64) {
         let (before, after) = match self.dynamics {
             Dynamics::Instant => (0.0, 0.0),
             Dynamics::Window {
@@ -104,6 +166,9 @@ impl Meter {
             } => (0.5 * length_s, 0.5 * length_s),
             // e^-12: what lies further back is below 1e-5 of a reading.
             Dynamics::FirstOrder { tau_s } => (12.0 * tau_s, 0.0),
+            Dynamics::MovingMean { .. } | Dynamics::Ewma { .. } => {
+                (self.dynamics.rows_back() as f64 * row_s, 0.0)
+            }
         };
         (before - self.offset_s.min(0.0), after + self.offset_s.max(0.0))
     }
@@ -164,7 +229,7 @@ mod tests {
             offset_s: -0.1,
             ..Meter::BENCH
         };
-        let (b, a) = m.reach();
+        let (b, a) = m.reach(0.02);
         assert!((b - 0.3).abs() < 1e-12 && (a - 0.2).abs() < 1e-12);
         assert!(Noise::BENCH.white_pf(200.0, 500.0) > Noise::BENCH.white_pf(200.0, 6000.0));
     }
