@@ -58,6 +58,8 @@ impl Meter {
             window_s: effects.get(Effect::MeterLag),
             offset_s: effects.get(Effect::TimeOffset),
             response_s: effects.get(Effect::MeterResponse),
+            mean_readings: effects.get(Effect::MeterMean),
+            ewma_memory: effects.get(Effect::MeterEwma),
         })
     }
 
@@ -221,6 +223,65 @@ pub struct LcrMeter {
     pub offset_s: f64,
     /// First-order response time constant, s (0: none).
     pub response_s: f64,
+    /// Readings of its running mean, one per `interval_s` (0: none; a
+    /// fraction weighs the oldest in part).
+    pub mean_readings: f64,
+    /// Memory m of its weighted mean of readings, y = (1 − m)·x + m·y
+    /// (0: none).
+    pub ewma_memory: f64,
+}
+
+/// A meter's average of its own readings (Cs, Rs) in discrete time: a
+/// running mean of N, or a weighted mean of memory m, settled on its
+/// first reading (the sensor at rest before the run).
+struct ReadingAverage {
+    mean_readings: f64,
+    memory: f64,
+    history: std::collections::VecDeque<(f64, f64)>,
+}
+
+impl ReadingAverage {
+    fn new(lcr: &LcrMeter) -> Self {
+        Self {
+            mean_readings: lcr.mean_readings,
+            memory: lcr.ewma_memory,
+            history: Default::default(),
+        }
+    }
+
+    /// The average after the reading `x`.
+    fn push(&mut self, x: (f64, f64)) -> (f64, f64) {
+        if self.mean_readings > 0.0 {
+            let n = self.mean_readings.max(1.0);
+            let keep = n.ceil() as usize;
+            if self.history.is_empty() {
+                self.history.extend(std::iter::repeat_n(x, keep));
+            }
+            self.history.push_front(x);
+            self.history.truncate(keep);
+            let whole = n.floor() as usize;
+            let part = n - whole as f64;
+            let mut sum = self
+                .history
+                .iter()
+                .take(whole)
+                .fold((0.0, 0.0), |a, r| (a.0 + r.0, a.1 + r.1));
+            if part > 0.0 {
+                let r = self.history[whole.min(keep - 1)];
+                sum = (sum.0 + part * r.0, sum.1 + part * r.1);
+            }
+            (sum.0 / n, sum.1 / n)
+        } else if self.memory > 0.0 {
+            let m = self.memory;
+            let y = self.history.front().copied().unwrap_or(x);
+            let y = ((1.0 - m) * x.0 + m * y.0, (1.0 - m) * x.1 + m * y.1);
+            self.history.clear();
+            self.history.push_front(y);
+            y
+        } else {
+            x
+        }
+    }
 }
 
 /// The mean admittance of the sensor over `[start, start + window_s]`,
@@ -309,6 +370,7 @@ fn run_lcr(
     let mut seen =
         (lcr.window_s > 0.0 || lcr.offset_s != 0.0 || lcr.response_s > 0.0).then(|| sensor.clone());
     let mut filter: Option<FirstOrder> = None;
+    let mut average = ReadingAverage::new(lcr);
     let mut out = Vec::new();
     let mut t = t_start;
     while t <= t_end + 1e-12 {
@@ -324,8 +386,11 @@ fn run_lcr(
                 .advance(m, profile, lcr, target, freq_hz),
             Some(m) => mean_admittance(m, profile, target - lcr.window_s, lcr.window_s, freq_hz).inv(),
         };
-        let cs = series_cs(z, freq_hz) * (1.0 + lcr.rel * rng.gaussian()) + lcr.abs_farad * rng.gaussian();
-        let rs = z.re * (1.0 + lcr.rel * rng.gaussian());
+        // Its own readings averaged (running or weighted mean), then the
+        // noise of what it reports.
+        let (cs, rs) = average.push((series_cs(z, freq_hz), z.re));
+        let cs = cs * (1.0 + lcr.rel * rng.gaussian()) + lcr.abs_farad * rng.gaussian();
+        let rs = rs * (1.0 + lcr.rel * rng.gaussian());
         let zm = SeriesRc {
             cs_farad: cs as f32,
             rs_ohm: rs as f32,

@@ -246,7 +246,11 @@ impl clap::Args for EffectArgs {
                     .long(flag(e))
                     .value_parser(si::parse)
                     .allow_hyphen_values(true)
-                    .value_name(if i.unit.is_empty() { "RATIO" } else { i.unit })
+                    .value_name(match (i.unit, i.display_unit) {
+                        ("", "readings") => "READINGS",
+                        ("", _) => "RATIO",
+                        (u, _) => u,
+                    })
                     .help(format!("{scope}: {}", i.doc)),
             )
         })

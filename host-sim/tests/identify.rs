@@ -34,6 +34,8 @@ fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
     let centroid = match effect {
         Effect::MeterLag => 0.5 * v,
         Effect::MeterResponse => v,
+        Effect::MeterMean => 0.5 * (v - 1.0) * 0.02,
+        Effect::MeterEwma => v / (1.0 - v) * 0.02,
         _ => f64::INFINITY,
     };
     named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"])
@@ -66,6 +68,9 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ResistanceBulge => (0.05, 0.6, true),
         Effect::LeadResistance => (0.05, 0.5, false),
         Effect::ElectrodeDispersion => (3e-6, 100e-6, false),
+        // 3–12 readings of 20 ms; a memory of 0.3–0.85 (τ of 0.4–5.7 rows).
+        Effect::MeterMean => (3.0, 12.0, false),
+        Effect::MeterEwma => (0.3, 0.85, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
     log_uniform(lo, hi, signed, rng)
@@ -92,6 +97,10 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::ResistanceBulge => (0.02, 0.95, true),
         Effect::LeadResistance => (0.02, 0.9, false),
         Effect::ElectrodeDispersion => (1e-6, 1e-3, false),
+        // A logger's running mean of 2 to 50 readings; a digital filter's
+        // memory from 0.1 to 0.98 (τ to 49 rows, 1 s).
+        Effect::MeterMean => (2.0, 50.0, false),
+        Effect::MeterEwma => (0.1, 0.98, false),
         Effect::DielectricDispersion => unreachable!("not in the library"),
     };
     log_uniform(lo, hi, signed, rng)
@@ -422,6 +431,18 @@ fn time_effects_are_searched_as_far_as_the_trace_holds() {
             .accepted
             .as_ref()
             .unwrap_or_else(|| panic!("{}: {}", effect.id(), r.verdict()));
+        // A first-order response read every row is an exponentially
+        // weighted mean of the readings, of memory e^(−Δ/τ): the same
+        // meter, named either way (its τ recovered from the memory).
+        if effect == Effect::MeterResponse && f.effects == [Effect::MeterEwma] {
+            let m = f.params.get(Effect::MeterEwma);
+            let tau = -0.02 / m.ln();
+            assert!(
+                (tau / v - 1.0).abs() < 0.05,
+                "τ {tau} from memory {m} against {v}"
+            );
+            continue;
+        }
         assert_eq!(f.effects, [effect], "{}", r.verdict());
         let (got, sigma) = (f.params.get(effect), f.sigma_of(effect));
         assert!(

@@ -16,8 +16,10 @@
 
 use host_sim::dataset::read_dir;
 use host_sim::identify::{identify, Options, Report};
+use host_sim::model::Effect;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rig_sim::meter::Dynamics;
 use rig_sim::{Bench, Family};
 use std::path::Path;
 
@@ -233,5 +235,60 @@ fn covered_families_are_named_right_and_explained() {
     }
     println!("detectable {detectable}/14, named right {right}");
     assert!(detectable >= 11, "only {detectable} detectable");
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+/// Meters that average their own readings, one per row, some rows late
+/// (issue 29): a running mean of 2–16 readings and an exponentially
+/// weighted mean, drawn over their physical ranges. Each is named as a
+/// meter kernel with its delay inside it (not a time offset as well),
+/// and explained to 1.3× the noise.
+#[test]
+fn meters_averaging_their_readings_are_named_with_their_delay() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut bad = vec![];
+    for seed in 0..6u64 {
+        let family = [Family::MovingMean, Family::Ewma][seed as usize % 2];
+        let mut rng = ChaCha8Rng::seed_from_u64(9500 + seed);
+        let (fx, meter, v) = family.draw(&mut rng);
+        let r = run(&tmp.path().join(format!("d{seed}")), &Bench::new(fx, meter, seed));
+        let (nf, f) = (r.final_noise_pf(), r.final_fit().rms_pf);
+        let ids = named(&r);
+        println!(
+            "{seed} {} {:?} (centroid {v:.3} s): {ids:?} {:.2}x noise, {}",
+            family.name(),
+            meter.dynamics,
+            f / nf,
+            r.final_fit().label()
+        );
+        assert!(
+            r.baseline().rms_pf > 3.0 * r.noise_floor_pf,
+            "seed {seed}: too weak to test"
+        );
+        if !(family.named_right(&ids) && ids.len() == 1) {
+            bad.push(format!("seed {seed}: {} named {ids:?}", family.name()));
+        }
+        if f > 1.3 * nf {
+            bad.push(format!("seed {seed}: after {:.2}x noise", f / nf));
+        }
+        // N, the weight and the delay, as fitted.
+        let p = r.final_fit().params;
+        let delay_rows = -p.get(Effect::TimeOffset) / 0.02;
+        let (got, want, d) = match meter.dynamics {
+            Dynamics::MovingMean { readings, delay } => (p.get(Effect::MeterMean), readings as f64, delay),
+            Dynamics::Ewma { weight, delay } => (1.0 - p.get(Effect::MeterEwma), weight, delay),
+            _ => unreachable!(),
+        };
+        println!("  fitted {got:.3} for {want:.3}, delay {delay_rows:.2} rows for {d}");
+        let close = match meter.dynamics {
+            Dynamics::MovingMean { .. } => (got - want).abs() <= 0.5,
+            _ => (got / want - 1.0).abs() <= 0.1,
+        };
+        if !close || (delay_rows - d as f64).abs() > 0.5 {
+            bad.push(format!(
+                "seed {seed}: fitted {got} for {want}, delay {delay_rows} rows for {d}"
+            ));
+        }
+    }
     assert!(bad.is_empty(), "{bad:#?}");
 }

@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 13;
+pub const COUNT: usize = 15;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -159,6 +159,17 @@ pub enum Effect {
     /// resistive than the ends; total unchanged), beside the linear mode
     /// of [`Effect::ResistanceGradient`].
     ResistanceBulge,
+    /// A meter that takes one reading per row and reports the mean of
+    /// its last N readings (a digital meter's or logger's running
+    /// average), on the data's own row grid: N readings (0: none; a
+    /// fraction weighs the oldest reading in part). A delay of whole
+    /// readings is a [`Effect::TimeOffset`] fitted with it.
+    MeterMean,
+    /// A meter that takes one reading per row and reports an
+    /// exponentially weighted mean of them, on the data's own row grid:
+    /// y_k = (1 − m)·x_k + m·y_(k−1), m the memory (0: none), 0…1. A
+    /// delay of whole readings is a [`Effect::TimeOffset`] fitted with it.
+    MeterEwma,
 }
 
 impl Effect {
@@ -177,6 +188,8 @@ impl Effect {
         Effect::StretchBulge,
         Effect::MeterResponse,
         Effect::ResistanceBulge,
+        Effect::MeterMean,
+        Effect::MeterEwma,
     ];
 
     /// Its entry in the catalogue: the catalogue itself, one entry per
@@ -417,6 +430,44 @@ impl Effect {
                 search: (-0.98, 0.98),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
+                fitted: true,
+            },
+            // Physical range: a digital LCR meter's or logger's running
+            // average over 2 to a few tens of readings. Searched as far as
+            // the traces hold (host-sim `model::search`: a fifth of the
+            // shortest trace, in rows).
+            Effect::MeterMean => &Info {
+                id: "meter_mean",
+                key: "mean_readings",
+                doc: "the meter's running mean over its last N readings, one per row, N readings",
+                unit: "",
+                display_unit: "readings",
+                display_scale: 1.0,
+                display_decimals: 2,
+                limits: (0.0, 1e6),
+                open: false,
+                search: (1.0, 1e6),
+                scope: Scope::Recording,
+                entry: Entry::Time,
+                fitted: true,
+            },
+            // Physical range: a digital filter's memory, from none to a
+            // time constant of a few hundred readings. Searched to a
+            // time constant a tenth of the shortest trace (host-sim
+            // `model::search`).
+            Effect::MeterEwma => &Info {
+                id: "meter_ewma",
+                key: "ewma_memory",
+                doc: "the meter's exponentially weighted mean of its readings, one per row: the memory m of y_k = (1 − m)·x_k + m·y_(k−1), 0..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (0.0, 0.9999),
+                open: false,
+                search: (0.0, 0.999),
+                scope: Scope::Recording,
+                entry: Entry::Time,
                 fitted: true,
             },
         }

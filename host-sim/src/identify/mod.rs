@@ -309,7 +309,16 @@ const COARSE_ROWS: usize = 400;
 
 /// The meter's averaging kernels: each is fitted in both averaging
 /// domains ([`Averaging`]), and the better kept.
-const KERNELS: [Effect; 2] = [Effect::MeterLag, Effect::MeterResponse];
+const KERNELS: [Effect; 4] = [
+    Effect::MeterLag,
+    Effect::MeterResponse,
+    Effect::MeterMean,
+    Effect::MeterEwma,
+];
+
+/// The kernels in discrete time, on the data's own rows: each fitted
+/// with its delay (a time offset of the meter's own).
+const DISCRETE: [Effect; 2] = [Effect::MeterMean, Effect::MeterEwma];
 
 /// One candidate model: the parameters it fits, those to scan on a grid
 /// first (the others start where the smaller model left them), the start,
@@ -325,10 +334,10 @@ struct Candidate {
 
 /// What a candidate fits for the effect `e`: a window jointly with its
 /// stamp (a time offset: a trailing and a centred window are both
-/// windows), any other effect alone.
+/// windows), a discrete kernel with its delay, any other effect alone.
 fn fitted_for(e: Effect) -> Vec<Effect> {
-    if e == Effect::MeterLag {
-        vec![Effect::MeterLag, Effect::TimeOffset]
+    if e == Effect::MeterLag || DISCRETE.contains(&e) {
+        vec![e, Effect::TimeOffset]
     } else {
         vec![e]
     }
@@ -344,7 +353,8 @@ fn candidates(library: &[Effect], base: Option<&Fit>) -> Vec<Candidate> {
             None => (vec![], Params::NONE),
             Some(b) => (b.fitted.clone(), b.params),
         };
-        if fitted.contains(&e) {
+        // One meter kernel at a time: a meter has one averaging.
+        if fitted.contains(&e) || (KERNELS.contains(&e) && fitted.iter().any(|f| KERNELS.contains(f))) {
             continue;
         }
         let scan: Vec<Effect> = fitted_for(e)
@@ -425,7 +435,11 @@ fn run_candidates(
 /// not explain the data.
 fn named(mut f: Fit, averaging: Averaging, row_s: f64) -> Fit {
     let p = f.params;
-    let centroid = 0.5 * p.get(Effect::MeterLag) + p.get(Effect::MeterResponse);
+    let memory = p.get(Effect::MeterEwma);
+    let centroid = 0.5 * p.get(Effect::MeterLag)
+        + p.get(Effect::MeterResponse)
+        + 0.5 * (p.get(Effect::MeterMean) - 1.0).max(0.0) * row_s
+        + memory / (1.0 - memory).max(1e-9) * row_s;
     if f.fitted.iter().any(|e| KERNELS.contains(e)) && centroid < row_s {
         f.unresolved = Some(format!(
             "kernel centroid {:.1} ms under the row interval {:.1} ms: not resolved from a delay",
@@ -437,6 +451,16 @@ fn named(mut f: Fit, averaging: Averaging, row_s: f64) -> Fit {
         let (t, d) = (p.get(Effect::MeterLag), p.get(Effect::TimeOffset));
         let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.02 * t + 1e-3;
         if d >= -tol && d <= t + tol {
+            f.effects.retain(|&e| e != Effect::TimeOffset);
+        }
+    }
+    // A discrete kernel's delay (δ ≤ 0: its reading at t ends with what
+    // it read at t + δ; to 3σ and half a row) is the meter's own: part of
+    // the kernel. A reading ahead of its stamp is a time offset.
+    if f.fitted.iter().any(|e| DISCRETE.contains(e)) && f.fitted.contains(&Effect::TimeOffset) {
+        let d = p.get(Effect::TimeOffset);
+        let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.5 * row_s;
+        if d <= tol {
             f.effects.retain(|&e| e != Effect::TimeOffset);
         }
     }

@@ -42,7 +42,10 @@ pub fn params_text(f: &Fit) -> String {
             let v = f.params.get(e);
             // A window's offset within it: where the meter stamps.
             let t = f.params.get(Effect::MeterLag);
-            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset {
+            let discrete = f.fitted.contains(&Effect::MeterMean) || f.fitted.contains(&Effect::MeterEwma);
+            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset && discrete {
+                " (the meter's delay)".to_string()
+            } else if !f.effects.contains(&e) && e == Effect::TimeOffset {
                 // Named the stamp within the window's tolerance
                 // (`named`); a fraction of it only where it is one.
                 let frac = 1.0 - v / t;

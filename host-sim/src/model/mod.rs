@@ -71,7 +71,11 @@ pub use instrument::effects::{Effect, EffectSet};
 pub type Params = EffectSet;
 
 pub(crate) fn has_time(p: &Params) -> bool {
-    p.has(Effect::MeterLag) || p.has(Effect::TimeOffset) || p.has(Effect::MeterResponse)
+    p.has(Effect::MeterLag)
+        || p.has(Effect::TimeOffset)
+        || p.has(Effect::MeterResponse)
+        || p.has(Effect::MeterMean)
+        || p.has(Effect::MeterEwma)
 }
 
 pub(crate) fn nonuniform(p: &Params) -> bool {

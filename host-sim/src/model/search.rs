@@ -80,6 +80,14 @@ impl Search {
             Effect::TimeOffset => (lo.max(-d), hi.min(d)),
             Effect::MeterLag => (lo, hi.min(d)),
             Effect::MeterResponse => (lo, hi.min(0.5 * d)),
+            // A running mean as long as a window may be, in rows; a
+            // weighted mean whose time constant m/(1 − m) rows reaches as
+            // far as a first-order τ.
+            Effect::MeterMean if self.row_s > 0.0 => (lo, hi.min((d / self.row_s).max(1.0))),
+            Effect::MeterEwma if self.row_s > 0.0 => {
+                let rows = 0.5 * d / self.row_s;
+                (lo, hi.min(rows / (1.0 + rows)))
+            }
             _ => (lo, hi),
         }
     }

@@ -15,6 +15,18 @@
 //! changes over the kernel the two agree; over a second of stretching
 //! they differ by tenths of a pF, which the data resolve.
 //!
+//! A meter that takes one reading per row of the data and averages its
+//! readings is a kernel in discrete time, on the data's own row grid
+//! (interval Δ, the trace's median step before decimation):
+//!
+//! ```text
+//! mean of N readings (MeterMean):  ȳ(t) = 1/N Σ_{j<N} y(t + δ − jΔ)   (a fraction of N weighs the oldest in part)
+//! weighted mean (MeterEwma):       ȳ(t) = Σ_j (1 − m)·mʲ·y(t + δ − jΔ)
+//! ```
+//!
+//! δ, fitted with either, is the meter's delay. A discrete kernel is not
+//! combined with a continuous one (`identify` fits one kernel at a time).
+//!
 //! The first-order filter starts settled on the trace's first instant;
 //! the rows at a trace's ends whose reading could reach past the
 //! recording are left out of the statistics ([`super::search`]).
@@ -87,6 +99,14 @@ pub(super) fn timed(
         Averaging::Admittance => Model::series(y.inv(), f) * 1e12,
         Averaging::Readings => y.re * 1e12,
     };
+    let (mean_n, memory) = (p.get(Effect::MeterMean), p.get(Effect::MeterEwma));
+    if mean_n > 0.0 || memory > 0.0 {
+        let y_at = |x: f64| {
+            let (r, s) = inputs(x);
+            at(r, s, f).map_or(nan, sample)
+        };
+        return discrete(file, offset, mean_n, memory, y_at, reading);
+    }
     if window <= 1e-9 && tau <= 1e-9 {
         // An offset alone: the model at t + δ directly.
         return file
@@ -209,4 +229,170 @@ fn first_order(
             reading(step(filtered[j], grid[j], yx, a * h))
         })
         .collect()
+}
+
+/// A discrete kernel ([`Effect::MeterMean`] of `mean_n` readings, or
+/// [`Effect::MeterEwma`] of memory `memory`) on the trace's own row grid,
+/// read at every row's t + `offset`: the samples `y_at` on a grid of the
+/// row interval from far enough back, a running mean by prefix sums or
+/// the recursion of the weighted mean, linear between grid nodes (the
+/// readings of a meter whose delay is not whole rows).
+fn discrete(
+    file: &File,
+    offset: f64,
+    mean_n: f64,
+    memory: f64,
+    y_at: impl Fn(f64) -> Complex64,
+    reading: impl Fn(Complex64) -> f64,
+) -> Vec<f64> {
+    let n = file.t.len();
+    let mut steps: Vec<f64> = file.t.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+    let (t0, t1) = (file.t[0] + offset, file.t[n - 1] + offset);
+    // The row interval before decimation, but at most MAX_GRID samples.
+    let dt = (median / file.stride.max(1) as f64).max((t1 - t0) / MAX_GRID as f64);
+    let nn = mean_n.max(1.0);
+    let back_rows = if mean_n > 0.0 {
+        nn.ceil() as usize + 1
+    } else {
+        // Until the weights fall under 10⁻⁶ (and at most a grid's worth).
+        ((1e-6f64).ln() / memory.clamp(1e-9, 0.999_999).ln())
+            .ceil()
+            .min(MAX_GRID as f64) as usize
+            + 1
+    };
+    let lo = t0 - back_rows as f64 * dt;
+    let m = ((t1 - lo) / dt).ceil() as usize + 2;
+    let grid: Vec<Complex64> = (0..m).map(|j| y_at(lo + j as f64 * dt)).collect();
+    let pos = |t: f64| {
+        let u = ((t + offset - lo) / dt).clamp(0.0, (m - 2) as f64);
+        let i = u.floor() as usize;
+        (i, u - i as f64)
+    };
+    let kernel: Vec<Complex64> = if mean_n > 0.0 {
+        // Mean of the readings ending at node i: the whole ones, and the
+        // next older one weighed by the fraction of N.
+        let whole = nn.floor() as usize;
+        let part = nn - whole as f64;
+        let mut prefix = Vec::with_capacity(m + 1);
+        let mut acc = Complex64::default();
+        prefix.push(acc);
+        for y in &grid {
+            acc += y;
+            prefix.push(acc);
+        }
+        (0..m)
+            .map(|i| {
+                let a = (i + 1).saturating_sub(whole);
+                let mut sum = prefix[i + 1] - prefix[a];
+                if part > 0.0 {
+                    sum += grid[a.saturating_sub(1)] * part;
+                }
+                sum / nn
+            })
+            .collect()
+    } else {
+        let mut state = grid[0];
+        grid.iter()
+            .map(|&y| {
+                state = y * (1.0 - memory) + state * memory;
+                state
+            })
+            .collect()
+    };
+    file.t
+        .iter()
+        .map(|&t| {
+            let (i, a) = pos(t);
+            reading(kernel[i] * (1.0 - a) + kernel[i + 1] * a)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::Kind;
+
+    /// A trace of `rows` rows every `dt` (decimated by `stride`).
+    fn trace(rows: usize, dt: f64, stride: usize) -> File {
+        let t: Vec<f64> = (0..rows).map(|k| k as f64 * dt * stride as f64).collect();
+        File {
+            name: "t".into(),
+            kind: Kind::Trace,
+            s: vec![0.0; rows],
+            r: vec![1e6; rows],
+            f: vec![1e3; rows],
+            cs: vec![0.0; rows],
+            sigma: vec![f64::NAN; rows],
+            corner: vec![false; rows],
+            rows_read: rows * stride,
+            stride,
+            used: vec![true; rows],
+            t,
+        }
+    }
+
+    /// The discrete kernels against the f64 sums they stand for, on a
+    /// smooth signal: a running mean of N (whole and fractional) and a
+    /// weighted mean, read with a delay of whole rows (exact: the grid's
+    /// nodes) and of a fraction of a row (linear between nodes: within
+    /// the signal's curvature over a row).
+    #[test]
+    fn discrete_kernels_are_their_sums() {
+        let dt = 0.02;
+        let y = |t: f64| Complex64::new((3.0 * t).sin() + 0.2 * t, 0.5 * (1.7 * t).cos());
+        for stride in [1, 3] {
+            let file = trace(200, dt, stride);
+            for (mean_n, memory) in [(5.0, 0.0), (4.4, 0.0), (0.0, 0.8)] {
+                for delay in [0.0, -2.0 * dt, -0.37 * dt] {
+                    let got = discrete(&file, delay, mean_n, memory, y, |v| v.re + 10.0 * v.im);
+                    let (mut sq, mut max) = (0.0f64, 0.0f64);
+                    for (k, &t) in file.t.iter().enumerate() {
+                        let x = t + delay;
+                        let want = if mean_n > 0.0 {
+                            let whole = mean_n.floor() as usize;
+                            let part = mean_n - whole as f64;
+                            let mut s: Complex64 = (0..whole).map(|j| y(x - j as f64 * dt)).sum();
+                            s += y(x - whole as f64 * dt) * part;
+                            s / mean_n
+                        } else {
+                            // Σ (1 − m)·mʲ·y(x − jΔ) until mʲ < 10⁻¹²,
+                            // settled far before the trace.
+                            let mut s = Complex64::default();
+                            let mut w = 1.0 - memory;
+                            let mut j = 0;
+                            while w > 1e-12 {
+                                s += y(x - j as f64 * dt) * w;
+                                w *= memory;
+                                j += 1;
+                            }
+                            s
+                        };
+                        let e = got[k] - (want.re + 10.0 * want.im);
+                        // Past the kernel's start-up (settled on the
+                        // first sample, 10⁻⁶ of a reading).
+                        if k * stride > 80 {
+                            sq += e * e;
+                            max = max.max(e.abs());
+                        }
+                    }
+                    let rms = (sq / 200.0).sqrt();
+                    // Whole rows: rounding only; a fraction of a row:
+                    // linear interpolation of a signal of curvature ≤ 15
+                    // over Δ = 20 ms, ≤ Δ²/8·15·11 ≈ 8·10⁻³.
+                    let bound = if (delay / dt).fract().abs() < 1e-9 {
+                        1e-6
+                    } else {
+                        8e-3
+                    };
+                    assert!(
+                        max <= bound,
+                        "stride {stride} N {mean_n} m {memory} delay {delay}: rms {rms:e} max {max:e}"
+                    );
+                }
+            }
+        }
+    }
 }
