@@ -434,6 +434,7 @@ fn time_effects_are_searched_as_far_as_the_trace_holds() {
         // A first-order response read every row is an exponentially
         // weighted mean of the readings, of memory e^(−Δ/τ): the same
         // meter, named either way (its τ recovered from the memory).
+        println!("{}", r.verdict());
         if effect == Effect::MeterResponse && f.effects == [Effect::MeterEwma] {
             let m = f.params.get(Effect::MeterEwma);
             let tau = -0.02 / m.ln();
@@ -453,4 +454,88 @@ fn time_effects_are_searched_as_far_as_the_trace_holds() {
         assert_eq!(j["effects"][0]["at_limit"], false);
         assert!(f.rms_pf <= 1.5 * f.noise_pf, "{}", r.verdict());
     }
+}
+
+/// Competing explanations: a model that explains the data as well (BIC
+/// within the margin) is listed beside the accepted one, with what would
+/// separate the two, and the verdict says the data cannot tell them
+/// apart; a model that only extends the accepted one, or explains less,
+/// is not a competitor. (On these simulated sets the library's effects
+/// are far apart, so the rival is the runner-up given the accepted fit's
+/// figures: the selection's bookkeeping, and the sweep that separates a
+/// resistance gradient from a parasitic capacitance.)
+#[test]
+fn competing_explanations_are_listed_with_what_separates_them() {
+    let tmp = tempfile::tempdir().unwrap();
+    let fx = EffectSet::NONE.with(Effect::ParasiticCapacitance, 2e-12);
+    dataset(
+        tmp.path(),
+        with_effects(fx),
+        Meter::lcr(&fx),
+        5,
+        ProgressBar::hidden(),
+    )
+    .unwrap();
+    let ds = read_dir(tmp.path()).unwrap();
+    let mut r = identify(&ds, Options::default()).unwrap();
+    let acc = r.accepted.clone().expect("parasitic capacitance found");
+    assert_eq!(acc.effects, [Effect::ParasiticCapacitance]);
+    assert!(r.competing.is_empty(), "{}", r.verdict());
+    let prep = host_sim::model::Prepared::new(&ds, true).unwrap();
+    // The runner-up, as if it explained as well: a competitor.
+    let mut rival = r
+        .singles
+        .iter()
+        .find(|f| f.effects == [Effect::ResistanceGradient])
+        .unwrap()
+        .clone();
+    (rival.rms_pf, rival.noise_pf, rival.bic) = (acc.rms_pf, acc.noise_pf, acc.bic + 3.0);
+    // An extension of the accepted model, and a model 20 BIC worse: not.
+    let mut extension = rival.clone();
+    extension.effects = vec![Effect::ParasiticCapacitance, Effect::ResistanceGradient];
+    let mut worse = rival.clone();
+    worse.effects = vec![Effect::ContactResistance];
+    worse.bic = acc.bic + 20.0;
+    r.singles.extend([rival.clone(), worse]);
+    r.pairs.push(extension);
+    r.competing = host_sim::identify::compete::competitors(&prep, &r);
+    assert_eq!(
+        r.competing.len(),
+        1,
+        "{:?}",
+        r.competing.iter().map(|c| c.fit.label()).collect::<Vec<_>>()
+    );
+    let c = &r.competing[0];
+    assert_eq!(c.fit.effects, [Effect::ResistanceGradient]);
+    assert!((c.delta_bic - 3.0).abs() < 1e-9);
+    // Their static sweeps part at high frequency (the gradient's fitted
+    // value leaves pF between them there).
+    assert!(
+        c.separation.starts_with("a static sweep would: at "),
+        "{}",
+        c.separation
+    );
+    let v = r.verdict();
+    assert!(
+        v.contains("but as well by resistance_gradient (ΔBIC +3.0; a static sweep would"),
+        "{v}"
+    );
+    assert!(v.contains("these data cannot tell them apart"), "{v}");
+    assert_eq!(r.json()["competing"][0]["effects"][0], "resistance_gradient");
+    // Two meter kernels differ only in time.
+    let mut kernel = rival.clone();
+    kernel.effects = vec![Effect::MeterMean];
+    kernel.params = EffectSet::NONE.with(Effect::MeterMean, 4.0);
+    r.accepted = Some(kernel.clone());
+    kernel.effects = vec![Effect::MeterEwma];
+    kernel.params = EffectSet::NONE.with(Effect::MeterEwma, 0.6);
+    r.singles = vec![kernel];
+    r.pairs.clear();
+    let c = host_sim::identify::compete::competitors(&prep, &r);
+    assert_eq!(c.len(), 1);
+    assert!(
+        c[0].separation.contains("rows finer than the kernels"),
+        "{}",
+        c[0].separation
+    );
 }

@@ -26,7 +26,9 @@
 //! | `fit` | the weighted least-squares problem and its solver (grid, Levenberg–Marquardt, uncertainty) |
 //! | `report` | the verdict, the markdown and JSON reports |
 //! | `plot` | the residual figure ([`plot()`]) |
+//! | [`compete`] | the other models the data allow as well, and what would separate them |
 
+pub mod compete;
 mod fit;
 mod plot;
 mod report;
@@ -235,6 +237,10 @@ pub struct Report {
     /// The accepted model: effects found with strong evidence that explain
     /// the data (None: clean, or unexplained).
     pub accepted: Option<Fit>,
+    /// Other models the data allow as well (explained, BIC within the
+    /// margin, neither part nor extension of the accepted one), with what
+    /// would separate each from it: the data cannot name one of them.
+    pub competing: Vec<compete::Competitor>,
     /// The residual is above the noise and no candidate explains it.
     pub unexplained: bool,
     /// Rows modelled.
@@ -517,6 +523,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         singles: vec![],
         pairs: vec![],
         accepted: None,
+        competing: vec![],
         unexplained: false,
         rows,
         decimated: prep
@@ -563,6 +570,7 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         progress,
     };
     selection.select(&base, &mut report);
+    report.competing = compete::competitors(&prep, &report);
     Ok(report)
 }
 

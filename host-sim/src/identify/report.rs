@@ -124,6 +124,14 @@ impl Report {
             "noise_floor_pf": self.noise_floor_pf,
             "noise_pf": self.noise_pf.iter().map(|(f, s)| json!({"file": f, "sigma_pf": s})).collect::<Vec<_>>(),
             "unexplained": self.unexplained,
+            "competing": self.competing.iter().map(|c| serde_json::json!({
+                "label": c.fit.label(),
+                "effects": c.fit.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
+                "parameters": params_text(&c.fit),
+                "rms_pf": c.fit.rms_pf,
+                "delta_bic": c.delta_bic,
+                "separation": c.separation,
+            })).collect::<Vec<_>>(),
             "identifiability": self.accepted.as_ref().map_or(vec![], Fit::identifiability),
             "best_attempt": self.best_attempt().map(stats),
             "candidates": candidates,
@@ -221,13 +229,14 @@ impl Report {
         let nf = self.noise_floor_pf;
         match (&self.accepted, self.unexplained) {
             (Some(f), _) => format!(
-                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}",
+                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}{}",
                 f.label(),
                 params_text(f),
                 self.baseline().rms_pf,
                 f.rms_pf,
                 f.noise_pf,
-                through(f.noise_pf, nf)
+                through(f.noise_pf, nf),
+                self.competing_text()
             ),
             (None, false) => format!(
                 "clean: the {} explains the data (RMS {:.3} pF, noise floor {:.3} pF)",
@@ -246,6 +255,22 @@ impl Report {
                 self.best_attempt().map_or(f64::NAN, |f| f.rms_pf / f.noise_pf)
             ),
         }
+    }
+
+    /// The competitors in a clause ("" when there are none).
+    fn competing_text(&self) -> String {
+        if self.competing.is_empty() {
+            return String::new();
+        }
+        let others: Vec<String> = self
+            .competing
+            .iter()
+            .map(|c| format!("{} (ΔBIC {:+.1}; {})", c.fit.label(), c.delta_bic, c.separation))
+            .collect();
+        format!(
+            "; but as well by {}: these data cannot tell them apart",
+            others.join("; or ")
+        )
     }
 
     /// The error before and after, per file and overall.

@@ -82,6 +82,47 @@ impl Prepared {
 
     /// [`Prepared::predict`] with the meter's `averaging` domain.
     pub fn predict_as(&self, line: Line, params: Params, averaging: Averaging) -> Result<Vec<Vec<f64>>> {
+        self.with_model(line, params, |at| {
+            self.files
+                .iter()
+                .map(|file| {
+                    if file.kind == Kind::Trace && has_time(&params) {
+                        timed(file, &params, averaging, at)
+                    } else {
+                        (0..file.cs.len())
+                            .map(|k| {
+                                at(file.r[k], file.s[k], file.f[k])
+                                    .map_or(f64::NAN, |z| Model::series(z, file.f[k]) * 1e12)
+                            })
+                            .collect()
+                    }
+                })
+                .collect()
+        })
+    }
+
+    /// Static Cs (pF) under `line` and `params` at arbitrary points
+    /// (recorded R Ω, stretch mm, frequency Hz): what a sweep there would
+    /// read, the calibration de-biased under the same model.
+    pub fn predict_points(&self, line: Line, params: Params, points: &[(f64, f64, f64)]) -> Result<Vec<f64>> {
+        self.with_model(line, params, |at| {
+            points
+                .iter()
+                .map(|&(r, s, f)| at(r, s, f).map_or(f64::NAN, |z| Model::series(z, f) * 1e12))
+                .collect()
+        })
+    }
+
+    /// The model of `line` and `params` on this data set's shape (the
+    /// local one under a nonuniform stretch), its C(s) from the
+    /// calibration de-biased under it, handed to `use_it` as the
+    /// impedance at (recorded R, stretch, frequency).
+    fn with_model<T>(
+        &self,
+        line: Line,
+        params: Params,
+        use_it: impl FnOnce(&dyn Fn(f64, f64, f64) -> Option<num_complex::Complex64>) -> T,
+    ) -> Result<T> {
         let stretched = params.has(Effect::NonuniformStretch) || params.has(Effect::StretchBulge);
         let mut local = stretched.then(|| self.shape.local(&params));
         // The calibration's raw Cs carries the line's bias, which grows
@@ -106,21 +147,15 @@ impl Prepared {
         let [a, b, c2] = self.calibrate(&m)?;
         let cap = |s: f64| a + s * (b + s * c2);
         let at = |r: f64, s: f64, f: f64| m.impedance(r, cap(s), s, f);
-        Ok(self
-            .files
+        Ok(use_it(&at))
+    }
+
+    /// The calibration's points: (recorded R Ω, stretch mm).
+    pub fn calibration_points(&self) -> Vec<(f64, f64)> {
+        self.calibration
+            .rows
             .iter()
-            .map(|file| {
-                if file.kind == Kind::Trace && has_time(&params) {
-                    timed(file, &params, averaging, at)
-                } else {
-                    (0..file.cs.len())
-                        .map(|k| {
-                            at(file.r[k], file.s[k], file.f[k])
-                                .map_or(f64::NAN, |z| Model::series(z, file.f[k]) * 1e12)
-                        })
-                        .collect()
-                }
-            })
-            .collect())
+            .map(|r| (r.r_rec(), r.stretch_mm()))
+            .collect()
     }
 }
