@@ -355,42 +355,8 @@ fn a_million_row_trace_is_decimated_and_still_read() {
     let fx = EffectSet::NONE.with(Effect::ContactResistance, 30e3);
     dataset(dir, with_effects(fx), Meter::lcr(&fx), 7, ProgressBar::hidden()).unwrap();
     let path = dir.join("trace_20mmps_2000hz.csv");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().to_string();
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-        .collect();
     let n = 1_000_000usize;
-    let (t0, t1) = (rows[0][0], rows[rows.len() - 1][0]);
-    let mut rng = Rng::new(11);
-    let mut out = String::with_capacity(n * 64);
-    out.push_str(&header);
-    out.push('\n');
-    let mut k = 0;
-    for i in 0..n {
-        let t = t0 + (t1 - t0) * i as f64 / (n - 1) as f64;
-        while k + 2 < rows.len() && rows[k + 1][0] <= t {
-            k += 1;
-        }
-        let (a, b) = (&rows[k], &rows[k + 1]);
-        let u = ((t - a[0]) / (b[0] - a[0])).clamp(0.0, 1.0);
-        let v: Vec<f64> = a.iter().zip(b).map(|(x, y)| x + u * (y - x)).collect();
-        // time, stretch, r_top, r_bottom, freq, cs (+ 0.03 pF of noise), rs.
-        use std::fmt::Write as _;
-        writeln!(
-            out,
-            "{t:.6},{:.5},{:.0},{:.0},{},{:.5},{:.0}",
-            v[1],
-            v[2],
-            v[3],
-            v[4],
-            v[5] + 0.03 * rng.gaussian(),
-            v[6]
-        )
-        .unwrap();
-    }
-    std::fs::write(&path, out).unwrap();
+    host_sim::experiments::dense_trace(&path, n, 0.03, 11).unwrap();
     let ds = read_dir(dir).unwrap();
     let r = identify(&ds, Options::default()).unwrap();
     assert_eq!(r.decimated.len(), 1, "{:?}", r.decimated);

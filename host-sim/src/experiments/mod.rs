@@ -17,7 +17,7 @@ pub use claims::{
     compare, fig13_order, misses, parse_claims, predict_paper, provenance, provenance_table, table, Claim,
     Known, Outcome, CLAIMS_CSV,
 };
-pub use dataset::dataset;
+pub use dataset::{dataset, dense_trace};
 pub use elements::{calibration, elements};
 pub use resistance::resistance;
 pub use sweep::{sweep, sweep_freqs};
