@@ -18,6 +18,21 @@ use host_sim::model::{Effect, EffectSet};
 use indicatif::ProgressBar;
 use std::time::Duration;
 
+/// A data set of the hidden effects `fx` (noise seed `seed`), written
+/// into a folder of its own.
+fn set(fx: EffectSet, seed: u64) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    dataset(
+        dir.path(),
+        with_effects(fx),
+        Meter::lcr(&fx),
+        seed,
+        ProgressBar::hidden(),
+    )
+    .unwrap();
+    dir
+}
+
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("identify");
     g.sample_size(10).measurement_time(Duration::from_secs(30));
@@ -30,16 +45,8 @@ fn bench(c: &mut Criterion) {
             vec![(cr, 50e3), (Effect::StretchBulge, 0.3)],
         ),
     ] {
-        let dir = tempfile::tempdir().unwrap();
         let fx = effects.iter().fold(EffectSet::NONE, |fx, &(e, v)| fx.with(e, v));
-        dataset(
-            dir.path(),
-            with_effects(fx),
-            Meter::lcr(&fx),
-            3,
-            ProgressBar::hidden(),
-        )
-        .unwrap();
+        let dir = set(fx, 3);
         let ds = read_dir(dir.path()).unwrap();
         assert_eq!(ds.traces.len(), 6);
         assert!(ds.traces.iter().all(|t| t.rows.len() == 1500));
@@ -56,16 +63,7 @@ fn bench(c: &mut Criterion) {
         });
     }
     // Nothing in the library explains it.
-    let dir = tempfile::tempdir().unwrap();
-    let fx = EffectSet::NONE.with(Effect::DielectricDispersion, 0.03);
-    dataset(
-        dir.path(),
-        with_effects(fx),
-        Meter::lcr(&fx),
-        3,
-        ProgressBar::hidden(),
-    )
-    .unwrap();
+    let dir = set(EffectSet::NONE.with(Effect::DielectricDispersion, 0.03), 3);
     let ds = read_dir(dir.path()).unwrap();
     g.bench_function("unexplained_dielectric_dispersion_0.03", |b| {
         b.iter(|| {
@@ -79,16 +77,7 @@ fn bench(c: &mut Criterion) {
     // for.
     let mut g = c.benchmark_group("identify_long");
     g.sample_size(10).measurement_time(Duration::from_secs(300));
-    let dir = tempfile::tempdir().unwrap();
-    let fx = EffectSet::NONE.with(Effect::ContactResistance, 30e3);
-    dataset(
-        dir.path(),
-        with_effects(fx),
-        Meter::lcr(&fx),
-        7,
-        ProgressBar::hidden(),
-    )
-    .unwrap();
+    let dir = set(EffectSet::NONE.with(Effect::ContactResistance, 30e3), 7);
     dense_trace(&dir.path().join("trace_20mmps_2000hz.csv"), 1_000_000, 0.03, 11).unwrap();
     g.bench_function("million_row_trace_read_and_identified", |b| {
         b.iter(|| {

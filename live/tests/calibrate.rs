@@ -36,6 +36,25 @@ const SENSORS: [(f64, f64, f64, f64, f64); 2] = [
 /// Stretches held, mm.
 const HOLDS: [f64; 5] = [0.0, 5.0, 10.0, 20.0, 30.0];
 
+/// The two tones of the recorded device, Hz.
+const TONES_HZ: [f32; 2] = [1000.0, 2000.0];
+
+/// A record of sensor `sensor` at `t` s with the impedances of `tones`
+/// (Hz, Ω) and `flags`; no line.
+fn record(t: f64, sensor: usize, tones: [(f32, Complex64); 2], flags: u16) -> link::Record {
+    link::Record {
+        t_us: (t * 1e6) as u64,
+        sensor: sensor as u8,
+        tones: tones.map(|(f, z)| link::Tone {
+            f_hz: f,
+            z_re_ohm: z.re as f32,
+            z_im_ohm: z.im as f32,
+        }),
+        flags,
+        ..Default::default()
+    }
+}
+
 fn stream() -> Vec<u8> {
     let mut enc = link::Encoder::new();
     let mut out = [0u8; link::MAX_FRAME];
@@ -55,23 +74,15 @@ fn stream() -> Vec<u8> {
                 // from the move during the hold.
                 let c = c0 * (1.0 + s / 100.0);
                 let r = r0 * (1.0 - 0.003 * s) * (1.0 + 0.04 * (-(t - k as f64) / 0.3).exp());
-                let tones = [1000.0f32, 2000.0].map(|f| {
+                let tones = TONES_HZ.map(|f| {
                     let z =
                         ladder(f as f64, r, c, rs + lead * r, cp) * Complex64::new(1.0 + noise(), noise());
-                    link::Tone {
-                        f_hz: f,
-                        z_re_ohm: z.re as f32,
-                        z_im_ohm: z.im as f32,
-                    }
+                    (f, z)
                 });
                 let rec = link::Record {
-                    t_us: (t * 1e6) as u64,
-                    sensor: sensor as u8,
-                    tones,
                     c_farad: c as f32,
                     r_ohm: r as f32,
-                    flags: instrument::faults::Flags::UNCALIBRATED,
-                    ..Default::default()
+                    ..record(t, sensor, tones, instrument::faults::Flags::UNCALIBRATED)
                 };
                 bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());
             }
@@ -82,26 +93,29 @@ fn stream() -> Vec<u8> {
     for i in 0..150 {
         let t = OPEN_AT.0 + 0.004 * i as f64;
         for (sensor, &(_, _, _, _, cp)) in SENSORS.iter().enumerate() {
-            let tones = [1000.0f32, 2000.0].map(|f| {
+            let tones = TONES_HZ.map(|f| {
                 let y = Complex64::new(0.0, TAU * f as f64 * cp);
-                let z = y.inv() * Complex64::new(1.0 + 10.0 * noise(), 10.0 * noise());
-                link::Tone {
-                    f_hz: f,
-                    z_re_ohm: z.re as f32,
-                    z_im_ohm: z.im as f32,
-                }
+                (f, y.inv() * Complex64::new(1.0 + 10.0 * noise(), 10.0 * noise()))
             });
-            let rec = link::Record {
-                t_us: (t * 1e6) as u64,
-                sensor: sensor as u8,
-                tones,
-                flags: instrument::faults::Flags::UNCALIBRATED | instrument::faults::Flags::OPEN,
-                ..Default::default()
-            };
+            use instrument::faults::Flags;
+            let rec = record(t, sensor, tones, Flags::UNCALIBRATED | Flags::OPEN);
             bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());
         }
     }
     bytes
+}
+
+/// A folder holding the recording (`stream.bin`) and its holds file
+/// (`holds.csv`: each stretch from 0.1 to 0.6 s of its second).
+fn recording() -> tempfile::TempDir {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("stream.bin"), stream()).unwrap();
+    let mut holds = String::from("stretch_mm,from_s,to_s\n");
+    for (k, s) in HOLDS.iter().enumerate() {
+        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
+    }
+    std::fs::write(tmp.path().join("holds.csv"), &holds).unwrap();
+    tmp
 }
 
 /// The open fixture's span in [`stream`], s.
@@ -109,14 +123,8 @@ const OPEN_AT: (f64, f64) = (5.0, 5.6);
 
 #[test]
 fn a_recorded_calibration_is_fitted_stored_and_read_back() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = recording();
     let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
-    std::fs::write(p("stream.bin"), stream()).unwrap();
-    let mut holds = String::from("stretch_mm,from_s,to_s\n");
-    for (k, s) in HOLDS.iter().enumerate() {
-        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
-    }
-    std::fs::write(p("holds.csv"), &holds).unwrap();
     // Eight sensors in use on a new device: two with records.
     let (code, _, err) = live(&[
         "config",
@@ -263,14 +271,8 @@ fn a_device_measured_again_is_judged_by_its_stretch_at_each_hold() {
 /// and no less certain; a span with no records is refused by name.
 #[test]
 fn an_open_fixture_measures_the_cables() {
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = recording();
     let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
-    std::fs::write(p("stream.bin"), stream()).unwrap();
-    let mut holds = String::from("stretch_mm,from_s,to_s\n");
-    for (k, s) in HOLDS.iter().enumerate() {
-        holds.push_str(&format!("{s},{},{}\n", k as f64 + 0.1, k as f64 + 0.6));
-    }
-    std::fs::write(p("holds.csv"), &holds).unwrap();
     let run = |more: &[&str]| {
         let (stream, holds, flash) = (p("stream.bin"), p("holds.csv"), p("flash.bin"));
         let mut args = vec![

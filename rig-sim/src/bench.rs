@@ -380,27 +380,33 @@ mod tests {
         assert!(d.at(c.duration_s() + 4.5) < 1e-3);
     }
 
-    #[test]
-    fn windows_average_the_instant_samples_they_cover() {
-        let quiet = crate::meter::Noise {
+    /// The bench with a noiseless meter of `dynamics`, late by
+    /// `offset_s`, rows every `row_s`.
+    fn quiet(dynamics: Dynamics, offset_s: f64, row_s: f64) -> Bench {
+        let noise = crate::meter::Noise {
             floor_pf: 0.0,
             relative_500hz: 0.0,
             drift_pf: 0.0,
             resistance_relative: 0.0,
             ..crate::meter::Noise::BENCH
         };
-        let mk = |dynamics, row_s| Bench {
+        Bench {
             row_s,
             ..Bench::new(
                 Effects::default(),
                 Meter {
                     dynamics,
-                    offset_s: 0.05,
-                    noise: quiet,
+                    offset_s,
+                    noise,
                 },
                 1,
             )
-        };
+        }
+    }
+
+    #[test]
+    fn windows_average_the_instant_samples_they_cover() {
+        let mk = |dynamics, row_s| quiet(dynamics, 0.05, row_s);
         let c = Cycle::bench(20.0, 1);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let samples = mk(Dynamics::Instant, SAMPLE_S).trace(&c, 2000.0, &mut rng);
@@ -430,24 +436,7 @@ mod tests {
     /// bench's instant readings row by row.
     #[test]
     fn discrete_meters_average_their_own_readings() {
-        let quiet = crate::meter::Noise {
-            floor_pf: 0.0,
-            relative_500hz: 0.0,
-            drift_pf: 0.0,
-            resistance_relative: 0.0,
-            ..crate::meter::Noise::BENCH
-        };
-        let mk = |dynamics| {
-            Bench::new(
-                Effects::default(),
-                Meter {
-                    dynamics,
-                    offset_s: 0.0,
-                    noise: quiet,
-                },
-                1,
-            )
-        };
+        let mk = |dynamics| quiet(dynamics, 0.0, ROW_S);
         let c = Cycle::bench(20.0, 1);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let inst = mk(Dynamics::Instant).trace(&c, 2000.0, &mut rng);
