@@ -197,6 +197,23 @@ struct Obs {
     sigma: f64,
 }
 
+/// Add `z` to the values at tone `f_hz` (Hz as the records carry it).
+fn push_at(tones: &mut Tones, f_hz: f32, z: Complex64) {
+    match tones.iter_mut().find(|(f, _)| *f == f_hz) {
+        Some((_, v)) => v.push(z),
+        None => tones.push((f_hz, vec![z])),
+    }
+}
+
+/// The mean of `v` (at least two values) and the 1σ of each of its
+/// components, from their scatter.
+fn mean_sigma(v: &[Complex64]) -> (Complex64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<Complex64>() / n;
+    let var = v.iter().map(|z| (z - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
+    (mean, (var / n).sqrt())
+}
+
 /// A span of the device's clock: from, to, s.
 pub type Span = (f64, f64);
 
@@ -307,10 +324,7 @@ pub fn fit_sensor(
                     if !(z.re.is_finite() && z.im.is_finite() && z.im < 0.0) {
                         continue;
                     }
-                    match tones.iter_mut().find(|(f, _)| *f == tone.f_hz) {
-                        Some((_, v)) => v.push(z),
-                        None => tones.push((tone.f_hz, vec![z])),
-                    }
+                    push_at(tones, tone.f_hz, z);
                 }
             }
             for (_, tones) in groups {
@@ -320,10 +334,8 @@ pub fn fit_sensor(
                     if zs.len() < opts.min_records {
                         continue;
                     }
-                    let n = zs.len() as f64;
-                    let mean = zs.iter().sum::<Complex64>() / n;
-                    let var = zs.iter().map(|z| (z - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
-                    let sigma = (var / n).sqrt().max(SIGMA_FLOOR * mean.norm());
+                    let (mean, sigma) = mean_sigma(&zs);
+                    let sigma = sigma.max(SIGMA_FLOOR * mean.norm());
                     obs.push(Obs {
                         hold: k,
                         part,
@@ -368,16 +380,11 @@ pub fn fit_sensor(
                 if !(y.re.is_finite() && y.im.is_finite()) {
                     continue;
                 }
-                match tones.iter_mut().find(|(f, _)| *f == tone.f_hz) {
-                    Some((_, v)) => v.push(y),
-                    None => tones.push((tone.f_hz, vec![y])),
-                }
+                push_at(&mut tones, tone.f_hz, y);
             }
         }
         for (f, ys) in tones.into_iter().filter(|(_, v)| v.len() >= opts.min_records) {
-            let n = ys.len() as f64;
-            let mean = ys.iter().sum::<Complex64>() / n;
-            let var = ys.iter().map(|y| (y - mean).norm_sqr()).sum::<f64>() / (2.0 * (n - 1.0));
+            let (mean, sigma) = mean_sigma(&ys);
             obs.push(Obs {
                 hold: OPEN,
                 part: OPEN,
@@ -385,9 +392,7 @@ pub fn fit_sensor(
                 z: mean,
                 // Floored as the holds' (relative to |Y| of 1 pF at
                 // the tone, for a cable of none).
-                sigma: (var / n)
-                    .sqrt()
-                    .max(SIGMA_FLOOR * mean.norm().max(TAU * f as f64 * 1e-12)),
+                sigma: sigma.max(SIGMA_FLOOR * mean.norm().max(TAU * f as f64 * 1e-12)),
             });
         }
         if !obs.iter().any(|o| o.hold == OPEN) {
