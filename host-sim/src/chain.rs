@@ -234,52 +234,65 @@ pub struct LcrMeter {
 /// A meter's average of its own readings (Cs, Rs) in discrete time: a
 /// running mean of N, or a weighted mean of memory m, settled on its
 /// first reading (the sensor at rest before the run).
-struct ReadingAverage {
-    mean_readings: f64,
-    memory: f64,
-    history: std::collections::VecDeque<(f64, f64)>,
+enum ReadingAverage {
+    /// The readings as they are.
+    None,
+    /// The mean of the last `n` (a fraction weighs the oldest in part),
+    /// newest first.
+    Mean {
+        n: f64,
+        history: std::collections::VecDeque<(f64, f64)>,
+    },
+    /// y = (1 − m)·x + m·y.
+    Weighted { m: f64, state: Option<(f64, f64)> },
 }
 
 impl ReadingAverage {
     fn new(lcr: &LcrMeter) -> Self {
-        Self {
-            mean_readings: lcr.mean_readings,
-            memory: lcr.ewma_memory,
-            history: Default::default(),
+        if lcr.mean_readings > 0.0 {
+            Self::Mean {
+                n: lcr.mean_readings.max(1.0),
+                history: Default::default(),
+            }
+        } else if lcr.ewma_memory > 0.0 {
+            Self::Weighted {
+                m: lcr.ewma_memory,
+                state: None,
+            }
+        } else {
+            Self::None
         }
     }
 
     /// The average after the reading `x`.
     fn push(&mut self, x: (f64, f64)) -> (f64, f64) {
-        if self.mean_readings > 0.0 {
-            let n = self.mean_readings.max(1.0);
-            let keep = n.ceil() as usize;
-            if self.history.is_empty() {
-                self.history.extend(std::iter::repeat_n(x, keep));
+        match self {
+            Self::None => x,
+            Self::Mean { n, history } => {
+                let keep = n.ceil() as usize;
+                if history.is_empty() {
+                    history.extend(std::iter::repeat_n(x, keep));
+                }
+                history.push_front(x);
+                history.truncate(keep);
+                let whole = n.floor() as usize;
+                let part = *n - whole as f64;
+                let mut sum = history
+                    .iter()
+                    .take(whole)
+                    .fold((0.0, 0.0), |a, r| (a.0 + r.0, a.1 + r.1));
+                if part > 0.0 {
+                    let r = history[whole.min(keep - 1)];
+                    sum = (sum.0 + part * r.0, sum.1 + part * r.1);
+                }
+                (sum.0 / *n, sum.1 / *n)
             }
-            self.history.push_front(x);
-            self.history.truncate(keep);
-            let whole = n.floor() as usize;
-            let part = n - whole as f64;
-            let mut sum = self
-                .history
-                .iter()
-                .take(whole)
-                .fold((0.0, 0.0), |a, r| (a.0 + r.0, a.1 + r.1));
-            if part > 0.0 {
-                let r = self.history[whole.min(keep - 1)];
-                sum = (sum.0 + part * r.0, sum.1 + part * r.1);
+            Self::Weighted { m, state } => {
+                let y = state.unwrap_or(x);
+                let y = ((1.0 - *m) * x.0 + *m * y.0, (1.0 - *m) * x.1 + *m * y.1);
+                *state = Some(y);
+                y
             }
-            (sum.0 / n, sum.1 / n)
-        } else if self.memory > 0.0 {
-            let m = self.memory;
-            let y = self.history.front().copied().unwrap_or(x);
-            let y = ((1.0 - m) * x.0 + m * y.0, (1.0 - m) * x.1 + m * y.1);
-            self.history.clear();
-            self.history.push_front(y);
-            y
-        } else {
-            x
         }
     }
 }

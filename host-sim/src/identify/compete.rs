@@ -28,7 +28,7 @@ pub struct Competitor {
 
 /// The frequencies a separating sweep is sought at, Hz.
 const SWEEP_HZ: [f64; 13] = [
-    100.0, 200.0, 500.0, 1e3, 2e3, 5e3, 1e4, 2e4, 5e4, 1e5, 150.0, 3e3, 3e4,
+    100.0, 150.0, 200.0, 500.0, 1e3, 2e3, 3e3, 5e3, 1e4, 2e4, 3e4, 5e4, 1e5,
 ];
 
 /// A difference a sweep resolves: this many times the noise floor.

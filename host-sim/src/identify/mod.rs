@@ -395,7 +395,7 @@ fn run_candidates(
     problems: &[Problem; 2],
     coarse: &[Problem; 2],
     cands: Vec<Candidate>,
-    row_s: f64,
+    rows: Rows,
     progress: &ProgressBar,
 ) -> Vec<Fit> {
     progress.inc_length(cands.len() as u64);
@@ -408,7 +408,7 @@ fn run_candidates(
                 sc.spawn(move || {
                     let f = prob
                         .fit(coarse, &c.fitted, c.start, &c.scan)
-                        .map(|f| (c.key, named(f, c.averaging, row_s)));
+                        .map(|f| (c.key, named(f, c.averaging, rows)));
                     progress.inc(1);
                     f
                 })
@@ -439,13 +439,14 @@ fn run_candidates(
 /// it is computed from, which a fit rewards. Such a fit is marked
 /// [`Fit::unresolved`]: `time_offset` stands for it unless a delay does
 /// not explain the data.
-fn named(mut f: Fit, averaging: Averaging, row_s: f64) -> Fit {
+fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
+    let Rows { row_s, reading_s } = rows;
     let p = f.params;
     let memory = p.get(Effect::MeterEwma);
     let centroid = 0.5 * p.get(Effect::MeterLag)
         + p.get(Effect::MeterResponse)
-        + 0.5 * (p.get(Effect::MeterMean) - 1.0).max(0.0) * row_s
-        + memory / (1.0 - memory).max(1e-9) * row_s;
+        + 0.5 * (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s
+        + memory / (1.0 - memory).max(1e-9) * reading_s;
     if f.fitted.iter().any(|e| KERNELS.contains(e)) && centroid < row_s {
         f.unresolved = Some(format!(
             "kernel centroid {:.1} ms under the row interval {:.1} ms: not resolved from a delay",
@@ -566,7 +567,10 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         problems: averagings.map(|a| problem(base.line, a)),
         coarse: averagings.map(|a| weighting.problem(&coarse_prep, base.line, a)),
         library: library(&prep),
-        row_s: row_interval(&prep),
+        rows: Rows {
+            row_s: row_interval(&prep),
+            reading_s: prep.search.row_s,
+        },
         progress,
     };
     selection.select(&base, &mut report);
@@ -753,8 +757,19 @@ struct Selection<'a, 'p> {
     /// The same on the coarse copy (the grids).
     coarse: [Problem<'a>; 2],
     library: Vec<Effect>,
-    row_s: f64,
+    rows: Rows,
     progress: &'p ProgressBar,
+}
+
+/// The time grids a fit is named on.
+#[derive(Clone, Copy, Debug)]
+struct Rows {
+    /// The rows the fits see (a trace's median step after decimation),
+    /// s: what the data resolve.
+    row_s: f64,
+    /// The rows as recorded (before decimation), s: one reading of a
+    /// discrete meter kernel.
+    reading_s: f64,
 }
 
 impl Selection<'_, '_> {
@@ -765,7 +780,7 @@ impl Selection<'_, '_> {
             &self.problems,
             &self.coarse,
             candidates(&self.library, base),
-            self.row_s,
+            self.rows,
             self.progress,
         );
         v.sort_by(|a, b| {
