@@ -371,7 +371,9 @@ fn amplitude(x: Complex<i64>, n: u32) -> f32 {
         return 0.0;
     }
     let (re, im) = (x.re as f64, x.im as f64);
-    (libm::sqrt(re * re + im * im) * 2.0 / (32767.0 * n as f64)) as f32
+    // |X|² in f64 (exact to 2⁻⁵³), its root in f32 (correctly rounded on
+    // every target, [`crate::fmath::sqrt`]).
+    crate::fmath::sqrt((re * re + im * im) as f32) * (2.0 / (32767.0 * n as f32))
 }
 
 /// What none of several tones explains: the rms of one block after
@@ -415,5 +417,5 @@ fn residual_of(sum: i64, sq: i64, xs: impl Iterator<Item = Complex<i64>>, n: u32
         let (re, im) = (x.re as f64, x.im as f64);
         e -= 2.0 * (re * re + im * im) / (n * REF * REF);
     }
-    libm::sqrt(e.max(0.0) / n) as f32
+    crate::fmath::sqrt((e.max(0.0) / n) as f32)
 }

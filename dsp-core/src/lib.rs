@@ -16,6 +16,7 @@
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
 //! | [`fmath`] | f32 square root: one FPU instruction on the target, libm's bits on the host |
+//! | [`dielectric`] | the film's dielectric loss, in the line and out of a single tone's inversion |
 //! | [`fixture`] | de-embedding contacts and parasitic capacitance found by `identify` |
 //! | [`invert`] | true line C and R from one measured impedance |
 //! | [`track`] | the line over successive blocks: branch choice, plausibility, holds |
@@ -61,6 +62,7 @@ pub type Complex32 = Complex<f32>;
 pub mod comb;
 pub mod cossin;
 pub mod demod;
+pub mod dielectric;
 mod fixed;
 pub mod fixture;
 pub mod fmath;

@@ -29,7 +29,27 @@
 //! (counts rms, what the tones do not explain) per channel, each
 //! component of the phasor V has a relative 1σ of r·√2/(A·√N), and Z =
 //! k·V/I adds the voltage's and the current's in quadrature.
+//!
+//! # The film's loss
+//! A real film's C is C·(1 − j·tan δ) ([`crate::dielectric`]): the model
+//! takes it in to first order, Z(R, C) + u·∂Z/∂ln C with
+//! u = ln(1 − j·tan δ). Ignored, a tan δ of 10⁻³ moves the two tones'
+//! lines apart by more than their noise on a strong signal, and one of
+//! 10⁻² moves the joint C by 0.7 %.
+//!
+//! The film's tan δ is known only to within its material's spread, so it
+//! is a third parameter of the fit with that knowledge as a prior:
+//! (t − t₀)²/σ_t² joins χ² as a fifth residual. Four measured numbers and
+//! one prior for three parameters leave χ² 2 degrees of freedom (nearer
+//! 1 where the tones fix tan δ far better than its prior does), and
+//! the σ of C from the 3×3 covariance carries what the loss is not known
+//! to. An undeclared effect can hide in the loss only as far as its
+//! frequency signature (a resistance ∝ 1/f) and the prior allow; a film
+//! outside its prior raises χ² like any other effect the model lacks.
+//! With σ_t = 0 ([`Dielectric::IDEAL`], or a film measured exactly) the
+//! fit is of (R, C) alone.
 
+use crate::dielectric::Dielectric;
 use crate::invert::{InvertError, Inverter, Line};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -79,12 +99,16 @@ pub struct Solution {
     /// nothing of the joint fit, whose error is [`Solution::sigma_ln_c`]
     /// ([`Inverter::kappa`] gives it, at ≈ 2500 instructions, if wanted).
     pub line: Line,
-    /// χ² of the fit (2 degrees of freedom on a uniform line).
+    /// χ² of the fit, the film's prior included (2 degrees of freedom on
+    /// a uniform line).
     pub chi2: f32,
     /// 1σ relative error of C from the fit's covariance.
     pub sigma_ln_c: f32,
     /// 1σ relative error of R from the fit's covariance.
     pub sigma_ln_r: f32,
+    /// The film's loss tangent the fit found (its prior's mean when the
+    /// prior's σ is 0).
+    pub loss_tangent: f32,
 }
 
 impl Solution {
@@ -108,11 +132,12 @@ pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> 
     crate::fmath::sqrt((z.re * z.re + z.im * z.im) * (2.0 / n as f32) * (ev * ev + ei * ei))
 }
 
-/// The line both `tones` fit, starting from the single-tone inversions
-/// (the branch chosen nearest `c_hint_farad`, as
+/// The line both `tones` fit, on a film `d` (its loss fitted within its
+/// prior), starting from the single-tone
+/// inversions (the branch chosen nearest `c_hint_farad`, as
 /// [`Inverter::invert_near`]); an error when neither tone inverts, or a
 /// σ is not finite and positive.
-pub fn solve(inv: &Inverter, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Solution, InvertError> {
+pub fn solve(inv: &Inverter, d: &Dielectric, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Solution, InvertError> {
     check(tones)?;
     // The higher tone resolves R best; the lower one starts where the
     // higher is ambiguous or out of range.
@@ -124,7 +149,7 @@ pub fn solve(inv: &Inverter, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Sol
             Err(_) => return Err(e_hi),
         },
     };
-    refine(inv, [lo, hi], start.r_ohm, start.c_farad)
+    refine(inv, d, [lo, hi], start.r_ohm, start.c_farad)
 }
 
 /// The line both `tones` fit, starting from a known line (`r_ohm`,
@@ -134,6 +159,7 @@ pub fn solve(inv: &Inverter, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Sol
 /// it); a start beyond x = [`crate::tline::X_MAX`] is an error.
 pub fn solve_from(
     inv: &Inverter,
+    d: &Dielectric,
     tones: &[Tone; 2],
     r_ohm: f32,
     c_farad: f32,
@@ -143,7 +169,7 @@ pub fn solve_from(
         return Err(InvertError::BadPrior);
     }
     let (lo, hi) = ordered(tones);
-    refine(inv, [lo, hi], r_ohm, c_farad)
+    refine(inv, d, [lo, hi], r_ohm, c_farad)
 }
 
 fn check(tones: &[Tone; 2]) -> Result<(), InvertError> {
@@ -167,29 +193,30 @@ fn ordered(tones: &[Tone; 2]) -> (Tone, Tone) {
     }
 }
 
-/// Gauss–Newton on (ln R, ln C) from (r, c); `tones` lower first.
-fn refine(inv: &Inverter, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, InvertError> {
+/// Gauss–Newton on p = (ln R, ln C, tan δ) from (r, c, the film's t₀);
+/// `tones` lower first. With the film's σ_t = 0, tan δ stays at t₀ and
+/// the normal equations are those of (ln R, ln C) alone.
+fn refine(inv: &Inverter, film: &Dielectric, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, InvertError> {
     let hi = tones[1];
-    let mut p = [libm::logf(r), libm::logf(c)];
-    let mut fit = evaluate(inv, &tones, p)?;
+    let fitted = film.spread > 0.0;
+    let mut p = [libm::logf(r), libm::logf(c), film.loss_tangent];
+    let mut fit = evaluate(inv, film, &tones, p)?;
     for _ in 0..ITERATIONS {
-        // Normal equations of the 4 weighted residuals in (ln R, ln C).
-        let (a, g) = (fit.jtj, fit.jtr);
-        let det = a[0] * a[2] - a[1] * a[1];
-        if !(det.is_finite() && det > 0.0) {
+        let Some(d) = step(&fit, fitted) else {
             break;
-        }
-        let d = [
-            (a[2] * g[0] - a[1] * g[1]) / det,
-            (a[0] * g[1] - a[1] * g[0]) / det,
-        ];
-        // Never more than a factor e per step (the start is close). max/min,
-        // not clamp: its checks would link core's float formatting into
-        // the firmware (as in `invert`).
+        };
+        // Never more than a factor e per step in R and C (the start is
+        // close), nor more than 10⁻² in tan δ. max/min, not clamp: its
+        // checks would link core's float formatting into the firmware (as
+        // in `invert`).
         #[allow(clippy::manual_clamp)]
-        let clamp = |v: f32| v.max(-1.0).min(1.0);
-        let q = [p[0] + clamp(d[0]), p[1] + clamp(d[1])];
-        let Ok(next) = evaluate(inv, &tones, q) else {
+        let clamp = |v: f32, m: f32| v.max(-m).min(m);
+        let q = [
+            p[0] + clamp(d[0], 1.0),
+            p[1] + clamp(d[1], 1.0),
+            p[2] + clamp(d[2], 1e-2),
+        ];
+        let Ok(next) = evaluate(inv, film, &tones, q) else {
             break;
         };
         if next.chi2 > fit.chi2 {
@@ -205,13 +232,7 @@ fn refine(inv: &Inverter, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, 
     }
     let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
     let x = TAU * hi.f_hz * r * c;
-    let a = fit.jtj;
-    let det = a[0] * a[2] - a[1] * a[1];
-    let (var_r, var_c) = if det > 0.0 {
-        (a[2] / det, a[0] / det)
-    } else {
-        (f32::INFINITY, f32::INFINITY)
-    };
+    let (var_r, var_c) = covariance(&fit.jtj, fitted).unwrap_or((f32::INFINITY, f32::INFINITY));
     Ok(Solution {
         line: Line {
             r_ohm: r,
@@ -222,42 +243,119 @@ fn refine(inv: &Inverter, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, 
         chi2: fit.chi2,
         sigma_ln_c: crate::fmath::sqrt(var_c),
         sigma_ln_r: crate::fmath::sqrt(var_r),
+        loss_tangent: p[2],
     })
 }
 
-/// χ², JᵀJ (symmetric: [a₀₀, a₀₁, a₁₁]) and Jᵀr (r = measured − model,
-/// weighted) at p = (ln R, ln C).
-struct Evaluated {
-    chi2: f32,
-    jtj: [f32; 3],
-    jtr: [f32; 2],
+/// The Gauss–Newton step of the normal equations A·d = g, over
+/// (ln R, ln C) or, with the loss `fitted`, (ln R, ln C, tan δ) (by
+/// Cramer's rule; A symmetric positive definite at a fit that
+/// constrains its parameters); `None` when A is singular.
+fn step(fit: &Evaluated, fitted: bool) -> Option<[f32; 3]> {
+    let (a, g) = (&fit.jtj, &fit.jtr);
+    if !fitted {
+        let det = a[0] * a[3] - a[1] * a[1];
+        if !(det.is_finite() && det > 0.0) {
+            return None;
+        }
+        return Some([(a[3] * g[0] - a[1] * g[1]) / det, (a[0] * g[1] - a[1] * g[0]) / det, 0.0]);
+    }
+    let m = full(a);
+    let det = det3(&m);
+    if !(det.is_finite() && det > 0.0) {
+        return None;
+    }
+    let col = |k: usize| {
+        let mut mk = m;
+        for (row, gv) in mk.iter_mut().zip(g) {
+            row[k] = *gv;
+        }
+        det3(&mk) / det
+    };
+    Some([col(0), col(1), col(2)])
 }
 
-fn evaluate(inv: &Inverter, tones: &[Tone; 2], p: [f32; 2]) -> Result<Evaluated, InvertError> {
-    let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
+/// The variances of ln R and ln C: the diagonal of A⁻¹ over the fitted
+/// parameters; `None` when A is singular.
+fn covariance(a: &[f32; 6], fitted: bool) -> Option<(f32, f32)> {
+    if !fitted {
+        let det = a[0] * a[3] - a[1] * a[1];
+        return (det > 0.0).then(|| (a[3] / det, a[0] / det));
+    }
+    let m = full(a);
+    let det = det3(&m);
+    // The cofactors of the diagonal's first two entries.
+    (det > 0.0).then(|| {
+        (
+            (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det,
+            (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det,
+        )
+    })
+}
+
+/// The symmetric 3×3 matrix of its upper triangle [a₀₀, a₀₁, a₀₂, a₁₁,
+/// a₁₂, a₂₂].
+fn full(a: &[f32; 6]) -> [[f32; 3]; 3] {
+    [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]
+}
+
+fn det3(m: &[[f32; 3]; 3]) -> f32 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+}
+
+/// χ², JᵀJ (symmetric, its upper triangle [a₀₀, a₀₁, a₀₂, a₁₁, a₁₂,
+/// a₂₂]) and Jᵀr (r = measured − model, weighted by the noise) at
+/// p = (ln R, ln C, tan δ): the film's loss u = ln(1 − j·tan δ) in the
+/// model to first order (the R and C columns of the Jacobian left
+/// lossless: an O(tan δ) change of the step, not of where it converges),
+/// and the film's prior as a fifth residual.
+struct Evaluated {
+    chi2: f32,
+    jtj: [f32; 6],
+    jtr: [f32; 3],
+}
+
+fn evaluate(inv: &Inverter, film: &Dielectric, tones: &[Tone; 2], p: [f32; 3]) -> Result<Evaluated, InvertError> {
+    let (r, c, t) = (libm::expf(p[0]), libm::expf(p[1]), p[2]);
+    let (u, du) = Dielectric::u(t);
     let mut e = Evaluated {
         chi2: 0.0,
-        jtj: [0.0; 3],
-        jtr: [0.0; 2],
+        jtj: [0.0; 6],
+        jtr: [0.0; 3],
     };
-    for t in tones {
-        let w = TAU * t.f_hz;
+    for tone in tones {
+        let w = TAU * tone.f_hz;
         let x = w * r * c;
-        let scale = 1.0 / (w * c * t.sigma_ohm);
+        let scale = 1.0 / (w * c * tone.sigma_ohm);
         let zeta = inv.zeta_at(x)?;
         // dζ/d ln x by a forward difference.
         let dz = (inv.zeta_at(x * E_H)? - zeta) / H;
-        // Weighted model and its derivatives in ln R and ln C.
-        let model = zeta * scale;
+        // Weighted model and its derivatives in ln R, ln C and tan δ.
         let d_r = dz * scale;
         let d_c = (dz - zeta) * scale;
-        let res = t.z / t.sigma_ohm - model;
+        let d_t = du * d_c;
+        let model = zeta * scale + u * d_c;
+        let res = tone.z / tone.sigma_ohm - model;
         e.chi2 += res.norm_sqr();
-        e.jtj[0] += d_r.norm_sqr();
-        e.jtj[1] += d_r.re * d_c.re + d_r.im * d_c.im;
-        e.jtj[2] += d_c.norm_sqr();
-        e.jtr[0] += d_r.re * res.re + d_r.im * res.im;
-        e.jtr[1] += d_c.re * res.re + d_c.im * res.im;
+        let dot = |a: Complex32, b: Complex32| a.re * b.re + a.im * b.im;
+        let cols = [d_r, d_c, d_t];
+        let mut k = 0;
+        for i in 0..3 {
+            e.jtr[i] += dot(cols[i], res);
+            for j in i..3 {
+                e.jtj[k] += dot(cols[i], cols[j]);
+                k += 1;
+            }
+        }
+    }
+    if film.spread > 0.0 {
+        // The prior: (t₀ − t)/σ_t, its derivative in t 1/σ_t.
+        let res = (film.loss_tangent - t) / film.spread;
+        let d = 1.0 / film.spread;
+        e.chi2 += res * res;
+        e.jtj[5] += d * d;
+        e.jtr[2] += d * res;
     }
     if e.chi2.is_finite() {
         Ok(e)

@@ -4,9 +4,10 @@
 //! a uniform line does not have (contacts, a parasitic capacitance).
 
 mod common;
-use common::{log_grid, rms_max, zeta_ref};
+use common::{log_grid, rms_max, z_lossy, zeta_ref};
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
+use dsp_core::dielectric::Dielectric;
 use dsp_core::twotone::{solve, solve_from, z_sigma, Tone, CHI2_FLAG};
 use dsp_core::Complex32;
 use num_complex::Complex64;
@@ -57,7 +58,7 @@ fn the_joint_line_is_the_reference_line_across_the_range() {
                         let z = z_ref(model, lead, r, c, f, 0.0, 0.0);
                         tone(z, f, 1e-4 * z.norm())
                     });
-                    let s = solve(&inv, &tones, 1.05 * c as f32)
+                    let s = solve(&inv, &Dielectric::IDEAL, &tones, 1.05 * c as f32)
                         .unwrap_or_else(|e| panic!("{model:?} ℓ {lead} x {x_hi} ratio {ratio}: {e}"));
                     ec.push(s.line.c_farad as f64 / c - 1.0);
                     er.push(s.line.r_ohm as f64 / r - 1.0);
@@ -105,7 +106,7 @@ fn draws(
             let zn = z + Complex64::new(s * a, s * b);
             tone(zn, f, s)
         });
-        let s = solve(&inv, &tones, c as f32).unwrap();
+        let s = solve(&inv, &Dielectric::IDEAL, &tones, c as f32).unwrap();
 
         chi.push(s.chi2 as f64);
         lnc.push((s.line.c_farad as f64 / c).ln());
@@ -191,9 +192,9 @@ fn a_tracked_start_converges_to_the_same_line() {
                 let z = z_ref(model, 0.9, r, c, f, 0.0, 0.0);
                 tone(z, f, 1e-4 * z.norm())
             });
-            let full = solve(&inv, &tones, c as f32).unwrap();
+            let full = solve(&inv, &Dielectric::IDEAL, &tones, c as f32).unwrap();
             for (kr, kc) in [(1.25, 1.25), (0.75, 1.25), (1.25, 0.75), (0.75, 0.75)] {
-                let t = solve_from(&inv, &tones, (kr * r) as f32, (kc * c) as f32)
+                let t = solve_from(&inv, &Dielectric::IDEAL, &tones, (kr * r) as f32, (kc * c) as f32)
                     .unwrap_or_else(|e| panic!("x {x_hi} ratio {ratio} start {kr} {kc}: {e}"));
                 let ec = (t.line.c_farad / full.line.c_farad - 1.0).abs() as f64;
                 let er = (t.line.r_ohm / full.line.r_ohm - 1.0).abs() as f64;
@@ -211,9 +212,72 @@ fn a_tracked_start_converges_to_the_same_line() {
     );
     assert!(solve_from(
         &inv,
+        &Dielectric::IDEAL,
         &[tone(Complex64::new(1e5, -1e6), 1e3, 10.0); 2],
         -1.0,
         1e-10
     )
     .is_err());
+}
+
+/// A lossy film: with its tan δ taken into the fit, the line comes back
+/// as on a lossless one (C within 2·10⁻⁴, the first-order model's u²
+/// term) and χ² stays at the noise's; ignored, tan δ = 10⁻² moves C by
+/// 0.7 % and χ² far past the flag. With the loss fitted within the
+/// silicone film's prior, a film 2σ (2·10⁻³) off the prior's mean reads
+/// as 4 in χ² (the prior's residual) even on strong signals (σ 10⁻⁵ of
+/// |Z|), and C stays as exact as with the loss known.
+#[test]
+fn a_lossy_film_is_fitted_with_its_loss() {
+    let (r, c) = (700e3, 210e-12);
+    let inv = |lead: f64| Inverter::with_leads(LineModel::Continuous, 10.0, lead as f32).unwrap();
+    let lossy = |t: f64| Dielectric {
+        loss_tangent: t as f32,
+        spread: 0.0,
+    };
+    let (mut known, mut ignored, mut chi_known, mut chi_ignored) = (0f64, 0f64, 0f64, 0f64);
+    let (mut off, mut chi_off) = (0f64, 0f64);
+    for lead in LEADS {
+        let inv = inv(lead);
+        for tan_d in [1e-3, 3e-3, 1e-2] {
+            for x_hi in log_grid(0.1, X_HI.1, 20) {
+                for ratio in RATIOS {
+                    let f_hi = x_hi / (TAU * r * c);
+                    let at = |sigma: f64| {
+                        [f_hi / ratio, f_hi].map(|f| {
+                            let z = z_lossy(lead, r, c, f, tan_d);
+                            tone(z, f, sigma * z.norm())
+                        })
+                    };
+                    let tones = at(1e-4);
+                    let k = solve(&inv, &lossy(tan_d), &tones, c as f32).unwrap();
+                    known = known.max((k.line.c_farad as f64 / c - 1.0).abs());
+                    chi_known = chi_known.max(k.chi2 as f64);
+                    if let Ok(i) = solve(&inv, &Dielectric::IDEAL, &tones, c as f32) {
+                        if tan_d == 1e-2 {
+                            ignored = ignored.max((i.line.c_farad as f64 / c - 1.0).abs());
+                            chi_ignored = chi_ignored.max(i.chi2 as f64);
+                        }
+                    }
+                    // Assumed 2σ off, on strong signals, the loss fitted.
+                    if tan_d < 1e-2 {
+                        let d = Dielectric {
+                            loss_tangent: (tan_d + 2e-3) as f32,
+                            ..Dielectric::SILICONE
+                        };
+                        let s = solve(&inv, &d, &at(1e-5), c as f32).unwrap();
+                        off = off.max((s.line.c_farad as f64 / c - 1.0).abs());
+                        chi_off = chi_off.max(s.chi2 as f64);
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "lossy film: C within {known:.1e} (χ² ≤ {chi_known:.2}) with its loss, {ignored:.1e} (χ² ≤ {chi_ignored:.0}) without; \
+         2·10⁻³ off its assumed loss: C within {off:.1e}, χ² ≤ {chi_off:.2}"
+    );
+    assert!(known < 2e-4 && chi_known < 1.0, "known loss: C {known}, χ² {chi_known}");
+    assert!(ignored > 0.005 && chi_ignored > 1e3, "ignored loss: C {ignored}, χ² {chi_ignored}");
+    assert!(off < 2e-4 && chi_off < 5.0, "loss off by 2e-3: C {off}, χ² {chi_off}");
 }

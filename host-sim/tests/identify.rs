@@ -71,7 +71,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         // 3–12 readings of 20 ms; a memory of 0.3–0.85 (τ of 0.4–5.7 rows).
         Effect::MeterMean => (3.0, 12.0, false),
         Effect::MeterEwma => (0.3, 0.85, false),
-        Effect::DielectricDispersion => unreachable!("not in the library"),
+        Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -101,7 +101,7 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         // memory from 0.1 to 0.98 (τ to 49 rows, 1 s).
         Effect::MeterMean => (2.0, 50.0, false),
         Effect::MeterEwma => (0.1, 0.98, false),
-        Effect::DielectricDispersion => unreachable!("not in the library"),
+        Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
     };
     log_uniform(lo, hi, signed, rng)
 }

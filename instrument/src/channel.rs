@@ -9,6 +9,7 @@ use crate::ranging::Ranging;
 use crate::sensor::Sensors;
 use crate::sequencer::Plan;
 use dsp_core::demod::{FrontEnd, Phasors};
+use dsp_core::dielectric::{self, Dielectric};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
@@ -20,6 +21,10 @@ pub struct Settings<'a, const N: usize, const S: usize> {
     pub policy: Policy,
     /// Fault thresholds.
     pub thresholds: Thresholds,
+    /// The film between the electrodes: its loss tangent is taken out of
+    /// each line, its spread bounds the error that leaves
+    /// ([`dsp_core::dielectric::correct`]).
+    pub dielectric: Dielectric,
     /// Front end (transimpedance) for Z = k·V/I, one per range.
     pub front_ends: [FrontEnd; RANGES],
     /// Auto-ranging of the transimpedance stage.
@@ -33,12 +38,14 @@ pub struct Settings<'a, const N: usize, const S: usize> {
 
 impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
     /// The settings every multiplexed application starts from: the
-    /// default policy and thresholds; the front end's ranges and the
-    /// sensors are the application's.
+    /// default policy and thresholds, a silicone film
+    /// ([`Dielectric::SILICONE`]); the front end's ranges and the sensors
+    /// are the application's.
     pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging, sensors: &'a Sensors<N, S>) -> Self {
         Self {
             policy: Policy::DEFAULT,
             thresholds: Thresholds::DEFAULT,
+            dielectric: Dielectric::SILICONE,
             front_ends,
             ranging,
             sensors,
@@ -263,29 +270,40 @@ impl Channel {
         };
         match sensor.tracker.update(&mut self.track, z, f) {
             Ok(t) => {
-                rec.c_farad = t.line.c_farad;
-                rec.r_ohm = t.line.r_ohm;
-                let (stretch, status) = sensor.read(t.line.c_farad, th.c_tolerance);
+                // The film's loss out of the line; what its spread could
+                // still move C by joins the error bound: two of its σ, the
+                // range its material measures (a silicone's 1–5·10⁻³).
+                let (line, loss_error) = if t.held {
+                    (t.line, 0.0)
+                } else {
+                    match dielectric::correct(sensor.tracker.inverter(), &t.line, f, &s.dielectric) {
+                        Ok(k) => (k.line, 2.0 * s.dielectric.spread * k.dlnc_dtan),
+                        Err(_) => (t.line, f32::INFINITY),
+                    }
+                };
+                rec.c_farad = line.c_farad;
+                rec.r_ohm = line.r_ohm;
+                let (stretch, status) = sensor.read(line.c_farad, th.c_tolerance);
                 rec.stretch_mm = stretch;
                 rec.flags.set(status);
                 if t.held {
                     rec.flags.set(Flags::HELD);
                 } else {
                     let periods = crate::config::PERIODS[crate::config::index(self.policy.index)];
-                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa, periods);
+                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa, periods) + loss_error;
                     // The bound is never NaN (c_error_bound makes it ∞).
-                    if bound > th.c_tolerance {
+                    if !(bound <= th.c_tolerance) {
                         rec.flags.set(Flags::UNCERTAIN);
                     }
                 }
-                if t.line.r_ohm > th.r_max_ohm {
+                if line.r_ohm > th.r_max_ohm {
                     rec.flags.set(Flags::RANGE);
                     if !self.pinned {
                         s.policy.fallback(&mut self.policy);
                     }
                 } else if !t.held && !self.pinned {
                     s.policy
-                        .update(&mut self.policy, t.line.r_ohm, t.line.c_farad, dt);
+                        .update(&mut self.policy, line.r_ohm, line.c_farad, dt);
                 }
             }
             Err(_) => {

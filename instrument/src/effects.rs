@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 15;
+pub const COUNT: usize = 16;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -170,6 +170,11 @@ pub enum Effect {
     /// y_k = (1 − m)·x_k + m·y_(k−1), m the memory (0: none), 0…1. A
     /// delay of whole readings is a [`Effect::TimeOffset`] fitted with it.
     MeterEwma,
+    /// Dielectric loss: the film's permittivity is ε'·(1 − j·tan δ), so
+    /// each length of the line has a conductance ω·C·tan δ beside its
+    /// capacitance (the polymer's dipolar relaxation; frequency-flat over
+    /// the instrument's band). The loss tangent tan δ, 0…1.
+    DielectricLoss,
 }
 
 impl Effect {
@@ -190,6 +195,7 @@ impl Effect {
         Effect::ResistanceBulge,
         Effect::MeterMean,
         Effect::MeterEwma,
+        Effect::DielectricLoss,
     ];
 
     /// Its entry in the catalogue: the catalogue itself, one entry per
@@ -469,6 +475,25 @@ impl Effect {
                 scope: Scope::Recording,
                 entry: Entry::Time,
                 fitted: true,
+            },
+            // Physical range: silicone films (PDMS, the paper's) have
+            // tan δ ≈ 1–5·10⁻³ at 0.1–10 kHz, acrylic (VHB) films
+            // 1–5·10⁻², more when warm, wet or filled; 1 would be a film
+            // that conducts as much as it stores.
+            Effect::DielectricLoss => &Info {
+                id: "dielectric_loss",
+                key: "loss_tangent",
+                doc: "loss tangent tan δ of the film (a conductance ω·C·tan δ with each length's C), 0..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (0.0, 1.0),
+                open: false,
+                search: (0.0, 0.1),
+                scope: Scope::Sensor,
+                entry: Entry::Dielectric,
+                fitted: false,
             },
         }
     }

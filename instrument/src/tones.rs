@@ -20,6 +20,7 @@ use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
+use dsp_core::dielectric::Dielectric;
 use dsp_core::twotone::{self, Tone};
 use dsp_core::Complex32;
 
@@ -35,6 +36,10 @@ pub struct ToneSettings<'a, const N: usize> {
     /// Each sensor: its line model and inversion (its tab leads), its
     /// wiring, its stretch table.
     pub sensors: &'a Sensors<N, SENSORS>,
+    /// The film between the electrodes: its loss tangent, taken into the
+    /// line, and the model's error floor added to each tone's noise
+    /// ([`dsp_core::twotone::Dielectric`]).
+    pub dielectric: Dielectric,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
     /// One block's records reported in every this many
@@ -48,15 +53,17 @@ pub struct ToneSettings<'a, const N: usize> {
 
 impl<'a, const N: usize> ToneSettings<'a, N> {
     /// The settings every array application starts from: the default
-    /// policy, the array's thresholds, the model check's flag at a 10⁻⁴
-    /// false rate for the block's residual degrees of freedom; the front
-    /// end and the sensors are the application's.
+    /// policy, the array's thresholds, a silicone film
+    /// ([`Dielectric::SILICONE`]), the model check's flag at a 10⁻⁴ false
+    /// rate for the block's residual degrees of freedom; the front end
+    /// and the sensors are the application's.
     pub fn new(front_end: FrontEnd, sensors: &'a Sensors<N, SENSORS>) -> Self {
         Self {
             policy: Policy::DEFAULT,
             thresholds: Thresholds::ARRAY,
             front_end,
             sensors,
+            dielectric: Dielectric::SILICONE,
             chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
             record_every: 1,
             sweep: None,
@@ -185,8 +192,13 @@ impl ToneChannel {
             f_hz: 0.0,
             sigma_ohm: 0.0,
         }; 2];
-        let (rv, ri) = (v.levels.residual, i.levels.residual);
         let n = v.tones.n.min(i.tones.n);
+        // The noise's σ from the residual's own degrees of freedom: the
+        // residual rms is over the block's N instants, but its mean and
+        // 2·K tone components were fitted out of them.
+        let dof = crate::array::RESIDUAL_DOF as f32;
+        let unbiased = dsp_core::fmath::sqrt(n as f32 / dof);
+        let (rv, ri) = (unbiased * v.levels.residual, unbiased * i.levels.residual);
         // Both tones' impedances are kept whenever the excitation is
         // there, also on a record flagged open or shorted: an open
         // fixture's cable is measured so (`live calibrate --open`).
@@ -217,7 +229,8 @@ impl ToneChannel {
         }
         // What no tone of the comb explains, against the largest tone.
         let limit = |a: f32| th.residual_counts.max(th.residual_rel * a);
-        if !(rv <= limit(v.levels.largest()) && ri <= limit(i.levels.largest())) {
+        let (raw_v, raw_i) = (v.levels.residual, i.levels.residual);
+        if !(raw_v <= limit(v.levels.largest()) && raw_i <= limit(i.levels.largest())) {
             rec.flags.set(Flags::DISTURBED);
         }
         if clipped || rec.flags.has(Flags::DISTURBED) {
@@ -237,12 +250,12 @@ impl ToneChannel {
         let hint = self.line.map_or(self.prior_farad, |(_, c)| c);
         let tracked = self
             .line
-            .map(|(r, c)| twotone::solve_from(sensor.tracker.inverter(), &tones, r, c));
+            .map(|(r, c)| twotone::solve_from(sensor.tracker.inverter(), &s.dielectric, &tones, r, c));
         let solution = match tracked {
             Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
             // Lost, or never locked: from the single-tone inversions, the
             // better of the two.
-            other => match (other, twotone::solve(sensor.tracker.inverter(), &tones, hint)) {
+            other => match (other, twotone::solve(sensor.tracker.inverter(), &s.dielectric, &tones, hint)) {
                 (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
                 (Some(Ok(t)), Err(_)) => Ok(t),
                 (_, fresh) => fresh,

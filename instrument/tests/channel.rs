@@ -277,8 +277,11 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                             );
                         }
                     }
-                    if amp == 0.0 {
-                        // The first block of a pinned channel settles.
+                    if amp == 0.0 && freq_hz(i) < 5e3 {
+                        // The first block of a pinned channel settles. At
+                        // 5859 Hz (x = ωRC ≈ 5.4, past the policy's 4) the
+                        // film's loss known to ±2·10⁻³ alone could move C by
+                        // 0.7 %: one tone does not vouch for it there.
                         assert_eq!(valid, 29, "no hum at {} Hz", freq_hz(i));
                     }
                     if on_v == 0.0 {

@@ -220,19 +220,32 @@ pub type Span = (f64, f64);
 /// [`Obs::hold`] of the open fixture.
 const OPEN: usize = usize::MAX;
 
-/// The line's impedance with leads, contact and parasitic capacitance.
-fn model(f_hz: f64, r: f64, c: f64, lead: f64, rs: f64, cp: f64) -> Complex64 {
+/// The line's impedance on a film of loss tangent `tan_d` (C·(1 − j·tan δ)),
+/// with leads, contact and parasitic capacitance.
+fn model(f_hz: f64, r: f64, c: f64, lead: f64, rs: f64, cp: f64, tan_d: f64) -> Complex64 {
     let w = TAU * f_hz;
-    let g = Complex64::new(0.0, w * r * c).sqrt();
+    let g = (Complex64::new(0.0, w * r * c) * Complex64::new(1.0, -tan_d)).sqrt();
     let line = r * (g.cosh() / g.sinh()) / g;
     let zs = line + lead * r + rs;
     (zs.inv() + Complex64::new(0.0, w * cp)).inv()
 }
 
-/// Scale of the global unknowns in the fit's vector: ℓ, R_s/100 kΩ, C_p/pF.
-const SCALE: [f64; 3] = [1.0, 1e5, 1e-12];
-/// Their bounds, SI (the device's ranges, `instrument::stored`).
-const BOUNDS: [(f64, f64); 3] = [(0.0, dsp_core::invert::LEAD_MAX as f64), (0.0, 10e6), (0.0, 1e-9)];
+/// The global unknowns of a sensor's fit: ℓ, R_s, C_p, and the film's
+/// loss tangent tan δ (each tone's sweep at every hold tells a loss,
+/// a resistance ∝ 1/f, from a contact, flat in f; the device takes its
+/// film's loss from the settings, `dsp_core::dielectric`, not from here).
+const GLOBALS: usize = 4;
+/// Scale of the global unknowns in the fit's vector: ℓ, R_s/100 kΩ,
+/// C_p/pF, tan δ/10⁻³.
+const SCALE: [f64; GLOBALS] = [1.0, 1e5, 1e-12, 1e-3];
+/// Their bounds, SI (the device's ranges, `instrument::stored`; tan δ
+/// to 0.1, the lossiest films).
+const BOUNDS: [(f64, f64); GLOBALS] = [
+    (0.0, dsp_core::invert::LEAD_MAX as f64),
+    (0.0, 10e6),
+    (0.0, 1e-9),
+    (0.0, 0.1),
+];
 
 /// A sensor's fit.
 #[derive(Clone, Debug)]
@@ -241,10 +254,11 @@ pub struct SensorFit {
     pub sensor: u8,
     /// Records used.
     pub records: usize,
-    /// Tab leads ℓ, contact R_s (Ω), parasitic C_p (F).
-    pub values: [f64; 3],
+    /// Tab leads ℓ, contact R_s (Ω), parasitic C_p (F), the film's loss
+    /// tangent.
+    pub values: [f64; GLOBALS],
     /// Their 1σ (NaN: at a bound, not free).
-    pub sigma: [f64; 3],
+    pub sigma: [f64; GLOBALS],
     /// Correlation of leads and contact.
     pub rho_lead_contact: f64,
     /// Line C at each hold, F (in the holds' order of stretch).
@@ -414,10 +428,10 @@ pub fn fit_sensor(
     };
     let n_holds = order.len();
     let n_parts = part_hold.len();
-    // Unknowns: 3 globals, ln C per hold, ln R per part (every part has
+    // Unknowns: the globals, ln C per hold, ln R per part (every part has
     // observations).
     let has_part = vec![true; n_parts];
-    let n_par = 3 + n_holds + n_parts;
+    let n_par = GLOBALS + n_holds + n_parts;
     // Start: each part's lumped reading at its lowest tone (C = −1/(ωX),
     // R = 3·Re Z, the line's low-frequency resistance).
     let mut start = vec![0.0; n_par];
@@ -427,19 +441,19 @@ pub fn fit_sensor(
             .filter(|o| o.hold == k)
             .min_by(|a, b| a.f_hz.total_cmp(&b.f_hz))
             .expect("a hold with observations");
-        start[3 + k] = (-1.0 / (TAU * lowest.f_hz * lowest.z.im)).ln();
+        start[GLOBALS + k] = (-1.0 / (TAU * lowest.f_hz * lowest.z.im)).ln();
         for part in (0..n_parts).filter(|&p| part_hold[p] == k) {
             let o = obs
                 .iter()
                 .filter(|o| o.part == part)
                 .min_by(|a, b| a.f_hz.total_cmp(&b.f_hz))
                 .unwrap_or(lowest);
-            start[3 + n_holds + part] = (3.0 * o.z.re).max(1e3).ln();
+            start[GLOBALS + n_holds + part] = (3.0 * o.z.re).max(1e3).ln();
         }
     }
     let residuals = |x: &[f64], out: &mut Vec<f64>| {
         out.clear();
-        let (lead, rs, cp) = (x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2]);
+        let (lead, rs, cp, tan_d) = (x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2], x[3] * SCALE[3]);
         for o in &obs {
             if o.hold == OPEN {
                 let d = (Complex64::new(0.0, TAU * o.f_hz * cp) - o.z) / o.sigma;
@@ -447,16 +461,16 @@ pub fn fit_sensor(
                 out.push(d.im);
                 continue;
             }
-            let c = x[3 + o.hold].exp();
-            let r = x[3 + n_holds + o.part].exp();
-            let d = (model(o.f_hz, r, c, lead, rs, cp) - o.z) / o.sigma;
+            let c = x[GLOBALS + o.hold].exp();
+            let r = x[GLOBALS + n_holds + o.part].exp();
+            let d = (model(o.f_hz, r, c, lead, rs, cp, tan_d) - o.z) / o.sigma;
             out.push(d.re);
             out.push(d.im);
         }
     };
     let bounds: Vec<(f64, f64)> = (0..n_par)
         .map(|i| match i {
-            0..=2 => (BOUNDS[i].0 / SCALE[i], BOUNDS[i].1 / SCALE[i]),
+            i if i < GLOBALS => (BOUNDS[i].0 / SCALE[i], BOUNDS[i].1 / SCALE[i]),
             _ => (f64::NEG_INFINITY, f64::INFINITY),
         })
         .collect();
@@ -464,12 +478,16 @@ pub fn fit_sensor(
     let mut best: Option<(f64, Vec<f64>)> = None;
     for lead in [0.0, 0.3, 1.0] {
         for cp in [0.0, 10.0] {
-            let mut x = start.clone();
-            x[0] = lead;
-            x[2] = cp;
-            let (cost, x) = levenberg_marquardt(&residuals, x, &bounds, &has_part);
-            if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-                best = Some((cost, x));
+            // None, and a silicone's (`Dielectric::SILICONE`), in 10⁻³.
+            for loss in [0.0, 3.0] {
+                let mut x = start.clone();
+                x[0] = lead;
+                x[2] = cp;
+                x[3] = loss;
+                let (cost, x) = levenberg_marquardt(&residuals, x, &bounds, &has_part);
+                if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                    best = Some((cost, x));
+                }
             }
         }
     }
@@ -477,9 +495,9 @@ pub fn fit_sensor(
     // Free unknowns: globals off their bounds, every C, every observed R.
     let free: Vec<usize> = (0..n_par)
         .filter(|&i| match i {
-            0..=2 => x[i] > bounds[i].0 + 1e-9 && x[i] < bounds[i].1 - 1e-9,
-            i if i < 3 + n_holds => true,
-            i => has_part[i - 3 - n_holds],
+            i if i < GLOBALS => x[i] > bounds[i].0 + 1e-9 && x[i] < bounds[i].1 - 1e-9,
+            i if i < GLOBALS + n_holds => true,
+            i => has_part[i - GLOBALS - n_holds],
         })
         .collect();
     let m = 2 * obs.len();
@@ -506,7 +524,7 @@ pub fn fit_sensor(
             .map(|row| row.into_iter().map(|v| v * s).collect::<Vec<_>>())
             .collect::<Vec<_>>()
     });
-    let mut sigma = [f64::NAN; 3];
+    let mut sigma = [f64::NAN; GLOBALS];
     let mut rho = f64::NAN;
     if let Some(cov) = &cov {
         let at = |i: usize| free.iter().position(|&f| f == i);
@@ -519,12 +537,12 @@ pub fn fit_sensor(
             rho = cov[a][b] / (cov[a][a] * cov[b][b]).sqrt();
         }
     }
-    let c: Vec<f64> = (0..n_holds).map(|k| x[3 + k].exp()).collect();
+    let c: Vec<f64> = (0..n_holds).map(|k| x[GLOBALS + k].exp()).collect();
     let r: Vec<f64> = (0..n_holds)
         .map(|k| {
             let rs: Vec<f64> = (0..n_parts)
                 .filter(|&p| part_hold[p] == k)
-                .map(|p| x[3 + n_holds + p].exp())
+                .map(|p| x[GLOBALS + n_holds + p].exp())
                 .collect();
             rs.iter().sum::<f64>() / rs.len() as f64
         })
@@ -532,7 +550,7 @@ pub fn fit_sensor(
     let fit = SensorFit {
         sensor,
         records: used,
-        values: [x[0] * SCALE[0], x[1] * SCALE[1], x[2] * SCALE[2]],
+        values: core::array::from_fn(|g| x[g] * SCALE[g]),
         sigma,
         rho_lead_contact: rho,
         c_farad: c,
@@ -544,7 +562,7 @@ pub fn fit_sensor(
     };
     if chi2_dof.is_nan() || chi2_dof > CHI2_MAX {
         return Err(format!(
-            "the line with leads, contact and parasitic capacitance does not explain its data \
+            "the line with leads, contact, parasitic capacitance and its film's loss does not explain its data \
              (χ²/dof = {chi2_dof:.1} > {CHI2_MAX}): an effect it lacks, or a stretch that moved during a hold"
         ));
     }
@@ -611,7 +629,10 @@ impl SensorFit {
         }
         // At 0 a value is simply absent; at its upper bound the fit
         // wanted more than the device takes.
-        for (g, name) in ["leads", "contact", "parasitic capacitance"].iter().enumerate() {
+        for (g, name) in ["leads", "contact", "parasitic capacitance", "film loss tangent"]
+            .iter()
+            .enumerate()
+        {
             if self.sigma[g].is_nan() && self.values[g] > BOUNDS[g].0 {
                 out.push(format!(
                     "{name}: at the device's limit ({}): the fit wanted more",
@@ -628,7 +649,8 @@ fn fmt_value(g: usize, v: f64) -> String {
     match g {
         0 => format!("{v:.4}"),
         1 => format!("{:.2} kΩ", v / 1e3),
-        _ => format!("{:.2} pF", v * 1e12),
+        2 => format!("{:.2} pF", v * 1e12),
+        _ => format!("{:.2}·10⁻³", v * 1e3),
     }
 }
 
@@ -693,9 +715,9 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
              with the holds, and its C_p alone is in the last column.\n\n",
         );
     }
-    md.push_str("| sensor | records | ℓ | contact kΩ | parasitic pF | C rest pF | R rest kΩ | χ²/dof | uncalibrated C off | stretch RMS, reference table | outcome |");
+    md.push_str("| sensor | records | ℓ | contact kΩ | parasitic pF | film tan δ ×10⁻³ | C rest pF | R rest kΩ | χ²/dof | uncalibrated C off | stretch RMS, reference table | outcome |");
     md.push_str(if open { " open fixture pF |\n" } else { "\n" });
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|");
     md.push_str(if open { "---|\n" } else { "\n" });
     let mut notes = vec![];
     for (i, o) in outcomes.iter().enumerate() {
@@ -704,7 +726,7 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
             Outcome::Refused(why) => {
                 let _ = writeln!(
                     md,
-                    "| {i} | | | | | | | | | | refused |{}",
+                    "| {i} | | | | | | | | | | | refused |{}",
                     if open { " |" } else { "" }
                 );
                 notes.push(format!(
@@ -729,11 +751,12 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                     .map(|(c, s)| reference.stretch(*c as f32) as f64 - s));
                 let _ = write!(
                     md,
-                    "| {i} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
+                    "| {i} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
                     f.records,
                     pm(0, 1.0, 4),
                     pm(1, 1e-3, 2),
                     pm(2, 1e12, 3),
+                    pm(3, 1e3, 2),
                     f.c_farad[0] * 1e12,
                     f.r_ohm[0] / 1e3,
                     f.chi2_dof,
@@ -1320,8 +1343,8 @@ mod tests {
     use super::*;
 
     /// Records of one sensor at each hold, from the model with known
-    /// leads, contact and parasitic capacitance, with noise.
-    fn records(lead: f64, rs: f64, cp: f64, holds: &[Hold]) -> Vec<link::Record> {
+    /// leads, contact, parasitic capacitance and film loss, with noise.
+    fn records(lead: f64, rs: f64, cp: f64, tan_d: f64, holds: &[Hold]) -> Vec<link::Record> {
         let mut out = vec![];
         let mut seed = 0x1234_5678u64;
         let mut noise = || {
@@ -1337,8 +1360,12 @@ mod tests {
                 // The electrodes' resistance falls with stretch and
                 // recovers during the hold.
                 let r = 700e3 * (1.0 - 0.004 * h.stretch_mm) * (1.0 + 0.05 * (h.from_s - t).exp());
-                let tones = [2000.0f32, 4000.0].map(|f| {
-                    let z = model(f as f64, r, c, lead, rs, cp);
+                // The pairs a calibration's sweep steps through, in turn:
+                // the loss (a resistance ∝ 1/f) is told from a contact
+                // (flat) and a parasitic over 0.5–6 kHz.
+                let pair = if out.len() % 2 == 0 { [500.0f32, 2000.0] } else { [2000.0, 6000.0] };
+                let tones = pair.map(|f| {
+                    let z = model(f as f64, r, c, lead, rs, cp, tan_d);
                     let z = z * Complex64::new(1.0 + 2e-4 * noise(), 2e-4 * noise());
                     link::Tone {
                         f_hz: f,
@@ -1372,16 +1399,22 @@ mod tests {
     }
 
     #[test]
-    fn the_fit_finds_the_leads_contact_and_parasitic_it_was_given() {
+    fn the_fit_finds_the_leads_contact_parasitic_and_loss_it_was_given() {
         let holds = stairs();
-        for (lead, rs, cp) in [(0.0, 0.0, 0.0), (0.64, 0.0, 12e-12), (0.3, 20e3, 5e-12)] {
-            let recs = records(lead, rs, cp, &holds);
+        for (lead, rs, cp, tan_d) in [
+            (0.0, 0.0, 0.0, 2e-3),
+            (0.64, 0.0, 12e-12, 3e-3),
+            (0.3, 20e3, 5e-12, 1e-3),
+            (0.3, 0.0, 5e-12, 2e-2),
+        ] {
+            let recs = records(lead, rs, cp, tan_d, &holds);
             let refs: Vec<&link::Record> = recs.iter().collect();
             let fit = fit_sensor(0, &refs, &holds, &Options::default()).unwrap();
             println!("{:?} {:?} χ²/dof {:.2}", fit.values, fit.sigma, fit.chi2_dof);
             assert!((fit.values[0] - lead).abs() < 0.02, "{fit:?}");
             assert!((fit.values[1] - rs).abs() < 5e3, "{fit:?}");
             assert!((fit.values[2] - cp).abs() < 0.3e-12, "{fit:?}");
+            assert!((fit.values[3] - tan_d).abs() < 3e-4, "{fit:?}");
             for (k, h) in holds.iter().enumerate() {
                 let c = 200e-12 * (1.0 + h.stretch_mm / 100.0);
                 assert!((fit.c_farad[k] / c - 1.0).abs() < 2e-4, "{k}: {fit:?}");
@@ -1396,7 +1429,7 @@ mod tests {
     #[test]
     fn a_sensor_the_model_does_not_explain_is_refused_and_kept() {
         let holds = stairs();
-        let mut recs = records(0.3, 0.0, 5e-12, &holds);
+        let mut recs = records(0.3, 0.0, 5e-12, 3e-3, &holds);
         // A stretch that moved during the holds: C off by 2 % in the
         // second half of each.
         for r in recs.iter_mut() {

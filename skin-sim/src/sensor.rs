@@ -12,7 +12,7 @@
 //! resistance at the tabs, parasitic (cable) capacitance at the meter,
 //! electrode resistance varying linearly along the sensor, dielectric
 //! leakage, stretch varying linearly along the sensor, dielectric
-//! dispersion, tab leads carrying a fraction of each electrode's
+//! dispersion and loss, tab leads carrying a fraction of each electrode's
 //! resistance outside the capacitor, and a frequency-dependent
 //! conductivity of the electrode film. The recording's effects (meter lag, time offset) belong to
 //! the meter that reads the sensor (host-sim's chain).
@@ -44,13 +44,14 @@ pub struct SensorParams {
 }
 
 impl SensorParams {
-    /// The reference sensor: 100 mm, 210 pF, ≈350 + 362 kΩ, no effects.
+    /// The reference sensor: 100 mm, 210 pF, ≈350 + 362 kΩ, a silicone
+    /// film of loss tangent [`REFERENCE_LOSS_TANGENT`], no other effect.
     pub const REFERENCE: Self = Self {
         c_rest_farad: design::SENSOR_C_REST_FARAD,
         rest_length_mm: design::SENSOR_REST_LENGTH_MM,
         top: ElectrodeParams::TOP,
         bottom: ElectrodeParams::BOTTOM,
-        effects: EffectSet::NONE,
+        effects: EffectSet::NONE.with(Effect::DielectricLoss, REFERENCE_LOSS_TANGENT),
     };
 
     /// The founding paper's sensor, as its text describes it
@@ -64,13 +65,16 @@ impl SensorParams {
     /// cycling raises the resistance (the relaxed 180 pF at 2 kHz), and
     /// the breakdown under motion gives the paper's 2 kHz undershoots.
     /// The dynamic parameters are fitted to the paper's dynamic numbers;
-    /// see the README's "The paper's own measurements".
+    /// see the README's "The paper's own measurements". Its silicone film
+    /// loses [`PAPER_LOSS_TANGENT`] (the paper does not measure it).
     pub const PAPER: Self = Self {
         c_rest_farad: 205.2e-12,
         rest_length_mm: 101.8,
         top: ElectrodeParams::PAPER_TOP,
         bottom: ElectrodeParams::PAPER_BOTTOM,
-        effects: EffectSet::NONE.with(Effect::LeadResistance, 0.6415),
+        effects: EffectSet::NONE
+            .with(Effect::LeadResistance, 0.6415)
+            .with(Effect::DielectricLoss, PAPER_LOSS_TANGENT),
     };
 
     /// Sensor `s` of a skin of hand-made sensors (the array's `skin` and
@@ -78,8 +82,8 @@ impl SensorParams {
     /// sensors and their wiring: rest C 0.8–1.2 times the paper's (film
     /// thickness and area), electrode resistance 0.5–1.5 times
     /// (carbon-black loading), 0–20 pF of cable and fixture capacitance,
-    /// and tab leads from none to the paper sensor's share of each
-    /// electrode (uniform draws).
+    /// tab leads from none to the paper sensor's share of each electrode,
+    /// and a silicone film of loss tangent 1–5·10⁻³ (uniform draws).
     pub fn hand_made(s: usize) -> Self {
         let mut rng = crate::rng::Rng::new(0x5e45_0000 + s as u64);
         let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
@@ -90,9 +94,11 @@ impl SensorParams {
         p.bottom.r_rest_ohm *= k;
         let leads = u(0.0, 1.0) * Self::PAPER.effects.get(Effect::LeadResistance);
         let parasitic = u(0.0, 20e-12);
+        let loss = u(1e-3, 5e-3);
         p.effects = EffectSet::NONE
             .with(Effect::LeadResistance, leads)
-            .with(Effect::ParasiticCapacitance, parasitic);
+            .with(Effect::ParasiticCapacitance, parasitic)
+            .with(Effect::DielectricLoss, loss);
         p
     }
 
@@ -101,6 +107,16 @@ impl SensorParams {
         self.c_rest_farad * (1.0 + s / self.rest_length_mm)
     }
 }
+
+/// The loss tangent of the paper's silicone film, within what silicone
+/// elastomers measure at 0.1–10 kHz (1–5·10⁻³) and not the middle the
+/// firmware assumes (`dsp_core::dielectric::Dielectric::SILICONE`, 3·10⁻³):
+/// the paper neglects the film's losses and does not measure them.
+pub const PAPER_LOSS_TANGENT: f64 = 3.5e-3;
+
+/// The loss tangent of the reference sensor's silicone film (as
+/// [`PAPER_LOSS_TANGENT`], on the other side of the firmware's 3·10⁻³).
+pub const REFERENCE_LOSS_TANGENT: f64 = 2.5e-3;
 
 /// The paper's sensor's stretch table, as the firmware holds it: its line
 /// capacitance, linear in stretch ([`SensorParams::PAPER`]).
@@ -291,9 +307,10 @@ impl Sensor {
         })
     }
 
-    /// ω (rad/s), the dielectric's dispersion factor and the film's
+    /// ω (rad/s), the dielectric's complex permittivity factor (its
+    /// dispersion, and its loss: k·(1 − j·tan δ)) and the film's
     /// relaxation 1/(1 + jωτ) at `f_hz`.
-    fn frequency_terms(&self, f_hz: f64) -> (f64, f64, Complex64) {
+    fn frequency_terms(&self, f_hz: f64) -> (f64, Complex64, Complex64) {
         let w = core::f64::consts::TAU * f_hz;
         let fx = &self.params.effects;
         let dispersion = fx.get(Effect::DielectricDispersion);
@@ -302,6 +319,7 @@ impl Sensor {
         } else {
             1.0
         };
+        let k = Complex64::new(k, -k * fx.get(Effect::DielectricLoss));
         // The film's conductivity relaxes: each electrode resistance is
         // r/(1 + jωτ) (the recorded end-to-end values are DC).
         let tau = fx.get(Effect::ElectrodeDispersion);
@@ -327,15 +345,15 @@ impl Sensor {
     }
 
     /// The line's impedance by the segment recursion (any profile).
-    fn ladder(&self, w: f64, k: f64, film: Complex64) -> Complex64 {
+    fn ladder(&self, w: f64, k: Complex64, film: Complex64) -> Complex64 {
         // Midpoint segments (r/2, shunt c ‖ g, r/2): second-order accurate
         // in the segment length. The far half resistor carries no current.
         let (r, c, g) = self.segment(SEGMENTS - 1);
-        let mut z = film * (0.5 * r) + Complex64::new(g, w * k * c).inv();
+        let mut z = film * (0.5 * r) + (g + Complex64::i() * (w * c) * k).inv();
         for i in (0..SEGMENTS - 1).rev() {
             let (r, c, g) = self.segment(i);
             let beyond = z + film * (0.5 * r);
-            z = film * (0.5 * r) + (Complex64::new(g, w * k * c) + beyond.inv()).inv();
+            z = film * (0.5 * r) + (g + Complex64::i() * (w * c) * k + beyond.inv()).inv();
         }
         z
     }
@@ -366,17 +384,17 @@ impl Sensor {
 
 /// The ladder of [`SEGMENTS`] equal segments (r, c, g) by its Möbius
 /// matrix: a segment maps the impedance z beyond it to
-/// h + 1/(Y + 1/(z + h)), h = film·r/2, Y = g + jωkc, the matrix
+/// h + 1/(Y + 1/(z + h)), h = film·r/2, Y = g + jωkc (k complex), the matrix
 /// [[1 + hY, h(2 + hY)], [Y, 1 + hY]] (determinant 1); the open far end is
 /// z = ∞, so the line is a/c of the matrix's [`SEGMENTS`]-th power (by
 /// squaring, scaled as it goes: a Möbius map ignores a common factor).
 /// The same ladder as [`Sensor::ladder`]'s recursion, in 12 products
 /// instead of 240 steps.
-fn uniform_ladder(seg: (f64, f64, f64), w: f64, k: f64, film: Complex64) -> Complex64 {
+fn uniform_ladder(seg: (f64, f64, f64), w: f64, k: Complex64, film: Complex64) -> Complex64 {
     type M = [Complex64; 4];
     let (r, c, g) = seg;
     let h = film * (0.5 * r);
-    let y = Complex64::new(g, w * k * c);
+    let y = g + Complex64::i() * (w * c) * k;
     let d = Complex64::new(1.0, 0.0) + h * y;
     let a: M = [d, h * (d + 1.0), y, d];
     let mul = |p: &M, q: &M| -> M {
@@ -436,6 +454,7 @@ mod tests {
             .with(Effect::ParasiticCapacitance, 12e-12)
             .with(Effect::DielectricLeakage, 50.0)
             .with(Effect::DielectricDispersion, 0.02)
+            .with(Effect::DielectricLoss, 0.01)
             .with(Effect::ElectrodeDispersion, 2e-6)
             .with(Effect::LeadResistance, 0.3);
         for p in sensors {

@@ -22,7 +22,10 @@ fn rel(a: Complex64, b: Complex64) -> f64 {
 
 #[test]
 fn uniform_grid_is_the_continuous_line() {
-    let mut s = Sensor::settled(SensorParams::REFERENCE);
+    // Its film lossless (the lossy line is `effects_have_their_signatures`').
+    let mut p = SensorParams::REFERENCE;
+    p.effects = EffectSet::NONE;
+    let mut s = Sensor::settled(p);
     for (t, stretch) in [(0.0, 0.0), (4.0, 30.0)] {
         s.advance(&Profile::Constant(stretch), t);
         let tr = s.truth();
@@ -51,7 +54,10 @@ fn truth_follows_stretch() {
 /// that an effect without a signature stands out.
 #[test]
 fn effects_have_their_signatures() {
-    let base = SensorParams::REFERENCE;
+    let base = SensorParams {
+        effects: EffectSet::NONE,
+        ..SensorParams::REFERENCE
+    };
     let with = |e: EffectSet| {
         let mut p = base;
         p.effects = e;
@@ -142,6 +148,22 @@ fn effects_have_their_signatures() {
     for (f, k) in [(100.0, 1.02), (1e3, 1.0)] {
         let ratio = cs(&s, f) / cs(&plain, f);
         assert!((ratio / k - 1.0).abs() < 2e-4, "{f} Hz: {ratio} vs {k}");
+    }
+    // Loss: the continuous line of complex capacitance C·(1 − j·tan δ),
+    // √(R/Y)·coth √(RY) with Y = jωC(1 − j·tan δ), to the grid's
+    // discretization error; the truth does not move.
+    for tan_d in [1e-3, 1e-2, 0.1] {
+        let s = with(EffectSet::NONE.with(Effect::DielectricLoss, tan_d));
+        assert_eq!(s.truth(), plain.truth());
+        for f in [100.0, 2e3, 6e3, 20e3] {
+            let w = std::f64::consts::TAU * f;
+            let y = Complex64::new(0.0, w * t0.c_farad) * Complex64::new(1.0, -tan_d);
+            let g = (t0.r_line_ohm * y).sqrt();
+            let expected = (t0.r_line_ohm / y).sqrt() / g.tanh();
+            let x = w * t0.r_line_ohm * t0.c_farad;
+            let e = rel(s.impedance(f), expected);
+            assert!(e < 5e-6 * x.max(1.0), "tan δ {tan_d} at {f} Hz: {e}");
+        }
     }
 }
 

@@ -40,3 +40,12 @@ pub fn rms_max(e: &[f64]) -> (f64, f64) {
     let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
     (rms, e.iter().fold(0f64, |m, v| m.max(v.abs())))
 }
+
+/// The continuous line with leads ℓ on a lossy film, f64, Ω:
+/// ℓ·R + √(R/Y)·coth √(RY), Y = jωC·(1 − j·tan δ).
+#[allow(dead_code)]
+pub fn z_lossy(lead: f64, r: f64, c: f64, f: f64, tan_d: f64) -> Complex64 {
+    let y = Complex64::new(0.0, std::f64::consts::TAU * f * c) * Complex64::new(1.0, -tan_d);
+    let g = (r * y).sqrt();
+    lead * r + (r / y).sqrt() / g.tanh()
+}

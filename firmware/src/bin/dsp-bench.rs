@@ -310,6 +310,7 @@ fn math(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// The joint line of two tones (1.5 and 6 kHz) with its χ², from the
 /// single-tone inversions, averaged over the higher tone at x = 0.3–5.
 fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    use dsp_core::dielectric::Dielectric;
     use dsp_core::twotone::{solve, solve_from, Tone};
     let inv = Inverter::new(LineModel::Continuous);
     let c = 200e-12f32;
@@ -326,9 +327,9 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
             }
         });
         let t = insns(ticks(syst, || {
-            black_box(solve(&inv, black_box(&tones), 1.05 * c).ok());
+            black_box(solve(&inv, &Dielectric::IDEAL, black_box(&tones), 1.05 * c).ok());
         }));
-        let Ok(s) = solve(&inv, &tones, 1.05 * c) else {
+        let Ok(s) = solve(&inv, &Dielectric::IDEAL, &tones, 1.05 * c) else {
             println!("FAIL twotone at x = {}", x_hi);
             qemu::exit(1);
         };
@@ -338,7 +339,7 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         // Tracking: from the previous record's line, 2 % off.
         let (r0, c0) = (1.02 * s.line.r_ohm, 0.98 * s.line.c_farad);
         let t = insns(ticks(syst, || {
-            black_box(solve_from(&inv, black_box(&tones), r0, c0).ok());
+            black_box(solve_from(&inv, &Dielectric::IDEAL, black_box(&tones), r0, c0).ok());
         }));
         tracked += t;
         tracked_worst = tracked_worst.max(t);
