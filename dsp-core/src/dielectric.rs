@@ -114,7 +114,12 @@ pub fn correct(inv: &Inverter, line: &Line, f_hz: f32, d: &Dielectric) -> Result
             return Err(InvertError::OutOfRange);
         }
         // a·Z_R + b·Z_C = v for real a, b.
-        let solve = |v: Complex32| ((v.re * zc.im - v.im * zc.re) / det, (zr.re * v.im - zr.im * v.re) / det);
+        let solve = |v: Complex32| {
+            (
+                (v.re * zc.im - v.im * zc.re) / det,
+                (zr.re * v.im - zr.im * v.re) / det,
+            )
+        };
         let f = zeta * k + u * zc - z0;
         let (a, b) = solve(-f);
         ln_r += a;

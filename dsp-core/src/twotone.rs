@@ -109,6 +109,11 @@ pub struct Solution {
     /// The film's loss tangent the fit found (its prior's mean when the
     /// prior's σ is 0).
     pub loss_tangent: f32,
+    /// The most C can be off (relative) per unit of √χ² when something
+    /// the model lacks perturbs one tone alone: C is vouched for within
+    /// `hidden_ln_c·√χ²` of what an undetected one-tone error could hide
+    /// (an interferer at a tone's frequency, which no residual sees).
+    pub hidden_ln_c: f32,
 }
 
 impl Solution {
@@ -137,7 +142,12 @@ pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> 
 /// inversions (the branch chosen nearest `c_hint_farad`, as
 /// [`Inverter::invert_near`]); an error when neither tone inverts, or a
 /// σ is not finite and positive.
-pub fn solve(inv: &Inverter, d: &Dielectric, tones: &[Tone; 2], c_hint_farad: f32) -> Result<Solution, InvertError> {
+pub fn solve(
+    inv: &Inverter,
+    d: &Dielectric,
+    tones: &[Tone; 2],
+    c_hint_farad: f32,
+) -> Result<Solution, InvertError> {
     check(tones)?;
     // The higher tone resolves R best; the lower one starts where the
     // higher is ambiguous or out of range.
@@ -196,7 +206,13 @@ fn ordered(tones: &[Tone; 2]) -> (Tone, Tone) {
 /// Gauss–Newton on p = (ln R, ln C, tan δ) from (r, c, the film's t₀);
 /// `tones` lower first. With the film's σ_t = 0, tan δ stays at t₀ and
 /// the normal equations are those of (ln R, ln C) alone.
-fn refine(inv: &Inverter, film: &Dielectric, tones: [Tone; 2], r: f32, c: f32) -> Result<Solution, InvertError> {
+fn refine(
+    inv: &Inverter,
+    film: &Dielectric,
+    tones: [Tone; 2],
+    r: f32,
+    c: f32,
+) -> Result<Solution, InvertError> {
     let hi = tones[1];
     let fitted = film.spread > 0.0;
     let mut p = [libm::logf(r), libm::logf(c), film.loss_tangent];
@@ -233,6 +249,7 @@ fn refine(inv: &Inverter, film: &Dielectric, tones: [Tone; 2], r: f32, c: f32) -
     let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
     let x = TAU * hi.f_hz * r * c;
     let (var_r, var_c) = covariance(&fit.jtj, fitted).unwrap_or((f32::INFINITY, f32::INFINITY));
+    let hidden_ln_c = hidden(&fit, fitted);
     Ok(Solution {
         line: Line {
             r_ohm: r,
@@ -244,7 +261,79 @@ fn refine(inv: &Inverter, film: &Dielectric, tones: [Tone; 2], r: f32, c: f32) -
         sigma_ln_c: crate::fmath::sqrt(var_c),
         sigma_ln_r: crate::fmath::sqrt(var_r),
         loss_tangent: p[2],
+        hidden_ln_c,
     })
+}
+
+/// The most C can be off, relative, per unit of √χ², when what the model
+/// lacks perturbs one tone alone (an interferer near it or at its alias,
+/// a disturbance the residual check lets through): for tone k with
+/// weighted Jacobian J_k (2×3 real) and A = JᵀJ (the prior's row in it),
+/// a perturbation ε of tone k moves ln C by g·ε, g = J_k·A⁻¹·e_C, and
+/// leaves εᵀ(I − J_k·A⁻¹·J_kᵀ)·ε in χ², so at most √(gᵀ·M⁻¹·g) per √χ²
+/// (M = I − J_k·A⁻¹·J_kᵀ); the worse tone. ∞ where A or M is singular
+/// (a tone that the fit can follow whatever it reads).
+fn hidden(fit: &Evaluated, fitted: bool) -> f32 {
+    let mut a = full(&fit.jtj);
+    if !fitted {
+        // tan δ held: its row and column out of the fit.
+        a[0][2] = 0.0;
+        a[1][2] = 0.0;
+        a[2][0] = 0.0;
+        a[2][1] = 0.0;
+        a[2][2] = 1.0;
+    }
+    let Some(ai) = inverse3(&a) else {
+        return f32::INFINITY;
+    };
+    let mut worst = 0.0f32;
+    for cols in &fit.cols {
+        // J_k's two real rows.
+        let mut rows = [
+            [cols[0].re, cols[1].re, cols[2].re],
+            [cols[0].im, cols[1].im, cols[2].im],
+        ];
+        if !fitted {
+            rows[0][2] = 0.0;
+            rows[1][2] = 0.0;
+        }
+        let times = |m: &[[f32; 3]; 3], v: &[f32; 3]| -> [f32; 3] {
+            core::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
+        };
+        let dot = |u: &[f32; 3], v: &[f32; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+        // g = J_k·A⁻¹·e_C: A⁻¹'s column for ln C.
+        let col_c = [ai[0][1], ai[1][1], ai[2][1]];
+        let g = [dot(&rows[0], &col_c), dot(&rows[1], &col_c)];
+        // M = I − J_k·A⁻¹·J_kᵀ.
+        let w = [times(&ai, &rows[0]), times(&ai, &rows[1])];
+        let m = [
+            [1.0 - dot(&rows[0], &w[0]), -dot(&rows[0], &w[1])],
+            [-dot(&rows[1], &w[0]), 1.0 - dot(&rows[1], &w[1])],
+        ];
+        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+        if !(det.is_finite() && det > 0.0) {
+            return f32::INFINITY;
+        }
+        // gᵀ·M⁻¹·g.
+        let q = (m[1][1] * g[0] * g[0] - (m[0][1] + m[1][0]) * g[0] * g[1] + m[0][0] * g[1] * g[1]) / det;
+        worst = worst.max(q);
+    }
+    crate::fmath::sqrt(worst)
+}
+
+/// The inverse of a 3×3 matrix by its cofactors; `None` when singular.
+fn inverse3(m: &[[f32; 3]; 3]) -> Option<[[f32; 3]; 3]> {
+    let det = det3(m);
+    if !(det.is_finite() && det != 0.0) {
+        return None;
+    }
+    let c = |i: usize, j: usize| {
+        let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
+        let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
+        m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]
+    };
+    // (A⁻¹)_ij = C_ji / det.
+    Some(core::array::from_fn(|i| core::array::from_fn(|j| c(j, i) / det)))
 }
 
 /// The Gauss–Newton step of the normal equations A·d = g, over
@@ -258,7 +347,11 @@ fn step(fit: &Evaluated, fitted: bool) -> Option<[f32; 3]> {
         if !(det.is_finite() && det > 0.0) {
             return None;
         }
-        return Some([(a[3] * g[0] - a[1] * g[1]) / det, (a[0] * g[1] - a[1] * g[0]) / det, 0.0]);
+        return Some([
+            (a[3] * g[0] - a[1] * g[1]) / det,
+            (a[0] * g[1] - a[1] * g[0]) / det,
+            0.0,
+        ]);
     }
     let m = full(a);
     let det = det3(&m);
@@ -314,17 +407,25 @@ struct Evaluated {
     chi2: f32,
     jtj: [f32; 6],
     jtr: [f32; 3],
+    /// Each tone's weighted derivatives in (ln R, ln C, tan δ).
+    cols: [[Complex32; 3]; 2],
 }
 
-fn evaluate(inv: &Inverter, film: &Dielectric, tones: &[Tone; 2], p: [f32; 3]) -> Result<Evaluated, InvertError> {
+fn evaluate(
+    inv: &Inverter,
+    film: &Dielectric,
+    tones: &[Tone; 2],
+    p: [f32; 3],
+) -> Result<Evaluated, InvertError> {
     let (r, c, t) = (libm::expf(p[0]), libm::expf(p[1]), p[2]);
     let (u, du) = Dielectric::u(t);
     let mut e = Evaluated {
         chi2: 0.0,
         jtj: [0.0; 6],
         jtr: [0.0; 3],
+        cols: [[Complex32::new(0.0, 0.0); 3]; 2],
     };
-    for tone in tones {
+    for (n, tone) in tones.iter().enumerate() {
         let w = TAU * tone.f_hz;
         let x = w * r * c;
         let scale = 1.0 / (w * c * tone.sigma_ohm);
@@ -340,6 +441,7 @@ fn evaluate(inv: &Inverter, film: &Dielectric, tones: &[Tone; 2], p: [f32; 3]) -
         e.chi2 += res.norm_sqr();
         let dot = |a: Complex32, b: Complex32| a.re * b.re + a.im * b.im;
         let cols = [d_r, d_c, d_t];
+        e.cols[n] = cols;
         let mut k = 0;
         for i in 0..3 {
             e.jtr[i] += dot(cols[i], res);

@@ -88,7 +88,9 @@ fn near_the_peak_of_d_the_loss_matters_more() {
             x,
             kappa: f32::NAN,
         };
-        correct(&inv, &line, 1e3, &Dielectric::SILICONE).unwrap().dlnc_dtan
+        correct(&inv, &line, 1e3, &Dielectric::SILICONE)
+            .unwrap()
+            .dlnc_dtan
     };
     let (low, near) = (at(1.0), at(0.98 * x_peak));
     println!("dlnC/dtanδ: {low:.2} at x = 1, {near:.1} at 0.98 of the peak");
@@ -107,7 +109,11 @@ fn the_loss_series_is_the_logarithm() {
         let d_exact = num_complex::Complex64::new(0.0, -1.0) / num_complex::Complex64::new(1.0, -t);
         worst = worst
             .max((u.re as f64 - exact.re).abs().max((u.im as f64 - exact.im).abs()))
-            .max((du.re as f64 - d_exact.re).abs().max((du.im as f64 - d_exact.im).abs()));
+            .max(
+                (du.re as f64 - d_exact.re)
+                    .abs()
+                    .max((du.im as f64 - d_exact.im).abs()),
+            );
     }
     println!("u and ∂u/∂t within {worst:.1e}");
     assert!(worst < 2e-7, "{worst:e}");

@@ -302,8 +302,7 @@ impl Channel {
                         s.policy.fallback(&mut self.policy);
                     }
                 } else if !t.held && !self.pinned {
-                    s.policy
-                        .update(&mut self.policy, line.r_ohm, line.c_farad, dt);
+                    s.policy.update(&mut self.policy, line.r_ohm, line.c_farad, dt);
                 }
             }
             Err(_) => {

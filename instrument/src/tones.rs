@@ -255,7 +255,10 @@ impl ToneChannel {
             Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
             // Lost, or never locked: from the single-tone inversions, the
             // better of the two.
-            other => match (other, twotone::solve(sensor.tracker.inverter(), &s.dielectric, &tones, hint)) {
+            other => match (
+                other,
+                twotone::solve(sensor.tracker.inverter(), &s.dielectric, &tones, hint),
+            ) {
                 (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
                 (Some(Ok(t)), Err(_)) => Ok(t),
                 (_, fresh) => fresh,
@@ -280,9 +283,16 @@ impl ToneChannel {
         if sol.chi2 > s.chi2_flag {
             rec.flags.set(Flags::MODEL);
         }
-        // Five standard deviations of the block's noise within tolerance
-        // (a NaN σ is no bound).
-        let within = 5.0 * sol.sigma_ln_c <= th.c_tolerance;
+        // Within tolerance: five standard deviations of the block's noise,
+        // what a disturbance the residual sees could have moved the tones
+        // by, and what a one-tone error no residual sees (an interferer at
+        // a tone's frequency or its alias) could hide behind this χ² (a
+        // NaN is no bound).
+        let hidden = sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0));
+        let within = 5.0 * sol.sigma_ln_c
+            + disturbance_bound(th, &v.levels, &i.levels, pair, n, sol.sigma_ln_c)
+            + hidden
+            <= th.c_tolerance;
         if !within {
             rec.flags.set(Flags::UNCERTAIN);
         }
@@ -303,5 +313,49 @@ impl ToneChannel {
             dt,
         );
         rec
+    }
+}
+
+/// What a disturbance could have moved C by, relative: the block's
+/// residual r beyond the ADC's white noise σ ([`Thresholds::noise_counts`])
+/// is a disturbance of rms δ = √(r² − σ²). White noise averages over the
+/// block's N instants (each tone's σ of phase r·√(2/N)/A, which `sigma_ln_c`
+/// carries); a disturbance need not: an interferer near a tone (or at an
+/// alias of one) leaks into its bin up to its whole amplitude √2·δ. So
+/// each tone's phasor may be off by √2·(δ_v/A_v + δ_i/A_i), and C by
+/// `sigma_ln_c` times that over the tone's noise σ (the fit's
+/// sensitivity, linear), the worse tone of the pair. 0 without a
+/// disturbance; the MODEL check sees what of it the two tones disagree
+/// on, this bounds the rest.
+fn disturbance_bound(
+    th: &Thresholds,
+    v: &dsp_core::comb::Levels<TONES>,
+    i: &dsp_core::comb::Levels<TONES>,
+    pair: [usize; 2],
+    n: u32,
+    sigma_ln_c: f32,
+) -> f32 {
+    let sigma = th.noise_counts;
+    let excess = |r: f32| dsp_core::fmath::sqrt((r * r - sigma * sigma).max(0.0));
+    let (dv, di) = (excess(v.residual), excess(i.residual));
+    if dv == 0.0 && di == 0.0 {
+        return 0.0;
+    }
+    let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
+    let mut worst = 0.0f32;
+    for k in pair {
+        let (av, ai) = (v.amplitude[k], i.amplitude[k]);
+        // Relative phasor error from the disturbance, and the noise's σ.
+        let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai);
+        let (ev, ei) = (v.residual / av, i.residual / ai);
+        let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
+        worst = worst.max(shift / noise);
+    }
+    // NaN (no tone) is no bound.
+    let e = sigma_ln_c * worst;
+    if e.is_nan() {
+        f32::INFINITY
+    } else {
+        e
     }
 }

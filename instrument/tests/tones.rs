@@ -35,16 +35,25 @@ fn run(
     seconds: f64,
     seed: u64,
 ) -> Run {
-    run_with(&[*paper_cal(); SENSORS], params, profile, seconds, seed)
+    run_with(
+        &[*paper_cal(); SENSORS],
+        params,
+        profile,
+        seconds,
+        seed,
+        &Disturbance::NONE,
+    )
 }
 
-/// [`run`], sensor s on table `tables[s]` (with the paper's leads).
-fn run_with(
+/// [`run`], sensor s on table `tables[s]` (with the paper's leads), an
+/// interferer `hum` (its hum fields) on every sensor's current input.
+fn run_with<'a>(
     tables: &[CalTable<POINTS>; SENSORS],
     params: impl Fn(usize) -> SensorParams,
-    profile: impl Fn(usize) -> Profile<'static>,
+    profile: impl Fn(usize) -> Profile<'a>,
     seconds: f64,
     seed: u64,
+    hum: &Disturbance,
 ) -> Run {
     let fe = ArrayFrontEnd::REFERENCE;
     let paper = SensorParams::PAPER;
@@ -68,7 +77,11 @@ fn run_with(
             z[s] = sensor.impedances(&hz);
             truth[s] = sensor.truth().c_farad;
         }
-        let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
+        let d = Disturbance {
+            t0_s: b as f64 * 4e-3,
+            ..*hum
+        };
+        let clipped = fe.frame(&z, &[d; SENSORS], &mut rng, &mut frame);
         let block = reader.demodulate(|a| &frame[a]);
         let mut s = 0;
         reader.solve(
@@ -206,7 +219,11 @@ fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_clean_sensors() {
             worst * 100.0
         );
         // Whatever the check lets through is right.
-        assert!(worst < 0.01, "sensor {s}: a valid record {:.2} % off", worst * 100.0);
+        assert!(
+            worst < 0.01,
+            "sensor {s}: a valid record {:.2} % off",
+            worst * 100.0
+        );
         match s {
             0..=5 => clean_flags += model,
             // A small contact moves C by less than the tolerance, and the
@@ -216,8 +233,14 @@ fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_clean_sensors() {
             // A large one or a parasitic is told apart by its records:
             // most of them flagged, the median χ² above the flag.
             _ => {
-                assert!(model as f64 >= 0.5 * solved as f64, "sensor {s}: {model} of {solved} flagged");
-                assert!(median > dsp_core::twotone::CHI2_FLAG, "sensor {s}: median χ² {median}");
+                assert!(
+                    model as f64 >= 0.5 * solved as f64,
+                    "sensor {s}: {model} of {solved} flagged"
+                );
+                assert!(
+                    median > dsp_core::twotone::CHI2_FLAG,
+                    "sensor {s}: median χ² {median}"
+                );
             }
         }
     }
@@ -244,7 +267,7 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
         .collect();
     let tables: [CalTable<POINTS>; SENSORS] = core::array::from_fn(|s| own[s]);
     let profile = |s: usize| Profile::Table(leaked_delay(s as f64 * 0.6));
-    let out = run_with(&tables, params, profile, 10.0, 3);
+    let out = run_with(&tables, params, profile, 10.0, 3, &Disturbance::NONE);
     // The stretch each record gives against the stretch its sensor's C
     // means, and the same with one table for all.
     let shared = paper_cal();
@@ -264,7 +287,11 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
             c_rest(s) * 1e12,
             rms * 100.0
         );
-        assert!(valid >= recs.len() - 3, "sensor {s}: {valid} valid");
+        // Every sensor ≥ 98.5 % vouched for (measured: 98.9 % for the
+        // smallest, 150 pF, whose weaker current gives its records the
+        // largest σ and so the largest bound on what a one-tone error
+        // could hide behind their χ²; ≥ 99.4 % from 169 pF up).
+        assert!(valid * 1000 >= recs.len() * 985, "sensor {s}: {valid} valid");
         assert!(rms < 1e-3, "sensor {s}: C rms {rms}");
         // 0.1 % of C is 0.1–0.13 mm of a 100 mm sensor stretched 0–30 mm
         // (the largest errors: 4σ, 0.4 % of C, at 30 mm).
@@ -486,6 +513,90 @@ fn an_open_fixture_is_flagged_and_its_cable_measured() {
                 cable(s) * 1e12,
                 at.len()
             );
+        }
+    }
+}
+
+/// The paper's 20 mm/s trapezoid (0 → 30 mm in 1.5 s, held 3.5 s, back,
+/// at rest 3.5 s) from `phase` s into its 10 s period, for a second.
+fn at_phase(phase: f64) -> Vec<(f64, f64)> {
+    let corners = [(0.0, 0.0), (1.5, 30.0), (5.0, 30.0), (6.5, 0.0), (10.0, 0.0)];
+    let at = |t: f64| {
+        let t = t.rem_euclid(10.0);
+        let k = corners.windows(2).position(|w| t <= w[1].0).unwrap_or(3);
+        let ((t0, s0), (t1, s1)) = (corners[k], corners[k + 1]);
+        s0 + (s1 - s0) * (t - t0) / (t1 - t0)
+    };
+    let mut pts = vec![(0.0, at(phase))];
+    for p in 0..2 {
+        for &(tc, _) in &corners[..4] {
+            let t = p as f64 * 10.0 + tc - phase;
+            if t > 0.0 && t < 1.0 {
+                pts.push((t, at(tc)));
+            }
+        }
+    }
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pts.push((1.0, at(phase + 1.0)));
+    pts
+}
+
+/// Cases of [`interferers_never_leave_a_wrong_valid_record`]: `FUZZ_CASES`
+/// (default 3000, 720 000 records; `cargo xtask fuzz` runs more).
+fn interferer_cases() -> u32 {
+    std::env::var("FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(3000)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig {
+        cases: interferer_cases(),
+        failure_persistence: None,
+        ..proptest::prelude::ProptestConfig::default()
+    })]
+
+    /// An interferer of any frequency (DC to past the inputs' 25 kHz
+    /// sample rate: near a tone, between tones, at an alias) and any
+    /// amplitude up to the rails, on every sensor's current input, while
+    /// the sensors stretch on the paper's trapezoid from a random phase,
+    /// their electrodes 0.5–1.5 times the paper's: no record flagged
+    /// valid is more than 1 % off the truth.
+    #[test]
+    fn interferers_never_leave_a_wrong_valid_record(
+        hz in 0.5f32..40_000.0,
+        log_counts in -1.0f32..4.5,
+        phase in 0.0f32..1.0,
+        start in 0.0f64..10.0,
+        r_scale in 0.5f64..1.5,
+        seed in proptest::prelude::any::<u64>(),
+    ) {
+        let hum = Disturbance {
+            hum_hz: hz,
+            hum_i: 10f32.powf(log_counts),
+            hum_phase_turns: phase,
+            ..Disturbance::NONE
+        };
+        let params = |_| {
+            let mut p = SensorParams::PAPER;
+            p.top.r_rest_ohm *= r_scale;
+            p.bottom.r_rest_ohm *= r_scale;
+            p
+        };
+        let table = at_phase(start);
+        let out = run_with(&[*paper_cal(); SENSORS], params, |_| Profile::Table(&table), 0.06, seed, &hum);
+        for (s, recs) in out.iter().enumerate() {
+            for (r, c) in recs.iter().filter(|(r, _)| r.flags.valid()) {
+                let e = (r.c_farad as f64 / c - 1.0).abs();
+                proptest::prop_assert!(
+                    e < 0.01,
+                    "sensor {s}, {hz} Hz of {} counts: C {:.2} pF vs {:.2} pF ({r:?})",
+                    hum.hum_i,
+                    r.c_farad * 1e12,
+                    c * 1e12
+                );
+            }
         }
     }
 }

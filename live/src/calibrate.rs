@@ -1363,7 +1363,11 @@ mod tests {
                 // The pairs a calibration's sweep steps through, in turn:
                 // the loss (a resistance ∝ 1/f) is told from a contact
                 // (flat) and a parasitic over 0.5–6 kHz.
-                let pair = if out.len() % 2 == 0 { [500.0f32, 2000.0] } else { [2000.0, 6000.0] };
+                let pair = if out.len() % 2 == 0 {
+                    [500.0f32, 2000.0]
+                } else {
+                    [2000.0, 6000.0]
+                };
                 let tones = pair.map(|f| {
                     let z = model(f as f64, r, c, lead, rs, cp, tan_d);
                     let z = z * Complex64::new(1.0 + 2e-4 * noise(), 2e-4 * noise());

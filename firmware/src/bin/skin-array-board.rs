@@ -54,7 +54,7 @@ use firmware::board::front_end::{self, AdcBlocks, ARRAY_PACER};
 use firmware::board::link::{self, Receiver, RxRing, Transmitter, RX_BYTES};
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
-use firmware::board::{clocks, pac};
+use firmware::board::{clocks, dac, pac};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
@@ -115,6 +115,7 @@ mod app {
     #[local]
     struct Local {
         dma: pac::DMA1,
+        dac1: pac::DAC1,
         adcs: Adcs,
         watchdog: Watchdog,
         bufs: DmaBufs,
@@ -214,6 +215,7 @@ mod app {
             },
             Local {
                 dma: owned.dma,
+                dac1: owned.dac,
                 adcs: owned.adcs,
                 watchdog: owned.watchdog,
                 bufs: DmaBufs(adc),
@@ -297,19 +299,23 @@ mod app {
     }
 
     /// DMA1 channel 5, half or full: block `k` is in every ADC's buffer.
-    #[task(binds = DMA1_CH5, priority = 2, shared = [finished], local = [dma, adcs, block])]
+    #[task(binds = DMA1_CH5, priority = 2, shared = [finished], local = [dma, dac1, adcs, block])]
     fn dma_done(mut cx: dma_done::Context) {
         let event = dma::take_event_of(cx.local.dma, ARRAY_PACER);
-        let overrun = scan::take_overrun(cx.local.adcs);
+        // An ADC out of step, or the comb stopped (its DAC's DMA
+        // underran or failed): either way no block is whole.
+        let overrun = scan::take_overrun(cx.local.adcs)
+            | dac::excitation_stopped(cx.local.dac1, cx.local.dma, dma::ARRAY_DAC_CHANNEL);
         let expected = (*cx.local.block % 2) as usize;
         let (half, lost) = match event.completion(expected) {
             Completion::Done { half, lost } if !overrun => (half, lost),
             Completion::Nothing if !overrun => return,
             _ => {
-                // A transfer error, or an ADC whose stream is out of step
-                // with the others. Nothing is fed from here on: the
-                // watchdog restarts the board within 100 ms.
-                defmt::println!("dma error or adc overrun: acquisition stopped, watchdog reset follows");
+                // A transfer error, an ADC whose stream is out of step
+                // with the others, or the excitation stopped. Nothing is
+                // fed from here on: the watchdog restarts the board within
+                // 100 ms.
+                defmt::println!("dma error, adc overrun or excitation stopped: acquisition stopped, watchdog reset follows");
                 return;
             }
         };

@@ -41,7 +41,7 @@ use firmware::board::front_end::{self, AdcSlots, DacSlots, SLOTS};
 use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
-use firmware::board::{clocks, pac};
+use firmware::board::{clocks, dac, pac};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
@@ -92,6 +92,7 @@ mod app {
     #[local]
     struct Local {
         dma: pac::DMA1,
+        dac1: pac::DAC1,
         watchdog: Watchdog,
         adc_buf: DmaBuf,
         dac_buf: &'static mut DacSlots,
@@ -157,6 +158,7 @@ mod app {
             Shared { slot: None, channels },
             Local {
                 dma: owned.dma,
+                dac1: owned.dac,
                 watchdog: owned.watchdog,
                 adc_buf: DmaBuf(adc_buf.as_ptr()),
                 dac_buf,
@@ -178,8 +180,14 @@ mod app {
     }
 
     /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dma, dac_buf, mux, ranges, seq])]
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dma, dac1, dac_buf, mux, ranges, seq])]
     fn dma_done(mut cx: dma_done::Context) {
+        if dac::excitation_stopped(cx.local.dac1, cx.local.dma, 1) {
+            // The DAC's DMA (channel 2) underran or failed: nothing is fed
+            // from here on, the watchdog restarts the board within 100 ms.
+            defmt::println!("excitation stopped (DAC DMA underrun or error): watchdog reset follows");
+            return;
+        }
         let expected = (cx.local.seq.next_index() % 2) as usize;
         let (half, lost) = match dma::take_event(cx.local.dma).completion(expected) {
             Completion::Done { half, lost } => (half, lost),

@@ -19,9 +19,11 @@
 //! 12.5 cycles of sampling and 12.5 of approximation, so one position's
 //! sixteen take 9.41 µs ([`instrument::array::SCAN_STEP_S`]) and the
 //! four 37.6 µs of the 40 µs instant. The sources are the transimpedance
-//! stages' outputs and the followers, both low impedance: 12.5 cycles
-//! (294 ns) settle a 5 pF sampling capacitor through 1 kΩ to 12 bits
-//! (20 τ = 100 ns).
+//! stages' outputs and the followers, both low impedance (tens of Ω):
+//! the sampling capacitor (C_ADC ≈ 5 pF) charges through the ADC's own
+//! switch, R_ADC ≈ 470–680 Ω on these slow channels (the STM32G474
+//! datasheet's ADC characteristics), τ ≤ 3.7 ns, so 12.5 cycles (294 ns)
+//! are 80 τ, far beyond the 9 τ that 12 bits need (16 bits: 12 τ).
 //!
 //! Order (RM0440 21.4.6–21.4.9), as for the single-tone board: the common
 //! clocks first, then for each ADC deep power-down off, the regulator

@@ -33,6 +33,9 @@ impl Watchdog {
 pub struct Owned {
     /// DMA1: its interrupt flags, read and cleared by the DMA task.
     pub dma: pac::DMA1,
+    /// DAC1: its DMA underrun flag, read and cleared by the DMA task
+    /// (`board::dac::excitation_stopped`).
+    pub dac: pac::DAC1,
     /// The five ADCs: their overrun flags, read and cleared by the array's
     /// DMA task.
     pub adcs: Adcs,
@@ -83,6 +86,7 @@ pub fn finish(dp: pac::Peripherals) -> Owned {
     watchdog::feed(&dp.IWDG);
     Owned {
         dma: dp.DMA1,
+        dac: dp.DAC1,
         adcs: Adcs::new(dp.ADC1, dp.ADC2, dp.ADC3, dp.ADC4, dp.ADC5),
         watchdog: Watchdog(dp.IWDG),
         link: LinkPort {

@@ -485,6 +485,43 @@ fn the_arrays_followers_dma_dac_and_timers() {
 }
 
 #[test]
+fn a_stopped_excitation_is_seen_and_its_flags_cleared() {
+    // DAC_SR (offset 0x34, reset 0): DMAUDR1 bit 13, cleared by writing 1.
+    // DMA_ISR (0x00): TEIF of channel c (0-based) at bit 4c + 3; DMA_IFCR
+    // (0x04): CTEIF at the same bit (RM0440 22.7.19, 12.6.1–12.6.2).
+    for c in [1usize, dma::ARRAY_DAC_CHANNEL] {
+        let teif = 1u32 << (4 * c + 3);
+        // Nothing wrong, and another channel's error is not this one's.
+        let mut d = Fake::new(&[]);
+        let mut m = Fake::new(&[(0x00, 1 << 3)]);
+        assert!(!dac::excitation_stopped(
+            d.regs::<pac::dac1::RegisterBlock>(),
+            m.regs::<pac::dma1::RegisterBlock>(),
+            c
+        ));
+        assert_eq!((d.at(0x34), m.at(0x04)), (0, 0));
+        // An underrun: seen, cleared by its own bit alone.
+        let mut d = Fake::new(&[(0x34, 1 << 13)]);
+        let mut m = Fake::new(&[]);
+        assert!(dac::excitation_stopped(
+            d.regs::<pac::dac1::RegisterBlock>(),
+            m.regs::<pac::dma1::RegisterBlock>(),
+            c
+        ));
+        assert_eq!((d.at(0x34), m.at(0x04)), (1 << 13, 0));
+        // A transfer error of the DAC's channel: seen, CTEIF written.
+        let mut d = Fake::new(&[]);
+        let mut m = Fake::new(&[(0x00, teif | 1 << 1)]);
+        assert!(dac::excitation_stopped(
+            d.regs::<pac::dac1::RegisterBlock>(),
+            m.regs::<pac::dma1::RegisterBlock>(),
+            c
+        ));
+        assert_eq!((d.at(0x34), m.at(0x04)), (0, teif));
+    }
+}
+
+#[test]
 fn a_debugger_halt_freezes_the_watchdog_and_the_sample_timers() {
     // DBGMCU_APB1FZR1 (offset 0x08, reset 0): DBG_TIM6_STOP bit 4,
     // DBG_TIM7_STOP bit 5, DBG_IWDG_STOP bit 12 (RM0440, DBGMCU); the
