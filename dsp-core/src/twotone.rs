@@ -159,27 +159,36 @@ pub fn solve(
             Err(_) => return Err(e_hi),
         },
     };
-    refine(inv, d, [lo, hi], start.r_ohm, start.c_farad)
+    refine(inv, d, [lo, hi], [start.r_ohm, start.c_farad, d.loss_tangent])
 }
 
 /// The line both `tones` fit, starting from a known line (`r_ohm`,
-/// `c_farad`: the previous record's, when a channel tracks its sensor),
-/// without the single-tone inversions: half the work of [`solve`]. The
-/// start must lie in the basin of the line (within ~30 % in R and C of
-/// it); a start beyond x = [`crate::tline::X_MAX`] is an error.
+/// `c_farad` and the film's `loss_tangent`: the previous record's
+/// [`Solution`], when a channel tracks its sensor), without the
+/// single-tone inversions: half the work of [`solve`]. The start must lie
+/// in the basin of the line (within ~30 % in R and C of it); a start
+/// beyond x = [`crate::tline::X_MAX`] is an error. (The film's prior stays
+/// `d`'s; the start's tan δ only saves iterations.)
 pub fn solve_from(
     inv: &Inverter,
     d: &Dielectric,
     tones: &[Tone; 2],
     r_ohm: f32,
     c_farad: f32,
+    loss_tangent: f32,
 ) -> Result<Solution, InvertError> {
     check(tones)?;
-    if !(r_ohm.is_finite() && r_ohm > 0.0 && c_farad.is_finite() && c_farad > 0.0) {
+    if !(r_ohm.is_finite() && r_ohm > 0.0 && c_farad.is_finite() && c_farad > 0.0 && loss_tangent.is_finite())
+    {
         return Err(InvertError::BadPrior);
     }
     let (lo, hi) = ordered(tones);
-    refine(inv, d, [lo, hi], r_ohm, c_farad)
+    let t = if d.spread > 0.0 {
+        loss_tangent
+    } else {
+        d.loss_tangent
+    };
+    refine(inv, d, [lo, hi], [r_ohm, c_farad, t])
 }
 
 fn check(tones: &[Tone; 2]) -> Result<(), InvertError> {
@@ -203,19 +212,18 @@ fn ordered(tones: &[Tone; 2]) -> (Tone, Tone) {
     }
 }
 
-/// Gauss–Newton on p = (ln R, ln C, tan δ) from (r, c, the film's t₀);
-/// `tones` lower first. With the film's σ_t = 0, tan δ stays at t₀ and
-/// the normal equations are those of (ln R, ln C) alone.
+/// Gauss–Newton on p = (ln R, ln C, tan δ) from `start` (R Ω, C F,
+/// tan δ); `tones` lower first. With the film's σ_t = 0, tan δ stays at
+/// t₀ and the normal equations are those of (ln R, ln C) alone.
 fn refine(
     inv: &Inverter,
     film: &Dielectric,
     tones: [Tone; 2],
-    r: f32,
-    c: f32,
+    start: [f32; 3],
 ) -> Result<Solution, InvertError> {
     let hi = tones[1];
     let fitted = film.spread > 0.0;
-    let mut p = [libm::logf(r), libm::logf(c), film.loss_tangent];
+    let mut p = [libm::logf(start[0]), libm::logf(start[1]), start[2]];
     let mut fit = evaluate(inv, film, &tones, p)?;
     for _ in 0..ITERATIONS {
         let Some(d) = step(&fit, fitted) else {
@@ -232,6 +240,17 @@ fn refine(
             p[1] + clamp(d[1], 1.0),
             p[2] + clamp(d[2], 1e-2),
         ];
+        // The step's gain in χ² as the linearized model predicts it, dᵀ·Jᵀr
+        // (d solves JᵀJ·d = Jᵀr): under 10⁻³, the step is taken without
+        // evaluating the model again (a tracked line, 4 ms on, is there
+        // after one step; χ², the covariance and the hidden bound are the
+        // start's, within that gain).
+        let gain = d[0] * fit.jtr[0] + d[1] * fit.jtr[1] + d[2] * fit.jtr[2];
+        if (0.0..1e-3).contains(&gain) && d[0] == clamp(d[0], 1.0) && d[1] == clamp(d[1], 1.0) {
+            p = q;
+            fit.chi2 = (fit.chi2 - gain).max(0.0);
+            break;
+        }
         let Ok(next) = evaluate(inv, film, &tones, q) else {
             break;
         };
@@ -248,8 +267,9 @@ fn refine(
     }
     let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
     let x = TAU * hi.f_hz * r * c;
-    let (var_r, var_c) = covariance(&fit.jtj, fitted).unwrap_or((f32::INFINITY, f32::INFINITY));
-    let hidden_ln_c = hidden(&fit, fitted);
+    let ai = inverse(&fit.jtj, fitted);
+    let (var_r, var_c) = ai.map_or((f32::INFINITY, f32::INFINITY), |m| (m[0][0], m[1][1]));
+    let hidden_ln_c = ai.map_or(f32::INFINITY, |m| hidden(&fit, &m, fitted));
     Ok(Solution {
         line: Line {
             r_ohm: r,
@@ -273,19 +293,7 @@ fn refine(
 /// leaves εᵀ(I − J_k·A⁻¹·J_kᵀ)·ε in χ², so at most √(gᵀ·M⁻¹·g) per √χ²
 /// (M = I − J_k·A⁻¹·J_kᵀ); the worse tone. ∞ where A or M is singular
 /// (a tone that the fit can follow whatever it reads).
-fn hidden(fit: &Evaluated, fitted: bool) -> f32 {
-    let mut a = full(&fit.jtj);
-    if !fitted {
-        // tan δ held: its row and column out of the fit.
-        a[0][2] = 0.0;
-        a[1][2] = 0.0;
-        a[2][0] = 0.0;
-        a[2][1] = 0.0;
-        a[2][2] = 1.0;
-    }
-    let Some(ai) = inverse3(&a) else {
-        return f32::INFINITY;
-    };
+fn hidden(fit: &Evaluated, ai: &[[f32; 3]; 3], fitted: bool) -> f32 {
     let mut worst = 0.0f32;
     for cols in &fit.cols {
         // J_k's two real rows.
@@ -305,7 +313,7 @@ fn hidden(fit: &Evaluated, fitted: bool) -> f32 {
         let col_c = [ai[0][1], ai[1][1], ai[2][1]];
         let g = [dot(&rows[0], &col_c), dot(&rows[1], &col_c)];
         // M = I − J_k·A⁻¹·J_kᵀ.
-        let w = [times(&ai, &rows[0]), times(&ai, &rows[1])];
+        let w = [times(ai, &rows[0]), times(ai, &rows[1])];
         let m = [
             [1.0 - dot(&rows[0], &w[0]), -dot(&rows[0], &w[1])],
             [-dot(&rows[1], &w[0]), 1.0 - dot(&rows[1], &w[1])],
@@ -368,22 +376,18 @@ fn step(fit: &Evaluated, fitted: bool) -> Option<[f32; 3]> {
     Some([col(0), col(1), col(2)])
 }
 
-/// The variances of ln R and ln C: the diagonal of A⁻¹ over the fitted
-/// parameters; `None` when A is singular.
-fn covariance(a: &[f32; 6], fitted: bool) -> Option<(f32, f32)> {
+/// A⁻¹ over the fitted parameters (tan δ held: its row and column out,
+/// 1 on the diagonal); `None` when A is singular.
+fn inverse(a: &[f32; 6], fitted: bool) -> Option<[[f32; 3]; 3]> {
+    let mut m = full(a);
     if !fitted {
-        let det = a[0] * a[3] - a[1] * a[1];
-        return (det > 0.0).then(|| (a[3] / det, a[0] / det));
+        m[0][2] = 0.0;
+        m[1][2] = 0.0;
+        m[2][0] = 0.0;
+        m[2][1] = 0.0;
+        m[2][2] = 1.0;
     }
-    let m = full(a);
-    let det = det3(&m);
-    // The cofactors of the diagonal's first two entries.
-    (det > 0.0).then(|| {
-        (
-            (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det,
-            (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det,
-        )
-    })
+    inverse3(&m).filter(|m| m[0][0] > 0.0 && m[1][1] > 0.0)
 }
 
 /// The symmetric 3×3 matrix of its upper triangle [a₀₀, a₀₁, a₀₂, a₁₁,

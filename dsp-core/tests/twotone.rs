@@ -194,8 +194,15 @@ fn a_tracked_start_converges_to_the_same_line() {
             });
             let full = solve(&inv, &Dielectric::IDEAL, &tones, c as f32).unwrap();
             for (kr, kc) in [(1.25, 1.25), (0.75, 1.25), (1.25, 0.75), (0.75, 0.75)] {
-                let t = solve_from(&inv, &Dielectric::IDEAL, &tones, (kr * r) as f32, (kc * c) as f32)
-                    .unwrap_or_else(|e| panic!("x {x_hi} ratio {ratio} start {kr} {kc}: {e}"));
+                let t = solve_from(
+                    &inv,
+                    &Dielectric::IDEAL,
+                    &tones,
+                    (kr * r) as f32,
+                    (kc * c) as f32,
+                    0.0,
+                )
+                .unwrap_or_else(|e| panic!("x {x_hi} ratio {ratio} start {kr} {kc}: {e}"));
                 let ec = (t.line.c_farad / full.line.c_farad - 1.0).abs() as f64;
                 let er = (t.line.r_ohm / full.line.r_ohm - 1.0).abs() as f64;
                 worst = (worst.0.max(ec), worst.1.max(er));
@@ -215,7 +222,8 @@ fn a_tracked_start_converges_to_the_same_line() {
         &Dielectric::IDEAL,
         &[tone(Complex64::new(1e5, -1e6), 1e3, 10.0); 2],
         -1.0,
-        1e-10
+        1e-10,
+        0.0
     )
     .is_err());
 }

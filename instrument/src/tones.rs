@@ -122,8 +122,8 @@ impl Input {
 pub struct ToneChannel {
     /// Tone policy state (`index`: the higher tone).
     pub policy: PolicyState,
-    /// The last line solved consistently, (R Ω, C F).
-    line: Option<(f32, f32)>,
+    /// The last line solved consistently, (R Ω, C F, its film's tan δ).
+    line: Option<(f32, f32, f32)>,
     last_t_us: Option<u64>,
     prior_farad: f32,
 }
@@ -247,10 +247,10 @@ impl ToneChannel {
                 }
             }
         }
-        let hint = self.line.map_or(self.prior_farad, |(_, c)| c);
+        let hint = self.line.map_or(self.prior_farad, |(_, c, _)| c);
         let tracked = self
             .line
-            .map(|(r, c)| twotone::solve_from(sensor.tracker.inverter(), &s.dielectric, &tones, r, c));
+            .map(|(r, c, t)| twotone::solve_from(sensor.tracker.inverter(), &s.dielectric, &tones, r, c, t));
         let solution = match tracked {
             Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
             // Lost, or never locked: from the single-tone inversions, the
@@ -303,7 +303,7 @@ impl ToneChannel {
             return rec;
         }
         if !rec.flags.has(Flags::MODEL) {
-            self.line = Some((sol.line.r_ohm, sol.line.c_farad));
+            self.line = Some((sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent));
         }
         s.policy.update_on(
             &tones_hz(),

@@ -58,7 +58,15 @@ pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
     let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
     cmd.current_dir(root().join("firmware"))
         .env("CARGO_ENCODED_RUSTFLAGS", firmware_rustflags())
-        .args(["build", "--release", "--target", TARGET, "--bin", bin]);
+        .args([
+            "build",
+            "--profile",
+            profile_of(bin),
+            "--target",
+            TARGET,
+            "--bin",
+            bin,
+        ]);
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);
     }
@@ -70,7 +78,18 @@ pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
     // firmware's folder, where cargo ran), else the firmware's own target.
     let fw = root().join("firmware");
     let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| fw.join("target"), |d| fw.join(d));
-    Ok(target.join(TARGET).join("release").join(bin))
+    Ok(target.join(TARGET).join(profile_of(bin)).join(bin))
+}
+
+/// The cargo profile an image is built with: `board` for the
+/// single-channel board (release, its channel logic optimized for size to
+/// fit 64 KiB; firmware/Cargo.toml), release for every other.
+pub fn profile_of(bin: &str) -> &'static str {
+    if bin == "skin-board" {
+        "board"
+    } else {
+        "release"
+    }
 }
 
 /// What a QEMU run printed and how it ended.
