@@ -147,6 +147,23 @@ fn main() -> Result<()> {
                 ],
                 &[("FUZZ_CASES", &n)],
             )?;
+            // The array under interferers of any frequency and amplitude
+            // (beside the array's own tests: it runs their simulated skin).
+            cargo::run_env(
+                &root,
+                &[
+                    "test",
+                    "--release",
+                    "-p",
+                    "instrument",
+                    "--test",
+                    "tones",
+                    "interferers",
+                    "--",
+                    "--nocapture",
+                ],
+                &[("FUZZ_CASES", &n)],
+            )?;
             // The record link: corrupted streams.
             cargo::run_env(
                 &root,
