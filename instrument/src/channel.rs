@@ -291,8 +291,8 @@ impl Channel {
                 } else {
                     let periods = crate::config::PERIODS[crate::config::index(self.policy.index)];
                     let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa, periods) + loss_error;
-                    // The bound is never NaN (c_error_bound makes it ∞).
-                    if !(bound <= th.c_tolerance) {
+                    // A NaN bound (none) is no bound.
+                    if bound.is_nan() || bound > th.c_tolerance {
                         rec.flags.set(Flags::UNCERTAIN);
                     }
                 }

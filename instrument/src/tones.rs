@@ -38,7 +38,7 @@ pub struct ToneSettings<'a, const N: usize> {
     pub sensors: &'a Sensors<N, SENSORS>,
     /// The film between the electrodes: its loss tangent, taken into the
     /// line, and the model's error floor added to each tone's noise
-    /// ([`dsp_core::twotone::Dielectric`]).
+    /// ([`dsp_core::dielectric::Dielectric`]).
     pub dielectric: Dielectric,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
