@@ -129,11 +129,15 @@ fn main() -> Result<()> {
         }
         Cmd::Fuzz { cases } => {
             let n = cases.to_string();
-            cargo::run_env(
-                &root,
+            // `cargo test --release <selection> -- --nocapture` with `env`.
+            let run = |selection: &[&str], env: (&str, &str)| {
+                let mut args = vec!["test", "--release"];
+                args.extend_from_slice(selection);
+                args.extend(["--", "--nocapture"]);
+                cargo::run_env(&root, &args, &[env])
+            };
+            run(
                 &[
-                    "test",
-                    "--release",
                     "-p",
                     "dsp-core",
                     "-p",
@@ -142,59 +146,23 @@ fn main() -> Result<()> {
                     "host-sim",
                     "--test",
                     "fuzz",
-                    "--",
-                    "--nocapture",
                 ],
-                &[("FUZZ_CASES", &n)],
+                ("FUZZ_CASES", &n),
             )?;
             // The array under interferers of any frequency and amplitude
             // (beside the array's own tests: it runs their simulated skin).
-            cargo::run_env(
-                &root,
-                &[
-                    "test",
-                    "--release",
-                    "-p",
-                    "instrument",
-                    "--test",
-                    "tones",
-                    "interferers",
-                    "--",
-                    "--nocapture",
-                ],
-                &[("FUZZ_CASES", &n)],
+            run(
+                &["-p", "instrument", "--test", "tones", "interferers"],
+                ("FUZZ_CASES", &n),
             )?;
             // The record link: corrupted streams.
-            cargo::run_env(
-                &root,
-                &[
-                    "test",
-                    "--release",
-                    "-p",
-                    "link",
-                    "--test",
-                    "frames",
-                    "--",
-                    "--nocapture",
-                ],
-                &[("LINK_CASES", &n)],
-            )?;
+            run(&["-p", "link", "--test", "frames"], ("LINK_CASES", &n))?;
             // The device's requests: fuzzed command streams against a
             // store (each case a whole stream of uploads and damage).
             let streams = (cases / 100).max(1000).to_string();
-            cargo::run_env(
-                &root,
-                &[
-                    "test",
-                    "--release",
-                    "-p",
-                    "instrument",
-                    "--lib",
-                    "commands",
-                    "--",
-                    "--nocapture",
-                ],
-                &[("COMMAND_CASES", &streams)],
+            run(
+                &["-p", "instrument", "--lib", "commands"],
+                ("COMMAND_CASES", &streams),
             )
         }
     }
