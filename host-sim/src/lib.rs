@@ -6,6 +6,7 @@
 //! * [`chain`]: the measurement chain on the simulated sensor (ADC +
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
+//! * [`disturbances`]: the disturbance table: each class on both firmware paths.
 //! * [`model`]: the forward model with the candidate effects (f64).
 //! * [`numerics`]: the shared numerical helpers (solve, fits, interpolation, statistics).
 //! * [`identify`]: trace a residual to an effect by model selection.
@@ -17,6 +18,7 @@
 pub mod baseline;
 pub mod chain;
 pub mod dataset;
+pub mod disturbances;
 pub mod experiments;
 pub mod identify;
 pub mod meter;

@@ -146,6 +146,12 @@ enum Cmd {
     },
     /// Read the simulated sensor along any profile; CSV trace to stdout or --out.
     Trace(TraceArgs),
+    /// The disturbance table: every class of disturbance (hum, interferers,
+    /// aliases, steps, clipping, open and shorted sensors, undeclared
+    /// wiring and film, resistance jumps, drift) on the multiplexed channel
+    /// and on the array, with the share of records flagged and the worst
+    /// error among those left valid; Markdown to stdout.
+    Disturbances,
 }
 
 /// The options of `trace`.
@@ -418,6 +424,7 @@ fn run(cli: Cli) -> Result<()> {
             raw_calibration,
         } => residual(&dir, model, raw_calibration)?,
         Cmd::Trace(t) => trace(t)?,
+        Cmd::Disturbances => print!("{}", host_sim::disturbances::table()),
     }
     Ok(())
 }

@@ -17,7 +17,7 @@ const PLOTS: [(&str, &str); 4] = [
 ];
 
 /// The test files that hold figure tests: (crate, test file).
-const FILES: [(&str, &str); 7] = [
+const FILES: [(&str, &str); 8] = [
     ("qemu-tests", "decode"),
     ("qemu-tests", "array"),
     ("qemu-tests", "dsp_bench"),
@@ -25,10 +25,11 @@ const FILES: [(&str, &str); 7] = [
     ("host-sim", "paper"),
     ("host-sim", "residual"),
     ("host-sim", "cli"),
+    ("host-sim", "disturbances"),
 ];
 
 /// The tests that measure the figures (each checks its blocks).
-const TESTS: [&str; 7] = [
+const TESTS: [&str; 8] = [
     "the_main_jobs_recording_decodes",
     "sixteen_sensors_250_times_a_second",
     "dsp_kernels_on_cortex_m4_within_budget",
@@ -36,6 +37,7 @@ const TESTS: [&str; 7] = [
     "the_docs_show_what_host_sim_paper_prints",
     "the_docs_show_the_example_data_sets_verdicts",
     "the_docs_show_what_model_and_invert_print",
+    "the_array_vouches_for_no_wrong_record_under_any_disturbance",
 ];
 
 /// Run the main job, copy its plots, rewrite the figure blocks.
