@@ -298,8 +298,10 @@ fn an_open_fixture_measures_the_cables() {
         out.lines()
             .filter(|l| l.starts_with("| 0 |") || l.starts_with("| 1 |"))
             .map(|l| {
+                // | sensor | records | ℓ | contact | parasitic | tan δ | C rest
+                // | R rest | χ²/dof | C off | stretch | outcome | open |
                 let c: Vec<&str> = l.split('|').map(str::trim).collect();
-                (pm(c[5]), (c.len() > 13).then(|| pm(c[12])))
+                (pm(c[5]), (c.len() > 14).then(|| pm(c[13])))
             })
             .collect()
     };
