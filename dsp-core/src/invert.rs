@@ -320,6 +320,9 @@ impl Inverter {
     /// ζ(x) = ωC·Z of the model with its leads at any x = ωRC up to
     /// [`crate::tline::X_MAX`]: below [`crate::tline::X_MIN`] the small-x
     /// asymptote −j + (a + ℓ)·x (there within 10⁻¹⁰ of the line).
+    /// Not inlined: the fits call it from several places, and a copy in
+    /// each would cost the single-channel board's flash.
+    #[inline(never)]
     pub fn zeta_at(&self, x: f32) -> Result<Complex32, InvertError> {
         if x > 0.0 && x < crate::tline::X_MIN {
             let a = self.model.low_freq_resistance_fraction() + self.lead;

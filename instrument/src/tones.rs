@@ -288,7 +288,14 @@ impl ToneChannel {
         // by, and what a one-tone error no residual sees (an interferer at
         // a tone's frequency or its alias) could hide behind this χ² (a
         // NaN is no bound).
-        let hidden = sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0));
+        // (Where the model check already failed, the record is flagged
+        // MODEL and the bound says nothing more: UNCERTAIN stays the
+        // block's own, as a per-tone reading of the record needs.)
+        let hidden = if sol.chi2 > s.chi2_flag {
+            0.0
+        } else {
+            sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0))
+        };
         let within = 5.0 * sol.sigma_ln_c
             + disturbance_bound(th, &v.levels, &i.levels, pair, n, sol.sigma_ln_c)
             + hidden
