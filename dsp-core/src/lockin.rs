@@ -44,9 +44,9 @@
 //! is stored (2 KiB at N = 1024). The rotation to the guards, e^(−j2πn/N),
 //! is one [`Basis`] shared by every frequency.
 //!
-//! Overflow: with |x| ≤ 2¹⁵ and Q15 references, p = x·w·cos θ is below
-//! 2³⁰ and p·cos φ below 2⁴⁵; N ≤ 1024 of them sum below 2⁵⁵ in i64. The DC
-//! correction of X multiplies Σx (< 2²⁵) by the reference's sum (< 2²⁵).
+//! Overflow: a block is summed folded (pair m with pair N − m, whose
+//! references are conjugate): |xₘ ± x_(N−m)| ≤ 2¹⁶ times a Q15 reference is
+//! below 2³¹ (an i32 product), and H ≤ 512 of them sum below 2⁴⁰ in i64.
 
 use crate::tables::{SIN_BITS, SIN_Q31};
 use crate::Complex32;
@@ -126,7 +126,10 @@ impl<const H: usize> Basis<H> {
     /// The basis for blocks of 2H pairs; H a power of two up to 512
     /// (the Q31 sine table's resolution).
     pub const fn new() -> Self {
-        assert!(H.is_power_of_two() && H >= 4 && 2 * H <= 1 << SIN_BITS, "H: a power of two, 4..=512");
+        assert!(
+            H.is_power_of_two() && H >= 4 && 2 * H <= 1 << SIN_BITS,
+            "H: a power of two, 4..=512"
+        );
         let mut rotation = [0u32; H];
         let mut window = [0u16; H];
         let mut window_sum = 65535;
@@ -176,48 +179,68 @@ pub struct Lockin<const H: usize> {
     periods: u32,
     /// Re X of a block of ones (its imaginary part is 0 by symmetry).
     dc: i64,
-    /// The guards of a block of ones, [+, −], Q30 · counts.
+    /// The guards of a block of ones, [+, −], Q15 · counts.
     guard_dc: [[i64; 2]; 2],
     /// What a tone of amplitude 1 and phase 0 gives the windowed mean
     /// (Σw·cos θ/Σw; a tone of phase ψ gives its real part's share).
     mean_leak: f32,
 }
 
-/// Per channel and half block: Σp, Σq, Σp·cos φ, Σq·sin φ, Σp·sin φ and
-/// Σq·cos φ, with p = x·w·cos θ, q = x·w·sin θ.
-#[derive(Clone, Copy, Default)]
-struct Sums {
-    p: i64,
-    q: i64,
-    a: i64,
-    b: i64,
-    c: i64,
-    d: i64,
+/// The references of the tone and of its guards at one folded pair m
+/// (n = m and n = N − m): w·cos θ and w·sin θ (Q15, as stored) and
+/// u₁ = w·cos(θ+φ), u₂ = w·sin(θ+φ), u₃ = w·cos(θ−φ), u₄ = w·sin(θ−φ),
+/// rounded to Q15 from the Q30 products (`const`, so that a block of ones
+/// is summed at compile time exactly as a block is at run time).
+#[inline(always)]
+const fn refs(r: u32, z: u32) -> [i32; 6] {
+    let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
+    let (zc, zs) = (z as i16 as i32, (z >> 16) as i16 as i32);
+    [
+        rc,
+        rs,
+        round15(rc * zc - rs * zs),
+        round15(rc * zs + rs * zc),
+        round15(rc * zc + rs * zs),
+        round15(rc * zs - rs * zc),
+    ]
 }
+
+/// A Q30 product rounded to Q15 (|x| < 2³¹ − 2¹⁴: two Q15 products).
+#[inline(always)]
+const fn round15(x: i32) -> i32 {
+    (x + (1 << 14)) >> 15
+}
+
+/// One channel's sums over a block, folded: with s = xₘ + x_(N−m) and
+/// d = xₘ − x_(N−m) (the reference of N − m is the conjugate of m's),
+///
+/// ```text
+/// X  = Σ s·w cos θ − j Σ d·w sin θ
+/// G₊ = Σ s·u₁      − j Σ d·u₂          (bin k + 1)
+/// G₋ = Σ s·u₃      + j Σ d·u₄          (bin k − 1)
+/// ```
+///
+/// (m = 0 and m = H have no partner: s = d = xₘ.) Each product is below
+/// 2¹⁶·2¹⁵, so the i64 sums cannot overflow (H ≤ 512).
+#[derive(Clone, Copy, Default)]
+struct Sums([i64; 6]);
 
 impl Sums {
     #[inline(always)]
-    fn add(&mut self, x: i32, r: u32, z: u32) {
-        let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
-        let (zc, zs) = (z as i16 as i64, (z >> 16) as i16 as i64);
-        let (p, q) = (x * rc, x * rs);
-        self.p += p as i64;
-        self.q += q as i64;
-        self.a += p as i64 * zc;
-        self.b += q as i64 * zs;
-        self.c += p as i64 * zs;
-        self.d += q as i64 * zc;
+    fn add(&mut self, s: i32, d: i32, u: &[i32; 6]) {
+        let a = &mut self.0;
+        a[0] += (s * u[0]) as i64;
+        a[1] += (d * u[1]) as i64;
+        a[2] += (s * u[2]) as i64;
+        a[3] += (d * u[3]) as i64;
+        a[4] += (s * u[4]) as i64;
+        a[5] += (d * u[5]) as i64;
     }
 
-    /// X, G₊ and G₋ from the sums of the first half (n = 0..=H, reference
-    /// and rotation as stored) and of the second (n = H+1..N, both
-    /// conjugated): X = Σ(p − jq), G₊ = Σ(p − jq)·e^(−jφ), G₋ = Σ(p − jq)·e^(jφ).
-    fn combine(h1: &Self, h2: &Self) -> [[i64; 2]; 3] {
-        [
-            [h1.p + h2.p, -(h1.q - h2.q)],
-            [h1.a - h1.b + h2.a - h2.b, -(h1.c + h1.d - h2.c - h2.d)],
-            [h1.a + h1.b + h2.a + h2.b, h1.c - h1.d - h2.c + h2.d],
-        ]
+    /// X, G₊ and G₋ as [re, im] (Q15 · counts, all three).
+    const fn phasors(&self) -> [[i64; 2]; 3] {
+        let a = &self.0;
+        [[a[0], -a[1]], [a[2], -a[3]], [a[4], a[5]]]
     }
 }
 
@@ -307,21 +330,25 @@ impl<const H: usize> Lockin<H> {
             guard_dc: [[0; 2]; 2],
             mean_leak: 0.0,
         };
-        // What a block of ones gives, by the same sums as a block.
-        let (mut h1, mut h2) = (ConstSums::ZERO, ConstSums::ZERO);
-        let mut n = 0;
-        while n <= H {
-            let r = if n == H { s.middle } else { s.half[n] };
-            let z = if n == H { pack(-32767, 0) } else { rotation[n] };
-            h1 = h1.add(r, z);
-            n += 1;
-        }
-        let mut m = 1;
-        while m < H {
-            h2 = h2.add(s.half[m], rotation[m]);
+        // What a block of ones gives, by the same sums as a block: s = 2,
+        // d = 0 for a folded pair, s = d = 1 at m = 0 and m = H.
+        let mut ones = [0i64; 6];
+        let mut m = 0;
+        while m <= H {
+            let r = if m == H { s.middle } else { s.half[m] };
+            let z = if m == H { pack(-32767, 0) } else { rotation[m] };
+            let u = refs(r, z);
+            let (sum, diff) = if m == 0 || m == H { (1, 1) } else { (2, 0) };
+            let mut c = 0;
+            while c < 6 {
+                ones[c] += (if c % 2 == 0 { sum } else { diff } * u[c]) as i64;
+                c += 1;
+            }
             m += 1;
         }
-        s.dc = h1.p + h2.p;
+        let [x, gp, gm] = Sums(ones).phasors();
+        s.dc = x[0];
+        s.guard_dc = [gp, gm];
         let mut leak = 0.0;
         let mut n = 0;
         while n < n_total {
@@ -336,10 +363,6 @@ impl<const H: usize> Lockin<H> {
             n += 1;
         }
         s.mean_leak = (leak / basis.window_sum as f64) as f32;
-        s.guard_dc = [
-            [h1.a - h1.b + h2.a - h2.b, -(h1.c + h1.d - h2.c - h2.d)],
-            [h1.a + h1.b + h2.a + h2.b, h1.c - h1.d - h2.c + h2.d],
-        ];
         s
     }
 
@@ -353,7 +376,10 @@ impl<const H: usize> Lockin<H> {
     /// Σw·x/Σw of each channel, counts.
     fn windowed_means(&self, pairs: &[[i16; 2]]) -> [f64; 2] {
         let w = &self.basis.window;
-        let weights = w.iter().chain(core::iter::once(&65535)).chain(w[1..].iter().rev());
+        let weights = w
+            .iter()
+            .chain(core::iter::once(&65535))
+            .chain(w[1..].iter().rev());
         let (mut v, mut i) = (0i64, 0i64);
         for (&[x, y], &w) in pairs.iter().zip(weights) {
             v += x as i64 * w as i64;
@@ -376,23 +402,29 @@ impl<const H: usize> Lockin<H> {
                 expected: 2 * H,
             });
         }
-        let (first, second) = pairs.split_at(H + 1);
-        let mut h1 = [Sums::default(); 2];
-        let mut h2 = [Sums::default(); 2];
-        let refs = self.half.iter().copied().chain(core::iter::once(self.middle));
-        let rots = self.basis.rotation.iter().copied().chain(core::iter::once(pack(-32767, 0)));
-        for ((&[v, i], r), z) in first.iter().zip(refs).zip(rots) {
-            h1[0].add(v as i32, r, z);
-            h1[1].add(i as i32, r, z);
+        let mut sums = [Sums::default(); 2];
+        let ends = [
+            (0, self.half[0], self.basis.rotation[0]),
+            (H, self.middle, pack(-32767, 0)),
+        ];
+        for (m, r, z) in ends {
+            let u = refs(r, z);
+            let [v, i] = pairs[m];
+            sums[0].add(v as i32, v as i32, &u);
+            sums[1].add(i as i32, i as i32, &u);
         }
-        // Pair H + m pairs with the stored word of H − m, conjugated.
-        for ((&[v, i], &r), &z) in second
+        let (first, second) = pairs[1..].split_at(H - 1);
+        // Pair m (1..H) with pair N − m: the second half backwards.
+        for (((&[v, i], &[v2, i2]), &r), &z) in first
             .iter()
-            .zip(self.half[1..].iter().rev())
-            .zip(self.basis.rotation[1..].iter().rev())
+            .zip(second[1..].iter().rev())
+            .zip(&self.half[1..])
+            .zip(&self.basis.rotation[1..])
         {
-            h2[0].add(v as i32, r, z);
-            h2[1].add(i as i32, r, z);
+            let u = refs(r, z);
+            let (v, v2, i, i2) = (v as i32, v2 as i32, i as i32, i2 as i32);
+            sums[0].add(v + v2, v - v2, &u);
+            sums[1].add(i + i2, i - i2, &u);
         }
         let n = 2 * H as i64;
         // Tone and guards in counts: X·2/(32767·Σw), G·2/(32767²·Σw),
@@ -405,9 +437,13 @@ impl<const H: usize> Lockin<H> {
         // window, which sees DC as the tone does and far energy not at all
         // (the bare mean of an interferer of b bins and a counts is up to
         // a/(πb)).
-        let means = if self.periods < 5 { Some(self.windowed_means(pairs)) } else { None };
+        let means = if self.periods < 5 {
+            Some(self.windowed_means(pairs))
+        } else {
+            None
+        };
         let channel = |c: usize| {
-            let [x, gp, gm] = Sums::combine(&h1[c], &h2[c]);
+            let [x, gp, gm] = sums[c].phasors();
             // The tone and the mean see each other (real parts only, by
             // the window's symmetry): Re X·scale = T + a·d and M = d + b·T,
             // solved for the tone T and the mean d. In f64: for 3 periods
@@ -424,8 +460,11 @@ impl<const H: usize> Lockin<H> {
             };
             let tone = Complex32::new(re, x[1] as f32 * scale);
             let guard = |g: [i64; 2], dc: [i64; 2]| {
-                let g = Complex32::new(g[0] as f32 - mean * dc[0] as f32, g[1] as f32 - mean * dc[1] as f32);
-                g * (scale / 32767.0) - tone * LAMBDA
+                let g = Complex32::new(
+                    g[0] as f32 - mean * dc[0] as f32,
+                    g[1] as f32 - mean * dc[1] as f32,
+                );
+                g * scale - tone * LAMBDA
             };
             (tone, [guard(gp, self.guard_dc[0]), guard(gm, self.guard_dc[1])])
         };
@@ -439,40 +478,5 @@ impl<const H: usize> Lockin<H> {
             guard_noise_gain: crate::fmath::sqrt((2.0 * GUARD_POWER) as f32 / n as f32) / NUTTALL[0] as f32,
             n: n as u32,
         })
-    }
-}
-
-/// [`Sums`] for a block of ones, in a `const fn`.
-#[derive(Clone, Copy)]
-struct ConstSums {
-    p: i64,
-    q: i64,
-    a: i64,
-    b: i64,
-    c: i64,
-    d: i64,
-}
-
-impl ConstSums {
-    const ZERO: Self = Self {
-        p: 0,
-        q: 0,
-        a: 0,
-        b: 0,
-        c: 0,
-        d: 0,
-    };
-
-    const fn add(self, r: u32, z: u32) -> Self {
-        let (p, q) = (r as i16 as i64, (r >> 16) as i16 as i64);
-        let (zc, zs) = (z as i16 as i64, (z >> 16) as i16 as i64);
-        Self {
-            p: self.p + p,
-            q: self.q + q,
-            a: self.a + p * zc,
-            b: self.b + q * zs,
-            c: self.c + p * zs,
-            d: self.d + q * zc,
-        }
     }
 }

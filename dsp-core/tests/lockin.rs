@@ -3,7 +3,7 @@
 //! near energy, the noise the window passes, and a wrong block length.
 
 use dsp_core::demod::FrontEnd;
-use dsp_core::lockin::{Lockin, Reading, Basis, GUARD_BOUND, NUTTALL, STOP_BAND_BINS};
+use dsp_core::lockin::{Basis, Lockin, Reading, GUARD_BOUND, NUTTALL, STOP_BAND_BINS};
 use dsp_core::Complex32;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -62,9 +62,16 @@ fn a_clean_tone_reads_as_the_f64_reference_and_leaves_its_guards_empty() {
     let (mut worst, mut sq, mut count, mut guard) = (0.0f64, 0.0, 0, 0.0f64);
     for l in &LOCKINS {
         for _ in 0..40 {
-            let (amp, phi, dc) = (rng.gen_range(30.0..2000.0), rng.gen_range(0.0..TAU), rng.gen_range(0.0..2048.0));
+            let (amp, phi, dc) = (
+                rng.gen_range(30.0..2000.0),
+                rng.gen_range(0.0..TAU),
+                rng.gen_range(0.0..2048.0),
+            );
             let k = l.periods() as f64;
-            let b = block(|n| dc + tone(amp, k, phi)(n), |n| dc - tone(amp / 3.0, k, phi + 1.0)(n));
+            let b = block(
+                |n| dc + tone(amp, k, phi)(n),
+                |n| dc - tone(amp / 3.0, k, phi + 1.0)(n),
+            );
             let r = l.block(&b).unwrap();
             let xs: Vec<f64> = b.iter().map(|p| p[0] as f64 - dc).collect();
             // The reference takes the exact DC out; the rounding of the
@@ -101,9 +108,15 @@ fn the_stop_band_rejects_far_energy() {
         let k = l.periods() as f64;
         for _ in 0..200 {
             let off = rng.gen_range(STOP_BAND_BINS as f64..(N as f64 / 2.0 - k));
-            let bins = if rng.gen_bool(0.5) && off < k { k - off } else { k + off };
+            let bins = if rng.gen_bool(0.5) && off < k {
+                k - off
+            } else {
+                k + off
+            };
             let (amp, a_i) = (500.0, rng.gen_range(10.0..1500.0));
-            let b = block(tone(amp, k, 0.3), |n| tone(amp, k, 0.3)(n) + tone(a_i, bins, 1.1)(n));
+            let b = block(tone(amp, k, 0.3), |n| {
+                tone(amp, k, 0.3)(n) + tone(a_i, bins, 1.1)(n)
+            });
             let r = l.block(&b).unwrap();
             let xs: Vec<f64> = b.iter().map(|p| p[1] as f64).collect();
             let e = err(r.i, reference(&xs, k)) / (2e-5 * (amp + a_i));
@@ -137,7 +150,9 @@ fn the_guards_bound_what_near_energy_does_to_the_tone() {
         let (amp, a_i) = (rng.gen_range(50.0..1500.0), rng.gen_range(0.5..500.0));
         let phi = rng.gen_range(0.0..TAU);
         let clean = block(tone(amp, k, 0.3), tone(amp, k, 0.3));
-        let b = block(tone(amp, k, 0.3), |n| tone(amp, k, 0.3)(n) + tone(a_i, k + off, phi)(n));
+        let b = block(tone(amp, k, 0.3), |n| {
+            tone(amp, k, 0.3)(n) + tone(a_i, k + off, phi)(n)
+        });
         let (r0, r) = (l.block(&clean).unwrap(), l.block(&b).unwrap());
         let moved = (r.i - r0.i).norm() as f64;
         let bound = GUARD_BOUND as f64 * r.near()[1] as f64 + 0.1;
@@ -162,7 +177,10 @@ fn the_noise_the_window_passes_is_noise_gain() {
         let b: Vec<[i16; 2]> = (0..N)
             .map(|n| {
                 let x = 2048.0 + tone(800.0, 10.0, 0.2)(n);
-                [(x + noise.sample(&mut rng)).round() as i16, (x + noise.sample(&mut rng)).round() as i16]
+                [
+                    (x + noise.sample(&mut rng)).round() as i16,
+                    (x + noise.sample(&mut rng)).round() as i16,
+                ]
             })
             .collect();
         let r: Reading = l.block(&b).unwrap();
@@ -172,7 +190,10 @@ fn the_noise_the_window_passes_is_noise_gain() {
         (gain, ggain) = (r.noise_gain, r.guard_noise_gain);
     }
     let s2 = sigma * sigma + 1.0 / 12.0;
-    let (t, g) = ((tone_sq / trials as f64 / s2).sqrt(), (guard_sq / trials as f64 / s2).sqrt());
+    let (t, g) = (
+        (tone_sq / trials as f64 / s2).sqrt(),
+        (guard_sq / trials as f64 / s2).sqrt(),
+    );
     println!("noise per component: tone {t:.4}·σ ({gain:.4}), guards {g:.4}·σ ({ggain:.4})");
     assert!((t / gain as f64 - 1.0).abs() < 0.08, "{t} {gain}");
     assert!((g / ggain as f64 - 1.0).abs() < 0.08, "{g} {ggain}");
@@ -191,12 +212,26 @@ fn steps_and_spikes_show_in_the_guards() {
         let spike = rng.gen_bool(0.5);
         let clean = block(tone(1000.0, 5.0, 0.4), tone(1000.0, 5.0, 0.4));
         let b = block(tone(1000.0, 5.0, 0.4), |n| {
-            let d = if spike { if n == at { 20.0 * h } else { 0.0 } } else if n >= at { h } else { 0.0 };
+            let d = if spike {
+                if n == at {
+                    20.0 * h
+                } else {
+                    0.0
+                }
+            } else if n >= at {
+                h
+            } else {
+                0.0
+            };
             tone(1000.0, 5.0, 0.4)(n) + d
         });
         let (r0, r) = (l.block(&clean).unwrap(), l.block(&b).unwrap());
         let moved = (r.i - r0.i).norm();
-        assert!(moved <= GUARD_BOUND * r.near()[1] + 0.1, "{spike} at {at} of {h}: {moved} vs {:?}", r.near());
+        assert!(
+            moved <= GUARD_BOUND * r.near()[1] + 0.1,
+            "{spike} at {at} of {h}: {moved} vs {:?}",
+            r.near()
+        );
     }
 }
 

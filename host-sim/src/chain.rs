@@ -184,7 +184,7 @@ fn run_adc(
         let clipped = fe
             .at_range(&ranging, range)
             .block(&osc, sensor.impedance(f), &mut rng, &mut buf);
-        let ph = config::DEMODULATORS[index].block(&buf);
+        let ph = config::read(index, &buf);
         let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped, range);
         let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };
         let (c_corr, r_corr) = if rec.flags.valid() && rec.c_farad > 0.0 {

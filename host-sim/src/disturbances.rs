@@ -20,7 +20,6 @@
 //! jumps; drift). The array's front end simulates sinusoids only, so its
 //! rows for steps, offsets and stuck inputs are not tried ("–").
 
-use dsp_core::demod::Demodulator;
 use dsp_core::fixture::Fixture;
 use dsp_core::Oscillator;
 use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS};
@@ -351,7 +350,6 @@ pub fn multiplexed(class: &Class) -> Outcome {
     for index in 0..3 {
         let tone = freq_hz(index);
         let osc = Oscillator::from_ftw(ftw(index));
-        let demod = Demodulator::<BLOCK_PAIRS>::new(&osc);
         let mut ch = Channel::pinned(calib::REFERENCE.rest_capacitance(), index);
         // Each frequency from another phase of the trapezoid (moving).
         let start = 0.5 + 1.7 * index as f64;
@@ -378,7 +376,7 @@ pub fn multiplexed(class: &Class) -> Outcome {
             let clipped = fe
                 .at_range(&settings.ranging, ch.range())
                 .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
-            let ph = demod.block(buf.as_slice().try_into().expect("a block's pairs"));
+            let ph = instrument::config::read(index, buf.as_slice().try_into().expect("a block's pairs"));
             let r = ch.process(&settings, 0, (t * 1e6) as u64, &ph, clipped, ch.range());
             if b > 0 {
                 out.add(r.flags.valid(), r.c_farad, truth);

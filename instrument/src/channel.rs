@@ -8,8 +8,9 @@ use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
 use crate::sensor::Sensors;
 use crate::sequencer::Plan;
-use dsp_core::demod::{FrontEnd, Phasors};
+use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::{self, Dielectric};
+use dsp_core::lockin::Reading;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
@@ -182,15 +183,15 @@ impl Channel {
         }
     }
 
-    /// Turn the phasors of the block just measured at the current frequency
-    /// through transimpedance range `range` into a record, and update the
-    /// policy and the range.
+    /// Turn the lock-in's reading of the block just measured at the current
+    /// frequency through transimpedance range `range` into a record, and
+    /// update the policy and the range.
     pub fn process<const N: usize, const S: usize>(
         &mut self,
         s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
-        ph: &Phasors,
+        ph: &Reading,
         clipped: bool,
         range: u8,
     ) -> Record {
@@ -206,7 +207,7 @@ impl Channel {
         s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
-        ph: &Phasors,
+        ph: &Reading,
         clipped: bool,
         range: u8,
     ) -> Record {
@@ -258,7 +259,7 @@ impl Channel {
             rec.flags.set(Flags::DISTURBED);
         }
         if clipped || rec.flags.has(Flags::DISTURBED) {
-            // A clipped or disturbed block's phasors are biased: report the
+            // A clipped or disturbed block's tones are biased: report the
             // lumped reading, keep the tracker and the policy as they were.
             return rec;
         }
@@ -289,14 +290,16 @@ impl Channel {
                 if t.held {
                     rec.flags.set(Flags::HELD);
                 } else {
-                    let periods = crate::config::PERIODS[crate::config::index(self.policy.index)];
-                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa, periods) + loss_error;
+                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa) + loss_error;
                     // A NaN bound (none) is no bound.
                     if bound.is_nan() || bound > th.c_tolerance {
                         rec.flags.set(Flags::UNCERTAIN);
                     }
                 }
-                if line.r_ohm > th.r_max_ohm {
+                // Beyond the electrodes' range, or a line without
+                // resistance (x below what the inversion resolves): no
+                // sensor of this kind.
+                if line.r_ohm > th.r_max_ohm || !(line.r_ohm > 0.0) {
                     rec.flags.set(Flags::RANGE);
                     if !self.pinned {
                         s.policy.fallback(&mut self.policy);

@@ -52,13 +52,30 @@ pub const fn index(i: usize) -> usize {
     }
 }
 
-/// The demodulators of the frequency set, computed at compile time: their
-/// references (4 KiB each) live in flash, and a frequency switch costs
+/// Pairs in half a block: the lock-ins store half their reference.
+pub const HALF_BLOCK: usize = BLOCK_PAIRS / 2;
+
+/// What the lock-ins of the frequency set share: the rotation to their
+/// guard bins and the window (3 KiB, in flash).
+pub static BASIS: dsp_core::lockin::Basis<HALF_BLOCK> = dsp_core::lockin::Basis::new();
+
+/// The lock-ins of the frequency set ([`dsp_core::lockin`]: Nuttall's
+/// window, a guard bin either side), computed at compile time: their
+/// references (2 KiB each) live in flash, and a frequency switch costs
 /// nothing.
-pub static DEMODULATORS: [dsp_core::demod::Demodulator<BLOCK_PAIRS>; PERIODS.len()] = [
-    dsp_core::demod::Demodulator::from_ftw(ftw(0)),
-    dsp_core::demod::Demodulator::from_ftw(ftw(1)),
-    dsp_core::demod::Demodulator::from_ftw(ftw(2)),
-    dsp_core::demod::Demodulator::from_ftw(ftw(3)),
-    dsp_core::demod::Demodulator::from_ftw(ftw(4)),
+pub static LOCKINS: [dsp_core::lockin::Lockin<HALF_BLOCK>; PERIODS.len()] = [
+    dsp_core::lockin::Lockin::new(PERIODS[0], &BASIS),
+    dsp_core::lockin::Lockin::new(PERIODS[1], &BASIS),
+    dsp_core::lockin::Lockin::new(PERIODS[2], &BASIS),
+    dsp_core::lockin::Lockin::new(PERIODS[3], &BASIS),
+    dsp_core::lockin::Lockin::new(PERIODS[4], &BASIS),
 ];
+
+/// The lock-in's reading of one block at set entry `i` (an index beyond
+/// the set means its highest entry).
+pub fn read(i: usize, pairs: &[[i16; 2]; BLOCK_PAIRS]) -> dsp_core::lockin::Reading {
+    // A block of BLOCK_PAIRS pairs is what every lock-in of the set takes,
+    // so this is never an error (an empty reading, flagged OPEN, if it
+    // were).
+    LOCKINS[index(i)].block(pairs).unwrap_or_default()
+}

@@ -182,6 +182,8 @@ impl Digestible for Thresholds {
             self.r_max_ohm,
             self.residual_counts,
             self.residual_rel,
+            self.near_counts,
+            self.near_rel,
             self.c_tolerance,
             self.noise_counts,
         );

@@ -3,6 +3,7 @@
 //! cause.
 
 use crate::design;
+use dsp_core::lockin::Reading;
 
 /// Bit set of flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -23,11 +24,13 @@ impl Flags {
     /// reading, so not valid.
     pub const HELD: u16 = 1 << 5;
     /// The block holds more than the excitation explains (mains hum, a
-    /// step, a glitch): its residual after the fitted tone is above the
-    /// threshold, so the tone itself may be off.
+    /// step, a glitch, an interferer near the tone): on the multiplexed
+    /// channel, what its lock-in's guards see near the tone; on the array,
+    /// its residual after the fitted tones. Above the threshold, the tone
+    /// itself may be off.
     pub const DISTURBED: u16 = 1 << 6;
     /// The line's C is not vouched for: the block's noise, and any
-    /// disturbance the residual check lets through, times the inversion's
+    /// disturbance the check above lets through, times the inversion's
     /// error amplification κ at this ωRC, could move C by more than
     /// [`Thresholds::c_tolerance`] (near the peak of D, or a weak signal).
     pub const UNCERTAIN: u16 = 1 << 7;
@@ -125,13 +128,20 @@ pub struct Thresholds {
     /// Line resistance above which the electrodes count as out of range
     /// (damaged or delaminated), Ω.
     pub r_max_ohm: f32,
-    /// A channel's residual rms after the fitted tone
-    /// ([`dsp_core::demod::Phasors::residual_rms`]) above which the block is
-    /// disturbed, counts, whatever the tone's amplitude.
+    /// The array's comb: a channel's residual rms after its fitted tones
+    /// (`dsp_core::comb::Tones::residual_rms`) above which the block is
+    /// disturbed, counts, whatever the tones' amplitude.
     pub residual_counts: f32,
-    /// ... or above this fraction of the channel's tone amplitude, if that
+    /// ... or above this fraction of the channel's largest tone, if that
     /// is larger.
     pub residual_rel: f32,
+    /// The multiplexed channel's lock-in: what lies near its tone beyond
+    /// the noise (the larger guard's excess, [`Thresholds::near_excess`])
+    /// above which the block is disturbed, counts, whatever the tone's
+    /// amplitude.
+    pub near_counts: f32,
+    /// ... or above this fraction of the channel's tone, if that is larger.
+    pub near_rel: f32,
     /// Largest relative error of C a valid record may carry, by the bound
     /// of [`Thresholds::c_error_bound`].
     pub c_tolerance: f32,
@@ -150,12 +160,15 @@ impl Thresholds {
     /// floor of a 1024-pair block is ≈0.05 counts, so 4 counts separates
     /// them widely. No excitation: below a sixth of the designed one.
     ///
-    /// Disturbance: a clean block's residual is the ADC noise, ≈ 0.8 counts
-    /// rms. A disturbance leaks into the tone's bin at most ≈ 1.1/k times
-    /// its residual rms (a ramp: hum over a block shorter than its period;
-    /// k ≥ 3 periods per block), so a residual below max(1.5 counts, 2 % of
-    /// the tone) moves the tone by at most 0.55 counts or 0.75 % of it:
-    /// ≤ 0.8 % at the smallest current (≈ 70 counts).
+    /// Disturbance: energy far from the tone (4.5 bins, 880 Hz, and more)
+    /// does not reach the lock-in's phasor, and is not looked at. What
+    /// lies near it shows in the guards: a clean block's are noise, 0.037
+    /// counts per component, so an excess of 0.25 counts (five of the
+    /// noise's σ, as a magnitude) is something there; it moves the tone by
+    /// at most [`dsp_core::lockin::GUARD_BOUND`] times itself. Disturbed
+    /// above max(0.25 counts, 0.15 % of the tone): the tone could be 0.5 %
+    /// off. Less than that joins the error bound
+    /// ([`Thresholds::c_error_bound`]).
     pub const DEFAULT: Self = Self {
         open_counts: 4.0,
         no_excitation_counts: EXCITATION_COUNTS / 6.0,
@@ -163,6 +176,8 @@ impl Thresholds {
         r_max_ohm: 5.0e6,
         residual_counts: 1.5,
         residual_rel: 0.02,
+        near_counts: 0.25,
+        near_rel: 0.0015,
         c_tolerance: 0.008,
         // 0.7 LSB of input noise (the STM32G4 ADC's typical, 12-bit) and
         // 0.29 LSB of quantization: 0.76 LSB rms, rounded up.
@@ -177,6 +192,8 @@ impl Thresholds {
     /// the ADC's ≈ 3.05 counts. Open below 60 counts, no excitation below a
     /// sixth of the smallest tone; disturbed above 6.4 counts (2.1× the
     /// noise, as the board's 1.5 against 0.76) or 2 % of the largest tone.
+    /// The near thresholds are the multiplexed channel's (the comb has no
+    /// guards) scaled to these counts.
     pub const ARRAY: Self = Self {
         open_counts: 60.0,
         no_excitation_counts: ARRAY_TONE_COUNTS / 6.0,
@@ -184,34 +201,63 @@ impl Thresholds {
         r_max_ohm: 5.0e6,
         residual_counts: 6.4,
         residual_rel: 0.02,
+        near_counts: 0.25 * crate::array::NOISE_COUNTS,
+        near_rel: 0.0015,
         c_tolerance: 0.008,
         noise_counts: crate::array::NOISE_COUNTS,
     };
 
-    /// A bound on the relative error of C from one block. A channel's
-    /// residual rms r (after the fitted tone) is white noise of at most
-    /// σ = [`Thresholds::noise_counts`] and a disturbance of rms
-    /// δ = √(max(0, r² − σ²)). Its phase is then off by at most
+    /// What lies near a channel's tone beyond the noise, counts: the
+    /// larger guard's excess √(max(0, |g|² − 2σ_g²)), σ_g the guards' noise
+    /// per component for white noise of `sigma` counts.
+    fn excess(guards: &[dsp_core::Complex32; 2], sigma_g: f32) -> f32 {
+        let g2 = guards[0].norm_sqr().max(guards[1].norm_sqr());
+        libm::sqrtf((g2 - 2.0 * sigma_g * sigma_g).max(0.0))
+    }
+
+    /// Each channel's noise, counts rms: the ADC's
+    /// ([`Thresholds::noise_counts`]), or what the guards show if more (a
+    /// noisier board, or energy near the tone).
+    fn sigma(&self, r: &Reading, c: usize) -> f32 {
+        let [p, m] = r.guards[c];
+        let seen =
+            libm::sqrtf((p.norm_sqr() + m.norm_sqr()) / 4.0) / r.guard_noise_gain.max(f32::MIN_POSITIVE);
+        self.noise_counts.max(seen)
+    }
+
+    /// What lies near each channel's tone beyond the noise,
+    /// `[voltage, current]`, counts: the larger guard's excess over what
+    /// the channel's noise ([`Thresholds::noise_counts`] or more) puts
+    /// there.
+    pub fn near_excess(&self, r: &Reading) -> [f32; 2] {
+        [0, 1].map(|c| Self::excess(&r.guards[c], self.noise_counts * r.guard_noise_gain))
+    }
+
+    /// A bound on the relative error of C from one block through the
+    /// lock-in ([`dsp_core::lockin`]). Each channel's tone is off by at
+    /// most
     ///
     /// ```text
-    /// φ = (5·r·√(2/N) + 1.1·δ/k) / A
+    /// e = 5·σ·g_n + GUARD_BOUND·δ     (counts)
     /// ```
     ///
-    /// (five standard deviations of the noise on a tone of amplitude A over
-    /// N pairs, plus the most a disturbance leaks into the bin of k
-    /// periods); D = Re Z/(−Im Z) moves by (1 + D²)/D times the phase error
-    /// (relative), and C by `kappa` times that, plus the amplitude errors,
-    /// each at most φ. `d` is the block's D, `periods` its k.
-    pub fn c_error_bound(&self, ph: &dsp_core::demod::Phasors, d: f32, kappa: f32, periods: u32) -> f32 {
-        let n = (ph.n as f32).max(1.0);
-        let k = periods.max(1) as f32;
-        let sigma = self.noise_counts;
-        let channel = |r: f32, a: f32| {
-            let delta = libm::sqrtf((r * r - sigma * sigma).max(0.0));
-            (5.0 * r * libm::sqrtf(2.0 / n) + 1.1 * delta / k) / a
+    /// five standard deviations of its noise (σ counts rms, the ADC's or
+    /// what the guards show if more; g_n the window's noise gain) and the
+    /// most what lies near the tone, δ beyond the noise in the larger
+    /// guard, can move it. Energy in the stop band moves it by less than
+    /// −92 dB and is not counted; energy within half a bin of the tone is
+    /// not seen (a second tone at the same frequency). Its phase is then
+    /// off by at most φ = e_v/A_v + e_i/A_i; D = Re Z/(−Im Z) moves by
+    /// (1 + D²)/D times the phase error (relative), and C by `kappa` times
+    /// that, plus the amplitude errors, each at most φ. `d` is the
+    /// block's D.
+    pub fn c_error_bound(&self, r: &Reading, d: f32, kappa: f32) -> f32 {
+        let channel = |c: usize, a: f32| {
+            let sigma = self.sigma(r, c);
+            let delta = Self::excess(&r.guards[c], self.noise_counts * r.guard_noise_gain);
+            (5.0 * sigma * r.noise_gain + dsp_core::lockin::GUARD_BOUND * delta) / a
         };
-        let [rv, ri] = ph.residual_rms();
-        let phase = channel(rv, ph.v_amplitude()) + channel(ri, ph.i_amplitude());
+        let phase = channel(0, r.v_amplitude()) + channel(1, r.i_amplitude());
         let e = kappa * (1.0 + d * d) / d * phase + phase;
         // NaN (no signal) is no bound.
         if e.is_nan() {
@@ -221,12 +267,14 @@ impl Thresholds {
         }
     }
 
-    /// Is a block with these phasors disturbed (see the fields)?
-    pub fn disturbed(&self, ph: &dsp_core::demod::Phasors) -> bool {
-        let [rv, ri] = ph.residual_rms();
-        let limit = |amplitude: f32| self.residual_counts.max(self.residual_rel * amplitude);
+    /// Is a block with this reading disturbed: something near the tone
+    /// beyond [`Thresholds::near_counts`] and [`Thresholds::near_rel`] of
+    /// the tone?
+    pub fn disturbed(&self, r: &Reading) -> bool {
+        let [dv, di] = self.near_excess(r);
+        let limit = |amplitude: f32| self.near_counts.max(self.near_rel * amplitude);
         // NaN never passes.
-        !(rv <= limit(ph.v_amplitude()) && ri <= limit(ph.i_amplitude()))
+        !(dv <= limit(r.v_amplitude()) && di <= limit(r.i_amplitude()))
     }
 }
 

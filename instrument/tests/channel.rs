@@ -1,7 +1,6 @@
 //! The measurement chain on the host: frequency policy,
 //! calibration, and a channel fed by the simulated sensor.
 
-use dsp_core::demod::Demodulator;
 use dsp_core::fixture::Fixture;
 use dsp_core::Oscillator;
 use instrument::calib::{POINTS, REFERENCE};
@@ -122,7 +121,7 @@ fn run(
             &mut rng,
             &mut buf,
         );
-        let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
+        let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
         out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped, ch.range()));
         t += SLOT_S;
     }
@@ -261,8 +260,7 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                         let clipped = fe
                             .at_range(&settings.ranging, ch.range())
                             .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
-                        let ph =
-                            Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                        let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                         let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
                         if r.flags.valid() {
                             valid += 1;
@@ -337,7 +335,7 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
                 let clipped = fe
                     .at_range(&settings.ranging, ch.range())
                     .block(&osc, z, &mut rng, &mut buf);
-                let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
+                let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                 let r = ch.process(&settings, 0, b * 5_000, &ph, clipped, ch.range());
                 if b == 0 {
                     continue; // settling
@@ -391,7 +389,7 @@ fn blocks(
             let clipped =
                 fe.at_range(&settings.ranging, range)
                     .block(&osc, z(freq_hz(i) as f64), rng, &mut buf);
-            let ph = Demodulator::<BLOCK_PAIRS>::new(&osc).block(buf.as_slice().try_into().unwrap());
+            let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
             let r = ch.process(settings, 0, b as u64 * 5_440, &ph, clipped, range);
             (r, range, clipped)
         })

@@ -1,7 +1,8 @@
 //! Fuzzing the firmware's channel logic and the wire format with proptest.
 //!
-//! * `channel_on_arbitrary_phasors`: any demodulator output (sums, moments,
-//!   pair counts), clipping, time stamps and frequency indices, in
+//! * `channel_on_arbitrary_readings`: any lock-in output (tones, guards,
+//!   noise gains, pair counts, NaN and infinities among them), clipping,
+//!   time stamps and frequency indices, in
 //!   sequences on one channel: no panic, and a record flagged valid has a
 //!   finite, positive C and R and a finite stretch.
 //! * `disturbed_blocks`: the simulated sensor (any stretch, electrodes at
@@ -15,15 +16,15 @@
 //! Cases per target: `FUZZ_CASES` (default 2 000; 300 for the simulated
 //! blocks); `cargo xtask fuzz` runs 1 000 000.
 
-use dsp_core::demod::{Demodulator, Moments, Phasors};
 use dsp_core::fixture::Fixture;
+use dsp_core::lockin::Reading;
+use dsp_core::Complex32;
 use dsp_core::Oscillator;
 use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
 use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::wire;
-use num_complex::Complex;
 use proptest::prelude::*;
 use skin_sim::frontend::{Disturbance, FrontEndParams};
 use skin_sim::profile::Profile;
@@ -50,36 +51,48 @@ fn settings() -> Settings<'static, POINTS, 1> {
     Settings::new(ranging.front_ends(1.0), ranging, reference())
 }
 
-/// Sums of a block: anything an i64 holds, and the realistic sizes often.
-fn sum() -> impl Strategy<Value = i64> {
-    prop_oneof![any::<i64>(), -(1i64 << 36)..(1i64 << 36), -1000i64..1000, Just(0)]
+/// A component of a reading: anything an f32 holds, and the realistic
+/// sizes often.
+fn value() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        any::<f32>(),
+        -3000f32..3000.0,
+        -1f32..1.0,
+        Just(0.0),
+        Just(f32::NAN),
+        Just(f32::INFINITY)
+    ]
 }
 
-fn phasors() -> impl Strategy<Value = Phasors> {
+fn complex() -> impl Strategy<Value = Complex32> {
+    (value(), value()).prop_map(|(re, im)| Complex32::new(re, im))
+}
+
+fn readings() -> impl Strategy<Value = Reading> {
     (
-        (sum(), sum(), sum(), sum()),
-        (sum(), sum(), sum(), sum()),
+        (complex(), complex()),
+        (complex(), complex(), complex(), complex()),
+        (value(), value()),
         prop_oneof![any::<u32>(), Just(BLOCK_PAIRS as u32), Just(0)],
     )
-        .prop_map(|((a, b, c, d), (v_sum, v_sq, i_sum, i_sq), n)| Phasors {
-            v: Complex::new(a, b),
-            i: Complex::new(c, d),
-            n,
-            moments: Moments {
-                v_sum,
-                v_sq,
-                i_sum,
-                i_sq,
+        .prop_map(
+            |((v, i), (a, b, c, d), (noise_gain, guard_noise_gain), n)| Reading {
+                v,
+                i,
+                guards: [[a, b], [c, d]],
+                noise_gain,
+                guard_noise_gain,
+                n,
             },
-        })
+        )
 }
 
 proptest! {
     #![proptest_config(config(2_000))]
 
     #[test]
-    fn channel_on_arbitrary_phasors(
-        steps in prop::collection::vec((phasors(), any::<bool>(), any::<u64>(), any::<u8>()), 1..16),
+    fn channel_on_arbitrary_readings(
+        steps in prop::collection::vec((readings(), any::<bool>(), any::<u64>(), any::<u8>()), 1..16),
         prior in prop_oneof![any::<f32>(), 1e-12f32..1e-9],
         index in any::<usize>(),
         pinned in any::<bool>(),
@@ -175,7 +188,6 @@ proptest! {
         stepped.advance(&Profile::Constant(stretch), 0.0);
         let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), index);
         let osc = Oscillator::from_ftw(ftw(index));
-        let dm = Demodulator::<BLOCK_PAIRS>::new(&osc);
         let mut rng = Rng::new(seed);
         let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
         for b in 0..4 {
@@ -194,7 +206,7 @@ proptest! {
             }
             let truth = sensor_now.truth().c_farad;
             let clipped = fe.at_range(&s.ranging, ch.range()).block_disturbed(&osc, sensor_now.impedance(freq_hz(index) as f64), &mut rng, &mut buf, &d);
-            let ph = dm.block(buf.as_slice().try_into().unwrap());
+            let ph = instrument::config::read(index, buf.as_slice().try_into().unwrap());
             let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
             if r.flags.valid() {
                 let e = (r.c_farad as f64 / truth - 1.0).abs();

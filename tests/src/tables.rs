@@ -51,16 +51,16 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "two-tone line from the previous record's, worst",
     ),
     (
+        "lockin_pair",
+        "the multiplexed channel's lock-in (Nuttall window, two guard bins), per pair",
+    ),
+    (
         "block_process",
-        "one multiplexed block: demodulation, checks, inversion, policy, range",
+        "one multiplexed block: lock-in, checks, inversion, policy, range",
     ),
     (
         "block_load_permille",
         "its share of a 170 MHz Cortex-M4 over a 5.12 ms block",
-    ),
-    (
-        "reference_rebuild",
-        "the demodulator's references rebuilt at a frequency switch",
     ),
     ("array_comb_input", "the comb (5 tones) on one array input"),
     ("array_channel", "one array sensor's record"),

@@ -377,9 +377,9 @@ fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     println!("bench link_record_bytes {} bytes/record", len);
 }
 
-/// One whole firmware block: demodulate 1024 pairs, then fault checks, line
-/// tracking, policy and calibration (`Channel::process`); and the rebuild of
-/// the demodulation reference after a frequency change.
+/// One whole firmware block: the lock-in on 1024 pairs, then fault checks,
+/// line tracking, policy and calibration (`Channel::process`); and the
+/// lock-in alone, per pair.
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};
@@ -412,21 +412,25 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
     ch.policy.index = fidx;
     ch.policy.settling = 0;
-    let dm = Demodulator::<BLOCK_PAIRS>::new(&osc);
+    let lockin = &instrument::config::LOCKINS[fidx];
+    let lockin_insns = insns(ticks(syst, || {
+        black_box(lockin.block(black_box(&buf)).ok());
+    }));
     let mut total = 0;
     for k in 0..4 {
         total += insns(ticks(syst, || {
-            let ph = dm.block(black_box(&buf));
+            let ph = instrument::config::read(fidx, black_box(&buf));
             black_box(ch.process(&settings, 0, k as u64 * 40_000, &ph, false, 0));
         }));
     }
     let per_block = total / 4;
-    let rebuild = insns(ticks(syst, || {
-        black_box(Demodulator::<BLOCK_PAIRS>::new(black_box(&osc)));
-    }));
     // 5.12 ms of samples at 170 MHz: 870 400 cycles.
+    println!(
+        "bench lockin_pair {}.{:02} insn/pair",
+        lockin_insns / BLOCK_PAIRS as u32,
+        (lockin_insns % BLOCK_PAIRS as u32) * 100 / BLOCK_PAIRS as u32
+    );
     println!("bench block_process {} insn/block", per_block);
-    println!("bench reference_rebuild {} insn/switch", rebuild);
     println!(
         "bench block_load_permille {} permille",
         per_block as u64 * 1000 / 870_400

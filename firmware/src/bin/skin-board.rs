@@ -46,7 +46,7 @@ use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{
-    BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
+    BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
 };
 use instrument::design;
 use instrument::frames;
@@ -257,7 +257,7 @@ mod app {
         let clipped = pairs
             .iter()
             .any(|&[v, i]| design::on_rail(v as u16) || design::on_rail(i as u16));
-        let ph = DEMODULATORS[fidx].block(pairs);
+        let ph = instrument::config::read(fidx, pairs);
         let settings = &*local.settings;
         let rec = cx.shared.channels.lock(|c| {
             let channel = &mut c[ch as usize];

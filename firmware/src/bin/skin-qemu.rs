@@ -37,9 +37,7 @@ use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::commands::Commands;
-use instrument::config::{
-    BLOCK_PAIRS, CHANNELS, DEMODULATORS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS,
-};
+use instrument::config::{BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS};
 use instrument::design::SENSOR_R_REST_OHM;
 use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
@@ -299,7 +297,7 @@ mod app {
         let (ph, clipped, slot) = cx
             .shared
             .block
-            .lock(|b| (DEMODULATORS[b.slot.fidx].block(&b.pairs), b.clipped, b.slot));
+            .lock(|b| (instrument::config::read(b.slot.fidx, &b.pairs), b.clipped, b.slot));
         let settings = &*local.settings;
         let rec = cx.shared.channels.lock(|c| {
             let channel = &mut c[slot.channel as usize];
