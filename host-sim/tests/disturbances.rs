@@ -1,15 +1,30 @@
 //! The disturbance table (`host-sim disturbances`, docs/disturbances.md):
-//! the array leaves no valid record 1 % off in any class, both paths keep
-//! a clean skin's records, and the page shows what the code measures.
+//! the array leaves no valid record 1 % off in any class, the multiplexed
+//! channel none outside its known gaps (what sits within half a bin of its
+//! one tone, undeclared wiring), a far interferer leaves the multiplexed
+//! channel's records valid and right, both paths keep a clean skin's
+//! records, and the page shows what the code measures.
 
 use host_sim::disturbances::{markdown, rows};
 
 #[test]
 fn the_array_vouches_for_no_wrong_record_under_any_disturbance() {
     let rows = rows();
+    // One tone cannot tell these from the sensor: a second frequency in
+    // the multiplexed channel's blocks is issue 26's open item.
+    let gaps = [
+        "mains harmonic at the tone",
+        "interferer in the tone's bin",
+        "alias of the tone",
+        "contact resistance",
+        "parasitic capacitance",
+    ];
     for (class, m, a) in &rows {
         if let Some(a) = a {
             assert_eq!(a.valid_off, 0, "array, {}: {a:?}", class.name);
+        }
+        if !gaps.contains(&class.name) {
+            assert_eq!(m.valid_off, 0, "multiplexed, {}: {m:?}", class.name);
         }
         // Whatever flags a whole record set, flags it on both paths: a
         // stuck, open, shorted or clipped input is never read.
@@ -19,7 +34,6 @@ fn the_array_vouches_for_no_wrong_record_under_any_disturbance() {
             "shorted sensor",
             "clipping",
             "step in a block",
-            "mains hum",
         ]
         .contains(&class.name)
         {
@@ -31,6 +45,14 @@ fn the_array_vouches_for_no_wrong_record_under_any_disturbance() {
             );
         }
     }
+    // Far from the tone the lock-in's window rejects an interferer: ≥ 90 %
+    // of the multiplexed channel's records stay valid (and, above, none
+    // is 1 % off).
+    let (_, far, _) = rows
+        .iter()
+        .find(|(c, _, _)| c.name == "interferer far from the tone")
+        .expect("the far interferer's row");
+    assert!(far.flagged * 10 <= far.records, "{far:?}");
     // The clean skin: ≥ 99 % of the records vouched for on both paths.
     let (_, m, a) = &rows[0];
     let a = a.as_ref().expect("the array runs the clean skin");
