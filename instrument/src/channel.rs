@@ -299,7 +299,9 @@ impl Channel {
                 // Beyond the electrodes' range, or a line without
                 // resistance (x below what the inversion resolves): no
                 // sensor of this kind.
-                if line.r_ohm > th.r_max_ohm || !(line.r_ohm > 0.0) {
+                if line.r_ohm > th.r_max_ohm
+                    || line.r_ohm.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater)
+                {
                     rec.flags.set(Flags::RANGE);
                     if !self.pinned {
                         s.policy.fallback(&mut self.policy);
