@@ -1,6 +1,8 @@
 //! Fuzzing the host's readers with proptest: the data-set reader (on the
-//! bytes of a file, arbitrary or a mutated valid table) and the recording
-//! decoder (arbitrary log lines and mutated record lines).
+//! bytes of a file, arbitrary or a mutated valid table), the recording
+//! decoder (arbitrary log lines and mutated record lines), and the
+//! data-set writer against the reader (a recording of any values written,
+//! then read back: the same values, or a refusal).
 //!
 //! Properties: no panic; an error names the file (and, for a row, its line
 //! and column); a table read is made of finite values with a positive
@@ -9,10 +11,11 @@
 //! of the log.
 //!
 //! Cases per target: `FUZZ_CASES` (default 2 000); `cargo xtask fuzz`
-//! runs 1 000 000.
+//! runs 1 000 000 (the writer, whose cases write files, a fiftieth).
 
-use host_sim::dataset::{parse_table, Kind, COLUMNS};
-use host_sim::recording;
+use host_sim::dataset::{parse_table, read_table, Kind, COLUMNS};
+use host_sim::recording::{self, unusable, write_dataset, LoggedRecord, Roles, INCOMPLETE};
+use instrument::faults::Flags;
 use proptest::prelude::*;
 use std::path::Path;
 
@@ -178,6 +181,131 @@ proptest! {
                     prop_assert!(r.freq_hz.is_finite() && r.freq_hz > 0.0, "{r:?}");
                     prop_assert!(r.t_s.is_finite() && r.cs_pf.is_finite() && r.c_pf.is_finite());
                 }
+            }
+        }
+    }
+}
+
+/// A value of a record's field: what a sensor gives, and what a corrupted
+/// record or a unit error does.
+fn reading(lo: f64, hi: f64) -> impl Strategy<Value = f64> {
+    prop_oneof![
+        8 => lo..hi,
+        1 => prop::sample::select(vec![0.0, -1.0, f64::NAN, f64::INFINITY, 3e38, 1e-30, -0.0]),
+    ]
+}
+
+/// A record of a recording: channel 0–3, one of the firmware's frequencies
+/// (or an impossible one), flags mostly clean.
+fn logged() -> impl Strategy<Value = (u8, f64, [f64; 5], u16)> {
+    (
+        0u8..4,
+        prop_oneof![
+            6 => prop::sample::select(vec![585.9375, 1953.125, 5859.375]),
+            1 => prop::sample::select(vec![0.0, -5.0, f64::NAN, 1e30, 1953.3]),
+        ],
+        (
+            reading(150.0, 300.0),
+            reading(1e3, 5e6),
+            reading(150.0, 300.0),
+            reading(1e5, 5e6),
+            reading(-1.0, 31.0),
+        )
+            .prop_map(|(a, b, c, d, e)| [a, b, c, d, e]),
+        prop_oneof![6 => Just(0u16), 1 => any::<u16>(), 1 => Just(Flags::UNCALIBRATED)],
+    )
+}
+
+/// The field as the writer prints it, read back: within half its last
+/// printed digit.
+fn same(written: f64, read: f64, step: f64) -> bool {
+    (written - read).abs() <= 0.5 * step + 1e-9 * written.abs()
+}
+
+/// The writer's cases touch the file system (≈ 7 ms each): 2 000 in the
+/// test command, and a fiftieth of `FUZZ_CASES` (20 000 in `cargo xtask
+/// fuzz`) when that is more.
+fn writer_config() -> ProptestConfig {
+    let cases = std::env::var("FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse::<u32>().ok())
+        .map_or(2_000, |n| (n / 50).max(2_000));
+    ProptestConfig { cases, ..config() }
+}
+
+proptest! {
+    #![proptest_config(writer_config())]
+
+    /// Write a recording as a data set, then read it back: the writer
+    /// refuses with a reason, or what the reader gets is the records'
+    /// values (within the printed digits), every record that can be a row
+    /// in its trace (the others in `faults.csv`), vouched for exactly when
+    /// the record was valid; and no set left half written.
+    #[test]
+    fn dataset_writer_round_trip(
+        recs in prop::collection::vec(logged(), 0..60),
+        statics in prop_oneof![Just(None), Just(Some(vec![3u8]))],
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let logged: Vec<LoggedRecord> = recs
+            .iter()
+            .enumerate()
+            .map(|(k, &(channel, freq_hz, [cs_pf, rs_ohm, c_pf, r_ohm, stretch_mm], flags))| LoggedRecord {
+                t_s: 0.01 * k as f64,
+                channel,
+                freq_hz,
+                cs_pf,
+                rs_ohm,
+                c_pf,
+                r_ohm,
+                stretch_mm,
+                flags: Flags(flags),
+                truth: None,
+            })
+            .collect();
+        let roles = Roles { traces: None, statics };
+        let written = match write_dataset(dir.path(), &logged, &roles) {
+            Ok(w) => w,
+            Err(e) => {
+                prop_assert!(!e.to_string().is_empty());
+                // A refusal leaves no data set behind.
+                prop_assert!(!dir.path().join("calibration.csv").exists());
+                return Ok(());
+            }
+        };
+        prop_assert!(!dir.path().join(INCOMPLETE).exists());
+        for path in &written.traces {
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            let table = match read_table(path, Kind::Trace) {
+                Ok(t) => t,
+                Err(e) => {
+                    // Refused: only for a trace with nothing vouched for.
+                    prop_assert!(e.to_string().contains("no data rows"), "{e:#}");
+                    continue;
+                }
+            };
+            // trace_ch{ch}_{f}hz.csv: the records it holds, in order (its
+            // rows' frequency is the records').
+            let ch = name
+                .trim_start_matches("trace_ch")
+                .split_once('_')
+                .map(|(c, _)| c.parse::<u8>().unwrap())
+                .unwrap();
+            let f = table.rows.first().map_or(f64::NAN, |r| r.freq_hz());
+            let mine: Vec<&LoggedRecord> = logged
+                .iter()
+                .filter(|r| r.channel == ch && r.freq_hz == f && unusable(r, false).is_none())
+                .collect();
+            let vouched: Vec<&&LoggedRecord> = mine.iter().filter(|r| r.valid()).collect();
+            prop_assert_eq!(table.rows.len(), vouched.len(), "{}", name);
+            prop_assert_eq!(table.flagged, mine.len() - vouched.len(), "{}", name);
+            for (row, r) in table.rows.iter().zip(&vouched) {
+                prop_assert!(same(r.t_s, row.time_s(), 1e-6), "{} {row:?} {r:?}", name);
+                prop_assert!(same(r.stretch_mm, row.stretch_mm(), 1e-4), "{} {row:?} {r:?}", name);
+                prop_assert_eq!(r.freq_hz, row.freq_hz());
+                prop_assert!(same(r.cs_pf, row.cs_pf(), 1e-4), "{} {row:?} {r:?}", name);
+                prop_assert!(same(r.rs_ohm, row.rs_ohm(), 1.0), "{} {row:?} {r:?}", name);
+                prop_assert!(same(r.r_ohm, row.r_line_ohm(), 1.0), "{} {row:?} {r:?}", name);
             }
         }
     }

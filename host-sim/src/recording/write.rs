@@ -106,22 +106,36 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
         .map(|(&ch, rs)| (ch, rs.as_slice()))
         .collect();
     out.calibration_points = write_calibration(dir, &statics, truth)?;
+    // One trace per channel and exact frequency (a trace holds one): named
+    // by the frequency in whole Hz, or to the mHz where two of a channel's
+    // frequencies round to the same Hz.
     let mut groups: BTreeMap<(u8, u64), Vec<&LoggedRecord>> = BTreeMap::new();
     for (&ch, rs) in &channels {
         if roles.is_trace(ch, rs) {
             for r in rs.iter().filter(|r| r.measured() && unusable(r, truth).is_none()) {
-                groups.entry((ch, r.freq_hz.round() as u64)).or_default().push(r);
+                groups.entry((ch, r.freq_hz.to_bits())).or_default().push(r);
             }
         }
     }
-    for ((ch, f), rs) in groups {
+    let mut per_hz: BTreeMap<(u8, u64), usize> = BTreeMap::new();
+    for &(ch, bits) in groups.keys() {
+        *per_hz
+            .entry((ch, f64::from_bits(bits).round() as u64))
+            .or_default() += 1;
+    }
+    for ((ch, bits), rs) in groups {
+        let hz = f64::from_bits(bits);
+        let f = match per_hz[&(ch, hz.round() as u64)] {
+            1 => format!("{}", hz.round() as u64),
+            _ => format!("{hz:.3}"),
+        };
         let kind = if rs.len() >= MIN_TRACE_ROWS {
             "trace"
         } else {
             "fragment"
         };
         let path = dir.join(format!("{kind}_ch{ch}_{f}hz.csv"));
-        write_trace(&path, ch, f, &rs, truth)?;
+        write_trace(&path, ch, &f, &rs, truth)?;
         if kind == "trace" {
             out.rows += rs.len();
             out.traces.push(path);
@@ -165,11 +179,12 @@ fn stretch_spread(rs: &[&LoggedRecord]) -> f64 {
     }
 }
 
-/// `faults.csv`: every record flagged invalid. Returns how many.
-/// Why a valid record cannot be a trace row, if it cannot: without the
-/// rig's resistances (a real recording) a row is modelled with its line's
-/// resistance, which a record that failed the model check does not have.
-fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
+/// Why a record cannot be a trace row, if it cannot (it is listed in
+/// `faults.csv` instead): no lumped reading, a value no sensor or
+/// instrument gives, or, without the rig's resistances (`truth`: a
+/// recording with truth lines), no line resistance to model the row with
+/// (a record that failed the model check has none).
+pub fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
     use crate::dataset::within_bounds;
     let plausible = within_bounds("time_s", r.t_s)
         && within_bounds("stretch_mm", r.stretch())
@@ -186,13 +201,16 @@ fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
         true if !plausible => Some(
             "a value outside what any sensor or instrument gives (a corrupted record, or a unit error): not written as a reading",
         ),
-        true if !truth && (r.r_ohm.is_nan() || r.r_ohm <= 0.0) => Some(
+        // Written to the ohm: below half an ohm it would read as none.
+        true if !truth && (r.r_ohm.is_nan() || r.r_ohm.round() <= 0.0) => Some(
             "no line resistance to model it with: the two tones failed the model check (MODEL), and the recording has no ohmmeter",
         ),
         true => None,
     }
 }
 
+/// `faults.csv`: every record flagged invalid, and every valid one that
+/// cannot be a trace row ([`unusable`]). Returns how many.
 fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
     writeln!(faults, "time_s,channel,freq_hz,flags,reason")?;
@@ -268,7 +286,7 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool
 
 /// One trace (or fragment) file: channel `ch`'s records `rs` at `f` Hz,
 /// with the rig's view where the recording has truth lines.
-fn write_trace(path: &Path, ch: u8, f: u64, rs: &[&LoggedRecord], truth: bool) -> Result<()> {
+fn write_trace(path: &Path, ch: u8, f: &str, rs: &[&LoggedRecord], truth: bool) -> Result<()> {
     let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
     if truth {
         writeln!(
