@@ -2,11 +2,12 @@
 //! subnormals, extremes), arbitrary samples and sequences. Properties: no
 //! panic, and no non-finite or non-positive value returned as `Ok`.
 //!
-//! The number of cases per target is `FUZZ_CASES` (default 2 000, the
+//! The number of cases per target is `FUZZ_CASES` (default 100 000, the
 //! README's test command); `cargo xtask fuzz` runs 1 000 000.
 
 use dsp_core::demod::{Demodulator, FrontEnd};
 use dsp_core::invert::Inverter;
+use dsp_core::lockin::{Basis, Lockin};
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
@@ -18,7 +19,7 @@ fn cases() -> u32 {
     std::env::var("FUZZ_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(2_000)
+        .unwrap_or(100_000)
 }
 
 fn config() -> ProptestConfig {
@@ -143,6 +144,27 @@ proptest! {
             if gain.is_finite() {
                 prop_assert!(!z.re.is_nan() || gain == 0.0 || !gain.is_normal(), "{z}");
             }
+        }
+    }
+
+    /// Any samples, the extremes of i16 among them, through a lock-in of
+    /// any periods: every phasor finite (the folded sums cannot overflow),
+    /// a block of the wrong length refused.
+    #[test]
+    fn lockin(samples in prop::collection::vec(
+        prop_oneof![any::<[i16; 2]>(), Just([i16::MIN, i16::MAX]), Just([i16::MAX, i16::MIN])], 63..=65),
+        periods in 3u32..=30,
+    ) {
+        static BASIS: Basis<32> = Basis::new();
+        let l = Lockin::new(periods, &BASIS);
+        match l.block(&samples) {
+            Ok(r) => {
+                prop_assert_eq!(samples.len(), 64);
+                let all = [r.v, r.i, r.guards[0][0], r.guards[0][1], r.guards[1][0], r.guards[1][1]];
+                prop_assert!(all.iter().all(|z| z.re.is_finite() && z.im.is_finite()), "{r:?}");
+                prop_assert!(r.v_amplitude() <= 65536.0 && r.i_amplitude() <= 65536.0, "{r:?}");
+            }
+            Err(e) => prop_assert_ne!(e.got, 64),
         }
     }
 }

@@ -10,8 +10,8 @@
 //! decoder's records have a finite, positive frequency and time in order
 //! of the log.
 //!
-//! Cases per target: `FUZZ_CASES` (default 2 000); `cargo xtask fuzz`
-//! runs 1 000 000 (the writer, whose cases write files, a fiftieth).
+//! Cases per target: `FUZZ_CASES` (default 100 000); `cargo xtask fuzz`
+//! runs 1 000 000.
 
 use host_sim::dataset::{parse_table, read_table, Kind, COLUMNS};
 use host_sim::recording::{self, unusable, write_dataset, LoggedRecord, Roles, INCOMPLETE};
@@ -24,7 +24,7 @@ fn config() -> ProptestConfig {
         cases: std::env::var("FUZZ_CASES")
             .ok()
             .and_then(|v| v.parse().ok())
-            .unwrap_or(2_000),
+            .unwrap_or(100_000),
         failure_persistence: None,
         ..ProptestConfig::default()
     }
@@ -222,19 +222,21 @@ fn same(written: f64, read: f64, step: f64) -> bool {
     (written - read).abs() <= 0.5 * step + 1e-9 * written.abs()
 }
 
-/// The writer's cases touch the file system (≈ 7 ms each): 2 000 in the
-/// test command, and a fiftieth of `FUZZ_CASES` (20 000 in `cargo xtask
-/// fuzz`) when that is more.
-fn writer_config() -> ProptestConfig {
-    let cases = std::env::var("FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.parse::<u32>().ok())
-        .map_or(2_000, |n| (n / 50).max(2_000));
-    ProptestConfig { cases, ..config() }
+/// A scratch folder for the writer's cases, which write files (≈ 0.3 ms
+/// each in memory, twice that on a disk): in memory where there is one
+/// (`/dev/shm`), else in the temporary folder.
+fn scratch() -> tempfile::TempDir {
+    let shm = Path::new("/dev/shm");
+    if shm.is_dir() {
+        if let Ok(d) = tempfile::tempdir_in(shm) {
+            return d;
+        }
+    }
+    tempfile::tempdir().unwrap()
 }
 
 proptest! {
-    #![proptest_config(writer_config())]
+    #![proptest_config(config())]
 
     /// Write a recording as a data set, then read it back: the writer
     /// refuses with a reason, or what the reader gets is the records'
@@ -246,7 +248,7 @@ proptest! {
         recs in prop::collection::vec(logged(), 0..60),
         statics in prop_oneof![Just(None), Just(Some(vec![3u8]))],
     ) {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = scratch();
         let logged: Vec<LoggedRecord> = recs
             .iter()
             .enumerate()

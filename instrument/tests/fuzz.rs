@@ -22,9 +22,8 @@
 //! * `wire_parse`: any text, and mutated record lines: no panic; a parsed
 //!   record has finite values.
 //!
-//! Cases per target: `FUZZ_CASES` (default 2 000; 300 for the disturbed
-//! blocks, 100 000 for the interferers); `cargo xtask fuzz` runs
-//! 1 000 000.
+//! Cases per target: `FUZZ_CASES` (default 100 000); `cargo xtask fuzz`
+//! runs 1 000 000.
 
 use dsp_core::fixture::Fixture;
 use dsp_core::lockin::Reading;
@@ -98,7 +97,7 @@ fn readings() -> impl Strategy<Value = Reading> {
 }
 
 proptest! {
-    #![proptest_config(config(2_000))]
+    #![proptest_config(config(100_000))]
 
     #[test]
     fn channel_on_arbitrary_readings(
@@ -172,7 +171,7 @@ fn attack() -> impl Strategy<Value = Attack> {
 }
 
 proptest! {
-    #![proptest_config(config(300))]
+    #![proptest_config(config(100_000))]
 
     #[test]
     fn disturbed_blocks(

@@ -542,12 +542,12 @@ fn at_phase(phase: f64) -> Vec<(f64, f64)> {
 }
 
 /// Cases of [`interferers_never_leave_a_wrong_valid_record`]: `FUZZ_CASES`
-/// (default 3000, 720 000 records; `cargo xtask fuzz` runs more).
+/// (default 100 000, 24 million records; `cargo xtask fuzz` runs more).
 fn interferer_cases() -> u32 {
     std::env::var("FUZZ_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(3000)
+        .unwrap_or(100_000)
 }
 
 proptest::proptest! {

@@ -159,7 +159,7 @@ fn main() -> Result<()> {
             run(&["-p", "link", "--test", "frames"], ("LINK_CASES", &n))?;
             // The device's requests: fuzzed command streams against a
             // store (each case a whole stream of uploads and damage).
-            let streams = (cases / 100).max(1000).to_string();
+            let streams = cases.to_string();
             run(
                 &["-p", "instrument", "--lib", "commands"],
                 ("COMMAND_CASES", &streams),

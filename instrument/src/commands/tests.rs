@@ -226,7 +226,7 @@ fn cases() -> u64 {
     std::env::var("COMMAND_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(300)
+        .unwrap_or(100_000)
 }
 
 #[test]
