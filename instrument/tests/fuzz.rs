@@ -131,6 +131,40 @@ proptest! {
     }
 }
 
+/// The reference sensor with its electrodes at `r_scale` times their
+/// resistance.
+fn scaled(r_scale: f64) -> SensorParams {
+    let mut p = SensorParams::REFERENCE;
+    p.top.r_rest_ohm *= r_scale;
+    p.bottom.r_rest_ohm *= r_scale;
+    p
+}
+
+/// One block of `sensor` read by channel `ch` at its frequency through the
+/// reference front end under `d` (from `t0` s): the record and the true C
+/// of the block, F.
+fn measure(
+    s: &Settings<'_, POINTS, 1>,
+    ch: &mut Channel,
+    sensor: &Sensor,
+    t0: f64,
+    d: &Disturbance,
+    rng: &mut Rng,
+) -> (instrument::channel::Record, f64) {
+    let i = ch.freq_index();
+    let osc = Oscillator::from_ftw(ftw(i));
+    let mut buf = [[0i16; 2]; BLOCK_PAIRS];
+    let clipped = FrontEndParams::REFERENCE
+        .at_range(&s.ranging, ch.range())
+        .block_disturbed(&osc, sensor.impedance(freq_hz(i) as f64), rng, &mut buf, d);
+    let ph = instrument::config::read(i, &buf);
+    let range = ch.range();
+    (
+        ch.process(s, 0, (t0 * 1e6) as u64, &ph, clipped, range),
+        sensor.truth().c_farad,
+    )
+}
+
 /// What disturbs a block in a case.
 #[derive(Clone, Copy, Debug)]
 enum Attack {
@@ -182,10 +216,7 @@ proptest! {
         seed in any::<u64>(),
     ) {
         let s = settings();
-        let fe = FrontEndParams::REFERENCE;
-        let mut p = SensorParams::REFERENCE;
-        p.top.r_rest_ohm *= r_scale;
-        p.bottom.r_rest_ohm *= r_scale;
+        let p = scaled(r_scale);
         let mut sensor = Sensor::settled(p);
         sensor.advance(&Profile::Constant(stretch), 0.0);
         let mut stepped = p;
@@ -196,9 +227,7 @@ proptest! {
         let mut stepped = Sensor::settled(stepped);
         stepped.advance(&Profile::Constant(stretch), 0.0);
         let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), index);
-        let osc = Oscillator::from_ftw(ftw(index));
         let mut rng = Rng::new(seed);
-        let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
         for b in 0..4 {
             let t0 = b as f64 * SLOT_S as f64;
             let mut d = Disturbance { t0_s: t0, ..Disturbance::NONE };
@@ -213,10 +242,7 @@ proptest! {
                     Attack::Resistance(_) => sensor_now = &stepped,
                 }
             }
-            let truth = sensor_now.truth().c_farad;
-            let clipped = fe.at_range(&s.ranging, ch.range()).block_disturbed(&osc, sensor_now.impedance(freq_hz(index) as f64), &mut rng, &mut buf, &d);
-            let ph = instrument::config::read(index, buf.as_slice().try_into().unwrap());
-            let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
+            let (r, truth) = measure(&s, &mut ch, sensor_now, t0, &d, &mut rng);
             if r.flags.valid() {
                 let e = (r.c_farad as f64 / truth - 1.0).abs();
                 prop_assert!(e < 0.01, "block {b} at {} Hz under {attack:?}: C {} pF vs {} pF ({r:?})",
@@ -265,11 +291,7 @@ proptest! {
             return Ok(());
         }
         let s = settings();
-        let fe = FrontEndParams::REFERENCE;
-        let mut p = SensorParams::REFERENCE;
-        p.top.r_rest_ohm *= r_scale;
-        p.bottom.r_rest_ohm *= r_scale;
-        let mut sensor = Sensor::settled(p);
+        let mut sensor = Sensor::settled(scaled(r_scale));
         let profile = Profile::paper(rate);
         sensor.advance(&profile, start);
         let mut ch = if pinned {
@@ -281,7 +303,6 @@ proptest! {
         };
         let counts = log_counts.exp() as f32;
         let mut rng = Rng::new(seed);
-        let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
         for b in 0..6 {
             let t0 = start + b as f64 * SLOT_S as f64;
             let i = ch.freq_index();
@@ -299,13 +320,7 @@ proptest! {
                 t0_s: t0,
                 ..Disturbance::NONE
             };
-            let osc = Oscillator::from_ftw(ftw(i));
-            let truth = sensor.truth().c_farad;
-            let clipped = fe
-                .at_range(&s.ranging, ch.range())
-                .block_disturbed(&osc, sensor.impedance(freq_hz(i) as f64), &mut rng, &mut buf, &d);
-            let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
-            let r = ch.process(&s, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
+            let (r, truth) = measure(&s, &mut ch, &sensor, t0, &d, &mut rng);
             if r.flags.valid() {
                 let e = (r.c_farad as f64 / truth - 1.0).abs();
                 prop_assert!(e < 0.01, "block {b} at {} Hz, {counts} counts at {hz} Hz: C {} pF vs {} pF ({r:?})",
