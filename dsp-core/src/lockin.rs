@@ -20,8 +20,10 @@
 //! 200 kSa/s) and less beyond: the **stop band** starts 4.5 bins from the
 //! tone ([`STOP_BAND_BINS`]). Whole periods and a cosine-sum window keep the
 //! tone's image and every harmonic from 2k on exactly out of X; DC lies k
-//! bins away, inside the window's main lobe for k = 3, so the block's mean
-//! times the reference's own sum is taken out exactly.
+//! bins away, inside the window's main lobe for k = 3 (and 4), so there
+//! the block's mean, taken through the same window (which keeps far
+//! energy out of it), is solved for together with the tone and its share
+//! taken out of the tone and the guards.
 //!
 //! **Guard bins.** The same windowed baseband is also summed at bins k + 1
 //! and k − 1 (rotated by e^(∓j2πn/N), [`Basis`]). A steady tone leaks
@@ -34,10 +36,10 @@
 //! at the same frequency: no single-tone measurement can see it.
 //!
 //! **Noise.** The window's equivalent noise bandwidth is 2.02 bins: white
-//! noise of σ counts rms puts σ·[`Reading::noise_gain`] counts on each
-//! component of the tone's phasor ([`Reading::noise_gain`], 0.063·σ at
-//! N = 1024, against √(2/N) = 0.044·σ for the bare tone) and 0.037·σ on
-//! each of a guard's ([`Reading::guard_noise_gain`]).
+//! noise of σ counts rms puts 0.063·σ counts on each component of the
+//! tone's phasor at N = 1024 ([`Reading::noise_gain`]; √(2/N) = 0.044·σ
+//! for the bare tone) and 0.037·σ on each of a guard's
+//! ([`Reading::guard_noise_gain`]).
 //!
 //! **Storage.** The window is symmetric and the tone makes whole periods,
 //! so the reference of n and of N − n are complex conjugates: half of it
