@@ -163,8 +163,9 @@ impl Thresholds {
     /// Disturbance: energy far from the tone (4.5 bins, 880 Hz, and more)
     /// does not reach the lock-in's phasor, and is not looked at. What
     /// lies near it shows in the guards: a clean block's are noise, 0.037
-    /// counts per component, so an excess of 0.25 counts (five of the
-    /// noise's σ, as a magnitude) is something there; it moves the tone by
+    /// counts per component, so an excess of 0.25 counts (about seven of
+    /// that σ, beyond the noise's own share) is something there; it moves
+    /// the tone by
     /// at most [`dsp_core::lockin::GUARD_BOUND`] times itself. Disturbed
     /// above max(0.25 counts, 0.15 % of the tone): the tone could be 0.5 %
     /// off. Less than that joins the error bound
