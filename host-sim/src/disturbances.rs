@@ -437,18 +437,15 @@ pub fn array(class: &Class) -> Option<Outcome> {
             (d.hum_hz, d.hum_i, d.hum_phase_turns) = (f, counts * 16.0, 0.21);
         }
         let clipped = fe.frame(&z, &[d; SENSORS], &mut rng, &mut frame);
-        let block = reader.demodulate(|a| &frame[a]);
-        let mut s = 0;
-        reader.solve(
+        reader.read(
             &settings,
             t_us,
-            &block,
+            |a| &frame[a],
             |input| clipped[input],
             |rec| {
                 if b > 0 {
-                    out.add(rec.flags.valid(), rec.c_farad, truth[s]);
+                    out.add(rec.flags.valid(), rec.c_farad, truth[usize::from(rec.channel)]);
                 }
-                s += 1;
             },
         );
     }

@@ -97,4 +97,18 @@ impl ArrayReader {
             }
         }
     }
+
+    /// [`ArrayReader::demodulate`] then [`ArrayReader::solve`], for a
+    /// block whose rows are all at hand: `rows(a)` is ADC a's rows.
+    pub fn read<'a, const N: usize>(
+        &mut self,
+        settings: &ToneSettings<'_, N>,
+        t_us: u64,
+        rows: impl Fn(usize) -> &'a Rows,
+        clipped: impl Fn(usize) -> bool,
+        record: impl FnMut(ToneRecord),
+    ) {
+        let block = self.demodulate(rows);
+        self.solve(settings, t_us, &block, clipped, record);
+    }
 }

@@ -82,16 +82,14 @@ fn run_with<'a>(
             ..*hum
         };
         let clipped = fe.frame(&z, &[d; SENSORS], &mut rng, &mut frame);
-        let block = reader.demodulate(|a| &frame[a]);
-        let mut s = 0;
-        reader.solve(
+        reader.read(
             &settings,
             t_us,
-            &block,
+            |a| &frame[a],
             |input| clipped[input],
             |rec| {
+                let s = usize::from(rec.channel);
                 out[s].push((rec, truth[s]));
-                s += 1;
             },
         );
     }
@@ -414,9 +412,8 @@ fn a_sweep_measures_every_sensor_at_every_pair_then_gives_the_policy_back() {
             truth = sensor.truth().c_farad;
         }
         let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
-        let block = reader.demodulate(|a| &frame[a]);
         let mut recs = vec![];
-        reader.solve(&settings, t_us, &block, |i| clipped[i], |r| recs.push(r));
+        reader.read(&settings, t_us, |a| &frame[a], |i| clipped[i], |r| recs.push(r));
         let r = recs[0];
         pairs.push((b, r.f_hz, settings.sweep));
         if b >= 200 && r.flags.valid() {
@@ -471,12 +468,10 @@ fn an_open_fixture_is_flagged_and_its_cable_measured() {
     let (mut records, mut open) = (0, 0);
     for b in 0..250u64 {
         let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
-        let block = reader.demodulate(|a| &frame[a]);
-        let mut s = 0;
-        reader.solve(
+        reader.read(
             &settings,
             b * 4000 + 2000,
-            &block,
+            |a| &frame[a],
             |input| clipped[input],
             |rec| {
                 records += 1;
@@ -486,9 +481,8 @@ fn an_open_fixture_is_flagged_and_its_cable_measured() {
                 open += rec.flags.has(Flags::OPEN) as usize;
                 for (f, z) in rec.f_hz.iter().zip(rec.z) {
                     assert!(z.re.is_finite() && z.im.is_finite() && z != dsp_core::Complex32::new(0.0, 0.0));
-                    y[s].push((*f, Complex64::new(z.re as f64, z.im as f64).inv()));
+                    y[usize::from(rec.channel)].push((*f, Complex64::new(z.re as f64, z.im as f64).inv()));
                 }
-                s += 1;
             },
         );
     }
