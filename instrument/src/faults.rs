@@ -165,8 +165,8 @@ impl Thresholds {
     /// lies near it shows in the guards: a clean block's are noise, 0.037
     /// counts per component, so an excess of 0.25 counts (about seven of
     /// that σ, beyond the noise's own share) is something there; it moves
-    /// the tone by
-    /// at most [`dsp_core::lockin::GUARD_BOUND`] times itself. Disturbed
+    /// the tone by at most [`dsp_core::lockin::GUARD_BOUND`] times itself.
+    /// Disturbed
     /// above max(0.25 counts, 0.15 % of the tone): the tone could be 0.5 %
     /// off. Less than that joins the error bound
     /// ([`Thresholds::c_error_bound`]).
@@ -209,8 +209,8 @@ impl Thresholds {
     };
 
     /// What lies near a channel's tone beyond the noise, counts: the
-    /// larger guard's excess √(max(0, |g|² − 2σ_g²)), σ_g the guards' noise
-    /// per component for white noise of `sigma` counts.
+    /// larger guard's excess √(max(0, |g|² − 2σ_g²)), `sigma_g` the guards'
+    /// noise per component, counts.
     fn excess(guards: &[dsp_core::Complex32; 2], sigma_g: f32) -> f32 {
         let g2 = guards[0].norm_sqr().max(guards[1].norm_sqr());
         libm::sqrtf((g2 - 2.0 * sigma_g * sigma_g).max(0.0))
