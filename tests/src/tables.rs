@@ -191,7 +191,12 @@ pub fn speed_headline(benches: &[Bench]) -> String {
             format!("{:.1} % of the CPU", get("block_load_permille") / 10.0),
         ),
         (
-            "demodulation, instructions per sample pair (quartiq idsp's lock-in on the same block)"
+            "the multiplexed channel's lock-in (window, two guard bins), instructions per sample pair"
+                .to_string(),
+            format!("{}", get("lockin_pair")),
+        ),
+        (
+            "least-squares demodulation of one tone (`dsp_core::demod`, the bare tone the lock-in replaced), instructions per sample pair (quartiq idsp's lock-in on the same block)"
                 .to_string(),
             format!("{} ({})", get("demod_pair"), get("idsp_lockin_pair")),
         ),
