@@ -297,11 +297,16 @@ impl Reading {
     /// Impedance Z = k·V/I through `front_end` (Ω), or `None` if no current
     /// was measured.
     pub fn impedance(&self, front_end: &crate::demod::FrontEnd) -> Option<Complex32> {
-        let d = self.i.norm_sqr();
-        if d > 0.0 && d.is_finite() {
-            Some(self.v * self.i.conj() / d * front_end.gain)
-        } else {
-            None
+        impedance(self.v, self.i, front_end)
+    }
+
+    /// The tone without its guards.
+    pub fn phasors(&self) -> Phasors {
+        Phasors {
+            v: self.v,
+            i: self.i,
+            noise_gain: self.noise_gain,
+            n: self.n,
         }
     }
 }
@@ -428,39 +433,11 @@ impl<const H: usize> Lockin<H> {
             sums[0].add(v + v2, v - v2, &u);
             sums[1].add(i + i2, i - i2, &u);
         }
-        let n = 2 * H as i64;
-        // Tone and guards in counts: X·2/(32767·Σw), G·2/(32767²·Σw),
-        // Σw = a₀·N.
-        let scale = 2.0 / (32767.0 * NUTTALL[0] as f32 * n as f32);
-        // The mean's share of X and of the guards. Beyond its main lobe (4
-        // bins and more from DC) the window has none; within it (the
-        // tone's 3 periods: a₃/(2a₀) = 1.8 % of DC, and 9.8 % at the lower
-        // guard) it is taken out with the block's mean through the same
-        // window, which sees DC as the tone does and far energy not at all
-        // (the bare mean of an interferer of b bins and a counts is up to
-        // a/(πb)).
-        let means = if self.periods < 5 {
-            Some(self.windowed_means(pairs))
-        } else {
-            None
-        };
+        let means = self.means(pairs);
+        let scale = Self::scale();
         let channel = |c: usize| {
             let [x, gp, gm] = sums[c].phasors();
-            // The tone and the mean see each other (real parts only, by
-            // the window's symmetry): Re X·scale = T + a·d and M = d + b·T,
-            // solved for the tone T and the mean d. In f64: for 3 periods
-            // the mean's share of X (≈ 1.8 % of a bias of up to 2¹⁵
-            // counts) can be 10³ times a weak tone's.
-            let (re, mean) = match means {
-                Some(m) => {
-                    let s64 = scale as f64;
-                    let (a, b) = (self.dc as f64 * s64, self.mean_leak as f64);
-                    let t = (x[0] as f64 * s64 - a * m[c]) / (1.0 - a * b);
-                    (t as f32, (m[c] - b * t) as f32)
-                }
-                None => (x[0] as f32 * scale, 0.0),
-            };
-            let tone = Complex32::new(re, x[1] as f32 * scale);
+            let (tone, mean) = self.tone_of(x, means, c);
             let guard = |g: [i64; 2], dc: [i64; 2]| {
                 let g = Complex32::new(
                     g[0] as f32 - mean * dc[0] as f32,
@@ -476,9 +453,139 @@ impl<const H: usize> Lockin<H> {
             v,
             i,
             guards: [gv, gi],
-            noise_gain: crate::fmath::sqrt((2.0 * POWER) as f32 / n as f32) / NUTTALL[0] as f32,
-            guard_noise_gain: crate::fmath::sqrt((2.0 * GUARD_POWER) as f32 / n as f32) / NUTTALL[0] as f32,
-            n: n as u32,
+            noise_gain: Self::noise_gain(),
+            guard_noise_gain: crate::fmath::sqrt((2.0 * GUARD_POWER) as f32 / (2 * H) as f32)
+                / NUTTALL[0] as f32,
+            n: 2 * H as u32,
         })
+    }
+
+    /// The tone alone of one block (2H pairs): the same phasors
+    /// [`Lockin::block`] gives, bit for bit, without the guards (a third
+    /// of the work). For a second tone in the block, whose errors the
+    /// model check of the two sees ([`crate::twotone`]).
+    pub fn tone(&self, pairs: &[[i16; 2]]) -> Result<Phasors, BlockLength> {
+        if pairs.len() != 2 * H {
+            return Err(BlockLength {
+                got: pairs.len(),
+                expected: 2 * H,
+            });
+        }
+        // [Σ s·w cos θ, Σ d·w sin θ] of each channel, as `Sums` has them.
+        let mut sums = [[0i64; 2]; 2];
+        for (m, r) in [(0, self.half[0]), (H, self.middle)] {
+            let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
+            let [v, i] = pairs[m];
+            let (v, i) = (v as i32, i as i32);
+            sums[0][0] += (v * rc) as i64;
+            sums[0][1] += (v * rs) as i64;
+            sums[1][0] += (i * rc) as i64;
+            sums[1][1] += (i * rs) as i64;
+        }
+        let (first, second) = pairs[1..].split_at(H - 1);
+        for ((&[v, i], &[v2, i2]), &r) in first.iter().zip(second[1..].iter().rev()).zip(&self.half[1..]) {
+            let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
+            let (v, v2, i, i2) = (v as i32, v2 as i32, i as i32, i2 as i32);
+            sums[0][0] += ((v + v2) * rc) as i64;
+            sums[0][1] += ((v - v2) * rs) as i64;
+            sums[1][0] += ((i + i2) * rc) as i64;
+            sums[1][1] += ((i - i2) * rs) as i64;
+        }
+        let means = self.means(pairs);
+        let [v, i] = [0, 1].map(|c| self.tone_of([sums[c][0], -sums[c][1]], means, c).0);
+        Ok(Phasors {
+            v,
+            i,
+            noise_gain: Self::noise_gain(),
+            n: 2 * H as u32,
+        })
+    }
+
+    /// Tone and guards in counts from their sums: X·2/(32767·Σw), Σw = a₀·N.
+    fn scale() -> f32 {
+        2.0 / (32767.0 * NUTTALL[0] as f32 * (2 * H) as f32)
+    }
+
+    /// White noise of σ counts rms puts σ times this on each component of
+    /// the tone's phasor.
+    fn noise_gain() -> f32 {
+        crate::fmath::sqrt((2.0 * POWER) as f32 / (2 * H) as f32) / NUTTALL[0] as f32
+    }
+
+    /// The block's windowed means, where the tone lies in DC's main lobe.
+    ///
+    /// The mean's share of X and of the guards: beyond its main lobe (4
+    /// bins and more from DC) the window has none; within it (the tone's
+    /// 3 periods: a₃/(2a₀) = 1.8 % of DC, and 9.8 % at the lower guard) it
+    /// is taken out with the block's mean through the same window, which
+    /// sees DC as the tone does and far energy not at all (the bare mean
+    /// of an interferer of b bins and a counts is up to a/(πb)).
+    fn means(&self, pairs: &[[i16; 2]]) -> Option<[f64; 2]> {
+        (self.periods < 5).then(|| self.windowed_means(pairs))
+    }
+
+    /// Channel `c`'s tone (counts) from its sum X, and the block's mean
+    /// (counts, 0 when not solved for).
+    ///
+    /// The tone and the mean see each other (real parts only, by the
+    /// window's symmetry): Re X·scale = T + a·d and M = d + b·T, solved
+    /// for the tone T and the mean d. In f64: for 3 periods the mean's
+    /// share of X (≈ 1.8 % of a bias of up to 2¹⁵ counts) can be 10³
+    /// times a weak tone's.
+    fn tone_of(&self, x: [i64; 2], means: Option<[f64; 2]>, c: usize) -> (Complex32, f32) {
+        let scale = Self::scale();
+        let (re, mean) = match means {
+            Some(m) => {
+                let s64 = scale as f64;
+                let (a, b) = (self.dc as f64 * s64, self.mean_leak as f64);
+                let t = (x[0] as f64 * s64 - a * m[c]) / (1.0 - a * b);
+                (t as f32, (m[c] - b * t) as f32)
+            }
+            None => (x[0] as f32 * scale, 0.0),
+        };
+        (Complex32::new(re, x[1] as f32 * scale), mean)
+    }
+}
+
+/// One tone of a block without its guards ([`Lockin::tone`]), in ADC
+/// counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Phasors {
+    /// The voltage channel's tone, counts.
+    pub v: Complex32,
+    /// The current channel's tone, counts.
+    pub i: Complex32,
+    /// White noise of σ counts rms puts σ·`noise_gain` counts rms on each
+    /// component of `v` and `i`.
+    pub noise_gain: f32,
+    /// Pairs summed.
+    pub n: u32,
+}
+
+impl Phasors {
+    /// Amplitude of the voltage tone, counts (peak).
+    pub fn v_amplitude(&self) -> f32 {
+        crate::fmath::sqrt(self.v.norm_sqr())
+    }
+
+    /// Amplitude of the current tone, counts (peak).
+    pub fn i_amplitude(&self) -> f32 {
+        crate::fmath::sqrt(self.i.norm_sqr())
+    }
+
+    /// Impedance Z = k·V/I through `front_end` (Ω), or `None` if no
+    /// current was measured.
+    pub fn impedance(&self, front_end: &crate::demod::FrontEnd) -> Option<Complex32> {
+        impedance(self.v, self.i, front_end)
+    }
+}
+
+/// k·V/I, or `None` without a current.
+fn impedance(v: Complex32, i: Complex32, front_end: &crate::demod::FrontEnd) -> Option<Complex32> {
+    let d = i.norm_sqr();
+    if d > 0.0 && d.is_finite() {
+        Some(v * i.conj() / d * front_end.gain)
+    } else {
+        None
     }
 }

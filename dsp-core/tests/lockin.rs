@@ -241,3 +241,67 @@ fn a_block_of_the_wrong_length_is_refused() {
     let e = LOCKINS[0].block(&b).unwrap_err();
     assert_eq!((e.got, e.expected), (N - 1, N));
 }
+
+/// The tone alone (`Lockin::tone`) is the tone of the whole reading, bit
+/// for bit, on any block (noise, a DC offset, a second tone five bins
+/// away, full-scale extremes), at every frequency of the set; and a
+/// second tone five bins or more away leaves a tone within the clean
+/// bound of the f64 reference: two tones share one block.
+#[test]
+fn the_tone_alone_is_the_readings_tone_and_a_second_tone_leaves_it() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let noise = Normal::new(0.0, 3.0).unwrap();
+    let pairs = [(3usize, 10usize), (5, 10), (10, 5), (20, 5), (30, 10)];
+    let mut worst = 0.0f64;
+    for &(k, other) in &pairs {
+        let l = LOCKINS.iter().find(|l| l.periods() as usize == k).unwrap();
+        for case in 0..60 {
+            let (amp, amp2, phi, dc) = (
+                rng.gen_range(30.0..1200.0),
+                rng.gen_range(0.0..800.0),
+                rng.gen_range(0.0..TAU),
+                rng.gen_range(-2048.0..2048.0),
+            );
+            let mut b = block(
+                |n| dc + tone(amp, k as f64, phi)(n) + tone(amp2, other as f64, 0.3)(n),
+                |n| -dc - tone(amp / 2.0, k as f64, phi + 1.0)(n) + tone(amp2 / 3.0, other as f64, 2.0)(n),
+            );
+            if case % 3 == 0 {
+                for p in b.iter_mut() {
+                    p[0] = p[0].saturating_add(noise.sample(&mut rng) as i16);
+                    p[1] = p[1].saturating_add(noise.sample(&mut rng) as i16);
+                }
+            }
+            if case == 59 {
+                b.iter_mut().enumerate().for_each(|(n, p)| {
+                    *p = if n % 2 == 0 {
+                        [i16::MAX, i16::MIN]
+                    } else {
+                        [i16::MIN, i16::MAX]
+                    }
+                });
+            }
+            let r = l.block(&b).unwrap();
+            let t = l.tone(&b).unwrap();
+            assert_eq!(
+                (t.v, t.i, t.noise_gain, t.n),
+                (r.v, r.i, r.noise_gain, r.n),
+                "{k}"
+            );
+            assert_eq!(t, r.phasors());
+            if case % 3 != 0 && case != 59 {
+                let xs: Vec<f64> = b
+                    .iter()
+                    .enumerate()
+                    .map(|(n, p)| p[0] as f64 - dc - tone(amp2, other as f64, 0.3)(n))
+                    .collect();
+                worst = worst.max(err(t.v, reference(&xs, k as f64)) / (2e-5 * amp + 0.01));
+            }
+        }
+    }
+    assert!(worst <= 1.0, "worst {worst} of the bound");
+    assert_eq!(
+        LOCKINS[0].tone(&[[0; 2]; 10]).unwrap_err(),
+        dsp_core::lockin::BlockLength { got: 10, expected: N }
+    );
+}
