@@ -129,10 +129,21 @@ impl Oscillator {
 /// to the DAC range 0..2^bits − 1.
 #[inline]
 pub fn dac_code(s: i32, bits: u32, amplitude: i16) -> u16 {
+    dac_code_of_sum(&[(s, amplitude)], bits)
+}
+
+/// DAC code of a sum of tones, each a Q31 sample at its Q15 amplitude
+/// (as [`dac_code`] of one): 2^(bits−1) + round(Σ sₖ·aₖ/2⁴⁶ ·
+/// 2^(bits−1)), saturated to the DAC range. Amplitudes that sum to at
+/// most 2¹⁵ never saturate.
+#[inline]
+pub fn dac_code_of_sum(tones: &[(i32, i16)], bits: u32) -> u16 {
     let bits = bits.clamp(1, 16);
     let half = 1i64 << (bits - 1);
-    // s·a is Q46; scale by (half−1), round, back to integer codes.
-    let v = (s as i64 * amplitude.max(0) as i64) >> 15; // Q31
+    // Each s·a is Q46, below 2⁶²: a few of them sum without overflow.
+    let sum: i64 = tones.iter().map(|&(s, a)| s as i64 * a.max(0) as i64).sum();
+    // Back to Q31, scaled by the half range, rounded to integer codes.
+    let v = sum >> 15;
     let code = half + ((v * half + (1 << 30)) >> 31);
     code.clamp(0, (1i64 << bits) - 1) as u16
 }

@@ -4,10 +4,9 @@
 //! blocks of `[voltage, current]` pairs the board's DMA would.
 
 use core::sync::atomic::{AtomicU8, Ordering};
-use dsp_core::Oscillator;
 use embedded_hal::digital::{ErrorType, OutputPin};
 use instrument::calib::{CalTable, POINTS, REFERENCE};
-use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES};
+use instrument::config::{BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES};
 use instrument::effects::{Effect, EffectSet};
 use instrument::ranging::Ranging;
 use skin_sim::frontend::{Disturbance, FrontEndParams};
@@ -260,31 +259,32 @@ impl Skin {
         let profile = self.profile(ch);
         self.sensors[ch].advance(&profile, t_mid);
         let in_fault = self.scenario == Scenario::Faults && t_s >= FAULT_WINDOW.0 && t_s < FAULT_WINDOW.1;
-        let f = freq_hz(fidx) as f64;
-        let osc = Oscillator::from_ftw(ftw(fidx));
         let mut fe = self.front_end.at_range(&self.ranging, range);
-        let (z, truth) = match (in_fault, ch) {
+        // Which sensor the front end sees.
+        let source = match (in_fault, ch) {
             // Disconnected: only a picofarad of stray capacitance remains.
-            (true, 1) => (
-                num_complex::Complex64::new(0.0, -1.0 / (core::f64::consts::TAU * f * 1e-15)),
-                Truth::default(),
-            ),
+            (true, 1) => None,
             // A gain fault: far too much transimpedance.
             (true, 2) => {
                 fe.tia_ohm *= 20.0;
-                (self.sensors[ch].impedance(f), self.sensors[ch].truth())
+                Some(&self.sensors[ch])
             }
             // Electrodes broken to 10 MΩ.
             (true, 3) => {
                 self.broken.advance(&Profile::Constant(0.0), t_mid);
-                (self.broken.impedance(f), self.broken.truth())
+                Some(&self.broken)
             }
             // Electrodes at 8× their resistance, from one block to the next.
             (true, 4) => {
                 self.stepped.advance(&self.profile(4), t_mid);
-                (self.stepped.impedance(f), self.stepped.truth())
+                Some(&self.stepped)
             }
-            _ => (self.sensors[ch].impedance(f), self.sensors[ch].truth()),
+            _ => Some(&self.sensors[ch]),
+        };
+        let truth = source.map_or(Truth::default(), Sensor::truth);
+        let z = |f: f64| match source {
+            Some(s) => s.impedance(f),
+            None => num_complex::Complex64::new(0.0, -1.0 / (core::f64::consts::TAU * f * 1e-15)),
         };
         let block_s = BLOCK_PAIRS as f64 / fe.sample_rate_hz;
         let d = match (in_fault, ch) {
@@ -305,7 +305,7 @@ impl Skin {
             },
             _ => Disturbance::NONE,
         };
-        let clipped = fe.block_disturbed(&osc, z, &mut self.rng, out, &d);
+        let clipped = fe.mux_block(fidx, z, &mut self.rng, out, &d);
         (ch as u8, clipped, truth)
     }
 }

@@ -11,13 +11,13 @@ use dsp_core::fixture::Fixture;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
 use dsp_core::track::{TrackState, Tracker};
-use dsp_core::Oscillator;
 use instrument::calib;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{self, PERIODS};
 use instrument::effects::{Effect, EffectSet};
 use instrument::sensor::{Sensor as Measured, Sensors};
 use num_complex::Complex64;
+use skin_sim::frontend::Disturbance;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
@@ -162,7 +162,6 @@ fn run_adc(
         })
         .unwrap_or(0);
     let f = config::freq_hz(index) as f64;
-    let osc = Oscillator::from_ftw(config::ftw(index));
     let ranging = fe.ranging();
     let sensor_model = Measured::calibrated(calib::REFERENCE, setup.lead_ratio, Fixture::NONE)
         .expect("a calibration's lead ratio is in range");
@@ -181,9 +180,13 @@ fn run_adc(
         sensor.advance(profile, mid);
         let truth = sensor.truth();
         let range = ch.range();
-        let clipped = fe
-            .at_range(&ranging, range)
-            .block(&osc, sensor.impedance(f), &mut rng, &mut buf);
+        let clipped = fe.at_range(&ranging, range).mux_block(
+            index,
+            |f| sensor.impedance(f),
+            &mut rng,
+            &mut buf,
+            &Disturbance::NONE,
+        );
         let ph = config::read(index, &buf);
         let rec = ch.process(&settings, 0, (mid * 1e6).round() as u64, &ph, clipped, range);
         let measured = |v: f32| if v > 0.0 { v as f64 } else { f64::NAN };

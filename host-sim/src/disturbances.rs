@@ -21,11 +21,10 @@
 //! rows for steps, offsets and stuck inputs are not tried ("–").
 
 use dsp_core::fixture::Fixture;
-use dsp_core::Oscillator;
 use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS};
 use instrument::calib;
 use instrument::channel::{Channel, Settings};
-use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, SLOT_S};
+use instrument::config::{freq_hz, BLOCK_PAIRS, SLOT_S};
 use instrument::effects::Effect;
 use instrument::reader::ArrayReader;
 use instrument::sensor::{Sensor as Measured, Sensors};
@@ -349,7 +348,6 @@ pub fn multiplexed(class: &Class) -> Outcome {
     let duration = BLOCKS as f64 * SLOT_S as f64;
     for index in 0..3 {
         let tone = freq_hz(index);
-        let osc = Oscillator::from_ftw(ftw(index));
         let mut ch = Channel::pinned(calib::REFERENCE.rest_capacitance(), index);
         // Each frequency from another phase of the trapezoid (moving).
         let start = 0.5 + 1.7 * index as f64;
@@ -372,10 +370,13 @@ pub fn multiplexed(class: &Class) -> Outcome {
                 Front::Stuck(c) => d.stuck_i = Some(c),
                 _ => {}
             }
-            let z = seen(&sensor, &class.sensor, tone as f64);
-            let clipped = fe
-                .at_range(&settings.ranging, ch.range())
-                .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
+            let clipped = fe.at_range(&settings.ranging, ch.range()).mux_block(
+                index,
+                |f| seen(&sensor, &class.sensor, f),
+                &mut rng,
+                &mut buf,
+                &d,
+            );
             let ph = instrument::config::read(index, buf.as_slice().try_into().expect("a block's pairs"));
             let r = ch.process(&settings, 0, (t * 1e6) as u64, &ph, clipped, ch.range());
             if b > 0 {

@@ -1,19 +1,31 @@
-//! One sensor channel: from the demodulated phasors of a block to a
-//! record, with fault checks, line tracking and the frequency policy.
+//! One sensor channel of the multiplexer: from the lock-ins' reading of
+//! a block to a record, with fault checks, the model check, line tracking
+//! and the frequency policy.
+//!
+//! Every block carries two tones ([`crate::config::tones`]): the policy's,
+//! read with its guards, and a second one two steps away. Each gives the
+//! impedance at its frequency; one uniform line must explain both
+//! ([`crate::joint`], [`dsp_core::twotone`]). Where it does not (an
+//! interferer at one tone's frequency or an alias of it, which no guard
+//! can see; an undeclared contact resistance or cable capacitance) the
+//! record is flagged [`Flags::MODEL`]; where it does, what such an error
+//! could still hide joins the record's error bound.
 
-use crate::config::freq_hz;
+use crate::config::{freq_hz, tones, tones_hz, Readings};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
+use crate::joint::Joint;
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
 use crate::sensor::Sensors;
 use crate::sequencer::Plan;
 use dsp_core::demod::FrontEnd;
-use dsp_core::dielectric::{self, Dielectric};
-use dsp_core::lockin::Reading;
+use dsp_core::dielectric::Dielectric;
 use dsp_core::lumped::SeriesRc;
 use dsp_core::tline::LineModel;
-use dsp_core::track::{TrackState, Tracker};
+use dsp_core::track::Tracker;
+use dsp_core::twotone::{self, Tone};
+use dsp_core::Complex32;
 
 /// What every channel shares, and each channel's sensor.
 #[derive(Clone, Copy, Debug)]
@@ -22,9 +34,9 @@ pub struct Settings<'a, const N: usize, const S: usize> {
     pub policy: Policy,
     /// Fault thresholds.
     pub thresholds: Thresholds,
-    /// The film between the electrodes: its loss tangent is taken out of
-    /// each line, its spread bounds the error that leaves
-    /// ([`dsp_core::dielectric::correct`]).
+    /// The film between the electrodes: its loss tangent, fitted within
+    /// its spread with the line, and the model's error floor
+    /// ([`dsp_core::dielectric::Dielectric`]).
     pub dielectric: Dielectric,
     /// Front end (transimpedance) for Z = k·V/I, one per range.
     pub front_ends: [FrontEnd; RANGES],
@@ -124,7 +136,10 @@ pub struct Record {
 pub struct Channel {
     /// Frequency policy state.
     pub policy: PolicyState,
-    track: TrackState,
+    /// The line of the two tones, tracked.
+    joint: Joint,
+    /// Where a fresh line starts: the sensor's rest capacitance.
+    prior_farad: f32,
     last_t_us: Option<u64>,
     /// The frequency is fixed (recording a data set at one frequency).
     pinned: bool,
@@ -139,7 +154,8 @@ impl Channel {
     pub const fn new(prior_farad: f32) -> Self {
         Self {
             policy: PolicyState::new(),
-            track: TrackState::new(prior_farad),
+            joint: Joint::new(),
+            prior_farad,
             last_t_us: None,
             pinned: false,
             range: 0,
@@ -183,22 +199,26 @@ impl Channel {
         }
     }
 
-    /// Turn the lock-in's reading of the block just measured at the current
-    /// frequency through transimpedance range `range` into a record, and
-    /// update the policy and the range.
+    /// Turn the lock-ins' reading of the block just measured at the
+    /// current frequency through transimpedance range `range` into a
+    /// record, and update the policy and the range.
     pub fn process<const N: usize, const S: usize>(
         &mut self,
         s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
-        ph: &Reading,
+        ph: &Readings,
         clipped: bool,
         range: u8,
     ) -> Record {
-        let played = self.policy.index;
+        let played = tones(self.policy.index);
         let rec = self.measure(s, channel, t_us, ph, clipped, range);
-        let growth = freq_hz(self.policy.index) / freq_hz(played);
-        self.range = s.ranging.next(range as usize, ph.i_amplitude(), clipped, growth) as u8;
+        // The next block's current at its peak: each tone's, grown with
+        // its frequency (a capacitor's current), the two in phase.
+        let next = tones(self.policy.index);
+        let growth = |k: usize| (freq_hz(next[k]) / freq_hz(played[k])).max(1.0);
+        let peak = ph.tone.i_amplitude() * growth(0) + ph.companion.i_amplitude() * growth(1);
+        self.range = s.ranging.next(range as usize, peak, clipped, 1.0) as u8;
         rec
     }
 
@@ -207,11 +227,11 @@ impl Channel {
         s: &Settings<'_, N, S>,
         channel: u8,
         t_us: u64,
-        ph: &Reading,
+        ph: &Readings,
         clipped: bool,
         range: u8,
     ) -> Record {
-        let f = freq_hz(self.policy.index);
+        let f = tones_hz(self.policy.index);
         // Seconds since this channel's last block (f32 is exact enough for
         // a difference, whatever the uptime).
         let dt = self
@@ -221,7 +241,7 @@ impl Channel {
         let mut rec = Record {
             t_us,
             channel,
-            freq_hz: f,
+            freq_hz: f[0],
             ..Record::default()
         };
         let sensor = s.sensors.of(channel);
@@ -238,15 +258,27 @@ impl Channel {
         }
         let th = &s.thresholds;
         let front_end = &s.front_ends[(range as usize).min(RANGES - 1)];
-        let z = match ph.impedance(front_end) {
-            Some(z) if ph.i_amplitude() >= th.open_counts && ph.v_amplitude() >= th.no_excitation_counts => z,
+        // Each tone's impedance, or why there is none.
+        let tone = &ph.tone;
+        let companion = ph.companion;
+        let excited = |v: f32, i: f32| i >= th.open_counts && v >= th.no_excitation_counts;
+        let (z, z2) = match (tone.impedance(front_end), companion.impedance(front_end)) {
+            (Some(z), Some(z2))
+                if excited(tone.v_amplitude(), tone.i_amplitude())
+                    && excited(companion.v_amplitude(), companion.i_amplitude()) =>
+            {
+                (z, z2)
+            }
             _ => {
                 rec.flags.set(Flags::OPEN);
                 return rec;
             }
         };
-        match SeriesRc::from_impedance(z, f) {
-            Ok(m) if z.norm_sqr() >= th.short_ohm * th.short_ohm => {
+        // A lossy capacitor at both tones (Re Z ≥ 0, Im Z < 0), not a short.
+        let capacitor =
+            |z: Complex32| z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm;
+        match SeriesRc::from_impedance(z, f[0]) {
+            Ok(m) if capacitor(z) && capacitor(z2) => {
                 rec.cs_farad = m.cs_farad;
                 rec.rs_ohm = m.rs_ohm;
             }
@@ -255,67 +287,101 @@ impl Channel {
                 return rec;
             }
         }
-        if s.thresholds.disturbed(ph) {
+        if th.disturbed(tone) {
             rec.flags.set(Flags::DISTURBED);
         }
         if clipped || rec.flags.has(Flags::DISTURBED) {
             // A clipped or disturbed block's tones are biased: report the
-            // lumped reading, keep the tracker and the policy as they were.
+            // lumped reading, keep the tracked line and the policy as they
+            // were.
             return rec;
         }
+        // Each tone's noise: the ADC's, or what the guards show if more.
+        let (sigma_v, sigma_i) = (th.sigma(tone, 0), th.sigma(tone, 1));
+        let relative = |g: f32, av: f32, ai: f32| {
+            let (ev, ei) = (sigma_v / av, sigma_i / ai);
+            g * dsp_core::fmath::sqrt(ev * ev + ei * ei)
+        };
+        let noise = [
+            relative(tone.noise_gain, tone.v_amplitude(), tone.i_amplitude()),
+            relative(
+                companion.noise_gain,
+                companion.v_amplitude(),
+                companion.i_amplitude(),
+            ),
+        ];
         // The lumped reading stays what the meter saw; the line is what is
         // left behind the wiring.
-        let Ok(z) = sensor.fixture.remove(z, f) else {
-            rec.flags.set(Flags::OPEN);
-            return rec;
-        };
-        match sensor.tracker.update(&mut self.track, z, f) {
-            Ok(t) => {
-                // The film's loss out of the line; what its spread could
-                // still move C by joins the error bound: two of its σ, the
-                // range its material measures (a silicone's 1–5·10⁻³).
-                let (line, loss_error) = if t.held {
-                    (t.line, 0.0)
-                } else {
-                    match dielectric::correct(sensor.tracker.inverter(), &t.line, f, &s.dielectric) {
-                        Ok(k) => (k.line, 2.0 * s.dielectric.spread * k.dlnc_dtan),
-                        Err(_) => (t.line, f32::INFINITY),
-                    }
-                };
-                rec.c_farad = line.c_farad;
-                rec.r_ohm = line.r_ohm;
-                let (stretch, status) = sensor.read(line.c_farad, th.c_tolerance);
-                rec.stretch_mm = stretch;
-                rec.flags.set(status);
-                if t.held {
-                    rec.flags.set(Flags::HELD);
-                } else {
-                    let bound = th.c_error_bound(ph, z.re / -z.im, t.line.kappa) + loss_error;
-                    // A NaN bound (none) is no bound.
-                    if bound.is_nan() || bound > th.c_tolerance {
-                        rec.flags.set(Flags::UNCERTAIN);
-                    }
-                }
-                // Beyond the electrodes' range, or a line without
-                // resistance (x below what the inversion resolves): no
-                // sensor of this kind.
-                if line.r_ohm > th.r_max_ohm
-                    || line.r_ohm.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater)
-                {
-                    rec.flags.set(Flags::RANGE);
-                    if !self.pinned {
-                        s.policy.fallback(&mut self.policy);
-                    }
-                } else if !t.held && !self.pinned {
-                    s.policy.update(&mut self.policy, line.r_ohm, line.c_farad, dt);
+        let mut pair = [(z, f[0]), (z2, f[1])].map(|(z, f_hz)| Tone {
+            z,
+            f_hz,
+            sigma_ohm: 0.0,
+        });
+        for (t, e) in pair.iter_mut().zip(noise) {
+            // 1σ of each component of Z: |Z| times the relative noise.
+            t.sigma_ohm = dsp_core::fmath::sqrt(t.z.norm_sqr()) * e;
+            match sensor.fixture.remove(t.z, t.f_hz) {
+                Ok(z) => t.z = z,
+                Err(_) => {
+                    rec.flags.set(Flags::OPEN);
+                    return rec;
                 }
             }
+        }
+        let solution = self.joint.solve(
+            sensor.tracker.inverter(),
+            &s.dielectric,
+            &pair,
+            self.prior_farad,
+            twotone::CHI2_FLAG,
+        );
+        let sol = match solution {
+            Ok(sol) => sol,
             Err(_) => {
                 rec.flags.set(Flags::RANGE);
+                self.joint.lose();
                 if !self.pinned {
                     s.policy.fallback(&mut self.policy);
                 }
+                return rec;
             }
+        };
+        let line = sol.line;
+        rec.c_farad = line.c_farad;
+        rec.r_ohm = line.r_ohm;
+        let (stretch, status) = sensor.read(line.c_farad, th.c_tolerance);
+        rec.stretch_mm = stretch;
+        rec.flags.set(status);
+        let consistent = sol.chi2 <= twotone::CHI2_FLAG;
+        if !consistent {
+            rec.flags.set(Flags::MODEL);
+        }
+        // Within tolerance: five σ of the block's noise, what the energy
+        // near the policy's tone could have moved it by (its V/I's shift
+        // in units of its noise, through the fit's sensitivity: a
+        // weighted least-squares fit moves ln C by at most σ_lnC times
+        // that), and what an error at one tone no guard sees could hide
+        // behind this χ². A NaN is no bound.
+        let near = sol.sigma_ln_c * th.near_shift(tone) / noise[0];
+        let bound = 5.0 * sol.sigma_ln_c + near + crate::joint::hidden(&sol, twotone::CHI2_FLAG);
+        if bound.is_nan() || bound > th.c_tolerance {
+            rec.flags.set(Flags::UNCERTAIN);
+        }
+        // Beyond the electrodes' range, or a line without resistance (x
+        // below what the inversion resolves): no sensor of this kind.
+        if line.r_ohm > th.r_max_ohm || line.r_ohm.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+            rec.flags.set(Flags::RANGE);
+            self.joint.lose();
+            if !self.pinned {
+                s.policy.fallback(&mut self.policy);
+            }
+            return rec;
+        }
+        if consistent {
+            self.joint.keep(&sol);
+        }
+        if !self.pinned {
+            s.policy.update(&mut self.policy, line.r_ohm, line.c_farad, dt);
         }
         rec
     }

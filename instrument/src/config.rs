@@ -52,6 +52,48 @@ pub const fn index(i: usize) -> usize {
     }
 }
 
+/// The second tone of each frequency of the set (an index of the set):
+/// every block carries two tones, the policy's and this one, so that one
+/// line must explain both ([`dsp_core::twotone`]): the model check an
+/// interferer at the tone's own frequency, an alias of it, or an
+/// undeclared contact or cable capacitance cannot pass. Two steps below
+/// the policy's (a factor 3.3 or 4) where the set has room (at least
+/// five bins apart, so that neither tone reaches the other's lock-in:
+/// [`dsp_core::lockin::STOP_BAND_BINS`]), else 1953 Hz above it: 586 ↔
+/// 1953, 977 → 1953, 1953 → 586, 3906 → 977, 5859 → 1953 Hz.
+pub const COMPANION: [usize; PERIODS.len()] = [2, 2, 0, 1, 2];
+const _: () = {
+    let mut i = 0;
+    while i < PERIODS.len() {
+        let (a, b) = (PERIODS[i], PERIODS[COMPANION[i]]);
+        assert!(a.abs_diff(b) >= 5);
+        i += 1;
+    }
+};
+
+/// Each tone's share of the excitation's amplitude, the policy's first:
+/// together the designed amplitude ([`crate::design::EXCITATION_VOLT`]),
+/// so the block's peak stays where one tone put it.
+pub const TONE_SHARES: [f32; 2] = [0.6, 0.4];
+
+/// Each tone's amplitude as the DAC's Q15 amplitude, the policy's first.
+pub const DAC_AMPLITUDES_Q15: [i16; 2] = [
+    (crate::design::DAC_AMPLITUDE_Q15 as f32 * TONE_SHARES[0] + 0.5) as i16,
+    (crate::design::DAC_AMPLITUDE_Q15 as f32 * TONE_SHARES[1] + 0.5) as i16,
+];
+
+/// The set entries of the two tones a block at set entry `i` plays, the
+/// policy's first (an index beyond the set means its highest entry).
+pub const fn tones(i: usize) -> [usize; 2] {
+    let i = index(i);
+    [i, COMPANION[i]]
+}
+
+/// The two tones' frequencies at set entry `i`, Hz, the policy's first.
+pub fn tones_hz(i: usize) -> [f32; 2] {
+    tones(i).map(freq_hz)
+}
+
 /// Pairs in half a block: the lock-ins store half their reference.
 pub const HALF_BLOCK: usize = BLOCK_PAIRS / 2;
 
@@ -71,11 +113,24 @@ pub static LOCKINS: [dsp_core::lockin::Lockin<HALF_BLOCK>; PERIODS.len()] = [
     dsp_core::lockin::Lockin::new(PERIODS[4], &BASIS),
 ];
 
-/// The lock-in's reading of one block at set entry `i` (an index beyond
+/// One block through the lock-ins of its two tones ([`tones`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Readings {
+    /// The policy's tone, with its guards.
+    pub tone: dsp_core::lockin::Reading,
+    /// The second tone, alone.
+    pub companion: dsp_core::lockin::Phasors,
+}
+
+/// The lock-ins' reading of one block at set entry `i` (an index beyond
 /// the set means its highest entry).
-pub fn read(i: usize, pairs: &[[i16; 2]; BLOCK_PAIRS]) -> dsp_core::lockin::Reading {
+pub fn read(i: usize, pairs: &[[i16; 2]; BLOCK_PAIRS]) -> Readings {
+    let [a, b] = tones(i);
     // A block of BLOCK_PAIRS pairs is what every lock-in of the set takes,
-    // so this is never an error (an empty reading, flagged OPEN, if it
+    // so these are never errors (empty readings, flagged OPEN, if they
     // were).
-    LOCKINS[index(i)].block(pairs).unwrap_or_default()
+    Readings {
+        tone: LOCKINS[a].block(pairs).unwrap_or_default(),
+        companion: LOCKINS[b].tone(pairs).unwrap_or_default(),
+    }
 }

@@ -143,11 +143,11 @@ pub struct Thresholds {
     /// ... or above this fraction of the channel's tone, if that is larger.
     pub near_rel: f32,
     /// Largest relative error of C a valid record may carry, by the bound
-    /// of [`Thresholds::c_error_bound`].
+    /// each channel puts on its records (five σ of the noise, what a
+    /// disturbance could move, what the model check could hide).
     pub c_tolerance: f32,
     /// The ADC's white noise, rms counts: the part of a block's residual
-    /// that is noise (its error is the 5σ term of
-    /// [`Thresholds::c_error_bound`]); only what exceeds it counts as a
+    /// that is noise (its error is the 5σ term of a record's bound); only what exceeds it counts as a
     /// disturbance that can leak into the tone's bin. A board noisier than
     /// this gets more pessimistic bounds, never optimistic ones.
     pub noise_counts: f32,
@@ -169,7 +169,7 @@ impl Thresholds {
     /// Disturbed
     /// above max(0.25 counts, 0.15 % of the tone): the tone could be 0.5 %
     /// off. Less than that joins the error bound
-    /// ([`Thresholds::c_error_bound`]).
+    /// ([`Thresholds::near_shift`]).
     pub const DEFAULT: Self = Self {
         open_counts: 4.0,
         no_excitation_counts: EXCITATION_COUNTS / 6.0,
@@ -219,7 +219,7 @@ impl Thresholds {
     /// Each channel's noise, counts rms: the ADC's
     /// ([`Thresholds::noise_counts`]), or what the guards show if more (a
     /// noisier board, or energy near the tone).
-    fn sigma(&self, r: &Reading, c: usize) -> f32 {
+    pub fn sigma(&self, r: &Reading, c: usize) -> f32 {
         let [p, m] = r.guards[c];
         let seen =
             libm::sqrtf((p.norm_sqr() + m.norm_sqr()) / 4.0) / r.guard_noise_gain.max(f32::MIN_POSITIVE);
@@ -234,32 +234,22 @@ impl Thresholds {
         [0, 1].map(|c| Self::excess(&r.guards[c], self.noise_counts * r.guard_noise_gain))
     }
 
-    /// A bound on the relative error of C from one block through the
-    /// lock-in ([`dsp_core::lockin`]). Each channel's tone is off by at
-    /// most
+    /// The most what lies near the tone can have moved its V/I,
+    /// relative: δ beyond the noise in each channel's larger guard moves
+    /// that channel's phasor by at most
+    /// [`GUARD_BOUND`](dsp_core::lockin::GUARD_BOUND)·δ counts, so V/I by
     ///
     /// ```text
-    /// e = 5·σ·g_n + GUARD_BOUND·δ     (counts)
+    /// GUARD_BOUND·(δ_v/A_v + δ_i/A_i)
     /// ```
     ///
-    /// five standard deviations of its noise (σ counts rms, the ADC's or
-    /// what the guards show if more; g_n the window's noise gain) and the
-    /// most what lies near the tone, δ beyond the noise in the larger
-    /// guard, can move it. Energy in the stop band moves it by less than
-    /// −92 dB and is not counted; energy within half a bin of the tone is
-    /// not seen (a second tone at the same frequency). Its phase is then
-    /// off by at most φ = e_v/A_v + e_i/A_i; D = Re Z/(−Im Z) moves by
-    /// (1 + D²)/D times the phase error (relative), and C by `kappa` times
-    /// that, plus the amplitude errors, each at most φ. `d` is the
-    /// block's D.
-    pub fn c_error_bound(&self, r: &Reading, d: f32, kappa: f32) -> f32 {
-        let channel = |c: usize, a: f32| {
-            let sigma = self.sigma(r, c);
-            let delta = Self::excess(&r.guards[c], self.noise_counts * r.guard_noise_gain);
-            (5.0 * sigma * r.noise_gain + dsp_core::lockin::GUARD_BOUND * delta) / a
-        };
-        let phase = channel(0, r.v_amplitude()) + channel(1, r.i_amplitude());
-        let e = kappa * (1.0 + d * d) / d * phase + phase;
+    /// Energy in the stop band moves it by less than −92 dB and is not
+    /// counted; energy within half a bin of the tone is not seen (a second
+    /// tone at the same frequency: the model check of the block's two
+    /// tones sees it, [`crate::joint::hidden`]). Infinite without a tone.
+    pub fn near_shift(&self, r: &Reading) -> f32 {
+        let [dv, di] = self.near_excess(r);
+        let e = dsp_core::lockin::GUARD_BOUND * (dv / r.v_amplitude() + di / r.i_amplitude());
         // NaN (no signal) is no bound.
         if e.is_nan() {
             f32::INFINITY

@@ -6,14 +6,15 @@
 //! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
 //! | [`digest`] | digests of settings and calibrations (a start frame's): CRC-32 over the values' bits |
 //! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor |
-//! | [`config`] | block, slot, channels, the excitation frequency set |
+//! | [`config`] | block, slot, channels, the excitation frequency set and each frequency's second tone |
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
 //! | [`ranging`] | auto-ranging of the transimpedance stage from the current of the last block |
 //! | [`calib`] | stretch from capacitance through a calibration table in flash |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
-//! | [`channel`] | one sensor channel: demodulated block → record |
+//! | [`joint`] | the line of a block's two tones, tracked, and what its model check vouches for (both front ends) |
+//! | [`channel`] | one sensor channel of the multiplexer: a block's two tones → a line-corrected record with its model check |
 //! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop, sweep; each acknowledged or refused |
 //! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
 //! | [`store`] | those settings in flash, two slots (A/B): a power cut leaves the old set or the new |
@@ -47,6 +48,7 @@ pub mod digest;
 pub mod effects;
 pub mod faults;
 pub mod frames;
+pub mod joint;
 pub mod mux;
 pub mod policy;
 pub mod ranging;

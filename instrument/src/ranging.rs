@@ -3,7 +3,7 @@
 //! the current its last block drew, as an LCR meter switches ranges.
 //!
 //! The C a block yields is off by about (noise / current amplitude) times
-//! the inversion's sensitivity ([`crate::faults::Thresholds::c_error_bound`]),
+//! the line's sensitivity (`sigma_ln_c` of [`dsp_core::twotone::Solution`]),
 //! so the current should fill the ADC: a sensor of 3 MΩ (the paper's, with
 //! its tab leads, after cycling) on 100 kΩ draws ~40 of the ADC's 2048
 //! counts; on 1 MΩ, ~400. A range is a pure gain: the firmware divides

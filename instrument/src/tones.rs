@@ -16,6 +16,7 @@
 use crate::array::SENSORS;
 use crate::array::{tone_hz, tones_hz, TONES};
 use crate::faults::{Flags, Thresholds};
+use crate::joint::Joint;
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
@@ -122,8 +123,8 @@ impl Input {
 pub struct ToneChannel {
     /// Tone policy state (`index`: the higher tone).
     pub policy: PolicyState,
-    /// The last line solved consistently, (R Ω, C F, its film's tan δ).
-    line: Option<(f32, f32, f32)>,
+    /// The last line solved consistently.
+    joint: Joint,
     last_t_us: Option<u64>,
     prior_farad: f32,
 }
@@ -133,7 +134,7 @@ impl ToneChannel {
     pub const fn new(prior_farad: f32) -> Self {
         Self {
             policy: PolicyState::new(),
-            line: None,
+            joint: Joint::new(),
             last_t_us: None,
             prior_farad,
         }
@@ -247,28 +248,18 @@ impl ToneChannel {
                 }
             }
         }
-        let hint = self.line.map_or(self.prior_farad, |(_, c, _)| c);
-        let tracked = self
-            .line
-            .map(|(r, c, t)| twotone::solve_from(sensor.tracker.inverter(), &s.dielectric, &tones, r, c, t));
-        let solution = match tracked {
-            Some(Ok(t)) if t.chi2 <= s.chi2_flag => Ok(t),
-            // Lost, or never locked: from the single-tone inversions, the
-            // better of the two.
-            other => match (
-                other,
-                twotone::solve(sensor.tracker.inverter(), &s.dielectric, &tones, hint),
-            ) {
-                (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
-                (Some(Ok(t)), Err(_)) => Ok(t),
-                (_, fresh) => fresh,
-            },
-        };
+        let solution = self.joint.solve(
+            sensor.tracker.inverter(),
+            &s.dielectric,
+            &tones,
+            self.prior_farad,
+            s.chi2_flag,
+        );
         let sol = match solution {
             Ok(sol) => sol,
             Err(_) => {
                 rec.flags.set(Flags::RANGE);
-                self.line = None;
+                self.joint.lose();
                 s.policy.fallback(&mut self.policy);
                 return rec;
             }
@@ -291,11 +282,7 @@ impl ToneChannel {
         // (Where the model check already failed, the record is flagged
         // MODEL and the bound says nothing more: UNCERTAIN stays the
         // block's own, as a per-tone reading of the record needs.)
-        let hidden = if sol.chi2 > s.chi2_flag {
-            0.0
-        } else {
-            sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0))
-        };
+        let hidden = crate::joint::hidden(&sol, s.chi2_flag);
         let within = 5.0 * sol.sigma_ln_c
             + disturbance_bound(th, &v.levels, &i.levels, pair, n, sol.sigma_ln_c)
             + hidden
@@ -305,12 +292,12 @@ impl ToneChannel {
         }
         if sol.line.r_ohm > th.r_max_ohm {
             rec.flags.set(Flags::RANGE);
-            self.line = None;
+            self.joint.lose();
             s.policy.fallback(&mut self.policy);
             return rec;
         }
         if !rec.flags.has(Flags::MODEL) {
-            self.line = Some((sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent));
+            self.joint.keep(&sol);
         }
         s.policy.update_on(
             &tones_hz(),

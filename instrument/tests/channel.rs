@@ -9,7 +9,7 @@ use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::faults::{Flags, Thresholds};
 use instrument::policy::{Policy, PolicyState};
 use instrument::sensor::{Sensor as Measured, Sensors};
-use skin_sim::frontend::FrontEndParams;
+use skin_sim::frontend::{Disturbance, FrontEndParams};
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
 use skin_sim::sensor::{Sensor, SensorParams};
@@ -113,13 +113,13 @@ fn run(
     let mut t = 0.0f32;
     while t < secs {
         let i = ch.freq_index();
-        let osc = Oscillator::from_ftw(ftw(i));
         s.advance(&profile, t as f64);
-        let clipped = fe.at_range(&settings.ranging, ch.range()).block(
-            &osc,
-            s.impedance(freq_hz(i) as f64),
+        let clipped = fe.at_range(&settings.ranging, ch.range()).mux_block(
+            i,
+            |f| s.impedance(f),
             &mut rng,
             &mut buf,
+            &Disturbance::NONE,
         );
         let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
         out.push(ch.process(&settings, 0, (t as f64 * 1e6) as u64, &ph, clipped, ch.range()));
@@ -229,7 +229,6 @@ fn mux_drives_the_address_lines() {
 /// with C = 241–275 pF against 210 pF.)
 #[test]
 fn mains_hum_never_gives_a_wrong_valid_record() {
-    use skin_sim::frontend::Disturbance;
     let fe = FrontEndParams::REFERENCE;
     let settings = settings(&fe);
     let s = Sensor::settled(SensorParams::REFERENCE);
@@ -238,8 +237,6 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
     let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     let mut table = vec![];
     for i in 0..PERIODS.len() {
-        let osc = Oscillator::from_ftw(ftw(i));
-        let z = s.impedance(freq_hz(i) as f64);
         for hum_hz in [50.0f32, 60.0] {
             for amp in [
                 0.0f32, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2048.0,
@@ -259,7 +256,7 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                         };
                         let clipped = fe
                             .at_range(&settings.ranging, ch.range())
-                            .block_disturbed(&osc, z, &mut rng, &mut buf, &d);
+                            .mux_block(i, |f| s.impedance(f), &mut rng, &mut buf, &d);
                         let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                         let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
                         if r.flags.valid() {
@@ -328,13 +325,11 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
         for i in 0..PERIODS.len() {
             let f = freq_hz(i) as f64;
             let x = 2.0 * core::f64::consts::PI * f * truth.r_line_ohm * truth.c_farad;
-            let osc = Oscillator::from_ftw(ftw(i));
-            let z = s.impedance(f);
             let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
             for b in 0..40 {
                 let clipped = fe
                     .at_range(&settings.ranging, ch.range())
-                    .block(&osc, z, &mut rng, &mut buf);
+                    .mux_block(i, |f| s.impedance(f), &mut rng, &mut buf, &Disturbance::NONE);
                 let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                 let r = ch.process(&settings, 0, b * 5_000, &ph, clipped, ch.range());
                 if b == 0 {
@@ -384,11 +379,10 @@ fn blocks(
     (0..n)
         .map(|b| {
             let i = ch.freq_index();
-            let osc = Oscillator::from_ftw(ftw(i));
             let range = ch.range();
-            let clipped =
-                fe.at_range(&settings.ranging, range)
-                    .block(&osc, z(freq_hz(i) as f64), rng, &mut buf);
+            let clipped = fe
+                .at_range(&settings.ranging, range)
+                .mux_block(i, &z, rng, &mut buf, &Disturbance::NONE);
             let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
             let r = ch.process(settings, 0, b as u64 * 5_440, &ph, clipped, range);
             (r, range, clipped)

@@ -26,12 +26,11 @@
 //! runs 1 000 000.
 
 use dsp_core::fixture::Fixture;
-use dsp_core::lockin::Reading;
+use dsp_core::lockin::{Phasors, Reading};
 use dsp_core::Complex32;
-use dsp_core::Oscillator;
 use instrument::calib::{POINTS, REFERENCE};
 use instrument::channel::{Channel, Settings};
-use instrument::config::{freq_hz, ftw, BLOCK_PAIRS, PERIODS, SLOT_S};
+use instrument::config::{freq_hz, Readings, BLOCK_PAIRS, PERIODS, SLOT_S};
 use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::wire;
 use proptest::prelude::*;
@@ -77,7 +76,7 @@ fn complex() -> impl Strategy<Value = Complex32> {
     (value(), value()).prop_map(|(re, im)| Complex32::new(re, im))
 }
 
-fn readings() -> impl Strategy<Value = Reading> {
+fn reading() -> impl Strategy<Value = Reading> {
     (
         (complex(), complex()),
         (complex(), complex(), complex(), complex()),
@@ -94,6 +93,15 @@ fn readings() -> impl Strategy<Value = Reading> {
                 n,
             },
         )
+}
+
+/// Both tones of a block: arbitrary readings, the second tone's noise
+/// gain and length its own.
+fn readings() -> impl Strategy<Value = Readings> {
+    (reading(), complex(), complex(), value(), any::<u32>()).prop_map(|(tone, v, i, noise_gain, n)| Readings {
+        tone,
+        companion: Phasors { v, i, noise_gain, n },
+    })
 }
 
 proptest! {
@@ -152,11 +160,10 @@ fn measure(
     rng: &mut Rng,
 ) -> (instrument::channel::Record, f64) {
     let i = ch.freq_index();
-    let osc = Oscillator::from_ftw(ftw(i));
     let mut buf = [[0i16; 2]; BLOCK_PAIRS];
     let clipped = FrontEndParams::REFERENCE
         .at_range(&s.ranging, ch.range())
-        .block_disturbed(&osc, sensor.impedance(freq_hz(i) as f64), rng, &mut buf, d);
+        .mux_block(i, |f| sensor.impedance(f), rng, &mut buf, d);
     let ph = instrument::config::read(i, &buf);
     let range = ch.range();
     (

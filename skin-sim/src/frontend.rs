@@ -97,13 +97,73 @@ impl FrontEndParams {
         out: &mut [[i16; 2]],
         d: &Disturbance,
     ) -> bool {
+        let tone = Excitation {
+            osc: *osc,
+            share: 1.0,
+            z,
+        };
+        self.tones_disturbed(&[tone], rng, out, d)
+    }
+
+    /// One block of the multiplexed board at set entry `i`: its two tones
+    /// ([`instrument::config::tones`]) at their shares of the excitation,
+    /// the sensor's impedance at each from `z` (Hz → Ω), `d` added at the
+    /// ADC inputs. Returns true if any sample clipped.
+    pub fn mux_block(
+        &self,
+        i: usize,
+        z: impl Fn(f64) -> Complex64,
+        rng: &mut Rng,
+        out: &mut [[i16; 2]],
+        d: &Disturbance,
+    ) -> bool {
+        use instrument::config::{freq_hz, ftw, tones, TONE_SHARES};
+        let [a, b] = tones(i);
+        let tone = |k: usize, share: f32| Excitation {
+            osc: Oscillator::from_ftw(ftw(k)),
+            share: share as f64,
+            z: z(freq_hz(k) as f64),
+        };
+        self.tones_disturbed(&[tone(a, TONE_SHARES[0]), tone(b, TONE_SHARES[1])], rng, out, d)
+    }
+
+    /// One block of `[v, i]` codes for an excitation of several tones (up
+    /// to [`MAX_TONES`]; more are not played), each
+    /// from phase 0 at its share of the excitation's amplitude through the
+    /// sensor's impedance at its frequency, `d` added at the ADC inputs.
+    /// Returns true if any sample clipped.
+    pub fn tones_disturbed(
+        &self,
+        tones: &[Excitation],
+        rng: &mut Rng,
+        out: &mut [[i16; 2]],
+        d: &Disturbance,
+    ) -> bool {
         let half = (1i32 << (self.adc_bits.clamp(2, 16) - 1)) as f32;
         let lsb = (self.full_scale_volt as f32) / half;
-        // Current phasor (A) through the transimpedance, in LSB per unit cos/sin.
-        let y = Complex64::new(self.excitation_volt, 0.0) / z;
         let k = (-self.tia_ohm / lsb as f64) as f32;
-        let (ir, ii) = (k * y.re as f32, k * y.im as f32);
-        let va = (self.excitation_volt * self.v_gain) as f32 / lsb;
+        // Per tone: the voltage's amplitude and the current phasor (A)
+        // through the transimpedance, in LSB per unit cos/sin.
+        let mut synth = [(
+            0.0f32,
+            0.0f32,
+            0.0f32,
+            Oscillator::from_ftw(0),
+            OscillatorState::default(),
+        ); MAX_TONES];
+        let m = tones.len().min(MAX_TONES);
+        for (x, t) in synth.iter_mut().zip(tones) {
+            let volt = self.excitation_volt * t.share;
+            let y = Complex64::new(volt, 0.0) / t.z;
+            let va = (volt * self.v_gain) as f32 / lsb;
+            *x = (
+                va,
+                k * y.re as f32,
+                k * y.im as f32,
+                t.osc,
+                OscillatorState::default(),
+            );
+        }
         let noise = self.noise_lsb as f32;
         let q = 1.0 / 2_147_483_648.0f32;
         let mut clipped = false;
@@ -112,7 +172,6 @@ impl FrontEndParams {
             clipped |= rail;
             code
         };
-        let mut st = OscillatorState::default();
         // Hum phase as a 32-bit turn fraction: per pair, and at the block's
         // first pair from its absolute time.
         let turns = |t: f64| {
@@ -123,14 +182,19 @@ impl FrontEndParams {
         let mut hum_phase =
             turns(d.t0_s).wrapping_add((d.hum_phase_turns as f64 * 4_294_967_296.0) as i64 as u32);
         for (n, o) in out.iter_mut().enumerate() {
-            let (c, s) = osc.next(&mut st);
-            let (c, s) = (c as f32 * q, s as f32 * q);
+            let (mut v, mut i) = (0.0f32, 0.0f32);
+            for (va, ir, ii, osc, st) in synth[..m].iter_mut() {
+                let (c, s) = osc.next(st);
+                let (c, s) = (c as f32 * q, s as f32 * q);
+                v += *va * c;
+                i += *ir * c - *ii * s;
+            }
             let (_, h) = dsp_core::cossin::cossin(hum_phase as i32);
             let h = h as f32 * q;
             hum_phase = hum_phase.wrapping_add(hum_step);
             let step = if n >= d.step_at { d.step_i } else { 0.0 };
-            let v = va * c + noise * rng.gaussian_fast() + d.hum_v * h;
-            let i = ir * c - ii * s + noise * rng.gaussian_fast() + d.hum_i * h + step;
+            let v = v + noise * rng.gaussian_fast() + d.hum_v * h;
+            let i = i + noise * rng.gaussian_fast() + d.hum_i * h + step;
             *o = [adc(v), adc(i)];
             if let Some(code) = d.stuck_i {
                 o[1] = code;
@@ -138,6 +202,20 @@ impl FrontEndParams {
         }
         clipped
     }
+}
+
+/// The most tones [`FrontEndParams::tones_disturbed`] plays.
+pub const MAX_TONES: usize = 4;
+
+/// One tone of an excitation ([`FrontEndParams::tones_disturbed`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Excitation {
+    /// Its oscillator (from phase 0 at the block's first pair).
+    pub osc: Oscillator,
+    /// Its share of the excitation's amplitude.
+    pub share: f64,
+    /// The sensor's impedance at its frequency, Ω.
+    pub z: Complex64,
 }
 
 /// An ADC's code for an input of `x` counts on a bipolar range of

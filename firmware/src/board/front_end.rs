@@ -5,11 +5,11 @@
 
 #[cfg(target_os = "none")]
 use super::{adc, dac, dma, opamp, pac, pins, scan, timer};
-use dsp_core::osc::{Oscillator, OscillatorState};
+use dsp_core::osc::{dac_code_of_sum, Oscillator, OscillatorState};
 use instrument::array::{Rows, ADCS, BLOCK_INSTANTS, SCAN};
 #[cfg(target_os = "none")]
 use instrument::array::{DAC_RATE_HZ, DAC_TABLE, RATE_HZ};
-use instrument::config::{ftw, SETTLE_PAIRS, SLOT_PAIRS};
+use instrument::config::{ftw, tones, DAC_AMPLITUDES_Q15, SETTLE_PAIRS, SLOT_PAIRS};
 use instrument::design;
 use instrument::sequencer::Step;
 
@@ -33,15 +33,21 @@ pub const ARRAY_RESULTS: usize = 2 * BLOCK_INSTANTS * SCAN;
 /// last of the five ADCs the DMA serves.
 pub const ARRAY_PACER: usize = ADCS - 1;
 
-/// Write one slot of DAC codes for frequency index `fidx`: the settling
-/// pairs lead into the block, which starts at phase 0.
+/// Write one slot of DAC codes for frequency index `fidx`: its two tones
+/// ([`instrument::config::tones`]) at their amplitudes
+/// ([`DAC_AMPLITUDES_Q15`]); the settling pairs lead into the block, where
+/// both start at phase 0.
 pub fn fill_slot(buf: &mut [u16], fidx: usize) {
-    let osc = Oscillator::from_ftw(ftw(fidx));
-    let mut st = OscillatorState {
-        phase: (ftw(fidx).wrapping_mul(SETTLE_PAIRS as u32) as i32).wrapping_neg(),
+    let [a, b] = tones(fidx);
+    let start = |k: usize| OscillatorState {
+        phase: (ftw(k).wrapping_mul(SETTLE_PAIRS as u32) as i32).wrapping_neg(),
     };
-    for b in buf.iter_mut() {
-        *b = osc.next_dac(&mut st, design::DAC_BITS, design::DAC_AMPLITUDE_Q15);
+    let (osc_a, osc_b) = (Oscillator::from_ftw(ftw(a)), Oscillator::from_ftw(ftw(b)));
+    let (mut st_a, mut st_b) = (start(a), start(b));
+    for code in buf.iter_mut() {
+        let (_, sa) = osc_a.next(&mut st_a);
+        let (_, sb) = osc_b.next(&mut st_b);
+        *code = dac_code_of_sum(&[(sa, DAC_AMPLITUDES_Q15[0]), (sb, DAC_AMPLITUDES_Q15[1])], design::DAC_BITS);
     }
 }
 

@@ -1,0 +1,80 @@
+//! The line of a block's two tones, tracked from record to record, and
+//! what its model check vouches for: what the multiplexed channel
+//! ([`crate::channel`]) and the array's ([`crate::tones`]) share.
+//!
+//! [`dsp_core::twotone`] fits one uniform line to both tones. While a
+//! channel tracks its sensor the fit starts from the last line it
+//! vouched for (half the work); lost or never locked, from the
+//! single-tone inversions, the better of the two. Its χ² is the model
+//! check ([`crate::faults::Flags::MODEL`] above the flag), and
+//! [`hidden`] what an error at one tone that no residual or guard sees
+//! could still hide behind a χ² that passed.
+
+use dsp_core::dielectric::Dielectric;
+use dsp_core::invert::{InvertError, Inverter};
+use dsp_core::twotone::{self, Solution, Tone};
+
+/// A channel's tracked line: the last one solved consistently.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Joint {
+    /// (R Ω, C F, the film's tan δ).
+    line: Option<(f32, f32, f32)>,
+}
+
+impl Joint {
+    /// Nothing tracked yet.
+    pub const fn new() -> Self {
+        Self { line: None }
+    }
+
+    /// The line `tones` fit ([`dsp_core::twotone`]): from the tracked line
+    /// when its χ² passes `chi2_flag`, else also from the single-tone
+    /// inversions (the branch nearest the tracked C, or `prior_farad`),
+    /// whichever fits better; an error when neither inverts.
+    pub fn solve(
+        &self,
+        inv: &Inverter,
+        d: &Dielectric,
+        tones: &[Tone; 2],
+        prior_farad: f32,
+        chi2_flag: f32,
+    ) -> Result<Solution, InvertError> {
+        let hint = self.line.map_or(prior_farad, |(_, c, _)| c);
+        let tracked = self
+            .line
+            .map(|(r, c, t)| twotone::solve_from(inv, d, tones, r, c, t));
+        match tracked {
+            Some(Ok(t)) if t.chi2 <= chi2_flag => Ok(t),
+            // Lost, or never locked: from the single-tone inversions, the
+            // better of the two.
+            other => match (other, twotone::solve(inv, d, tones, hint)) {
+                (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
+                (Some(Ok(t)), Err(_)) => Ok(t),
+                (_, fresh) => fresh,
+            },
+        }
+    }
+
+    /// Track `sol` from now on.
+    pub fn keep(&mut self, sol: &Solution) {
+        self.line = Some((sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent));
+    }
+
+    /// Forget the tracked line (the sensor is out of range, or gone).
+    pub fn lose(&mut self) {
+        self.line = None;
+    }
+}
+
+/// What an error at one tone that nothing else sees (an interferer at
+/// its frequency, an alias of it) could hide behind the χ² of `sol`,
+/// relative to C: `hidden_ln_c·√χ²`; 0 where the check failed
+/// (χ² > `chi2_flag`: the record is flagged MODEL and this bound says
+/// nothing more).
+pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
+    if sol.chi2 > chi2_flag {
+        0.0
+    } else {
+        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0))
+    }
+}
