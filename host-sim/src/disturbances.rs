@@ -21,10 +21,10 @@
 //! rows for steps, offsets and stuck inputs are not tried ("–").
 
 use dsp_core::fixture::Fixture;
-use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS};
+use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
 use instrument::calib;
 use instrument::channel::{Channel, Settings};
-use instrument::config::{freq_hz, BLOCK_PAIRS, SLOT_S};
+use instrument::config::{tones_hz, BLOCK_PAIRS, SLOT_S};
 use instrument::effects::Effect;
 use instrument::reader::ArrayReader;
 use instrument::sensor::{Sensor as Measured, Sensors};
@@ -66,6 +66,9 @@ pub enum Front {
         mains: bool,
         /// An alias: `hz` from the tone, reflected about the sample rate.
         alias: bool,
+        /// `hz` above the block's highest tone (a tone-relative offset
+        /// that no tone of the block lies near).
+        beyond: bool,
         /// Counts (peak).
         counts: f32,
     },
@@ -118,6 +121,7 @@ pub const CLASSES: [Class; 19] = [
             from_tone: true,
             mains: true,
             alias: false,
+            beyond: false,
             counts: 10.0,
         },
         sensor: SensorChange::None,
@@ -136,8 +140,15 @@ pub const CLASSES: [Class; 19] = [
     },
     Class {
         name: "interferer far from the tone",
-        what: "1.5 kHz from the tone, 100 counts",
-        front: near(1500.0, 100.0),
+        what: "1.5 kHz above the block's highest tone, 100 counts",
+        front: Front::Sine {
+            hz: 1500.0,
+            from_tone: true,
+            mains: false,
+            alias: false,
+            beyond: true,
+            counts: 100.0,
+        },
         sensor: SensorChange::None,
     },
     Class {
@@ -148,6 +159,7 @@ pub const CLASSES: [Class; 19] = [
             from_tone: true,
             mains: false,
             alias: true,
+            beyond: false,
             counts: 10.0,
         },
         sensor: SensorChange::None,
@@ -232,6 +244,7 @@ const fn sine(hz: f32, counts: f32) -> Front {
         from_tone: false,
         mains: false,
         alias: false,
+        beyond: false,
         counts,
     }
 }
@@ -242,6 +255,7 @@ const fn near(hz: f32, counts: f32) -> Front {
         from_tone: true,
         mains: false,
         alias: false,
+        beyond: false,
         counts,
     }
 }
@@ -274,20 +288,25 @@ impl Outcome {
     }
 }
 
-/// The sinusoid's frequency for a record at `tone_hz`, sampled at
-/// `rate_hz` (an alias is reflected about it).
-fn sine_hz(front: &Front, tone_hz: f32, rate_hz: f32) -> Option<(f32, f32)> {
+/// The sinusoid's frequency for a record whose block plays `tones_hz`
+/// (the tone a class aims at first), sampled at `rate_hz` (an alias is
+/// reflected about it).
+fn sine_hz(front: &Front, tones_hz: &[f32], rate_hz: f32) -> Option<(f32, f32)> {
     let Front::Sine {
         hz,
         from_tone,
         mains,
         alias,
+        beyond,
         counts,
     } = *front
     else {
         return None;
     };
-    let f = if mains {
+    let tone_hz = tones_hz.first().copied().unwrap_or(0.0);
+    let f = if beyond {
+        tones_hz.iter().fold(0f32, |m, &t| m.max(t)) + hz
+    } else if mains {
         (tone_hz / 50.0).round() * 50.0
     } else if alias {
         rate_hz - tone_hz - hz
@@ -347,7 +366,6 @@ pub fn multiplexed(class: &Class) -> Outcome {
     const BLOCKS: usize = 40;
     let duration = BLOCKS as f64 * SLOT_S as f64;
     for index in 0..3 {
-        let tone = freq_hz(index);
         let mut ch = Channel::pinned(calib::REFERENCE.rest_capacitance(), index);
         // Each frequency from another phase of the trapezoid (moving).
         let start = 0.5 + 1.7 * index as f64;
@@ -361,7 +379,7 @@ pub fn multiplexed(class: &Class) -> Outcome {
                 t0_s: t,
                 ..Disturbance::NONE
             };
-            if let Some((hz, counts)) = sine_hz(&class.front, tone, fe.sample_rate_hz as f32) {
+            if let Some((hz, counts)) = sine_hz(&class.front, &tones_hz(index), fe.sample_rate_hz as f32) {
                 (d.hum_hz, d.hum_i, d.hum_phase_turns) = (hz, counts, 0.21);
             }
             match class.front {
@@ -433,7 +451,11 @@ pub fn array(class: &Class) -> Option<Outcome> {
             t0_s: t,
             ..Disturbance::NONE
         };
-        if let Some((f, counts)) = sine_hz(&class.front, aim, sample_rate) {
+        if let Some((f, counts)) = sine_hz(
+            &class.front,
+            &[aim, instrument::array::tone_hz(TONES - 1)],
+            sample_rate,
+        ) {
             // The array's counts are 16-bit: the same share of full scale.
             (d.hum_hz, d.hum_i, d.hum_phase_turns) = (f, counts * 16.0, 0.21);
         }

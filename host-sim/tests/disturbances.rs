@@ -1,30 +1,36 @@
 //! The disturbance table (`host-sim disturbances`, docs/disturbances.md):
-//! the array leaves no valid record 1 % off in any class, the multiplexed
-//! channel none outside its known gaps (what sits within half a bin of its
-//! one tone, undeclared wiring), a far interferer leaves the multiplexed
+//! neither path leaves a valid record 1 % off in any class (the
+//! multiplexed channel's two tones included: what sits within half a bin
+//! of a tone, undeclared wiring), a far interferer leaves the multiplexed
 //! channel's records valid and right, both paths keep a clean skin's
 //! records, and the page shows what the code measures.
 
 use host_sim::disturbances::{markdown, rows};
 
 #[test]
-fn the_array_vouches_for_no_wrong_record_under_any_disturbance() {
+fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
     let rows = rows();
-    // One tone cannot tell these from the sensor: a second frequency in
-    // the multiplexed channel's blocks is issue 26's open item.
-    let gaps = [
-        "mains harmonic at the tone",
-        "interferer in the tone's bin",
-        "alias of the tone",
-        "contact resistance",
-        "parasitic capacitance",
-    ];
     for (class, m, a) in &rows {
         if let Some(a) = a {
             assert_eq!(a.valid_off, 0, "array, {}: {a:?}", class.name);
         }
-        if !gaps.contains(&class.name) {
-            assert_eq!(m.valid_off, 0, "multiplexed, {}: {m:?}", class.name);
+        assert_eq!(m.valid_off, 0, "multiplexed, {}: {m:?}", class.name);
+        // What one tone cannot tell from the sensor, the second one
+        // flags: most of the records, not a few.
+        if [
+            "mains harmonic at the tone",
+            "interferer in the tone's bin",
+            "alias of the tone",
+            "contact resistance",
+            "parasitic capacitance",
+        ]
+        .contains(&class.name)
+        {
+            assert!(
+                m.flagged * 10 >= m.records * 9,
+                "multiplexed, {}: {m:?}",
+                class.name
+            );
         }
         // Whatever flags a whole record set, flags it on both paths: a
         // stuck, open, shorted or clipped input is never read.

@@ -254,9 +254,13 @@ fn mains_hum_never_gives_a_wrong_valid_record() {
                             t0_s: t0,
                             ..Disturbance::NONE
                         };
-                        let clipped = fe
-                            .at_range(&settings.ranging, ch.range())
-                            .mux_block(i, |f| s.impedance(f), &mut rng, &mut buf, &d);
+                        let clipped = fe.at_range(&settings.ranging, ch.range()).mux_block(
+                            i,
+                            |f| s.impedance(f),
+                            &mut rng,
+                            &mut buf,
+                            &d,
+                        );
                         let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                         let r = ch.process(&settings, 0, (t0 * 1e6) as u64, &ph, clipped, ch.range());
                         if r.flags.valid() {
@@ -327,9 +331,13 @@ fn the_error_bound_holds_and_flags_only_ill_conditioned_lines() {
             let x = 2.0 * core::f64::consts::PI * f * truth.r_line_ohm * truth.c_farad;
             let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), i);
             for b in 0..40 {
-                let clipped = fe
-                    .at_range(&settings.ranging, ch.range())
-                    .mux_block(i, |f| s.impedance(f), &mut rng, &mut buf, &Disturbance::NONE);
+                let clipped = fe.at_range(&settings.ranging, ch.range()).mux_block(
+                    i,
+                    |f| s.impedance(f),
+                    &mut rng,
+                    &mut buf,
+                    &Disturbance::NONE,
+                );
                 let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
                 let r = ch.process(&settings, 0, b * 5_000, &ph, clipped, ch.range());
                 if b == 0 {
@@ -380,9 +388,9 @@ fn blocks(
         .map(|b| {
             let i = ch.freq_index();
             let range = ch.range();
-            let clipped = fe
-                .at_range(&settings.ranging, range)
-                .mux_block(i, &z, rng, &mut buf, &Disturbance::NONE);
+            let clipped =
+                fe.at_range(&settings.ranging, range)
+                    .mux_block(i, &z, rng, &mut buf, &Disturbance::NONE);
             let ph = instrument::config::read(i, buf.as_slice().try_into().unwrap());
             let r = ch.process(settings, 0, b as u64 * 5_440, &ph, clipped, range);
             (r, range, clipped)

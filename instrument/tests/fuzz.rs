@@ -98,9 +98,11 @@ fn reading() -> impl Strategy<Value = Reading> {
 /// Both tones of a block: arbitrary readings, the second tone's noise
 /// gain and length its own.
 fn readings() -> impl Strategy<Value = Readings> {
-    (reading(), complex(), complex(), value(), any::<u32>()).prop_map(|(tone, v, i, noise_gain, n)| Readings {
-        tone,
-        companion: Phasors { v, i, noise_gain, n },
+    (reading(), complex(), complex(), value(), any::<u32>()).prop_map(|(tone, v, i, noise_gain, n)| {
+        Readings {
+            tone,
+            companion: Phasors { v, i, noise_gain, n },
+        }
     })
 }
 
