@@ -231,12 +231,15 @@ impl Sums {
     #[inline(always)]
     fn add(&mut self, s: i32, d: i32, u: &[i32; 6]) {
         let a = &mut self.0;
-        a[0] += (s * u[0]) as i64;
-        a[1] += (d * u[1]) as i64;
-        a[2] += (s * u[2]) as i64;
-        a[3] += (d * u[3]) as i64;
-        a[4] += (s * u[4]) as i64;
-        a[5] += (d * u[5]) as i64;
+        // Widened before the product: one SMLAL each on a Cortex-M4 (the
+        // product fits an i32 all the same, so the sums are those of
+        // i32 products).
+        a[0] += s as i64 * u[0] as i64;
+        a[1] += d as i64 * u[1] as i64;
+        a[2] += s as i64 * u[2] as i64;
+        a[3] += d as i64 * u[3] as i64;
+        a[4] += s as i64 * u[4] as i64;
+        a[5] += d as i64 * u[5] as i64;
     }
 
     /// X, G₊ and G₋ as [re, im] (Q15 · counts, all three).
@@ -383,14 +386,22 @@ impl<const H: usize> Lockin<H> {
     /// Σw·x/Σw of each channel, counts.
     fn windowed_means(&self, pairs: &[[i16; 2]]) -> [f64; 2] {
         let w = &self.basis.window;
-        let weights = w
-            .iter()
-            .chain(core::iter::once(&65535))
-            .chain(w[1..].iter().rev());
         let (mut v, mut i) = (0i64, 0i64);
-        for (&[x, y], &w) in pairs.iter().zip(weights) {
+        let mut add = |&[x, y]: &[i16; 2], w: u16| {
             v += x as i64 * w as i64;
             i += y as i64 * w as i64;
+        };
+        // Pairs 0..H, H (w = 1), then H + 1..N mirroring 1..H: plain
+        // loops (a chain of iterators costs a branch a pair).
+        let (first, rest) = pairs.split_at(H.min(pairs.len()));
+        for (p, &w) in first.iter().zip(w) {
+            add(p, w);
+        }
+        if let Some((middle, second)) = rest.split_first() {
+            add(middle, 65535);
+            for (p, &w) in second.iter().zip(w[1..].iter().rev()) {
+                add(p, w);
+            }
         }
         let s = self.basis.window_sum as f64;
         [v as f64 / s, i as f64 / s]
@@ -476,20 +487,23 @@ impl<const H: usize> Lockin<H> {
         for (m, r) in [(0, self.half[0]), (H, self.middle)] {
             let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
             let [v, i] = pairs[m];
-            let (v, i) = (v as i32, i as i32);
-            sums[0][0] += (v * rc) as i64;
-            sums[0][1] += (v * rs) as i64;
-            sums[1][0] += (i * rc) as i64;
-            sums[1][1] += (i * rs) as i64;
+            let (v, i) = (v as i64, i as i64);
+            let (rc, rs) = (rc as i64, rs as i64);
+            sums[0][0] += v * rc;
+            sums[0][1] += v * rs;
+            sums[1][0] += i * rc;
+            sums[1][1] += i * rs;
         }
         let (first, second) = pairs[1..].split_at(H - 1);
         for ((&[v, i], &[v2, i2]), &r) in first.iter().zip(second[1..].iter().rev()).zip(&self.half[1..]) {
             let (rc, rs) = (r as i16 as i32, (r >> 16) as i16 as i32);
             let (v, v2, i, i2) = (v as i32, v2 as i32, i as i32, i2 as i32);
-            sums[0][0] += ((v + v2) * rc) as i64;
-            sums[0][1] += ((v - v2) * rs) as i64;
-            sums[1][0] += ((i + i2) * rc) as i64;
-            sums[1][1] += ((i - i2) * rs) as i64;
+            let (rc, rs) = (rc as i64, rs as i64);
+            // One SMLAL each (as `Sums::add`).
+            sums[0][0] += (v + v2) as i64 * rc;
+            sums[0][1] += (v - v2) as i64 * rs;
+            sums[1][0] += (i + i2) as i64 * rc;
+            sums[1][1] += (i - i2) as i64 * rs;
         }
         let means = self.means(pairs);
         let [v, i] = [0, 1].map(|c| self.tone_of([sums[c][0], -sums[c][1]], means, c).0);

@@ -56,12 +56,14 @@ pub const fn index(i: usize) -> usize {
 /// every block carries two tones, the policy's and this one, so that one
 /// line must explain both ([`dsp_core::twotone`]): the model check an
 /// interferer at the tone's own frequency, an alias of it, or an
-/// undeclared contact or cable capacitance cannot pass. Two steps below
-/// the policy's (a factor 3.3 or 4) where the set has room (at least
-/// five bins apart, so that neither tone reaches the other's lock-in:
-/// [`dsp_core::lockin::STOP_BAND_BINS`]), else 1953 Hz above it: 586 ↔
-/// 1953, 977 → 1953, 1953 → 586, 3906 → 977, 5859 → 1953 Hz.
-pub const COMPANION: [usize; PERIODS.len()] = [2, 2, 0, 1, 2];
+/// undeclared contact or cable capacitance cannot pass. A lower tone of
+/// the set (a factor 2–4 below) where there is one at least five bins
+/// away, so that neither tone reaches the other's lock-in
+/// ([`dsp_core::lockin::STOP_BAND_BINS`]), else 1953 Hz above: 586 →
+/// 1953, 977 → 1953, 1953 → 977, 3906 → 977, 5859 → 1953 Hz. Never the
+/// 3-period tone, whose lock-in solves for the block's mean as well
+/// (half again the second tone's work).
+pub const COMPANION: [usize; PERIODS.len()] = [2, 2, 1, 1, 2];
 const _: () = {
     let mut i = 0;
     while i < PERIODS.len() {

@@ -377,27 +377,33 @@ fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     println!("bench link_record_bytes {} bytes/record", len);
 }
 
-/// One whole firmware block: the lock-in on 1024 pairs, then fault checks,
-/// line tracking, policy and calibration (`Channel::process`); and the
-/// lock-in alone, per pair.
+/// One whole firmware block: the lock-ins of its two tones on 1024 pairs
+/// (the policy's with its guards, the second tone alone), then fault
+/// checks, the two tones' line, policy and calibration
+/// (`Channel::process`); and each lock-in alone, per pair.
 fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};
     use instrument::config::{ftw, BLOCK_PAIRS};
     let fidx = 2;
-    let osc = Oscillator::from_ftw(ftw(fidx));
-    // A plausible block: 1 V excitation, a 210 pF / 712 kΩ line at 1953 Hz.
-    let zeta = LineModel::Continuous.zeta(1.8).unwrap_or_default();
-    let mut st = OscillatorState::default();
+    // A plausible block: both tones of frequency 2 at their shares of a
+    // 1 V excitation, a 210 pF / 712 kΩ line (x = 1.8 at 1953 Hz).
+    let tones = instrument::config::tones(fidx);
     let mut buf = [[0i16; 2]; BLOCK_PAIRS];
-    let (ang_re, ang_im) = (zeta.re, zeta.im);
-    for p in buf.iter_mut() {
-        let (c, s) = osc.next(&mut st);
-        let (c, s) = (c as f32 / 2.147_483_6e9, s as f32 / 2.147_483_6e9);
-        // i ∝ Re{e^{jθ}/ζ}: a capacitive current, scaled to ~1000 counts.
-        let d = ang_re * ang_re + ang_im * ang_im;
-        let (yr, yi) = (ang_re / d, -ang_im / d);
-        *p = [(1240.0 * c) as i16, (-1000.0 * (yr * c - yi * s)) as i16];
+    for (k, &share) in instrument::config::TONE_SHARES.iter().enumerate() {
+        let osc = Oscillator::from_ftw(ftw(tones[k]));
+        let x = 1.8 * instrument::config::freq_hz(tones[k]) / instrument::config::freq_hz(fidx);
+        let zeta = LineModel::Continuous.zeta(x).unwrap_or_default();
+        let mut st = OscillatorState::default();
+        // i ∝ Re{e^{jθ}/ζ}·x: a capacitive current, ~1000 counts at x = 1.8.
+        let d = zeta.re * zeta.re + zeta.im * zeta.im;
+        let (yr, yi) = (zeta.re / d * x / 1.8, -zeta.im / d * x / 1.8);
+        for p in buf.iter_mut() {
+            let (c, s) = osc.next(&mut st);
+            let (c, s) = (c as f32 / 2.147_483_6e9, s as f32 / 2.147_483_6e9);
+            p[0] += (1240.0 * share * c) as i16;
+            p[1] += (-1000.0 * share * (yr * c - yi * s)) as i16;
+        }
     }
     let Ok(sensor) = instrument::sensor::Sensor::calibrated(REFERENCE, 0.0, dsp_core::fixture::Fixture::NONE)
     else {
@@ -416,6 +422,10 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let lockin_insns = insns(ticks(syst, || {
         black_box(lockin.block(black_box(&buf)).ok());
     }));
+    let companion = &instrument::config::LOCKINS[tones[1]];
+    let tone_insns = insns(ticks(syst, || {
+        black_box(companion.tone(black_box(&buf)).ok());
+    }));
     let mut total = 0;
     for k in 0..4 {
         total += insns(ticks(syst, || {
@@ -429,6 +439,11 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         "bench lockin_pair {}.{:02} insn/pair",
         lockin_insns / BLOCK_PAIRS as u32,
         (lockin_insns % BLOCK_PAIRS as u32) * 100 / BLOCK_PAIRS as u32
+    );
+    println!(
+        "bench lockin_tone_pair {}.{:02} insn/pair",
+        tone_insns / BLOCK_PAIRS as u32,
+        (tone_insns % BLOCK_PAIRS as u32) * 100 / BLOCK_PAIRS as u32
     );
     println!("bench block_process {} insn/block", per_block);
     println!(

@@ -115,6 +115,24 @@ impl LoggedRecord {
                 || self.flags.has(Flags::CLIPPED))
     }
 
+    /// The record as a data set's row holds it: one that failed the
+    /// model check ([`Flags::MODEL`]: the block's two tones disagree on
+    /// the line) still carries a good lumped reading, which is what
+    /// `identify` looks at to find what the line lacks: it keeps its
+    /// validity, and the line the check could not vouch for is left out
+    /// (C and R 0, "not available"). Any other record is as it was.
+    pub fn as_row(&self) -> Self {
+        if !self.flags.has(Flags::MODEL) {
+            return *self;
+        }
+        Self {
+            c_pf: 0.0,
+            r_ohm: 0.0,
+            flags: Flags(self.flags.0 & !Flags::MODEL),
+            ..*self
+        }
+    }
+
     /// The stretch the rig saw (truth) or else the firmware's, mm.
     pub fn stretch(&self) -> f64 {
         self.truth.map_or(self.stretch_mm, |t| t.stretch_mm)
@@ -148,19 +166,10 @@ impl LoggedToneRecord {
     /// Cs–Rs (0 when its impedance was not measured or is not a lossy
     /// capacitor) and the joint line, flags and truth of the record.
     ///
-    /// A record that failed the model check ([`Flags::MODEL`]) still holds
-    /// two good lumped readings, which are what `identify` looks at to
-    /// find what the line lacks: they keep their validity, and the line
-    /// the check could not vouch for is left out (C and R 0, "not
-    /// available").
+    /// A record that failed the model check ([`Flags::MODEL`]) keeps its
+    /// two lumped readings valid without a line ([`LoggedRecord::as_row`]).
     pub fn per_tone(&self) -> [LoggedRecord; 2] {
         let r = &self.rec;
-        let model = r.flags.has(Flags::MODEL);
-        let flags = Flags(r.flags.0 & !Flags::MODEL);
-        let (c_pf, r_ohm) = match model {
-            true => (0.0, 0.0),
-            false => (r.c_farad as f64 * 1e12, r.r_ohm as f64),
-        };
         core::array::from_fn(|k| {
             let lumped = dsp_core::lumped::SeriesRc::from_impedance(r.z[k], r.f_hz[k]).ok();
             LoggedRecord {
@@ -169,12 +178,13 @@ impl LoggedToneRecord {
                 freq_hz: r.f_hz[k] as f64,
                 cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
                 rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),
-                c_pf,
-                r_ohm,
+                c_pf: r.c_farad as f64 * 1e12,
+                r_ohm: r.r_ohm as f64,
                 stretch_mm: r.stretch_mm as f64,
-                flags,
+                flags: r.flags,
                 truth: self.truth,
             }
+            .as_row()
         })
     }
 }

@@ -91,6 +91,10 @@ pub fn write_dataset(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result
 
 /// The data set's files, in `dir`.
 fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Written> {
+    // A record that failed the model check is a row of lumped readings
+    // without a line (as the array's are once read).
+    let recs: Vec<LoggedRecord> = recs.iter().map(LoggedRecord::as_row).collect();
+    let recs = recs.as_slice();
     let mut channels: BTreeMap<u8, Vec<&LoggedRecord>> = BTreeMap::new();
     for r in recs {
         channels.entry(r.channel).or_default().push(r);
