@@ -129,6 +129,16 @@ pub struct Record {
     pub stretch_mm: f32,
     /// Flags.
     pub flags: Flags,
+    /// The block's second tone ([`crate::config::tones`]), Hz (0 when the
+    /// record has none: settling).
+    pub companion_hz: f32,
+    /// The impedance measured at it, Ω (0 when not measured).
+    pub companion_z: Complex32,
+    /// χ² of the two tones against one uniform line (2 degrees of
+    /// freedom; 0 when not solved).
+    pub chi2: f32,
+    /// 1σ relative error of C from the block's noise (0 when not solved).
+    pub sigma_c: f32,
 }
 
 /// State of one channel.
@@ -242,6 +252,7 @@ impl Channel {
             t_us,
             channel,
             freq_hz: f[0],
+            companion_hz: f[1],
             ..Record::default()
         };
         let sensor = s.sensors.of(channel);
@@ -281,6 +292,7 @@ impl Channel {
             Ok(m) if capacitor(z) && capacitor(z2) => {
                 rec.cs_farad = m.cs_farad;
                 rec.rs_ohm = m.rs_ohm;
+                rec.companion_z = z2;
             }
             _ => {
                 rec.flags.set(Flags::SHORTED);
@@ -349,6 +361,8 @@ impl Channel {
         let line = sol.line;
         rec.c_farad = line.c_farad;
         rec.r_ohm = line.r_ohm;
+        rec.chi2 = sol.chi2;
+        rec.sigma_c = sol.sigma_ln_c;
         let (stretch, status) = sensor.read(line.c_farad, th.c_tolerance);
         rec.stretch_mm = stretch;
         rec.flags.set(status);

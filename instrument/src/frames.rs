@@ -48,8 +48,9 @@ pub fn to_tone_record(r: &link::Record) -> ToneRecord {
     }
 }
 
-/// A multiplexed record as a link record: its one tone's impedance from
-/// the lumped reading, Z = Rs − j/(ωCs) (zero when there is none).
+/// A multiplexed record as a link record: the policy's tone's impedance
+/// from the lumped reading, Z = Rs − j/(ωCs) (zero when there is none),
+/// the second tone's as measured, the two tones' χ² and σ of C.
 pub fn from_record(r: &Record) -> link::Record {
     let z = match r.cs_farad > 0.0 && r.freq_hz > 0.0 {
         true => SeriesRc {
@@ -64,16 +65,21 @@ pub fn from_record(r: &Record) -> link::Record {
         z_re_ohm: z.re,
         z_im_ohm: z.im,
     };
+    let companion = Tone {
+        f_hz: r.companion_hz,
+        z_re_ohm: r.companion_z.re,
+        z_im_ohm: r.companion_z.im,
+    };
     link::Record {
         t_us: r.t_us,
         sensor: r.channel,
-        tones: [tone, Tone::default()],
+        tones: [tone, companion],
         c_farad: r.c_farad,
         r_ohm: r.r_ohm,
         stretch_mm: r.stretch_mm,
         chosen_hz: r.freq_hz,
-        chi2: 0.0,
-        sigma_c: 0.0,
+        chi2: r.chi2,
+        sigma_c: r.sigma_c,
         flags: r.flags.0,
     }
 }
@@ -120,7 +126,7 @@ mod tests {
     }
 
     #[test]
-    fn a_multiplexed_record_carries_its_lumped_reading() {
+    fn a_multiplexed_record_carries_its_lumped_reading_and_its_second_tone() {
         let r = Record {
             t_us: 2560,
             channel: 3,
@@ -130,7 +136,11 @@ mod tests {
             c_farad: 209.9e-12,
             r_ohm: 7e5,
             stretch_mm: -0.1,
-            flags: Flags(Flags::SETTLING),
+            flags: Flags(Flags::UNCERTAIN),
+            companion_hz: 976.5625,
+            companion_z: Complex32::new(2.5e5, -8.1e5),
+            chi2: 3.5,
+            sigma_c: 2e-4,
         };
         let l = from_record(&r);
         let cs = -1.0 / (core::f32::consts::TAU * l.tones[0].f_hz * l.tones[0].z_im_ohm);
@@ -139,6 +149,16 @@ mod tests {
             (l.tones[0].z_re_ohm, l.chosen_hz, l.flags),
             (r.rs_ohm, r.freq_hz, r.flags.0)
         );
-        assert_eq!(l.measured().count(), 1);
+        assert_eq!(
+            (
+                l.tones[1].f_hz,
+                l.tones[1].z_re_ohm,
+                l.tones[1].z_im_ohm,
+                l.chi2,
+                l.sigma_c
+            ),
+            (976.5625, 2.5e5, -8.1e5, 3.5, 2e-4)
+        );
+        assert_eq!(l.measured().count(), 2);
     }
 }

@@ -139,6 +139,8 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
             r_ohm: num(7)?,
             stretch_mm: num(8)?,
             flags: flags(9)?,
+            // Not on the log's line: the link's frames carry them.
+            ..Record::default()
         }),
         TONE => Line::Tone(ToneRecord {
             t_us: int(1)?,

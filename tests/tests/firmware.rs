@@ -27,11 +27,13 @@ fn paper_trapezoid_lowers_the_frequency_for_the_peaks_and_stays_within_1_percent
     // after a frequency switch carry no value).
     let measured: Vec<&LoggedRecord> = ch0.iter().filter(|r| !r.flags.has(Flags::SETTLING)).collect();
     assert!(measured.len() > 9 * ch0.len() / 10);
-    // Nearly all of them vouched for: near the resistance peak, where the
-    // inversion amplifies the lock-in's noise most, a few are UNCERTAIN.
+    // Nearly all of them vouched for: near the resistance peak the policy
+    // reads at 977 Hz and its second tone at 1953 Hz sees ωRC ≈ 5, where
+    // the lock-in's noise and what the film's loss (known to ±10⁻³) could
+    // hide at one tone approach the tolerance: a few are UNCERTAIN.
     let valid = measured.iter().filter(|r| r.valid()).count();
     assert!(
-        valid * 100 >= measured.len() * 97,
+        valid * 100 >= measured.len() * 93,
         "{valid} of {}",
         measured.len()
     );
@@ -137,10 +139,12 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
         );
     }
     // The electrodes of channel 4 step 8× (ωRC from 3 to 24 at 5859 Hz,
-    // where it sat: beyond the inversion's range, below the broken-electrode
-    // limit): the step's block is no reading, the policy falls back, and
-    // every valid record in the window is right (a lower frequency reads
-    // the stepped line). Channels 6-7 (a stuck current ADC, a step within
+    // where it sat: below the broken-electrode limit): the step's block
+    // is no reading, the policy falls back, and every valid record in the
+    // window is right (a lower frequency reads the stepped line; at 2.8 MΩ
+    // its second tone, 1953 Hz, reads ωRC ≈ 8, where what the film's loss
+    // could hide at one tone passes the tolerance: UNCERTAIN, most of
+    // them). Channels 6-7 (a stuck current ADC, a step within
     // every block): no valid record more than 1 % off, and the
     // disturbance is flagged.
     let c4 = channel(&recs, 4);
@@ -170,7 +174,11 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
             "channel 5: {r:?}"
         );
     }
-    for (ch, flag) in [(4u8, Flags::RANGE), (6, Flags::OPEN), (7, Flags::DISTURBED)] {
+    for (ch, flag) in [
+        (4u8, Flags::RANGE | Flags::UNCERTAIN | Flags::MODEL),
+        (6, Flags::OPEN),
+        (7, Flags::DISTURBED),
+    ] {
         let c = channel(&recs, ch);
         let inside: Vec<&LoggedRecord> = c.iter().filter(|r| (1.0..2.0).contains(&r.t_s)).collect();
         assert!(inside.len() > 10);

@@ -47,7 +47,10 @@ pub fn fill_slot(buf: &mut [u16], fidx: usize) {
     for code in buf.iter_mut() {
         let (_, sa) = osc_a.next(&mut st_a);
         let (_, sb) = osc_b.next(&mut st_b);
-        *code = dac_code_of_sum(&[(sa, DAC_AMPLITUDES_Q15[0]), (sb, DAC_AMPLITUDES_Q15[1])], design::DAC_BITS);
+        *code = dac_code_of_sum(
+            &[(sa, DAC_AMPLITUDES_Q15[0]), (sb, DAC_AMPLITUDES_Q15[1])],
+            design::DAC_BITS,
+        );
     }
 }
 
