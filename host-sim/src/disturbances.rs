@@ -15,10 +15,10 @@
 //!   once through the comb's front end, 0.4 s (1600 records).
 //!
 //! The disturbances are the front ends' own (`skin_sim::frontend::Disturbance`:
-//! a sinusoid, a step, a stuck ADC) and the sensor's (the catalogue's
+//! a sinusoid, a step, a burst, a stuck ADC) and the sensor's (the catalogue's
 //! effects, left undeclared to the firmware; an electrode resistance that
 //! jumps; drift). The array's front end simulates sinusoids only, so its
-//! rows for steps, offsets and stuck inputs are not tried ("–").
+//! rows for steps, bursts, offsets and stuck inputs are not tried ("–").
 
 use dsp_core::fixture::Fixture;
 use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
@@ -77,6 +77,9 @@ pub enum Front {
     Step(f32),
     /// A constant offset on the current input, counts (multiplexed only).
     Offset(f32),
+    /// A burst on the current input: counts, for this many pairs from a
+    /// third of the block (multiplexed only).
+    Burst(f32, usize),
     /// The current input stuck at a code (multiplexed only).
     Stuck(i16),
 }
@@ -93,6 +96,9 @@ pub enum SensorChange {
     /// The electrodes' resistance drifting up by this fraction over the
     /// run (a warming film), undeclared.
     Drift(f64),
+    /// The film's capacitance drifting by this fraction over the run (its
+    /// permittivity warming), undeclared: the truth follows it.
+    DriftC(f64),
     /// No sensor: the cable open.
     Open,
     /// The tabs shorted through this many Ω.
@@ -100,7 +106,7 @@ pub enum SensorChange {
 }
 
 /// The classes tried.
-pub const CLASSES: [Class; 19] = [
+pub const CLASSES: [Class; 21] = [
     Class {
         name: "clean",
         what: "nothing added",
@@ -171,6 +177,12 @@ pub const CLASSES: [Class; 19] = [
         sensor: SensorChange::None,
     },
     Class {
+        name: "burst",
+        what: "300 counts for 20 pairs (0.1 ms) in a block: a glitch, a relay, a discharge",
+        front: Front::Burst(300.0, 20),
+        sensor: SensorChange::None,
+    },
+    Class {
         name: "DC offset",
         what: "300 counts",
         front: Front::Offset(300.0),
@@ -232,7 +244,13 @@ pub const CLASSES: [Class; 19] = [
     },
     Class {
         name: "drift of C",
-        what: "the film's permittivity −3 % per decade above 1 kHz (dispersion), undeclared",
+        what: "the film's permittivity −2 % over the run (warming)",
+        front: Front::None,
+        sensor: SensorChange::DriftC(-0.02),
+    },
+    Class {
+        name: "dispersion of C",
+        what: "the film's permittivity −3 % per decade above 1 kHz, undeclared",
         front: Front::None,
         sensor: SensorChange::Effect(Effect::DielectricDispersion, 0.03),
     },
@@ -333,6 +351,7 @@ fn sensor_params(base: SensorParams, change: &SensorChange, t: f64, duration: f6
             p.top.r_rest_ohm *= g;
             p.bottom.r_rest_ohm *= g;
         }
+        SensorChange::DriftC(k) => p.c_rest_farad *= 1.0 + k * t / duration,
         _ => {}
     }
     p
@@ -385,6 +404,9 @@ pub fn multiplexed(class: &Class) -> Outcome {
             match class.front {
                 Front::Step(c) => (d.step_i, d.step_at) = (c, BLOCK_PAIRS / 2),
                 Front::Offset(c) => (d.step_i, d.step_at) = (c, 0),
+                Front::Burst(c, pairs) => {
+                    (d.step_i, d.step_at, d.step_until) = (c, BLOCK_PAIRS / 3, BLOCK_PAIRS / 3 + pairs)
+                }
                 Front::Stuck(c) => d.stuck_i = Some(c),
                 _ => {}
             }
@@ -408,7 +430,10 @@ pub fn multiplexed(class: &Class) -> Outcome {
 /// The array under `class`, or `None` where its front end does not
 /// simulate the class.
 pub fn array(class: &Class) -> Option<Outcome> {
-    if matches!(class.front, Front::Step(_) | Front::Offset(_) | Front::Stuck(_)) {
+    if matches!(
+        class.front,
+        Front::Step(_) | Front::Offset(_) | Front::Burst(..) | Front::Stuck(_)
+    ) {
         return None;
     }
     let fe = ArrayFrontEnd::REFERENCE;

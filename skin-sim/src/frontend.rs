@@ -192,7 +192,11 @@ impl FrontEndParams {
             let (_, h) = dsp_core::cossin::cossin(hum_phase as i32);
             let h = h as f32 * q;
             hum_phase = hum_phase.wrapping_add(hum_step);
-            let step = if n >= d.step_at { d.step_i } else { 0.0 };
+            let step = if (d.step_at..d.step_until).contains(&n) {
+                d.step_i
+            } else {
+                0.0
+            };
             let v = v + noise * rng.gaussian_fast() + d.hum_v * h;
             let i = i + noise * rng.gaussian_fast() + d.hum_i * h + step;
             *o = [adc(v), adc(i)];
@@ -249,6 +253,9 @@ pub struct Disturbance {
     pub step_i: f32,
     /// First pair of the step.
     pub step_at: usize,
+    /// The pair the step ends before (`usize::MAX`: it lasts the block;
+    /// a few pairs: a burst).
+    pub step_until: usize,
     /// The current channel stuck at one code (an ADC or DMA fault).
     pub stuck_i: Option<i16>,
 }
@@ -263,6 +270,7 @@ impl Disturbance {
         t0_s: 0.0,
         step_i: 0.0,
         step_at: usize::MAX,
+        step_until: usize::MAX,
         stuck_i: None,
     };
 }
