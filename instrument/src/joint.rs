@@ -68,13 +68,24 @@ impl Joint {
 
 /// What an error at one tone that nothing else sees (an interferer at
 /// its frequency, an alias of it) could hide behind the χ² of `sol`,
-/// relative to C: `hidden_ln_c·√χ²`; 0 where the check failed
-/// (χ² > `chi2_flag`: the record is flagged MODEL and this bound says
-/// nothing more).
+/// relative to C: `hidden_ln_c` per unit of that error's share of the
+/// residual; 0 where the check failed (χ² > `chi2_flag`: the record is
+/// flagged MODEL and this bound says nothing more).
+///
+/// The residual is the error's share plus the noise's, which can cancel
+/// part of it: a χ² of 0.34 hid a one-tone error whose own share was 1.1
+/// (an interferer next to the multiplexed channel's second tone, 1 % off
+/// with √χ² alone). Given the residual, the noise's share (2 degrees of
+/// freedom, of mean square 2) points anywhere, so the error's share has
+/// a mean square of χ² + 2: its rms, √(χ² + [`NOISE_DOF`]), is taken.
 pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
     if sol.chi2 > chi2_flag {
         0.0
     } else {
-        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0))
+        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0) + NOISE_DOF)
     }
 }
+
+/// Degrees of freedom of the noise in a two-tone residual: four measured
+/// numbers less two parameters (the film's loss comes with its prior).
+pub const NOISE_DOF: f32 = 2.0;

@@ -293,37 +293,95 @@ proptest! {
                 if alias { instrument::config::SAMPLE_RATE_HZ as f64 - tone } else { tone }
             }
         };
+        let case = Interfered { start, rate, r_scale, index, pinned, hz, counts: log_counts.exp() as f32, which, phase, seed };
+        if let Err(e) = case.run() {
+            prop_assert!(false, "{e} ({case:?})");
+        }
+    }
+}
+
+/// One case of `two_tones_under_interferers_and_motion`: the sensor
+/// stretching on the paper's trapezoid at `rate` mm/s from `start` s, its
+/// electrodes at `r_scale` times theirs, read from frequency `index`
+/// (`pinned` or the policy free) for six blocks under a sinusoid of
+/// `counts` at `hz` (`which`: 0 the voltage, 1 the current, 2 both).
+#[derive(Clone, Copy, Debug)]
+struct Interfered {
+    start: f64,
+    rate: f64,
+    r_scale: f64,
+    index: usize,
+    pinned: bool,
+    hz: f64,
+    counts: f32,
+    which: u8,
+    phase: f32,
+    seed: u64,
+}
+
+impl Interfered {
+    /// Every valid record within 1 % of its block's truth, or the first
+    /// that is not.
+    fn run(&self) -> Result<(), String> {
         let s = settings();
-        let mut sensor = Sensor::settled(scaled(r_scale));
-        let profile = Profile::paper(rate);
-        sensor.advance(&profile, start);
-        let mut ch = if pinned {
-            Channel::pinned(REFERENCE.rest_capacitance(), index)
+        let mut sensor = Sensor::settled(scaled(self.r_scale));
+        let profile = Profile::paper(self.rate);
+        sensor.advance(&profile, self.start);
+        let mut ch = if self.pinned {
+            Channel::pinned(REFERENCE.rest_capacitance(), self.index)
         } else {
             let mut c = Channel::new(REFERENCE.rest_capacitance());
-            c.policy.index = index;
+            c.policy.index = self.index;
             c
         };
-        let counts = log_counts.exp() as f32;
-        let mut rng = Rng::new(seed);
+        let counts = self.counts;
+        let mut rng = Rng::new(self.seed);
         for b in 0..6 {
-            let t0 = start + b as f64 * SLOT_S as f64;
+            let t0 = self.start + b as f64 * SLOT_S as f64;
             let i = ch.freq_index();
             sensor.advance(&profile, t0 + 0.5 * SLOT_S as f64);
             let d = Disturbance {
-                hum_hz: hz as f32,
-                hum_v: if which != 1 { counts } else { 0.0 },
-                hum_i: if which != 0 { counts } else { 0.0 },
-                hum_phase_turns: phase,
+                hum_hz: self.hz as f32,
+                hum_v: if self.which != 1 { counts } else { 0.0 },
+                hum_i: if self.which != 0 { counts } else { 0.0 },
+                hum_phase_turns: self.phase,
                 t0_s: t0,
                 ..Disturbance::NONE
             };
             let (r, truth) = measure(&s, &mut ch, &sensor, t0, &d, &mut rng);
-            if r.flags.valid() {
-                let e = (r.c_farad as f64 / truth - 1.0).abs();
-                prop_assert!(e < 0.01, "block {b} at {} Hz, {counts} counts at {hz} Hz: C {} pF vs {} pF ({r:?})",
-                    freq_hz(i), r.c_farad * 1e12, truth * 1e12);
+            let e = (r.c_farad as f64 / truth - 1.0).abs();
+            if r.flags.valid() && e >= 0.01 {
+                return Err(format!(
+                    "block {b} at {} Hz, {counts} counts at {} Hz: C {} pF vs {} pF ({r:?})",
+                    freq_hz(i),
+                    self.hz,
+                    r.c_farad * 1e12,
+                    truth * 1e12
+                ));
             }
         }
+        Ok(())
     }
+}
+
+/// A case the target found: a count of interferer 71 Hz from the second
+/// tone (977 Hz, no guards of its own) of a channel pinned at 3906 Hz
+/// (ωRC ≈ 6.7) left a record valid and 1.03 % off behind a χ² of 0.34:
+/// the noise had cancelled part of the interferer's share of the
+/// residual, which the bound on what one tone can hide now allows for.
+#[test]
+fn an_interferer_next_to_the_second_tone_is_not_vouched_for() {
+    let case = Interfered {
+        start: 5.0787095673391915,
+        rate: 40.0,
+        r_scale: 0.7270835929983261,
+        index: 3,
+        pinned: true,
+        hz: 6.808190916121611f64.exp(),
+        counts: 0.02469632075391684f64.exp() as f32,
+        which: 1,
+        phase: 0.37833706,
+        seed: 13017437019389783390,
+    };
+    case.run().unwrap();
 }
