@@ -109,10 +109,11 @@ pub struct Solution {
     /// The film's loss tangent the fit found (its prior's mean when the
     /// prior's σ is 0).
     pub loss_tangent: f32,
-    /// The most C can be off (relative) per unit of √χ² when something
-    /// the model lacks perturbs one tone alone: C is vouched for within
-    /// `hidden_ln_c·√χ²` of what an undetected one-tone error could hide
-    /// (an interferer at a tone's frequency, which no residual sees).
+    /// The most C can be off (relative) per unit of a one-tone error's
+    /// share of the residual (√χ² without noise) when something the
+    /// model lacks perturbs one tone alone (an interferer at a tone's
+    /// frequency, which no residual sees). With noise the residual holds
+    /// its share too: `instrument::joint::hidden` takes √(χ² + 2).
     pub hidden_ln_c: f32,
 }
 
