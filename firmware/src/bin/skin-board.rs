@@ -242,7 +242,7 @@ mod app {
         };
         let (ch, fidx) = (slot.channel, slot.fidx);
         // SAFETY: the DMA finished this half and writes the other one for
-        // the next 5.44 ms; processing takes about 0.4 ms (`block_process`,
+        // the next 5.44 ms; processing takes about 0.5 ms (`block_process`,
         // docs/benchmarks.md: 70 600 instructions).
         #[allow(unsafe_code)]
         let words: &[u32] = unsafe {
