@@ -113,7 +113,7 @@ pub struct Solution {
     /// share of the residual (√χ² without noise) when something the
     /// model lacks perturbs one tone alone (an interferer at a tone's
     /// frequency, which no residual sees). With noise the residual holds
-    /// its share too: `instrument::joint::hidden` takes √(χ² + 2).
+    /// its share too: `instrument::joint::hidden` takes √max(χ², 2).
     pub hidden_ln_c: f32,
 }
 

@@ -14,7 +14,7 @@
 use crate::config::{freq_hz, tones, tones_hz, Readings};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
-use crate::joint::Joint;
+use crate::joint::{Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
 use crate::sensor::Sensors;
@@ -322,34 +322,25 @@ impl Channel {
                 companion.i_amplitude(),
             ),
         ];
+        // Each tone's 1σ per component of Z: |Z| times its relative noise.
+        let measured = [z, z2];
+        let pair: [Tone; 2] = core::array::from_fn(|k| Tone {
+            z: measured[k],
+            f_hz: f[k],
+            sigma_ohm: dsp_core::fmath::sqrt(measured[k].norm_sqr()) * noise[k],
+        });
         // The lumped reading stays what the meter saw; the line is what is
         // left behind the wiring.
-        let mut pair = [(z, f[0]), (z2, f[1])].map(|(z, f_hz)| Tone {
-            z,
-            f_hz,
-            sigma_ohm: 0.0,
-        });
-        for (t, e) in pair.iter_mut().zip(noise) {
-            // 1σ of each component of Z: |Z| times the relative noise.
-            t.sigma_ohm = dsp_core::fmath::sqrt(t.z.norm_sqr()) * e;
-            match sensor.fixture.remove(t.z, t.f_hz) {
-                Ok(z) => t.z = z,
-                Err(_) => {
-                    rec.flags.set(Flags::OPEN);
-                    return rec;
-                }
-            }
-        }
-        let solution = self.joint.solve(
-            sensor.tracker.inverter(),
-            &s.dielectric,
-            &pair,
-            self.prior_farad,
-            twotone::CHI2_FLAG,
-        );
+        let solution =
+            self.joint
+                .solve_behind(sensor, &s.dielectric, pair, self.prior_farad, twotone::CHI2_FLAG);
         let sol = match solution {
             Ok(sol) => sol,
-            Err(_) => {
+            Err(Unsolved::Open) => {
+                rec.flags.set(Flags::OPEN);
+                return rec;
+            }
+            Err(Unsolved::Range) => {
                 rec.flags.set(Flags::RANGE);
                 self.joint.lose();
                 if !self.pinned {

@@ -10,9 +10,20 @@
 //! [`hidden`] what an error at one tone that no residual or guard sees
 //! could still hide behind a χ² that passed.
 
+use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
 use dsp_core::invert::{InvertError, Inverter};
 use dsp_core::twotone::{self, Solution, Tone};
+
+/// Why a block's two tones give no line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unsolved {
+    /// The wiring cannot be taken out of a tone (its impedance is what
+    /// the wiring alone would give): no sensor there.
+    Open,
+    /// Neither tone inverts to a line.
+    Range,
+}
 
 /// A channel's tracked line: the last one solved consistently.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -55,6 +66,23 @@ impl Joint {
         }
     }
 
+    /// The line `tones` (as measured, Ω) leave behind `sensor`'s wiring,
+    /// by [`Joint::solve`] with its line model.
+    pub fn solve_behind<const N: usize>(
+        &self,
+        sensor: &Sensor<N>,
+        d: &Dielectric,
+        mut tones: [Tone; 2],
+        prior_farad: f32,
+        chi2_flag: f32,
+    ) -> Result<Solution, Unsolved> {
+        for t in tones.iter_mut() {
+            t.z = sensor.fixture.remove(t.z, t.f_hz).map_err(|_| Unsolved::Open)?;
+        }
+        self.solve(sensor.tracker.inverter(), d, &tones, prior_farad, chi2_flag)
+            .map_err(|_| Unsolved::Range)
+    }
+
     /// Track `sol` from now on.
     pub fn keep(&mut self, sol: &Solution) {
         self.line = Some((sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent));
@@ -75,14 +103,13 @@ impl Joint {
 /// The residual is the error's share plus the noise's, which can cancel
 /// part of it: a χ² of 0.34 hid a one-tone error whose own share was 1.1
 /// (an interferer next to the multiplexed channel's second tone, 1 % off
-/// with √χ² alone). Given the residual, the noise's share (2 degrees of
-/// freedom, of mean square 2) points anywhere, so the error's share has
-/// a mean square of χ² + 2: its rms, √(χ² + [`NOISE_DOF`]), is taken.
+/// with √χ² alone). So the share is taken as √χ², but never below the
+/// noise's own rms share, √[`NOISE_DOF`].
 pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
     if sol.chi2 > chi2_flag {
         0.0
     } else {
-        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(0.0) + NOISE_DOF)
+        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(NOISE_DOF))
     }
 }
 

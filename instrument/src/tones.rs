@@ -16,7 +16,7 @@
 use crate::array::SENSORS;
 use crate::array::{tone_hz, tones_hz, TONES};
 use crate::faults::{Flags, Thresholds};
-use crate::joint::Joint;
+use crate::joint::{Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
@@ -239,25 +239,16 @@ impl ToneChannel {
             return rec;
         }
         // The line is what is left behind the wiring.
-        for t in tones.iter_mut() {
-            match sensor.fixture.remove(t.z, t.f_hz) {
-                Ok(z) => t.z = z,
-                Err(_) => {
-                    rec.flags.set(Flags::OPEN);
-                    return rec;
-                }
-            }
-        }
-        let solution = self.joint.solve(
-            sensor.tracker.inverter(),
-            &s.dielectric,
-            &tones,
-            self.prior_farad,
-            s.chi2_flag,
-        );
+        let solution = self
+            .joint
+            .solve_behind(sensor, &s.dielectric, tones, self.prior_farad, s.chi2_flag);
         let sol = match solution {
             Ok(sol) => sol,
-            Err(_) => {
+            Err(Unsolved::Open) => {
+                rec.flags.set(Flags::OPEN);
+                return rec;
+            }
+            Err(Unsolved::Range) => {
                 rec.flags.set(Flags::RANGE);
                 self.joint.lose();
                 s.policy.fallback(&mut self.policy);
