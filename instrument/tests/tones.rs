@@ -597,3 +597,57 @@ proptest::proptest! {
         }
     }
 }
+
+/// A case the fuzz target found: an interferer at 24 495.9 Hz, the alias
+/// of 504.1 Hz, 4 Hz from the 500 Hz tone, of 12.2 counts, on sensors
+/// whose electrodes are 1.48 times the paper's: sensor 1's record was
+/// vouched for 1.03 % off behind a χ² of 6.2. The noise's share of the
+/// residual had cancelled part of the alias's: taking the alias's share
+/// as √χ² + √2 (the residual plus the noise's rms share) covers it, but
+/// flags 1.5 % of a clean skin's records and 13 % of the smallest
+/// sensor's; √max(χ², 2), the bound in force, does not. Issue 26's open
+/// item: run with `--ignored`.
+#[test]
+#[ignore = "issue 26: an alias 4 Hz from the 500 Hz tone left a record valid 1.03 % off"]
+fn an_alias_next_to_the_lower_tone_is_not_vouched_for() {
+    let (hz, log_counts, phase, start, r_scale, seed) = (
+        24_495.941f32,
+        1.0869603f32,
+        0.87565297f32,
+        6.889701292577919f64,
+        1.480042810892388f64,
+        10068520996498014150u64,
+    );
+    let hum = Disturbance {
+        hum_hz: hz,
+        hum_i: 10f32.powf(log_counts),
+        hum_phase_turns: phase,
+        ..Disturbance::NONE
+    };
+    let params = |_| {
+        let mut p = SensorParams::PAPER;
+        p.top.r_rest_ohm *= r_scale;
+        p.bottom.r_rest_ohm *= r_scale;
+        p
+    };
+    let table = at_phase(start);
+    let out = run_with(
+        &[*paper_cal(); SENSORS],
+        params,
+        |_| Profile::Table(&table),
+        0.06,
+        seed,
+        &hum,
+    );
+    for (s, recs) in out.iter().enumerate() {
+        for (r, c) in recs.iter().filter(|(r, _)| r.flags.valid()) {
+            let e = (r.c_farad as f64 / c - 1.0).abs();
+            assert!(
+                e < 0.01,
+                "sensor {s}: C {:.2} pF vs {:.2} pF ({r:?})",
+                r.c_farad * 1e12,
+                c * 1e12
+            );
+        }
+    }
+}
