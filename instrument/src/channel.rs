@@ -336,16 +336,13 @@ impl Channel {
                 .solve_behind(sensor, &s.dielectric, pair, self.prior_farad, twotone::CHI2_FLAG);
         let sol = match solution {
             Ok(sol) => sol,
-            Err(Unsolved::Open) => {
-                rec.flags.set(Flags::OPEN);
-                return rec;
-            }
-            Err(Unsolved::Range) => {
-                rec.flags.set(Flags::RANGE);
-                self.joint.lose();
-                if !self.pinned {
+            Err(why) => {
+                // Out of range, a free channel falls back to its lowest
+                // frequency.
+                if why == Unsolved::Range && !self.pinned {
                     s.policy.fallback(&mut self.policy);
                 }
+                rec.flags.set(why.flag());
                 return rec;
             }
         };

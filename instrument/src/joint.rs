@@ -25,6 +25,16 @@ pub enum Unsolved {
     Range,
 }
 
+impl Unsolved {
+    /// The record's flag for it: OPEN or RANGE.
+    pub const fn flag(self) -> u16 {
+        match self {
+            Self::Open => crate::faults::Flags::OPEN,
+            Self::Range => crate::faults::Flags::RANGE,
+        }
+    }
+}
+
 /// A channel's tracked line: the last one solved consistently.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Joint {
@@ -67,9 +77,10 @@ impl Joint {
     }
 
     /// The line `tones` (as measured, Ω) leave behind `sensor`'s wiring,
-    /// by [`Joint::solve`] with its line model.
+    /// by [`Joint::solve`] with its line model; out of range, the tracked
+    /// line is forgotten.
     pub fn solve_behind<const N: usize>(
-        &self,
+        &mut self,
         sensor: &Sensor<N>,
         d: &Dielectric,
         mut tones: [Tone; 2],
@@ -79,8 +90,11 @@ impl Joint {
         for t in tones.iter_mut() {
             t.z = sensor.fixture.remove(t.z, t.f_hz).map_err(|_| Unsolved::Open)?;
         }
-        self.solve(sensor.tracker.inverter(), d, &tones, prior_farad, chi2_flag)
-            .map_err(|_| Unsolved::Range)
+        let solved = self.solve(sensor.tracker.inverter(), d, &tones, prior_farad, chi2_flag);
+        if solved.is_err() {
+            self.lose();
+        }
+        solved.map_err(|_| Unsolved::Range)
     }
 
     /// Track `sol` from now on.

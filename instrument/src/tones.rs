@@ -244,14 +244,11 @@ impl ToneChannel {
             .solve_behind(sensor, &s.dielectric, tones, self.prior_farad, s.chi2_flag);
         let sol = match solution {
             Ok(sol) => sol,
-            Err(Unsolved::Open) => {
-                rec.flags.set(Flags::OPEN);
-                return rec;
-            }
-            Err(Unsolved::Range) => {
-                rec.flags.set(Flags::RANGE);
-                self.joint.lose();
-                s.policy.fallback(&mut self.policy);
+            Err(why) => {
+                rec.flags.set(why.flag());
+                if why == Unsolved::Range {
+                    s.policy.fallback(&mut self.policy);
+                }
                 return rec;
             }
         };
