@@ -104,10 +104,7 @@ pub fn correct(inv: &Inverter, line: &Line, f_hz: f32, d: &Dielectric) -> Result
     for step in 0..2 {
         let x = line.x * libm::expf(ln_r + ln_c);
         let k = libm::expf(-ln_c);
-        let zeta = inv.zeta_at(x)?;
-        // dζ/d ln x by a forward difference (as the two-tone fit's).
-        const H: f32 = 1e-3;
-        let dz = (inv.zeta_at(x * 1.001_000_5)? - zeta) / H;
+        let (zeta, dz) = inv.zeta_slope_at(x)?;
         let (zr, zc) = (dz * k, (dz - zeta) * k);
         let det = zr.re * zc.im - zr.im * zc.re;
         if !(det.is_finite() && det != 0.0) {

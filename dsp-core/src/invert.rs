@@ -331,6 +331,47 @@ impl Inverter {
         Ok(self.zeta(x)?)
     }
 
+    /// ζ(x) as [`zeta_at`](Self::zeta_at) and its slope dζ/d ln x, what
+    /// a fit's Jacobian needs. The continuous line's slope is exact from ζ
+    /// itself: with ζ₀ = −j·γ·coth γ, γ² = j·x,
+    ///
+    /// ```text
+    /// dζ₀/d ln x = (ζ₀ − j·ζ₀² + x)/2
+    /// ```
+    ///
+    /// (one product, no second evaluation; f32 rounding of ζ₀ leaves it
+    /// within 10⁻⁷ absolute), the leads add ℓ·x to both, and below
+    /// [`crate::tline::X_MIN`] the asymptote's slope is its real part. A
+    /// ladder's slope is a forward difference, (ζ(x·e^h) − ζ(x))/h with
+    /// h = 10⁻³ (its O(h) error slows a fit's convergence, not where it
+    /// converges).
+    #[inline(never)]
+    pub fn zeta_slope_at(&self, x: f32) -> Result<(Complex32, Complex32), InvertError> {
+        if x > 0.0 && x < crate::tline::X_MIN {
+            let a = self.model.low_freq_resistance_fraction() + self.lead;
+            return Ok((Complex32::new(a * x, -1.0), Complex32::new(a * x, 0.0)));
+        }
+        match self.model {
+            LineModel::Continuous => {
+                let z0 = self.model.zeta(x)?;
+                let sq = z0 * z0;
+                // −j·ζ₀² = Im ζ₀² − j·Re ζ₀².
+                let slope = Complex32::new(0.5 * (z0.re + sq.im + x), 0.5 * (z0.im - sq.re));
+                let lead = self.lead * x;
+                Ok((
+                    Complex32::new(z0.re + lead, z0.im),
+                    Complex32::new(slope.re + lead, slope.im),
+                ))
+            }
+            LineModel::Ladder(_) => {
+                const H: f32 = 1e-3;
+                let z = self.zeta(x)?;
+                let up = self.zeta(x * 1.001_000_5)?;
+                Ok((z, (up - z) / H))
+            }
+        }
+    }
+
     /// Upper end of the reported range (x = ωRC).
     pub fn x_max(&self) -> f32 {
         self.x_max

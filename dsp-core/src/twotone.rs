@@ -70,15 +70,43 @@ pub fn chi2_flag(p: f32, dof: u32) -> f32 {
     d * (libm::powf(p, -2.0 / d) - 1.0)
 }
 
+/// The χ² above which a record fitted to `tones` tones (2·K − 2 degrees
+/// of freedom: 2·K measured numbers and the film's prior less three
+/// parameters) is flagged with probability `p`, each tone's σ estimated
+/// from the block's residual with `dof` degrees of freedom: the statistic
+/// is m·F(m, dof), m = 2·K − 2, whose tail for even m is
+/// x^(dof/2)·Σ_{j<m/2} C(dof/2 + j − 1, j)·(1 − x)^j with
+/// x = dof/(dof + χ²), found by bisection on x. Two tones give
+/// [`chi2_flag`]; three tones and 89 degrees of freedom need 26.6 (the
+/// large-`dof` limit, chi-squared with 4 degrees of freedom, 23.5).
+pub fn chi2_flag_of(p: f32, tones: u32, dof: u32) -> f32 {
+    let (m, d) = (2 * tones.max(2) - 2, dof.max(1) as f32);
+    let tail = |x: f32| {
+        let (mut term, mut sum) = (1.0f32, 1.0f32);
+        for j in 1..m / 2 {
+            term *= (0.5 * d + j as f32 - 1.0) / j as f32 * (1.0 - x);
+            sum += term;
+        }
+        libm::powf(x, 0.5 * d) * sum
+    };
+    // The tail grows with x (a smaller χ²): bisect for tail(x) = p.
+    let (mut lo, mut hi) = (0.0f32, 1.0f32);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if tail(mid) > p {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let x = 0.5 * (lo + hi);
+    d * (1.0 / x - 1.0)
+}
+
 /// Gauss–Newton iterations at most (from the single-tone inversions it
 /// converges in 2–3).
 const ITERATIONS: usize = 6;
 
-/// Step in ln x of the forward difference for dζ/d ln x (its O(H) error
-/// slows Gauss–Newton's convergence, not where it converges).
-const H: f32 = 1e-3;
-/// e^H.
-const E_H: f32 = 1.001_000_5;
 
 /// One tone of a block: its impedance and noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,8 +141,13 @@ pub struct Solution {
     /// share of the residual (√χ² without noise) when something the
     /// model lacks perturbs one tone alone (an interferer at a tone's
     /// frequency, which no residual sees). With noise the residual holds
-    /// its share too: `instrument::joint::hidden` takes √max(χ², 2).
+    /// its share too: `instrument::joint::hidden` takes
+    /// √max(χ², [`Solution::dof`]).
     pub hidden_ln_c: f32,
+    /// Degrees of freedom of χ² on a uniform line: 2·K − 2 for K tones
+    /// (2·K measured numbers, and the film's prior when its loss is
+    /// fitted, less the parameters).
+    pub dof: f32,
 }
 
 impl Solution {
@@ -143,16 +176,17 @@ pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> 
 /// inversions (the branch chosen nearest `c_hint_farad`, as
 /// [`Inverter::invert_near`]); an error when neither tone inverts, or a
 /// σ is not finite and positive.
-pub fn solve(
+pub fn solve<const K: usize>(
     inv: &Inverter,
     d: &Dielectric,
-    tones: &[Tone; 2],
+    tones: &[Tone; K],
     c_hint_farad: f32,
 ) -> Result<Solution, InvertError> {
     check(tones)?;
-    // The higher tone resolves R best; the lower one starts where the
-    // higher is ambiguous or out of range.
-    let (lo, hi) = ordered(tones);
+    // The highest tone resolves R best; the lowest starts where the
+    // highest is ambiguous or out of range.
+    let sorted = ordered(tones);
+    let (lo, hi) = (sorted[0], sorted[K - 1]);
     let start = match inv.invert_near(hi.z, hi.f_hz, c_hint_farad) {
         Ok(l) => l,
         Err(e_hi) => match inv.invert_near(lo.z, lo.f_hz, c_hint_farad) {
@@ -160,7 +194,7 @@ pub fn solve(
             Err(_) => return Err(e_hi),
         },
     };
-    refine(inv, d, [lo, hi], [start.r_ohm, start.c_farad, d.loss_tangent])
+    refine(inv, d, sorted, [start.r_ohm, start.c_farad, d.loss_tangent])
 }
 
 /// The line both `tones` fit, starting from a known line (`r_ohm`,
@@ -170,10 +204,10 @@ pub fn solve(
 /// in the basin of the line (within ~30 % in R and C of it); a start
 /// beyond x = [`crate::tline::X_MAX`] is an error. (The film's prior stays
 /// `d`'s; the start's tan δ only saves iterations.)
-pub fn solve_from(
+pub fn solve_from<const K: usize>(
     inv: &Inverter,
     d: &Dielectric,
-    tones: &[Tone; 2],
+    tones: &[Tone; K],
     r_ohm: f32,
     c_farad: f32,
     loss_tangent: f32,
@@ -183,16 +217,18 @@ pub fn solve_from(
     {
         return Err(InvertError::BadPrior);
     }
-    let (lo, hi) = ordered(tones);
     let t = if d.spread > 0.0 {
         loss_tangent
     } else {
         d.loss_tangent
     };
-    refine(inv, d, [lo, hi], [r_ohm, c_farad, t])
+    refine(inv, d, ordered(tones), [r_ohm, c_farad, t])
 }
 
-fn check(tones: &[Tone; 2]) -> Result<(), InvertError> {
+fn check<const K: usize>(tones: &[Tone; K]) -> Result<(), InvertError> {
+    if K < 2 {
+        return Err(InvertError::BadFrequency);
+    }
     for t in tones {
         if !(t.sigma_ohm.is_finite() && t.sigma_ohm > 0.0) {
             return Err(InvertError::NotCapacitive);
@@ -204,25 +240,29 @@ fn check(tones: &[Tone; 2]) -> Result<(), InvertError> {
     Ok(())
 }
 
-/// The tones, lower frequency first.
-fn ordered(tones: &[Tone; 2]) -> (Tone, Tone) {
-    if tones[0].f_hz <= tones[1].f_hz {
-        (tones[0], tones[1])
-    } else {
-        (tones[1], tones[0])
+/// The tones, lowest frequency first (an insertion sort: K is 2 or 3).
+fn ordered<const K: usize>(tones: &[Tone; K]) -> [Tone; K] {
+    let mut t = *tones;
+    for i in 1..K {
+        let mut j = i;
+        while j > 0 && t[j - 1].f_hz > t[j].f_hz {
+            t.swap(j - 1, j);
+            j -= 1;
+        }
     }
+    t
 }
 
 /// Gauss–Newton on p = (ln R, ln C, tan δ) from `start` (R Ω, C F,
 /// tan δ); `tones` lower first. With the film's σ_t = 0, tan δ stays at
 /// t₀ and the normal equations are those of (ln R, ln C) alone.
-fn refine(
+fn refine<const K: usize>(
     inv: &Inverter,
     film: &Dielectric,
-    tones: [Tone; 2],
+    tones: [Tone; K],
     start: [f32; 3],
 ) -> Result<Solution, InvertError> {
-    let hi = tones[1];
+    let hi = tones[K - 1];
     let fitted = film.spread > 0.0;
     let mut p = [libm::logf(start[0]), libm::logf(start[1]), start[2]];
     let mut fit = evaluate(inv, film, &tones, p)?;
@@ -283,6 +323,7 @@ fn refine(
         sigma_ln_r: crate::fmath::sqrt(var_r),
         loss_tangent: p[2],
         hidden_ln_c,
+        dof: (2 * K - 2) as f32,
     })
 }
 
@@ -294,7 +335,7 @@ fn refine(
 /// leaves εᵀ(I − J_k·A⁻¹·J_kᵀ)·ε in χ², so at most √(gᵀ·M⁻¹·g) per √χ²
 /// (M = I − J_k·A⁻¹·J_kᵀ); the worse tone. ∞ where A or M is singular
 /// (a tone that the fit can follow whatever it reads).
-fn hidden(fit: &Evaluated, ai: &[[f32; 3]; 3], fitted: bool) -> f32 {
+fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) -> f32 {
     let mut worst = 0.0f32;
     for cols in &fit.cols {
         // J_k's two real rows.
@@ -349,7 +390,7 @@ fn inverse3(m: &[[f32; 3]; 3]) -> Option<[[f32; 3]; 3]> {
 /// (ln R, ln C) or, with the loss `fitted`, (ln R, ln C, tan δ) (by
 /// Cramer's rule; A symmetric positive definite at a fit that
 /// constrains its parameters); `None` when A is singular.
-fn step(fit: &Evaluated, fitted: bool) -> Option<[f32; 3]> {
+fn step<const K: usize>(fit: &Evaluated<K>, fitted: bool) -> Option<[f32; 3]> {
     let (a, g) = (&fit.jtj, &fit.jtr);
     if !fitted {
         let det = a[0] * a[3] - a[1] * a[1];
@@ -408,35 +449,33 @@ fn det3(m: &[[f32; 3]; 3]) -> f32 {
 /// model to first order (the R and C columns of the Jacobian left
 /// lossless: an O(tan δ) change of the step, not of where it converges),
 /// and the film's prior as a fifth residual.
-struct Evaluated {
+struct Evaluated<const K: usize> {
     chi2: f32,
     jtj: [f32; 6],
     jtr: [f32; 3],
     /// Each tone's weighted derivatives in (ln R, ln C, tan δ).
-    cols: [[Complex32; 3]; 2],
+    cols: [[Complex32; 3]; K],
 }
 
-fn evaluate(
+fn evaluate<const K: usize>(
     inv: &Inverter,
     film: &Dielectric,
-    tones: &[Tone; 2],
+    tones: &[Tone; K],
     p: [f32; 3],
-) -> Result<Evaluated, InvertError> {
+) -> Result<Evaluated<K>, InvertError> {
     let (r, c, t) = (libm::expf(p[0]), libm::expf(p[1]), p[2]);
     let (u, du) = Dielectric::u(t);
     let mut e = Evaluated {
         chi2: 0.0,
         jtj: [0.0; 6],
         jtr: [0.0; 3],
-        cols: [[Complex32::new(0.0, 0.0); 3]; 2],
+        cols: [[Complex32::new(0.0, 0.0); 3]; K],
     };
     for (n, tone) in tones.iter().enumerate() {
         let w = TAU * tone.f_hz;
         let x = w * r * c;
         let scale = 1.0 / (w * c * tone.sigma_ohm);
-        let zeta = inv.zeta_at(x)?;
-        // dζ/d ln x by a forward difference.
-        let dz = (inv.zeta_at(x * E_H)? - zeta) / H;
+        let (zeta, dz) = inv.zeta_slope_at(x)?;
         // Weighted model and its derivatives in ln R, ln C and tan δ.
         let d_r = dz * scale;
         let d_c = (dz - zeta) * scale;
@@ -468,5 +507,29 @@ fn evaluate(
         Ok(e)
     } else {
         Err(InvertError::OutOfRange)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_flag_of_two_tones_is_the_closed_form() {
+        for dof in [5, 20, 89, 1000] {
+            let (a, b) = (chi2_flag(1e-4, dof), chi2_flag_of(1e-4, 2, dof));
+            assert!((a / b - 1.0).abs() < 1e-4, "{dof}: {a} {b}");
+        }
+    }
+
+    #[test]
+    fn the_flag_of_three_tones_tends_to_chi_squared_with_four_degrees() {
+        // χ²₄ tail: e^(−χ²/2)·(1 + χ²/2) = 10⁻⁴ at χ² = 23.513 (tables).
+        let big = chi2_flag_of(1e-4, 3, 100_000);
+        assert!((big - 23.513).abs() < 0.05, "{big}");
+        // 4·F(4, 89) at 10⁻⁴: 26.581 (the F density integrated
+        // numerically in f64).
+        let block = chi2_flag_of(1e-4, 3, 89);
+        assert!((block - 26.581).abs() < 0.02, "{block}");
     }
 }

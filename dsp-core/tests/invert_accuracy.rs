@@ -293,3 +293,41 @@ fn leads_recover_the_line_against_f64() {
         assert!(Inverter::with_leads(LineModel::Continuous, 10.0, bad).is_err());
     }
 }
+
+/// The slope a fit's Jacobian takes, dζ/d ln x, against the f64
+/// reference's central difference (step 10⁻⁵ in ln x, its own error
+/// below 10⁻⁹), across the declared x range, with and without the
+/// paper's leads: the continuous line's closed form within 2·10⁻⁶ of |ζ|
+/// plus 10⁻⁷·x (max; terms of size x cancel in it at large x; 10⁻⁶ of |ζ|
+/// RMS), a ladder's forward difference within 10⁻³·|dζ/d ln x|
+/// + 3·10⁻⁴·|ζ| (its O(h) step and the kernel's 2·10⁻⁷ error over h).
+#[test]
+fn the_slope_of_zeta_is_the_references_across_the_range() {
+    let h = 1e-5;
+    for model in [LineModel::Continuous, LineModel::Ladder(1), LineModel::Ladder(30)] {
+        for lead in [0.0f32, 0.9] {
+            let inv = Inverter::with_leads(model, 10.0, lead).unwrap();
+            let mut errs = vec![];
+            for x in log_grid(1e-6, 3000.0, 400) {
+                let zr = |x: f64| zeta_ref(model, x) + lead as f64 * x;
+                let want = (zr(x * f64::exp(h)) - zr(x * f64::exp(-h))) / (2.0 * h);
+                let (z, slope) = inv.zeta_slope_at(x as f32).unwrap();
+                let got = num_complex::Complex64::new(slope.re as f64, slope.im as f64);
+                let zn = zr(x).norm();
+                assert!(((z.re as f64 - zr(x).re).hypot(z.im as f64 - zr(x).im)) < 2e-4 * zn);
+                let e = (got - want).norm();
+                let bound = match model {
+                    LineModel::Continuous => 2e-6 * zn + 1e-7 * x,
+                    LineModel::Ladder(_) => 1e-3 * want.norm() + 3e-4 * zn,
+                };
+                assert!(e <= bound, "{model:?} ℓ {lead} x {x}: {got} vs {want}");
+                errs.push(e / zn);
+            }
+            let (rms, max) = rms_max(&errs);
+            println!("{model:?} ℓ = {lead}: slope error {rms:.1e} RMS / {max:.1e} max of |ζ|");
+            if model == LineModel::Continuous {
+                assert!(rms < 1e-6, "{rms}");
+            }
+        }
+    }
+}

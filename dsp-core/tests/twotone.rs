@@ -8,7 +8,7 @@ use common::{log_grid, rms_max, z_lossy, zeta_ref};
 use dsp_core::dielectric::Dielectric;
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
-use dsp_core::twotone::{solve, solve_from, z_sigma, Tone, CHI2_FLAG};
+use dsp_core::twotone::{chi2_flag_of, solve, solve_from, z_sigma, Tone, CHI2_FLAG};
 use dsp_core::Complex32;
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -80,11 +80,13 @@ fn the_joint_line_is_the_reference_line_across_the_range() {
     }
 }
 
-/// Noisy tones at a relative 1σ `eps` per component; returns the χ² of
-/// each draw, the errors of ln C and the solver's σ of ln C.
-fn draws(
+/// Noisy tones at f_hi/`below[k]` (x_hi at f_hi) at a relative 1σ `eps`
+/// per component; returns the χ² of each draw, the errors of ln C and
+/// the solver's σ of ln C.
+#[allow(clippy::too_many_arguments)]
+fn draws<const K: usize>(
     x_hi: f64,
-    ratio: f64,
+    below: [f64; K],
     eps: f64,
     extra: f64,
     cp: f64,
@@ -99,7 +101,8 @@ fn draws(
     let f_hi = x_hi / (TAU * r * c);
     let (mut chi, mut lnc, mut sig) = (vec![], vec![], 0.0);
     for _ in 0..n {
-        let tones = [f_hi / ratio, f_hi].map(|f| {
+        let tones = below.map(|b| {
+            let f = f_hi / b;
             let z = z_ref(model, lead, r, c, f, extra, cp);
             let s = eps * z.norm();
             let (a, b) = (unit.sample(&mut rng), unit.sample(&mut rng));
@@ -122,7 +125,7 @@ fn chi2_of_a_uniform_line_in_noise_has_two_degrees_of_freedom() {
         .enumerate()
     {
         let n = 2000;
-        let (chi, lnc, sigma) = draws(x_hi, ratio, 1e-3, 0.0, 0.0, n, 7 + k as u64);
+        let (chi, lnc, sigma) = draws(x_hi, [ratio, 1.0], 1e-3, 0.0, 0.0, n, 7 + k as u64);
         let mean = chi.iter().sum::<f64>() / n as f64;
         let flagged = chi.iter().filter(|&&v| v > CHI2_FLAG as f64).count();
         let m = lnc.iter().sum::<f64>() / n as f64;
@@ -138,15 +141,40 @@ fn chi2_of_a_uniform_line_in_noise_has_two_degrees_of_freedom() {
     }
 }
 
+/// Three tones (the array's: the pair and the tone between them) leave
+/// four degrees of freedom: E χ² = 4, flagged above
+/// `chi2_flag_of(10⁻⁴, 3, ∞)` = 23.5 at the chance rate, σ of ln C the
+/// scatter's.
+#[test]
+fn chi2_of_three_tones_has_four_degrees_of_freedom() {
+    let flag = chi2_flag_of(1e-4, 3, 1_000_000) as f64;
+    for (k, (x_hi, below)) in [(0.3, [4.0, 2.0, 1.0]), (3.0, [4.0, 2.0, 1.0]), (6.0, [3.0, 1.5, 1.0])]
+        .into_iter()
+        .enumerate()
+    {
+        let n = 2000;
+        let (chi, lnc, sigma) = draws(x_hi, below, 1e-3, 0.0, 0.0, n, 17 + k as u64);
+        let mean = chi.iter().sum::<f64>() / n as f64;
+        let flagged = chi.iter().filter(|&&v| v > flag).count();
+        let m = lnc.iter().sum::<f64>() / n as f64;
+        let sd = (lnc.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt();
+        println!("x {x_hi} {below:?}: mean χ² {mean:.3}, flagged {flagged}/{n}, ln C sd {sd:.2e} vs σ {sigma:.2e}");
+        // E χ² = 4 (sd of the mean of 2000: 0.063).
+        assert!((mean - 4.0).abs() < 0.25, "mean χ² {mean}");
+        assert!(flagged <= 3, "{flagged} false flags");
+        assert!((sd / sigma - 1.0).abs() < 0.1, "sd {sd} σ {sigma}");
+    }
+}
+
 #[test]
 fn the_model_check_fires_on_contacts_and_parasitics_and_not_on_a_clean_line() {
     // A block's impedance to 10⁻⁴ (1024 pairs, 1000 counts of current,
     // 0.8 counts of noise give 5·10⁻⁵).
     let eps = 1e-4;
     for x_hi in [1.0, 2.0, 4.0] {
-        let clean = draws(x_hi, 4.0, eps, 0.0, 0.0, 200, 3).0;
-        let contact = draws(x_hi, 4.0, eps, 2.0 * 10e3, 0.0, 200, 3).0;
-        let parasitic = draws(x_hi, 4.0, eps, 0.0, 2e-12, 200, 3).0;
+        let clean = draws(x_hi, [4.0, 1.0], eps, 0.0, 0.0, 200, 3).0;
+        let contact = draws(x_hi, [4.0, 1.0], eps, 2.0 * 10e3, 0.0, 200, 3).0;
+        let parasitic = draws(x_hi, [4.0, 1.0], eps, 0.0, 2e-12, 200, 3).0;
         let fired = |v: &[f64]| v.iter().filter(|&&c| c > CHI2_FLAG as f64).count();
         let median = |v: &[f64]| {
             let mut s = v.to_vec();
@@ -304,45 +332,59 @@ fn a_lossy_film_is_fitted_with_its_loss() {
 /// tone's frequency), fitted with the silicone film's loss free: C moves
 /// by no more than `hidden_ln_c`·√χ² (to the fit's nonlinearity, 10 %,
 /// and the joint line's own 10⁻⁴), across the declared range of x and
-/// both tones.
+/// every tone, for two tones and for three.
 #[test]
 fn a_one_tone_perturbation_moves_c_by_at_most_what_chi2_allows() {
+    let mut two = 0.0f64;
+    for ratio in RATIOS {
+        two = two.max(one_tone_pushes([ratio, 1.0]));
+    }
+    // A third tone between the two sees what one tone hides: the most C
+    // can move per unit of √χ² is several times smaller.
+    let three = one_tone_pushes([4.0, 2.0, 1.0]);
+    println!("largest hidden_ln_c: two tones {two:.2e}, three {three:.2e}");
+    assert!(three < 0.5 * two, "{three} vs {two}");
+}
+
+/// Every push of [`a_one_tone_perturbation_moves_c_by_at_most_what_chi2_allows`]
+/// on tones at f_hi/`below[k]`; the largest `hidden_ln_c` met.
+fn one_tone_pushes<const K: usize>(below: [f64; K]) -> f64 {
     let (r, c) = (700e3, 210e-12);
-    let mut worst = 0f64;
+    let (mut worst, mut largest) = (0f64, 0f64);
     for lead in LEADS {
         let inv = Inverter::with_leads(LineModel::Continuous, 10.0, lead as f32).unwrap();
         for x_hi in log_grid(0.05, 5.0, 12) {
-            for ratio in RATIOS {
-                let f_hi = x_hi / (TAU * r * c);
-                for k in 0..2 {
-                    for a in 0..12 {
-                        let angle = TAU * a as f64 / 12.0;
-                        let size = [2.0, 20.0][a % 2];
-                        let tones = [f_hi / ratio, f_hi].map(|f| {
-                            let z = z_lossy(lead, r, c, f, 3e-3);
-                            tone(z, f, 1e-4 * z.norm())
-                        });
-                        let mut tones = tones;
-                        let t = &mut tones[k];
-                        let push = Complex32::new(angle.cos() as f32, angle.sin() as f32)
-                            * (size as f32 * t.sigma_ohm);
-                        t.z += push;
-                        let s = solve(&inv, &Dielectric::SILICONE, &tones, c as f32).unwrap();
-                        let e = (s.line.c_farad as f64 / c - 1.0).abs();
-                        let bound = s.hidden_ln_c as f64 * (s.chi2 as f64).sqrt();
-                        if e > 1e-4 {
-                            worst = worst.max(e / bound);
-                        }
-                        assert!(
-                            e <= 1.1 * bound + 1e-4,
-                            "ℓ {lead} x {x_hi:.2} ratio {ratio} tone {k} ε {size}σ at {a}: C {e:.2e} > {bound:.2e} (χ² {})",
-                            s.chi2
-                        );
+            let f_hi = x_hi / (TAU * r * c);
+            for k in 0..K {
+                for a in 0..12 {
+                    let angle = TAU * a as f64 / 12.0;
+                    let size = [2.0, 20.0][a % 2];
+                    let mut tones = below.map(|b| {
+                        let f = f_hi / b;
+                        let z = z_lossy(lead, r, c, f, 3e-3);
+                        tone(z, f, 1e-4 * z.norm())
+                    });
+                    let t = &mut tones[k];
+                    let push =
+                        Complex32::new(angle.cos() as f32, angle.sin() as f32) * (size as f32 * t.sigma_ohm);
+                    t.z += push;
+                    let s = solve(&inv, &Dielectric::SILICONE, &tones, c as f32).unwrap();
+                    let e = (s.line.c_farad as f64 / c - 1.0).abs();
+                    let bound = s.hidden_ln_c as f64 * (s.chi2 as f64).sqrt();
+                    largest = largest.max(s.hidden_ln_c as f64);
+                    if e > 1e-4 {
+                        worst = worst.max(e / bound);
                     }
+                    assert!(
+                        e <= 1.1 * bound + 1e-4,
+                        "ℓ {lead} x {x_hi:.2} {below:?} tone {k} ε {size}σ at {a}: C {e:.2e} > {bound:.2e} (χ² {})",
+                        s.chi2
+                    );
                 }
             }
         }
     }
-    println!("C error / (hidden·√χ²) ≤ {worst:.2} where C moved by more than 10⁻⁴");
+    println!("{below:?}: C error / (hidden·√χ²) ≤ {worst:.2} where C moved by more than 10⁻⁴");
     assert!(worst <= 1.1, "{worst}");
+    largest
 }

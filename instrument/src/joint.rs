@@ -52,11 +52,11 @@ impl Joint {
     /// when its χ² passes `chi2_flag`, else also from the single-tone
     /// inversions (the branch nearest the tracked C, or `prior_farad`),
     /// whichever fits better; an error when neither inverts.
-    pub fn solve(
+    pub fn solve<const K: usize>(
         &self,
         inv: &Inverter,
         d: &Dielectric,
-        tones: &[Tone; 2],
+        tones: &[Tone; K],
         prior_farad: f32,
         chi2_flag: f32,
     ) -> Result<Solution, InvertError> {
@@ -79,11 +79,11 @@ impl Joint {
     /// The line `tones` (as measured, Ω) leave behind `sensor`'s wiring,
     /// by [`Joint::solve`] with its line model; out of range, the tracked
     /// line is forgotten.
-    pub fn solve_behind<const N: usize>(
+    pub fn solve_behind<const N: usize, const K: usize>(
         &mut self,
         sensor: &Sensor<N>,
         d: &Dielectric,
-        mut tones: [Tone; 2],
+        mut tones: [Tone; K],
         prior_farad: f32,
         chi2_flag: f32,
     ) -> Result<Solution, Unsolved> {
@@ -118,15 +118,12 @@ impl Joint {
 /// part of it: a χ² of 0.34 hid a one-tone error whose own share was 1.1
 /// (an interferer next to the multiplexed channel's second tone, 1 % off
 /// with √χ² alone). So the share is taken as √χ², but never below the
-/// noise's own rms share, √[`NOISE_DOF`].
+/// noise's own rms share, √dof (2 for two tones, 4 for three:
+/// [`Solution::dof`]).
 pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
     if sol.chi2 > chi2_flag {
         0.0
     } else {
-        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(NOISE_DOF))
+        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(sol.dof))
     }
 }
-
-/// Degrees of freedom of the noise in a two-tone residual: four measured
-/// numbers less two parameters (the film's loss comes with its prior).
-pub const NOISE_DOF: f32 = 2.0;

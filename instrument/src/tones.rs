@@ -2,16 +2,27 @@
 //! a block to a line-corrected record with its model check.
 //!
 //! Every block carries the sensor's current at all [`TONES`] tones of the
-//! comb. The channel uses two of them: the policy's tone (the highest
+//! comb. The channel reads a pair of them: the policy's tone (the highest
 //! whose x̂ = 2π·f·R̂·C stays within the bound, as [`crate::policy`]
 //! chooses one frequency for the multiplexed board) and the one two steps
 //! below it (a factor 3–4 lower; the lowest pair when the policy sits at
-//! the bottom). Their impedances, each with its noise from the block,
-//! give the line by [`dsp_core::twotone`]: from the previous record's
-//! line while the channel tracks its sensor, from the single-tone
-//! inversions otherwise. χ² says whether one uniform line explains both
-//! tones; a record where it does not is flagged [`Flags::MODEL`].
-//! Switching tones needs no settling: the excitation never changes.
+//! the bottom). The pair's impedances and the tone between them (the one
+//! above, for the lowest pair: [`ToneChannel::fitted_of`]), each with its
+//! noise from the block, give the line by [`dsp_core::twotone`]: from the
+//! previous record's line while the channel tracks its sensor, from the
+//! single-tone inversions otherwise. χ² (4 degrees of freedom) says
+//! whether one uniform line explains the three tones; a record where it
+//! does not is flagged [`Flags::MODEL`].
+//!
+//! Why three: an error at one tone that no residual sees (an interferer
+//! at the tone's frequency, or at an alias of it, 4 Hz from a tone of a
+//! 4 ms block) moves a two-tone line along what the two tones cannot
+//! tell apart, and χ² sees little of it: an alias 4 Hz from the 500 Hz
+//! tone left a record 1.03 % off behind χ² = 6.2. A third tone sees it:
+//! what such an error can move C by per unit of √χ² falls about five-fold
+//! ([`dsp_core::twotone::Solution::hidden_ln_c`]), and the record's bound
+//! ([`crate::joint::hidden`]) with it. Switching tones needs no settling:
+//! the excitation never changes.
 
 use crate::array::SENSORS;
 use crate::array::{tone_hz, tones_hz, TONES};
@@ -65,7 +76,7 @@ impl<'a, const N: usize> ToneSettings<'a, N> {
             front_end,
             sensors,
             dielectric: Dielectric::SILICONE,
-            chi2_flag: twotone::chi2_flag(1e-4, crate::array::RESIDUAL_DOF),
+            chi2_flag: twotone::chi2_flag_of(1e-4, 3, crate::array::RESIDUAL_DOF),
             record_every: 1,
             sweep: None,
         }
@@ -81,14 +92,15 @@ pub struct ToneRecord {
     pub channel: u8,
     /// The two tones' frequencies, Hz, lower first.
     pub f_hz: [f32; 2],
-    /// The measured impedance at each, Ω (0 when not measured).
+    /// The measured impedance at each, Ω (0 when not measured; the tone
+    /// between them, fitted too, is not reported).
     pub z: [Complex32; 2],
     /// Line capacitance, F (0 when not available).
     pub c_farad: f32,
     /// Line resistance (both electrodes), Ω.
     pub r_ohm: f32,
-    /// χ² of the two tones against one uniform line (2 degrees of
-    /// freedom; 0 when not solved).
+    /// χ² of the fitted tones (the pair and the one between them) against
+    /// one uniform line (4 degrees of freedom; 0 when not solved).
     pub chi2: f32,
     /// 1σ relative error of C from the block's noise.
     pub sigma_c: f32,
@@ -152,6 +164,17 @@ impl ToneChannel {
         [hi.saturating_sub(2), hi]
     }
 
+    /// The comb tones a record's line is fitted to: its pair and the
+    /// tone between them (the one above them for the lowest pair), lowest
+    /// first.
+    pub fn fitted_of(pair: [usize; 2]) -> [usize; 3] {
+        if pair[1] >= pair[0] + 2 {
+            [pair[0], pair[0] + 1, pair[1]]
+        } else {
+            [pair[0], pair[1], (pair[1] + 1).min(TONES - 1)]
+        }
+    }
+
     /// Turn the comb's phasors of the excitation `v` and of this sensor's
     /// current `i` over one block into a record; `rotation` takes the
     /// sensor's scan skew out ([`crate::array::skew_rotation`]), `clipped`
@@ -187,12 +210,13 @@ impl ToneChannel {
         if clipped {
             rec.flags.set(Flags::CLIPPED);
         }
-        // Each tone's impedance, or why there is none.
+        // Each fitted tone's impedance, or why there is none.
+        let fitted = Self::fitted_of(pair);
         let mut tones = [Tone {
             z: Complex32::new(0.0, 0.0),
             f_hz: 0.0,
             sigma_ohm: 0.0,
-        }; 2];
+        }; 3];
         let n = v.tones.n.min(i.tones.n);
         // The noise's σ from the residual's own degrees of freedom: the
         // residual rms is over the block's N instants, but its mean and
@@ -203,7 +227,7 @@ impl ToneChannel {
         // Both tones' impedances are kept whenever the excitation is
         // there, also on a record flagged open or shorted: an open
         // fixture's cable is measured so (`live calibrate --open`).
-        for (j, &k) in pair.iter().enumerate() {
+        for (j, &k) in fitted.iter().enumerate() {
             let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
             let z = match Tones::ratio(&v.tones, &i.tones, k) {
                 Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
@@ -212,7 +236,11 @@ impl ToneChannel {
                     return rec;
                 }
             };
-            rec.z[j] = z;
+            for (slot, &p) in rec.z.iter_mut().zip(&pair) {
+                if p == k {
+                    *slot = z;
+                }
+            }
             if ai < th.open_counts {
                 rec.flags.set(Flags::OPEN);
             } else if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
@@ -221,7 +249,7 @@ impl ToneChannel {
             }
             tones[j] = Tone {
                 z,
-                f_hz: rec.f_hz[j],
+                f_hz: tone_hz(k),
                 sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
             };
         }
@@ -272,7 +300,7 @@ impl ToneChannel {
         // block's own, as a per-tone reading of the record needs.)
         let hidden = crate::joint::hidden(&sol, s.chi2_flag);
         let within = 5.0 * sol.sigma_ln_c
-            + disturbance_bound(th, &v.levels, &i.levels, pair, n, sol.sigma_ln_c)
+            + disturbance_bound(th, &v.levels, &i.levels, &fitted, n, sol.sigma_ln_c)
             + hidden
             <= th.c_tolerance;
         if !within {
@@ -313,7 +341,7 @@ fn disturbance_bound(
     th: &Thresholds,
     v: &dsp_core::comb::Levels<TONES>,
     i: &dsp_core::comb::Levels<TONES>,
-    pair: [usize; 2],
+    fitted: &[usize],
     n: u32,
     sigma_ln_c: f32,
 ) -> f32 {
@@ -325,7 +353,7 @@ fn disturbance_bound(
     }
     let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
     let mut worst = 0.0f32;
-    for k in pair {
+    for &k in fitted {
         let (av, ai) = (v.amplitude[k], i.amplitude[k]);
         // Relative phasor error from the disturbance, and the noise's σ.
         let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai);
