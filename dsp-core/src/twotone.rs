@@ -107,7 +107,6 @@ pub fn chi2_flag_of(p: f32, tones: u32, dof: u32) -> f32 {
 /// converges in 2–3).
 const ITERATIONS: usize = 6;
 
-
 /// One tone of a block: its impedance and noise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tone {

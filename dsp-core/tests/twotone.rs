@@ -148,9 +148,13 @@ fn chi2_of_a_uniform_line_in_noise_has_two_degrees_of_freedom() {
 #[test]
 fn chi2_of_three_tones_has_four_degrees_of_freedom() {
     let flag = chi2_flag_of(1e-4, 3, 1_000_000) as f64;
-    for (k, (x_hi, below)) in [(0.3, [4.0, 2.0, 1.0]), (3.0, [4.0, 2.0, 1.0]), (6.0, [3.0, 1.5, 1.0])]
-        .into_iter()
-        .enumerate()
+    for (k, (x_hi, below)) in [
+        (0.3, [4.0, 2.0, 1.0]),
+        (3.0, [4.0, 2.0, 1.0]),
+        (6.0, [3.0, 1.5, 1.0]),
+    ]
+    .into_iter()
+    .enumerate()
     {
         let n = 2000;
         let (chi, lnc, sigma) = draws(x_hi, below, 1e-3, 0.0, 0.0, n, 17 + k as u64);
@@ -158,7 +162,9 @@ fn chi2_of_three_tones_has_four_degrees_of_freedom() {
         let flagged = chi.iter().filter(|&&v| v > flag).count();
         let m = lnc.iter().sum::<f64>() / n as f64;
         let sd = (lnc.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (n - 1) as f64).sqrt();
-        println!("x {x_hi} {below:?}: mean χ² {mean:.3}, flagged {flagged}/{n}, ln C sd {sd:.2e} vs σ {sigma:.2e}");
+        println!(
+            "x {x_hi} {below:?}: mean χ² {mean:.3}, flagged {flagged}/{n}, ln C sd {sd:.2e} vs σ {sigma:.2e}"
+        );
         // E χ² = 4 (sd of the mean of 2000: 0.063).
         assert!((mean - 4.0).abs() < 0.25, "mean χ² {mean}");
         assert!(flagged <= 3, "{flagged} false flags");

@@ -6,7 +6,7 @@
 //! * `test` ([`checks`]): set-up, then formatting, clippy, rustdoc, every
 //!   host and QEMU test, the cross builds and the board images.
 //! * `run` ([`main_job`]): the main job (see the README).
-//! * `bench` ([`bench`]): instruction counts on Cortex-M4 in QEMU
+//! * `bench` ([`mod@bench`]): instruction counts on Cortex-M4 in QEMU
 //!   (`-icount`), image sizes, and with `--host` the criterion benchmarks.
 //! * `docs` ([`docs`]): every figure of the README and docs/ regenerated.
 //! * `example-data`: the example data set (`data/example`) from rig-sim.
