@@ -24,6 +24,7 @@ pub mod identify;
 pub mod meter;
 pub mod model;
 pub mod numerics;
+pub mod numfmt;
 pub mod plot;
 pub mod recording;
 pub mod si;

@@ -108,7 +108,8 @@ pub struct Record {
     pub stretch_mm: f32,
     /// The frequency the policy chose for the sensor's next block, Hz.
     pub chosen_hz: f32,
-    /// χ² of the two tones' line (0 for one tone).
+    /// χ² of the record's line (0 for one tone; the array fits its pair
+    /// and the tone between them: 4 degrees of freedom).
     pub chi2: f32,
     /// 1σ relative error of C (0: not stated).
     pub sigma_c: f32,

@@ -185,7 +185,7 @@ impl Session {
 /// The link's records as the data set writer takes them: an array record
 /// (two tones) as a record per tone, a multiplexed one as it is.
 pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
-    let mut out = vec![];
+    let mut out = Vec::with_capacity(2 * records.len());
     for r in records {
         if r.measured().count() == 2 {
             let tone = LoggedToneRecord {
@@ -216,27 +216,30 @@ pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
 }
 
 fn write_record(w: &mut impl Write, seq: u32, r: &Record) -> Result<()> {
-    let [a, b] = r.tones;
-    writeln!(
-        w,
-        "{seq},{},{},{},{},{},{},{},{},{:.4},{},{},{},{},{},{}",
-        r.t_us,
-        r.sensor,
-        a.f_hz,
-        a.z_re_ohm,
-        a.z_im_ohm,
-        b.f_hz,
-        b.z_re_ohm,
-        b.z_im_ohm,
-        r.c_farad as f64 * 1e12,
-        r.r_ohm,
-        r.stretch_mm,
-        r.chosen_hz,
-        r.chi2,
-        r.sigma_c,
-        r.flags
-    )
-    .context("writing records.csv")
+    // Through `numfmt`: `{}` on eleven floats was most of a replay.
+    use host_sim::numfmt::{fixed, int, shortest_f32};
+    let mut line = Vec::with_capacity(192);
+    int(&mut line, seq);
+    line.push(b',');
+    int(&mut line, r.t_us);
+    line.push(b',');
+    int(&mut line, r.sensor);
+    for t in r.tones {
+        for x in [t.f_hz, t.z_re_ohm, t.z_im_ohm] {
+            line.push(b',');
+            shortest_f32(&mut line, x);
+        }
+    }
+    line.push(b',');
+    fixed(&mut line, r.c_farad as f64 * 1e12, 4);
+    for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_c] {
+        line.push(b',');
+        shortest_f32(&mut line, x);
+    }
+    line.push(b',');
+    int(&mut line, r.flags);
+    line.push(b'\n');
+    w.write_all(&line).context("writing records.csv")
 }
 
 /// What a session received, in numbers.

@@ -93,8 +93,14 @@ pub fn write_dataset(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result
 fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Written> {
     // A record that failed the model check is a row of lumped readings
     // without a line (as the array's are once read).
-    let recs: Vec<LoggedRecord> = recs.iter().map(LoggedRecord::as_row).collect();
-    let recs = recs.as_slice();
+    // (Copied only when one needs it: a replay's records are many.)
+    let rows: Vec<LoggedRecord>;
+    let recs = if recs.iter().any(|r| r.flags.has(instrument::faults::Flags::MODEL)) {
+        rows = recs.iter().map(LoggedRecord::as_row).collect();
+        rows.as_slice()
+    } else {
+        recs
+    };
     let mut channels: BTreeMap<u8, Vec<&LoggedRecord>> = BTreeMap::new();
     for r in recs {
         channels.entry(r.channel).or_default().push(r);
@@ -308,35 +314,60 @@ fn write_trace(path: &Path, ch: u8, f: &str, rs: &[&LoggedRecord], truth: bool) 
             "time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,flags"
         )?;
     }
+    // Each row through `numfmt` (Rust's `{:.N}` costs more than the
+    // rest of a replay), the frequency's text once per trace.
+    use crate::numfmt::{fixed, int, shortest};
+    let mut hz = vec![];
+    shortest(&mut hz, rs.first().map_or(0.0, |r| r.freq_hz));
+    let field = |line: &mut Vec<u8>, x: f64, prec: usize| {
+        fixed(line, x, prec);
+        line.push(b',');
+    };
+    let mut line = Vec::with_capacity(160);
     for r in rs {
-        match r.truth {
-            Some(t) if truth => writeln!(
-                w,
-                "{:.6},{:.4},{:.0},{:.0},{},{:.4},{:.0},{:.4},{:.0},{},{:.4},{:.0},{:.4}",
-                r.t_s,
-                t.stretch_mm,
-                t.r_top_ohm,
-                t.r_bottom_ohm,
-                r.freq_hz,
-                r.cs_pf,
-                r.rs_ohm,
-                r.c_pf,
-                r.r_ohm,
-                r.flags.0,
-                t.c_pf,
-                t.r_ohm,
-                t.stretch_mm
-            )?,
+        line.clear();
+        let t = match r.truth {
+            Some(t) if truth => Some(t),
             None if truth => bail!(
                 "record of channel {ch} at {:.6} s has no truth line where the others have one",
                 r.t_s
             ),
-            _ => writeln!(
-                w,
-                "{:.6},{:.4},{:.0},{},{:.4},{:.0},{:.4},{}",
-                r.t_s, r.stretch_mm, r.r_ohm, r.freq_hz, r.cs_pf, r.rs_ohm, r.c_pf, r.flags.0
-            )?,
+            _ => None,
+        };
+        field(&mut line, r.t_s, 6);
+        match t {
+            Some(t) => {
+                field(&mut line, t.stretch_mm, 4);
+                field(&mut line, t.r_top_ohm, 0);
+                field(&mut line, t.r_bottom_ohm, 0);
+            }
+            None => {
+                field(&mut line, r.stretch_mm, 4);
+                field(&mut line, r.r_ohm, 0);
+            }
         }
+        if r.freq_hz.to_bits() == rs[0].freq_hz.to_bits() {
+            line.extend_from_slice(&hz);
+        } else {
+            shortest(&mut line, r.freq_hz);
+        }
+        line.push(b',');
+        field(&mut line, r.cs_pf, 4);
+        field(&mut line, r.rs_ohm, 0);
+        field(&mut line, r.c_pf, 4);
+        match t {
+            Some(t) => {
+                field(&mut line, r.r_ohm, 0);
+                int(&mut line, r.flags.0);
+                line.push(b',');
+                field(&mut line, t.c_pf, 4);
+                field(&mut line, t.r_ohm, 0);
+                fixed(&mut line, t.stretch_mm, 4);
+            }
+            None => int(&mut line, r.flags.0),
+        }
+        line.push(b'\n');
+        w.write_all(&line)?;
     }
     w.flush()?;
     Ok(())
