@@ -60,7 +60,7 @@ fn scaled(x: f64, prec: usize) -> Option<u64> {
     let p = *POW10.get(prec)? as f64;
     let y = x.abs() * p;
     // Finite and below 2⁵²: every integer and half is representable.
-    if !(y < 4_503_599_627_370_496.0) {
+    if y.is_nan() || y >= 4_503_599_627_370_496.0 {
         return None;
     }
     let floor = y.floor();
