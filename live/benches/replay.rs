@@ -4,7 +4,7 @@
 //! and written as a data set. Target (issue 30): ≥ 10⁶ records/s.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use link::{Body, Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
+use link::{Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
 use std::time::Duration;
 
 /// Sensors, records per second each, seconds.
