@@ -76,6 +76,11 @@ fn scaled(x: f64, prec: usize) -> Option<u64> {
 /// Append `x` as its shortest text that reads back to it, as `{}` writes
 /// (module docs).
 pub fn shortest(out: &mut Vec<u8>, x: f64) {
+    // Whole numbers (frequencies, counts) as integers: `{}`'s text.
+    if x.fract() == 0.0 && x.abs() < 1e15 && !(x == 0.0 && x.is_sign_negative()) {
+        int(out, x as i64);
+        return;
+    }
     if x.is_finite() {
         let mut b = ryu::Buffer::new();
         if push_plain(out, b.format_finite(x)) {
@@ -87,6 +92,10 @@ pub fn shortest(out: &mut Vec<u8>, x: f64) {
 
 /// Append the f32 `x` as [`shortest`] does an f64.
 pub fn shortest_f32(out: &mut Vec<u8>, x: f32) {
+    if x.fract() == 0.0 && x.abs() < 1e15 && !(x == 0.0 && x.is_sign_negative()) {
+        int(out, x as i64);
+        return;
+    }
     if x.is_finite() {
         let mut b = ryu::Buffer::new();
         if push_plain(out, b.format_finite(x)) {
@@ -134,6 +143,9 @@ mod tests {
                 let half = (k as f64 + 0.5) / POW10[p] as f64;
                 f64::from_bits((half.to_bits() as i64 + d) as u64)
             }),
+            (-100_000i64..100_000).prop_map(|k| k as f64),
+            Just(1e15),
+            Just(999_999_999_999_999.0),
             Just(0.0),
             Just(-0.0),
             Just(f64::NAN),

@@ -75,8 +75,15 @@ pub const MAX_FRAME: usize = 96;
 /// The longest body before the CRC and COBS, bytes.
 const MAX_BODY: usize = MAX_FRAME - 4 - 2 - 1;
 
-/// The CRC of a frame: CRC-32/ISO-HDLC (Ethernet's, zlib's).
-const CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// The CRC of a frame: CRC-32/ISO-HDLC (Ethernet's, zlib's), from a
+/// 1 KiB table a byte at a time (the firmware's).
+#[cfg(not(feature = "fast-crc"))]
+static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// The same CRC sixteen bytes at a time from a 16 KiB table (the
+/// `fast-crc` feature: the host's decoder, which replays streams of 10⁶
+/// records a second).
+#[cfg(feature = "fast-crc")]
+static CRC: crc::Crc<u32, crc::Table<16>> = crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISO_HDLC);
 
 /// One tone's measurement: its frequency and the sensor's impedance there.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -477,6 +484,39 @@ impl Decoder {
                 Some(Err(e))
             }
         }
+    }
+
+    /// Take bytes from the front of `bytes` up to the next frame they
+    /// close, and that frame (or why it does not hold) as
+    /// [`Decoder::push`] gives it; None once `bytes` is used up (then
+    /// empty). The same frames and counts as pushing the bytes one at a
+    /// time (`the_bytes_at_once_are_the_bytes_one_by_one`), a frame's
+    /// bytes found and copied at once.
+    pub fn next_frame(&mut self, bytes: &mut &[u8]) -> Option<Result<Frame, Error>> {
+        loop {
+            let Some(end) = bytes.iter().position(|&b| b == 0) else {
+                self.take(bytes);
+                *bytes = &[];
+                return None;
+            };
+            self.take(&bytes[..end]);
+            *bytes = &bytes[end + 1..];
+            if let Some(r) = self.push(0) {
+                return Some(r);
+            }
+        }
+    }
+
+    /// Take bytes that hold no zero.
+    fn take(&mut self, part: &[u8]) {
+        self.stats.bytes += part.len() as u64;
+        let room = self.buf.len() - self.len;
+        if part.len() > room {
+            self.overflow = true;
+        }
+        let n = part.len().min(room);
+        self.buf[self.len..self.len + n].copy_from_slice(&part[..n]);
+        self.len += n;
     }
 
     /// Account for `frame`'s sequence number; None for a duplicate.

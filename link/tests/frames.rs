@@ -254,6 +254,43 @@ fn a_corrupted_stream_yields_only_frames_that_were_sent() {
     assert!(got > 0 && bad > 0 && lost > 0);
 }
 
+/// `Decoder::next_frame` on a stream cut into pieces anywhere (as reads
+/// from a port deliver it) gives the same frames, errors and counts as
+/// `Decoder::push` byte by byte, on clean and corrupted streams (oversized
+/// frames among them).
+#[test]
+fn the_bytes_at_once_are_the_bytes_one_by_one() {
+    let (clean, _) = stream(40);
+    let mut rng = Xs(0x2545_F491_4F6C_DD1D);
+    for case in 0..cases() / 10 {
+        let mut bytes = match case % 4 {
+            0 => clean.clone(),
+            _ => corrupt(&clean, &mut rng),
+        };
+        if case % 7 == 0 {
+            // A run longer than any frame.
+            let at = rng.below(bytes.len());
+            bytes.splice(at..at, std::iter::repeat_n(0x55, MAX_FRAME + rng.below(40)));
+        }
+        let mut one = Decoder::new();
+        let by_byte: Vec<_> = bytes.iter().filter_map(|&b| one.push(b)).collect();
+        let mut many = Decoder::new();
+        let mut at_once = vec![];
+        let mut rest = &bytes[..];
+        while !rest.is_empty() {
+            let n = 1 + rng.below(200).min(rest.len() - 1);
+            let mut piece = &rest[..n];
+            while let Some(r) = many.next_frame(&mut piece) {
+                at_once.push(r);
+            }
+            assert!(piece.is_empty());
+            rest = &rest[n..];
+        }
+        assert_eq!(at_once, by_byte, "case {case}");
+        assert_eq!(many.stats(), one.stats(), "case {case}");
+    }
+}
+
 #[test]
 fn a_repeated_frame_is_dropped_and_a_gap_counted() {
     let (clean, sent) = stream(4);

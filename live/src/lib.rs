@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// The records file written as records arrive.
+/// The records file, written as records arrive (at least once a second).
 pub const RECORDS_CSV: &str = "records.csv";
 /// The marker of a stream that did not end with its end frame.
 pub const INCOMPLETE: &str = "INCOMPLETE";
@@ -47,7 +47,15 @@ pub struct Session {
     start: Option<Start>,
     end: Option<link::End>,
     records: Vec<Record>,
+    /// Each record's frame sequence number.
+    seqs: Vec<u32>,
+    /// `records.csv`, which holds the first `in_csv` records (the rest
+    /// join it at the next [`Session::flush`], at least once a second
+    /// while following a stream, or at [`Session::finish`]).
     csv: std::io::BufWriter<std::fs::File>,
+    in_csv: usize,
+    /// One line of `records.csv`, its buffer kept.
+    line: Vec<u8>,
     /// Frames after the end frame, or before the start frame.
     stray: u64,
     /// The first frames refused: where (the byte that closed them) and
@@ -77,7 +85,10 @@ impl Session {
             start: None,
             end: None,
             records: vec![],
+            seqs: vec![],
             csv,
+            in_csv: 0,
+            line: Vec::with_capacity(192),
             stray: 0,
             refused: vec![],
         })
@@ -86,11 +97,11 @@ impl Session {
     /// Take `bytes` as they arrived; the records they completed.
     pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
         let mut n = 0;
-        for &b in bytes {
-            let frame = match self.decoder.push(b) {
-                None => continue,
-                Some(Ok(frame)) => frame,
-                Some(Err(e)) => {
+        let mut rest = bytes;
+        while let Some(got) = self.decoder.next_frame(&mut rest) {
+            let frame = match got {
+                Ok(frame) => frame,
+                Err(e) => {
                     if self.refused.len() < REFUSED_SHOWN {
                         self.refused.push((self.decoder.stats().bytes, e));
                     }
@@ -113,8 +124,8 @@ impl Session {
                     self.start = Some(s);
                 }
                 Body::Record(r) if self.start.is_some() && self.end.is_none() => {
-                    write_record(&mut self.csv, frame.seq, &r)?;
                     self.records.push(r);
+                    self.seqs.push(frame.seq);
                     n += 1;
                 }
                 Body::End(e) if self.start.is_some() => self.end = Some(e),
@@ -150,15 +161,23 @@ impl Session {
         self.end.as_ref()
     }
 
-    /// Flush the records written so far (a reader may be watching).
+    /// Write the records received so far into `records.csv` (a reader
+    /// may be watching).
     pub fn flush(&mut self) -> Result<()> {
+        let from = self.in_csv;
+        write_records(
+            &mut self.csv,
+            &mut self.line,
+            &self.seqs[from..],
+            &self.records[from..],
+        )?;
+        self.in_csv = self.records.len();
         self.csv.flush().context("writing records.csv")
     }
 
     /// The stream is over: write the data set of what arrived, and the
     /// [`INCOMPLETE`] marker if it did not end with its end frame.
     pub fn finish(mut self) -> Result<Finished> {
-        self.flush()?;
         let summary = self.summary();
         let outcome = match (&self.start, &self.end) {
             (_, Some(_)) => Outcome::Complete,
@@ -168,7 +187,31 @@ impl Session {
                 self.records.len()
             )),
         };
-        let written = recording::write_dataset(&self.dir, &logged(&self.records), &Roles::default())?;
+        // The rest of records.csv on a thread of its own while the data
+        // set is written (a replay's records all arrive at once).
+        let Self {
+            dir,
+            records,
+            seqs,
+            csv,
+            in_csv,
+            line,
+            ..
+        } = &mut self;
+        let (records, from) = (&*records, *in_csv);
+        let (rest, written) = std::thread::scope(|scope| {
+            let rest = scope.spawn(move || {
+                write_records(csv, line, &seqs[from..], &records[from..])?;
+                csv.flush().context("writing records.csv")
+            });
+            let written = recording::write_dataset(dir, &logged(records), &Roles::default());
+            let rest = rest
+                .join()
+                .unwrap_or_else(|_| Err(anyhow::anyhow!("the records.csv writer panicked")));
+            (rest, written)
+        });
+        rest?;
+        let written = written?;
         if let Outcome::Incomplete(why) = &outcome {
             let marker = self.dir.join(INCOMPLETE);
             std::fs::write(&marker, format!("{why}\n"))
@@ -215,31 +258,40 @@ pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
     out
 }
 
-fn write_record(w: &mut impl Write, seq: u32, r: &Record) -> Result<()> {
+/// `records.csv`'s lines of `records` (their frames' sequence numbers
+/// `seqs`).
+fn write_records(w: &mut impl Write, line: &mut Vec<u8>, seqs: &[u32], records: &[Record]) -> Result<()> {
+    for (&seq, r) in seqs.iter().zip(records) {
+        write_record(w, line, seq, r)?;
+    }
+    Ok(())
+}
+
+fn write_record(w: &mut impl Write, line: &mut Vec<u8>, seq: u32, r: &Record) -> Result<()> {
     // Through `numfmt`: `{}` on eleven floats was most of a replay.
     use host_sim::numfmt::{fixed, int, shortest_f32};
-    let mut line = Vec::with_capacity(192);
-    int(&mut line, seq);
+    line.clear();
+    int(line, seq);
     line.push(b',');
-    int(&mut line, r.t_us);
+    int(line, r.t_us);
     line.push(b',');
-    int(&mut line, r.sensor);
+    int(line, r.sensor);
     for t in r.tones {
         for x in [t.f_hz, t.z_re_ohm, t.z_im_ohm] {
             line.push(b',');
-            shortest_f32(&mut line, x);
+            shortest_f32(line, x);
         }
     }
     line.push(b',');
-    fixed(&mut line, r.c_farad as f64 * 1e12, 4);
+    fixed(line, r.c_farad as f64 * 1e12, 4);
     for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_c] {
         line.push(b',');
-        shortest_f32(&mut line, x);
+        shortest_f32(line, x);
     }
     line.push(b',');
-    int(&mut line, r.flags);
+    int(line, r.flags);
     line.push(b'\n');
-    w.write_all(&line).context("writing records.csv")
+    w.write_all(line).context("writing records.csv")
 }
 
 /// What a session received, in numbers.

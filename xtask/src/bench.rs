@@ -7,10 +7,11 @@ use anyhow::{bail, Result};
 use std::path::Path;
 
 /// The criterion benchmarks: (crate, bench).
-const HOST: [(&str, &str); 3] = [
+const HOST: [(&str, &str); 4] = [
     ("dsp-core", "dsp"),
     ("host-sim", "paper"),
     ("host-sim", "identify"),
+    ("live", "replay"),
 ];
 
 /// Print the instruction counts and image sizes; fail on a budget passed.

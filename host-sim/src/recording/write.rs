@@ -133,27 +133,64 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
             .entry((ch, f64::from_bits(bits).round() as u64))
             .or_default() += 1;
     }
+    let mut jobs = vec![];
     for ((ch, bits), rs) in groups {
         let hz = f64::from_bits(bits);
         let f = match per_hz[&(ch, hz.round() as u64)] {
             1 => format!("{}", hz.round() as u64),
             _ => format!("{hz:.3}"),
         };
-        let kind = if rs.len() >= MIN_TRACE_ROWS {
-            "trace"
-        } else {
-            "fragment"
-        };
+        let trace = rs.len() >= MIN_TRACE_ROWS;
+        let kind = if trace { "trace" } else { "fragment" };
         let path = dir.join(format!("{kind}_ch{ch}_{f}hz.csv"));
-        write_trace(&path, ch, &f, &rs, truth)?;
-        if kind == "trace" {
+        if trace {
             out.rows += rs.len();
-            out.traces.push(path);
+            out.traces.push(path.clone());
         } else {
-            out.fragments.push(path);
+            out.fragments.push(path.clone());
         }
+        jobs.push((path, ch, f, rs));
     }
+    write_traces(&jobs, truth)?;
     Ok(out)
+}
+
+/// Write every trace file of `jobs` (path, channel, frequency text,
+/// rows), on as many threads as the machine has cores (each thread a
+/// share of the rows); the first error, if any.
+#[allow(clippy::type_complexity)]
+fn write_traces(jobs: &[(PathBuf, u8, String, Vec<&LoggedRecord>)], truth: bool) -> Result<()> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(jobs.len())
+        .max(1);
+    // The largest first, each to the thread with the fewest rows so far.
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(jobs[i].3.len()));
+    let mut shares: Vec<(usize, Vec<usize>)> = vec![(0, vec![]); threads];
+    for i in order {
+        let least = shares.iter_mut().min_by_key(|s| s.0).expect("a thread");
+        least.0 += jobs[i].3.len();
+        least.1.push(i);
+    }
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = shares
+            .iter()
+            .map(|(_, mine)| {
+                scope.spawn(move || {
+                    mine.iter().try_for_each(|&i| {
+                        let (path, ch, f, rs) = &jobs[i];
+                        write_trace(path, *ch, f, rs, truth)
+                            .with_context(|| format!("writing {}", path.display()))
+                    })
+                })
+            })
+            .collect();
+        handles.into_iter().try_for_each(|h| {
+            h.join()
+                .unwrap_or_else(|_| Err(anyhow::anyhow!("a trace writer panicked")))
+        })
+    })
 }
 
 impl Roles {
