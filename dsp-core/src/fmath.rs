@@ -13,6 +13,20 @@ pub fn sqrt(x: f32) -> f32 {
     return libm::sqrtf(x);
 }
 
+/// |a + jb| = √(a² + b²) by [`sqrt`], where a² + b² neither overflows nor
+/// underflows f32 (|a|, |b| between about 10⁻¹⁸ and 10¹⁹: every impedance
+/// in Ω and every normalized ζ), within 1.5 ulp; libm's `hypotf` (≈ 430
+/// instructions on the Cortex-M4, against ≈ 10) beyond.
+#[inline]
+pub fn hypot(a: f32, b: f32) -> f32 {
+    let s = a * a + b * b;
+    if s.is_finite() && s >= 1e-36 {
+        sqrt(s)
+    } else {
+        libm::hypotf(a, b)
+    }
+}
+
 #[cfg(arm_fpu)]
 #[allow(unsafe_code)]
 mod arm {
@@ -51,5 +65,32 @@ mod tests {
         }
         assert!(super::sqrt(-1.0).is_nan());
         assert_eq!(super::sqrt(0.0), 0.0);
+    }
+
+    /// hypot against f64 across f32's whole range (both components from
+    /// 10⁻⁴⁴ to 10³⁸, any ratio): within 1.5 ulp of the exact value, and
+    /// never a spurious overflow or underflow.
+    #[test]
+    fn hypot_is_within_one_and_a_half_ulp_everywhere() {
+        let mut worst = 0.0f64;
+        let mut a = 1e-44f32;
+        while a < 3e38 {
+            let mut b = 1e-44f32;
+            while b < 3e38 {
+                for (x, y) in [(a, b), (-a, b), (a, -b)] {
+                    let got = super::hypot(x, y) as f64;
+                    let want = (x as f64).hypot(y as f64);
+                    let ulp = (want as f32).abs().to_bits();
+                    let ulp = (f32::from_bits(ulp + 1) - f32::from_bits(ulp)) as f64;
+                    worst = worst.max((got - want).abs() / ulp);
+                }
+                b *= 3.7;
+            }
+            a *= 2.9;
+        }
+        assert!(worst <= 1.5, "{worst} ulp");
+        assert_eq!(super::hypot(0.0, 0.0), 0.0);
+        assert!(super::hypot(f32::NAN, 1.0).is_nan());
+        assert_eq!(super::hypot(f32::INFINITY, 1.0), f32::INFINITY);
     }
 }

@@ -267,7 +267,7 @@ impl Inverter {
         for k in s.ends[s.resolved]..GRID {
             if s.resolved < s.branches {
                 let z = zeta_with(model, lead, libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
-                s.tail_zeta = s.tail_zeta.min(libm::hypotf(z.re, z.im) * 0.999);
+                s.tail_zeta = s.tail_zeta.min(crate::fmath::hypot(z.re, z.im) * 0.999);
             }
         }
         Ok(s)
@@ -483,10 +483,10 @@ impl Inverter {
             _ => {}
         }
         let w = TAU * f_hz;
-        let zabs = libm::hypotf(z.re, z.im);
+        let zabs = crate::fmath::hypot(z.re, z.im);
         let d = z.re / -z.im;
         let line = |x: f32, zeta: Complex32| {
-            let c = libm::hypotf(zeta.re, zeta.im) / (w * zabs);
+            let c = crate::fmath::hypot(zeta.re, zeta.im) / (w * zabs);
             Line {
                 r_ohm: x / (w * c),
                 c_farad: c,
@@ -592,20 +592,35 @@ impl Inverter {
         })
     }
 
-    /// κ = |d ln|ζ|/d ln x| / |d ln D/d ln x| at `x` (central differences
-    /// over ±0.5 % in x; C ∝ |ζ(x)| at a fixed |Z|). Below the small-x
-    /// asymptote C does not depend on D: 0.
+    /// κ = |d ln|ζ|/d ln x| / |d ln D/d ln x| at `x` (C ∝ |ζ(x)| at a
+    /// fixed |Z|): how much a reading's error in D moves C. The continuous
+    /// line's from ζ and its exact slope ([`zeta_slope_at`](Self::zeta_slope_at):
+    /// d ln|ζ| = Re(ζ'·ζ̄)/|ζ|², d ln D = Re ζ'/Re ζ − Im ζ'/Im ζ, one
+    /// evaluation); a ladder's by central differences over ±0.5 % in x.
+    /// Below the small-x asymptote C does not depend on D: 0.
     pub fn kappa(&self, x: f32) -> Result<f32, InvertError> {
         if x <= X_ASYMPTOTE {
             return Ok(0.0);
         }
-        const H: f32 = 0.005;
-        let at = |x: f32| -> Result<(f32, f32), InvertError> {
-            let z = self.zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
-            Ok((libm::logf(libm::hypotf(z.re, z.im)), libm::logf(dissipation(z))))
+        let x = x.clamp(crate::tline::X_MIN, crate::tline::X_MAX);
+        let k = match self.model {
+            LineModel::Continuous => {
+                let (z, s) = self.zeta_slope_at(x)?;
+                let d_mag = (s.re * z.re + s.im * z.im) / z.norm_sqr();
+                let d_dis = s.re / z.re - s.im / z.im;
+                libm::fabsf(d_mag / d_dis)
+            }
+            LineModel::Ladder(_) => {
+                const H: f32 = 0.005;
+                let at = |x: f32| -> Result<(f32, f32), InvertError> {
+                    let z = self.zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
+                    Ok((z.norm_sqr(), dissipation(z)))
+                };
+                let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
+                // ln|ζ₁| − ln|ζ₀| = ½·ln(|ζ₁|²/|ζ₀|²): two logarithms, not four.
+                libm::fabsf(0.5 * libm::logf(m1 / m0) / libm::logf(d1 / d0))
+            }
         };
-        let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
-        let k = libm::fabsf((m1 - m0) / (d1 - d0));
         Ok(if k.is_nan() { f32::INFINITY } else { k })
     }
 

@@ -331,3 +331,50 @@ fn the_slope_of_zeta_is_the_references_across_the_range() {
         }
     }
 }
+
+/// κ, the error amplification a single-tone reading states, against the
+/// f64 reference's (central differences of ln|ζ| and ln D, step 10⁻⁵ in
+/// ln x) across the declared x range above the small-x asymptote: within
+/// 5·10⁻⁵ absolute (where κ is far too small to matter: at x = 0.02 a
+/// ladder's is 7·10⁻⁵, its differences at f32's rounding) plus 10⁻³ relative (RMS 2·10⁻⁴) on the continuous line, whose slope is exact,
+/// and 10⁻² on a ladder (central differences over ±0.5 %); away from the
+/// peaks of D, where κ is infinite and only its size matters.
+#[test]
+fn kappa_is_the_references_across_the_range() {
+    let h = 1e-5;
+    for model in [LineModel::Continuous, LineModel::Ladder(30)] {
+        for lead in [0.0f32, 0.9] {
+            let inv = Inverter::with_leads(model, 10.0, lead).unwrap();
+            let mut errs = vec![];
+            for x in log_grid(0.02, 50.0, 300) {
+                let zr = |x: f64| zeta_ref(model, x) + lead as f64 * x;
+                let at = |x: f64| {
+                    let z = zr(x);
+                    (z.norm().ln(), (z.re / -z.im).ln())
+                };
+                let ((m0, d0), (m1, d1)) = (at(x * f64::exp(-h)), at(x * f64::exp(h)));
+                let want = ((m1 - m0) / (d1 - d0)).abs();
+                if want > 1e3 {
+                    continue;
+                }
+                let got = inv.kappa(x as f32).unwrap() as f64;
+                let e = (got / want - 1.0).abs();
+                let bound = if model == LineModel::Continuous {
+                    1e-3
+                } else {
+                    1e-2
+                };
+                assert!(
+                    (got - want).abs() < bound * want + 5e-5,
+                    "{model:?} ℓ {lead} x {x}: κ {got} vs {want}"
+                );
+                errs.push(e.min((got - want).abs() / 5e-3));
+            }
+            let (rms, max) = rms_max(&errs);
+            println!("{model:?} ℓ = {lead}: κ error {rms:.1e} RMS / {max:.1e} max");
+            if model == LineModel::Continuous {
+                assert!(rms < 2e-4, "{rms}");
+            }
+        }
+    }
+}
