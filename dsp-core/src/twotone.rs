@@ -124,7 +124,7 @@ pub struct Solution {
     /// The line both tones fit best; `x` at the higher tone. Its `kappa`
     /// is not computed (NaN): a single tone's error amplification says
     /// nothing of the joint fit, whose error is [`Solution::sigma_ln_c`]
-    /// ([`Inverter::kappa`] gives it, at ≈ 2500 instructions, if wanted).
+    /// ([`Inverter::kappa`] gives it, if wanted).
     pub line: Line,
     /// χ² of the fit, the film's prior included (2 degrees of freedom on
     /// a uniform line).
