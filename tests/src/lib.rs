@@ -288,8 +288,10 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
 pub const DSP_BUDGETS: [(&str, f64); 6] = [
     ("demod_pair", 20.0),
     ("eval_ladder30", 1000.0),
-    ("invert_continuous", 6000.0),
-    ("invert_continuous_worst", 10000.0),
+    // Issue 30's way to 1,500 / 2,500: held where it stands (3,911 /
+    // 7,679 after `fmath::hypot` and κ from the exact slope).
+    ("invert_continuous", 4500.0),
+    ("invert_continuous_worst", 8500.0),
     // The firmware issue: a block's processing "well within" its duration
     // (5.12 ms at 170 MHz); 10 % at one instruction per cycle.
     ("block_load_permille", 100.0),
