@@ -76,27 +76,27 @@ fn scaled(x: f64, prec: usize) -> Option<u64> {
 /// Append `x` as its shortest text that reads back to it, as `{}` writes
 /// (module docs).
 pub fn shortest(out: &mut Vec<u8>, x: f64) {
-    // Whole numbers (frequencies, counts) as integers: `{}`'s text.
-    if x.fract() == 0.0 && x.abs() < 1e15 && !(x == 0.0 && x.is_sign_negative()) {
-        int(out, x as i64);
-        return;
-    }
-    if x.is_finite() {
-        let mut b = ryu::Buffer::new();
-        if push_plain(out, b.format_finite(x)) {
-            return;
-        }
-    }
-    let _ = write!(out, "{x}");
+    shortest_of(out, x, x.fract() == 0.0, x.abs() < 1e15, x as i64);
 }
 
 /// Append the f32 `x` as [`shortest`] does an f64.
 pub fn shortest_f32(out: &mut Vec<u8>, x: f32) {
-    if x.fract() == 0.0 && x.abs() < 1e15 && !(x == 0.0 && x.is_sign_negative()) {
-        int(out, x as i64);
+    shortest_of(out, x, x.fract() == 0.0, x.abs() < 1e15, x as i64);
+}
+
+/// [`shortest`] of an f32 or f64 `x`, told whether it is `whole`, `small`
+/// enough for an i64 (|x| < 10¹⁵) and its value `as_int` as one.
+fn shortest_of<T>(out: &mut Vec<u8>, x: T, whole: bool, small: bool, as_int: i64)
+where
+    T: ryu::Float + std::fmt::Display + Copy + PartialEq + Into<f64>,
+{
+    let v: f64 = x.into();
+    // Whole numbers (frequencies, counts) as integers: `{}`'s text.
+    if whole && small && !(v == 0.0 && v.is_sign_negative()) {
+        int(out, as_int);
         return;
     }
-    if x.is_finite() {
+    if v.is_finite() {
         let mut b = ryu::Buffer::new();
         if push_plain(out, b.format_finite(x)) {
             return;
