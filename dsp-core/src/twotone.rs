@@ -126,8 +126,8 @@ pub struct Solution {
     /// nothing of the joint fit, whose error is [`Solution::sigma_ln_c`]
     /// ([`Inverter::kappa`] gives it, if wanted).
     pub line: Line,
-    /// χ² of the fit, the film's prior included (2 degrees of freedom on
-    /// a uniform line).
+    /// χ² of the fit, the film's prior included ([`Solution::dof`]
+    /// degrees of freedom on a uniform line: 2 for two tones).
     pub chi2: f32,
     /// 1σ relative error of C from the fit's covariance.
     pub sigma_ln_c: f32,
@@ -150,8 +150,10 @@ pub struct Solution {
 }
 
 impl Solution {
-    /// One uniform line explains both tones within their noise
-    /// (χ² ≤ [`CHI2_FLAG`]).
+    /// One uniform line explains both tones of a two-tone solution within
+    /// their noise (χ² ≤ [`CHI2_FLAG`], the flag of 2 degrees of freedom;
+    /// a fit of more tones is judged by [`chi2_flag_of`] for its
+    /// [`Solution::dof`]).
     pub fn consistent(&self) -> bool {
         self.chi2 <= CHI2_FLAG
     }

@@ -455,16 +455,11 @@ impl Decoder {
     /// on at the next frame); nothing otherwise. A frame whose sequence
     /// number repeats the last one's is dropped as a duplicate.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, Error>> {
-        self.stats.bytes += 1;
         if byte != 0 {
-            if self.len < self.buf.len() {
-                self.buf[self.len] = byte;
-                self.len += 1;
-            } else {
-                self.overflow = true;
-            }
+            self.take(&[byte]);
             return None;
         }
+        self.stats.bytes += 1;
         let (len, overflow) = (self.len, self.overflow);
         self.len = 0;
         self.overflow = false;

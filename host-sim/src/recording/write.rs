@@ -352,7 +352,8 @@ fn write_trace(path: &Path, ch: u8, f: &str, rs: &[&LoggedRecord], truth: bool) 
         )?;
     }
     // Each row through `numfmt` (Rust's `{:.N}` costs more than the
-    // rest of a replay), the frequency's text once per trace.
+    // rest of a replay); the frequency's text once, a trace holding one
+    // frequency (its rows are grouped by the frequency's bits).
     use crate::numfmt::{fixed, int, shortest};
     let mut hz = vec![];
     shortest(&mut hz, rs.first().map_or(0.0, |r| r.freq_hz));
@@ -383,11 +384,7 @@ fn write_trace(path: &Path, ch: u8, f: &str, rs: &[&LoggedRecord], truth: bool) 
                 field(&mut line, r.r_ohm, 0);
             }
         }
-        if r.freq_hz.to_bits() == rs[0].freq_hz.to_bits() {
-            line.extend_from_slice(&hz);
-        } else {
-            shortest(&mut line, r.freq_hz);
-        }
+        line.extend_from_slice(&hz);
         line.push(b',');
         field(&mut line, r.cs_pf, 4);
         field(&mut line, r.rs_ohm, 0);
