@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 16;
+pub const COUNT: usize = 20;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -175,6 +175,51 @@ pub enum Effect {
     /// capacitance (the polymer's dipolar relaxation; frequency-flat over
     /// the instrument's band). The loss tangent tan δ, 0…1.
     DielectricLoss,
+    /// A localized bump of stretch along the sensor (a press, a bend, a
+    /// fold of the skin under it): local stretch + a·(B(ξ) − B̄), B the
+    /// bump of [`Effect::BumpCentre`] and [`Effect::BumpWidth`]
+    /// ([`bump`]), B̄ its mean, so the mean stretch is unchanged; a > 0
+    /// stretches the bump more than the rest.
+    StretchBump,
+    /// A localized bump of electrode resistance along the sensor (a
+    /// thinner or cracked patch of the film, a > 0, or a thicker one,
+    /// a < 0): resistance per length + a·(B(ξ) − B̄), total unchanged.
+    ResistanceBump,
+    /// Where a bump lies along the sensor: its centre ξ₀ (0: the read
+    /// end, 1: the far end). A shape parameter, fitted with a bump,
+    /// never alone.
+    BumpCentre,
+    /// A bump's full width w, a fraction of the sensor's length (0: no
+    /// bump). A shape parameter, fitted with a bump, never alone.
+    BumpWidth,
+}
+
+/// A localized bump along the sensor at ξ (0…1): cos²(π(ξ − ξ₀)/w) within
+/// w/2 of its centre ξ₀, 0 elsewhere (smooth, with a continuous slope);
+/// 0 everywhere for w ≤ 0.
+pub fn bump(xi: f64, centre: f64, width: f64) -> f64 {
+    let x = xi - centre;
+    if width <= 0.0 || x.abs() >= 0.5 * width {
+        return 0.0;
+    }
+    let c = libm::cos(core::f64::consts::PI * x / width);
+    c * c
+}
+
+/// The mean of [`bump`] over the sensor (ξ in 0…1), in closed form: the
+/// integral x/2 + w/(4π)·sin(2πx/w) over the part of the bump on the
+/// sensor.
+pub fn bump_mean(centre: f64, width: f64) -> f64 {
+    if width <= 0.0 {
+        return 0.0;
+    }
+    let f = |x: f64| 0.5 * x + width / (4.0 * core::f64::consts::PI) * libm::sin(2.0 * core::f64::consts::PI * x / width);
+    let (a, b) = ((-0.5 * width).max(-centre), (0.5 * width).min(1.0 - centre));
+    if b <= a {
+        0.0
+    } else {
+        f(b) - f(a)
+    }
 }
 
 impl Effect {
@@ -196,7 +241,18 @@ impl Effect {
         Effect::MeterMean,
         Effect::MeterEwma,
         Effect::DielectricLoss,
+        Effect::StretchBump,
+        Effect::ResistanceBump,
+        Effect::BumpCentre,
+        Effect::BumpWidth,
     ];
+
+    /// The shape parameters: part of another effect's model (a bump's
+    /// place and width), fitted with it, never as an effect alone.
+    pub const SHAPES: [Effect; 2] = [Effect::BumpCentre, Effect::BumpWidth];
+
+    /// The bumps, whose place and width are [`Effect::SHAPES`].
+    pub const BUMPS: [Effect; 2] = [Effect::StretchBump, Effect::ResistanceBump];
 
     /// Its entry in the catalogue: the catalogue itself, one entry per
     /// effect, so one long `match` on purpose (an effect is added here and
@@ -495,6 +551,80 @@ impl Effect {
                 entry: Entry::Dielectric,
                 fitted: false,
             },
+            // Physical range: a fingertip or an edge pressed into the skin,
+            // a fold, a bend over a joint stretch a patch of the film up
+            // to three times as much as the rest, or hold it back to
+            // nothing (a → −1 for a narrow bump). Searched to twice.
+            Effect::StretchBump => &Info {
+                id: "stretch_bump",
+                key: "stretch_bump_ratio",
+                doc: "a localized bump of stretch along the sensor (bump over mean), -1..3",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-1.0, 3.0),
+                open: true,
+                search: (-0.95, 2.0),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            // Physical range: a crack or a thin patch of a carbon-black
+            // film conducts several times less than the rest (a up to
+            // ~10); a thick or overlapping patch down to nothing
+            // (a → −1). Searched to 8.
+            Effect::ResistanceBump => &Info {
+                id: "resistance_bump",
+                key: "r_bump_ratio",
+                doc: "a localized bump of electrode resistance along the sensor (bump over mean), -1..20",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 4,
+                limits: (-1.0, 20.0),
+                open: true,
+                search: (-0.95, 8.0),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: true,
+            },
+            Effect::BumpCentre => &Info {
+                id: "bump_centre",
+                key: "bump_centre",
+                doc: "the centre of a bump along the sensor (0: the read end, 1: the far end)",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 3,
+                limits: (0.0, 1.0),
+                open: false,
+                search: (0.0, 1.0),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: false,
+            },
+            // What the data resolve: a line read at one end at f sees
+            // along it to about its diffusion length, 1/√(ωRC/2) of the
+            // sensor (a third at 10 kHz on 700 kΩ and 200 pF), and the
+            // nonuniform model cascades 24 pieces: a bump narrower than a
+            // fifth of the sensor is searched as one of a fifth with the
+            // same area (a·w).
+            Effect::BumpWidth => &Info {
+                id: "bump_width",
+                key: "bump_width",
+                doc: "the full width of a bump, a fraction of the sensor's length, 0..1",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 3,
+                limits: (0.0, 1.0),
+                open: false,
+                search: (0.2, 1.0),
+                scope: Scope::Sensor,
+                entry: Entry::AlongLine,
+                fitted: false,
+            },
         }
     }
 
@@ -508,9 +638,15 @@ impl Effect {
         Effect::ALL.into_iter().find(|e| e.id() == id)
     }
 
-    /// The effects `identify` fits.
+    /// The effects `identify` fits (a shape parameter only with its
+    /// bump).
     pub fn library() -> impl Iterator<Item = Effect> {
         Effect::ALL.into_iter().filter(|e| e.info().fitted)
+    }
+
+    /// A shape parameter ([`Effect::SHAPES`]): part of a bump.
+    pub fn is_shape(self) -> bool {
+        Effect::SHAPES.contains(&self)
     }
 
     /// A property of the sensor and its wiring (a device calibration can
@@ -611,27 +747,57 @@ impl EffectSet {
     }
 
     /// Local stretch over mean stretch at ξ along the sensor (0: the read
-    /// end, 1: the far end): 1 + u·(2ξ − 1) + v·(6ξ(1 − ξ) − 1), u the
-    /// [`Effect::NonuniformStretch`] (linear) and v the
-    /// [`Effect::StretchBulge`] (symmetric) mode; each mode's mean is 0.
+    /// end, 1: the far end): 1 + u·(2ξ − 1) + v·(6ξ(1 − ξ) − 1) +
+    /// a·(B(ξ) − B̄), u the [`Effect::NonuniformStretch`] (linear) and v
+    /// the [`Effect::StretchBulge`] (symmetric) mode, a the
+    /// [`Effect::StretchBump`] of the bump B ([`bump`]); each term's mean
+    /// is 0. Floored at 0.
     pub fn stretch_profile(&self, xi: f64) -> f64 {
         let (u, v) = (
             self.get(Effect::NonuniformStretch),
             self.get(Effect::StretchBulge),
         );
-        1.0 + u * (2.0 * xi - 1.0) + v * (6.0 * xi * (1.0 - xi) - 1.0)
+        (1.0 + u * (2.0 * xi - 1.0) + v * (6.0 * xi * (1.0 - xi) - 1.0) + self.bump_term(Effect::StretchBump, xi))
+            .max(0.0)
     }
 
     /// Electrode resistance per length over its mean at ξ along the
-    /// sensor: 1 + g·(2ξ − 1) + b·(6ξ(1 − ξ) − 1), g the
+    /// sensor: 1 + g·(2ξ − 1) + b·(6ξ(1 − ξ) − 1) + a·(B(ξ) − B̄), g the
     /// [`Effect::ResistanceGradient`] (linear) and b the
-    /// [`Effect::ResistanceBulge`] (symmetric) mode, floored at 0.
+    /// [`Effect::ResistanceBulge`] (symmetric) mode, a the
+    /// [`Effect::ResistanceBump`], floored at 0.
     pub fn resistance_profile(&self, xi: f64) -> f64 {
         let (g, b) = (
             self.get(Effect::ResistanceGradient),
             self.get(Effect::ResistanceBulge),
         );
-        (1.0 + g * (2.0 * xi - 1.0) + b * (6.0 * xi * (1.0 - xi) - 1.0)).max(0.0)
+        (1.0 + g * (2.0 * xi - 1.0) + b * (6.0 * xi * (1.0 - xi) - 1.0) + self.bump_term(Effect::ResistanceBump, xi))
+            .max(0.0)
+    }
+
+    /// a·(B(ξ) − B̄) of the bump `e` (0 without it).
+    fn bump_term(&self, e: Effect, xi: f64) -> f64 {
+        let a = self.get(e);
+        if a == 0.0 {
+            return 0.0;
+        }
+        let (c, w) = (self.get(Effect::BumpCentre), self.get(Effect::BumpWidth));
+        a * (bump(xi, c, w) - bump_mean(c, w))
+    }
+
+    /// Is the stretch nonuniform along the sensor (any stretch mode or
+    /// bump)?
+    pub fn stretched(&self) -> bool {
+        self.has(Effect::NonuniformStretch) || self.has(Effect::StretchBulge) || self.has(Effect::StretchBump)
+    }
+
+    /// Is the line nonuniform along the sensor (any stretch or
+    /// resistance mode or bump)?
+    pub fn nonuniform(&self) -> bool {
+        self.stretched()
+            || self.has(Effect::ResistanceGradient)
+            || self.has(Effect::ResistanceBulge)
+            || self.has(Effect::ResistanceBump)
     }
 
     /// The wiring as the meter sees it: (resistance in series with the

@@ -11,7 +11,7 @@
 
 use crate::bench::ROW_S;
 use crate::meter::{Dynamics, Meter};
-use crate::sensor::{ColeCole, Effects};
+use crate::sensor::{Bump, ColeCole, Effects};
 use rand::Rng;
 
 /// A family of effects.
@@ -50,6 +50,15 @@ pub enum Family {
     Leads,
     /// Dispersive film conductivity, τ 2–300 µs.
     FilmDispersion,
+    /// A Gaussian bump of stretch along the sensor (a fingertip or an
+    /// edge pressed into the skin, a fold): 0.2–2 times the mean stretch
+    /// more, or 0.2–0.8 less, centred 0.1–0.9 along, 12–50 % of the
+    /// length wide at half height.
+    StretchBump,
+    /// A Gaussian bump of the film's resistance (a thin or cracked patch:
+    /// 0.2–6 times the mean more; a thick one: 0.2–0.8 less), placed and
+    /// sized as [`Family::StretchBump`].
+    ResistanceBump,
     /// Outside the catalogue: dielectric relaxation (Cole–Cole).
     Relaxation,
     /// Outside the catalogue: a blocking (capacitive) contact at the tabs.
@@ -58,7 +67,7 @@ pub enum Family {
 
 impl Family {
     /// The families an analysis is expected to name.
-    pub const IN_LIBRARY: [Family; 13] = [
+    pub const IN_LIBRARY: [Family; 15] = [
         Family::Contact,
         Family::Parasitic,
         Family::ResistanceProfile,
@@ -72,6 +81,8 @@ impl Family {
         Family::Offset,
         Family::Leads,
         Family::FilmDispersion,
+        Family::StretchBump,
+        Family::ResistanceBump,
     ];
 
     /// The families outside the catalogue.
@@ -93,6 +104,8 @@ impl Family {
             Family::Offset => "offset",
             Family::Leads => "leads",
             Family::FilmDispersion => "film_dispersion",
+            Family::StretchBump => "stretch_bump",
+            Family::ResistanceBump => "resistance_bump",
             Family::Relaxation => "relaxation",
             Family::BlockingContact => "blocking_contact",
         }
@@ -116,6 +129,10 @@ impl Family {
             Family::Offset => &["time_offset"],
             Family::Leads => &["lead_resistance"],
             Family::FilmDispersion => &["electrode_dispersion"],
+            // A profile along the sensor, whichever shape names it: a
+            // wide bump is a mode to the data.
+            Family::StretchBump => &["stretch_bump", "stretch_bulge", "nonuniform_stretch"],
+            Family::ResistanceBump => &["resistance_bump", "resistance_bulge", "resistance_gradient"],
             Family::Relaxation | Family::BlockingContact => &[],
         }
     }
@@ -214,6 +231,24 @@ impl Family {
             Family::FilmDispersion => {
                 v = log(rng, 2e-6, 300e-6);
                 fx.film_tau_s = v;
+            }
+            Family::StretchBump | Family::ResistanceBump => {
+                let up = if self == Family::StretchBump { 2.0 } else { 6.0 };
+                v = if rng.gen::<bool>() {
+                    log(rng, 0.2, up)
+                } else {
+                    -log(rng, 0.2, 0.8)
+                };
+                let bump = Bump {
+                    amplitude: v,
+                    centre: rng.gen_range(0.1..0.9),
+                    fwhm: log(rng, 0.12, 0.5),
+                };
+                if self == Family::StretchBump {
+                    fx.stretch_bump = bump;
+                } else {
+                    fx.resistance_bump = bump;
+                }
             }
             Family::Relaxation => {
                 v = rng.gen_range(0.01..0.06);

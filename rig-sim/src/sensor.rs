@@ -107,6 +107,42 @@ pub struct Effects {
     pub film_tau_s: f64,
     /// Dielectric relaxation.
     pub dielectric: ColeCole,
+    /// A localized bump of stretch along the sensor (a press, a fold).
+    pub stretch_bump: Bump,
+    /// A localized bump of the film's resistance (a thin or cracked
+    /// patch, or a thick one).
+    pub resistance_bump: Bump,
+}
+
+/// A Gaussian bump along the sensor: a profile 1 + a·(g(ξ) − ḡ), g =
+/// exp(−(ξ − ξ₀)²/2σ²) of full width at half height 2.355σ, ḡ its mean
+/// over the line's cells (so the profile's mean is 1 on the cells).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Bump {
+    /// Amplitude a (0: none).
+    pub amplitude: f64,
+    /// Centre ξ₀ (0: the read end, 1: the far end).
+    pub centre: f64,
+    /// Full width at half height, a fraction of the length.
+    pub fwhm: f64,
+}
+
+impl Bump {
+    /// g(ξ) (0 without a bump).
+    fn g(&self, xi: f64) -> f64 {
+        if self.amplitude == 0.0 || self.fwhm <= 0.0 {
+            return 0.0;
+        }
+        let sigma = self.fwhm / (8.0 * 2f64.ln()).sqrt();
+        (-(xi - self.centre).powi(2) / (2.0 * sigma * sigma)).exp()
+    }
+
+    /// The profile's factors on `n` cells (midpoints), mean 1.
+    fn factors(&self, n: usize) -> impl Fn(usize) -> f64 + '_ {
+        let xi = move |i: usize| (i as f64 + 0.5) / n as f64;
+        let mean = (0..n).map(|i| self.g(xi(i))).sum::<f64>() / n as f64;
+        move |i| 1.0 + self.amplitude * (self.g(xi(i)) - mean)
+    }
 }
 
 /// Normalised exp(κ(ξ − ½)) (mean 1 over ξ ∈ [0, 1]).
@@ -166,12 +202,13 @@ impl Sensor {
         let (mut r_top, mut r_bottom, mut c) = (0.0, 0.0, 0.0);
         // From the open far end towards the tabs.
         let mut zin: Option<Complex64> = None;
+        let (sb, rb) = (fx.stretch_bump.factors(n), fx.resistance_bump.factors(n));
         for i in (0..n).rev() {
             let xi = (i as f64 + 0.5) / n as f64;
-            let p = exp_profile(fx.stretch_kappa, xi) * sin_profile(fx.stretch_bulge, xi);
+            let p = exp_profile(fx.stretch_kappa, xi) * sin_profile(fx.stretch_bulge, xi) * sb(i);
             let li = 1.0 + (lam - 1.0) * p;
             let ci = self.c0_f * li.powf(self.c_exp) / n as f64;
-            let wr = exp_profile(fx.resistance_kappa, xi) * sin_profile(fx.resistance_bulge, xi);
+            let wr = exp_profile(fx.resistance_kappa, xi) * sin_profile(fx.resistance_bulge, xi) * rb(i).max(0.0);
             let scale = li.powf(self.r_exp) * dyn_r * wr / n as f64;
             let (rt, rb) = (self.r0_top_ohm * scale, self.r0_bottom_ohm * scale);
             r_top += rt;

@@ -334,14 +334,7 @@ impl Sensor {
 
     /// No profile along the sensor: all segments alike.
     fn uniform_profiles(&self) -> bool {
-        let fx = &self.params.effects;
-        let profiles = [
-            Effect::NonuniformStretch,
-            Effect::StretchBulge,
-            Effect::ResistanceGradient,
-            Effect::ResistanceBulge,
-        ];
-        profiles.iter().all(|&e| fx.get(e) == 0.0)
+        !self.params.effects.nonuniform()
     }
 
     /// The line's impedance by the segment recursion (any profile).

@@ -230,7 +230,31 @@ impl Problem<'_> {
         let mut p = start;
         if !scan.is_empty() {
             let mut s_best = coarse.eval(p).map_or(f64::INFINITY, |ev| ev.s);
-            for &e in scan {
+            // A bump with its place and width: on a joint grid (its
+            // amplitude does nothing without a width, and its place and
+            // width trade against each other).
+            let bump = scan.iter().copied().find(|e| Effect::BUMPS.contains(e));
+            if let (Some(b), true) = (bump, scan.contains(&Effect::BumpCentre)) {
+                let mut at = (p.get(b), p.get(Effect::BumpCentre), p.get(Effect::BumpWidth));
+                for c in BUMP_CENTRES {
+                    for w in BUMP_WIDTHS {
+                        let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
+                        for v in grid(&coarse.prep.search, b).into_iter().filter(|&v| v != 0.0) {
+                            if let Some(ev) = coarse.eval(q.with(b, v)) {
+                                if ev.s < s_best {
+                                    s_best = ev.s;
+                                    at = (v, c, w);
+                                }
+                            }
+                        }
+                    }
+                }
+                p = p
+                    .with(b, at.0)
+                    .with(Effect::BumpCentre, at.1)
+                    .with(Effect::BumpWidth, at.2);
+            }
+            for &e in scan.iter().filter(|e| bump.is_none() || !(Effect::BUMPS.contains(e) || e.is_shape())) {
                 let mut at = p.get(e);
                 for v in grid(&coarse.prep.search, e) {
                     if let Some(ev) = coarse.eval(p.with(e, v)) {
@@ -350,6 +374,12 @@ impl Problem<'_> {
         (p, best, None)
     }
 }
+
+/// A bump's places on its joint grid (fractions of the sensor).
+const BUMP_CENTRES: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
+
+/// A bump's widths on its joint grid (fractions of the sensor).
+const BUMP_WIDTHS: [f64; 2] = [0.3, 0.6];
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
 /// (factor 2) across its range in `search`, from its end down to the

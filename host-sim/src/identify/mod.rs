@@ -163,7 +163,16 @@ impl Fit {
     pub fn params_of(&self, e: Effect) -> Vec<Effect> {
         let mut v = vec![e];
         if KERNELS.contains(&e) && self.effects.iter().find(|k| KERNELS.contains(k)) == Some(&e) {
-            v.extend(self.fitted.iter().filter(|f| !self.effects.contains(f)));
+            v.extend(
+                self.fitted
+                    .iter()
+                    .filter(|f| !self.effects.contains(f) && !f.is_shape()),
+            );
+        }
+        // A bump's place and width (shared by both bumps: the first holds
+        // them).
+        if Effect::BUMPS.contains(&e) && self.effects.iter().find(|k| Effect::BUMPS.contains(k)) == Some(&e) {
+            v.extend(self.fitted.iter().filter(|f| f.is_shape()));
         }
         v
     }
@@ -344,6 +353,8 @@ struct Candidate {
 fn fitted_for(e: Effect) -> Vec<Effect> {
     if e == Effect::MeterLag || DISCRETE.contains(&e) {
         vec![e, Effect::TimeOffset]
+    } else if Effect::BUMPS.contains(&e) {
+        vec![e, Effect::BumpCentre, Effect::BumpWidth]
     } else {
         vec![e]
     }
@@ -474,6 +485,8 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     if f.fitted.iter().any(|e| KERNELS.contains(e)) {
         f.averaging = Some(averaging);
     }
+    // A bump's place and width are part of it.
+    f.effects.retain(|e| !e.is_shape());
     f
 }
 

@@ -79,10 +79,7 @@ pub(crate) fn has_time(p: &Params) -> bool {
 }
 
 pub(crate) fn nonuniform(p: &Params) -> bool {
-    p.has(Effect::ResistanceGradient)
-        || p.has(Effect::ResistanceBulge)
-        || p.has(Effect::NonuniformStretch)
-        || p.has(Effect::StretchBulge)
+    p.nonuniform()
 }
 
 /// Line model of the baseline.
@@ -175,7 +172,7 @@ impl Model<'_> {
     #[allow(clippy::too_many_arguments)]
     fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64, film: Complex64, n: usize) -> Complex64 {
         let p = &self.params;
-        let stretched = p.has(Effect::NonuniformStretch) || p.has(Effect::StretchBulge);
+        let stretched = p.stretched();
         let at = |xi: f64| {
             let sl = s * p.stretch_profile(xi);
             let (rho, cl) = if stretched {

@@ -1,7 +1,7 @@
 //! A data set prepared for fast model evaluation, and its predictions.
 
 use super::search::Search;
-use super::{has_time, timed::timed, Averaging, Effect, Line, Model, Params, Shape};
+use super::{has_time, timed::timed, Averaging, Line, Model, Params, Shape};
 use crate::dataset::{DataSet, Kind, Table};
 use crate::numerics::quadratic_fit;
 use anyhow::Result;
@@ -123,7 +123,7 @@ impl Prepared {
         params: Params,
         use_it: impl FnOnce(&dyn Fn(f64, f64, f64) -> Option<num_complex::Complex64>) -> T,
     ) -> Result<T> {
-        let stretched = params.has(Effect::NonuniformStretch) || params.has(Effect::StretchBulge);
+        let stretched = params.stretched();
         let mut local = stretched.then(|| self.shape.local(&params));
         // The calibration's raw Cs carries the line's bias, which grows
         // with R along the stretch: the local C(s) is un-averaged from the

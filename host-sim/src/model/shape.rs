@@ -59,7 +59,8 @@ impl Shape {
     /// symmetric mode v): the calibration recorded each curve's mean along
     /// the sensor, so the local ones are found by undoing that mean. C:
     /// exact for the quadratic (c2 → c2/mean φ², mean φ² = 1 + u²/3 +
-    /// v²/5; the modes are orthogonal). R: fixed-point iteration
+    /// v²/5 for the modes, which are orthogonal; with a bump, by the
+    /// midpoint rule on 512 points). R: fixed-point iteration
     /// ρ ← ρ·R_cal/mean_ξ ρ(s·φ(ξ)) at the calibration points, R_cal the
     /// film's (the recorded totals less the contacts of `p`).
     pub fn local(&self, p: &crate::model::Params) -> Shape {
@@ -74,7 +75,16 @@ impl Shape {
             .map(|&(s, r)| (s, (r - rc4).max(1e-3 * r)))
             .collect();
         let [a, b, c2] = self.c;
-        let mut out = Shape::new([a, b, c2 / (1.0 + u * u / 3.0 + v * v / 5.0)], film.clone());
+        let mean_sq = if p.has(Effect::StretchBump) {
+            const M: usize = 512;
+            (0..M)
+                .map(|i| p.stretch_profile((i as f64 + 0.5) / M as f64).powi(2))
+                .sum::<f64>()
+                / M as f64
+        } else {
+            1.0 + u * u / 3.0 + v * v / 5.0
+        };
+        let mut out = Shape::new([a, b, c2 / mean_sq], film.clone());
         for _ in 0..6 {
             let next: Vec<(f64, f64)> = film
                 .iter()
