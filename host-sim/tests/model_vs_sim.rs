@@ -64,13 +64,31 @@ fn model_matches_the_simulated_sensor_for_every_static_effect() {
         (Effect::LeadResistance, 0.5, Effect::StretchBulge, 0.3),
     ]
     .map(|(a, x, b, y)| (EffectSet::NONE.with(a, x).with(b, y), vec![a, b]));
-    for (fx, ids) in one.into_iter().chain(combos) {
+    // Localized bumps, inside the sensor and cut by an end, down to the
+    // narrowest the model resolves (a fifth of the sensor). A stretch
+    // bump's peak stays within the stretch bulge's reach past the
+    // calibration (37 mm at 30 mm): beyond it R(s) is the calibration's
+    // quadratic continuation, which the film's own R(s) leaves (a bump of
+    // 0.8, 49 mm: 5 pF off at 6 kHz).
+    let bumps = [
+        (Effect::StretchBump, 0.3, 0.3, 0.4),
+        (Effect::StretchBump, -0.5, 0.9, 0.5),
+        (Effect::ResistanceBump, 3.0, 0.6, 0.2),
+        (Effect::ResistanceBump, -0.7, 0.05, 0.6),
+    ]
+    .map(|(e, a, c, w)| {
+        let fx = EffectSet::NONE
+            .with(e, a)
+            .with(Effect::BumpCentre, c)
+            .with(Effect::BumpWidth, w);
+        (fx, vec![e])
+    });
+    for (fx, ids) in one.into_iter().chain(combos).chain(bumps) {
         let name = ids.iter().map(|e| e.id()).collect::<Vec<_>>().join(" + ");
         // The local curves, for a nonuniform stretch, are undone from the
         // calibration's means.
         let sh = shape(fx);
-        let stretched = fx.has(Effect::NonuniformStretch) || fx.has(Effect::StretchBulge);
-        let sh = if stretched { sh.local(&fx) } else { sh };
+        let sh = if fx.stretched() { sh.local(&fx) } else { sh };
         let m = Model {
             line: Line::Continuous,
             params: fx,
@@ -90,7 +108,7 @@ fn model_matches_the_simulated_sensor_for_every_static_effect() {
         // Nonuniform stretch: its local R(s) is un-averaged from the
         // calibration and extrapolated past 30 mm, good to 0.03 pF (below
         // the meter's ≈ 0.05 pF noise); the others to 0.01 pF.
-        let bound = if fx.has(Effect::StretchBulge) {
+        let bound = if fx.has(Effect::StretchBulge) || fx.has(Effect::StretchBump) {
             // The middle of a sensor bulging by 0.5 at 30 mm is at 37.5 mm
             // (−0.3: the ends at 39 mm): its R there is the calibration's
             // quadratic continuation (0.040 pF at 6 kHz, 0.02 % of C).

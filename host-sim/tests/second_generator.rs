@@ -110,7 +110,7 @@ fn survey() {
         by[k].1 += 1;
         if base > 1.5 * nf {
             by[k].2 += 1;
-            by[k].3 += usize::from(f.named_right_at(&ids, v, 0.02));
+            by[k].3 += usize::from(f.named_right_at(&ids, &meter, 0.02));
             by[k].4.push(fin / fnf);
             by[k].5.push(base / fin);
         }
@@ -220,7 +220,7 @@ fn covered_families_are_named_right_and_explained() {
             continue;
         }
         detectable += 1;
-        if family.named_right_at(&ids, v, 0.02) {
+        if family.named_right_at(&ids, &meter, 0.02) {
             right += 1;
         } else {
             bad.push(format!("seed {seed}: {} named {ids:?}", family.name()));

@@ -50,12 +50,12 @@ pub enum Family {
     Leads,
     /// Dispersive film conductivity, τ 2–300 µs.
     FilmDispersion,
-    /// A Gaussian bump of stretch along the sensor (a fingertip or an
-    /// edge pressed into the skin, a fold): 0.2–2 times the mean stretch
-    /// more, or 0.2–0.8 less, centred 0.1–0.9 along, 12–50 % of the
-    /// length wide at half height.
+    /// A sine-squared bump of stretch along the sensor (a fingertip or
+    /// an edge pressed into the skin, a fold): 0.2–2 times the mean
+    /// stretch more, or 0.2–0.8 less, centred 0.1–0.9 along, 25–100 % of
+    /// the length wide at its foot (12–50 % at half height).
     StretchBump,
-    /// A Gaussian bump of the film's resistance (a thin or cracked patch:
+    /// A sine-squared bump of the film's resistance (a thin or cracked patch:
     /// 0.2–6 times the mean more; a thick one: 0.2–0.8 less), placed and
     /// sized as [`Family::StretchBump`].
     ResistanceBump,
@@ -144,18 +144,20 @@ impl Family {
         !ids.is_empty() && ids.iter().all(|id| ok.contains(id))
     }
 
-    /// [`Family::named_right`] for a set drawn at `v` and recorded every
-    /// `row_s`: a meter kernel whose centroid (T/2 of a window, τ of a
-    /// first-order response, the drawn centroid of a discrete meter) is
-    /// under one row interval is resolved from nothing but a delay, so
-    /// `time_offset` names it right too.
-    pub fn named_right_at(self, ids: &[&str], v: f64, row_s: f64) -> bool {
-        let centroid = match self {
-            Family::Window => 0.5 * v.abs(),
-            Family::FirstOrder | Family::MovingMean | Family::Ewma => v,
+    /// [`Family::named_right`] for a set recorded by `meter` every
+    /// `row_s`: a meter kernel whose own centroid
+    /// ([`Dynamics::kernel_centroid_s`]: T/2 of a window, τ, (N − 1)/2 or
+    /// (1 − w)/w readings, without its delay) is under one row interval
+    /// is resolved from nothing but a delay, so `time_offset` names it
+    /// right too.
+    pub fn named_right_at(self, ids: &[&str], meter: &Meter, row_s: f64) -> bool {
+        let kernel = match self {
+            Family::Window | Family::FirstOrder | Family::MovingMean | Family::Ewma => {
+                meter.dynamics.kernel_centroid_s(row_s)
+            }
             _ => f64::INFINITY,
         };
-        self.named_right(ids) || (centroid < row_s && ids == ["time_offset"])
+        self.named_right(ids) || (kernel < row_s && ids == ["time_offset"])
     }
 
     /// A random strength over the family's physical range: the effects
@@ -239,10 +241,11 @@ impl Family {
                 } else {
                     -log(rng, 0.2, 0.8)
                 };
+                let (centre, width) = (rng.gen_range(0.1..0.9), log(rng, 0.25, 1.0));
                 let bump = Bump {
                     amplitude: v,
-                    centre: rng.gen_range(0.1..0.9),
-                    fwhm: log(rng, 0.12, 0.5),
+                    start: centre - 0.5 * width,
+                    end: centre + 0.5 * width,
                 };
                 if self == Family::StretchBump {
                     fx.stretch_bump = bump;
@@ -286,10 +289,32 @@ mod tests {
             assert_eq!(f.catalogue_ids().is_empty(), Family::OUTSIDE.contains(f));
         }
         assert!(Family::Window.named_right(&["meter_lag"]));
-        assert!(Family::Window.named_right_at(&["time_offset"], 0.03, 0.02));
-        assert!(!Family::Window.named_right_at(&["time_offset"], 0.05, 0.02));
-        assert!(Family::FirstOrder.named_right_at(&["time_offset"], 0.015, 0.02));
-        assert!(!Family::Offset.named_right_at(&["meter_lag"], 0.01, 0.02));
+        let with = |dynamics| Meter {
+            dynamics,
+            ..Meter::BENCH
+        };
+        let window = |length_s| {
+            with(Dynamics::Window {
+                length_s,
+                centred: true,
+            })
+        };
+        assert!(Family::Window.named_right_at(&["time_offset"], &window(0.03), 0.02));
+        assert!(!Family::Window.named_right_at(&["time_offset"], &window(0.05), 0.02));
+        let fo = with(Dynamics::FirstOrder { tau_s: 0.015 });
+        assert!(Family::FirstOrder.named_right_at(&["time_offset"], &fo, 0.02));
+        // Two readings three rows late: a delay to the data.
+        let late = with(Dynamics::MovingMean {
+            readings: 2,
+            delay: 3,
+        });
+        assert!(Family::MovingMean.named_right_at(&["time_offset"], &late, 0.02));
+        let long = with(Dynamics::MovingMean {
+            readings: 4,
+            delay: 0,
+        });
+        assert!(!Family::MovingMean.named_right_at(&["time_offset"], &long, 0.02));
+        assert!(!Family::Offset.named_right_at(&["meter_lag"], &fo, 0.02));
         assert!(!Family::Window.named_right(&["meter_lag", "time_offset"]));
         assert!(!Family::Contact.named_right(&[]));
     }

@@ -76,6 +76,22 @@ impl Dynamics {
     /// The kernel's centroid, s, for rows every `row_s`: T/2 of a
     /// trailing window (0 centred), τ of a first-order average, the mean
     /// age of a discrete kernel's readings with its delay.
+    /// The kernel's own centroid, s: how far back from its newest reading
+    /// it averages, without its delay or where a window is stamped (T/2
+    /// of a window, τ, (N − 1)/2 and (1 − w)/w readings). Under a row
+    /// interval a kernel reads as a delay alone on the data's rows.
+    pub fn kernel_centroid_s(&self, row_s: f64) -> f64 {
+        match *self {
+            Dynamics::Instant => 0.0,
+            Dynamics::Window { length_s, .. } => 0.5 * length_s,
+            Dynamics::FirstOrder { tau_s } => tau_s,
+            Dynamics::MovingMean { readings, .. } => 0.5 * (readings.max(1) - 1) as f64 * row_s,
+            Dynamics::Ewma { weight, .. } => (1.0 - weight) / weight * row_s,
+        }
+    }
+
+    /// The centroid of the reading's kernel behind its time stamp, s
+    /// (with the delay).
     pub fn centroid_s(&self, row_s: f64) -> f64 {
         match *self {
             Dynamics::Instant => 0.0,

@@ -114,27 +114,29 @@ pub struct Effects {
     pub resistance_bump: Bump,
 }
 
-/// A Gaussian bump along the sensor: a profile 1 + a·(g(ξ) − ḡ), g =
-/// exp(−(ξ − ξ₀)²/2σ²) of full width at half height 2.355σ, ḡ its mean
-/// over the line's cells (so the profile's mean is 1 on the cells).
+/// A sine-squared bump along the sensor, from ξ_a to ξ_b (the issue's
+/// external generator's shape): a profile 1 + a·(g(ξ) − ḡ), g =
+/// sin²(π(ξ − ξ_a)/(ξ_b − ξ_a)) between them, 0 outside, ḡ its mean over
+/// the line's cells (so the profile's mean is 1 on the cells).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Bump {
     /// Amplitude a (0: none).
     pub amplitude: f64,
-    /// Centre ξ₀ (0: the read end, 1: the far end).
-    pub centre: f64,
-    /// Full width at half height, a fraction of the length.
-    pub fwhm: f64,
+    /// Where it starts, ξ_a (0: the read end, 1: the far end; may lie
+    /// beyond either end).
+    pub start: f64,
+    /// Where it ends, ξ_b > ξ_a.
+    pub end: f64,
 }
 
 impl Bump {
     /// g(ξ) (0 without a bump).
     fn g(&self, xi: f64) -> f64 {
-        if self.amplitude == 0.0 || self.fwhm <= 0.0 {
+        let span = self.end - self.start;
+        if self.amplitude == 0.0 || span <= 0.0 || xi <= self.start || xi >= self.end {
             return 0.0;
         }
-        let sigma = self.fwhm / (8.0 * 2f64.ln()).sqrt();
-        (-(xi - self.centre).powi(2) / (2.0 * sigma * sigma)).exp()
+        (PI * (xi - self.start) / span).sin().powi(2)
     }
 
     /// The profile's factors on `n` cells (midpoints), mean 1.
@@ -208,7 +210,8 @@ impl Sensor {
             let p = exp_profile(fx.stretch_kappa, xi) * sin_profile(fx.stretch_bulge, xi) * sb(i);
             let li = 1.0 + (lam - 1.0) * p;
             let ci = self.c0_f * li.powf(self.c_exp) / n as f64;
-            let wr = exp_profile(fx.resistance_kappa, xi) * sin_profile(fx.resistance_bulge, xi) * rb(i).max(0.0);
+            let wr =
+                exp_profile(fx.resistance_kappa, xi) * sin_profile(fx.resistance_bulge, xi) * rb(i).max(0.0);
             let scale = li.powf(self.r_exp) * dyn_r * wr / n as f64;
             let (rt, rb) = (self.r0_top_ohm * scale, self.r0_bottom_ohm * scale);
             r_top += rt;

@@ -254,7 +254,10 @@ impl Problem<'_> {
                     .with(Effect::BumpCentre, at.1)
                     .with(Effect::BumpWidth, at.2);
             }
-            for &e in scan.iter().filter(|e| bump.is_none() || !(Effect::BUMPS.contains(e) || e.is_shape())) {
+            for &e in scan
+                .iter()
+                .filter(|e| bump.is_none() || !(Effect::BUMPS.contains(e) || e.is_shape()))
+            {
                 let mut at = p.get(e);
                 for v in grid(&coarse.prep.search, e) {
                     if let Some(ev) = coarse.eval(p.with(e, v)) {
@@ -376,10 +379,10 @@ impl Problem<'_> {
 }
 
 /// A bump's places on its joint grid (fractions of the sensor).
-const BUMP_CENTRES: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
+const BUMP_CENTRES: [f64; 10] = [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95];
 
 /// A bump's widths on its joint grid (fractions of the sensor).
-const BUMP_WIDTHS: [f64; 2] = [0.3, 0.6];
+const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
 /// (factor 2) across its range in `search`, from its end down to the

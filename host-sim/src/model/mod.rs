@@ -145,6 +145,11 @@ impl Model<'_> {
             }
         } else {
             let n = match self.line {
+                // A bump (as narrow as a fifth of the sensor) on twice as
+                // many pieces.
+                Line::Continuous if p.has(Effect::StretchBump) || p.has(Effect::ResistanceBump) => {
+                    2 * SEGMENTS
+                }
                 Line::Continuous => SEGMENTS,
                 Line::Ladder(n) => (n.max(1) as usize).min(64),
             };
@@ -160,7 +165,8 @@ impl Model<'_> {
 
     /// Nonuniform line of total R (Ω), C (F), G (S) at mean stretch s.
     ///
-    /// Continuous: [`SEGMENTS`] exact uniform pieces, each with the mean
+    /// Continuous: [`SEGMENTS`] exact uniform pieces (twice as many with
+    /// a localized bump, which may be a fifth of the sensor wide), each with the mean
     /// of the profiles over its length (Simpson's rule, so the totals are
     /// right to fourth order), and half as many; piecewise-uniform
     /// cascades err by O(1/n²), so (4·Z(n) − Z(n/2))/3 is the line to
