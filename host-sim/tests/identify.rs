@@ -26,10 +26,24 @@ fn hidden(effect: Effect, v: f64) -> (EffectSet, Meter) {
     (fx, Meter::lcr(&fx))
 }
 
+/// [`hidden`], a bump placed and sized by `rng`: centred 0.1–0.9 along
+/// the sensor, 0.25–0.8 of it wide at its foot.
+fn hidden_with(effect: Effect, v: f64, rng: &mut Rng) -> (EffectSet, Meter) {
+    let (fx, meter) = hidden(effect, v);
+    if !Effect::BUMPS.contains(&effect) {
+        return (fx, meter);
+    }
+    let fx = fx
+        .with(Effect::BumpCentre, 0.1 + 0.8 * rng.uniform())
+        .with(Effect::BumpWidth, log_uniform(0.25, 0.8, false, rng));
+    (fx, meter)
+}
+
 /// Whether `named` is the right answer for `effect` at strength `v` (SI):
 /// the effect itself, or, for a meter kernel whose centroid (T/2, τ) is
 /// under one row interval (20 ms), the delay it causes (`time_offset`),
-/// which is all the rows resolve of it.
+/// which is all the rows resolve of it; for a bump, shapes of the same
+/// quantity along the sensor.
 fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
     let centroid = match effect {
         Effect::MeterLag => 0.5 * v,
@@ -38,7 +52,15 @@ fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
         Effect::MeterEwma => v / (1.0 - v) * 0.02,
         _ => f64::INFINITY,
     };
-    named == [effect.id()] || (centroid < 0.02 && named == ["time_offset"])
+    // A bump is a profile of its quantity: a wide one reads as a mode.
+    let shapes: &[&str] = match effect {
+        Effect::StretchBump => &["stretch_bump", "stretch_bulge", "nonuniform_stretch"],
+        Effect::ResistanceBump => &["resistance_bump", "resistance_bulge", "resistance_gradient"],
+        _ => &[],
+    };
+    named == [effect.id()]
+        || (centroid < 0.02 && named == ["time_offset"])
+        || (!named.is_empty() && named.iter().all(|n| shapes.contains(n)))
 }
 
 /// A log-uniform magnitude in [lo, hi], with a random sign if `signed`.
@@ -71,7 +93,13 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         // 3–12 readings of 20 ms; a memory of 0.3–0.85 (τ of 0.4–5.7 rows).
         Effect::MeterMean => (3.0, 12.0, false),
         Effect::MeterEwma => (0.3, 0.85, false),
+        // A stretch bump's peak within the calibration's reach (37 mm at
+        // 30 mm, as the stretch bulge's); a patch 1.2–4 times the film's
+        // mean resistance, or down to a fifth.
+        Effect::StretchBump => (0.1, 0.4, true),
+        Effect::ResistanceBump => (0.2, 3.0, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
+        Effect::BumpCentre | Effect::BumpWidth => unreachable!("parts of a bump"),
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -101,7 +129,11 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         // memory from 0.1 to 0.98 (τ to 49 rows, 1 s).
         Effect::MeterMean => (2.0, 50.0, false),
         Effect::MeterEwma => (0.1, 0.98, false),
+        // A press or a fold (the catalogue's notes), a thin or thick patch.
+        Effect::StretchBump => (0.02, 0.95, true),
+        Effect::ResistanceBump => (0.02, 0.95, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
+        Effect::BumpCentre | Effect::BumpWidth => unreachable!("parts of a bump"),
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -126,7 +158,7 @@ fn survey() {
         let mut rng = Rng::new(7000 + seed);
         let effect = library[(rng.uniform() * library.len() as f64) as usize % library.len()];
         let v = physical_strength(effect, &mut rng);
-        let (fx, meter) = hidden(effect, v);
+        let (fx, meter) = hidden_with(effect, v, &mut rng);
         let r = run(&tmp.path().join(format!("p{seed}")), fx, meter, seed);
         let nf = r.noise_floor_pf;
         // After: against the floor seen through the final model.
@@ -180,7 +212,7 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
         let mut rng = Rng::new(1000 + seed);
         let effect = library[(rng.uniform() * n as f64) as usize % n];
         let v = strength(effect, &mut rng);
-        let (fx, meter) = hidden(effect, v);
+        let (fx, meter) = hidden_with(effect, v, &mut rng);
         let r = run(&tmp.path().join(format!("s{seed}")), fx, meter, seed);
         let nf = r.noise_floor_pf;
         let (b, f) = (r.baseline().rms_pf, r.final_fit().rms_pf);

@@ -89,11 +89,7 @@ fn model_matches_the_simulated_sensor_for_every_static_effect() {
         // calibration's means.
         let sh = shape(fx);
         let sh = if fx.stretched() { sh.local(&fx) } else { sh };
-        let m = Model {
-            line: Line::Continuous,
-            params: fx,
-            shape: &sh,
-        };
+        let m = Model::new(Line::Continuous, fx, &sh);
         let mut worst = 0.0f64;
         for s in [0.0, 15.0, 30.0] {
             let x = static_sensor(fx, s);

@@ -228,31 +228,54 @@ impl Problem<'_> {
         scan: &[Effect],
     ) -> Option<Fit> {
         let mut p = start;
+        // A bump carried over from a smaller model: walked to its new
+        // optimum on the coarse copy first (its place and width trade
+        // against its amplitude along a long valley), then on all rows.
+        let carried = effects.iter().any(|e| e.is_shape()) && !scan.iter().any(|e| e.is_shape());
+        if carried {
+            if let Some(ev) = coarse.eval(p) {
+                p = coarse.levenberg_marquardt(effects, p, ev).0;
+            }
+        }
         if !scan.is_empty() {
             let mut s_best = coarse.eval(p).map_or(f64::INFINITY, |ev| ev.s);
             // A bump with its place and width: on a joint grid (its
             // amplitude does nothing without a width, and its place and
-            // width trade against each other).
+            // width trade against each other), then walked down on the
+            // coarse copy from the best of each of the [`BUMP_STARTS`]
+            // best places (a narrow bump at one end and a wide one of the
+            // other sign over the rest read alike on a grid).
             let bump = scan.iter().copied().find(|e| Effect::BUMPS.contains(e));
             if let (Some(b), true) = (bump, scan.contains(&Effect::BumpCentre)) {
-                let mut at = (p.get(b), p.get(Effect::BumpCentre), p.get(Effect::BumpWidth));
-                for c in BUMP_CENTRES {
-                    for w in BUMP_WIDTHS {
-                        let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
-                        for v in grid(&coarse.prep.search, b).into_iter().filter(|&v| v != 0.0) {
-                            if let Some(ev) = coarse.eval(q.with(b, v)) {
-                                if ev.s < s_best {
-                                    s_best = ev.s;
-                                    at = (v, c, w);
+                let mut per_place: Vec<(f64, Params)> = BUMP_CENTRES
+                    .iter()
+                    .filter_map(|&c| {
+                        let mut best: Option<(f64, Params)> = None;
+                        for w in BUMP_WIDTHS {
+                            let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
+                            for v in bump_amplitudes(&coarse.prep.search, b) {
+                                let q = q.with(b, v);
+                                if let Some(ev) = coarse.eval(q) {
+                                    if best.as_ref().is_none_or(|x| ev.s < x.0) {
+                                        best = Some((ev.s, q));
+                                    }
                                 }
                             }
                         }
+                        best
+                    })
+                    .collect();
+                per_place.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let walked = per_place.iter().take(BUMP_STARTS).filter_map(|&(_, q)| {
+                    let ev = coarse.eval(q)?;
+                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev);
+                    Some((ev.s, q))
+                });
+                if let Some((s, q)) = walked.min_by(|a, b| a.0.total_cmp(&b.0)) {
+                    if s < s_best {
+                        (s_best, p) = (s, q);
                     }
                 }
-                p = p
-                    .with(b, at.0)
-                    .with(Effect::BumpCentre, at.1)
-                    .with(Effect::BumpWidth, at.2);
             }
             for &e in scan
                 .iter()
@@ -381,8 +404,20 @@ impl Problem<'_> {
 /// A bump's places on its joint grid (fractions of the sensor).
 const BUMP_CENTRES: [f64; 10] = [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95];
 
+/// The places a bump is walked down from on the coarse copy.
+const BUMP_STARTS: usize = 3;
+
 /// A bump's widths on its joint grid (fractions of the sensor).
 const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
+
+/// A bump's amplitudes on its joint grid: its search range's ends and
+/// halvings of them down to a sixteenth (Levenberg–Marquardt refines).
+fn bump_amplitudes(search: &Search, e: Effect) -> impl Iterator<Item = f64> {
+    let (lo, hi) = search.range(e);
+    [1.0, 0.5, 0.25, 0.125, 0.0625]
+        .into_iter()
+        .flat_map(move |m| [hi * m, lo * m])
+}
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
 /// (factor 2) across its range in `search`, from its end down to the

@@ -111,6 +111,23 @@ pub struct Model<'a> {
     /// The sensor's local static curves (for a nonuniform stretch u:
     /// [`Shape::local`]).
     pub shape: &'a Shape,
+    /// The profiles along a nonuniform line at its 2n + 1 points (local
+    /// stretch over mean, resistance weight): the same for every row, so
+    /// computed on first use.
+    profiles: std::sync::OnceLock<Vec<(f64, f64)>>,
+}
+
+impl<'a> Model<'a> {
+    /// A model of `line` with the effects `params` on the sensor's
+    /// static curves `shape`.
+    pub fn new(line: Line, params: Params, shape: &'a Shape) -> Self {
+        Self {
+            line,
+            params,
+            shape,
+            profiles: std::sync::OnceLock::new(),
+        }
+    }
 }
 
 impl Model<'_> {
@@ -179,21 +196,30 @@ impl Model<'_> {
     fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64, film: Complex64, n: usize) -> Complex64 {
         let p = &self.params;
         let stretched = p.stretched();
-        let at = |xi: f64| {
-            let sl = s * p.stretch_profile(xi);
+        let profiles = self.profiles.get_or_init(|| {
+            (0..=2 * n)
+                .map(|k| {
+                    let xi = k as f64 / (2 * n) as f64;
+                    (p.stretch_profile(xi), p.resistance_profile(xi))
+                })
+                .collect()
+        });
+        let at = |k: usize| {
+            let (phi, weight) = profiles[k];
+            let sl = s * phi;
             let (rho, cl) = if stretched {
                 (self.shape.r_at(sl), self.shape.c_at(sl))
             } else {
                 (1.0, 1.0)
             };
-            (p.resistance_profile(xi) * rho, cl)
+            (weight * rho, cl)
         };
         let continuous = self.line == Line::Continuous;
         // The profiles at 2n + 1 points: piece i of n spans points 2i to
         // 2i + 2, piece j of n/2 points 4j to 4j + 4.
         let mut pts = [(0.0f64, 0.0f64); 129];
         for (k, v) in pts.iter_mut().enumerate().take(2 * n + 1) {
-            *v = at(k as f64 / (2 * n) as f64);
+            *v = at(k);
         }
         let cascade = |pieces: usize| -> Complex64 {
             let step = 2 * n / pieces;
@@ -255,11 +281,7 @@ mod tests {
     #[test]
     fn ladder_approaches_the_continuous_line_and_pieces_cascade_exactly() {
         let sh = shape();
-        let m = |line, params| Model {
-            line,
-            params,
-            shape: &sh,
-        };
+        let m = |line, params| Model::new(line, params, &sh);
         let (r, c, f) = (711e3, 210e-12, 6e3);
         // The same topologies as dsp-core's fixed-point kernels (1e-4).
         for (line, core) in [
@@ -316,11 +338,7 @@ mod tests {
         );
         let (mut low, mut high, mut points) = (0.0f64, 0.0f64, 0);
         for p in sets {
-            let m = Model {
-                line: Line::Continuous,
-                params: p,
-                shape: &sh,
-            };
+            let m = Model::new(Line::Continuous, p, &sh);
             for s in [0.0, 10.0, 15.0, 20.0, 30.0] {
                 let local = (0..=100).map(|k| s * p.stretch_profile(k as f64 / 100.0));
                 if local.clone().any(|x| !(0.0..=30.0 + 1e-9).contains(&x)) {

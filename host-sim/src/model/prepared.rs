@@ -131,19 +131,11 @@ impl Prepared {
         // moves it by far less). Rig-sim, an exponential stretch profile:
         // 0.25 → 0.08 pF at 30 mm.
         if let Some(sh) = &local {
-            let m0 = Model {
-                line,
-                params,
-                shape: sh,
-            };
+            let m0 = Model::new(line, params, sh);
             let c = self.calibrate(&m0)?;
             local = Some(self.shape.with_c(c).local(&params));
         }
-        let m = Model {
-            line,
-            params,
-            shape: local.as_ref().unwrap_or(&self.shape),
-        };
+        let m = Model::new(line, params, local.as_ref().unwrap_or(&self.shape));
         let [a, b, c2] = self.calibrate(&m)?;
         let cap = |s: f64| a + s * (b + s * c2);
         let at = |r: f64, s: f64, f: f64| m.impedance(r, cap(s), s, f);
