@@ -98,9 +98,9 @@ pub struct Fit {
     /// What the meter averages, where a time kernel was fitted.
     pub averaging: Option<Averaging>,
     /// Why the data cannot vouch for this model alone (None: they can):
-    /// a meter kernel shorter than the rows resolve. Such a fit is
+    /// a meter kernel shorter than the rows resolve (such a fit is
     /// selected only when no single effect the rows resolve explains the
-    /// data.
+    /// data), or a bump they do not pin down (never selected).
     pub unresolved: Option<String>,
     /// All parameters (fitted ones set).
     pub params: Params,
@@ -449,7 +449,9 @@ fn run_candidates(
 /// the model over a row also smooths the noise of the recorded resistance
 /// it is computed from, which a fit rewards. Such a fit is marked
 /// [`Fit::unresolved`]: `time_offset` stands for it unless a delay does
-/// not explain the data.
+/// not explain the data. So is a bump the data do not pin down (its
+/// amplitude within 3σ of none, or its place uncertain by more than a
+/// tenth of the sensor): it is never named.
 fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     let Rows { row_s, reading_s } = rows;
     let p = f.params;
@@ -487,6 +489,20 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     }
     // A bump's place and width are part of it.
     f.effects.retain(|e| !e.is_shape());
+    // A bump is named only where the data pin it down: its amplitude 3σ
+    // from none and its place within ±0.1 of the sensor (1σ). A bump
+    // that is not is three parameters bending the line to the noise
+    // (a dielectric dispersion of 0.01 per decade, with a leakage,
+    // read as a bump of −0.06 ± 0.57 at the far end).
+    if let Some(&b) = f.effects.iter().find(|e| Effect::BUMPS.contains(e)) {
+        let (a, sa, sc) = (p.get(b), f.sigma_of(b), f.sigma_of(Effect::BumpCentre));
+        if !(sa < a.abs() / 3.0 && sc <= 0.1) {
+            f.unresolved = Some(format!(
+                "{} {a:.3} ± {sa:.3}, its centre ± {sc:.3}: the data do not pin the bump down",
+                b.id()
+            ));
+        }
+    }
     f
 }
 
@@ -823,7 +839,12 @@ impl Selection<'_, '_> {
         if let Some(k) = report
             .singles
             .iter()
-            .find(|f| f.unresolved.is_some() && options.strong(f, base) && options.explains(f))
+            .find(|f| {
+                f.unresolved.is_some()
+                    && f.effects.iter().any(|e| KERNELS.contains(e))
+                    && options.strong(f, base)
+                    && options.explains(f)
+            })
         {
             report.accepted = Some(k.clone());
             return;

@@ -196,14 +196,23 @@ impl Model<'_> {
     fn nonuniform(&self, r: f64, c: f64, g: f64, s: f64, w: f64, film: Complex64, n: usize) -> Complex64 {
         let p = &self.params;
         let stretched = p.stretched();
-        let profiles = self.profiles.get_or_init(|| {
+        let compute = || -> Vec<(f64, f64)> {
             (0..=2 * n)
                 .map(|k| {
                     let xi = k as f64 / (2 * n) as f64;
                     (p.stretch_profile(xi), p.resistance_profile(xi))
                 })
                 .collect()
-        });
+        };
+        // Cached for the model's own n (a test may ask for another).
+        let cached = self.profiles.get_or_init(compute);
+        let fresh;
+        let profiles = if cached.len() == 2 * n + 1 {
+            cached
+        } else {
+            fresh = compute();
+            &fresh
+        };
         let at = |k: usize| {
             let (phi, weight) = profiles[k];
             let sl = s * phi;
