@@ -42,8 +42,9 @@ fn hidden_with(effect: Effect, v: f64, rng: &mut Rng) -> (EffectSet, Meter) {
 /// Whether `named` is the right answer for `effect` at strength `v` (SI):
 /// the effect itself, or, for a meter kernel whose centroid (T/2, τ) is
 /// under one row interval (20 ms), the delay it causes (`time_offset`),
-/// which is all the rows resolve of it; for a bump, shapes of the same
-/// quantity along the sensor.
+/// which is all the rows resolve of it (or any kernel, all of which it
+/// reads as); for a profile along the sensor, any shape of the same
+/// quantity (a wide bump is a mode to the data).
 fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
     let centroid = match effect {
         Effect::MeterLag => 0.5 * v,
@@ -54,12 +55,24 @@ fn named_right(effect: Effect, v: f64, named: &[&str]) -> bool {
     };
     // A bump is a profile of its quantity: a wide one reads as a mode.
     let shapes: &[&str] = match effect {
-        Effect::StretchBump => &["stretch_bump", "stretch_bulge", "nonuniform_stretch"],
-        Effect::ResistanceBump => &["resistance_bump", "resistance_bulge", "resistance_gradient"],
+        Effect::StretchBump | Effect::StretchBulge | Effect::NonuniformStretch => {
+            &["stretch_bump", "stretch_bulge", "nonuniform_stretch"]
+        }
+        Effect::ResistanceBump | Effect::ResistanceBulge | Effect::ResistanceGradient => {
+            &["resistance_bump", "resistance_bulge", "resistance_gradient"]
+        }
         _ => &[],
     };
+    // A kernel shorter than a row: any kernel, or the delay.
+    let kernels = [
+        "meter_lag",
+        "meter_response",
+        "meter_mean",
+        "meter_ewma",
+        "time_offset",
+    ];
     named == [effect.id()]
-        || (centroid < 0.02 && named == ["time_offset"])
+        || (centroid < 0.02 && named.len() == 1 && kernels.contains(&named[0]))
         || (!named.is_empty() && named.iter().all(|n| shapes.contains(n)))
 }
 

@@ -324,9 +324,17 @@ fn localized_bumps_are_named_and_explained() {
             bad.push(format!("seed {seed}: {} named {ids:?}", family.name()));
         }
         if f > 1.5 * nf {
-            bad.push(format!("seed {seed}: {} after {:.2}x noise", family.name(), f / nf));
+            bad.push(format!(
+                "seed {seed}: {} after {:.2}x noise",
+                family.name(),
+                f / nf
+            ));
         }
-        if let Some(a) = r.accepted.as_ref().filter(|a| a.effects.iter().any(|e| Effect::BUMPS.contains(e))) {
+        if let Some(a) = r
+            .accepted
+            .as_ref()
+            .filter(|a| a.effects.iter().any(|e| Effect::BUMPS.contains(e)))
+        {
             let centre = a.params.get(Effect::BumpCentre);
             // The truth's centre, where its bump lies on the sensor.
             let on = (bump.start.max(0.0), bump.end.min(1.0));

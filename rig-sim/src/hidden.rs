@@ -118,9 +118,10 @@ impl Family {
         match self {
             Family::Contact => &["contact_resistance"],
             Family::Parasitic => &["parasitic_capacitance"],
-            Family::ResistanceProfile => &["resistance_gradient", "resistance_bulge"],
-            Family::StretchTilt => &["nonuniform_stretch", "stretch_bulge"],
-            Family::StretchBulge => &["stretch_bulge", "nonuniform_stretch"],
+            // A profile along the sensor, whichever shape names it.
+            Family::ResistanceProfile => &["resistance_gradient", "resistance_bulge", "resistance_bump"],
+            Family::StretchTilt => &["nonuniform_stretch", "stretch_bulge", "stretch_bump"],
+            Family::StretchBulge => &["stretch_bulge", "nonuniform_stretch", "stretch_bump"],
             Family::Leakage => &["dielectric_leakage"],
             // A meter's averaging, whichever kernel names it.
             Family::Window | Family::FirstOrder | Family::MovingMean | Family::Ewma => {
