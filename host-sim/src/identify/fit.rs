@@ -239,14 +239,19 @@ impl Problem<'_> {
         }
         if !scan.is_empty() {
             let mut s_best = coarse.eval(p).map_or(f64::INFINITY, |ev| ev.s);
-            // A bump with its place and width: on a joint grid (its
+            // A bump with its place and width (a second bump takes the
+            // first's, and its amplitude's grid below): on a joint grid (its
             // amplitude does nothing without a width, and its place and
             // width trade against each other), then walked down on the
             // coarse copy from the best of each of the [`BUMP_STARTS`]
             // best places (a narrow bump at one end and a wide one of the
             // other sign over the rest read alike on a grid).
-            let bump = scan.iter().copied().find(|e| Effect::BUMPS.contains(e));
-            if let (Some(b), true) = (bump, scan.contains(&Effect::BumpCentre)) {
+            let bump = scan
+                .iter()
+                .copied()
+                .find(|e| Effect::BUMPS.contains(e))
+                .filter(|_| scan.contains(&Effect::BumpCentre));
+            if let Some(b) = bump {
                 let mut per_place: Vec<(f64, Params)> = BUMP_CENTRES
                     .iter()
                     .filter_map(|&c| {
