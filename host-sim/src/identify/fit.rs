@@ -244,21 +244,24 @@ impl Problem<'_> {
             // amplitude does nothing without a width, and its place and
             // width trade against each other), then walked down on the
             // coarse copy from the best of each of the [`BUMP_STARTS`]
-            // best places (a narrow bump at one end and a wide one of the
-            // other sign over the rest read alike on a grid).
+            // best places and the best of the other sign (a narrow bump at
+            // one end and a wide one of the other sign over the rest read
+            // alike on a grid, and each is a valley of its own).
             let bump = scan
                 .iter()
                 .copied()
                 .find(|e| Effect::BUMPS.contains(e))
                 .filter(|_| scan.contains(&Effect::BumpCentre));
             if let Some(b) = bump {
+                // The best amplitude at each place, for each sign.
                 let mut per_place: Vec<(f64, Params)> = BUMP_CENTRES
                     .iter()
-                    .filter_map(|&c| {
+                    .flat_map(|&c| [(c, 1.0), (c, -1.0)])
+                    .filter_map(|(c, sign)| {
                         let mut best: Option<(f64, Params)> = None;
                         for w in BUMP_WIDTHS {
                             let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
-                            for v in bump_amplitudes(&coarse.prep.search, b) {
+                            for v in bump_amplitudes(&coarse.prep.search, b).filter(|v| v.signum() == sign) {
                                 let q = q.with(b, v);
                                 if let Some(ev) = coarse.eval(q) {
                                     if best.as_ref().is_none_or(|x| ev.s < x.0) {
@@ -271,7 +274,17 @@ impl Problem<'_> {
                     })
                     .collect();
                 per_place.sort_by(|a, b| a.0.total_cmp(&b.0));
-                let walked = per_place.iter().take(BUMP_STARTS).filter_map(|&(_, q)| {
+                // The best places, and the best of the other sign if
+                // none of them has it (the mirror of a bump).
+                let sign = |q: &Params| q.get(b) > 0.0;
+                let mut starts: Vec<Params> = per_place.iter().take(BUMP_STARTS).map(|x| x.1).collect();
+                if let Some(mirror) = per_place
+                    .iter()
+                    .find(|x| starts.iter().all(|q| sign(q) != sign(&x.1)))
+                {
+                    starts.push(mirror.1);
+                }
+                let walked = starts.into_iter().filter_map(|q| {
                     let ev = coarse.eval(q)?;
                     let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev);
                     Some((ev.s, q))
@@ -415,13 +428,19 @@ const BUMP_STARTS: usize = 3;
 /// A bump's widths on its joint grid (fractions of the sensor).
 const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
 
-/// A bump's amplitudes on its joint grid: its search range's ends and
-/// halvings of them down to a sixteenth (Levenberg–Marquardt refines).
+/// A bump's amplitudes on its joint grid: each end of its search range
+/// and its halvings, down to a sixteenth of the nearer end on both
+/// sides (Levenberg–Marquardt refines). Both signs reach the same
+/// small magnitudes: a bump near the read end and a wider one of the
+/// other sign over the rest read alike, and a grid coarser on one side
+/// hands the fit the wrong one.
 fn bump_amplitudes(search: &Search, e: Effect) -> impl Iterator<Item = f64> {
     let (lo, hi) = search.range(e);
-    [1.0, 0.5, 0.25, 0.125, 0.0625]
-        .into_iter()
-        .flat_map(move |m| [hi * m, lo * m])
+    let floor = hi.min(-lo) / 16.0;
+    [hi, lo].into_iter().flat_map(move |end| {
+        std::iter::successors(Some(end), |m| Some(m / 2.0))
+            .take_while(move |m| m.abs() >= floor * (1.0 - 1e-9))
+    })
 }
 
 /// Starting points for an effect's parameter: 0 and log-spaced magnitudes
@@ -455,4 +474,35 @@ pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
         }
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Both signs of a bump reach the same smallest magnitude on the
+    /// grid, halving from each end of the search range.
+    #[test]
+    fn bump_amplitudes_reach_the_same_floor_on_both_sides() {
+        let search = Search {
+            reach_s: 0.0,
+            row_s: 0.0,
+        };
+        for e in Effect::BUMPS {
+            let (lo, hi) = search.range(e);
+            let v: Vec<f64> = bump_amplitudes(&search, e).collect();
+            let floor = hi.min(-lo) / 16.0;
+            let smallest = |pos: bool| {
+                v.iter()
+                    .filter(|x| (**x > 0.0) == pos)
+                    .map(|x| x.abs())
+                    .fold(f64::INFINITY, f64::min)
+            };
+            assert!(v.contains(&hi) && v.contains(&lo), "{e:?}: {v:?}");
+            for pos in [true, false] {
+                let m = smallest(pos);
+                assert!(m >= floor * (1.0 - 1e-9) && m < 2.0 * floor, "{e:?}: {v:?}");
+            }
+        }
+    }
 }
