@@ -36,13 +36,16 @@ fn named(r: &Report) -> Vec<&'static str> {
 /// The survey over every family (`cargo xtask survey`): `SEEDS` sets
 /// (default 50), one hidden effect each drawn over its physical range;
 /// every tenth set is clean and every tenth (from the fifth) has an
-/// effect outside the library; `FAMILY=name` draws only that family.
+/// effect outside the library; `FAMILY=name` draws only that family,
+/// `SURVEY_DIR=dir` keeps the sets in `dir`.
 /// Prints a row per set and the survey's summary (one function of about
 /// 90 lines: drawing, identifying and tallying a set are one loop).
 #[test]
 #[ignore]
 fn survey() {
     let tmp = tempfile::tempdir().unwrap();
+    // `SURVEY_DIR=dir` keeps the sets there (for `host-sim identify`).
+    let dir = std::env::var_os("SURVEY_DIR").map_or(tmp.path().to_path_buf(), Into::into);
     let n: u64 = std::env::var("SEEDS")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -73,7 +76,7 @@ fn survey() {
             None => (Default::default(), rig_sim::meter::Meter::BENCH, 0.0),
         };
         let t = std::time::Instant::now();
-        let r = run(&tmp.path().join(format!("s{seed}")), &Bench::new(fx, meter, seed));
+        let r = run(&dir.join(format!("s{seed}")), &Bench::new(fx, meter, seed));
         let nf = r.noise_floor_pf;
         // After: against the floor seen through the final model.
         let fnf = r.final_noise_pf();

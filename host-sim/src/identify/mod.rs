@@ -331,6 +331,22 @@ const KERNELS: [Effect; 4] = [
     Effect::MeterEwma,
 ];
 
+/// Fits the data vouch for first, best BIC first.
+fn by_evidence(fits: &mut [Fit]) {
+    fits.sort_by(|a, b| {
+        (a.unresolved.is_some(), a.bic)
+            .partial_cmp(&(b.unresolved.is_some(), b.bic))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+}
+
+/// `effects` in the library's order (a model's parameters as a set).
+fn sorted(effects: &[Effect]) -> Vec<Effect> {
+    let mut v = effects.to_vec();
+    v.sort();
+    v
+}
+
 /// The modes of a bump's quantity along the sensor (linear, symmetric).
 fn modes_of(bump: Effect) -> [Effect; 2] {
     if bump == Effect::StretchBump {
@@ -814,18 +830,18 @@ impl Selection<'_, '_> {
     /// Candidates `base` fitted, fits the data vouch for first, best BIC
     /// first.
     fn fitted(&self, base: Option<&Fit>) -> Vec<Fit> {
-        let mut v = run_candidates(
-            &self.problems,
-            &self.coarse,
-            candidates(&self.library, base),
-            self.rows,
-            self.progress,
-        );
-        v.sort_by(|a, b| {
-            (a.unresolved.is_some(), a.bic)
-                .partial_cmp(&(b.unresolved.is_some(), b.bic))
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
+        self.fitted_except(base, &[])
+    }
+
+    /// [`Self::fitted`], leaving out the candidates that fit one of the
+    /// parameter sets in `tried` (sorted).
+    fn fitted_except(&self, base: Option<&Fit>, tried: &[Vec<Effect>]) -> Vec<Fit> {
+        let cands = candidates(&self.library, base)
+            .into_iter()
+            .filter(|c| !tried.contains(&sorted(&c.fitted)))
+            .collect();
+        let mut v = run_candidates(&self.problems, &self.coarse, cands, self.rows, self.progress);
+        by_evidence(&mut v);
         v
     }
 
@@ -872,13 +888,47 @@ impl Selection<'_, '_> {
             return;
         }
         if options.max_effects >= 2 && options.strong(&best, base) {
-            self.progress.set_message(format!("pairs with {}", best.label()));
-            report.pairs = self.fitted(Some(&best));
-            if let Some(bp) = report.pairs.first().filter(|f| f.unresolved.is_none()) {
-                if options.strong(bp, &best) && options.explains(bp) {
-                    report.accepted = Some(bp.clone());
-                    return;
+            // Pairs with the best single; where that is a bump, with the
+            // best mode of its quantity first, as for single effects (a
+            // bump's two more parameters are warranted only where no
+            // pair with a mode explains the data; a bump bends to a
+            // smooth profile's curvature in part and leaves the rest,
+            // where a gradient and a bulge take all of an exponential
+            // resistance profile).
+            let mut bases = vec![];
+            if let Some(&b) = best.effects.iter().find(|e| Effect::BUMPS.contains(e)) {
+                let modes = modes_of(b);
+                bases.extend(
+                    report
+                        .singles
+                        .iter()
+                        .find(|f| {
+                            f.unresolved.is_none()
+                                && f.effects.len() == 1
+                                && modes.contains(&f.effects[0])
+                                && options.strong(f, base)
+                        })
+                        .cloned(),
+                );
+            }
+            bases.push(best.clone());
+            for on in &bases {
+                self.progress.set_message(format!("pairs with {}", on.label()));
+                let tried: Vec<Vec<Effect>> = report.pairs.iter().map(|f| sorted(&f.fitted)).collect();
+                let mut pairs = self.fitted_except(Some(on), &tried);
+                let accepted = pairs
+                    .first()
+                    .filter(|bp| bp.unresolved.is_none() && options.strong(bp, on) && options.explains(bp))
+                    .cloned();
+                report.pairs.append(&mut pairs);
+                if let Some(bp) = accepted {
+                    report.accepted = Some(bp);
+                    break;
                 }
+            }
+            by_evidence(&mut report.pairs);
+            if report.accepted.is_some() {
+                return;
             }
         }
         report.unexplained = true;
