@@ -356,6 +356,30 @@ fn modes_of(bump: Effect) -> [Effect; 2] {
     }
 }
 
+/// Where `best` is a bump: the single modes of its quantity among
+/// `singles` (best first) that the data vouch for and that beat `base`
+/// by the BIC margin.
+fn strong_modes<'f>(
+    singles: &'f [Fit],
+    best: &Fit,
+    options: Options,
+    base: &'f Fit,
+) -> impl Iterator<Item = &'f Fit> + 'f {
+    let modes = best
+        .effects
+        .iter()
+        .find(|e| Effect::BUMPS.contains(e))
+        .map(|&b| modes_of(b));
+    singles.iter().filter(move |f| {
+        modes.is_some_and(|m| {
+            f.unresolved.is_none()
+                && f.effects.len() == 1
+                && m.contains(&f.effects[0])
+                && options.strong(f, base)
+        })
+    })
+}
+
 /// The kernels in discrete time, on the data's own rows: each fitted
 /// with its delay (a time offset of the meter's own).
 const DISCRETE: [Effect; 2] = [Effect::MeterMean, Effect::MeterEwma];
@@ -860,17 +884,8 @@ impl Selection<'_, '_> {
         // (the bump competes with it). The bump otherwise wins on the
         // small misfits of the model's R(s) past the calibration (a
         // linear stretch of −0.058: 0.049 pF against 0.050 pF).
-        if let Some(&b) = best.effects.iter().find(|e| Effect::BUMPS.contains(e)) {
-            let modes = modes_of(b);
-            if let Some(m) = report.singles.iter().find(|f| {
-                f.unresolved.is_none()
-                    && f.effects.len() == 1
-                    && modes.contains(&f.effects[0])
-                    && options.strong(f, base)
-                    && options.explains(f)
-            }) {
-                best = m.clone();
-            }
+        if let Some(m) = strong_modes(&report.singles, &best, options, base).find(|f| options.explains(f)) {
+            best = m.clone();
         }
         if options.strong(&best, base) && options.explains(&best) {
             report.accepted = Some(best);
@@ -895,22 +910,11 @@ impl Selection<'_, '_> {
             // smooth profile's curvature in part and leaves the rest,
             // where a gradient and a bulge take all of an exponential
             // resistance profile).
-            let mut bases = vec![];
-            if let Some(&b) = best.effects.iter().find(|e| Effect::BUMPS.contains(e)) {
-                let modes = modes_of(b);
-                bases.extend(
-                    report
-                        .singles
-                        .iter()
-                        .find(|f| {
-                            f.unresolved.is_none()
-                                && f.effects.len() == 1
-                                && modes.contains(&f.effects[0])
-                                && options.strong(f, base)
-                        })
-                        .cloned(),
-                );
-            }
+            let mut bases: Vec<Fit> = strong_modes(&report.singles, &best, options, base)
+                .next()
+                .cloned()
+                .into_iter()
+                .collect();
             bases.push(best.clone());
             for on in &bases {
                 self.progress.set_message(format!("pairs with {}", on.label()));
