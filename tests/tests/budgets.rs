@@ -32,5 +32,5 @@ fn every_image_is_tabulated() {
         2 + qemu_tests::tables::IMAGES.len(),
         "{table}"
     );
-    figures::check("docs/benchmarks.md", "images", &table).unwrap();
+    figures::check_within("docs/benchmarks.md", "images", &table, qemu_tests::BUILD_SPREAD).unwrap();
 }
