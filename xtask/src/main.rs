@@ -54,8 +54,8 @@ enum Cmd {
     Docs,
     /// identify over the physical ranges on both generators (`rig-sim`:
     /// with clean sets and effects outside the library; `skin-sim`): one
-    /// hidden effect per set, a row per set and a summary (about a minute
-    /// a set).
+    /// hidden effect per set, a row per set and a summary (rig-sim's 50
+    /// sets take about 6 minutes on 2 cores).
     Survey {
         /// Sets.
         #[arg(long, default_value_t = 50)]
