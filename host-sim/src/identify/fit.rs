@@ -206,7 +206,6 @@ impl Problem<'_> {
                     .collect::<Vec<f64>>(),
             );
         }
-        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
         let a = jac
             .iter()
             .map(|x| jac.iter().map(|y| dot(x, y)).collect())
@@ -451,6 +450,11 @@ const BUMP_STARTS: usize = 3;
 /// A bump's widths on its joint grid (fractions of the sensor).
 const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
 
+/// Σ xᵢ·yᵢ.
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    x.iter().zip(y).map(|(a, b)| a * b).sum()
+}
+
 /// The least-squares amplitude `a` of a model whose weighted residual
 /// `r(a)` is near linear in it, within `[lo, hi]` (`lo < 0 < hi`):
 /// `r(0) = r0` is known, a probe at a sixteenth of the nearer end of
@@ -464,7 +468,6 @@ fn secant_amplitude(
     r0: Vec<f64>,
     (lo, hi): (f64, f64),
 ) -> Option<(f64, f64)> {
-    let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
     let (mut a0, mut r_prev, mut a) = (0.0, r0, hi.min(-lo) / 16.0);
     let mut best: Option<(f64, f64)> = None;
     for _ in 0..3 {
