@@ -189,8 +189,9 @@ impl Problem<'_> {
         at: &Evaluated,
     ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
         let r0 = self.weighted(at);
-        let mut jac = Vec::with_capacity(effects.len());
-        for &e in effects {
+        // The columns on the machine's cores (each is a model
+        // evaluation on every row).
+        let jac = par_map(effects, |&e| {
             let (lo, hi) = self.prep.search.range(e);
             let h = 1e-4 * (hi - lo);
             let (v, sign) = if p.get(e) + h <= hi {
@@ -199,13 +200,15 @@ impl Problem<'_> {
                 (p.get(e) - h, -1.0)
             };
             let rj = self.weighted(&self.eval(p.with(e, v))?);
-            jac.push(
+            Some(
                 rj.iter()
                     .zip(&r0)
                     .map(|(a, b)| sign * (a - b) / h)
                     .collect::<Vec<f64>>(),
-            );
-        }
+            )
+        })
+        .into_iter()
+        .collect::<Option<Vec<Vec<f64>>>>()?;
         let a = jac
             .iter()
             .map(|x| jac.iter().map(|y| dot(x, y)).collect())
@@ -258,19 +261,22 @@ impl Problem<'_> {
                 // its amplitude): a probe, then two secant steps.
                 let (lo, hi) = coarse.prep.search.range(b);
                 let r0 = coarse.eval(p).map(|ev| coarse.weighted(&ev));
-                let mut at: Vec<(f64, Params)> = BUMP_CENTRES
+                let places: Vec<(f64, f64)> = BUMP_CENTRES
                     .iter()
                     .flat_map(|&c| BUMP_WIDTHS.iter().map(move |&w| (c, w)))
-                    .filter_map(|(c, w)| {
-                        let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
-                        let (s, a) = secant_amplitude(
-                            |a| coarse.eval(q.with(b, a)).map(|ev| (ev.s, coarse.weighted(&ev))),
-                            r0.clone()?,
-                            (lo, hi),
-                        )?;
-                        Some((s, q.with(b, a)))
-                    })
                     .collect();
+                let mut at: Vec<(f64, Params)> = par_map(&places, |&(c, w)| {
+                    let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
+                    let (s, a) = secant_amplitude(
+                        |a| coarse.eval(q.with(b, a)).map(|ev| (ev.s, coarse.weighted(&ev))),
+                        r0.clone()?,
+                        (lo, hi),
+                    )?;
+                    Some((s, q.with(b, a)))
+                })
+                .into_iter()
+                .flatten()
+                .collect();
                 at.sort_by(|a, b| a.0.total_cmp(&b.0));
                 // The best [`BUMP_STARTS`] places, and the best of the
                 // other sign if none of them has it (a bump's mirror).
@@ -287,18 +293,18 @@ impl Problem<'_> {
                 }
                 // Each walked a few steps down, the best of them to the
                 // bottom (on the coarse copy).
-                let walked = starts
-                    .into_iter()
-                    .filter_map(|q| {
-                        let ev = coarse.eval(q)?;
-                        let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS);
-                        Some((ev, q))
-                    })
-                    .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
-                    .map(|(ev, q)| {
-                        let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS * 3);
-                        (ev.s, q)
-                    });
+                let walked = par_map(&starts, |&q| {
+                    let ev = coarse.eval(q)?;
+                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS);
+                    Some((ev, q))
+                })
+                .into_iter()
+                .flatten()
+                .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
+                .map(|(ev, q)| {
+                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS * 3);
+                    (ev.s, q)
+                });
                 if let Some((s, q)) = walked {
                     if s < s_best {
                         (s_best, p) = (s, q);
@@ -385,12 +391,43 @@ impl Problem<'_> {
                 break;
             };
             let (mut improved, mut moved) = (false, false);
+            // A parameter at a bound that the step pushes outward is held
+            // there for the step (the active set), and the step solved
+            // again for the others, until none more is held: a step for
+            // all of them, clamped after, moves the free ones too little
+            // and crawls along the bound (a bump's width at 1, its centre
+            // at an end: over a hundred evaluations).
+            let at_edge = |i: usize, di: f64| {
+                let e = effects[i];
+                let (lo, hi) = self.prep.search.range(e);
+                let (v, edge) = (p.get(e), 1e-9 * (hi - lo));
+                (v <= lo + edge && di < 0.0) || (v >= hi - edge && di > 0.0)
+            };
             while lambda < 1e10 {
-                let mut m = a.clone();
-                for (i, row) in m.iter_mut().enumerate() {
-                    row[i] += lambda * a[i][i].max(1e-300);
-                }
-                let Some(d) = solve(m, g.iter().map(|v| -v).collect()) else {
+                let mut held = vec![false; effects.len()];
+                let step = loop {
+                    let mut m = a.clone();
+                    let mut rhs: Vec<f64> = g.iter().map(|v| -v).collect();
+                    for i in 0..m.len() {
+                        m[i][i] += lambda * a[i][i].max(1e-300);
+                        if held[i] {
+                            // Its row and column those of the identity.
+                            m.iter_mut().for_each(|row| row[i] = 0.0);
+                            m[i].fill(0.0);
+                            m[i][i] = 1.0;
+                            rhs[i] = 0.0;
+                        }
+                    }
+                    let Some(d) = solve(m, rhs) else {
+                        break None;
+                    };
+                    let more: Vec<usize> = (0..d.len()).filter(|&i| !held[i] && at_edge(i, d[i])).collect();
+                    if more.is_empty() {
+                        break Some(d);
+                    }
+                    more.into_iter().for_each(|i| held[i] = true);
+                };
+                let Some(d) = step else {
                     lambda *= 10.0;
                     continue;
                 };
@@ -449,6 +486,37 @@ const BUMP_STARTS: usize = 3;
 
 /// A bump's widths on its joint grid (fractions of the sensor).
 const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
+
+/// `f` over `items`, in order, on as many scoped threads as the machine
+/// has cores (the items in contiguous runs, the first on the calling
+/// thread). A fit's model evaluations are independent of each other and
+/// take milliseconds each: where one candidate is left running (the
+/// longest of a round), its Jacobian's columns and its bump's grid use
+/// the cores the others have finished with. The result is the same as
+/// a sequential map's, whatever the core count.
+fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let per = items.len().div_ceil(cores.max(1)).max(1);
+    if items.len() <= 1 || cores <= 1 {
+        return items.iter().map(&f).collect();
+    }
+    let f = &f;
+    std::thread::scope(|sc| {
+        let mut runs = items.chunks(per);
+        let first = runs.next().unwrap_or_default();
+        let rest: Vec<_> = runs
+            .map(|run| sc.spawn(move || run.iter().map(f).collect::<Vec<R>>()))
+            .collect();
+        let mut out: Vec<R> = first.iter().map(f).collect();
+        for h in rest {
+            match h.join() {
+                Ok(v) => out.extend(v),
+                Err(e) => std::panic::resume_unwind(e),
+            }
+        }
+        out
+    })
+}
 
 /// Σ xᵢ·yᵢ.
 fn dot(x: &[f64], y: &[f64]) -> f64 {
@@ -573,6 +641,18 @@ mod tests {
                     "truth {truth} κ {kappa}: {a} against {reference}"
                 );
             }
+        }
+    }
+
+    /// The parallel map is the sequential one, in order, for every
+    /// length (around the core count and its multiples).
+    #[test]
+    fn par_map_is_the_sequential_map_in_order() {
+        for n in 0..40usize {
+            let items: Vec<usize> = (0..n).collect();
+            let got = par_map(&items, |&i| i * i + 1);
+            let want: Vec<usize> = items.iter().map(|&i| i * i + 1).collect();
+            assert_eq!(got, want, "n = {n}");
         }
     }
 
