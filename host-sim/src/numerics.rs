@@ -123,40 +123,51 @@ pub fn interp(t: &[f64], y: &[f64], corner: &[bool], x: f64) -> f64 {
         return y[n - 1];
     }
     let k = t.partition_point(|&v| v <= x).clamp(1, n - 1) - 1;
+    let (m0, m1) = (
+        tangent(t, y, corner, k, true),
+        tangent(t, y, corner, k + 1, false),
+    );
+    hermite(t, y, k, (m0, m1), x)
+}
+
+/// [`interp`]'s tangent at sample `i` (per unit of t) on the side
+/// `fwd` (towards i + 1) or not: one-sided at a corner and at the ends
+/// (from the points i, i ± 1, i ± 2, or the secant to i ± 1 when there is
+/// no third point on that side), central elsewhere.
+pub fn tangent(t: &[f64], y: &[f64], corner: &[bool], i: usize, fwd: bool) -> f64 {
+    let n = t.len();
     let is_corner = |i: usize| i == 0 || i == n - 1 || corner.get(i).copied().unwrap_or(false);
-    // Tangent at i from the points i, i + dir, i + 2·dir (one-sided), or
-    // the secant to i + dir when there is no third point on that side.
-    let one_sided = |i: usize, fwd: bool| {
-        let (a, b) = if fwd {
-            (i + 1, i + 2)
-        } else {
-            (i.wrapping_sub(1), i.wrapping_sub(2))
-        };
-        let b_ok = if fwd {
-            b < n && !is_corner(a)
-        } else {
-            i >= 2 && !is_corner(a)
-        };
-        let da = (y[a] - y[i]) / (t[a] - t[i]);
-        if b_ok {
-            let db = (y[b] - y[i]) / (t[b] - t[i]);
-            // Derivative at t_i of the parabola through the three points.
-            let (ha, hb) = (t[a] - t[i], t[b] - t[i]);
-            (da * hb - db * ha) / (hb - ha)
-        } else {
-            da
-        }
+    if !is_corner(i) {
+        return (y[i + 1] - y[i - 1]) / (t[i + 1] - t[i - 1]);
+    }
+    let (a, b) = if fwd {
+        (i + 1, i + 2)
+    } else {
+        (i.wrapping_sub(1), i.wrapping_sub(2))
     };
-    let tangent = |i: usize, fwd: bool| {
-        if is_corner(i) {
-            one_sided(i, fwd)
-        } else {
-            (y[i + 1] - y[i - 1]) / (t[i + 1] - t[i - 1])
-        }
+    let b_ok = if fwd {
+        b < n && !is_corner(a)
+    } else {
+        i >= 2 && !is_corner(a)
     };
+    let da = (y[a] - y[i]) / (t[a] - t[i]);
+    if b_ok {
+        let db = (y[b] - y[i]) / (t[b] - t[i]);
+        // Derivative at t_i of the parabola through the three points.
+        let (ha, hb) = (t[a] - t[i], t[b] - t[i]);
+        (da * hb - db * ha) / (hb - ha)
+    } else {
+        da
+    }
+}
+
+/// The cubic Hermite piece from sample `k` to `k + 1` with the tangents
+/// `m` (per unit of t, at each end) at `x` in it.
+#[inline]
+pub fn hermite(t: &[f64], y: &[f64], k: usize, m: (f64, f64), x: f64) -> f64 {
     let h = t[k + 1] - t[k];
     let u = (x - t[k]) / h;
-    let (m0, m1) = (tangent(k, true) * h, tangent(k + 1, false) * h);
+    let (m0, m1) = (m.0 * h, m.1 * h);
     let (u2, u3) = (u * u, u * u * u);
     (2.0 * u3 - 3.0 * u2 + 1.0) * y[k]
         + (u3 - 2.0 * u2 + u) * m0

@@ -1,7 +1,7 @@
 //! The sensor's own static curves, from its calibration.
 
 use crate::dataset::Table;
-use crate::numerics::{interp, quadratic_fit};
+use crate::numerics::{hermite, quadratic_fit, tangent};
 use anyhow::{bail, Result};
 
 /// The sensor's own static curves, from the calibration: the shape of
@@ -17,6 +17,9 @@ pub struct Shape {
     /// needs on every call, computed once.
     rs: Vec<f64>,
     rr: Vec<f64>,
+    /// [`crate::numerics::interp`]'s tangent at each point (no corners:
+    /// the same on both sides), Ω/mm.
+    rm: Vec<f64>,
     below: [f64; 3],
     above: [f64; 3],
     top: f64,
@@ -43,7 +46,11 @@ impl Shape {
     pub(crate) fn new(c: [f64; 3], r: Vec<(f64, f64)>) -> Self {
         let n = r.len();
         let (rs, rr): (Vec<f64>, Vec<f64>) = r.iter().copied().unzip();
+        let rm = (0..if n > 1 { n } else { 0 })
+            .map(|i| tangent(&rs, &rr, &[], i, i + 1 < n))
+            .collect();
         Self {
+            rm,
             c,
             below: quadratic_fit(&r[..n.min(4)]),
             above: quadratic_fit(&r[n.saturating_sub(4)..]),
@@ -125,9 +132,41 @@ impl Shape {
         } else if s > t[n - 1] {
             let q = self.above;
             q[0] + s * (q[1] + s * q[2])
+        } else if n == 1 || s <= t[0] {
+            self.rr[0]
+        } else if s >= t[n - 1] {
+            self.rr[n - 1]
         } else {
-            interp(t, &self.rr, &[], s)
+            // `interp` with the tangents computed once.
+            let k = t.partition_point(|&v| v <= s).clamp(1, n - 1) - 1;
+            hermite(t, &self.rr, k, (self.rm[k], self.rm[k + 1]), s)
         };
         v.max(0.05 * self.top)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numerics::interp;
+
+    /// [`Shape::r_at`] with its tangents computed once is
+    /// [`interp`] inside the calibration, to the bit, on uneven points.
+    #[test]
+    fn r_at_is_interp_inside_the_calibration() {
+        let r: Vec<(f64, f64)> = [0.0, 1.5, 4.0, 9.0, 15.0, 16.0, 22.0, 30.0]
+            .iter()
+            .map(|&s: &f64| (s, 711e3 - 3e3 * s + 0.4e3 * s * s - 30.0 * s.powi(3) / 3.0))
+            .collect();
+        for pts in [&r[..], &r[..2], &r[..3]] {
+            let sh = Shape::new([210.0, 2.1, 0.0], pts.to_vec());
+            let (t, y): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
+            let top = pts.last().unwrap().0;
+            for k in 0..=600 {
+                let s = top * k as f64 / 600.0;
+                let want = interp(&t, &y, &[], s).max(0.05 * sh.top);
+                assert_eq!(sh.r_at(s).to_bits(), want.to_bits(), "{} points, {s} mm", pts.len());
+            }
+        }
     }
 }
