@@ -58,6 +58,7 @@ impl Meter {
             window_s: effects.get(Effect::MeterLag),
             offset_s: effects.get(Effect::TimeOffset),
             response_s: effects.get(Effect::MeterResponse),
+            response_order: effects.get(Effect::MeterOrder),
             mean_readings: effects.get(Effect::MeterMean),
             ewma_memory: effects.get(Effect::MeterEwma),
         })
@@ -67,7 +68,7 @@ impl Meter {
     /// sensor must be at or before `t − lookback` when a run starts at t.
     pub fn lookback_s(&self) -> f64 {
         match *self {
-            Meter::Lcr(m) => (m.window_s + 12.0 * m.response_s - m.offset_s).max(0.0),
+            Meter::Lcr(m) => (m.window_s + m.response_reach_s() - m.offset_s).max(0.0),
             Meter::Adc(_) => 0.0,
         }
     }
@@ -226,12 +227,29 @@ pub struct LcrMeter {
     pub offset_s: f64,
     /// First-order response time constant, s (0: none).
     pub response_s: f64,
+    /// Sections of that response in cascade, 1…4 (a fraction mixes the
+    /// next order in part; 0: one).
+    pub response_order: f64,
     /// Readings of its running mean, one per `interval_s` (0: none; a
     /// fraction weighs the oldest in part).
     pub mean_readings: f64,
     /// Memory m of its weighted mean of readings, y = (1 − m)·x + m·y
     /// (0: none).
     pub ewma_memory: f64,
+}
+
+impl LcrMeter {
+    /// The order of its response, 1…4.
+    fn order(&self) -> f64 {
+        self.response_order.clamp(1.0, 4.0)
+    }
+
+    /// How far back its response reaches, s: (8 + 4n)·τ for n sections
+    /// (12 τ for one: the weights further back are under 10⁻⁵; 24 τ for
+    /// four, under 10⁻⁶).
+    pub fn response_reach_s(&self) -> f64 {
+        (8.0 + 4.0 * self.order()) * self.response_s
+    }
 }
 
 /// A meter's average of its own readings (Cs, Rs) in discrete time: a
@@ -315,19 +333,20 @@ fn mean_admittance(m: &mut Sensor, profile: &Profile, start: f64, window_s: f64,
     y / k as f64
 }
 
-/// A first-order response of time constant τ to the (windowed)
-/// admittance: its state and the time it has reached.
+/// A response of n first-order sections of time constant τ in cascade
+/// (1…4, and a fraction of the next) to the (windowed) admittance: each
+/// section's state and the time they have reached.
 struct FirstOrder {
-    state: Complex64,
+    state: [Complex64; 5],
     at: f64,
 }
 
 impl FirstOrder {
-    /// The filter settled on what the meter sees at `at` (12 τ before the
-    /// first reading).
+    /// The filter settled on what the meter sees at `at`
+    /// ([`LcrMeter::response_reach_s`] before the first reading).
     fn settled(m: &mut Sensor, profile: &Profile, lcr: &LcrMeter, at: f64, freq_hz: f64) -> Self {
         Self {
-            state: Self::input(m, profile, lcr, at, freq_hz),
+            state: [Self::input(m, profile, lcr, at, freq_hz); 5],
             at,
         }
     }
@@ -343,7 +362,9 @@ impl FirstOrder {
     }
 
     /// Advance to `target` in steps of ≤ 0.5 ms, each sampled at its
-    /// midpoint and decaying the state by e^(−d/τ); the impedance then.
+    /// midpoint and decaying the first section's state by e^(−d/τ), each
+    /// further section fed the mean of the one before it over the step;
+    /// the impedance then.
     fn advance(
         &mut self,
         m: &mut Sensor,
@@ -352,17 +373,29 @@ impl FirstOrder {
         target: f64,
         freq_hz: f64,
     ) -> Complex64 {
+        let order = lcr.order();
+        let (whole, part) = (order.floor() as usize, order - order.floor());
+        let sections = whole + usize::from(part > 0.0);
         let steps = ((target - self.at) / 0.5e-3).ceil().max(0.0) as usize;
         if steps > 0 {
             let d = (target - self.at) / steps as f64;
             let e = (-d / lcr.response_s).exp();
             for _ in 0..steps {
-                let y = Self::input(m, profile, lcr, self.at + 0.5 * d, freq_hz);
-                self.state = self.state * e + y * (1.0 - e);
+                let mut input = Self::input(m, profile, lcr, self.at + 0.5 * d, freq_hz);
+                for k in 0..sections {
+                    let old = self.state[k];
+                    self.state[k] = old * e + input * (1.0 - e);
+                    input = 0.5 * (old + self.state[k]);
+                }
                 self.at += d;
             }
         }
-        self.state.inv()
+        let y = if part > 0.0 {
+            self.state[whole - 1] * (1.0 - part) + self.state[whole] * part
+        } else {
+            self.state[whole - 1]
+        };
+        y.inv()
     }
 }
 
@@ -397,7 +430,7 @@ fn run_lcr(
             None => sensor.impedance(freq_hz),
             Some(m) if lcr.response_s > 0.0 => filter
                 .get_or_insert_with(|| {
-                    FirstOrder::settled(m, profile, lcr, target - 12.0 * lcr.response_s, freq_hz)
+                    FirstOrder::settled(m, profile, lcr, target - lcr.response_reach_s(), freq_hz)
                 })
                 .advance(m, profile, lcr, target, freq_hz),
             Some(m) => mean_admittance(m, profile, target - lcr.window_s, lcr.window_s, freq_hz).inv(),

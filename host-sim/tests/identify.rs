@@ -112,7 +112,7 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::StretchBump => (0.1, 0.4, true),
         Effect::ResistanceBump => (0.2, 3.0, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
-        Effect::BumpCentre | Effect::BumpWidth => unreachable!("parts of a bump"),
+        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder => unreachable!("shape parameters"),
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -146,7 +146,7 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::StretchBump => (0.02, 0.95, true),
         Effect::ResistanceBump => (0.02, 0.95, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
-        Effect::BumpCentre | Effect::BumpWidth => unreachable!("parts of a bump"),
+        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder => unreachable!("shape parameters"),
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -464,6 +464,44 @@ fn time_effects_are_searched_as_far_as_the_trace_holds() {
         );
         assert_eq!(j["effects"][0]["at_limit"], false);
         assert!(f.rms_pf <= 1.5 * f.noise_pf, "{}", r.verdict());
+    }
+}
+
+/// A lock-in's output filter of several sections (the project's own
+/// generator: n first-order sections of τ, a fractional n mixing the next
+/// order in part): named as the meter's response with its order, n within
+/// 0.05 and τ within 2 % (5σ), explained to 1.3× the noise.
+#[test]
+fn a_response_of_several_sections_is_named_with_its_order() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (k, (tau, order)) in [(0.04, 3.0), (0.03, 2.5)].into_iter().enumerate() {
+        let fx = EffectSet::NONE
+            .with(Effect::MeterResponse, tau)
+            .with(Effect::MeterOrder, order);
+        let r = run(
+            &tmp.path().join(format!("o{k}")),
+            fx,
+            Meter::lcr(&fx),
+            40 + k as u64,
+        );
+        let f = r.accepted.as_ref().unwrap_or_else(|| panic!("{}", r.verdict()));
+        println!("{}", r.verdict());
+        assert_eq!(f.effects, [Effect::MeterResponse], "{}", r.verdict());
+        assert!(f.fitted.contains(&Effect::MeterOrder), "{}", r.verdict());
+        let (n, sn) = (f.params.get(Effect::MeterOrder), f.sigma_of(Effect::MeterOrder));
+        let (t, st) = (
+            f.params.get(Effect::MeterResponse),
+            f.sigma_of(Effect::MeterResponse),
+        );
+        assert!(
+            (n - order).abs() < 0.05 + 5.0 * sn,
+            "order {n} ± {sn} against {order}"
+        );
+        assert!(
+            (t - tau).abs() < 0.02 * tau + 5.0 * st,
+            "τ {t} ± {st} against {tau}"
+        );
+        assert!(f.rms_pf <= 1.3 * f.noise_pf, "{}", r.verdict());
     }
 }
 

@@ -102,7 +102,7 @@ impl Info {
 }
 
 /// The number of effects in the catalogue.
-pub const COUNT: usize = 20;
+pub const COUNT: usize = 21;
 
 /// An effect of the catalogue.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -192,6 +192,14 @@ pub enum Effect {
     /// A bump's full width w, a fraction of the sensor's length (0: no
     /// bump). A shape parameter, fitted with a bump, never alone.
     BumpWidth,
+    /// The order n of the meter's response: n first-order sections of
+    /// the time constant of [`Effect::MeterResponse`] in cascade (a
+    /// lock-in's output filter at 6·n dB/octave), 1…4; its kernel is
+    /// uⁿ⁻¹e^(−u/τ)/((n − 1)!·τⁿ), a bump in time peaking (n − 1)·τ back
+    /// and about √n·τ wide. A fraction mixes in the next order's
+    /// response in part; 0 (unset) is first order. A shape parameter,
+    /// fitted with its response, never alone.
+    MeterOrder,
 }
 
 /// A localized bump along the sensor at ξ (0…1): cos²(π(ξ − ξ₀)/w) within
@@ -247,14 +255,19 @@ impl Effect {
         Effect::ResistanceBump,
         Effect::BumpCentre,
         Effect::BumpWidth,
+        Effect::MeterOrder,
     ];
 
     /// The shape parameters: part of another effect's model (a bump's
-    /// place and width), fitted with it, never as an effect alone.
-    pub const SHAPES: [Effect; 2] = [Effect::BumpCentre, Effect::BumpWidth];
+    /// place and width, a response's order), fitted with it, never as an
+    /// effect alone.
+    pub const SHAPES: [Effect; 3] = [Effect::BumpCentre, Effect::BumpWidth, Effect::MeterOrder];
 
-    /// The bumps, whose place and width are [`Effect::SHAPES`].
+    /// The bumps, whose place and width are [`Effect::BUMP_SHAPES`].
     pub const BUMPS: [Effect; 2] = [Effect::StretchBump, Effect::ResistanceBump];
+
+    /// A bump's place and width (of [`Effect::SHAPES`]).
+    pub const BUMP_SHAPES: [Effect; 2] = [Effect::BumpCentre, Effect::BumpWidth];
 
     /// Its entry in the catalogue: the catalogue itself, one entry per
     /// effect, so one long `match` on purpose (an effect is added here and
@@ -627,6 +640,24 @@ impl Effect {
                 search: (0.2, 1.0),
                 scope: Scope::Sensor,
                 entry: Entry::AlongLine,
+                fitted: false,
+            },
+            // Physical range: lock-in amplifiers offer output filters of
+            // 6, 12, 18 and 24 dB/octave (1 to 4 sections); a
+            // sigma-delta meter's sinc³ decimator reads like order 3.
+            Effect::MeterOrder => &Info {
+                id: "meter_order",
+                key: "response_order",
+                doc: "sections in the meter's response (6 dB/octave each), 1..4",
+                unit: "",
+                display_unit: "",
+                display_scale: 1.0,
+                display_decimals: 2,
+                limits: (0.0, 4.0),
+                open: false,
+                search: (1.0, 4.0),
+                scope: Scope::Recording,
+                entry: Entry::Time,
                 fitted: false,
             },
         }

@@ -211,6 +211,31 @@ impl Bench {
                 }
                 out
             }
+            Dynamics::Cascade { tau_s, sections } => {
+                // Each section averages the one before it, sample by
+                // sample; a row takes the sections at the sample just
+                // before its time, each advanced over the remaining
+                // fraction of a sample towards its input there.
+                let mut avgs: Vec<Exponential> =
+                    (0..sections.max(1)).map(|_| Exponential::new(tau_s)).collect();
+                let run = |avgs: &mut Vec<Exponential>, z: num_complex::Complex64| {
+                    avgs.iter_mut().fold(z, |x, a| a.update(x))
+                };
+                let mut out = Vec::with_capacity(rows);
+                let mut t = t0;
+                run(&mut avgs, z_at(t));
+                for &s in &stamps {
+                    let target = s + offset;
+                    while t + SAMPLE_S <= target {
+                        t += SAMPLE_S;
+                        run(&mut avgs, z_at(t));
+                    }
+                    let decay = (-(target - t) / tau_s).exp();
+                    let y = avgs.iter().fold(z_at(target), |x, a| x + (a.value() - x) * decay);
+                    out.push(y);
+                }
+                out
+            }
             Dynamics::MovingMean { .. } | Dynamics::Ewma { .. } => {
                 // One reading per row at the row's time, from `back`
                 // rows before the first; row k reads the kernel over the

@@ -6,8 +6,8 @@
 //! with. The shapes are this bench's own, not the catalogue's: an
 //! exponential resistance or stretch profile where the catalogue has a
 //! linear mode, a sine bulge where it has a parabola, windows centred as
-//! well as trailing, a first-order meter average, per-tab contacts that
-//! differ.
+//! well as trailing, a first-order meter average and a lock-in's filter
+//! of several sections, per-tab contacts that differ.
 
 use crate::bench::ROW_S;
 use crate::meter::{Dynamics, Meter};
@@ -38,6 +38,10 @@ pub enum Family {
     Window,
     /// The meter's first-order average, τ 10 ms–0.5 s.
     FirstOrder,
+    /// A lock-in's output filter: 2–4 first-order sections in cascade
+    /// (12–24 dB/octave, the slopes lock-in amplifiers offer), τ 5–150 ms
+    /// each.
+    Cascade,
     /// A meter reporting the mean of its last 2–16 readings (one per
     /// row), 0–3 rows late: a digital meter's or logger's averaging.
     MovingMean,
@@ -67,7 +71,7 @@ pub enum Family {
 
 impl Family {
     /// The families an analysis is expected to name.
-    pub const IN_LIBRARY: [Family; 15] = [
+    pub const IN_LIBRARY: [Family; 16] = [
         Family::Contact,
         Family::Parasitic,
         Family::ResistanceProfile,
@@ -83,6 +87,7 @@ impl Family {
         Family::FilmDispersion,
         Family::StretchBump,
         Family::ResistanceBump,
+        Family::Cascade,
     ];
 
     /// The families outside the catalogue.
@@ -99,6 +104,7 @@ impl Family {
             Family::Leakage => "leakage",
             Family::Window => "window",
             Family::FirstOrder => "first_order",
+            Family::Cascade => "cascade",
             Family::MovingMean => "moving_mean",
             Family::Ewma => "ewma",
             Family::Offset => "offset",
@@ -124,7 +130,7 @@ impl Family {
             Family::StretchBulge => &["stretch_bulge", "nonuniform_stretch", "stretch_bump"],
             Family::Leakage => &["dielectric_leakage"],
             // A meter's averaging, whichever kernel names it.
-            Family::Window | Family::FirstOrder | Family::MovingMean | Family::Ewma => {
+            Family::Window | Family::FirstOrder | Family::Cascade | Family::MovingMean | Family::Ewma => {
                 &["meter_lag", "meter_response", "meter_mean", "meter_ewma"]
             }
             Family::Offset => &["time_offset"],
@@ -153,7 +159,7 @@ impl Family {
     /// right too.
     pub fn named_right_at(self, ids: &[&str], meter: &Meter, row_s: f64) -> bool {
         let kernel = match self {
-            Family::Window | Family::FirstOrder | Family::MovingMean | Family::Ewma => {
+            Family::Window | Family::FirstOrder | Family::Cascade | Family::MovingMean | Family::Ewma => {
                 meter.dynamics.kernel_centroid_s(row_s)
             }
             _ => f64::INFINITY,
@@ -208,6 +214,13 @@ impl Family {
             Family::FirstOrder => {
                 v = log(rng, 0.01, 0.7);
                 meter.dynamics = Dynamics::FirstOrder { tau_s: v };
+            }
+            Family::Cascade => {
+                v = log(rng, 5e-3, 0.15);
+                meter.dynamics = Dynamics::Cascade {
+                    tau_s: v,
+                    sections: rng.gen_range(2..=4),
+                };
             }
             Family::MovingMean => {
                 meter.dynamics = Dynamics::MovingMean {

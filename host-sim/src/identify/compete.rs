@@ -4,7 +4,9 @@
 //! A model competes when it explains the data (within
 //! [`super::Options::explained`] of the noise seen through it), the rows
 //! resolve it, its BIC is within [`super::Options::bic_margin`] of the
-//! accepted model's, and it is neither a part nor an extension of it.
+//! accepted model's, and it is neither a part nor an extension of it (the
+//! same effects with other shape parameters, a response with its order
+//! and without, do compete).
 //! For models with a property of the sensor, the static sweep each
 //! predicts is compared over 100 Hz–100 kHz at the calibration's
 //! stretches: the frequency and stretch where they differ most, against
@@ -12,7 +14,7 @@
 //! whose rows are finer than the kernels would separate them.
 
 use super::{Fit, Report};
-use crate::model::Prepared;
+use crate::model::{Effect, Prepared};
 use std::fmt::Write as _;
 
 /// Another explanation the data allow as well as the accepted one.
@@ -40,8 +42,20 @@ pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
         return vec![];
     };
     let opts = &report.options;
+    // A part or an extension of it. The same effects with a response's
+    // order and without are another shape in time, which competes where
+    // the order is resolved from one (2σ; else it is the first-order
+    // response again, one parameter more).
+    let within = |a: &[Effect], b: &[Effect]| a.iter().all(|e| b.contains(e));
+    let resolved_order = |f: &Fit| {
+        let n = f.params.get(Effect::MeterOrder);
+        f.fitted.contains(&Effect::MeterOrder) && n - 1.0 > 2.0 * f.sigma_of(Effect::MeterOrder)
+    };
     let nested = |f: &Fit| {
-        f.effects.iter().all(|e| acc.effects.contains(e)) || acc.effects.iter().all(|e| f.effects.contains(e))
+        let other_shape = within(&f.effects, &acc.effects)
+            && within(&acc.effects, &f.effects)
+            && (resolved_order(f) != resolved_order(acc));
+        !other_shape && (within(&f.effects, &acc.effects) || within(&acc.effects, &f.effects))
     };
     report
         .singles

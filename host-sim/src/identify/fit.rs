@@ -233,7 +233,8 @@ impl Problem<'_> {
         // A bump carried over from a smaller model: walked to its new
         // optimum on the coarse copy first (its place and width trade
         // against its amplitude along a long valley), then on all rows.
-        let carried = effects.iter().any(|e| e.is_shape()) && !scan.iter().any(|e| e.is_shape());
+        let bump_shape = |e: &Effect| Effect::BUMP_SHAPES.contains(e);
+        let carried = effects.iter().any(bump_shape) && !scan.iter().any(bump_shape);
         if carried {
             if let Some(ev) = coarse.eval(p) {
                 p = coarse.levenberg_marquardt(effects, p, ev, LM_STEPS).0;
@@ -311,20 +312,41 @@ impl Problem<'_> {
                     }
                 }
             }
-            for &e in scan
-                .iter()
-                .filter(|e| bump.is_none() || !(Effect::BUMPS.contains(e) || e.is_shape()))
-            {
-                let mut at = p.get(e);
-                for v in grid(&coarse.prep.search, e) {
-                    if let Some(ev) = coarse.eval(p.with(e, v)) {
-                        if ev.s < s_best {
-                            s_best = ev.s;
-                            at = v;
+            // A response with its order: its time constant's grid at each
+            // whole order (the two trade along n·τ, the kernel's
+            // centroid).
+            let orders: &[f64] = if scan.contains(&Effect::MeterOrder) {
+                &ORDERS
+            } else {
+                &[0.0]
+            };
+            let start = p;
+            for &order in orders {
+                let mut q = start;
+                if order > 0.0 {
+                    q = q.with(Effect::MeterOrder, order);
+                }
+                for &e in scan.iter().filter(|e| {
+                    **e != Effect::MeterOrder
+                        && (bump.is_none() || !(Effect::BUMPS.contains(e) || bump_shape(e)))
+                }) {
+                    let mut at = q.get(e);
+                    let mut found = false;
+                    for v in grid(&coarse.prep.search, e) {
+                        if let Some(ev) = coarse.eval(q.with(e, v)) {
+                            if ev.s < s_best {
+                                (s_best, at, found) = (ev.s, v, true);
+                            }
                         }
                     }
+                    q = q.with(e, at);
+                    if found {
+                        p = q;
+                    }
                 }
-                p = p.with(e, at);
+                if order > 0.0 && p.get(Effect::MeterOrder) == 0.0 {
+                    p = p.with(Effect::MeterOrder, 1.0);
+                }
             }
         }
         let k = effects.len();
@@ -469,6 +491,10 @@ impl Problem<'_> {
         (p, best, None)
     }
 }
+
+/// The whole orders a response's time constant is scanned at
+/// ([`Effect::MeterOrder`]).
+const ORDERS: [f64; 4] = [1.0, 2.0, 3.0, 4.0];
 
 /// A bump's places on its joint grid (fractions of the sensor).
 const BUMP_CENTRES: [f64; 10] = [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95];

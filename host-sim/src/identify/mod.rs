@@ -150,29 +150,37 @@ impl Fit {
                 .map(|e| e.id())
                 .collect::<Vec<_>>()
                 .join(" + ");
-            match self.averaging {
-                Some(a) => format!("{ids} ({a})"),
-                None => ids,
+            let mut notes = vec![];
+            if self.fitted.contains(&Effect::MeterOrder) {
+                notes.push(format!("order {:.2}", self.params.get(Effect::MeterOrder)));
+            }
+            if let Some(a) = self.averaging {
+                notes.push(a.to_string());
+            }
+            if notes.is_empty() {
+                ids
+            } else {
+                format!("{ids} ({})", notes.join(", "))
             }
         }
     }
 
     /// The parameters that belong to the named effect `e`: its own, and
     /// for a meter kernel the fitted ones no effect is named for (its
-    /// stamp within the window).
+    /// stamp within the window, a response's order).
     pub fn params_of(&self, e: Effect) -> Vec<Effect> {
         let mut v = vec![e];
         if KERNELS.contains(&e) && self.effects.iter().find(|k| KERNELS.contains(k)) == Some(&e) {
             v.extend(
                 self.fitted
                     .iter()
-                    .filter(|f| !self.effects.contains(f) && !f.is_shape()),
+                    .filter(|f| !self.effects.contains(f) && !Effect::BUMP_SHAPES.contains(f)),
             );
         }
         // A bump's place and width (shared by both bumps: the first holds
         // them).
         if Effect::BUMPS.contains(&e) && self.effects.iter().find(|k| Effect::BUMPS.contains(k)) == Some(&e) {
-            v.extend(self.fitted.iter().filter(|f| f.is_shape()));
+            v.extend(self.fitted.iter().filter(|f| Effect::BUMP_SHAPES.contains(f)));
         }
         v
     }
@@ -393,19 +401,22 @@ struct Candidate {
     scan: Vec<Effect>,
     start: Params,
     averaging: Averaging,
-    key: Effect,
 }
 
-/// What a candidate fits for the effect `e`: a window jointly with its
+/// What candidates fit for the effect `e`: a window jointly with its
 /// stamp (a time offset: a trailing and a centred window are both
-/// windows), a discrete kernel with its delay, any other effect alone.
-fn fitted_for(e: Effect) -> Vec<Effect> {
+/// windows), a discrete kernel with its delay, a first-order response
+/// alone and with its order (two shapes in time, chosen by BIC), any
+/// other effect alone.
+fn fitted_for(e: Effect) -> Vec<Vec<Effect>> {
     if e == Effect::MeterLag || DISCRETE.contains(&e) {
-        vec![e, Effect::TimeOffset]
+        vec![vec![e, Effect::TimeOffset]]
     } else if Effect::BUMPS.contains(&e) {
-        vec![e, Effect::BumpCentre, Effect::BumpWidth]
+        vec![vec![e, Effect::BumpCentre, Effect::BumpWidth]]
+    } else if e == Effect::MeterResponse {
+        vec![vec![e], vec![e, Effect::MeterOrder]]
     } else {
-        vec![e]
+        vec![vec![e]]
     }
 }
 
@@ -415,42 +426,44 @@ fn fitted_for(e: Effect) -> Vec<Effect> {
 fn candidates(library: &[Effect], base: Option<&Fit>) -> Vec<Candidate> {
     let mut out = vec![];
     for &e in library {
-        let (mut fitted, start) = match base {
+        let (base_fitted, start) = match base {
             None => (vec![], Params::NONE),
             Some(b) => (b.fitted.clone(), b.params),
         };
         // One meter kernel at a time: a meter has one averaging.
-        if fitted.contains(&e) || (KERNELS.contains(&e) && fitted.iter().any(|f| KERNELS.contains(f))) {
+        if base_fitted.contains(&e)
+            || (KERNELS.contains(&e) && base_fitted.iter().any(|f| KERNELS.contains(f)))
+        {
             continue;
         }
-        let scan: Vec<Effect> = fitted_for(e)
-            .into_iter()
-            .filter(|f| !fitted.contains(f))
-            .collect();
-        fitted.extend(&scan);
-        let domains = match base.and_then(|b| b.averaging) {
-            Some(a) => vec![a],
-            None if fitted.iter().any(|f| KERNELS.contains(f)) => {
-                vec![Averaging::Admittance, Averaging::Readings]
+        for own in fitted_for(e) {
+            let mut fitted = base_fitted.clone();
+            let scan: Vec<Effect> = own.into_iter().filter(|f| !fitted.contains(f)).collect();
+            fitted.extend(&scan);
+            let domains = match base.and_then(|b| b.averaging) {
+                Some(a) => vec![a],
+                None if fitted.iter().any(|f| KERNELS.contains(f)) => {
+                    vec![Averaging::Admittance, Averaging::Readings]
+                }
+                None => vec![Averaging::Admittance],
+            };
+            for averaging in domains {
+                out.push(Candidate {
+                    fitted: fitted.clone(),
+                    scan: scan.clone(),
+                    start,
+                    averaging,
+                })
             }
-            None => vec![Averaging::Admittance],
-        };
-        for averaging in domains {
-            out.push(Candidate {
-                fitted: fitted.clone(),
-                scan: scan.clone(),
-                start,
-                averaging,
-                key: e,
-            });
         }
     }
     out
 }
 
 /// Fit the candidates in parallel (one per averaging domain, `problems`
-/// indexed by [`Averaging`]), counting them on `progress`; the better
-/// domain of each key is kept, and each fit named ([`named`]).
+/// indexed by [`Averaging`]), counting them on `progress`; of a model
+/// fitted in both averaging domains the better is kept, and each fit
+/// named ([`named`]).
 fn run_candidates(
     problems: &[Problem; 2],
     coarse: &[Problem; 2],
@@ -459,7 +472,7 @@ fn run_candidates(
     progress: &ProgressBar,
 ) -> Vec<Fit> {
     progress.inc_length(cands.len() as u64);
-    let fits: Vec<(Effect, Fit)> = std::thread::scope(|sc| {
+    let fits: Vec<(Vec<Effect>, Fit)> = std::thread::scope(|sc| {
         let hs: Vec<_> = cands
             .iter()
             .map(|c| {
@@ -468,7 +481,7 @@ fn run_candidates(
                 sc.spawn(move || {
                     let f = prob
                         .fit(coarse, &c.fitted, c.start, &c.scan)
-                        .map(|f| (c.key, named(f, c.averaging, rows)));
+                        .map(|f| (sorted(&c.fitted), named(f, c.averaging, rows)));
                     progress.inc(1);
                     f
                 })
@@ -476,7 +489,7 @@ fn run_candidates(
             .collect();
         joined(hs)
     });
-    let mut best: Vec<(Effect, Fit)> = vec![];
+    let mut best: Vec<(Vec<Effect>, Fit)> = vec![];
     for (k, f) in fits {
         match best.iter_mut().find(|(b, _)| *b == k) {
             Some((_, b)) if f.s < b.s => *b = f,
@@ -506,7 +519,7 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     let p = f.params;
     let memory = p.get(Effect::MeterEwma);
     let centroid = 0.5 * p.get(Effect::MeterLag)
-        + p.get(Effect::MeterResponse)
+        + p.get(Effect::MeterResponse) * p.get(Effect::MeterOrder).max(1.0)
         + 0.5 * (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s
         + memory / (1.0 - memory).max(1e-9) * reading_s;
     if f.fitted.iter().any(|e| KERNELS.contains(e)) && centroid < row_s {
@@ -536,7 +549,7 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     if f.fitted.iter().any(|e| KERNELS.contains(e)) {
         f.averaging = Some(averaging);
     }
-    // A bump's place and width are part of it.
+    // A bump's place and width, a response's order, are part of it.
     f.effects.retain(|e| !e.is_shape());
     // A bump is named only where the data pin it down: its amplitude 3σ
     // from none and its place within ±0.1 of the sensor (1σ). A bump

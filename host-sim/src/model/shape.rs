@@ -165,7 +165,12 @@ mod tests {
             for k in 0..=600 {
                 let s = top * k as f64 / 600.0;
                 let want = interp(&t, &y, &[], s).max(0.05 * sh.top);
-                assert_eq!(sh.r_at(s).to_bits(), want.to_bits(), "{} points, {s} mm", pts.len());
+                assert_eq!(
+                    sh.r_at(s).to_bits(),
+                    want.to_bits(),
+                    "{} points, {s} mm",
+                    pts.len()
+                );
             }
         }
     }

@@ -7,7 +7,12 @@
 //! ```text
 //! window  T (MeterLag):      ȳ(t) = 1/T ∫₀ᵀ y(t + δ − u) du
 //! first order τ (MeterResponse): ȳ(t) = ∫₀^∞ y(t + δ − u) e^(−u/τ)/τ du
+//! order n (MeterOrder):          ȳ(t) = ∫₀^∞ y(t + δ − u) uⁿ⁻¹e^(−u/τ)/((n − 1)!·τⁿ) du
 //! ```
+//!
+//! A response of order n is n first-order sections in cascade (a
+//! lock-in's output filter at 6·n dB/octave); a fractional order n + a
+//! is (1 − a)·(order n) + a·(order n + 1).
 //!
 //! y is the admittance (a detector integrating the current at a fixed
 //! excitation, or a lock-in's RC output filter on I and Q) or the series
@@ -80,6 +85,7 @@ pub(super) fn timed(
     let (t0, t1) = (file.t[0], file.t[n - 1]);
     let window = p.get(Effect::MeterLag);
     let tau = p.get(Effect::MeterResponse);
+    let order = p.get(Effect::MeterOrder);
     let offset = p.get(Effect::TimeOffset);
     let f = file.f[0];
     let inputs = |x: f64| {
@@ -167,9 +173,9 @@ pub(super) fn timed(
                 (integral(x) - integral(x - window)) / window
             })
             .collect();
-        return first_order(&windowed, tau, h, node, file, offset, reading);
+        return first_order(&windowed, (tau, order), h, node, file, offset, reading);
     }
-    first_order(&grid, tau, h, node, file, offset, reading)
+    first_order(&grid, (tau, order), h, node, file, offset, reading)
 }
 
 /// The cumulative integral of the samples `grid` (spacing `h`) from its
@@ -192,18 +198,19 @@ fn cumulative(grid: &[Complex64], h: f64) -> Vec<Complex64> {
     cum
 }
 
-/// The first-order response (time constant `tau`, s) of the samples
-/// `grid` (spacing `h`, s), read at every row's t + `offset`.
+/// The response of `order` (1…4, [`Effect::MeterOrder`]; 0 is 1)
+/// first-order sections of time constant `tau` (s) in cascade, of the
+/// samples `grid` (spacing `h`, s), read at every row's t + `offset`.
+/// Each section sees the one before it as linear over a step.
 fn first_order(
     grid: &[Complex64],
-    tau: f64,
+    (tau, order): (f64, f64),
     h: f64,
     node: impl Fn(f64) -> (usize, f64),
     file: &File,
     offset: f64,
     reading: impl Fn(Complex64) -> f64,
 ) -> Vec<f64> {
-    let m = grid.len();
     // First order: F' = (y − F)/τ, exact for y linear over each step of
     // length d from y_a to y_b, with E = e^(−d/τ):
     // F ← E·F + (1 − E)·y_b + (y_a − y_b)·(τ(1 − E) − d·E)/d.
@@ -214,19 +221,48 @@ fn first_order(
         let e = (-d / tau).exp();
         state * e + yb * (1.0 - e) + (ya - yb) * ((tau * (1.0 - e) - d * e) / d)
     };
-    let mut filtered = Vec::with_capacity(m);
-    let mut state = grid[0];
-    filtered.push(state);
-    for j in 1..m {
-        state = step(state, grid[j - 1], grid[j], h);
-        filtered.push(state);
+    let order = order.clamp(1.0, 4.0);
+    let (whole, part) = (order.floor() as usize, order - order.floor());
+    let sections = whole + usize::from(part > 0.0);
+    // Each section's output at every node, settled on the first: the
+    // input of section k is the samples (k = 0) or stages[k − 1].
+    fn input_of<'a>(grid: &'a [Complex64], stages: &'a [Vec<Complex64>], k: usize) -> &'a [Complex64] {
+        if k == 0 {
+            grid
+        } else {
+            &stages[k - 1]
+        }
+    }
+    let mut stages: Vec<Vec<Complex64>> = Vec::with_capacity(sections);
+    for k in 0..sections {
+        let input = input_of(grid, &stages, k);
+        let mut out = Vec::with_capacity(input.len());
+        let mut state = input[0];
+        out.push(state);
+        for j in 1..input.len() {
+            state = step(state, input[j - 1], input[j], h);
+            out.push(state);
+        }
+        stages.push(out);
     }
     file.t
         .iter()
         .map(|&t| {
             let (j, a) = node(t + offset);
-            let yx = grid[j] + (grid[j + 1] - grid[j]) * a;
-            reading(step(filtered[j], grid[j], yx, a * h))
+            // Each section stepped from node j to the reading, its input
+            // linear from the node to the previous section's reading.
+            let mut x = grid[j] + (grid[j + 1] - grid[j]) * a;
+            let mut outs = [Complex64::default(); 5];
+            for k in 0..sections {
+                x = step(stages[k][j], input_of(grid, &stages, k)[j], x, a * h);
+                outs[k] = x;
+            }
+            let y = if part > 0.0 {
+                outs[whole - 1] * (1.0 - part) + outs[whole] * part
+            } else {
+                outs[whole - 1]
+            };
+            reading(y)
         })
         .collect()
 }
