@@ -317,6 +317,17 @@ mod tests {
         assert!(!Family::Window.named_right_at(&["time_offset"], &window(0.05), 0.02));
         let fo = with(Dynamics::FirstOrder { tau_s: 0.015 });
         assert!(Family::FirstOrder.named_right_at(&["time_offset"], &fo, 0.02));
+        // Four sections of 5 ms: 21 ms late, 10.6 ms wide: a delay.
+        let narrow = with(Dynamics::Cascade {
+            tau_s: 0.0053,
+            sections: 4,
+        });
+        assert!(Family::Cascade.named_right_at(&["time_offset"], &narrow, 0.02));
+        let wide = with(Dynamics::Cascade {
+            tau_s: 0.012,
+            sections: 4,
+        });
+        assert!(!Family::Cascade.named_right_at(&["time_offset"], &wide, 0.02));
         // Two readings three rows late: a delay to the data.
         let late = with(Dynamics::MovingMean {
             readings: 2,

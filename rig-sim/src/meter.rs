@@ -84,15 +84,19 @@ impl Dynamics {
 
     /// The kernel's own centroid, s: how far back from its newest reading
     /// it averages, without its delay or where a window is stamped (T/2
-    /// of a window, τ, n·τ of n sections, (N − 1)/2 and (1 − w)/w
-    /// readings). Under a row interval a kernel reads as a delay alone on
+    /// of a window, τ, (N − 1)/2 and (1 − w)/w readings; for n sections
+    /// in cascade their spread √n·τ, their centroid n·τ being a delay to
+    /// the data). Under a row interval a kernel reads as a delay alone on
     /// the data's rows.
     pub fn kernel_centroid_s(&self, row_s: f64) -> f64 {
         match *self {
             Dynamics::Instant => 0.0,
             Dynamics::Window { length_s, .. } => 0.5 * length_s,
             Dynamics::FirstOrder { tau_s } => tau_s,
-            Dynamics::Cascade { tau_s, sections } => sections as f64 * tau_s,
+            // The centroid n·τ of n sections reads as a delay; what a
+            // delay does not take is the kernel's spread, √n·τ (for one
+            // section the two agree).
+            Dynamics::Cascade { tau_s, sections } => (sections as f64).sqrt() * tau_s,
             Dynamics::MovingMean { readings, .. } => 0.5 * (readings.max(1) - 1) as f64 * row_s,
             Dynamics::Ewma { weight, .. } => (1.0 - weight) / weight * row_s,
         }

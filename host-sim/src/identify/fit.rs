@@ -426,29 +426,7 @@ impl Problem<'_> {
                 (v <= lo + edge && di < 0.0) || (v >= hi - edge && di > 0.0)
             };
             while lambda < 1e10 {
-                let mut held = vec![false; effects.len()];
-                let step = loop {
-                    let mut m = a.clone();
-                    let mut rhs: Vec<f64> = g.iter().map(|v| -v).collect();
-                    for i in 0..m.len() {
-                        m[i][i] += lambda * a[i][i].max(1e-300);
-                        if held[i] {
-                            // Its row and column those of the identity.
-                            m.iter_mut().for_each(|row| row[i] = 0.0);
-                            m[i].fill(0.0);
-                            m[i][i] = 1.0;
-                            rhs[i] = 0.0;
-                        }
-                    }
-                    let Some(d) = solve(m, rhs) else {
-                        break None;
-                    };
-                    let more: Vec<usize> = (0..d.len()).filter(|&i| !held[i] && at_edge(i, d[i])).collect();
-                    if more.is_empty() {
-                        break Some(d);
-                    }
-                    more.into_iter().for_each(|i| held[i] = true);
-                };
+                let step = bounded_step(&a, &g, lambda, at_edge);
                 let Some(d) = step else {
                     lambda *= 10.0;
                     continue;
@@ -489,6 +467,39 @@ impl Problem<'_> {
             }
         }
         (p, best, None)
+    }
+}
+
+/// The damped Gauss–Newton step d of (A + λ·diag A)·d = −g, a parameter
+/// `at_edge(i, dᵢ)` (at a bound the step pushes it past) held at zero and
+/// the step solved again for the others, until none more is held (the
+/// active set); None where the matrix is singular.
+fn bounded_step(
+    a: &[Vec<f64>],
+    g: &[f64],
+    lambda: f64,
+    at_edge: impl Fn(usize, f64) -> bool,
+) -> Option<Vec<f64>> {
+    let mut held = vec![false; g.len()];
+    loop {
+        let mut m = a.to_vec();
+        let mut rhs: Vec<f64> = g.iter().map(|v| -v).collect();
+        for i in 0..m.len() {
+            m[i][i] += lambda * a[i][i].max(1e-300);
+            if held[i] {
+                // Its row and column those of the identity.
+                m.iter_mut().for_each(|row| row[i] = 0.0);
+                m[i].fill(0.0);
+                m[i][i] = 1.0;
+                rhs[i] = 0.0;
+            }
+        }
+        let d = solve(m, rhs)?;
+        let more: Vec<usize> = (0..d.len()).filter(|&i| !held[i] && at_edge(i, d[i])).collect();
+        if more.is_empty() {
+            return Some(d);
+        }
+        more.into_iter().for_each(|i| held[i] = true);
     }
 }
 
@@ -616,6 +627,33 @@ pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The active set on S = (x − x₀, y − y₀)·A·(…) with x ≥ 0 and the
+    /// free optimum at x₀ < 0, from x = 0: the step holds x and takes y
+    /// to its optimum given x = 0 (y₀ − A₀₁/A₁₁·(0 − x₀)), exactly; a
+    /// step for both, clamped after, leaves y short of it.
+    #[test]
+    fn a_parameter_pushed_past_its_bound_is_held_and_the_rest_solved() {
+        let a = vec![vec![2.0, 0.9], vec![0.9, 1.0]];
+        let (x0, y0) = (-1.0, 2.0);
+        // At (0, 0): g = A·((0, 0) − (x0, y0)).
+        let g = [a[0][0] * -x0 + a[0][1] * -y0, a[1][0] * -x0 + a[1][1] * -y0];
+        let at_edge = |i: usize, d: f64| i == 0 && d < 0.0;
+        let d = bounded_step(&a, &g, 0.0, at_edge).unwrap();
+        let want = y0 - a[1][0] / a[1][1] * (0.0 - x0);
+        assert_eq!(d[0], 0.0);
+        assert!((d[1] - want).abs() < 1e-12, "{} against {want}", d[1]);
+        // Free: the full step to (x0, y0); clamped after, y stops short.
+        let free = bounded_step(&a, &g, 0.0, |_, _| false).unwrap();
+        assert!((free[0] - x0).abs() < 1e-12 && (free[1] - y0).abs() < 1e-12);
+        assert!((free[1] - want).abs() > 0.5);
+        // Damped, the held row stays the identity's.
+        let damped = bounded_step(&a, &g, 10.0, at_edge).unwrap();
+        assert_eq!(damped[0], 0.0);
+        assert!((damped[1] - -g[1] / (11.0 * a[1][1])).abs() < 1e-12);
+        // Singular: None.
+        assert!(bounded_step(&[vec![0.0; 2], vec![0.0; 2]], &g, 0.0, |_, _| false).is_none());
+    }
 
     /// `(S, r)` of a model `r(a) = y − a·x − κ·a²·x` on a fixed row set.
     fn model<'a>(x: &'a [f64], y: &'a [f64], kappa: f64) -> impl Fn(f64) -> Option<(f64, Vec<f64>)> + 'a {

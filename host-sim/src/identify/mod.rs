@@ -195,10 +195,14 @@ impl Fit {
             let (v, s) = (self.params.get(e), self.sigma[i]);
             let (lo, hi) = self.search.range(e);
             if s.is_nan() || s >= v.abs() || s >= 0.5 * (hi - lo) {
+                let sigma = if s.is_finite() {
+                    format!("1σ {}", fmt_si(e, s))
+                } else {
+                    "1σ undetermined".to_string()
+                };
                 out.push(format!(
-                    "{}: not pinned down (1σ {} against a value of {})",
+                    "{}: not pinned down ({sigma} against a value of {})",
                     e.info().key,
-                    fmt_si(e, s),
                     fmt_si(e, v)
                 ));
             }
@@ -506,7 +510,8 @@ fn run_candidates(
 /// is offset as well. A fit with a meter kernel records its averaging.
 ///
 /// A kernel whose centroid (T/2 for a window, τ for a first-order
-/// response) is under one row interval `row_s` is not resolved: between
+/// response; for n sections of τ their spread √n·τ, their centroid n·τ
+/// being a delay) is under one row interval `row_s` is not resolved: between
 /// rows, all the data see of it is a delay by its centroid, and smoothing
 /// the model over a row also smooths the noise of the recorded resistance
 /// it is computed from, which a fit rewards. Such a fit is marked
@@ -519,7 +524,7 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     let p = f.params;
     let memory = p.get(Effect::MeterEwma);
     let centroid = 0.5 * p.get(Effect::MeterLag)
-        + p.get(Effect::MeterResponse) * p.get(Effect::MeterOrder).max(1.0)
+        + p.get(Effect::MeterResponse) * p.get(Effect::MeterOrder).max(1.0).sqrt()
         + 0.5 * (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s
         + memory / (1.0 - memory).max(1e-9) * reading_s;
     if f.fitted.iter().any(|e| KERNELS.contains(e)) && centroid < row_s {

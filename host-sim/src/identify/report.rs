@@ -32,8 +32,8 @@ fn through(model: f64, baseline: f64) -> String {
     }
 }
 
-/// Parameters of a fit as "name = value ± σ", marked where a value ends
-/// at its search range's limit.
+/// Parameters of a fit as "name = value ± σ" (or σ undetermined),
+/// marked where a value ends at its search range's limit.
 pub fn params_text(f: &Fit) -> String {
     f.fitted
         .iter()
@@ -60,11 +60,17 @@ pub fn params_text(f: &Fit) -> String {
             } else {
                 String::new()
             };
+            // A singular normal matrix leaves σ undetermined (a
+            // parameter the others make moot: an order of no response).
+            let sigma = if s.is_finite() {
+                format!(" ± {}", param_value(e, *s))
+            } else {
+                " (σ undetermined: the data do not constrain it)".to_string()
+            };
             format!(
-                "{} = {} ± {}{stamp}{}",
+                "{} = {}{sigma}{stamp}{}",
                 e.info().key,
                 param_value(e, v),
-                param_value(e, *s),
                 if at_limit(&f.search, e, v) {
                     " (at the end of its search range)"
                 } else {
