@@ -317,28 +317,47 @@ mod tests {
         assert!(!Family::Window.named_right_at(&["time_offset"], &window(0.05), 0.02));
         let fo = with(Dynamics::FirstOrder { tau_s: 0.015 });
         assert!(Family::FirstOrder.named_right_at(&["time_offset"], &fo, 0.02));
-        // Four sections of 5 ms: 21 ms late, 10.6 ms wide: a delay.
-        let narrow = with(Dynamics::Cascade {
-            tau_s: 0.0053,
-            sections: 4,
-        });
-        assert!(Family::Cascade.named_right_at(&["time_offset"], &narrow, 0.02));
-        let wide = with(Dynamics::Cascade {
-            tau_s: 0.012,
-            sections: 4,
-        });
-        assert!(!Family::Cascade.named_right_at(&["time_offset"], &wide, 0.02));
-        // Two readings three rows late: a delay to the data.
-        let late = with(Dynamics::MovingMean {
-            readings: 2,
-            delay: 3,
-        });
-        assert!(Family::MovingMean.named_right_at(&["time_offset"], &late, 0.02));
-        let long = with(Dynamics::MovingMean {
-            readings: 4,
-            delay: 0,
-        });
-        assert!(!Family::MovingMean.named_right_at(&["time_offset"], &long, 0.02));
+        // Read as a delay alone, or not: four sections of 5.3 ms (21 ms
+        // late, 10.6 ms wide) are, of 12 ms not; two readings three rows
+        // late are, four readings not.
+        let delay_only =
+            |family: Family, dynamics| family.named_right_at(&["time_offset"], &with(dynamics), 0.02);
+        for (family, dynamics, delay) in [
+            (
+                Family::Cascade,
+                Dynamics::Cascade {
+                    tau_s: 0.0053,
+                    sections: 4,
+                },
+                true,
+            ),
+            (
+                Family::Cascade,
+                Dynamics::Cascade {
+                    tau_s: 0.012,
+                    sections: 4,
+                },
+                false,
+            ),
+            (
+                Family::MovingMean,
+                Dynamics::MovingMean {
+                    readings: 2,
+                    delay: 3,
+                },
+                true,
+            ),
+            (
+                Family::MovingMean,
+                Dynamics::MovingMean {
+                    readings: 4,
+                    delay: 0,
+                },
+                false,
+            ),
+        ] {
+            assert_eq!(delay_only(family, dynamics), delay, "{dynamics:?}");
+        }
         assert!(!Family::Offset.named_right_at(&["meter_lag"], &fo, 0.02));
         assert!(!Family::Window.named_right(&["meter_lag", "time_offset"]));
         assert!(!Family::Contact.named_right(&[]));
