@@ -684,6 +684,19 @@ impl Effect {
         Effect::SHAPES.contains(&self)
     }
 
+    /// The value at which a shape parameter reduces its effect to the
+    /// model without it (a response of order 1 is the first-order
+    /// response), where there is one: a fit with the parameter then
+    /// differs in shape from one without only where it is resolved from
+    /// that value. None for the others (a bump's place and width are
+    /// always fitted with it).
+    pub fn reduces_at(self) -> Option<f64> {
+        match self {
+            Effect::MeterOrder => Some(1.0),
+            _ => None,
+        }
+    }
+
     /// A property of the sensor and its wiring (a device calibration can
     /// hold it).
     pub const fn is_static(self) -> bool {

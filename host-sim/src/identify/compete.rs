@@ -42,19 +42,26 @@ pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
         return vec![];
     };
     let opts = &report.options;
-    // A part or an extension of it. The same effects with a response's
-    // order and without are another shape in time, which competes where
-    // the order is resolved from one (2σ; else it is the first-order
-    // response again, one parameter more).
+    // A part or an extension of it. The same effects with a shape
+    // parameter and without (a response's order) are another shape,
+    // which competes where the parameter is resolved from the value that
+    // reduces it to the model without (2σ: an order resolved from one;
+    // else it is the simpler model again, one parameter more).
     let within = |a: &[Effect], b: &[Effect]| a.iter().all(|e| b.contains(e));
-    let resolved_order = |f: &Fit| {
-        let n = f.params.get(Effect::MeterOrder);
-        f.fitted.contains(&Effect::MeterOrder) && n - 1.0 > 2.0 * f.sigma_of(Effect::MeterOrder)
+    let resolved_shape = |f: &Fit| -> Vec<Effect> {
+        f.fitted
+            .iter()
+            .copied()
+            .filter(|e| {
+                e.reduces_at()
+                    .is_some_and(|v0| (f.params.get(*e) - v0).abs() > 2.0 * f.sigma_of(*e))
+            })
+            .collect()
     };
     let nested = |f: &Fit| {
         let other_shape = within(&f.effects, &acc.effects)
             && within(&acc.effects, &f.effects)
-            && (resolved_order(f) != resolved_order(acc));
+            && (resolved_shape(f) != resolved_shape(acc));
         !other_shape && (within(&f.effects, &acc.effects) || within(&acc.effects, &f.effects))
     };
     report

@@ -344,9 +344,11 @@ impl Problem<'_> {
                         p = q;
                     }
                 }
-                if order > 0.0 && p.get(Effect::MeterOrder) == 0.0 {
-                    p = p.with(Effect::MeterOrder, 1.0);
-                }
+            }
+            // No order improved on the start: the response starts first
+            // order.
+            if scan.contains(&Effect::MeterOrder) && p.get(Effect::MeterOrder) == 0.0 {
+                p = p.with(Effect::MeterOrder, 1.0);
             }
         }
         let k = effects.len();

@@ -54,6 +54,13 @@ pub struct Options {
     pub bic_margin: f64,
     /// Most effects combined.
     pub max_effects: usize,
+    /// A second effect is named only where it takes at least this share
+    /// of the misfit the first leaves beyond the noise (RMS² − floor²):
+    /// one that takes less is significant to the statistics over
+    /// thousands of rows and nothing to the sensor (a resistance bump of
+    /// 0.2 % beside a stretch bump, taking the first's 1.54× of the noise
+    /// to 1.49×: it bends the model to a shape it lacks).
+    pub second_share: f64,
 }
 
 impl Default for Options {
@@ -63,6 +70,7 @@ impl Default for Options {
             explained: 1.5,
             bic_margin: 10.0,
             max_effects: 2,
+            second_share: 0.5,
         }
     }
 }
@@ -93,14 +101,17 @@ pub struct Fit {
     pub effects: Vec<Effect>,
     /// The parameters fitted: the named effects' and any that are part of
     /// one of them (a window's [`Effect::TimeOffset`] that lies within it
-    /// is where the meter stamps its readings, not a separate effect).
+    /// is where the meter stamps its readings, one behind it the meter's
+    /// delay, not a separate effect).
     pub fitted: Vec<Effect>,
     /// What the meter averages, where a time kernel was fitted.
     pub averaging: Option<Averaging>,
     /// Why the data cannot vouch for this model alone (None: they can):
     /// a meter kernel shorter than the rows resolve (such a fit is
     /// selected only when no single effect the rows resolve explains the
-    /// data), or a bump they do not pin down (never selected).
+    /// data), a bump they do not pin down, or a second effect that takes
+    /// too little of the misfit the first leaves
+    /// ([`Options::second_share`]) (never selected).
     pub unresolved: Option<String>,
     /// All parameters (fitted ones set).
     pub params: Params,
@@ -506,8 +517,14 @@ fn run_candidates(
 
 /// Name a fit's effects: a window's time offset that lies within the
 /// window (to 3σ, 2 % of the window and 1 ms) is where the meter stamps
-/// its readings, part of `meter_lag`; outside it, the capacitance channel
-/// is offset as well. A fit with a meter kernel records its averaging.
+/// its readings, part of `meter_lag`; one behind it (the window ending
+/// before its stamp) is the meter's delay, part of the kernel as a
+/// discrete kernel's delay is (to the data a meter's latency and an
+/// offset of its time base are one thing: a moving mean of 12 readings 2
+/// rows late reads as a 239 ms window 30 ms late, and either fits within
+/// the noise). Only a reading ahead of what its kernel spans names
+/// `time_offset` beside a kernel. A fit with a meter kernel records its
+/// averaging.
 ///
 /// A kernel whose centroid (T/2 for a window, τ for a first-order
 /// response; for n sections of τ their spread √n·τ, their centroid n·τ
@@ -537,7 +554,7 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     if f.fitted.contains(&Effect::MeterLag) && f.fitted.contains(&Effect::TimeOffset) {
         let (t, d) = (p.get(Effect::MeterLag), p.get(Effect::TimeOffset));
         let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.02 * t + 1e-3;
-        if d >= -tol && d <= t + tol {
+        if d <= t + tol {
             f.effects.retain(|&e| e != Effect::TimeOffset);
         }
     }
@@ -683,6 +700,43 @@ impl Options {
     /// `big` beats `small` by the BIC margin.
     fn strong(&self, big: &Fit, small: &Fit) -> bool {
         small.bic - big.bic > self.bic_margin
+    }
+
+    /// The share of `small`'s misfit beyond the noise (RMS² − floor²,
+    /// each through its own model) that `big`, extending it, takes; 1
+    /// where `small` leaves none.
+    fn share_taken(big: &Fit, small: &Fit) -> f64 {
+        let excess = |f: &Fit| (f.rms_pf * f.rms_pf - f.noise_pf * f.noise_pf).max(0.0);
+        let before = excess(small);
+        if before <= 0.0 {
+            1.0
+        } else {
+            1.0 - excess(big) / before
+        }
+    }
+
+    /// Mark the pairs extending `on` whose added effect takes less than
+    /// [`Options::second_share`] of the misfit `on` leaves: the data
+    /// cannot vouch for naming it.
+    fn mark_immaterial(&self, pairs: &mut [Fit], on: &Fit) {
+        for f in pairs.iter_mut().filter(|f| f.unresolved.is_none()) {
+            let share = Self::share_taken(f, on);
+            if share < self.second_share {
+                let added: Vec<&str> = f
+                    .effects
+                    .iter()
+                    .filter(|e| !on.effects.contains(e))
+                    .map(|e| e.id())
+                    .collect();
+                f.unresolved = Some(format!(
+                    "{} takes {:.0} % of the misfit {} leaves beyond the noise, under the {:.0} % a second effect must: too little to name",
+                    added.join(" + "),
+                    100.0 * share,
+                    on.label(),
+                    100.0 * self.second_share
+                ));
+            }
+        }
     }
 }
 
@@ -938,6 +992,7 @@ impl Selection<'_, '_> {
                 self.progress.set_message(format!("pairs with {}", on.label()));
                 let tried: Vec<Vec<Effect>> = report.pairs.iter().map(|f| sorted(&f.fitted)).collect();
                 let mut pairs = self.fitted_except(Some(on), &tried);
+                options.mark_immaterial(&mut pairs, on);
                 let accepted = pairs
                     .first()
                     .filter(|bp| bp.unresolved.is_none() && options.strong(bp, on) && options.explains(bp))
@@ -954,5 +1009,61 @@ impl Selection<'_, '_> {
             }
         }
         report.unexplained = true;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fit naming `effects` at RMS `rms` against a floor `noise`, pF.
+    fn fit(effects: &[Effect], rms: f64, noise: f64) -> Fit {
+        Fit {
+            line: Line::Continuous,
+            effects: effects.to_vec(),
+            fitted: effects.to_vec(),
+            averaging: None,
+            unresolved: None,
+            params: Params::NONE,
+            sigma: vec![0.0; effects.len()],
+            correlation: vec![],
+            s: 0.0,
+            bic: 0.0,
+            rms_pf: rms,
+            noise_pf: noise,
+            max_pf: rms,
+            rms_pct: 0.0,
+            max_pct: 0.0,
+            files: vec![],
+            search: Search {
+                reach_s: 1.0,
+                row_s: 0.02,
+            },
+            residual: vec![],
+        }
+    }
+
+    /// A second effect taking 1.54× the noise to 1.49× (11 % of the
+    /// misfit beyond the noise) is marked and never named; one taking
+    /// 2.4× to 1.16× (84 %) stands; a first that leaves no misfit lets
+    /// any second stand (there is nothing to take).
+    #[test]
+    fn a_second_effect_must_take_its_share_of_the_misfit() {
+        let on = fit(&[Effect::StretchBump], 1.54, 1.0);
+        let mut pairs = vec![
+            fit(&[Effect::StretchBump, Effect::ResistanceBump], 1.49, 1.0),
+            fit(&[Effect::StretchBump, Effect::NonuniformStretch], 1.0, 1.0),
+        ];
+        let share = Options::share_taken(&pairs[0], &on);
+        assert!((share - (1.0 - (1.49f64.powi(2) - 1.0) / (1.54f64.powi(2) - 1.0))).abs() < 1e-12);
+        Options::default().mark_immaterial(&mut pairs, &on);
+        let why = pairs[0].unresolved.as_deref().unwrap_or_default();
+        assert!(why.contains("resistance_bump takes 11 %"), "{why}");
+        assert!(pairs[1].unresolved.is_none());
+        let wide = fit(&[Effect::NonuniformStretch], 2.4, 1.0);
+        let mut real = vec![fit(&[Effect::NonuniformStretch, Effect::StretchBump], 1.16, 1.0)];
+        Options::default().mark_immaterial(&mut real, &wide);
+        assert!(real[0].unresolved.is_none());
+        assert_eq!(Options::share_taken(&on, &fit(&[], 0.9, 1.0)), 1.0);
     }
 }

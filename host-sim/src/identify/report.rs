@@ -49,7 +49,12 @@ pub fn params_text(f: &Fit) -> String {
                 // Named the stamp within the window's tolerance
                 // (`named`); a fraction of it only where it is one.
                 let frac = 1.0 - v / t;
-                if t > 0.0 && (-0.05..=1.05).contains(&frac) {
+                if t > 0.0 && frac > 1.05 {
+                    format!(
+                        " (the meter's delay: its window ends {} before the stamp)",
+                        param_value(e, -v)
+                    )
+                } else if t > 0.0 && (-0.05..=1.05).contains(&frac) {
                     format!(
                         " (the stamp, {:.2} of the window after its start)",
                         frac.clamp(0.0, 1.0)
@@ -157,6 +162,7 @@ impl Report {
             "criterion": {
                 "bic": "n·ln(S/n) + k·ln(n)",
                 "explained_within_noise": self.options.explained,
+                "second_effect_share": self.options.second_share,
                 "bic_margin": self.options.bic_margin,
             },
         })
@@ -251,7 +257,7 @@ impl Report {
                 nf
             ),
             (None, true) => format!(
-                "unexplained: RMS {:.3} pF is {:.1}× the noise floor ({:.3} pF), and no candidate brings it within {}× (best attempt: {} at {:.3} pF, {:.2}× its floor)",
+                "unexplained: RMS {:.3} pF is {:.1}× the noise floor ({:.3} pF), and no candidate the data vouch for brings it within {}× (best attempt: {} at {:.3} pF, {:.2}× its floor)",
                 self.baseline().rms_pf,
                 self.baseline().rms_pf / nf,
                 nf,
@@ -379,8 +385,10 @@ impl Report {
         if !self.singles.is_empty() {
             let _ = writeln!(
                 md,
-                "\n## Candidates\n\nModel selection by BIC = n·ln(S/n) + k·ln n; an effect is accepted when it lowers BIC by more than {} and leaves the RMS within {}× the noise floor seen through the model (the point-to-point scatter of its residual: the Cs noise and the recorded resistances' noise as the model carries it).\n\n| effects | parameters (± 1σ) | RMS | noise through it | RMS / noise | ΔBIC vs baseline |\n|---|---|---:|---:|---:|---:|",
-                self.options.bic_margin, self.options.explained
+                "\n## Candidates\n\nModel selection by BIC = n·ln(S/n) + k·ln n; an effect is accepted when it lowers BIC by more than {} and leaves the RMS within {}× the noise floor seen through the model (the point-to-point scatter of its residual: the Cs noise and the recorded resistances' noise as the model carries it); a second effect, when it takes at least {:.0} % of the misfit the first leaves beyond the noise (RMS² − floor²).\n\n| effects | parameters (± 1σ) | RMS | noise through it | RMS / noise | ΔBIC vs baseline |\n|---|---|---:|---:|---:|---:|",
+                self.options.bic_margin,
+                self.options.explained,
+                100.0 * self.options.second_share
             );
             for x in self.singles.iter().chain(&self.pairs) {
                 let _ = writeln!(
