@@ -37,7 +37,8 @@ fn named(r: &Report) -> Vec<&'static str> {
 /// (default 50), one hidden effect each drawn over its physical range;
 /// every tenth set is clean and every tenth (from the fifth) has an
 /// effect outside the library; `FAMILY=name` draws only that family,
-/// `SURVEY_DIR=dir` keeps the sets in `dir`.
+/// `FIRST=k` starts at seed k (another draw), `SURVEY_DIR=dir` keeps the
+/// sets in `dir`.
 /// Prints a row per set and the survey's summary (one function of about
 /// 90 lines: drawing, identifying and tallying a set are one loop).
 #[test]
@@ -50,6 +51,11 @@ fn survey() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(50);
+    // `FIRST=k`: another draw, seeds k… (the default draw is 0…).
+    let first: u64 = std::env::var("FIRST")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
     let fam: Option<String> = std::env::var("FAMILY").ok();
     println!("| seed | family | value (SI) | baseline/noise | named | after/noise | drop | s |");
     println!("|---|---|---:|---:|---|---:|---:|---:|");
@@ -61,7 +67,7 @@ fn survey() {
     // of those, where the report lists the right one beside it as
     // equal on these data (competing).
     let (mut wrong, mut wrong_but_listed) = (0, 0);
-    for seed in 0..n {
+    for seed in first..first + n {
         let mut rng = ChaCha8Rng::seed_from_u64(5000 + seed);
         let lib = Family::IN_LIBRARY;
         let family = match (&fam, seed % 10) {

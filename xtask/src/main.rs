@@ -60,6 +60,9 @@ enum Cmd {
         /// Sets.
         #[arg(long, default_value_t = 50)]
         seeds: u64,
+        /// The first seed of rig-sim's draw (another draw: `--first 50`).
+        #[arg(long, default_value_t = 0)]
+        first: u64,
     },
     /// Write the repository's example data set (`data/example/`) with
     /// rig-sim, the independent bench generator, at its fixed seed.
@@ -102,7 +105,7 @@ fn main() -> Result<()> {
             setup::run()?;
             docs::regenerate(&root)
         }
-        Cmd::Survey { seeds } => cargo::run_env(
+        Cmd::Survey { seeds, first } => cargo::run_env(
             &root,
             &[
                 "test",
@@ -118,7 +121,7 @@ fn main() -> Result<()> {
                 "--nocapture",
                 "survey",
             ],
-            &[("SEEDS", &seeds.to_string())],
+            &[("SEEDS", &seeds.to_string()), ("FIRST", &first.to_string())],
         ),
         Cmd::ExampleData { out } => {
             rig_sim::Bench::example()

@@ -524,7 +524,10 @@ fn run_candidates(
 /// rows late reads as a 239 ms window 30 ms late, and either fits within
 /// the noise). Only a reading ahead of what its kernel spans names
 /// `time_offset` beside a kernel. A fit with a meter kernel records its
-/// averaging.
+/// averaging. A mean of N readings is read the same way: a stamp within
+/// its readings (a reading up to N − 1 readings ahead of its stamp: a
+/// centred window of 658 ms read as a mean of 32.9 readings 319 ms ahead)
+/// or a delay behind them is the meter's.
 ///
 /// A kernel whose centroid (T/2 for a window, τ for a first-order
 /// response; for n sections of τ their spread √n·τ, their centroid n·τ
@@ -560,11 +563,15 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
     }
     // A discrete kernel's delay (δ ≤ 0: its reading at t ends with what
     // it read at t + δ; to 3σ and half a row) is the meter's own: part of
-    // the kernel. A reading ahead of its stamp is a time offset.
+    // the kernel; so is a stamp within the readings a mean averages
+    // (δ up to (N − 1) readings: a meter stamping the middle of its
+    // readings, as a centred window does). A reading ahead of that is a
+    // time offset.
     if f.fitted.iter().any(|e| DISCRETE.contains(e)) && f.fitted.contains(&Effect::TimeOffset) {
         let d = p.get(Effect::TimeOffset);
+        let span = (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s;
         let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.5 * row_s;
-        if d <= tol {
+        if d <= span + tol {
             f.effects.retain(|&e| e != Effect::TimeOffset);
         }
     }

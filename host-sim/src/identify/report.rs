@@ -43,28 +43,36 @@ pub fn params_text(f: &Fit) -> String {
             // A window's offset within it: where the meter stamps.
             let t = f.params.get(Effect::MeterLag);
             let discrete = f.fitted.contains(&Effect::MeterMean) || f.fitted.contains(&Effect::MeterEwma);
-            let stamp = if !f.effects.contains(&e) && e == Effect::TimeOffset && discrete {
-                " (the meter's delay)".to_string()
-            } else if !f.effects.contains(&e) && e == Effect::TimeOffset {
-                // Named the stamp within the window's tolerance
-                // (`named`); a fraction of it only where it is one.
-                let frac = 1.0 - v / t;
-                if t > 0.0 && frac > 1.05 {
+            let reading_s = f.search.row_s;
+            let span = (f.params.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s;
+            let stamp =
+                if !f.effects.contains(&e) && e == Effect::TimeOffset && discrete && v > 0.0 && span > 0.0 {
                     format!(
-                        " (the meter's delay: its window ends {} before the stamp)",
-                        param_value(e, -v)
+                        " (the stamp, {:.2} of the readings after the oldest)",
+                        (1.0 - v / span).clamp(0.0, 1.0)
                     )
-                } else if t > 0.0 && (-0.05..=1.05).contains(&frac) {
-                    format!(
-                        " (the stamp, {:.2} of the window after its start)",
-                        frac.clamp(0.0, 1.0)
-                    )
+                } else if !f.effects.contains(&e) && e == Effect::TimeOffset && discrete {
+                    " (the meter's delay)".to_string()
+                } else if !f.effects.contains(&e) && e == Effect::TimeOffset {
+                    // Named the stamp within the window's tolerance
+                    // (`named`); a fraction of it only where it is one.
+                    let frac = 1.0 - v / t;
+                    if t > 0.0 && frac > 1.05 {
+                        format!(
+                            " (the meter's delay: its window ends {} before the stamp)",
+                            param_value(e, -v)
+                        )
+                    } else if t > 0.0 && (-0.05..=1.05).contains(&frac) {
+                        format!(
+                            " (the stamp, {:.2} of the window after its start)",
+                            frac.clamp(0.0, 1.0)
+                        )
+                    } else {
+                        " (the stamp: the window is too short to place it in)".to_string()
+                    }
                 } else {
-                    " (the stamp: the window is too short to place it in)".to_string()
-                }
-            } else {
-                String::new()
-            };
+                    String::new()
+                };
             // A singular normal matrix leaves σ undetermined (a
             // parameter the others make moot: an order of no response).
             let sigma = if s.is_finite() {
