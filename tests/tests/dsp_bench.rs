@@ -14,6 +14,37 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
         "{}",
         run.stdout
     );
+    assert!(
+        run.stdout.contains("check m4_floor_equals_portable ok"),
+        "{}",
+        run.stdout
+    );
+    // Ours against the peers on the same block: fewer instructions than
+    // idsp's lock-in either way it is run, an error no larger, and the
+    // Cortex-M4's floor below ours (the moments are ours alone).
+    let get = |name: &str| {
+        benches
+            .iter()
+            .find(|b| b.name == name)
+            .unwrap_or_else(|| panic!("no bench {name}:\n{}", run.stdout))
+            .value
+    };
+    let ours = get("demod_pair");
+    assert!(
+        ours < get("idsp_block_pair") && ours < get("idsp_lockin_pair"),
+        "{}",
+        run.stdout
+    );
+    assert!(
+        get("demod_ratio_error_ppm") <= get("idsp_block_ratio_error_ppm"),
+        "{}",
+        run.stdout
+    );
+    assert!(
+        get("m4_floor_pair") < ours && get("m4_floor_pair") > 2.0,
+        "{}",
+        run.stdout
+    );
     for (name, max) in qemu_tests::DSP_BUDGETS {
         let b = benches
             .iter()

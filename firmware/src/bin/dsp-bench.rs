@@ -80,6 +80,8 @@ fn main() -> ! {
     }
     println!("check demod_asm_equals_portable ok");
     lockin_peer(syst, &insns, &buf, &fast, osc.ftw());
+    idsp_block_peer(syst, &insns, &buf, osc.ftw());
+    m4_floor(syst, &insns, &buf, dm.reference(), &slow);
     println!("bench demod_block {} insn/block", n);
     println!(
         "bench demod_pair {}.{:02} insn/pair",
@@ -193,6 +195,144 @@ fn lockin_peer(
         (err(theirs) * 1e6) as u32
     );
     println!("bench demod_ratio_error_ppm {} ppm", (err(mine) * 1e6) as u32);
+}
+
+/// quartiq idsp's lock-in run the way its authors would for a block at
+/// its best: its local oscillator from a table (idsp's own
+/// `Complex::<i32>::from_angle`, computed once per frequency, as our
+/// reference is) and, for its lowpass, the block's sum in i64 (a boxcar
+/// over whole periods: exact, nothing to settle), through `Lockin`'s own
+/// mixing (the sample shifted to the top of an i32, times the Q32
+/// oscillator). Instructions per pair for both channels, and the error of
+/// V/I against the exact 2j.
+#[inline(never)]
+fn idsp_block_peer(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, buf: &[[i16; 2]; PAIRS], ftw: u32) {
+    use core::num::Wrapping;
+    use dsp_fixedpoint::Q32;
+    use dsp_process::SplitProcess;
+    use idsp::{Complex, Lockin};
+    /// The block's sum as the lock-in's lowpass (its output unused).
+    struct BlockSum;
+    impl SplitProcess<i32, i32, i64> for BlockSum {
+        #[inline(always)]
+        fn process(&self, state: &mut i64, x: i32) -> i32 {
+            *state += i64::from(x);
+            x
+        }
+    }
+    let lo: [Complex<Q32<32>>; PAIRS] = core::array::from_fn(|n| {
+        let phase = Wrapping((n as u32).wrapping_mul(ftw) as i32);
+        Complex::<Q32<32>>::from_bits(Complex::<i32>::from_angle(phase))
+    });
+    let lockin = Lockin(BlockSum);
+    let (mut sv, mut si) = ([0i64; 2], [0i64; 2]);
+    let t = insns(ticks(syst, || {
+        for (&[v, i], &lo) in black_box(buf).iter().zip(black_box(&lo).iter()) {
+            lockin.process(&mut sv, ((v as i32) << 16, lo));
+            lockin.process(&mut si, ((i as i32) << 16, lo));
+        }
+    }));
+    // idsp mixes with e^(+jθ), we with e^(−jθ): the conjugates.
+    let v = Complex32::new(sv[0] as f32, -(sv[1] as f32));
+    let i = Complex32::new(si[0] as f32, -(si[1] as f32));
+    let exact = Complex32::new(0.0, 2.0);
+    let err = (v / i - exact).l1_norm() / exact.l1_norm();
+    println!(
+        "bench idsp_block_pair {}.{:02} insn/pair",
+        t / PAIRS as u32,
+        (t % PAIRS as u32) * 100 / PAIRS as u32
+    );
+    println!("bench idsp_block_ratio_error_ppm {} ppm", (err * 1e6) as u32);
+}
+
+/// The Cortex-M4's floor for the four products of a pair, against which
+/// demodulators are measured: each channel's samples packed two to a word
+/// (as a DMA stream of one ADC's halfwords leaves them) and the reference
+/// two cosines and two sines to a pair of words, one `SMLALD` (two 16×16
+/// products into a 64-bit sum) per two products, a channel a pass (four
+/// 64-bit sums, the pointers and four loaded words fill the eleven
+/// registers inline assembly may use). No moments, no checks: the
+/// products alone. Its sums must equal the portable demodulator's.
+#[inline(never)]
+fn m4_floor(
+    syst: &mut SYST,
+    insns: &dyn Fn(u32) -> u32,
+    buf: &[[i16; 2]; PAIRS],
+    reference: &[u32; PAIRS],
+    want: &[i64; 4],
+) {
+    let pack = |a: i16, b: i16| (a as u16 as u32) | ((b as u16 as u32) << 16);
+    let v: [u32; PAIRS / 2] = core::array::from_fn(|k| pack(buf[2 * k][0], buf[2 * k + 1][0]));
+    let i: [u32; PAIRS / 2] = core::array::from_fn(|k| pack(buf[2 * k][1], buf[2 * k + 1][1]));
+    // Words 2k and 2k + 1: [c(2k), c(2k + 1)] and [s(2k), s(2k + 1)].
+    let r: [u32; PAIRS] = core::array::from_fn(|w| {
+        let (k, sine) = (w / 2, w % 2 == 1);
+        let half = |x: u32| if sine { (x >> 16) as i16 } else { x as i16 };
+        pack(half(reference[2 * k]), half(reference[2 * k + 1]))
+    });
+    let mut got = [0i64; 4];
+    let t = insns(ticks(syst, || {
+        let (vc, vs) = floor_pass(black_box(&v), black_box(&r));
+        let (ic, is) = floor_pass(black_box(&i), black_box(&r));
+        got = [vc, vs, ic, is];
+    }));
+    if got != *want {
+        println!("FAIL the floor kernel's sums differ from the portable demodulator's");
+        qemu::exit(1);
+    }
+    println!("check m4_floor_equals_portable ok");
+    println!(
+        "bench m4_floor_pair {}.{:02} insn/pair",
+        t / PAIRS as u32,
+        (t % PAIRS as u32) * 100 / PAIRS as u32
+    );
+}
+
+/// One channel of [`m4_floor`]: Σx·c and Σx·s over packed words, four
+/// pairs a turn (`x.len()` a non-zero multiple of 2, `r` twice as long).
+#[allow(unsafe_code)]
+fn floor_pass(x: &[u32], r: &[u32]) -> (i64, i64) {
+    if x.is_empty() || x.len() % 2 != 0 || r.len() != 2 * x.len() {
+        qemu::exit(7);
+    }
+    let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
+    let (mut p, mut q) = (x.as_ptr(), r.as_ptr());
+    // SAFETY: `p` walks `x` two words a turn and `q` walks `r` four words
+    // a turn; `r` is twice as long as `x`, whose length is even and
+    // non-zero, so both end together when `p` reaches `end`. Only
+    // registers and the two slices are touched.
+    unsafe {
+        let end = p.add(x.len());
+        core::arch::asm!(
+            "2:",
+            "ldrd {x0}, {x1}, [{p}], #8",
+            "ldrd {a}, {b}, [{q}], #8",
+            "smlald {cl}, {ch}, {x0}, {a}",
+            "smlald {sl}, {sh}, {x0}, {b}",
+            "ldrd {a}, {b}, [{q}], #8",
+            "smlald {cl}, {ch}, {x1}, {a}",
+            "smlald {sl}, {sh}, {x1}, {b}",
+            "cmp {p}, {end}",
+            "bne 2b",
+            p = inout(reg) p,
+            q = inout(reg) q,
+            end = in(reg) end,
+            cl = inout(reg) cl,
+            ch = inout(reg) ch,
+            sl = inout(reg) sl,
+            sh = inout(reg) sh,
+            x0 = out(reg) _,
+            x1 = out(reg) _,
+            a = out(reg) _,
+            b = out(reg) _,
+            options(nostack, readonly),
+        );
+    }
+    let _ = (p, q);
+    (
+        ((ch as u64) << 32 | cl as u64) as i64,
+        ((sh as u64) << 32 | sl as u64) as i64,
+    )
 }
 
 /// The peer of our continuous-line inversion: a straightforward f32
