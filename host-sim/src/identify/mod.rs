@@ -554,24 +554,19 @@ fn named(mut f: Fit, averaging: Averaging, rows: Rows) -> Fit {
             row_s * 1e3
         ));
     }
-    if f.fitted.contains(&Effect::MeterLag) && f.fitted.contains(&Effect::TimeOffset) {
+    // A kernel's offset δ (its reading at t ends with what it saw at
+    // t + δ) within its span (a window's T; the N − 1 readings a mean
+    // averages past its newest: a meter stamping inside its kernel, as a
+    // centred window does) or behind it (δ < 0: a delay) is the meter's
+    // own, part of the kernel; a reading ahead of the whole span is a
+    // time offset. To 3σ, and 2 % of a window and 1 ms, or half a row
+    // for a discrete kernel. (Kernels are fitted one at a time.)
+    let windowed = f.fitted.contains(&Effect::MeterLag);
+    if f.fitted.contains(&Effect::TimeOffset) && (windowed || f.fitted.iter().any(|e| DISCRETE.contains(e))) {
         let (t, d) = (p.get(Effect::MeterLag), p.get(Effect::TimeOffset));
-        let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.02 * t + 1e-3;
-        if d <= t + tol {
-            f.effects.retain(|&e| e != Effect::TimeOffset);
-        }
-    }
-    // A discrete kernel's delay (δ ≤ 0: its reading at t ends with what
-    // it read at t + δ; to 3σ and half a row) is the meter's own: part of
-    // the kernel; so is a stamp within the readings a mean averages
-    // (δ up to (N − 1) readings: a meter stamping the middle of its
-    // readings, as a centred window does). A reading ahead of that is a
-    // time offset.
-    if f.fitted.iter().any(|e| DISCRETE.contains(e)) && f.fitted.contains(&Effect::TimeOffset) {
-        let d = p.get(Effect::TimeOffset);
-        let span = (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s;
-        let tol = 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + 0.5 * row_s;
-        if d <= span + tol {
+        let span = t + (p.get(Effect::MeterMean) - 1.0).max(0.0) * reading_s;
+        let slack = if windowed { 0.02 * t + 1e-3 } else { 0.5 * row_s };
+        if d <= span + 3.0 * f.sigma_of(Effect::TimeOffset).clamp(0.0, 1.0) + slack {
             f.effects.retain(|&e| e != Effect::TimeOffset);
         }
     }
