@@ -373,9 +373,9 @@ fn localized_bumps_are_named_and_explained() {
 
 /// A stretch bump of +0.55 at the read end reaching past it (the
 /// survey's seed 26: ξ from −0.07 to 0.45), where the local stretch runs
-/// to 1.4× the calibrated 30 mm: the library's bump at the truth fits
-/// 6× worse than at a wide mirror bump of the other sign, which leaves
-/// 1.5× the noise; a second effect (a resistance bump of 0.2 %) took
+/// to 1.4× the calibrated 30 mm: the library's bump at the truth leaves
+/// 14× the sum of squares (3.8× the RMS, on the coarse copy) of a wide
+/// mirror bump of the other sign, which leaves 1.5× the noise; a second effect (a resistance bump of 0.2 %) took
 /// that to 1.49× and was named. It takes 12 % of the misfit: never
 /// named, so the set is unexplained, the best attempt the stretch bump
 /// (a wrong effect is never named; see `docs/identify.md`).

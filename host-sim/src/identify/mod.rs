@@ -515,19 +515,15 @@ fn run_candidates(
     best.into_iter().map(|(_, f)| f).collect()
 }
 
-/// Name a fit's effects: a window's time offset that lies within the
-/// window (to 3σ, 2 % of the window and 1 ms) is where the meter stamps
-/// its readings, part of `meter_lag`; one behind it (the window ending
-/// before its stamp) is the meter's delay, part of the kernel as a
-/// discrete kernel's delay is (to the data a meter's latency and an
-/// offset of its time base are one thing: a moving mean of 12 readings 2
-/// rows late reads as a 239 ms window 30 ms late, and either fits within
-/// the noise). Only a reading ahead of what its kernel spans names
-/// `time_offset` beside a kernel. A fit with a meter kernel records its
-/// averaging. A mean of N readings is read the same way: a stamp within
-/// its readings (a reading up to N − 1 readings ahead of its stamp: a
-/// centred window of 658 ms read as a mean of 32.9 readings 319 ms ahead)
-/// or a delay behind them is the meter's.
+/// Name a fit's effects: a meter kernel's time offset within the
+/// kernel's span (where the meter stamps its readings) or behind it (its
+/// delay) is part of the kernel, not a `time_offset` of its own (to the
+/// data a meter's latency and an offset of its time base are one thing:
+/// a running mean of 12 readings 2 rows late reads as a 239 ms window
+/// 30 ms late, a centred 658 ms window as a mean of 32.9 readings 319 ms
+/// ahead, and either pair fits within the noise). Only a reading ahead of
+/// its kernel's whole span names `time_offset` beside it. A fit with a
+/// meter kernel records its averaging.
 ///
 /// A kernel whose centroid (T/2 for a window, τ for a first-order
 /// response; for n sections of τ their spread √n·τ, their centroid n·τ
