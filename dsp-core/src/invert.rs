@@ -9,8 +9,12 @@
 //!   [`low_freq_resistance_fraction`](LineModel::low_freq_resistance_fraction),
 //!   so x = D/a and C = Cs to within 10⁻⁵; no model evaluation is needed.
 //! * Otherwise the root is bracketed in a log-spaced grid of D values that
-//!   [`Inverter::new`] computes once, and refined by Illinois regula falsi
-//!   in ln x (a handful of model evaluations).
+//!   [`Inverter::new`] computes once, guessed by inverse cubic
+//!   interpolation, and refined by Newton steps in ln x with ζ's slope
+//!   (one model evaluation where the guess is close, away from the ends of
+//!   a branch; the continuous line's slope costs nothing more, a ladder's
+//!   a second evaluation). Which lines fit is known from the grid before
+//!   any is solved: a reading more than one fits is refused at once.
 //!
 //! # Several lines, one reading
 //! D(x) is not monotone. For the continuous line it rises to a peak of
@@ -165,6 +169,9 @@ pub struct Inverter {
     resolved: usize,
     /// Smallest |ζ| over the flat branches (less 0.1 %).
     tail_zeta: f32,
+    /// The band of D the flat branches reach ([`Inverter::tail`]),
+    /// computed once.
+    tail_band: Option<(f32, f32)>,
     /// Series resistance of the read end's tab leads per line resistance,
     /// ℓ (dimensionless, 0 ≤ ℓ ≤ [`LEAD_MAX`]).
     lead: f32,
@@ -219,6 +226,7 @@ impl Inverter {
             branches: 1,
             resolved: 1,
             tail_zeta: f32::INFINITY,
+            tail_band: None,
             lead,
         };
         for k in 0..GRID {
@@ -269,6 +277,12 @@ impl Inverter {
                 let z = zeta_with(model, lead, libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
                 s.tail_zeta = s.tail_zeta.min(crate::fmath::hypot(z.re, z.im) * 0.999);
             }
+        }
+        if s.resolved < s.branches {
+            let d = &s.d[s.ends[s.resolved]..];
+            let lo = d.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = d.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            s.tail_band = Some((lo * (1.0 - 1e-4), hi * (1.0 + 1e-4)));
         }
         Ok(s)
     }
@@ -354,14 +368,8 @@ impl Inverter {
         match self.model {
             LineModel::Continuous => {
                 let z0 = self.model.zeta(x)?;
-                let sq = z0 * z0;
-                // −j·ζ₀² = Im ζ₀² − j·Re ζ₀².
-                let slope = Complex32::new(0.5 * (z0.re + sq.im + x), 0.5 * (z0.im - sq.re));
                 let lead = self.lead * x;
-                Ok((
-                    Complex32::new(z0.re + lead, z0.im),
-                    Complex32::new(slope.re + lead, slope.im),
-                ))
+                Ok((Complex32::new(z0.re + lead, z0.im), self.continuous_slope(z0, x)))
             }
             LineModel::Ladder(_) => {
                 const H: f32 = 1e-3;
@@ -370,6 +378,15 @@ impl Inverter {
                 Ok((z, (up - z) / H))
             }
         }
+    }
+
+    /// The continuous line's dζ/d ln x with its leads at `x`, from the
+    /// line's own ζ₀ (without leads): (ζ₀ − j·ζ₀² + x)/2 + ℓ·x.
+    fn continuous_slope(&self, z0: Complex32, x: f32) -> Complex32 {
+        let lead = self.lead * x;
+        let sq = z0 * z0;
+        // −j·ζ₀² = Im ζ₀² − j·Re ζ₀².
+        Complex32::new(0.5 * (z0.re + sq.im + x) + lead, 0.5 * (z0.im - sq.re))
     }
 
     /// Upper end of the reported range (x = ωRC).
@@ -402,7 +419,7 @@ impl Inverter {
             .fold(f32::INFINITY, f32::min)
             * (1.0 - D_MARGIN);
         match self.root(floor, 0, self.ends[1]) {
-            Ok((x, _)) => x.min(self.x_max),
+            Ok(r) => r.x.min(self.x_max),
             Err(_) => libm::expf(self.u[0]),
         }
     }
@@ -415,13 +432,7 @@ impl Inverter {
     /// smallest C of those lines (≈ 2.2 times the rising branch's C for
     /// the continuous line).
     pub fn tail(&self) -> Option<(f32, f32)> {
-        if self.resolved == self.branches {
-            return None;
-        }
-        let d = &self.d[self.ends[self.resolved]..];
-        let lo = d.iter().copied().fold(f32::INFINITY, f32::min);
-        let hi = d.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        Some((lo * (1.0 - 1e-4), hi * (1.0 + 1e-4)))
+        self.tail_band
     }
 
     /// The line that explains `z` (Ω) at `f_hz` where only one line does;
@@ -485,62 +496,77 @@ impl Inverter {
         let w = TAU * f_hz;
         let zabs = crate::fmath::hypot(z.re, z.im);
         let d = z.re / -z.im;
-        let line = |x: f32, zeta: Complex32| {
-            let c = crate::fmath::hypot(zeta.re, zeta.im) / (w * zabs);
+        let line = |r: Root| {
+            let c = crate::fmath::hypot(r.zeta.re, r.zeta.im) / (w * zabs);
             Line {
-                r_ohm: x / (w * c),
+                r_ohm: r.x / (w * c),
                 c_farad: c,
-                x,
-                kappa: 0.0,
+                x: r.x,
+                kappa: r.kappa,
             }
         };
-        // Every line that fits, one per branch at most. A reading's D is
-        // uncertain by up to D_MARGIN: a branch whose D comes that close
-        // fits too (at its nearest end), so near a peak or trough both
-        // sides count, and x_unique is where D is D_MARGIN below the trough.
+        // Which lines fit: the small-x asymptote, a branch, the flat tail.
+        // A reading's D is uncertain by up to D_MARGIN: a branch whose D
+        // comes that close fits too (at its nearest end), so near a peak or
+        // trough both sides count, and x_unique is where D is D_MARGIN
+        // below the trough. This needs no model evaluation, so a reading
+        // that more than one line fits is refused without solving any.
         let margin = D_MARGIN * d;
-        let mut found = [None::<Line>; BRANCHES];
-        let mut n = 0;
-        if d <= self.d[0] {
-            // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
-            let x = d * (X_ASYMPTOTE / self.d[0]);
-            let a = self.model.low_freq_resistance_fraction() + self.lead;
-            found[0] = Some(line(x, Complex32::new(a * x, -1.0)));
-            n = 1;
-        }
+        let small = d <= self.d[0];
         // A flat branch reaching D: some line far beyond the range fits.
         // Its x cannot be told, but its C is at least the tail's smallest
         // |ζ| over ω|Z| (|ζ| grows with x there).
-        let tail_c = match self.tail() {
+        let tail_c = match self.tail_band {
             Some((lo, hi)) if d >= lo - margin && d <= hi + margin => Some(self.tail_zeta / (w * zabs)),
             _ => None,
         };
-        for b in 0..self.resolved {
-            let (i0, i1) = (self.ends[b], self.ends[b + 1]);
-            let (d0, d1) = (self.d[i0], self.d[i1]);
-            let (lo, hi) = (d0.min(d1), d0.max(d1));
-            let inside = if b == 0 {
+        let mut inside = [false; BRANCHES];
+        let mut n = small as usize;
+        for (b, slot) in inside.iter_mut().enumerate().take(self.resolved) {
+            let (d0, d1) = (self.d[self.ends[b]], self.d[self.ends[b + 1]]);
+            *slot = if b == 0 {
                 // The rising branch owns D above the asymptote's, up to its
                 // peak and D_MARGIN beyond.
                 d > d0 && d <= d1 + margin
             } else {
-                d >= lo - margin && d <= hi + margin
+                d >= d0.min(d1) - margin && d <= d0.max(d1) + margin
             };
-            if inside {
-                // max/min, not clamp: clamp's NaN/order check would link
-                // core's float formatting into the firmware (≈ 35 KiB).
-                let (x, zeta) = self.root(d.max(lo).min(hi), i0, i1)?;
-                found[n] = Some(line(x, zeta));
-                n += 1;
-            }
+            n += *slot as usize;
         }
-        let mut lines = found.iter().take(n).flatten();
-        let Some(&first) = lines.next() else {
+        if n == 0 {
             return Err(if tail_c.is_some() {
                 InvertError::Ambiguous
             } else {
                 InvertError::OutOfRange
             });
+        }
+        if matches!(hint, Select::Unique) && (n > 1 || tail_c.is_some()) {
+            return Err(InvertError::Ambiguous);
+        }
+        let mut found = [None::<Line>; BRANCHES];
+        let mut k = 0;
+        if small {
+            // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
+            let x = d * (X_ASYMPTOTE / self.d[0]);
+            let a = self.model.low_freq_resistance_fraction() + self.lead;
+            found[0] = Some(line(Root {
+                x,
+                zeta: Complex32::new(a * x, -1.0),
+                kappa: 0.0,
+            }));
+            k = 1;
+        }
+        for b in (0..self.resolved).filter(|&b| inside[b]) {
+            let (i0, i1) = (self.ends[b], self.ends[b + 1]);
+            let (d0, d1) = (self.d[i0], self.d[i1]);
+            // max/min, not clamp: clamp's NaN/order check would link
+            // core's float formatting into the firmware (≈ 35 KiB).
+            found[k] = Some(line(self.root(d.max(d0.min(d1)).min(d0.max(d1)), i0, i1)?));
+            k += 1;
+        }
+        let mut lines = found.iter().take(k).flatten();
+        let Some(&first) = lines.next() else {
+            return Err(InvertError::OutOfRange);
         };
         let chosen = match hint {
             _ if n == 1 && tail_c.is_none() => first,
@@ -586,53 +612,67 @@ impl Inverter {
         if chosen.x > self.x_max * (1.0 + 1e-4) {
             return Err(InvertError::OutOfRange);
         }
-        Ok(Line {
-            kappa: self.kappa(chosen.x)?,
-            ..chosen
-        })
+        // A ladder's forward difference resolves Im ζ' only above
+        // KAPPA_SLOPE_X (below, κ < 10⁻² is its f32 rounding), and D's
+        // slope to 10⁻² only where κ < KAPPA_SLOPE_MAX (near a peak of D
+        // the slope vanishes): elsewhere κ from central differences, as
+        // `kappa` gives it.
+        if matches!(self.model, LineModel::Ladder(_))
+            && !(chosen.x >= KAPPA_SLOPE_X && chosen.kappa < KAPPA_SLOPE_MAX)
+        {
+            return Ok(Line {
+                kappa: self.kappa(chosen.x)?,
+                ..chosen
+            });
+        }
+        Ok(chosen)
     }
 
     /// κ = |d ln|ζ|/d ln x| / |d ln D/d ln x| at `x` (C ∝ |ζ(x)| at a
-    /// fixed |Z|): how much a reading's error in D moves C. The continuous
-    /// line's from ζ and its exact slope ([`zeta_slope_at`](Self::zeta_slope_at):
-    /// d ln|ζ| = Re(ζ'·ζ̄)/|ζ|², d ln D = Re ζ'/Re ζ − Im ζ'/Im ζ, one
-    /// evaluation); a ladder's by central differences over ±0.5 % in x.
+    /// fixed |Z|): how much a reading's error in D moves C, from ζ and its
+    /// exact slope ([`zeta_slope_at`](Self::zeta_slope_at)) for the
+    /// continuous line, d ln|ζ| = Re(ζ'·ζ̄)/|ζ|² and
+    /// d ln D = Re ζ'/Re ζ − Im ζ'/Im ζ (one evaluation); a ladder's by
+    /// central differences over ±0.5 % in x. (A [`Line`]'s κ is the same
+    /// quantity from the slope the solve ended on: a ladder's forward
+    /// difference above [`KAPPA_SLOPE_X`], within 10⁻² of this.)
     /// Below the small-x asymptote C does not depend on D: 0.
     pub fn kappa(&self, x: f32) -> Result<f32, InvertError> {
         if x <= X_ASYMPTOTE {
             return Ok(0.0);
         }
         let x = x.clamp(crate::tline::X_MIN, crate::tline::X_MAX);
-        let k = match self.model {
-            LineModel::Continuous => {
-                let (z, s) = self.zeta_slope_at(x)?;
-                let d_mag = (s.re * z.re + s.im * z.im) / z.norm_sqr();
-                let d_dis = s.re / z.re - s.im / z.im;
-                libm::fabsf(d_mag / d_dis)
-            }
-            LineModel::Ladder(_) => {
-                const H: f32 = 0.005;
-                let at = |x: f32| -> Result<(f32, f32), InvertError> {
-                    let z = self.zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
-                    Ok((z.norm_sqr(), dissipation(z)))
-                };
-                let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
-                // ln|ζ₁| − ln|ζ₀| = ½·ln(|ζ₁|²/|ζ₀|²): two logarithms, not four.
-                libm::fabsf(0.5 * libm::logf(m1 / m0) / libm::logf(d1 / d0))
-            }
-        };
-        Ok(if k.is_nan() { f32::INFINITY } else { k })
+        if let LineModel::Ladder(_) = self.model {
+            // Central differences over ±0.5 %: a forward difference's
+            // rounding would swamp Im ζ' at small x.
+            const H: f32 = 0.005;
+            let at = |x: f32| -> Result<(f32, f32), InvertError> {
+                let z = self.zeta(x.clamp(crate::tline::X_MIN, crate::tline::X_MAX))?;
+                Ok((z.norm_sqr(), dissipation(z)))
+            };
+            let ((m0, d0), (m1, d1)) = (at(x * (1.0 - H))?, at(x * (1.0 + H))?);
+            // ln|ζ₁| − ln|ζ₀| = ½·ln(|ζ₁|²/|ζ₀|²): two logarithms, not four.
+            let k = libm::fabsf(0.5 * libm::logf(m1 / m0) / libm::logf(d1 / d0));
+            return Ok(if k.is_nan() { f32::INFINITY } else { k });
+        }
+        let (z, s) = self.zeta_slope_at(x)?;
+        Ok(kappa_of(z, s))
     }
 
-    /// Root of D(x) = d on the monotone grid stretch [i0, i1]; returns x and
-    /// ζ(x).
+    /// Root of D(x) = d on the monotone grid stretch [i0, i1]: x, ζ(x)
+    /// and κ there.
     ///
     /// The first guess is inverse cubic interpolation of u = ln x against D
     /// through the four grid points around the root (no model evaluation);
-    /// then secant steps on g(u) = D(eᵘ) − d, kept inside the bracketing
-    /// grid cell (regula falsi when a secant step would leave it). Typically
-    /// two or three model evaluations.
-    fn root(&self, d: f32, i0: usize, i1: usize) -> Result<(f32, Complex32), InvertError> {
+    /// then Newton steps in u with ζ's slope
+    /// ([`zeta_slope_at`](Self::zeta_slope_at)), kept inside the
+    /// bracketing grid cell (regula falsi when a step would leave it).
+    /// The last step, once below [`NEWTON_LAST`], is taken along the
+    /// slope without evaluating the model again: what it leaves is of the
+    /// order of the step squared (below 10⁻⁷ in x and ζ). One evaluation
+    /// when the guess is within [`NEWTON_LAST`], which it is away from the
+    /// ends of a branch.
+    fn root(&self, d: f32, i0: usize, i1: usize) -> Result<Root, InvertError> {
         let up = self.d[i1] >= self.d[i0];
         // Bracketing cell by bisection over the grid (no model evaluations).
         let (mut a, mut b) = (i0, i1);
@@ -657,52 +697,102 @@ impl Inverter {
             }
             u += w;
         }
-        // Bracket in u with g < 0 at `lo` side and g > 0 at `hi` side.
+        // The bracket in u, g = D − d of opposite signs at its ends.
         let (mut ua, mut ga, mut ub, mut gb) = (self.u[a], self.d[a] - d, self.u[b], self.d[b] - d);
+        let falsi = |ua: f32, ga: f32, ub: f32, gb: f32| ua - ga * (ub - ua) / (gb - ga);
         if !(u > ua && u < ub) {
-            u = ua - ga * (ub - ua) / (gb - ga);
+            u = falsi(ua, ga, ub, gb);
         }
-        let (mut up_, mut gp) = if ga.abs() < gb.abs() { (ua, ga) } else { (ub, gb) };
-        let mut best = (libm::expf(u), Complex32::new(0.0, -1.0), f32::INFINITY);
-        // Which bracket end the last regula-falsi step kept (Illinois).
-        let mut kept = 0i8;
+        let mut best = Root {
+            x: libm::expf(u),
+            zeta: Complex32::new(0.0, -1.0),
+            kappa: f32::INFINITY,
+        };
+        let mut best_g = f32::INFINITY;
         for _ in 0..12 {
             // exp(ln X_MAX) may round a hair above X_MAX.
             let x = libm::expf(u).min(crate::tline::X_MAX);
-            let zeta = self.zeta(x)?;
+            let (zeta, s) = self.zeta_slope_at(x)?;
             let g = dissipation(zeta) - d;
-            if g.abs() < best.2 {
-                best = (x, zeta, g.abs());
+            // dD/du = (Re ζ·Im ζ' − Re ζ'·Im ζ)/(Im ζ)².
+            let dg = (zeta.re * s.im - s.re * zeta.im) / (zeta.im * zeta.im);
+            let step = -g / dg;
+            if libm::fabsf(step) <= NEWTON_LAST {
+                // Along the slope: x·e^step and ζ + ζ'·step, to step².
+                let x = (x * (1.0 + step * (1.0 + 0.5 * step))).min(crate::tline::X_MAX);
+                let zeta = zeta + s * step;
+                // The continuous line's slope follows from ζ: κ at the
+                // root itself (near the peak of D, κ moves by 10⁻³ over
+                // such a step).
+                let s = match self.model {
+                    LineModel::Continuous => {
+                        self.continuous_slope(Complex32::new(zeta.re - self.lead * x, zeta.im), x)
+                    }
+                    LineModel::Ladder(_) => s,
+                };
+                return Ok(Root {
+                    x,
+                    zeta,
+                    kappa: kappa_of(zeta, s),
+                });
             }
-            // D is known to ~1e-7 relative in f32: nothing finer is real.
-            if g.abs() <= 2e-7 * d || (ub - ua) < 1e-7 {
-                break;
+            if g.abs() < best_g {
+                best_g = g.abs();
+                best = Root {
+                    x,
+                    zeta,
+                    kappa: kappa_of(zeta, s),
+                };
             }
             if (g > 0.0) == (gb > 0.0) {
                 (ub, gb) = (u, g);
-                if kept == -1 {
-                    ga *= 0.5;
-                }
-                kept = -1;
             } else {
                 (ua, ga) = (u, g);
-                if kept == 1 {
-                    gb *= 0.5;
-                }
-                kept = 1;
             }
-            let secant = u - g * (u - up_) / (g - gp);
-            (up_, gp) = (u, g);
-            u = if secant > ua && secant < ub && g != gp {
-                secant
-            } else {
-                ua - ga * (ub - ua) / (gb - ga)
-            };
-            if (u - up_).abs() < 1e-7 {
+            if ub - ua < 1e-7 {
                 break;
             }
+            let next = u + step;
+            u = if next > ua && next < ub {
+                next
+            } else {
+                falsi(ua, ga, ub, gb)
+            };
         }
-        Ok((best.0, best.1))
+        Ok(best)
+    }
+}
+
+/// Below this Newton step (in ln x) [`Inverter::root`] takes the step
+/// along ζ's slope instead of evaluating the model again: the step squared
+/// (10⁻⁷) is what that leaves, at f32's rounding of D.
+const NEWTON_LAST: f32 = 3e-4;
+
+/// Above this x, and where it is below [`KAPPA_SLOPE_MAX`], a ladder's
+/// [`Line::kappa`] comes from the forward difference the solve ended on;
+/// elsewhere from [`Inverter::kappa`] (two more evaluations).
+pub const KAPPA_SLOPE_X: f32 = 0.5;
+/// See [`KAPPA_SLOPE_X`].
+pub const KAPPA_SLOPE_MAX: f32 = 10.0;
+
+/// A root of D(x) = d.
+#[derive(Clone, Copy)]
+struct Root {
+    x: f32,
+    zeta: Complex32,
+    kappa: f32,
+}
+
+/// κ from ζ and its slope dζ/d ln x ([`Inverter::kappa`]); ∞ where D's
+/// slope vanishes or the quotient is not a number.
+fn kappa_of(z: Complex32, s: Complex32) -> f32 {
+    let d_mag = (s.re * z.re + s.im * z.im) / z.norm_sqr();
+    let d_dis = s.re / z.re - s.im / z.im;
+    let k = libm::fabsf(d_mag / d_dis);
+    if k.is_nan() {
+        f32::INFINITY
+    } else {
+        k
     }
 }
 

@@ -378,3 +378,51 @@ fn kappa_is_the_references_across_the_range() {
         }
     }
 }
+
+/// The κ a solved [`dsp_core::invert::Line`] states, against the f64
+/// reference's at the true line (as in the test above), for every model
+/// and leads ℓ ∈ {0, 0.9}, x from 0.02 to 10 on the known branch: within
+/// the bounds [`Inverter::kappa`] meets (10⁻³ relative on the continuous
+/// line, 10⁻² on a ladder, plus 5·10⁻⁵ absolute), away from the peaks of
+/// D. The solve takes it from the slope it ended on, not a new
+/// evaluation.
+#[test]
+fn a_lines_kappa_is_the_references() {
+    let h = 1e-5;
+    let (c, f) = (210e-12, 6e3);
+    for model in MODELS {
+        for lead in [0.0f32, 0.9] {
+            let inv = Inverter::with_leads(model, 10.0, lead).unwrap();
+            let zr = |x: f64| zeta_ref(model, x) + lead as f64 * x;
+            let mut n = 0;
+            for x in log_grid(0.02, 10.0, 400) {
+                let at = |x: f64| {
+                    let z = zr(x);
+                    (z.norm().ln(), (z.re / -z.im).ln())
+                };
+                let ((m0, d0), (m1, d1)) = (at(x * f64::exp(-h)), at(x * f64::exp(h)));
+                let want = ((m1 - m0) / (d1 - d0)).abs();
+                if want > 1e3 {
+                    continue;
+                }
+                let z = zr(x) / (TAU * f * c);
+                let Ok(line) = inv.invert_near(Complex32::new(z.re as f32, z.im as f32), f as f32, c as f32)
+                else {
+                    continue;
+                };
+                let got = line.kappa as f64;
+                let bound = if model == LineModel::Continuous {
+                    1e-3
+                } else {
+                    1e-2
+                };
+                assert!(
+                    (got - want).abs() < bound * want + 5e-5,
+                    "{model:?} ℓ {lead} x {x}: κ {got} vs {want}"
+                );
+                n += 1;
+            }
+            assert!(n > 300, "{model:?} ℓ {lead}: only {n} lines solved");
+        }
+    }
+}

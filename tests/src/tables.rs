@@ -33,7 +33,7 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
     ("eval_continuous", "continuous-line evaluation"),
     (
         "invert_continuous",
-        "inversion, continuous line, mean (every line that fits, and κ)",
+        "inversion without a prior, continuous line, mean (the one line that fits and its κ, or the refusal where more than one does)",
     ),
     ("invert_continuous_worst", "inversion, continuous line, worst"),
     ("invert_ladder30", "inversion, 30-element ladder, mean"),
