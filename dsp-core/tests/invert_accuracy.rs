@@ -339,31 +339,42 @@ fn the_slope_of_zeta_is_the_references_across_the_range() {
 /// ladder's is 7·10⁻⁵, its differences at f32's rounding) plus 10⁻³ relative (RMS 2·10⁻⁴) on the continuous line, whose slope is exact,
 /// and 10⁻² on a ladder (central differences over ±0.5 %); away from the
 /// peaks of D, where κ is infinite and only its size matters.
+/// The f64 reference's κ at x with leads ℓ: central differences of ln|ζ|
+/// and ln D, step 10⁻⁵ in ln x; `None` near a peak of D (κ > 10³).
+fn kappa_ref(model: LineModel, lead: f32, x: f64) -> Option<f64> {
+    let h = 1e-5;
+    let at = |x: f64| {
+        let z = zeta_ref(model, x) + lead as f64 * x;
+        (z.norm().ln(), (z.re / -z.im).ln())
+    };
+    let ((m0, d0), (m1, d1)) = (at(x * f64::exp(-h)), at(x * f64::exp(h)));
+    let want = ((m1 - m0) / (d1 - d0)).abs();
+    (want <= 1e3).then_some(want)
+}
+
+/// κ's relative bound: 10⁻³ on the continuous line (exact slope), 10⁻²
+/// on a ladder (differences).
+fn kappa_bound(model: LineModel) -> f64 {
+    if model == LineModel::Continuous {
+        1e-3
+    } else {
+        1e-2
+    }
+}
+
 #[test]
 fn kappa_is_the_references_across_the_range() {
-    let h = 1e-5;
     for model in [LineModel::Continuous, LineModel::Ladder(30)] {
         for lead in [0.0f32, 0.9] {
             let inv = Inverter::with_leads(model, 10.0, lead).unwrap();
             let mut errs = vec![];
             for x in log_grid(0.02, 50.0, 300) {
-                let zr = |x: f64| zeta_ref(model, x) + lead as f64 * x;
-                let at = |x: f64| {
-                    let z = zr(x);
-                    (z.norm().ln(), (z.re / -z.im).ln())
-                };
-                let ((m0, d0), (m1, d1)) = (at(x * f64::exp(-h)), at(x * f64::exp(h)));
-                let want = ((m1 - m0) / (d1 - d0)).abs();
-                if want > 1e3 {
+                let Some(want) = kappa_ref(model, lead, x) else {
                     continue;
-                }
+                };
                 let got = inv.kappa(x as f32).unwrap() as f64;
                 let e = (got / want - 1.0).abs();
-                let bound = if model == LineModel::Continuous {
-                    1e-3
-                } else {
-                    1e-2
-                };
+                let bound = kappa_bound(model);
                 assert!(
                     (got - want).abs() < bound * want + 5e-5,
                     "{model:?} ℓ {lead} x {x}: κ {got} vs {want}"
@@ -388,34 +399,22 @@ fn kappa_is_the_references_across_the_range() {
 /// evaluation.
 #[test]
 fn a_lines_kappa_is_the_references() {
-    let h = 1e-5;
     let (c, f) = (210e-12, 6e3);
     for model in MODELS {
         for lead in [0.0f32, 0.9] {
             let inv = Inverter::with_leads(model, 10.0, lead).unwrap();
-            let zr = |x: f64| zeta_ref(model, x) + lead as f64 * x;
             let mut n = 0;
             for x in log_grid(0.02, 10.0, 400) {
-                let at = |x: f64| {
-                    let z = zr(x);
-                    (z.norm().ln(), (z.re / -z.im).ln())
-                };
-                let ((m0, d0), (m1, d1)) = (at(x * f64::exp(-h)), at(x * f64::exp(h)));
-                let want = ((m1 - m0) / (d1 - d0)).abs();
-                if want > 1e3 {
+                let Some(want) = kappa_ref(model, lead, x) else {
                     continue;
-                }
-                let z = zr(x) / (TAU * f * c);
+                };
+                let z = (zeta_ref(model, x) + lead as f64 * x) / (TAU * f * c);
                 let Ok(line) = inv.invert_near(Complex32::new(z.re as f32, z.im as f32), f as f32, c as f32)
                 else {
                     continue;
                 };
                 let got = line.kappa as f64;
-                let bound = if model == LineModel::Continuous {
-                    1e-3
-                } else {
-                    1e-2
-                };
+                let bound = kappa_bound(model);
                 assert!(
                     (got - want).abs() < bound * want + 5e-5,
                     "{model:?} ℓ {lead} x {x}: κ {got} vs {want}"
