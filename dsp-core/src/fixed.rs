@@ -38,11 +38,12 @@ pub(crate) fn exp_neg_q31(t_q25: u32) -> u32 {
     ((mul(EXP2_NEG_Q31[idx], p) >> 31) >> k) as u32
 }
 
-/// Correctly rounded √x (IEEE 754): `libm`'s software square root, which
-/// gives the same bits as a hardware `vsqrt` and works on every target.
+/// Correctly rounded √x (IEEE 754): the FPU's `vsqrt` where there is one
+/// ([`crate::fmath::sqrt`]), `libm`'s software square root elsewhere: the
+/// same bits either way.
 #[inline]
 pub(crate) fn sqrtf(x: f32) -> f32 {
-    libm::sqrtf(x)
+    crate::fmath::sqrt(x)
 }
 
 #[cfg(test)]

@@ -27,6 +27,14 @@ pub fn hypot(a: f32, b: f32) -> f32 {
     }
 }
 
+/// `x.is_finite() && x > 0.0` (NaN: false), on the bits: one integer
+/// compare, where the compiler's version takes about 17 instructions on
+/// the Cortex-M4. Positive finite f32 are the bit patterns 1..=0x7f7f_ffff.
+#[inline]
+pub fn positive_finite(x: f32) -> bool {
+    x.to_bits().wrapping_sub(1) < 0x7f7f_ffff
+}
+
 #[cfg(arm_fpu)]
 #[allow(unsafe_code)]
 mod arm {
@@ -56,6 +64,33 @@ mod arm {
 
 #[cfg(test)]
 mod tests {
+    /// Against its definition on every bit pattern's neighbourhood that
+    /// matters (0, subnormals, 1, the largest finite, ±∞, NaNs) and a
+    /// sweep of the rest.
+    #[test]
+    fn positive_finite_is_finite_and_positive() {
+        let check = |b: u32| {
+            let x = f32::from_bits(b);
+            assert_eq!(super::positive_finite(x), x.is_finite() && x > 0.0, "{b:#x}");
+        };
+        for edge in [
+            0u32,
+            1,
+            0x007f_ffff,
+            0x0080_0000,
+            0x3f80_0000,
+            0x7f7f_ffff,
+            0x7f80_0000,
+            0x7fc0_0000,
+        ] {
+            for b in edge.saturating_sub(3)..=edge.saturating_add(3) {
+                check(b);
+                check(b | 0x8000_0000);
+            }
+        }
+        (0..=u32::MAX).step_by(997).for_each(check);
+    }
+
     #[test]
     fn sqrt_is_libms_bit_for_bit() {
         let mut x = 1e-30f32;

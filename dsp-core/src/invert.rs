@@ -50,6 +50,7 @@
 //! is then the line's resistance alone. ℓ = β/(2(1 − β)) for a fraction
 //! β of each electrode's end-to-end resistance in its two leads.
 
+use crate::fmath::positive_finite;
 use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -361,13 +362,40 @@ impl Inverter {
     /// converges).
     #[inline(never)]
     pub fn zeta_slope_at(&self, x: f32) -> Result<(Complex32, Complex32), InvertError> {
+        self.zeta_slope_inline(x)
+    }
+
+    /// [`zeta_slope_at`](Self::zeta_slope_at), the continuous line inside
+    /// the model's range inline (a root's every step), the rest out of
+    /// line. (A fit calls it out of line: inlined there, its larger body
+    /// made the compiler clear and copy the fit's state in bulk.)
+    #[inline(always)]
+    fn zeta_slope_inline(&self, x: f32) -> Result<(Complex32, Complex32), InvertError> {
+        if matches!(self.model, LineModel::Continuous)
+            && (crate::tline::X_MIN..=crate::tline::X_MAX).contains(&x)
+        {
+            let z0 = crate::tline::continuous_zeta(x);
+            let lead = self.lead * x;
+            return Ok((Complex32::new(z0.re + lead, z0.im), self.continuous_slope(z0, x)));
+        }
+        self.zeta_slope_beyond(x)
+    }
+
+    /// [`zeta_slope_at`](Self::zeta_slope_at) for a ladder, or outside the
+    /// model's range.
+    #[inline(never)]
+    fn zeta_slope_beyond(&self, x: f32) -> Result<(Complex32, Complex32), InvertError> {
         if x > 0.0 && x < crate::tline::X_MIN {
             let a = self.model.low_freq_resistance_fraction() + self.lead;
             return Ok((Complex32::new(a * x, -1.0), Complex32::new(a * x, 0.0)));
         }
         match self.model {
             LineModel::Continuous => {
-                let z0 = self.model.zeta(x)?;
+                // LineModel::zeta without its dispatch.
+                if !(crate::tline::X_MIN..=crate::tline::X_MAX).contains(&x) {
+                    return Err(ModelError::OutOfRange.into());
+                }
+                let z0 = crate::tline::continuous_zeta(x);
                 let lead = self.lead * x;
                 Ok((Complex32::new(z0.re + lead, z0.im), self.continuous_slope(z0, x)))
             }
@@ -378,6 +406,38 @@ impl Inverter {
                 Ok((z, (up - z) / H))
             }
         }
+    }
+
+    /// d²ζ/d(ln x)² at `x`, from ζ and its slope there as
+    /// [`zeta_slope_at`](Self::zeta_slope_at) gives them, where it is
+    /// exact: the continuous line's, differentiating its slope once more,
+    ///
+    /// ```text
+    /// d²ζ₀/d(ln x)² = (ζ₀' − 2j·ζ₀·ζ₀' + x)/2
+    /// ```
+    ///
+    /// with the leads' ℓ·x added (and below [`crate::tline::X_MIN`] the
+    /// asymptote's, its slope). `None` for a ladder, whose slope is a
+    /// forward difference. What a fit needs to bound the second-order
+    /// term of a step it takes without evaluating the model again.
+    pub fn curvature(&self, x: f32, zeta: Complex32, slope: Complex32) -> Option<Complex32> {
+        if let LineModel::Ladder(_) = self.model {
+            return None;
+        }
+        if x < crate::tline::X_MIN {
+            return Some(slope);
+        }
+        let lead = self.lead * x;
+        let (z0, s0) = (
+            Complex32::new(zeta.re - lead, zeta.im),
+            Complex32::new(slope.re - lead, slope.im),
+        );
+        let w = z0 * s0;
+        // −2j·w = 2·Im w − 2j·Re w.
+        Some(Complex32::new(
+            0.5 * (s0.re + 2.0 * w.im + x) + lead,
+            0.5 * (s0.im - 2.0 * w.re),
+        ))
     }
 
     /// The continuous line's dζ/d ln x with its leads at `x`, from the
@@ -470,8 +530,7 @@ impl Inverter {
     /// and R = ∞, which is no reading.
     fn solve(&self, z: Complex32, f_hz: f32, hint: Select) -> Result<Line, InvertError> {
         let line = self.solve_unchecked(z, f_hz, hint)?;
-        let finite = |v: f32| v.is_finite() && v > 0.0;
-        if finite(line.c_farad) && finite(line.r_ohm) && finite(line.x) {
+        if positive_finite(line.c_farad) && positive_finite(line.r_ohm) && positive_finite(line.x) {
             Ok(line)
         } else {
             Err(InvertError::OutOfRange)
@@ -479,13 +538,13 @@ impl Inverter {
     }
 
     fn solve_unchecked(&self, z: Complex32, f_hz: f32, hint: Select) -> Result<Line, InvertError> {
-        if !(f_hz.is_finite() && f_hz > 0.0) {
+        if !positive_finite(f_hz) {
             return Err(InvertError::BadFrequency);
         }
         if !(z.re.is_finite() && z.im.is_finite() && z.re >= 0.0 && z.im < 0.0) {
             return Err(InvertError::NotCapacitive);
         }
-        let good = |c: f32| c.is_finite() && c > 0.0;
+        let good = positive_finite;
         match hint {
             Select::Near(c) if !good(c) => return Err(InvertError::BadPrior),
             Select::Within(lo, hi) if !(good(lo) && good(hi) && lo <= hi) => {
@@ -529,7 +588,7 @@ impl Inverter {
                 // peak and D_MARGIN beyond.
                 d > d0 && d <= d1 + margin
             } else {
-                d >= d0.min(d1) - margin && d <= d0.max(d1) + margin
+                d >= lesser(d0, d1) - margin && d <= greater(d0, d1) + margin
             };
             n += *slot as usize;
         }
@@ -559,9 +618,12 @@ impl Inverter {
         for b in (0..self.resolved).filter(|&b| inside[b]) {
             let (i0, i1) = (self.ends[b], self.ends[b + 1]);
             let (d0, d1) = (self.d[i0], self.d[i1]);
-            // max/min, not clamp: clamp's NaN/order check would link
-            // core's float formatting into the firmware (≈ 35 KiB).
-            found[k] = Some(line(self.root(d.max(d0.min(d1)).min(d0.max(d1)), i0, i1)?));
+            // Comparisons, not clamp (its NaN/order check would link
+            // core's float formatting into the firmware, ≈ 35 KiB) nor
+            // min/max (libm calls for NaN's sake on the Cortex-M4): d and
+            // the grid are finite.
+            let d = lesser(greater(d, lesser(d0, d1)), greater(d0, d1));
+            found[k] = Some(line(self.root(d, i0, i1)?));
             k += 1;
         }
         let mut lines = found.iter().take(k).flatten();
@@ -593,7 +655,8 @@ impl Inverter {
                     if dl < d_best {
                         (best, d_next, d_best) = (*l, d_best, dl);
                     } else {
-                        d_next = d_next.min(dl);
+                        // (A NaN dl leaves d_next, as min would.)
+                        d_next = lesser(d_next, dl);
                     }
                 }
                 // The tail's lines: the closest of them to the prior.
@@ -684,22 +747,18 @@ impl Inverter {
                 b = m;
             }
         }
-        let k0 = a.saturating_sub(1).max(i0);
-        let k0 = (k0 + 3).min(i1).saturating_sub(3).max(i0);
-        let k1 = (k0 + 3).min(i1);
-        let mut u = 0.0;
-        for j in k0..=k1 {
-            let mut w = self.u[j];
-            for m in k0..=k1 {
-                if m != j {
-                    w *= (d - self.d[m]) / (self.d[j] - self.d[m]);
-                }
-            }
-            u += w;
-        }
+        let mut u = if i1 - i0 >= 3 {
+            // The four grid points around the cell, inside the branch.
+            let k = a.saturating_sub(1).max(i0).min(i1 - 3);
+            cubic_through(d, &self.d[k..k + 4], &self.u[k..k + 4])
+        } else {
+            // Too short a branch for a cubic: the falsi below.
+            f32::NAN
+        };
         // The bracket in u, g = D − d of opposite signs at its ends.
         let (mut ua, mut ga, mut ub, mut gb) = (self.u[a], self.d[a] - d, self.u[b], self.d[b] - d);
         let falsi = |ua: f32, ga: f32, ub: f32, gb: f32| ua - ga * (ub - ua) / (gb - ga);
+        // (NaN fails both comparisons.)
         if !(u > ua && u < ub) {
             u = falsi(ua, ga, ub, gb);
         }
@@ -711,15 +770,15 @@ impl Inverter {
         let mut best_g = f32::INFINITY;
         for _ in 0..12 {
             // exp(ln X_MAX) may round a hair above X_MAX.
-            let x = libm::expf(u).min(crate::tline::X_MAX);
-            let (zeta, s) = self.zeta_slope_at(x)?;
+            let x = lesser(libm::expf(u), crate::tline::X_MAX);
+            let (zeta, s) = self.zeta_slope_inline(x)?;
             let g = dissipation(zeta) - d;
             // dD/du = (Re ζ·Im ζ' − Re ζ'·Im ζ)/(Im ζ)².
             let dg = (zeta.re * s.im - s.re * zeta.im) / (zeta.im * zeta.im);
             let step = -g / dg;
             if libm::fabsf(step) <= NEWTON_LAST {
                 // Along the slope: x·e^step and ζ + ζ'·step, to step².
-                let x = (x * (1.0 + step * (1.0 + 0.5 * step))).min(crate::tline::X_MAX);
+                let x = lesser(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
                 let zeta = zeta + s * step;
                 // The continuous line's slope follows from ζ: κ at the
                 // root itself (near the peak of D, κ moves by 10⁻³ over
@@ -775,6 +834,21 @@ pub const KAPPA_SLOPE_X: f32 = 0.5;
 /// See [`KAPPA_SLOPE_X`].
 pub const KAPPA_SLOPE_MAX: f32 = 10.0;
 
+/// u(d) by the Lagrange cubic through the four points (dₖ, uₖ) (the dₖ
+/// distinct: one monotone stretch of the grid), in straight-line code.
+#[inline]
+fn cubic_through(d: f32, ds: &[f32], us: &[f32]) -> f32 {
+    let (Some(&[d0, d1, d2, d3]), Some(&[u0, u1, u2, u3])) = (ds.first_chunk::<4>(), us.first_chunk::<4>())
+    else {
+        return f32::NAN;
+    };
+    let (e0, e1, e2, e3) = (d - d0, d - d1, d - d2, d - d3);
+    let (d01, d02, d03, d12, d13, d23) = (d0 - d1, d0 - d2, d0 - d3, d1 - d2, d1 - d3, d2 - d3);
+    u0 * (e1 * e2 * e3) / (d01 * d02 * d03) - u1 * (e0 * e2 * e3) / (d01 * d12 * d13)
+        + u2 * (e0 * e1 * e3) / (d02 * d12 * d23)
+        - u3 * (e0 * e1 * e2) / (d03 * d13 * d23)
+}
+
 /// A root of D(x) = d.
 #[derive(Clone, Copy)]
 struct Root {
@@ -805,6 +879,27 @@ enum Select {
     Near(f32),
     /// The only one with C in a range (F).
     Within(f32, f32),
+}
+
+/// The lesser of two finite numbers (`f32::min` is a library call on the
+/// Cortex-M4, for NaN's sake).
+#[inline]
+fn lesser(a: f32, b: f32) -> f32 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// The greater of two finite numbers (see [`lesser`]).
+#[inline]
+fn greater(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
+    }
 }
 
 /// D = Re ζ / (−Im ζ).

@@ -20,6 +20,11 @@
 //! moves the two tones' lines apart and χ² up: the record is flagged
 //! ([`Solution::consistent`]).
 //!
+//! A step whose second-order term is small (under 0.03σ, from ζ'' where
+//! the model gives it exactly: the continuous line) is taken without
+//! evaluating the model again, χ² there to second order: a tracked line
+//! is solved in two evaluations, not three.
+//!
 //! The covariance of (ln R, ln C) is σ²-weighted (JᵀJ)⁻¹ at the optimum,
 //! so [`Solution::sigma_ln_c`] is the joint estimate's 1σ relative error
 //! of C.
@@ -50,6 +55,7 @@
 //! fit is of (R, C) alone.
 
 use crate::dielectric::Dielectric;
+use crate::fmath::positive_finite;
 use crate::invert::{InvertError, Inverter, Line};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -214,8 +220,7 @@ pub fn solve_from<const K: usize>(
     loss_tangent: f32,
 ) -> Result<Solution, InvertError> {
     check(tones)?;
-    if !(r_ohm.is_finite() && r_ohm > 0.0 && c_farad.is_finite() && c_farad > 0.0 && loss_tangent.is_finite())
-    {
+    if !(positive_finite(r_ohm) && positive_finite(c_farad) && loss_tangent.is_finite()) {
         return Err(InvertError::BadPrior);
     }
     let t = if d.spread > 0.0 {
@@ -231,10 +236,10 @@ fn check<const K: usize>(tones: &[Tone; K]) -> Result<(), InvertError> {
         return Err(InvertError::BadFrequency);
     }
     for t in tones {
-        if !(t.sigma_ohm.is_finite() && t.sigma_ohm > 0.0) {
+        if !positive_finite(t.sigma_ohm) {
             return Err(InvertError::NotCapacitive);
         }
-        if !(t.f_hz.is_finite() && t.f_hz > 0.0) {
+        if !positive_finite(t.f_hz) {
             return Err(InvertError::BadFrequency);
         }
     }
@@ -254,7 +259,7 @@ fn ordered<const K: usize>(tones: &[Tone; K]) -> [Tone; K] {
     t
 }
 
-/// Gauss–Newton on p = (ln R, ln C, tan δ) from `start` (R Ω, C F,
+/// Gauss–Newton in (ln R, ln C, tan δ) from `start` (R Ω, C F,
 /// tan δ); `tones` lower first. With the film's σ_t = 0, tan δ stays at
 /// t₀ and the normal equations are those of (ln R, ln C) alone.
 fn refine<const K: usize>(
@@ -265,33 +270,53 @@ fn refine<const K: usize>(
 ) -> Result<Solution, InvertError> {
     let hi = tones[K - 1];
     let fitted = film.spread > 0.0;
-    let mut p = [libm::logf(start[0]), libm::logf(start[1]), start[2]];
+    // The parameters as (R, C, tan δ): a step in ln R, ln C scales R and
+    // C by e^d (no logarithm, and no exponential for a small step).
+    let mut p = start;
     let mut fit = evaluate(inv, film, &tones, p)?;
     for _ in 0..ITERATIONS {
         let Some(d) = step(&fit, fitted) else {
             break;
         };
         // Never more than a factor e per step in R and C (the start is
-        // close), nor more than 10⁻² in tan δ. max/min, not clamp: its
-        // checks would link core's float formatting into the firmware (as
-        // in `invert`).
-        #[allow(clippy::manual_clamp)]
-        let clamp = |v: f32, m: f32| v.max(-m).min(m);
-        let q = [
-            p[0] + clamp(d[0], 1.0),
-            p[1] + clamp(d[1], 1.0),
-            p[2] + clamp(d[2], 1e-2),
-        ];
+        // close), nor more than 10⁻² in tan δ. Comparisons, not clamp (its
+        // checks would link core's float formatting into the firmware, as
+        // in `invert`) nor min/max (library calls on the Cortex-M4); a
+        // NaN step stays NaN, and its evaluation fails.
+        let clamp = |v: f32, m: f32| {
+            if v > m {
+                m
+            } else if v < -m {
+                -m
+            } else {
+                v
+            }
+        };
+        let dc = [clamp(d[0], 1.0), clamp(d[1], 1.0), clamp(d[2], 1e-2)];
+        let q = [p[0] * exp_step(dc[0]), p[1] * exp_step(dc[1]), p[2] + dc[2]];
         // The step's gain in χ² as the linearized model predicts it, dᵀ·Jᵀr
         // (d solves JᵀJ·d = Jᵀr): under 10⁻³, the step is taken without
         // evaluating the model again (a tracked line, 4 ms on, is there
         // after one step; χ², the covariance and the hidden bound are the
         // start's, within that gain).
         let gain = d[0] * fit.jtr[0] + d[1] * fit.jtr[1] + d[2] * fit.jtr[2];
-        if (0.0..1e-3).contains(&gain) && d[0] == clamp(d[0], 1.0) && d[1] == clamp(d[1], 1.0) {
+        let unclamped = d[0] == dc[0] && d[1] == dc[1] && d[2] == dc[2];
+        if (0.0..1e-3).contains(&gain) && unclamped {
             p = q;
-            fit.chi2 = (fit.chi2 - gain).max(0.0);
+            let chi2 = fit.chi2 - gain;
+            fit.chi2 = if chi2 > 0.0 { chi2 } else { 0.0 };
             break;
+        }
+        // So is a larger step whose second-order term is known and small
+        // (see `second_order`): χ² there to second order, the covariance
+        // and the hidden bound the start's (its Jacobian, within |d| ≤
+        // 0.03 relative).
+        if unclamped {
+            if let Some(chi2) = second_order(inv, &fit, &d, p[2], film) {
+                p = q;
+                fit.chi2 = chi2;
+                break;
+            }
         }
         let Ok(next) = evaluate(inv, film, &tones, q) else {
             break;
@@ -307,7 +332,7 @@ fn refine<const K: usize>(
             break;
         }
     }
-    let (r, c) = (libm::expf(p[0]), libm::expf(p[1]));
+    let (r, c) = (p[0], p[1]);
     let x = TAU * hi.f_hz * r * c;
     let ai = inverse(&fit.jtj, fitted);
     let (var_r, var_c) = ai.map_or((f32::INFINITY, f32::INFINITY), |m| (m[0][0], m[1][1]));
@@ -326,6 +351,83 @@ fn refine<const K: usize>(
         hidden_ln_c,
         dof: (2 * K - 2) as f32,
     })
+}
+
+/// Largest second-order term (in units of the noise, over all tones) of
+/// a step taken without evaluating the model again: the point it reaches
+/// is then within this many σ (in the parameters' joint, Mahalanobis,
+/// sense) of where one more evaluation would put it.
+const SECOND_ORDER_MAX: f32 = 0.03;
+
+/// χ² after the Gauss–Newton step `d` (in ln R, ln C, tan δ) from `fit`,
+/// to second order, where the step's second-order term is small enough
+/// to take it without evaluating the model: `None` where it is not, or
+/// where the model has no exact ζ'' (a ladder).
+///
+/// Tone k's weighted model m = ζ(x)·s + u(t)·(ζ' − ζ)·s, s ∝ 1/C,
+/// x = ωRC, moves under the step by J·d + R with, to second order (a, b,
+/// t the step in ln R, ln C, tan δ; σ = a + b the step in ln x; ζ, ζ',
+/// ζ'' weighted by s; u'' = 1/(1 − j·t)² ≈ 1)
+///
+/// ```text
+/// R = ½·(σ²·ζ'' − 2b·σ·ζ' + b²·ζ) + t·u'·(a·(ζ'' − ζ') + b·(ζ'' − 2ζ' + ζ)) + ½·t²·(ζ' − ζ)
+/// ```
+///
+/// (the loss's own share of the ζ terms, u·R, is tan δ of them, and
+/// u'' is 1 within 2·tan δ). The step lands off the linearized optimum by
+/// A⁻¹·Jᵀ·R, at most ‖R‖ in σ (a projection), and the Jacobian's change
+/// over the step moves it by about |d|·√χ² more (|d| = |a| + |b| + |t|):
+/// both must be under [`SECOND_ORDER_MAX`]. χ² is
+/// then Σ|r − J·d − R|² plus the prior's (t₀ − t − t_d)²/σ_t², exact in t.
+fn second_order<const K: usize>(
+    inv: &Inverter,
+    fit: &Evaluated<K>,
+    d: &[f32; 3],
+    tan_d: f32,
+    film: &Dielectric,
+) -> Option<f32> {
+    let [a, b, t] = *d;
+    let big = libm::fabsf(a) + libm::fabsf(b) + libm::fabsf(t);
+    let du = Dielectric::u(tan_d).1;
+    let mut chi2 = 0.0;
+    let mut rr = 0.0;
+    for k in 0..K {
+        let [d_r, d_c, d_t] = fit.cols[k];
+        // ζ'·s = d_r, (ζ' − ζ)·s = d_c, u'·(ζ' − ζ)·s = d_t.
+        let (z1, z0) = (d_r, d_r - d_c);
+        let (x, inv_scale) = fit.at[k];
+        let z2 = inv.curvature(x, z0 * inv_scale, z1 * inv_scale)? / inv_scale;
+        let sg = a + b;
+        let mut r2 = (z2 * (sg * sg) - z1 * (2.0 * b * sg) + z0 * (b * b)) * 0.5;
+        if t != 0.0 {
+            r2 = r2 + du * ((z2 - z1) * a + (z2 - z1 * 2.0 + z0) * b) * t + d_c * (0.5 * t * t);
+        }
+        rr += r2.norm_sqr();
+        let moved = fit.res[k] - (d_r * a + d_c * b + d_t * t) - r2;
+        chi2 += moved.norm_sqr();
+    }
+    let ok = rr <= SECOND_ORDER_MAX * SECOND_ORDER_MAX
+        && big * crate::fmath::sqrt(fit.chi2 + 1.0) <= SECOND_ORDER_MAX;
+    if !ok {
+        return None;
+    }
+    if film.spread > 0.0 {
+        let prior = fit.prior - t / film.spread;
+        chi2 += prior * prior;
+    }
+    Some(chi2)
+}
+
+/// e^d for a Gauss–Newton step d in ln R or ln C: below 1/16 in size
+/// by its Taylor series to d⁵ (what it leaves, d⁶/720 < 10⁻¹⁰, is far
+/// below f32's rounding), `expf` beyond.
+#[inline]
+fn exp_step(d: f32) -> f32 {
+    if d > -1.0 / 16.0 && d < 1.0 / 16.0 {
+        1.0 + d * (1.0 + d * (0.5 + d * (1.0 / 6.0 + d * (1.0 / 24.0 + d * (1.0 / 120.0)))))
+    } else {
+        libm::expf(d)
+    }
 }
 
 /// The most C can be off, relative, per unit of √χ², when what the model
@@ -362,12 +464,15 @@ fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) 
             [-dot(&rows[1], &w[0]), 1.0 - dot(&rows[1], &w[1])],
         ];
         let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-        if !(det.is_finite() && det > 0.0) {
+        if !positive_finite(det) {
             return f32::INFINITY;
         }
         // gᵀ·M⁻¹·g.
         let q = (m[1][1] * g[0] * g[0] - (m[0][1] + m[1][0]) * g[0] * g[1] + m[0][0] * g[1] * g[1]) / det;
-        worst = worst.max(q);
+        // (A NaN q is passed over, as max would.)
+        if q > worst {
+            worst = q;
+        }
     }
     crate::fmath::sqrt(worst)
 }
@@ -395,7 +500,7 @@ fn step<const K: usize>(fit: &Evaluated<K>, fitted: bool) -> Option<[f32; 3]> {
     let (a, g) = (&fit.jtj, &fit.jtr);
     if !fitted {
         let det = a[0] * a[3] - a[1] * a[1];
-        if !(det.is_finite() && det > 0.0) {
+        if !positive_finite(det) {
             return None;
         }
         return Some([
@@ -406,7 +511,7 @@ fn step<const K: usize>(fit: &Evaluated<K>, fitted: bool) -> Option<[f32; 3]> {
     }
     let m = full(a);
     let det = det3(&m);
-    if !(det.is_finite() && det > 0.0) {
+    if !positive_finite(det) {
         return None;
     }
     let col = |k: usize| {
@@ -449,29 +554,46 @@ fn det3(m: &[[f32; 3]; 3]) -> f32 {
 /// p = (ln R, ln C, tan δ): the film's loss u = ln(1 − j·tan δ) in the
 /// model to first order (the R and C columns of the Jacobian left
 /// lossless: an O(tan δ) change of the step, not of where it converges),
-/// and the film's prior as a fifth residual.
+/// and the film's prior as a fifth residual. (`evaluate` takes
+/// p = (R Ω, C F, tan δ).)
+#[derive(Clone, Copy)]
 struct Evaluated<const K: usize> {
     chi2: f32,
     jtj: [f32; 6],
     jtr: [f32; 3],
     /// Each tone's weighted derivatives in (ln R, ln C, tan δ).
     cols: [[Complex32; 3]; K],
+    /// Each tone's weighted residual r.
+    res: [Complex32; K],
+    /// Each tone's x and 1/weight (ωCσ: ζ = model·ωCσ), for ζ''
+    /// ([`second_order`]) where a step needs it.
+    at: [(f32, f32); K],
+    /// The film prior's residual (t₀ − t)/σ_t, 0 without the prior.
+    prior: f32,
 }
 
+impl<const K: usize> Evaluated<K> {
+    const EMPTY: Self = Self {
+        chi2: 0.0,
+        jtj: [0.0; 6],
+        jtr: [0.0; 3],
+        cols: [[Complex32::new(0.0, 0.0); 3]; K],
+        res: [Complex32::new(0.0, 0.0); K],
+        at: [(0.0, 0.0); K],
+        prior: 0.0,
+    };
+}
+
+#[inline(always)]
 fn evaluate<const K: usize>(
     inv: &Inverter,
     film: &Dielectric,
     tones: &[Tone; K],
     p: [f32; 3],
 ) -> Result<Evaluated<K>, InvertError> {
-    let (r, c, t) = (libm::expf(p[0]), libm::expf(p[1]), p[2]);
+    let [r, c, t] = p;
     let (u, du) = Dielectric::u(t);
-    let mut e = Evaluated {
-        chi2: 0.0,
-        jtj: [0.0; 6],
-        jtr: [0.0; 3],
-        cols: [[Complex32::new(0.0, 0.0); 3]; K],
-    };
+    let mut e = Evaluated::EMPTY;
     for (n, tone) in tones.iter().enumerate() {
         let w = TAU * tone.f_hz;
         let x = w * r * c;
@@ -484,6 +606,8 @@ fn evaluate<const K: usize>(
         let model = zeta * scale + u * d_c;
         let res = tone.z / tone.sigma_ohm - model;
         e.chi2 += res.norm_sqr();
+        e.res[n] = res;
+        e.at[n] = (x, w * c * tone.sigma_ohm);
         let dot = |a: Complex32, b: Complex32| a.re * b.re + a.im * b.im;
         let cols = [d_r, d_c, d_t];
         e.cols[n] = cols;
@@ -501,6 +625,7 @@ fn evaluate<const K: usize>(
         let res = (film.loss_tangent - t) / film.spread;
         let d = 1.0 / film.spread;
         e.chi2 += res * res;
+        e.prior = res;
         e.jtj[5] += d * d;
         e.jtr[2] += d * res;
     }
