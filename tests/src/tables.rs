@@ -60,6 +60,14 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "two-tone line from the previous record's, worst",
     ),
     (
+        "twotone_tracked_film",
+        "the same on silicone, its loss fitted (as the channels solve it), mean",
+    ),
+    (
+        "twotone_tracked_film_worst",
+        "the same on silicone, worst",
+    ),
+    (
         "lockin_pair",
         "the multiplexed channel's lock-in at the policy's tone (Nuttall window, two guard bins), per pair",
     ),
