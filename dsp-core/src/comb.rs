@@ -158,17 +158,14 @@ impl<const N: usize, const K: usize> Comb<N, K> {
 
 impl<const K: usize> Tones<K> {
     /// Amplitude of tone `k`, counts (peak); 0 for an empty block or a
-    /// tone beyond the comb. f32 after scaling the sums by a common power
-    /// of two (relative error below 10⁻⁶).
+    /// tone beyond the comb. The sums to f32
+    /// ([`crate::fmath::i64_to_f32`], 1.5 ulp) and their magnitude by
+    /// [`crate::fmath::hypot`] (relative error below 3·10⁻⁷).
     pub fn amplitude(&self, k: usize) -> f32 {
         match self.x.get(k) {
             Some(x) if self.n > 0 => {
-                // To i32 (one conversion instruction to f32), 30 bits kept.
-                let m = x.re.unsigned_abs() | x.im.unsigned_abs();
-                let sh = (64 - m.leading_zeros()).saturating_sub(30);
-                let (re, im) = ((x.re >> sh) as i32 as f32, (x.im >> sh) as i32 as f32);
-                let scale = libm::ldexpf(2.0 / (Q31 as f32 * self.n as f32), sh as i32);
-                crate::fmath::sqrt(re * re + im * im) * scale
+                let (re, im) = (crate::fmath::i64_to_f32(x.re), crate::fmath::i64_to_f32(x.im));
+                crate::fmath::hypot(re, im) * (2.0 / (Q31 as f32 * self.n as f32))
             }
             _ => 0.0,
         }
@@ -185,14 +182,19 @@ impl<const K: usize> Tones<K> {
         if self.n == 0 {
             return 0.0;
         }
+        // Squares as u64 × u64 → u128 (four 32-bit products: i128 × i128
+        // takes the full 128-bit multiply).
+        let square = |v: i64| {
+            let a = v.unsigned_abs() as u128;
+            a * a
+        };
         let n = self.n as i128;
-        let s = self.sum as i128;
-        let mut e = n * self.sq as i128 - s * s;
-        let mut tones = 0i128;
+        let mut e = n * self.sq as i128 - square(self.sum) as i128;
+        let mut tones = 0u128;
         for x in &self.x {
-            let (re, im) = (x.re as i128, x.im as i128);
-            tones += re * re + im * im;
+            tones += square(x.re) + square(x.im);
         }
+        let tones = tones as i128;
         // Σ 2|X|²/2⁶², rounded to the nearest.
         e -= (tones + (1 << 60)) >> 61;
         let e = e.max(0);
@@ -233,7 +235,7 @@ pub struct Levels<const K: usize> {
 impl<const K: usize> Levels<K> {
     /// The largest tone's amplitude, counts.
     pub fn largest(&self) -> f32 {
-        self.amplitude.iter().fold(0.0, |m, &a| m.max(a))
+        self.amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a))
     }
 }
 

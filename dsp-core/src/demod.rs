@@ -346,17 +346,16 @@ impl Phasors {
 }
 
 /// V/I of two i64 phasors as a complex `f32`, or `None` if I is zero.
-/// All four sums are scaled by one power of two so that the largest keeps
-/// its top 30 bits (more than f32's 24; V/I is unchanged by a common
-/// factor) and converted through i32, one instruction each on a
-/// Cortex-M4F. [`Phasors::ratio`] and [`crate::comb::Tones::ratio`] both
+/// Each sum converted to f32 ([`crate::fmath::i64_to_f32`], 1.5 ulp) and
+/// all four scaled by one power of two, exactly, so that the largest is
+/// below 2⁴⁰ (V/I is unchanged by a common factor; |I|² cannot
+/// overflow). [`Phasors::ratio`] and [`crate::comb::Tones::ratio`] both
 /// use it.
 pub(crate) fn ratio_of(v: Complex<i64>, i: Complex<i64>) -> Option<Complex32> {
-    let m = [v.re, v.im, i.re, i.im]
-        .iter()
-        .fold(0u64, |a, x| a | x.unsigned_abs());
-    let sh = (64 - m.leading_zeros()).saturating_sub(30);
-    let f = |x: i64| (x >> sh) as i32 as f32;
+    let m = v.re.unsigned_abs() | v.im.unsigned_abs() | i.re.unsigned_abs() | i.im.unsigned_abs();
+    let bits = 64 - m.leading_zeros() as i32;
+    let scale = crate::fmath::pow2(if bits > 40 { 40 - bits } else { 0 });
+    let f = |x: i64| crate::fmath::i64_to_f32(x) * scale;
     let (v, i) = (Complex32::new(f(v.re), f(v.im)), Complex32::new(f(i.re), f(i.im)));
     let d = i.norm_sqr();
     if d > 0.0 && d.is_finite() {

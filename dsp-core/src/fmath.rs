@@ -35,6 +35,50 @@ pub fn positive_finite(x: f32) -> bool {
     x.to_bits().wrapping_sub(1) < 0x7f7f_ffff
 }
 
+/// x as f32 within 1.5 ulp, through two 32-bit conversions (one
+/// instruction each on a Cortex-M4F) where `x as f32` is a library call
+/// of about 50: |x| = hi·2³² + lo, both halves unsigned (no
+/// cancellation), each converted (½ ulp of the sum at most) and the sum
+/// rounded once more, then the sign.
+#[inline]
+pub fn i64_to_f32(x: i64) -> f32 {
+    let a = x.unsigned_abs();
+    let f = ((a >> 32) as u32 as f32) * 4_294_967_296.0 + (a as u32) as f32;
+    if x < 0 {
+        -f
+    } else {
+        f
+    }
+}
+
+/// The larger of a and b, NaN passed over, as `f32::max`, in two
+/// comparisons: on the Cortex-M4 (no `vmaxnm`) `f32::max` is a library
+/// call of about 15 instructions.
+#[inline]
+pub fn max(a: f32, b: f32) -> f32 {
+    if b > a || a.is_nan() {
+        b
+    } else {
+        a
+    }
+}
+
+/// The smaller of a and b, NaN passed over, as `f32::min` (see [`max`]).
+#[inline]
+pub fn min(a: f32, b: f32) -> f32 {
+    if b < a || a.is_nan() {
+        b
+    } else {
+        a
+    }
+}
+
+/// 2^e as f32 for e in −126..=127, exact (no library call).
+#[inline]
+pub fn pow2(e: i32) -> f32 {
+    f32::from_bits(((e + 127) as u32) << 23)
+}
+
 #[cfg(arm_fpu)]
 #[allow(unsafe_code)]
 mod arm {
@@ -64,6 +108,66 @@ mod arm {
 
 #[cfg(test)]
 mod tests {
+    /// max and min as f32's, NaN and infinities included (up to the sign
+    /// of a zero, which f32's leave open).
+    #[test]
+    fn max_and_min_are_f32s() {
+        let v = [
+            f32::NAN,
+            f32::NEG_INFINITY,
+            -3.5,
+            -0.0,
+            0.0,
+            1e-40,
+            2.0,
+            f32::MAX,
+            f32::INFINITY,
+        ];
+        for a in v {
+            for b in v {
+                let same = |x: f32, y: f32| x == y || (x.is_nan() && y.is_nan());
+                assert!(same(super::max(a, b), a.max(b)), "max {a} {b}");
+                assert!(same(super::min(a, b), a.min(b)), "min {a} {b}");
+            }
+        }
+    }
+
+    /// i64 → f32 within 1.5 ulp of the exact value (f64 holds the i64
+    /// to 2⁻⁵³, far below an f32 ulp), across the range and at the
+    /// carries between the halves; powers of two exact.
+    #[test]
+    fn i64_to_f32_is_within_one_and_a_half_ulp() {
+        let mut worst = 0.0f64;
+        let mut check = |x: i64| {
+            let got = super::i64_to_f32(x) as f64;
+            let want = x as f64;
+            let a = (want as f32).abs();
+            let ulp = (f32::from_bits(a.to_bits() + 1) - a) as f64;
+            worst = worst.max((got - want).abs() / ulp);
+        };
+        for k in 0..63 {
+            for d in [-3i64, -1, 0, 1, 3, 0x7fff_ffff, 0xffff_ffff, 0x1_0000_0001] {
+                let x = (1i64 << k).wrapping_add(d);
+                check(x);
+                check(x.wrapping_neg());
+            }
+        }
+        let mut x = 1u64;
+        for _ in 0..200_000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            check(x as i64);
+            check((x >> (x % 60)) as i64);
+        }
+        check(i64::MIN);
+        check(i64::MAX);
+        assert!(worst <= 1.5, "{worst} ulp");
+        for e in -126..=127 {
+            assert_eq!(super::pow2(e), 2f32.powi(e), "{e}");
+        }
+    }
+
     /// Against its definition on every bit pattern's neighbourhood that
     /// matters (0, subnormals, 1, the largest finite, ±∞, NaNs) and a
     /// sweep of the rest.

@@ -124,6 +124,6 @@ pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
     if sol.chi2 > chi2_flag {
         0.0
     } else {
-        sol.hidden_ln_c * dsp_core::fmath::sqrt(sol.chi2.max(sol.dof))
+        sol.hidden_ln_c * dsp_core::fmath::sqrt(dsp_core::fmath::max(sol.chi2, sol.dof))
     }
 }

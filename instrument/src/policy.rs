@@ -24,6 +24,7 @@
 
 use crate::config::{freq_hz, PERIODS};
 use core::f32::consts::TAU;
+use dsp_core::fmath;
 
 /// Policy parameters, as a device keeps them
 /// ([`crate::stored::Stored::policy`], checked by [`Policy::check`]).
@@ -116,9 +117,9 @@ impl Policy {
         dt_s: f32,
     ) -> bool {
         let x = |i: usize, r: f32| TAU * set_hz[i] * r * c_farad;
-        st.since_switch_s = (st.since_switch_s + dt_s).min(f32::MAX);
-        let decayed = st.r_peak * (1.0 - self.decay_per_s * dt_s).max(0.0);
-        st.r_peak = decayed.max(r_ohm);
+        st.since_switch_s = fmath::min(st.since_switch_s + dt_s, f32::MAX);
+        let decayed = st.r_peak * fmath::max(1.0 - self.decay_per_s * dt_s, 0.0);
+        st.r_peak = fmath::max(decayed, r_ohm);
         let (lo, hi) = self.limits(set_hz.len());
         let mut target = st.index.clamp(lo, hi);
         while target > lo && x(target, st.r_peak) > self.x_limit {

@@ -33,6 +33,7 @@ use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::Dielectric;
+use dsp_core::fmath;
 use dsp_core::twotone::{self, Tone};
 use dsp_core::Complex32;
 
@@ -257,7 +258,7 @@ impl ToneChannel {
             return rec;
         }
         // What no tone of the comb explains, against the largest tone.
-        let limit = |a: f32| th.residual_counts.max(th.residual_rel * a);
+        let limit = |a: f32| fmath::max(th.residual_counts, th.residual_rel * a);
         let (raw_v, raw_i) = (v.levels.residual, i.levels.residual);
         if !(raw_v <= limit(v.levels.largest()) && raw_i <= limit(i.levels.largest())) {
             rec.flags.set(Flags::DISTURBED);
@@ -346,7 +347,7 @@ fn disturbance_bound(
     sigma_ln_c: f32,
 ) -> f32 {
     let sigma = th.noise_counts;
-    let excess = |r: f32| dsp_core::fmath::sqrt((r * r - sigma * sigma).max(0.0));
+    let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
     let (dv, di) = (excess(v.residual), excess(i.residual));
     if dv == 0.0 && di == 0.0 {
         return 0.0;
@@ -359,7 +360,7 @@ fn disturbance_bound(
         let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai);
         let (ev, ei) = (v.residual / av, i.residual / ai);
         let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
-        worst = worst.max(shift / noise);
+        worst = fmath::max(worst, shift / noise);
     }
     // NaN (no tone) is no bound.
     let e = sigma_ln_c * worst;
