@@ -50,6 +50,11 @@ impl ArrayReader {
         })
     }
 
+    /// The comb demodulator every input goes through.
+    pub fn comb(&self) -> &Comb<BLOCK_INSTANTS, TONES> {
+        &self.comb
+    }
+
     /// The comb on the excitation and on every sensor's input; `rows(a)`
     /// is ADC a's rows of the block.
     pub fn demodulate<'a>(&self, rows: impl Fn(usize) -> &'a Rows) -> Demodulated {

@@ -675,6 +675,29 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
             valid += recs.iter().filter(|r| r.flags.valid()).count();
         }
     }
+    // The comb's assembly inner loop must match the portable one bit for
+    // bit, on every input of the last block.
+    let comb = reader.comb();
+    for rows in &frame {
+        for col in 0..4 {
+            let fast = comb.column(rows, col);
+            for (k, x) in fast.x.iter().enumerate() {
+                let Some(reference) = comb.reference(k) else {
+                    qemu::exit(5)
+                };
+                let [c, s] = dsp_core::comb::portable(rows, col, reference);
+                if x.re != c || x.im != -s {
+                    println!("FAIL comb assembly differs from portable");
+                    qemu::exit(1);
+                }
+            }
+            if [fast.sum, fast.sq] != dsp_core::comb::portable_moments(rows, col) {
+                println!("FAIL comb moments' assembly differs from portable");
+                qemu::exit(1);
+            }
+        }
+    }
+    println!("check comb_asm_equals_portable ok");
     if valid != SENSORS * blocks as usize {
         println!(
             "FAIL array bench: {} valid records of {}",
