@@ -95,6 +95,22 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "latency from a block's last result to its last record",
     ),
     (
+        "array_comb_1ms_input",
+        "the comb on one input of a 1 ms block (25 instants; tones of 1, 2, 3, 4, 6 periods)",
+    ),
+    (
+        "array_record_linked",
+        "one array record with its link frame: solve, flags, its share of the levels, encoding",
+    ),
+    (
+        "array_share_",
+        "projected from the measured parts (comb per input, record with its frame): share of a 170 MHz Cortex-M4 for sensors × records/s",
+    ),
+    (
+        "array_latency_1ms_us",
+        "projected likewise: a 1 ms block's 17 inputs and 16 linked records, at one instruction per cycle",
+    ),
+    (
         "link_record_frame",
         "an array record converted and encoded into its link frame (postcard, CRC-32, COBS)",
     ),

@@ -645,6 +645,7 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let mut frame: Frame = [[[0; 4]; BLOCK_INSTANTS]; 5];
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
     let mut valid = 0;
+    let mut last = instrument::tones::ToneRecord::default();
     let mut block = reader.demodulate(|a| &frame[a]);
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
@@ -673,6 +674,7 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
             total += tc + ts;
             blocks += 1;
             valid += recs.iter().filter(|r| r.flags.valid()).count();
+            last = recs[0];
         }
     }
     // The comb's assembly inner loop must match the portable one bit for
@@ -721,4 +723,45 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         per_block as u64 * 1000 / 680_000
     );
     println!("bench array_latency_us {} us", per_block / 170);
+    // What 16 or 32 sensors at 250 or 1000 records/s would take, from
+    // the measured parts: the comb per input (a 4 ms block of 100
+    // instants; a 1 ms block of 25, its first 25 rows, as a comb of whole
+    // periods in 1 ms would: 1, 2, 3, 4 and 6 kHz), and per record the
+    // channel's solve and flags with its share of the levels, and the
+    // record's link frame (postcard, CRC-32, COBS); the excitation's
+    // input besides each sensor's, at 25 000 instants/s.
+    let Ok(comb_1ms) = dsp_core::comb::Comb::<25, { instrument::array::TONES }>::new([1, 2, 3, 4, 6]) else {
+        qemu::exit(5)
+    };
+    let rows_1ms: [[i16; 4]; 25] = core::array::from_fn(|n| frame[1][n]);
+    let comb_25 = insns(ticks(syst, || {
+        black_box(comb_1ms.column(black_box(&rows_1ms), 1));
+    }));
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let frame_t = insns(ticks(syst, || {
+        let record = instrument::frames::from_tone_record(black_box(&last));
+        black_box(enc.record(&record, black_box(&mut out)).map_or(0, <[u8]>::len));
+    }));
+    let comb_100 = comb_t / blocks / (SENSORS as u32 + 1);
+    let record = solve_t / blocks / SENSORS as u32 + frame_t;
+    println!("bench array_comb_1ms_input {} insn/input", comb_25);
+    println!("bench array_record_linked {} insn/record", record);
+    for sensors in [16u64, 32] {
+        for (rate, comb) in [(250u64, comb_100), (1000, comb_25)] {
+            let per_s = (sensors + 1) * rate * comb as u64 + sensors * rate * record as u64;
+            println!(
+                "bench array_share_{}x{}_permille {} permille",
+                sensors,
+                rate,
+                per_s * 1000 / 170_000_000
+            );
+        }
+    }
+    // From a 1 ms block's last instant to its last record on the link,
+    // 16 sensors, at one instruction per cycle.
+    println!(
+        "bench array_latency_1ms_us {} us",
+        (17 * comb_25 + 16 * record) / 170
+    );
 }
