@@ -244,9 +244,9 @@ impl Channel {
         let f = tones_hz(self.policy.index);
         // Seconds since this channel's last block (f32 is exact enough for
         // a difference, whatever the uptime).
-        let dt = self
-            .last_t_us
-            .map_or(0.0, |t0| t_us.saturating_sub(t0) as f32 * 1e-6);
+        let dt = self.last_t_us.map_or(0.0, |t0| {
+            dsp_core::fmath::i64_to_f32(t_us.saturating_sub(t0).min(i64::MAX as u64) as i64) * 1e-6
+        });
         self.last_t_us = Some(t_us);
         let mut rec = Record {
             t_us,

@@ -60,19 +60,23 @@ impl Joint {
         prior_farad: f32,
         chi2_flag: f32,
     ) -> Result<Solution, InvertError> {
-        let hint = self.line.map_or(prior_farad, |(_, c, _)| c);
-        let tracked = self
-            .line
-            .map(|(r, c, t)| twotone::solve_from(inv, d, tones, r, c, t));
-        match tracked {
-            Some(Ok(t)) if t.chi2 <= chi2_flag => Ok(t),
-            // Lost, or never locked: from the single-tone inversions, the
-            // better of the two.
-            other => match (other, twotone::solve(inv, d, tones, hint)) {
-                (Some(Ok(t)), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
-                (Some(Ok(t)), Err(_)) => Ok(t),
-                (_, fresh) => fresh,
-            },
+        let Some((r, c, t)) = self.line else {
+            // Never locked: from the single-tone inversions.
+            return twotone::solve(inv, d, tones, prior_farad);
+        };
+        // (Matched in place, not gathered into an Option of a Result: the
+        // solution is 15 words, and each such move was a copy.)
+        let tracked = twotone::solve_from(inv, d, tones, r, c, t);
+        if let Ok(s) = &tracked {
+            if s.chi2 <= chi2_flag {
+                return tracked;
+            }
+        }
+        // Lost: from the single-tone inversions, the better of the two.
+        match (tracked, twotone::solve(inv, d, tones, c)) {
+            (Ok(t), Ok(f)) => Ok(if f.chi2 < t.chi2 { f } else { t }),
+            (Ok(t), Err(_)) => Ok(t),
+            (Err(_), fresh) => fresh,
         }
     }
 

@@ -81,7 +81,7 @@ impl ArrayReader {
         clipped: impl Fn(usize) -> bool,
         mut record: impl FnMut(ToneRecord),
     ) {
-        let v = Input::of(block.v);
+        let v = Input::of(&block.v);
         let v_clipped = clipped(VOLTAGE_INPUT);
         let report = self.reports.due(settings.record_every);
         for (s, ch) in self.channels.iter_mut().enumerate() {
@@ -93,7 +93,7 @@ impl ArrayReader {
                 s as u8,
                 t_us,
                 &v,
-                &Input::of(block.i[s]),
+                &Input::of(&block.i[s]),
                 clipped(input_of(s)) || v_clipped,
                 &self.rotations[s],
             );

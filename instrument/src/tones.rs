@@ -111,19 +111,19 @@ pub struct ToneRecord {
     pub flags: Flags,
 }
 
-/// One input of a block: the comb's sums and, computed once from them,
-/// every tone's amplitude and the residual.
+/// One input of a block: the comb's sums (borrowed: they are 104 bytes)
+/// and, computed once from them, every tone's amplitude and the residual.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Input {
+pub struct Input<'a> {
     /// The comb's sums.
-    pub tones: Tones<TONES>,
+    pub tones: &'a Tones<TONES>,
     /// Amplitudes and residual.
     pub levels: Levels<TONES>,
 }
 
-impl Input {
+impl<'a> Input<'a> {
     /// An input's sums with their levels.
-    pub fn of(tones: Tones<TONES>) -> Self {
+    pub fn of(tones: &'a Tones<TONES>) -> Self {
         Self {
             levels: tones.levels(),
             tones,
@@ -187,14 +187,14 @@ impl ToneChannel {
         s: &ToneSettings<'_, N>,
         channel: u8,
         t_us: u64,
-        v: &Input,
-        i: &Input,
+        v: &Input<'_>,
+        i: &Input<'_>,
         clipped: bool,
         rotation: &[Complex32; TONES],
     ) -> ToneRecord {
-        let dt = self
-            .last_t_us
-            .map_or(0.0, |t0| t_us.saturating_sub(t0) as f32 * 1e-6);
+        let dt = self.last_t_us.map_or(0.0, |t0| {
+            dsp_core::fmath::i64_to_f32(t_us.saturating_sub(t0).min(i64::MAX as u64) as i64) * 1e-6
+        });
         self.last_t_us = Some(t_us);
         let pair = s.sweep.map_or_else(|| self.pair(), Self::pair_of);
         let mut rec = ToneRecord {
@@ -230,7 +230,7 @@ impl ToneChannel {
         // fixture's cable is measured so (`live calibrate --open`).
         for (j, &k) in fitted.iter().enumerate() {
             let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
-            let z = match Tones::ratio(&v.tones, &i.tones, k) {
+            let z = match Tones::ratio(v.tones, i.tones, k) {
                 Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
                 _ => {
                     rec.flags.set(Flags::OPEN);
