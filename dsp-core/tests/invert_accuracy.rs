@@ -332,6 +332,41 @@ fn the_slope_of_zeta_is_the_references_across_the_range() {
     }
 }
 
+/// ζ'' = d²ζ/d(ln x)², what a fit bounds an unevaluated step's
+/// second-order term by, against the f64 reference's second central
+/// difference (step 10⁻³ in ln x, its own error below 10⁻⁷ of |ζ|)
+/// across the declared x range, with and without the paper's leads:
+/// within 10⁻⁶ of |ζ| plus 4·10⁻⁶·x (max: f32's rounding of ζ₀·ζ₀',
+/// terms of size x that cancel; 3·10⁻⁵ of |ζ| RMS, 1.5·10⁻⁴ at x = 3000,
+/// a part in 10⁴ of ζ'' itself up to x = 100, far below what bounding a
+/// second-order term needs) on the continuous line, from ζ and ζ' as
+/// `zeta_slope_at` gives them; none for a ladder.
+#[test]
+fn the_curvature_of_zeta_is_the_references_across_the_range() {
+    let h = 1e-3;
+    for lead in [0.0f32, 0.9] {
+        let inv = Inverter::with_leads(LineModel::Continuous, 10.0, lead).unwrap();
+        let mut errs = vec![];
+        for x in log_grid(1e-6, 3000.0, 400) {
+            let zr = |x: f64| zeta_ref(LineModel::Continuous, x) + lead as f64 * x;
+            let want = (zr(x * f64::exp(h)) - 2.0 * zr(x) + zr(x * f64::exp(-h))) / (h * h);
+            let (z, slope) = inv.zeta_slope_at(x as f32).unwrap();
+            let got = inv.curvature(x as f32, z, slope).unwrap();
+            let got = num_complex::Complex64::new(got.re as f64, got.im as f64);
+            let zn = zr(x).norm();
+            let e = (got - want).norm();
+            assert!(e <= 1e-6 * zn + 4e-6 * x, "ℓ {lead} x {x}: {got} vs {want}");
+            errs.push(e / zn);
+        }
+        let (rms, max) = rms_max(&errs);
+        println!("ℓ = {lead}: ζ'' error {rms:.1e} RMS / {max:.1e} max of |ζ|");
+        assert!(rms < 3e-5, "{rms}");
+    }
+    let ladder = Inverter::new(LineModel::Ladder(30));
+    let (z, slope) = ladder.zeta_slope_at(1.0).unwrap();
+    assert!(ladder.curvature(1.0, z, slope).is_none());
+}
+
 /// κ, the error amplification a single-tone reading states, against the
 /// f64 reference's (central differences of ln|ζ| and ln D, step 10⁻⁵ in
 /// ln x) across the declared x range above the small-x asymptote: within
