@@ -188,7 +188,10 @@ pub fn portable_moments<const N: usize, const S: usize>(rows: &[[i16; S]; N], co
     [sum, sq]
 }
 
-/// Reference implementation of [`tone_sums`] (all targets).
+/// Σₙ xₙ·cos θₙ and Σₙ xₙ·sin θₙ of input `col` against one tone's
+/// reference: the reference implementation of the comb's inner loop (all
+/// targets; the Cortex-M4 runs `arm::tone_sums` where it has the DSP
+/// extension).
 pub fn portable<const N: usize, const S: usize>(
     rows: &[[i16; S]; N],
     col: usize,
