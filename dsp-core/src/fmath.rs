@@ -73,6 +73,20 @@ pub fn min(a: f32, b: f32) -> f32 {
     }
 }
 
+/// v limited to lo..=hi (lo ≤ hi), a NaN v passed through, as
+/// `f32::clamp` without its check of the bounds (whose panic message
+/// would link core's float formatting into the firmware).
+#[inline]
+pub fn clamp(v: f32, lo: f32, hi: f32) -> f32 {
+    if v > hi {
+        hi
+    } else if v < lo {
+        lo
+    } else {
+        v
+    }
+}
+
 /// 2^e as f32 for e in −126..=127, exact (no library call).
 #[inline]
 pub fn pow2(e: i32) -> f32 {
@@ -128,6 +142,12 @@ mod tests {
                 let same = |x: f32, y: f32| x == y || (x.is_nan() && y.is_nan());
                 assert!(same(super::max(a, b), a.max(b)), "max {a} {b}");
                 assert!(same(super::min(a, b), a.min(b)), "min {a} {b}");
+                // clamp with ordered, non-NaN bounds: f32's.
+                if !a.is_nan() && !b.is_nan() && a <= b {
+                    for x in v {
+                        assert!(same(super::clamp(x, a, b), x.clamp(a, b)), "clamp {x} {a} {b}");
+                    }
+                }
             }
         }
     }

@@ -50,7 +50,7 @@
 //! is then the line's resistance alone. ℓ = β/(2(1 − β)) for a fraction
 //! β of each electrode's end-to-end resistance in its two leads.
 
-use crate::fmath::positive_finite;
+use crate::fmath::{max, min, positive_finite};
 use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -382,7 +382,8 @@ impl Inverter {
     }
 
     /// [`zeta_slope_at`](Self::zeta_slope_at) for a ladder, or outside the
-    /// model's range.
+    /// continuous line's range (below [`crate::tline::X_MIN`] its
+    /// asymptote, beyond an error).
     #[inline(never)]
     fn zeta_slope_beyond(&self, x: f32) -> Result<(Complex32, Complex32), InvertError> {
         if x > 0.0 && x < crate::tline::X_MIN {
@@ -390,15 +391,9 @@ impl Inverter {
             return Ok((Complex32::new(a * x, -1.0), Complex32::new(a * x, 0.0)));
         }
         match self.model {
-            LineModel::Continuous => {
-                // LineModel::zeta without its dispatch.
-                if !(crate::tline::X_MIN..=crate::tline::X_MAX).contains(&x) {
-                    return Err(ModelError::OutOfRange.into());
-                }
-                let z0 = crate::tline::continuous_zeta(x);
-                let lead = self.lead * x;
-                Ok((Complex32::new(z0.re + lead, z0.im), self.continuous_slope(z0, x)))
-            }
+            // The continuous line inside its range is `zeta_slope_inline`'s:
+            // here it is outside it.
+            LineModel::Continuous => Err(ModelError::OutOfRange.into()),
             LineModel::Ladder(_) => {
                 const H: f32 = 1e-3;
                 let z = self.zeta(x)?;
@@ -590,7 +585,7 @@ impl Inverter {
                 // peak and D_MARGIN beyond.
                 d > d0 && d <= d1 + margin
             } else {
-                d >= lesser(d0, d1) - margin && d <= greater(d0, d1) + margin
+                d >= min(d0, d1) - margin && d <= max(d0, d1) + margin
             };
             n += *slot as usize;
         }
@@ -624,7 +619,7 @@ impl Inverter {
             // core's float formatting into the firmware, ≈ 35 KiB) nor
             // min/max (libm calls for NaN's sake on the Cortex-M4): d and
             // the grid are finite.
-            let d = lesser(greater(d, lesser(d0, d1)), greater(d0, d1));
+            let d = min(max(d, min(d0, d1)), max(d0, d1));
             found[k] = Some(line(self.root(d, i0, i1)?));
             k += 1;
         }
@@ -658,12 +653,12 @@ impl Inverter {
                         (best, d_next, d_best) = (*l, d_best, dl);
                     } else {
                         // (A NaN dl leaves d_next, as min would.)
-                        d_next = lesser(d_next, dl);
+                        d_next = min(d_next, dl);
                     }
                 }
                 // The tail's lines: the closest of them to the prior.
                 if let Some(ct) = tail_c {
-                    d_next = d_next.min(libm::logf(ct / c).max(0.0));
+                    d_next = min(d_next, max(libm::logf(ct / c), 0.0));
                 }
                 // NaN distances (a non-finite C) never pass.
                 let gap = d_next - d_best;
@@ -772,7 +767,7 @@ impl Inverter {
         let mut best_g = f32::INFINITY;
         for _ in 0..12 {
             // exp(ln X_MAX) may round a hair above X_MAX.
-            let x = lesser(libm::expf(u), crate::tline::X_MAX);
+            let x = min(libm::expf(u), crate::tline::X_MAX);
             let (zeta, s) = self.zeta_slope_inline(x)?;
             let g = dissipation(zeta) - d;
             // dD/du = (Re ζ·Im ζ' − Re ζ'·Im ζ)/(Im ζ)².
@@ -780,7 +775,7 @@ impl Inverter {
             let step = -g / dg;
             if libm::fabsf(step) <= NEWTON_LAST {
                 // Along the slope: x·e^step and ζ + ζ'·step, to step².
-                let x = lesser(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
+                let x = min(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
                 let zeta = zeta + s * step;
                 // The continuous line's slope follows from ζ: κ at the
                 // root itself (near the peak of D, κ moves by 10⁻³ over
@@ -881,27 +876,6 @@ enum Select {
     Near(f32),
     /// The only one with C in a range (F).
     Within(f32, f32),
-}
-
-/// The lesser of two finite numbers (`f32::min` is a library call on the
-/// Cortex-M4, for NaN's sake).
-#[inline]
-fn lesser(a: f32, b: f32) -> f32 {
-    if b < a {
-        b
-    } else {
-        a
-    }
-}
-
-/// The greater of two finite numbers (see [`lesser`]).
-#[inline]
-fn greater(a: f32, b: f32) -> f32 {
-    if b > a {
-        b
-    } else {
-        a
-    }
 }
 
 /// D = Re ζ / (−Im ζ).

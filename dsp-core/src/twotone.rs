@@ -55,7 +55,7 @@
 //! fit is of (R, C) alone.
 
 use crate::dielectric::Dielectric;
-use crate::fmath::positive_finite;
+use crate::fmath::{self, positive_finite};
 use crate::invert::{InvertError, Inverter, Line};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -175,7 +175,7 @@ pub fn z_sigma(z: Complex32, n: u32, a_v: f32, a_i: f32, r_v: f32, r_i: f32) -> 
     }
     let (ev, ei) = (r_v / a_v, r_i / a_i);
     // |Z|² < 10³⁸ for any impedance below 10¹⁹ Ω: no hypot needed.
-    crate::fmath::sqrt((z.re * z.re + z.im * z.im) * (2.0 / n as f32) * (ev * ev + ei * ei))
+    fmath::sqrt((z.re * z.re + z.im * z.im) * (2.0 / n as f32) * (ev * ev + ei * ei))
 }
 
 /// The line both `tones` fit, on a film `d` (its loss fitted within its
@@ -279,19 +279,9 @@ fn refine<const K: usize>(
             break;
         };
         // Never more than a factor e per step in R and C (the start is
-        // close), nor more than 10⁻² in tan δ. Comparisons, not clamp (its
-        // checks would link core's float formatting into the firmware, as
-        // in `invert`) nor min/max (library calls on the Cortex-M4); a
-        // NaN step stays NaN, and its evaluation fails.
-        let clamp = |v: f32, m: f32| {
-            if v > m {
-                m
-            } else if v < -m {
-                -m
-            } else {
-                v
-            }
-        };
+        // close), nor more than 10⁻² in tan δ; a NaN step stays NaN, and
+        // its evaluation fails.
+        let clamp = |v: f32, m: f32| fmath::clamp(v, -m, m);
         let dc = [clamp(d[0], 1.0), clamp(d[1], 1.0), clamp(d[2], 1e-2)];
         let q = [p[0] * exp_step(dc[0]), p[1] * exp_step(dc[1]), p[2] + dc[2]];
         // The step's gain in χ² as the linearized model predicts it, dᵀ·Jᵀr
@@ -304,7 +294,7 @@ fn refine<const K: usize>(
         if (0.0..1e-3).contains(&gain) && unclamped {
             p = q;
             let chi2 = fit.chi2 - gain;
-            fit.chi2 = if chi2 > 0.0 { chi2 } else { 0.0 };
+            fit.chi2 = fmath::max(chi2, 0.0);
             break;
         }
         // So is a larger step whose second-order term is known and small
@@ -345,8 +335,8 @@ fn refine<const K: usize>(
             kappa: f32::NAN,
         },
         chi2: fit.chi2,
-        sigma_ln_c: crate::fmath::sqrt(var_c),
-        sigma_ln_r: crate::fmath::sqrt(var_r),
+        sigma_ln_c: fmath::sqrt(var_c),
+        sigma_ln_r: fmath::sqrt(var_r),
         loss_tangent: p[2],
         hidden_ln_c,
         dof: (2 * K - 2) as f32,
@@ -406,8 +396,8 @@ fn second_order<const K: usize>(
         let moved = fit.res[k] - (d_r * a + d_c * b + d_t * t) - r2;
         chi2 += moved.norm_sqr();
     }
-    let ok = rr <= SECOND_ORDER_MAX * SECOND_ORDER_MAX
-        && big * crate::fmath::sqrt(fit.chi2 + 1.0) <= SECOND_ORDER_MAX;
+    let ok =
+        rr <= SECOND_ORDER_MAX * SECOND_ORDER_MAX && big * fmath::sqrt(fit.chi2 + 1.0) <= SECOND_ORDER_MAX;
     if !ok {
         return None;
     }
@@ -469,12 +459,10 @@ fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) 
         }
         // gᵀ·M⁻¹·g.
         let q = (m[1][1] * g[0] * g[0] - (m[0][1] + m[1][0]) * g[0] * g[1] + m[0][0] * g[1] * g[1]) / det;
-        // (A NaN q is passed over, as max would.)
-        if q > worst {
-            worst = q;
-        }
+        // (A NaN q is passed over.)
+        worst = fmath::max(worst, q);
     }
-    crate::fmath::sqrt(worst)
+    fmath::sqrt(worst)
 }
 
 /// The inverse of a 3×3 matrix by its cofactors; `None` when singular.
