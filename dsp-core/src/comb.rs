@@ -365,14 +365,17 @@ impl<const K: usize> Tones<K> {
         let bits = 128 - e.leading_zeros();
         let sh = (bits.saturating_sub(30) + 1) & !1;
         let scaled = (e >> sh) as i32 as f32;
-        libm::ldexpf(crate::fmath::sqrt(scaled), (sh / 2) as i32) / self.n as f32
+        // ×2^(sh/2), sh/2 ≤ 63: exact, as ldexpf (a library call).
+        crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32) / self.n as f32
     }
 
     /// The amplitudes of every tone and the residual, once (a channel
     /// reads them many times).
     pub fn levels(&self) -> Levels<K> {
+        let amplitude: [f32; K] = core::array::from_fn(|k| self.amplitude(k));
         Levels {
-            amplitude: core::array::from_fn(|k| self.amplitude(k)),
+            largest: amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a)),
+            amplitude,
             residual: self.residual_rms(),
         }
     }
@@ -393,13 +396,8 @@ pub struct Levels<const K: usize> {
     pub amplitude: [f32; K],
     /// What no tone explains, counts rms.
     pub residual: f32,
-}
-
-impl<const K: usize> Levels<K> {
-    /// The largest tone's amplitude, counts.
-    pub fn largest(&self) -> f32 {
-        self.amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a))
-    }
+    /// The largest tone's amplitude, counts (0 without tones).
+    pub largest: f32,
 }
 
 /// The reference's full scale, 2³¹.

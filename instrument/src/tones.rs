@@ -260,7 +260,7 @@ impl ToneChannel {
         // What no tone of the comb explains, against the largest tone.
         let limit = |a: f32| fmath::max(th.residual_counts, th.residual_rel * a);
         let (raw_v, raw_i) = (v.levels.residual, i.levels.residual);
-        if !(raw_v <= limit(v.levels.largest()) && raw_i <= limit(i.levels.largest())) {
+        if !(raw_v <= limit(v.levels.largest) && raw_i <= limit(i.levels.largest)) {
             rec.flags.set(Flags::DISTURBED);
         }
         if clipped || rec.flags.has(Flags::DISTURBED) {

@@ -385,16 +385,21 @@ const _: () = assert!(1 + MAX_BODY + 4 < 255);
 /// the crate's encoder copies it byte by byte at about fourteen (a
 /// record's frame: 1638 instructions with the crate, 1446 here).
 fn stuff(buf: &mut [u8]) {
-    let mut next = buf.len();
-    for (i, b) in buf.iter_mut().enumerate().skip(1).rev() {
+    let Some((code, data)) = buf.split_first_mut() else {
+        return;
+    };
+    // From the end back: `d`, the distance from the byte at hand to the
+    // next zero (or to the end, one past the last byte).
+    let mut d = 1u8;
+    for b in data.iter_mut().rev() {
         if *b == 0 {
-            *b = (next - i) as u8;
-            next = i;
+            *b = d;
+            d = 1;
+        } else {
+            d += 1;
         }
     }
-    if let Some(code) = buf.first_mut() {
-        *code = next as u8;
-    }
+    *code = d;
 }
 
 /// Decode one frame from its COBS bytes (without the closing zero).
