@@ -13,12 +13,9 @@ use crate::stored::{Stored, MAX_BYTES};
 use embedded_storage::nor_flash::NorFlash;
 use link::{Chunk, Reason, Reply, Request, CHUNK};
 
-/// The CRC of a committed set: CRC-32/ISO-HDLC, as the link's.
-static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
 /// The CRC-32 a commit of `bytes` carries.
 pub fn crc(bytes: &[u8]) -> u32 {
-    CRC.checksum(bytes)
+    link::CRC.checksum(bytes)
 }
 
 /// What the application must do after a request.

@@ -23,15 +23,12 @@ use dsp_core::tline::LineModel;
 use dsp_core::track::Tracker;
 use dsp_core::Complex32;
 
-/// The digests' CRC: CRC-32/ISO-HDLC.
-static DIGEST_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
 /// A digest under way.
-pub struct Digest(crc::Digest<'static, u32>);
+pub struct Digest(crc::Digest<'static, u32, link::CrcTable>);
 
 impl Default for Digest {
     fn default() -> Self {
-        Self(DIGEST_CRC.digest())
+        Self(link::CRC.digest())
     }
 }
 
@@ -316,7 +313,7 @@ mod tests {
         // CRC-32/ISO-HDLC of the bytes 00 00 80 3F (1.0f32) then 07.
         let mut d = Digest::default();
         fields!(&mut d, 1.0f32, 7u8);
-        assert_eq!(d.finish(), DIGEST_CRC.checksum(&[0x00, 0x00, 0x80, 0x3F, 0x07]));
+        assert_eq!(d.finish(), link::CRC.checksum(&[0x00, 0x00, 0x80, 0x3F, 0x07]));
     }
 
     #[test]

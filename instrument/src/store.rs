@@ -36,9 +36,6 @@ const MAGIC: u32 = 0x534B_4E31;
 /// header CRC, padding; a multiple of any write size up to 32 bytes.
 pub const HEADER: usize = 32;
 
-/// The CRC of bodies and headers: CRC-32/ISO-HDLC.
-static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-
 /// Whether a flash error says the bytes read cannot be trusted (a torn
 /// word's ECC failed), not that the flash failed.
 pub trait Corruption {
@@ -75,14 +72,14 @@ impl Header {
         b[4..8].copy_from_slice(&self.generation.to_le_bytes());
         b[8..12].copy_from_slice(&self.len.to_le_bytes());
         b[12..16].copy_from_slice(&self.body_crc.to_le_bytes());
-        let crc = CRC.checksum(&b[0..16]);
+        let crc = link::CRC.checksum(&b[0..16]);
         b[16..20].copy_from_slice(&crc.to_le_bytes());
         b
     }
 
     fn from_bytes(b: &[u8; HEADER]) -> Option<Self> {
         let word = |k: usize| u32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
-        if word(0) != MAGIC || word(16) != CRC.checksum(&b[0..16]) {
+        if word(0) != MAGIC || word(16) != link::CRC.checksum(&b[0..16]) {
             return None;
         }
         let h = Self {
@@ -170,7 +167,7 @@ where
             Err(e) if e.corrupt() => return Ok(None),
             other => other?,
         }
-        if CRC.checksum(body) != header.body_crc {
+        if link::CRC.checksum(body) != header.body_crc {
             return Ok(None);
         }
         Ok(out.read_from(body).then_some(header))
@@ -250,7 +247,7 @@ where
         let header = Header {
             generation,
             len: len as u32,
-            body_crc: CRC.checksum(&body[..len]),
+            body_crc: link::CRC.checksum(&body[..len]),
         };
         self.flash
             .write(at, &header.to_bytes())

@@ -75,15 +75,19 @@ pub const MAX_FRAME: usize = 96;
 /// The longest body before the CRC and COBS, bytes.
 const MAX_BODY: usize = MAX_FRAME - 4 - 2 - 1;
 
-/// The CRC of a frame: CRC-32/ISO-HDLC (Ethernet's, zlib's), from a
-/// 1 KiB table a byte at a time (the firmware's).
+/// The table of [`CRC`]: 1 KiB, a byte at a time (the firmware's); with
+/// the `fast-crc` feature 16 KiB, sixteen bytes at a time (the host's
+/// decoder, which replays streams of 10⁶ records a second).
 #[cfg(not(feature = "fast-crc"))]
-static CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-/// The same CRC sixteen bytes at a time from a 16 KiB table (the
-/// `fast-crc` feature: the host's decoder, which replays streams of 10⁶
-/// records a second).
+pub type CrcTable = crc::Table<1>;
+/// The table of [`CRC`] (see the other definition).
 #[cfg(feature = "fast-crc")]
-static CRC: crc::Crc<u32, crc::Table<16>> = crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISO_HDLC);
+pub type CrcTable = crc::Table<16>;
+
+/// The CRC of a frame, CRC-32/ISO-HDLC (Ethernet's, zlib's); the one
+/// table every CRC-32 of an image uses (the stored settings and their
+/// digest too: one table in flash, not one per user).
+pub static CRC: crc::Crc<u32, CrcTable> = crc::Crc::<u32, CrcTable>::new(&crc::CRC_32_ISO_HDLC);
 
 /// One tone's measurement: its frequency and the sensor's impedance there.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
