@@ -292,7 +292,7 @@ impl Stored {
     /// values), every sensor in use, the default policy, a record every
     /// block.
     ///
-    /// A copy of one set laid out at compile time ([`UNCALIBRATED`]):
+    /// A copy of one set laid out at compile time (a static):
     /// built in place, its sixteen sensors' constants were 8.8 KiB of
     /// stores in every image that reads a stored set.
     #[inline(never)]
