@@ -214,7 +214,7 @@ impl Thresholds {
     /// noise per component, counts.
     fn excess(guards: &[dsp_core::Complex32; 2], sigma_g: f32) -> f32 {
         let g2 = guards[0].norm_sqr().max(guards[1].norm_sqr());
-        dsp_core::fmath::sqrt((g2 - 2.0 * sigma_g * sigma_g).max(0.0))
+        libm::sqrtf((g2 - 2.0 * sigma_g * sigma_g).max(0.0))
     }
 
     /// Each channel's noise, counts rms: the ADC's
@@ -222,8 +222,8 @@ impl Thresholds {
     /// noisier board, or energy near the tone).
     pub fn sigma(&self, r: &Reading, c: usize) -> f32 {
         let [p, m] = r.guards[c];
-        let seen = dsp_core::fmath::sqrt((p.norm_sqr() + m.norm_sqr()) / 4.0)
-            / r.guard_noise_gain.max(f32::MIN_POSITIVE);
+        let seen =
+            libm::sqrtf((p.norm_sqr() + m.norm_sqr()) / 4.0) / r.guard_noise_gain.max(f32::MIN_POSITIVE);
         self.noise_counts.max(seen)
     }
 
