@@ -44,7 +44,7 @@ fn hypot_scaled(a: f32, b: f32) -> f32 {
     if a.is_nan() || b.is_nan() {
         return f32::NAN;
     }
-    let m = if a > b { a } else { b };
+    let m = max(a, b);
     if m == 0.0 {
         return 0.0;
     }

@@ -50,7 +50,7 @@
 //! is then the line's resistance alone. ℓ = β/(2(1 − β)) for a fraction
 //! β of each electrode's end-to-end resistance in its two leads.
 
-use crate::fmath::{max, min, positive_finite};
+use crate::fmath::{self, max, min, positive_finite};
 use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -615,11 +615,10 @@ impl Inverter {
         for b in (0..self.resolved).filter(|&b| inside[b]) {
             let (i0, i1) = (self.ends[b], self.ends[b + 1]);
             let (d0, d1) = (self.d[i0], self.d[i1]);
-            // Comparisons, not clamp (its NaN/order check would link
-            // core's float formatting into the firmware, ≈ 35 KiB) nor
-            // min/max (libm calls for NaN's sake on the Cortex-M4): d and
-            // the grid are finite.
-            let d = min(max(d, min(d0, d1)), max(d0, d1));
+            // fmath's clamp, not f32's (its order check would link core's
+            // float formatting into the firmware, ≈ 35 KiB): d and the
+            // grid are finite.
+            let d = fmath::clamp(d, min(d0, d1), max(d0, d1));
             found[k] = Some(line(self.root(d, i0, i1)?));
             k += 1;
         }

@@ -88,8 +88,14 @@ fn a_short_buffer_is_an_error_not_a_panic() {
         seq: 1,
         body: Body::Record(Record::default()),
     };
-    let mut out = [0u8; 8];
-    assert_eq!(encode(&frame, &mut out), Err(Error::BufferTooSmall));
+    for len in [0, 1, 5, 6, 8] {
+        let mut out = vec![0u8; len];
+        assert_eq!(
+            encode(&frame, &mut out),
+            Err(Error::BufferTooSmall),
+            "{len} bytes"
+        );
+    }
 }
 
 /// A clean stream: a start frame, `n` records, an end frame.
