@@ -4,7 +4,7 @@
 
 use dsp_core::fixture::Fixture;
 use dsp_core::tline::ModelError;
-use instrument::array::{tones_hz, Frame, SENSORS, TONES};
+use instrument::array::{Frame, Layout, SENSORS, TONES};
 use instrument::calib::POINTS;
 use instrument::effects::Effect;
 use instrument::policy::Policy;
@@ -136,8 +136,8 @@ pub struct ArraySkin {
 }
 
 impl ArraySkin {
-    /// The skin of `scenario` at t = 0.
-    pub fn new(scenario: ArrayScenario) -> Self {
+    /// The skin of `scenario` at t = 0, read in blocks of `layout`.
+    pub fn new(scenario: ArrayScenario, layout: Layout) -> Self {
         let sensors = core::array::from_fn(|s| {
             let mut sensor = Sensor::settled(scenario.params(s));
             sensor.advance(&scenario.profile(s), lead_s(scenario, s));
@@ -146,7 +146,7 @@ impl ArraySkin {
         Self {
             scenario,
             sensors,
-            front_end: ArrayFrontEnd::REFERENCE,
+            front_end: ArrayFrontEnd::reference(layout),
             rng: Rng::new(0xa11a),
         }
     }
@@ -166,10 +166,11 @@ impl ArraySkin {
         truth: &mut [wire::TruthLine; SENSORS],
     ) -> [bool; INPUTS] {
         let t = t_us as f64 * 1e-6;
-        let hz = tones_hz().map(|f| f as f64);
+        let layout = &self.front_end.layout;
+        let hz = layout.tones_hz().map(|f| f as f64);
         let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
         let mut hum = [Disturbance::NONE; SENSORS];
-        let block_s = instrument::array::BLOCK_INSTANTS as f64 / instrument::array::RATE_HZ as f64;
+        let block_s = layout.block_us() as f64 * 1e-6;
         for (s, sensor) in self.sensors.iter_mut().enumerate() {
             sensor.advance(&self.scenario.profile(s), t + lead_s(self.scenario, s));
             z[s] = sensor.impedances(&hz);

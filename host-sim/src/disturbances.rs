@@ -21,7 +21,7 @@
 //! rows for steps, bursts, offsets and stuck inputs are not tried ("–").
 
 use dsp_core::fixture::Fixture;
-use instrument::array::{Frame, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
+use instrument::array::{Frame, Layout, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
 use instrument::calib;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{tones_hz, BLOCK_PAIRS, SLOT_S};
@@ -436,21 +436,22 @@ pub fn array(class: &Class) -> Option<Outcome> {
     ) {
         return None;
     }
-    let fe = ArrayFrontEnd::REFERENCE;
+    let layout = Layout::BLOCK_4MS;
+    let fe = ArrayFrontEnd::reference(layout);
     let paper = SensorParams::PAPER;
     let lead = paper.effects.lead_ratio();
     let each = Sensors::from_fn(|_| {
         Measured::calibrated(skin_sim::sensor::PAPER_CALIBRATION, lead, Fixture::NONE)
             .expect("the paper's calibration is valid")
     });
-    let settings = ToneSettings::new(fe.dsp_front_end(), &each);
-    let mut reader = ArrayReader::new(&each).expect("the array's comb lays out");
+    let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
+    let mut reader = ArrayReader::new(layout, &each).expect("the array's comb lays out");
     let mut rng = Rng::new(0xa77a);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
-    let block_s = BLOCK_INSTANTS as f64 / RATE_HZ as f64;
+    let block_s = layout.block_us() as f64 * 1e-6;
     let duration = 0.4;
     let blocks = (duration / block_s) as u64;
-    let hz = instrument::array::tones_hz().map(|f| f as f64);
+    let hz = layout.tones_hz().map(|f| f as f64);
     let mut out = Outcome {
         records: 0,
         flagged: 0,
@@ -459,7 +460,7 @@ pub fn array(class: &Class) -> Option<Outcome> {
     };
     // The tone the policy uses most (the pair's lower one) is what a
     // tone-relative sinusoid aims at: 500 Hz.
-    let aim = instrument::array::tone_hz(0);
+    let aim = layout.tone_hz(0);
     let sample_rate = RATE_HZ as f32;
     for b in 0..blocks {
         let t = b as f64 * block_s;
@@ -476,11 +477,7 @@ pub fn array(class: &Class) -> Option<Outcome> {
             t0_s: t,
             ..Disturbance::NONE
         };
-        if let Some((f, counts)) = sine_hz(
-            &class.front,
-            &[aim, instrument::array::tone_hz(TONES - 1)],
-            sample_rate,
-        ) {
+        if let Some((f, counts)) = sine_hz(&class.front, &[aim, layout.tone_hz(TONES - 1)], sample_rate) {
             // The array's counts are 16-bit: the same share of full scale.
             (d.hum_hz, d.hum_i, d.hum_phase_turns) = (f, counts * 16.0, 0.21);
         }
@@ -488,7 +485,7 @@ pub fn array(class: &Class) -> Option<Outcome> {
         reader.read(
             &settings,
             t_us,
-            |a| &frame[a],
+            |a| layout.rows(&frame[a]),
             |input| clipped[input],
             |rec| {
                 if b > 0 {

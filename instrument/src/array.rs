@@ -8,23 +8,27 @@
 //! ```
 //!
 //! One excitation drives every sensor: a comb of [`TONES`] tones, each
-//! making [`COMB`] whole periods per block of [`BLOCK_INSTANTS`] instants, played by
-//! the DAC from a table at [`DAC_RATE_HZ`] (40 samples per ADC instant, so
-//! its images lie above 950 kHz, far beyond the reconstruction filter).
+//! making whole periods per block, played by the DAC from a table at
+//! [`DAC_RATE_HZ`] (40 samples per ADC instant, so its images lie above
+//! 950 kHz, far beyond the reconstruction filter). A [`Layout`] says how
+//! long a block is and which comb it carries: [`Layout::BLOCK_4MS`]
+//! (250 records/s, tones of 500 Hz … 6 kHz) or [`Layout::BLOCK_1MS`]
+//! (1000 records/s, 1 … 6 kHz, for a control loop that wants a record
+//! every millisecond, at twice the noise).
 //! Each sensor's bottom tab is held at the bias by its own inverting
 //! transimpedance stage of [`SENSOR_TIA_OHM`]. The five ADCs, started together by
 //! one timer at [`RATE_HZ`], each scan [`SCAN`] inputs with 16× hardware
 //! oversampling (16-bit results: the sum of sixteen 12-bit conversions);
 //! input `4a + j` is position `j` of ADC `a`. Input 0 reads the excitation,
-//! inputs 1–16 the sensors, 17–19 are spare. A block is 4 ms: every
-//! sensor is read [`RECORDS_PER_S`] times a second, at both tones its
-//! channel chose, from one excitation, with no multiplexer to settle.
+//! inputs 1–16 the sensors, 17–19 are spare. Every sensor is read once a
+//! block, at both tones its channel chose, from one excitation, with no
+//! multiplexer to settle.
 //!
 //! **Scan skew.** Position j of a scan is converted j·[`SCAN_STEP_S`]
 //! after position 0, so a sensor whose input sits at another position
 //! than the voltage's is sampled later: its current phasor at tone f
 //! carries a phase of 2π·f·Δt that the sensor does not have. The channel
-//! takes it out ([`skew_rotation`]); at 6 kHz and 28.2 µs it is 1.06 rad.
+//! takes it out ([`Layout::skew_rotation`]); at 6 kHz and 28.2 µs it is 1.06 rad.
 //! Sixteen oversampled conversions average over the scan step alike on
 //! every input, so the ratio V/I keeps no trace of it.
 //!
@@ -46,15 +50,13 @@ pub const ADCS: usize = 5;
 pub const SCAN: usize = 4;
 /// Instants per second (the timer's rate), Hz.
 pub const RATE_HZ: u32 = 25_000;
-/// Instants per block: 4 ms.
+/// Instants of the longest block, 4 ms ([`Layout::BLOCK_4MS`]): what a
+/// [`Frame`] and the DAC's table hold.
 pub const BLOCK_INSTANTS: usize = 100;
-/// Records per second per sensor.
-pub const RECORDS_PER_S: u32 = RATE_HZ / BLOCK_INSTANTS as u32;
+/// Instants of the short block, 1 ms ([`Layout::BLOCK_1MS`]).
+pub const SHORT_INSTANTS: usize = 25;
 /// Tones of the comb.
 pub const TONES: usize = 5;
-/// Whole periods per block of each tone, ascending: 500, 1000, 2000,
-/// 4000 and 6000 Hz.
-pub const COMB: [u32; TONES] = [2, 4, 8, 16, 24];
 /// The ADCs' clock, Hz: the 170 MHz AHB clock over 4 (synchronous, so
 /// all five start on the same edge of the timer's trigger).
 pub const ADC_CLOCK_HZ: u32 = crate::design::SYSCLK_HZ / 4;
@@ -66,8 +68,11 @@ pub const CONVERSION_CYCLES: f32 = 25.0;
 pub const SCAN_STEP_S: f32 = OVERSAMPLING as f32 * CONVERSION_CYCLES / ADC_CLOCK_HZ as f32;
 /// The DAC's sample rate, Hz.
 pub const DAC_RATE_HZ: u32 = 1_000_000;
-/// Samples of the DAC's table: one block.
-pub const DAC_TABLE: usize = BLOCK_INSTANTS * (DAC_RATE_HZ / RATE_HZ) as usize;
+/// DAC samples per ADC instant.
+pub const DAC_PER_INSTANT: usize = (DAC_RATE_HZ / RATE_HZ) as usize;
+/// Samples of the DAC's table: the longest block (a shorter one plays
+/// its first [`Layout::dac_samples`]).
+pub const DAC_TABLE: usize = BLOCK_INSTANTS * DAC_PER_INSTANT;
 /// Input of the excitation voltage.
 pub const VOLTAGE_INPUT: usize = 0;
 /// Feedback resistance of every sensor's transimpedance stage, Ω: the
@@ -75,23 +80,6 @@ pub const VOLTAGE_INPUT: usize = 0;
 /// range (0.46 MΩ electrodes, 290 pF, all five tones at their peaks
 /// together) inside the ADC.
 pub const SENSOR_TIA_OHM: f64 = 330e3;
-/// Each tone's amplitude at the sensors, V (peak), lowest tone first.
-///
-/// **Why the comb falls as 1/√f.** A high-resistance sensor reads at the
-/// lowest pair (the policy keeps x = 2π·f·R·C bounded), where its current,
-/// ∝ V·f at the pair's switch point, is smallest: a flat comb starves
-/// exactly the sensors whose inversion already amplifies noise most. A
-/// 1/f comb would give every pair the same current at its switch point,
-/// but starve the highest tones the low-resistance sensors read at. The
-/// comb splits the difference, ∝ 1/√f, scaled so that the design's
-/// lowest-impedance sensor (0.46 MΩ electrodes, 290 pF) draws the same
-/// current with all five tones at their peaks together as five 0.3 V
-/// tones did: 1.54 V at its transimpedance output, inside the ADC's
-/// ±1.65 V (`the_comb_keeps_the_design_headroom`). Against five 0.3 V
-/// tones: 2.3× the current at 500 Hz, 1.6× at 1 kHz, 0.66× at 6 kHz.
-/// With [`PHASES`] the comb peaks at [`comb_peak`] = 1.11 V.
-pub const TONE_VOLTS: [f64; TONES] = [0.686, 0.485, 0.343, 0.243, 0.198];
-
 /// ADC result bits (12-bit conversions, 16× oversampled and summed).
 pub const RESULT_BITS: u32 = 16;
 /// Conversions summed per result.
@@ -109,26 +97,6 @@ pub const HALF_SCALE: i32 = 1 << (RESULT_BITS - 1);
 /// each with the 12-bit converter's 0.7 LSB of input noise and 0.29 LSB
 /// of rounding, summed: √16·0.76 ≈ 3.05.
 pub const NOISE_COUNTS: f32 = 3.05;
-/// The comb's phases, rad: the lowest peak a random search of 40 000
-/// phase sets and a local refinement found for the amplitudes of
-/// [`TONE_VOLTS`] (1.108 V, a crest factor of 1.63; in phase they would
-/// peak at 1.955 V). `the_comb_fits_the_dac_and_its_crest_factor_is_low`
-/// checks that a fresh search does no better.
-pub const PHASES: [f32; TONES] = [0.0, 4.2752, 0.9402, 5.8172, 5.6276];
-
-/// Degrees of freedom of a block's residual: N instants less the mean
-/// and two per tone.
-pub const RESIDUAL_DOF: u32 = (BLOCK_INSTANTS - 2 * TONES - 1) as u32;
-
-/// Frequency of comb tone `k`, Hz (the highest for an index beyond).
-pub fn tone_hz(k: usize) -> f32 {
-    COMB[k.min(TONES - 1)] as f32 * RATE_HZ as f32 / BLOCK_INSTANTS as f32
-}
-
-/// The comb's frequencies, Hz, ascending.
-pub fn tones_hz() -> [f32; TONES] {
-    core::array::from_fn(tone_hz)
-}
 
 /// The ADC input of sensor `s`.
 pub const fn input_of(sensor: usize) -> usize {
@@ -147,33 +115,216 @@ pub fn skew_s(sensor: usize) -> f32 {
     (j as f32 - jv as f32) * SCAN_STEP_S
 }
 
-/// The factor that takes sensor `s`'s scan skew out of its V/I at each
-/// tone: e^(+j·2π·f·Δt) (the current's phasor carries e^(+j·2π·f·Δt)
-/// too many, so V/I carries its inverse).
-pub fn skew_rotation(sensor: usize) -> [Complex32; TONES] {
-    let dt = skew_s(sensor);
-    core::array::from_fn(|k| {
-        let (s, c) = libm::sincosf(TAU * tone_hz(k) * dt);
-        Complex32::new(c, s)
-    })
+/// How a block is laid out: how many instants it has, and the comb it
+/// carries (each tone's whole periods per block, amplitude and phase).
+/// Two layouts exist, [`Layout::BLOCK_4MS`] and [`Layout::BLOCK_1MS`]:
+/// the firmware, the reader ([`crate::reader::ArrayReader`]) and the
+/// channels' settings ([`crate::tones::ToneSettings`]) must use the same.
+///
+/// **Why the comb falls as 1/√f.** A high-resistance sensor reads at the
+/// lowest pair (the policy keeps x = 2π·f·R·C bounded), where its current,
+/// ∝ V·f at the pair's switch point, is smallest: a flat comb starves
+/// exactly the sensors whose inversion already amplifies noise most. A
+/// 1/f comb would give every pair the same current at its switch point,
+/// but starve the highest tones the low-resistance sensors read at. The
+/// comb splits the difference, ∝ 1/√f, scaled so that the design's
+/// lowest-impedance sensor (0.46 MΩ electrodes, 290 pF) draws the same
+/// current with all five tones at their peaks together as five 0.3 V
+/// tones of the 4 ms comb did: 1.54 V at its transimpedance output,
+/// inside the ADC's ±1.65 V (`the_comb_keeps_the_design_headroom`).
+///
+/// **Phases.** Each comb's phases are the lowest peak a random search
+/// (40 000 sets) and a local refinement found for its amplitudes;
+/// `the_comb_fits_the_dac_and_its_crest_factor_is_low` checks that a
+/// fresh search does no better.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layout {
+    instants: usize,
+    comb: [u32; TONES],
+    tone_volts: [f64; TONES],
+    phases: [f32; TONES],
+    tones_hz: [f32; TONES],
 }
 
-/// The comb's peak over one block, V, on a grid of `points` instants
-/// (the DAC's table: [`DAC_TABLE`]).
-pub fn comb_peak(points: usize) -> f32 {
-    peak_of(&PHASES, points)
-}
+impl Layout {
+    /// Blocks of 4 ms (100 instants), 250 records/s: tones of 500, 1000,
+    /// 2000, 4000 and 6000 Hz (2, 4, 8, 16 and 24 periods), of 0.686 …
+    /// 0.198 V. Against five 0.3 V tones: 2.3× the current at 500 Hz,
+    /// 1.6× at 1 kHz, 0.66× at 6 kHz. The comb peaks at 1.108 V, a crest
+    /// factor of 1.63 (in phase it would peak at 1.955 V).
+    pub const BLOCK_4MS: Self = Self::new(
+        BLOCK_INSTANTS,
+        [2, 4, 8, 16, 24],
+        [0.686, 0.485, 0.343, 0.243, 0.198],
+        [0.0, 4.2752, 0.9402, 5.8172, 5.6276],
+    );
+    /// Blocks of 1 ms (25 instants), 1000 records/s: tones of 1, 2, 3, 4
+    /// and 6 kHz (whole periods of 1 ms), of 0.439 … 0.179 V: the same
+    /// 1/√f shape and the same headroom as the 4 ms comb, whose 500 Hz
+    /// tone drew little current, so every tone is ~10 % lower. A quarter
+    /// of the conversions per record: twice the noise. The comb peaks at
+    /// 0.676 V, a crest factor of 1.45 (in phase: 1.403 V).
+    pub const BLOCK_1MS: Self = Self::new(
+        SHORT_INSTANTS,
+        [1, 2, 3, 4, 6],
+        [0.439, 0.311, 0.254, 0.220, 0.179],
+        [0.0, 3.7417, 3.4076, 5.5284, 3.7399],
+    );
+    /// Both layouts, the longer block first.
+    pub const ALL: [Self; 2] = [Self::BLOCK_4MS, Self::BLOCK_1MS];
 
-fn peak_of(phases: &[f32; TONES], points: usize) -> f32 {
-    let mut peak = 0f32;
-    for n in 0..points {
-        let t = n as f32 / points as f32;
-        let v: f32 = (0..TONES)
-            .map(|k| TONE_VOLTS[k] as f32 * libm::cosf(TAU * COMB[k] as f32 * t + phases[k]))
-            .sum();
-        peak = peak.max(libm::fabsf(v));
+    const fn new(
+        instants: usize,
+        comb: [u32; TONES],
+        tone_volts: [f64; TONES],
+        phases: [f32; TONES],
+    ) -> Self {
+        let mut tones_hz = [0f32; TONES];
+        let mut k = 0;
+        while k < TONES {
+            tones_hz[k] = comb[k] as f32 * (RATE_HZ as f32 / instants as f32);
+            k += 1;
+        }
+        Self {
+            instants,
+            comb,
+            tone_volts,
+            phases,
+            tones_hz,
+        }
     }
-    peak
+
+    /// The layout whose blocks give `records_per_s` (250 or 1000).
+    pub fn of_records_per_s(records_per_s: u32) -> Option<Self> {
+        Self::ALL.into_iter().find(|l| l.records_per_s() == records_per_s)
+    }
+
+    /// Instants per block.
+    pub const fn instants(&self) -> usize {
+        self.instants
+    }
+
+    /// Records per second per sensor (blocks per second).
+    pub const fn records_per_s(&self) -> u32 {
+        RATE_HZ / self.instants as u32
+    }
+
+    /// The block period, µs.
+    pub const fn block_us(&self) -> u64 {
+        self.instants as u64 * 1_000_000 / RATE_HZ as u64
+    }
+
+    /// Whole periods per block of each tone, ascending.
+    pub const fn comb(&self) -> [u32; TONES] {
+        self.comb
+    }
+
+    /// Each tone's amplitude at the sensors, V (peak), lowest tone first.
+    pub const fn tone_volts(&self) -> [f64; TONES] {
+        self.tone_volts
+    }
+
+    /// Each tone's phase at the block's first instant, rad.
+    pub const fn phases(&self) -> [f32; TONES] {
+        self.phases
+    }
+
+    /// Frequency of comb tone `k`, Hz (the highest for an index beyond).
+    pub fn tone_hz(&self, k: usize) -> f32 {
+        self.tones_hz[k.min(TONES - 1)]
+    }
+
+    /// The comb's frequencies, Hz, ascending.
+    pub const fn tones_hz(&self) -> [f32; TONES] {
+        self.tones_hz
+    }
+
+    /// Degrees of freedom of a block's residual: N instants less the mean
+    /// and two per tone.
+    pub const fn residual_dof(&self) -> u32 {
+        (self.instants - 2 * TONES - 1) as u32
+    }
+
+    /// A block's rows of one ADC: the first [`Layout::instants`] of
+    /// `rows`.
+    pub fn rows<'a>(&self, rows: &'a Rows) -> &'a [[i16; SCAN]] {
+        &rows[..self.instants.min(BLOCK_INSTANTS)]
+    }
+
+    /// Samples of the DAC's table the block plays.
+    pub const fn dac_samples(&self) -> usize {
+        self.instants * DAC_PER_INSTANT
+    }
+
+    /// The factor that takes sensor `s`'s scan skew out of its V/I at each
+    /// tone: e^(+j·2π·f·Δt) (the current's phasor carries e^(+j·2π·f·Δt)
+    /// too many, so V/I carries its inverse).
+    pub fn skew_rotation(&self, sensor: usize) -> [Complex32; TONES] {
+        let dt = skew_s(sensor);
+        core::array::from_fn(|k| {
+            let (s, c) = libm::sincosf(TAU * self.tone_hz(k) * dt);
+            Complex32::new(c, s)
+        })
+    }
+
+    /// The comb's peak over one block, V, on a grid of `points` instants
+    /// (the DAC's table: [`Layout::dac_samples`]).
+    pub fn comb_peak(&self, points: usize) -> f32 {
+        self.peak_of(&self.phases, points)
+    }
+
+    fn peak_of(&self, phases: &[f32; TONES], points: usize) -> f32 {
+        let mut peak = 0f32;
+        for n in 0..points {
+            let t = n as f32 / points as f32;
+            let v: f32 = (0..TONES)
+                .map(|k| self.tone_volts[k] as f32 * libm::cosf(TAU * self.comb[k] as f32 * t + phases[k]))
+                .sum();
+            peak = peak.max(libm::fabsf(v));
+        }
+        peak
+    }
+
+    /// Each tone's amplitude in DAC codes: [`Layout::tone_volts`] of the
+    /// 3.3 V reference's 4096 codes (851.4 at 500 Hz … 245.7 at 6 kHz
+    /// for the 4 ms comb; the reconstruction filter and buffer after the
+    /// DAC have a gain of 1).
+    pub fn tone_codes(&self) -> [f32; TONES] {
+        let full = (1u32 << crate::design::DAC_BITS) as f64;
+        self.tone_volts
+            .map(|v| (v / crate::design::VREF_VOLT * full) as f32)
+    }
+
+    /// The DAC's table: one block of the comb at [`DAC_RATE_HZ`] in the
+    /// first [`Layout::dac_samples`] of `table` (returned), sample n the
+    /// code of [`DAC_MID`] + Σₖ cₖ·cos(2π·pₖ·n/L + φₖ), rounded, with cₖ
+    /// the [`Layout::tone_codes`] and L the samples. Phases from
+    /// dsp-core's integer `cossin`, so the table is the same on the host
+    /// and the target.
+    pub fn dac_table<'a>(&self, table: &'a mut [u16; DAC_TABLE]) -> &'a [u16] {
+        let turn = 4_294_967_296.0f64;
+        let offset: [u32; TONES] = core::array::from_fn(|k| {
+            let t = self.phases[k] as f64 / core::f64::consts::TAU;
+            ((t - libm::floor(t)) * turn) as u64 as u32
+        });
+        let codes = self.tone_codes();
+        let q = 1.0 / 2_147_483_648.0f32;
+        let samples = self.dac_samples().min(DAC_TABLE);
+        let n_table = samples as u64;
+        let table = &mut table[..samples];
+        for (n, code) in table.iter_mut().enumerate() {
+            let mut x = 0f32;
+            for (k, &p) in self.comb.iter().enumerate() {
+                let m = (p as u64 * n as u64) % n_table;
+                let base = (((m << 32) + n_table / 2) / n_table) as u32;
+                let (c, _) = dsp_core::cossin::cossin(base.wrapping_add(offset[k]) as i32);
+                x += codes[k] * c as f32 * q;
+            }
+            let v = DAC_MID as f32 + x + 0.5;
+            *code = (v as u16).min((1 << crate::design::DAC_BITS) - 1);
+        }
+        table
+    }
 }
 
 /// Inputs of the five ADCs (sensors, the excitation and the spares).
@@ -198,8 +349,8 @@ pub const fn on_rail(code: i16) -> bool {
 }
 
 /// Which inputs of a block have a result on a rail; `rows(a)` is ADC a's
-/// rows.
-pub fn clipped<'a>(rows: impl Fn(usize) -> &'a Rows) -> [bool; INPUTS] {
+/// rows of the block ([`Layout::rows`]).
+pub fn clipped<'a>(rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> [bool; INPUTS] {
     let mut out = [false; INPUTS];
     for a in 0..ADCS {
         for row in rows(a) {
@@ -214,7 +365,7 @@ pub fn clipped<'a>(rows: impl Fn(usize) -> &'a Rows) -> [bool; INPUTS] {
 /// The ADC's DMA leaves offset binary (0 … 65 520, the bias at 32 768):
 /// make it two's complement around the bias, in place (flipping the top
 /// bit is subtracting 32 768 modulo 2¹⁶).
-pub fn from_offset_binary(rows: &mut Rows) {
+pub fn from_offset_binary(rows: &mut [[i16; SCAN]]) {
     for x in rows.iter_mut().flatten() {
         *x ^= i16::MIN;
     }
@@ -222,43 +373,6 @@ pub fn from_offset_binary(rows: &mut Rows) {
 
 /// The DAC's mid-scale code: the bias.
 pub const DAC_MID: u16 = 1 << (crate::design::DAC_BITS - 1);
-/// Each tone's amplitude in DAC codes: [`TONE_VOLTS`] of the 3.3 V
-/// reference's 4096 codes (851.4 at 500 Hz … 245.7 at 6 kHz; the
-/// reconstruction filter and buffer after the DAC have a gain of 1).
-pub const TONE_CODES: [f32; TONES] = {
-    let mut c = [0f32; TONES];
-    let mut k = 0;
-    while k < TONES {
-        c[k] = (TONE_VOLTS[k] / crate::design::VREF_VOLT * (1u32 << crate::design::DAC_BITS) as f64) as f32;
-        k += 1;
-    }
-    c
-};
-
-/// The DAC's table: one block of the comb at [`DAC_RATE_HZ`], sample n
-/// the code of [`DAC_MID`] + Σₖ [`TONE_CODES`]ₖ·cos(2π·pₖ·n/[`DAC_TABLE`]
-/// \+ φₖ), rounded. Phases from dsp-core's integer `cossin`, so the table
-/// is the same on the host and the target.
-pub fn dac_table(table: &mut [u16; DAC_TABLE]) {
-    let turn = 4_294_967_296.0f64;
-    let offset: [u32; TONES] = core::array::from_fn(|k| {
-        let t = PHASES[k] as f64 / core::f64::consts::TAU;
-        ((t - libm::floor(t)) * turn) as u64 as u32
-    });
-    let q = 1.0 / 2_147_483_648.0f32;
-    let n_table = DAC_TABLE as u64;
-    for (n, code) in table.iter_mut().enumerate() {
-        let mut x = 0f32;
-        for (k, &p) in COMB.iter().enumerate() {
-            let m = (p as u64 * n as u64) % n_table;
-            let base = (((m << 32) + n_table / 2) / n_table) as u32;
-            let (c, _) = dsp_core::cossin::cossin(base.wrapping_add(offset[k]) as i32);
-            x += TONE_CODES[k] * c as f32 * q;
-        }
-        let v = DAC_MID as f32 + x + 0.5;
-        *code = (v as u16).min((1 << crate::design::DAC_BITS) - 1);
-    }
-}
 
 #[cfg(test)]
 mod tests {
@@ -266,8 +380,29 @@ mod tests {
 
     #[test]
     fn the_layout_adds_up() {
-        assert_eq!(RECORDS_PER_S, 250);
-        assert_eq!(tones_hz(), [500.0, 1000.0, 2000.0, 4000.0, 6000.0]);
+        let (long, short) = (Layout::BLOCK_4MS, Layout::BLOCK_1MS);
+        assert_eq!((long.records_per_s(), short.records_per_s()), (250, 1000));
+        assert_eq!((long.block_us(), short.block_us()), (4000, 1000));
+        assert_eq!(long.tones_hz(), [500.0, 1000.0, 2000.0, 4000.0, 6000.0]);
+        assert_eq!(short.tones_hz(), [1000.0, 2000.0, 3000.0, 4000.0, 6000.0]);
+        assert_eq!((long.residual_dof(), short.residual_dof()), (89, 14));
+        assert_eq!(Layout::of_records_per_s(1000), Some(short));
+        assert_eq!(Layout::of_records_per_s(250), Some(long));
+        assert_eq!(Layout::of_records_per_s(500), None);
+        for layout in Layout::ALL {
+            assert!(layout.instants() <= BLOCK_INSTANTS && layout.dac_samples() <= DAC_TABLE);
+            // Every tone makes whole periods, under Nyquist, none twice.
+            assert!(
+                dsp_core::comb::Comb::<BLOCK_INSTANTS, TONES>::new(layout.comb()).is_ok()
+                    || layout.instants() != BLOCK_INSTANTS
+            );
+            assert!(
+                dsp_core::comb::Comb::<SHORT_INSTANTS, TONES>::new(layout.comb()).is_ok()
+                    || layout.instants() != SHORT_INSTANTS
+            );
+            assert!(layout.tones_hz().windows(2).all(|w| w[0] < w[1]));
+            assert_eq!(layout.tone_hz(TONES + 3), 6000.0);
+        }
         assert!(input_of(SENSORS - 1) < ADCS * SCAN);
         assert_eq!(adc_position(input_of(0)), (0, 1));
         assert_eq!(adc_position(input_of(15)), (4, 0));
@@ -277,9 +412,12 @@ mod tests {
         assert!((skew_s(2) - 3.0 * SCAN_STEP_S).abs() < 1e-12);
         assert!(SCAN as f32 * SCAN_STEP_S < 1.0 / RATE_HZ as f32);
         assert_eq!(skew_s(3), 0.0);
-        let r = skew_rotation(2)[4];
-        assert!((r.arg() - TAU * 6000.0 * 3.0 * SCAN_STEP_S).abs() < 1e-5);
+        for layout in Layout::ALL {
+            let r = layout.skew_rotation(2)[4];
+            assert!((r.arg() - TAU * 6000.0 * 3.0 * SCAN_STEP_S).abs() < 1e-5);
+        }
         assert_eq!(DAC_TABLE, 4000);
+        assert_eq!(Layout::BLOCK_1MS.dac_samples(), 1000);
         // The ADC's rate: 4 inputs × 16 conversions × 25 kHz = 1.6 MSa/s,
         // under the G474's 4 MSa/s.
         assert!(SCAN as u32 * OVERSAMPLING * RATE_HZ <= 4_000_000);
@@ -287,83 +425,98 @@ mod tests {
 
     #[test]
     fn the_comb_fits_the_dac_and_its_crest_factor_is_low() {
-        let peak = comb_peak(DAC_TABLE);
-        let rms = libm::sqrt(TONE_VOLTS.iter().map(|a| a * a).sum::<f64>() / 2.0) as f32;
-        let crest = peak / rms;
-        assert!(peak < 1.11 && crest < 1.64, "peak {peak} crest {crest}");
-        // A fresh random search (another generator, 3000 sets on a
-        // coarser grid) finds nothing 3 % lower.
-        let mut s: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut best = f32::MAX;
-        for _ in 0..3000 {
-            let mut ph = [0f32; TONES];
-            for p in ph.iter_mut().skip(1) {
-                s = s
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                *p = (s >> 40) as f32 / (1u64 << 24) as f32 * TAU;
+        // Each layout's peak and crest factor as documented.
+        for (layout, most, crest_most) in [(Layout::BLOCK_4MS, 1.11, 1.64), (Layout::BLOCK_1MS, 0.677, 1.46)]
+        {
+            let peak = layout.comb_peak(layout.dac_samples());
+            let volts = layout.tone_volts();
+            let rms = libm::sqrt(volts.iter().map(|a| a * a).sum::<f64>() / 2.0) as f32;
+            let crest = peak / rms;
+            assert!(peak < most && crest < crest_most, "peak {peak} crest {crest}");
+            // A fresh random search (another generator, 3000 sets on a
+            // coarser grid: 100 points a block) finds nothing 3 % lower.
+            let mut s: u64 = 0x9e37_79b9_7f4a_7c15;
+            let mut best = f32::MAX;
+            for _ in 0..3000 {
+                let mut ph = [0f32; TONES];
+                for p in ph.iter_mut().skip(1) {
+                    s = s
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1_442_695_040_888_963_407);
+                    *p = (s >> 40) as f32 / (1u64 << 24) as f32 * TAU;
+                }
+                best = best.min(layout.peak_of(&ph, BLOCK_INSTANTS));
             }
-            best = best.min(peak_of(&ph, BLOCK_INSTANTS));
+            assert!(best > 0.97 * peak, "a search found {best} against {peak}");
+            // The excitation's peak stays inside the buffer's ±1.45 V swing.
+            assert!(peak < 1.45);
         }
-        assert!(best > 0.97 * peak, "a search found {best} against {peak}");
-        // The excitation's peak stays inside the buffer's ±1.45 V swing.
-        assert!(peak < 1.45);
     }
 
     /// The design's lowest-impedance sensor (0.46 MΩ electrodes, 290 pF,
     /// a uniform line read at one end: Z = R·coth(γ)/γ, γ = √(jωRC))
     /// with every tone at its peak together: the transimpedance output
     /// stays inside the ADC's ±1.65 V, and within 1 % of what five 0.3 V
-    /// tones gave (the design the 330 kΩ was chosen for). The amplitudes
-    /// fall as 1/√f within rounding.
+    /// tones of the 4 ms comb gave (the design the 330 kΩ was chosen
+    /// for), in either layout. The amplitudes fall as 1/√f within
+    /// rounding.
     #[test]
     fn the_comb_keeps_the_design_headroom() {
         use num_complex::Complex64;
         let (r, c) = (0.46e6, 290e-12);
-        let gain = |k: usize| {
-            let w = core::f64::consts::TAU * tone_hz(k) as f64;
+        let gain = |layout: &Layout, k: usize| {
+            let w = core::f64::consts::TAU * layout.tone_hz(k) as f64;
             let g = (Complex64::new(0.0, w * r * c)).sqrt();
             let z = r * (g.cosh() / g.sinh()) / g;
             SENSOR_TIA_OHM / z.norm()
         };
-        let shaped: f64 = (0..TONES).map(|k| TONE_VOLTS[k] * gain(k)).sum();
-        let flat: f64 = (0..TONES).map(|k| 0.3 * gain(k)).sum();
-        assert!(shaped < crate::design::ADC_HALF_SCALE_VOLT, "{shaped} V");
-        assert!((shaped / flat - 1.0).abs() < 0.01, "{shaped} V against {flat} V");
-        for (k, &v) in TONE_VOLTS.iter().enumerate() {
-            let want = TONE_VOLTS[0] * libm::sqrt(tone_hz(0) as f64 / tone_hz(k) as f64);
-            assert!((v / want - 1.0).abs() < 0.005, "tone {k}: {v} V");
+        let long = Layout::BLOCK_4MS;
+        let flat: f64 = (0..TONES).map(|k| 0.3 * gain(&long, k)).sum();
+        for layout in Layout::ALL {
+            let volts = layout.tone_volts();
+            let shaped: f64 = (0..TONES).map(|k| volts[k] * gain(&layout, k)).sum();
+            assert!(shaped < crate::design::ADC_HALF_SCALE_VOLT, "{shaped} V");
+            assert!((shaped / flat - 1.0).abs() < 0.01, "{shaped} V against {flat} V");
+            for (k, &v) in volts.iter().enumerate() {
+                let want = volts[0] * libm::sqrt(layout.tone_hz(0) as f64 / layout.tone_hz(k) as f64);
+                assert!((v / want - 1.0).abs() < 0.005, "tone {k}: {v} V");
+            }
         }
     }
 
     #[test]
     fn the_dac_table_is_the_comb_within_half_a_code() {
-        let mut table = [0u16; DAC_TABLE];
-        dac_table(&mut table);
-        // Against f64: the rounding alone (RMS 1/√12 = 0.289 code).
-        let code = |k: usize| TONE_VOLTS[k] / crate::design::VREF_VOLT * 4096.0;
-        let (mut sq, mut max) = (0f64, 0f64);
-        for (n, &c) in table.iter().enumerate() {
-            let t = n as f64 / DAC_TABLE as f64;
-            let x: f64 = (0..TONES)
-                .map(|k| code(k) * (core::f64::consts::TAU * COMB[k] as f64 * t + PHASES[k] as f64).cos())
-                .sum();
-            let e = c as f64 - (2048.0 + x);
-            sq += e * e;
-            max = max.max(e.abs());
+        for layout in Layout::ALL {
+            let mut full = [0u16; DAC_TABLE];
+            let table = layout.dac_table(&mut full);
+            assert_eq!(table.len(), layout.dac_samples());
+            // Against f64: the rounding alone (RMS 1/√12 = 0.289 code).
+            let volts = layout.tone_volts();
+            let (comb, phases) = (layout.comb(), layout.phases());
+            let code = |k: usize| volts[k] / crate::design::VREF_VOLT * 4096.0;
+            let (mut sq, mut max) = (0f64, 0f64);
+            for (n, &c) in table.iter().enumerate() {
+                let t = n as f64 / table.len() as f64;
+                let x: f64 = (0..TONES)
+                    .map(|k| code(k) * (core::f64::consts::TAU * comb[k] as f64 * t + phases[k] as f64).cos())
+                    .sum();
+                let e = c as f64 - (2048.0 + x);
+                sq += e * e;
+                max = max.max(e.abs());
+            }
+            let rms = (sq / table.len() as f64).sqrt();
+            assert!(rms < 0.31 && max <= 0.5 + 1e-3, "rms {rms} max {max}");
+            // Its extremes: the comb's peak, inside the 12-bit range.
+            let (lo, hi) = (*table.iter().min().unwrap(), *table.iter().max().unwrap());
+            let peak = layout.comb_peak(table.len()) as f64 / crate::design::VREF_VOLT * 4096.0;
+            assert!((2048.0 - lo as f64 - peak).abs() < 1.5 && (hi as f64 - 2048.0 - peak).abs() < 1.5);
+            // … and inside the buffer's ±1.45 V swing (1800 codes).
+            let swing = 1.45 / crate::design::VREF_VOLT * 4096.0;
+            assert!(
+                lo as f64 > 2048.0 - swing && (hi as f64) < 2048.0 + swing,
+                "{lo}..{hi}"
+            );
         }
-        let rms = (sq / DAC_TABLE as f64).sqrt();
-        assert!(rms < 0.30 && max <= 0.5 + 1e-3, "rms {rms} max {max}");
-        // Its extremes: the comb's peak, inside the 12-bit range.
-        let (lo, hi) = (*table.iter().min().unwrap(), *table.iter().max().unwrap());
-        let peak = comb_peak(DAC_TABLE) as f64 / crate::design::VREF_VOLT * 4096.0;
-        assert!((2048.0 - lo as f64 - peak).abs() < 1.5 && (hi as f64 - 2048.0 - peak).abs() < 1.5);
-        // … and inside the buffer's ±1.45 V swing (1800 codes).
-        let swing = 1.45 / crate::design::VREF_VOLT * 4096.0;
-        assert!(
-            lo as f64 > 2048.0 - swing && (hi as f64) < 2048.0 + swing,
-            "{lo}..{hi}"
-        );
     }
 
     #[test]

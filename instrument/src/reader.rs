@@ -4,13 +4,14 @@
 //!
 //! The board and QEMU keep a block differently (the board's five DMA
 //! buffers, each with two halves; QEMU's one [`Frame`](crate::array::Frame)),
-//! so the reader takes a block as a function from ADC to its rows. Two
+//! so the reader takes a block as a function from ADC to its rows (the
+//! layout's [`Layout::instants`] of them: [`Layout::rows`]). Two
 //! steps, so that a firmware can demodulate while it holds the block and
 //! solve after it let go: [`ArrayReader::demodulate`] reads the block,
 //! [`ArrayReader::solve`] does not.
 
 use crate::array::{
-    adc_position, input_of, skew_rotation, Rows, BLOCK_INSTANTS, COMB, SENSORS, TONES, VOLTAGE_INPUT,
+    adc_position, input_of, Layout, BLOCK_INSTANTS, SCAN, SENSORS, SHORT_INSTANTS, TONES, VOLTAGE_INPUT,
 };
 use crate::channel::Decimation;
 use crate::sensor::Sensors;
@@ -28,10 +29,60 @@ pub struct Demodulated {
     pub i: [Tones<TONES>; SENSORS],
 }
 
+/// The comb demodulator of a layout's blocks (4 KiB for 4 ms blocks,
+/// 1 KiB for 1 ms: the reader is as large as the longer either way).
+#[derive(Clone, Debug)]
+// No heap to box the longer one in: a firmware keeps its one reader in
+// place, sized for either layout.
+#[allow(clippy::large_enum_variant)]
+pub enum BlockComb {
+    /// Blocks of [`BLOCK_INSTANTS`] ([`Layout::BLOCK_4MS`]).
+    Long(Comb<BLOCK_INSTANTS, TONES>),
+    /// Blocks of [`SHORT_INSTANTS`] ([`Layout::BLOCK_1MS`]).
+    Short(Comb<SHORT_INSTANTS, TONES>),
+}
+
+impl BlockComb {
+    /// The comb of `layout`'s blocks.
+    pub fn new(layout: &Layout) -> Result<Self, CombError> {
+        Ok(if layout.instants() == SHORT_INSTANTS {
+            Self::Short(Comb::new(layout.comb())?)
+        } else {
+            Self::Long(Comb::new(layout.comb())?)
+        })
+    }
+
+    /// Instants of its blocks.
+    pub const fn instants(&self) -> usize {
+        match self {
+            Self::Long(_) => BLOCK_INSTANTS,
+            Self::Short(_) => SHORT_INSTANTS,
+        }
+    }
+
+    /// Demodulate input `col` of a block's rows ([`Comb::column`]): an
+    /// empty result (`n` = 0, so no excitation) unless `rows` holds at
+    /// least a block.
+    #[inline]
+    pub fn column(&self, rows: &[[i16; SCAN]], col: usize) -> Tones<TONES> {
+        let column = match self {
+            Self::Long(c) => rows.first_chunk().map(|r| c.column(r, col)),
+            Self::Short(c) => rows.first_chunk().map(|r| c.column(r, col)),
+        };
+        column.unwrap_or(Tones {
+            x: [dsp_core::Complex::new(0, 0); TONES],
+            n: 0,
+            sum: 0,
+            sq: 0,
+        })
+    }
+}
+
 /// The array's demodulator and its sixteen channels.
 #[derive(Clone, Debug)]
 pub struct ArrayReader {
-    comb: Comb<BLOCK_INSTANTS, TONES>,
+    comb: BlockComb,
+    layout: Layout,
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
     rotations: [[Complex32; TONES]; SENSORS],
@@ -40,24 +91,33 @@ pub struct ArrayReader {
 }
 
 impl ArrayReader {
-    /// Sixteen channels, each resting at its sensor's rest capacitance.
-    pub fn new<const N: usize>(sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
+    /// Sixteen channels, each resting at its sensor's rest capacitance,
+    /// reading blocks of `layout` (the same as the settings' given to
+    /// [`ArrayReader::solve`]).
+    pub fn new<const N: usize>(layout: Layout, sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
         Ok(Self {
-            comb: Comb::new(COMB)?,
+            comb: BlockComb::new(&layout)?,
+            layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
-            rotations: core::array::from_fn(skew_rotation),
+            rotations: core::array::from_fn(|s| layout.skew_rotation(s)),
             reports: Decimation::new(),
         })
     }
 
     /// The comb demodulator every input goes through.
-    pub fn comb(&self) -> &Comb<BLOCK_INSTANTS, TONES> {
+    pub fn comb(&self) -> &BlockComb {
         &self.comb
     }
 
+    /// The layout of the blocks it reads.
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
     /// The comb on the excitation and on every sensor's input; `rows(a)`
-    /// is ADC a's rows of the block.
-    pub fn demodulate<'a>(&self, rows: impl Fn(usize) -> &'a Rows) -> Demodulated {
+    /// is ADC a's rows of the block ([`Layout::rows`]; an input whose
+    /// rows are short of a block reads as no excitation).
+    pub fn demodulate<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> Demodulated {
         let column = |input: usize| {
             let (a, j) = adc_position(input);
             self.comb.column(rows(a), j)
@@ -109,7 +169,7 @@ impl ArrayReader {
         &mut self,
         settings: &ToneSettings<'_, N>,
         t_us: u64,
-        rows: impl Fn(usize) -> &'a Rows,
+        rows: impl Fn(usize) -> &'a [[i16; SCAN]],
         clipped: impl Fn(usize) -> bool,
         record: impl FnMut(ToneRecord),
     ) {

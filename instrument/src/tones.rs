@@ -25,7 +25,7 @@
 //! the excitation never changes.
 
 use crate::array::SENSORS;
-use crate::array::{tone_hz, tones_hz, TONES};
+use crate::array::{Layout, TONES};
 use crate::faults::{Flags, Thresholds};
 use crate::joint::{Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
@@ -40,6 +40,9 @@ use dsp_core::Complex32;
 /// What every sensor of the array shares, and each sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct ToneSettings<'a, const N: usize> {
+    /// The blocks' layout: their tones and residual (the reader's; the
+    /// model check's flag `chi2_flag` is set for its degrees of freedom).
+    pub layout: Layout,
     /// Tone policy (its `settle_blocks` is not used: nothing settles).
     pub policy: Policy,
     /// Fault thresholds, in the array ADC's counts.
@@ -66,18 +69,20 @@ pub struct ToneSettings<'a, const N: usize> {
 
 impl<'a, const N: usize> ToneSettings<'a, N> {
     /// The settings every array application starts from: the default
-    /// policy, the array's thresholds, a silicone film
+    /// policy, the array's thresholds for the layout
+    /// ([`Thresholds::array`]), a silicone film
     /// ([`Dielectric::SILICONE`]), the model check's flag at a 10⁻⁴ false
-    /// rate for the block's residual degrees of freedom; the front end
-    /// and the sensors are the application's.
-    pub fn new(front_end: FrontEnd, sensors: &'a Sensors<N, SENSORS>) -> Self {
+    /// rate for the layout's residual degrees of freedom; the layout, the
+    /// front end and the sensors are the application's.
+    pub fn new(layout: Layout, front_end: FrontEnd, sensors: &'a Sensors<N, SENSORS>) -> Self {
         Self {
+            layout,
             policy: Policy::DEFAULT,
-            thresholds: Thresholds::ARRAY,
+            thresholds: Thresholds::array(&layout),
             front_end,
             sensors,
             dielectric: Dielectric::SILICONE,
-            chi2_flag: twotone::chi2_flag_of(1e-4, 3, crate::array::RESIDUAL_DOF),
+            chi2_flag: twotone::chi2_flag_of(1e-4, 3, layout.residual_dof()),
             record_every: 1,
             sweep: None,
         }
@@ -178,7 +183,7 @@ impl ToneChannel {
 
     /// Turn the comb's phasors of the excitation `v` and of this sensor's
     /// current `i` over one block into a record; `rotation` takes the
-    /// sensor's scan skew out ([`crate::array::skew_rotation`]), `clipped`
+    /// sensor's scan skew out ([`crate::array::Layout::skew_rotation`]), `clipped`
     /// says an ADC result of the sensor's input or the voltage's hit a
     /// rail. Updates the tone policy and the tracked line.
     #[allow(clippy::too_many_arguments)]
@@ -200,7 +205,7 @@ impl ToneChannel {
         let mut rec = ToneRecord {
             t_us,
             channel,
-            f_hz: pair.map(tone_hz),
+            f_hz: pair.map(|k| s.layout.tone_hz(k)),
             ..ToneRecord::default()
         };
         let sensor = s.sensors.of(channel);
@@ -222,7 +227,7 @@ impl ToneChannel {
         // The noise's σ from the residual's own degrees of freedom: the
         // residual rms is over the block's N instants, but its mean and
         // 2·K tone components were fitted out of them.
-        let dof = crate::array::RESIDUAL_DOF as f32;
+        let dof = s.layout.residual_dof() as f32;
         let unbiased = dsp_core::fmath::sqrt(n as f32 / dof);
         let (rv, ri) = (unbiased * v.levels.residual, unbiased * i.levels.residual);
         // Both tones' impedances are kept whenever the excitation is
@@ -250,7 +255,7 @@ impl ToneChannel {
             }
             tones[j] = Tone {
                 z,
-                f_hz: tone_hz(k),
+                f_hz: s.layout.tone_hz(k),
                 sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
             };
         }
@@ -317,7 +322,7 @@ impl ToneChannel {
             self.joint.keep(&sol);
         }
         s.policy.update_on(
-            &tones_hz(),
+            &s.layout.tones_hz(),
             &mut self.policy,
             sol.line.r_ohm,
             sol.line.c_farad,

@@ -1125,9 +1125,10 @@ pub struct Guide {
 }
 
 /// Blocks per pair of a sweep over `span_s` of the array's clock
-/// (`link::Request::Sweep`: four pairs), at most the link's limit.
+/// (`link::Request::Sweep`: four pairs), at most the link's limit; in
+/// 4 ms blocks (a device in 1 ms blocks sweeps a quarter of the span).
 pub fn sweep_blocks(span_s: f64) -> u16 {
-    let block_s = instrument::array::BLOCK_INSTANTS as f64 / instrument::array::RATE_HZ as f64;
+    let block_s = instrument::array::Layout::BLOCK_4MS.block_us() as f64 * 1e-6;
     let pairs = instrument::sweep::PAIRS.len() as f64;
     ((span_s / (pairs * block_s)).ceil() as u16).clamp(1, link::SWEEP_MAX_BLOCKS)
 }

@@ -7,7 +7,8 @@
 //! phase φₖ) stands at θ = 2π·(pₖ·n/N + fₖ·j·Δ) + φₖ there. The excitation
 //! input reads v = g_v·Σ Aₖ cos θ; sensor s's input reads the inverting
 //! stage's −R_f·Σ Re{Aₖ·e^(jθ)/Zₛ,ₖ}, Zₛ,ₖ its impedance at tone k (held over
-//! the block: the sensor moves slowly against 4 ms). Each result is
+//! the block: the sensor moves slowly against a block of 1 or 4 ms; the
+//! layout, [`instrument::array::Layout`], is the front end's). Each result is
 //! quantized to the 15-bit oversampled scale with Gaussian noise of
 //! [`NOISE_COUNTS`] and clipped at the rails (reported per input). Spare
 //! inputs read noise. Phases use dsp-core's integer `cossin` and the
@@ -18,8 +19,8 @@ use crate::frontend::Disturbance;
 use crate::rng::Rng;
 use dsp_core::cossin::cossin;
 use instrument::array::{
-    adc_position, input_of, Frame, BLOCK_INSTANTS, COMB, HALF_SCALE, NOISE_COUNTS, PHASES, RATE_HZ, SCAN,
-    SCAN_STEP_S, SENSORS, SENSOR_TIA_OHM, TONES, TONE_VOLTS, VOLTAGE_INPUT,
+    adc_position, input_of, Frame, Layout, HALF_SCALE, NOISE_COUNTS, RATE_HZ, SCAN, SCAN_STEP_S, SENSORS,
+    SENSOR_TIA_OHM, TONES, VOLTAGE_INPUT,
 };
 use instrument::design;
 use num_complex::Complex64;
@@ -29,8 +30,9 @@ pub use instrument::array::INPUTS;
 /// The array front end's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ArrayFrontEnd {
-    /// Each tone's amplitude at the sensors, V, lowest tone first.
-    pub tone_volts: [f64; TONES],
+    /// The blocks' layout: their length and the comb's tones,
+    /// amplitudes (at the sensors) and phases.
+    pub layout: Layout,
     /// Gain from the excitation to its ADC input, V/V.
     pub v_gain: f64,
     /// Every sensor's transimpedance, Ω.
@@ -42,21 +44,27 @@ pub struct ArrayFrontEnd {
 }
 
 impl ArrayFrontEnd {
-    /// As designed ([`instrument::array`]).
-    pub const REFERENCE: Self = Self {
-        tone_volts: TONE_VOLTS,
-        v_gain: 1.0,
-        tia_ohm: SENSOR_TIA_OHM,
-        half_scale_volt: design::ADC_HALF_SCALE_VOLT,
-        noise_counts: NOISE_COUNTS as f64,
-    };
+    /// As designed ([`instrument::array`]), with 4 ms blocks.
+    pub const REFERENCE: Self = Self::reference(Layout::BLOCK_4MS);
+
+    /// As designed, with blocks of `layout`.
+    pub const fn reference(layout: Layout) -> Self {
+        Self {
+            layout,
+            v_gain: 1.0,
+            tia_ohm: SENSOR_TIA_OHM,
+            half_scale_volt: design::ADC_HALF_SCALE_VOLT,
+            noise_counts: NOISE_COUNTS as f64,
+        }
+    }
 
     /// The complex transimpedance k in Z = k·V/I for dsp-core.
     pub fn dsp_front_end(&self) -> dsp_core::demod::FrontEnd {
         dsp_core::demod::FrontEnd::transimpedance((self.tia_ohm / self.v_gain) as f32, true)
     }
 
-    /// Fill `frame` with one block for sensors of impedances `z[s][k]`
+    /// Fill the first [`Layout::instants`] rows of each ADC's `frame`
+    /// with one block for sensors of impedances `z[s][k]`
     /// (Ω, at comb tone k), with `hum[s]` added at sensor s's input (only
     /// its hum fields are used; `t0_s` is the block's start). Returns
     /// which inputs clipped.
@@ -71,23 +79,25 @@ impl ArrayFrontEnd {
         let lsb = self.half_scale_volt / HALF_SCALE as f64;
         // Per input and tone: the cos and sin coefficients of its code.
         let mut coef = [[(0f32, 0f32); TONES]; INPUTS];
-        for (c, &a) in coef[VOLTAGE_INPUT].iter_mut().zip(&self.tone_volts) {
+        let (volts, comb, phases) = (self.layout.tone_volts(), self.layout.comb(), self.layout.phases());
+        let instants = self.layout.instants().min(frame[0].len());
+        for (c, &a) in coef[VOLTAGE_INPUT].iter_mut().zip(&volts) {
             *c = ((a * self.v_gain / lsb) as f32, 0.0);
         }
         for (s, zs) in z.iter().enumerate() {
             for (k, zk) in zs.iter().enumerate() {
-                let y = Complex64::new(self.tone_volts[k], 0.0) / zk;
+                let y = Complex64::new(volts[k], 0.0) / zk;
                 let g = -self.tia_ohm / lsb;
                 coef[input_of(s)][k] = ((g * y.re) as f32, (g * y.im) as f32);
             }
         }
         // The phase offset of each tone at each scan position, 2³² a turn.
         let turn = 4_294_967_296.0f64;
-        let tone_hz = |k: usize| COMB[k] as f64 * RATE_HZ as f64 / BLOCK_INSTANTS as f64;
+        let tone_hz = |k: usize| comb[k] as f64 * RATE_HZ as f64 / instants as f64;
         let offset: [[u32; TONES]; SCAN] = core::array::from_fn(|j| {
             core::array::from_fn(|k| {
                 let t =
-                    tone_hz(k) * j as f64 * SCAN_STEP_S as f64 + PHASES[k] as f64 / core::f64::consts::TAU;
+                    tone_hz(k) * j as f64 * SCAN_STEP_S as f64 + phases[k] as f64 / core::f64::consts::TAU;
                 ((t - libm::floor(t)) * turn) as u64 as u32
             })
         });
@@ -99,13 +109,13 @@ impl ArrayFrontEnd {
         let noise = self.noise_counts as f32;
         let mut clipped = [false; INPUTS];
         #[allow(clippy::needless_range_loop)] // n is the instant: a phase, and a row of each ADC
-        for n in 0..BLOCK_INSTANTS {
+        for n in 0..instants {
             // cos and sin of every tone at every scan position.
             let mut cs = [[(0f32, 0f32); TONES]; SCAN];
             for (j, row) in cs.iter_mut().enumerate() {
                 for (k, v) in row.iter_mut().enumerate() {
-                    let m = (COMB[k] as u64 * n as u64) % BLOCK_INSTANTS as u64;
-                    let base = (((m << 32) + BLOCK_INSTANTS as u64 / 2) / BLOCK_INSTANTS as u64) as u32;
+                    let m = (comb[k] as u64 * n as u64) % instants as u64;
+                    let base = (((m << 32) + instants as u64 / 2) / instants as u64) as u32;
                     let (c, s) = cossin(base.wrapping_add(offset[j][k]) as i32);
                     *v = (c as f32 * q, s as f32 * q);
                 }

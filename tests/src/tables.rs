@@ -96,19 +96,27 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
     ),
     (
         "array_comb_1ms_input",
-        "the comb on one input of a 1 ms block (25 instants; tones of 1, 2, 3, 4, 6 periods)",
+        "the comb on one input of a 1 ms block (`Layout::BLOCK_1MS`: 25 instants, tones of 1, 2, 3, 4, 6 kHz)",
     ),
     (
         "array_record_linked",
         "one array record with its link frame: solve, flags, its share of the levels, encoding",
     ),
     (
-        "array_share_",
-        "projected from the measured parts (comb per input, record with its frame): share of a 170 MHz Cortex-M4 for sensors × records/s",
+        "array_record_linked_1ms",
+        "the same in 1 ms blocks",
     ),
     (
-        "array_latency_1ms_us",
-        "projected likewise: a 1 ms block's 17 inputs and 16 linked records, at one instruction per cycle",
+        "array_load_1000_permille",
+        "16 sensors × 1000 records/s as measured: a 1 ms block's 17 inputs and 16 records with their link frames, share of a 170 MHz Cortex-M4",
+    ),
+    (
+        "array_latency_1000_us",
+        "the same block: from its last result to its last record framed for the link, at one instruction per cycle",
+    ),
+    (
+        "array_share_",
+        "from the measured parts of each layout (comb per input, record with its frame): share of a 170 MHz Cortex-M4 for sensors × records/s",
     ),
     (
         "link_record_frame",

@@ -611,22 +611,30 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     );
 }
 
-/// One block of the array (`skin-array`'s `process`, through
+/// One layout's array costs, instructions: the comb per input, the
+/// channel per record (its solve and flags, with its share of the
+/// inputs' levels), a whole block, and a record to frame.
+struct ArrayCost {
+    comb_input: u32,
+    channel: u32,
+    block: u32,
+    last: instrument::tones::ToneRecord,
+}
+
+/// One block of the array in `layout` (`skin-array`'s `process`, through
 /// `instrument::reader`): the comb on the excitation and on 16 sensor
 /// inputs, then 16 channels' two-tone lines; averaged over 8 blocks of
 /// sixteen of the paper's sensors, the channels tracking after the first.
-/// The load is of the 4 ms block at 170 MHz (680 000 cycles), the latency
-/// from a block's last sample to its last record at one instruction per
-/// cycle. `array_channel` includes the sensor's share of the inputs'
-/// levels (amplitudes and residual).
-fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
-    use instrument::array::{tones_hz, Frame, BLOCK_INSTANTS, SENSORS};
-    use instrument::reader::ArrayReader;
+/// Every record must be valid, and the comb's assembly must equal the
+/// portable code bit for bit on every input of the last block.
+fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
+    use instrument::array::{Frame, BLOCK_INSTANTS, SENSORS};
+    use instrument::reader::{ArrayReader, BlockComb};
     use instrument::tones::ToneSettings;
     use skin_sim::array::ArrayFrontEnd;
     use skin_sim::frontend::Disturbance;
     use skin_sim::sensor::{Sensor, SensorParams};
-    let fe = ArrayFrontEnd::REFERENCE;
+    let fe = ArrayFrontEnd::reference(layout);
     let p = SensorParams::PAPER;
     let cal = skin_sim::sensor::PAPER_CALIBRATION;
     let Ok(paper) =
@@ -635,30 +643,31 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         qemu::exit(5)
     };
     let sensors = instrument::sensor::Sensors::all(paper);
-    let settings = ToneSettings::new(fe.dsp_front_end(), &sensors);
-    let Ok(mut reader) = ArrayReader::new(&sensors) else {
+    let settings = ToneSettings::new(layout, fe.dsp_front_end(), &sensors);
+    let Ok(mut reader) = ArrayReader::new(layout, &sensors) else {
         qemu::exit(5)
     };
-    let hz = tones_hz().map(|f| f as f64);
+    let hz = layout.tones_hz().map(|f| f as f64);
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);
     let mut frame: Frame = [[[0; 4]; BLOCK_INSTANTS]; 5];
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
     let mut valid = 0;
     let mut last = instrument::tones::ToneRecord::default();
-    let mut block = reader.demodulate(|a| &frame[a]);
+    let mut block = reader.demodulate(|a| layout.rows(&frame[a]));
+    let block_us = layout.block_us();
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
         // The comb on every input.
         let tc = insns(ticks(syst, || {
-            block = reader.demodulate(|a| black_box(&frame[a]));
+            block = reader.demodulate(|a| layout.rows(black_box(&frame[a])));
         }));
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
         let ts = insns(ticks(syst, || {
             let mut s = 0;
             reader.solve(
                 &settings,
-                b * 4000 + 2000,
+                b * block_us + block_us / 2,
                 &block,
                 |_| false,
                 |r| {
@@ -679,27 +688,40 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     }
     // The comb's assembly inner loop must match the portable one bit for
     // bit, on every input of the last block.
-    let comb = reader.comb();
+    let same = |rows: &[[i16; 4]], col: usize| -> bool {
+        let fast = reader.comb().column(rows, col);
+        let moments_same = |m: [i64; 2]| m == [fast.sum, fast.sq];
+        match reader.comb() {
+            BlockComb::Long(c) => rows.first_chunk::<BLOCK_INSTANTS>().is_some_and(|r| {
+                moments_same(dsp_core::comb::portable_moments(r, col))
+                    && fast.x.iter().enumerate().all(|(k, x)| {
+                        c.reference(k).is_some_and(|reference| {
+                            let [cs, sn] = dsp_core::comb::portable(r, col, reference);
+                            x.re == cs && x.im == -sn
+                        })
+                    })
+            }),
+            BlockComb::Short(c) => rows
+                .first_chunk::<{ instrument::array::SHORT_INSTANTS }>()
+                .is_some_and(|r| {
+                    moments_same(dsp_core::comb::portable_moments(r, col))
+                        && fast.x.iter().enumerate().all(|(k, x)| {
+                            c.reference(k).is_some_and(|reference| {
+                                let [cs, sn] = dsp_core::comb::portable(r, col, reference);
+                                x.re == cs && x.im == -sn
+                            })
+                        })
+                }),
+        }
+    };
     for rows in &frame {
         for col in 0..4 {
-            let fast = comb.column(rows, col);
-            for (k, x) in fast.x.iter().enumerate() {
-                let Some(reference) = comb.reference(k) else {
-                    qemu::exit(5)
-                };
-                let [c, s] = dsp_core::comb::portable(rows, col, reference);
-                if x.re != c || x.im != -s {
-                    println!("FAIL comb assembly differs from portable");
-                    qemu::exit(1);
-                }
-            }
-            if [fast.sum, fast.sq] != dsp_core::comb::portable_moments(rows, col) {
-                println!("FAIL comb moments' assembly differs from portable");
+            if !same(layout.rows(rows), col) {
+                println!("FAIL comb assembly differs from portable");
                 qemu::exit(1);
             }
         }
     }
-    println!("check comb_asm_equals_portable ok");
     if valid != SENSORS * blocks as usize {
         println!(
             "FAIL array bench: {} valid records of {}",
@@ -708,48 +730,61 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         );
         qemu::exit(1);
     }
-    let per_block = total / blocks;
-    println!(
-        "bench array_comb_input {} insn/input",
-        comb_t / blocks / (SENSORS as u32 + 1)
-    );
-    println!(
-        "bench array_channel {} insn/record",
-        solve_t / blocks / SENSORS as u32
-    );
-    println!("bench array_block {} insn/block", per_block);
+    ArrayCost {
+        comb_input: comb_t / blocks / (SENSORS as u32 + 1),
+        channel: solve_t / blocks / SENSORS as u32,
+        block: total / blocks,
+        last,
+    }
+}
+
+/// The array in both layouts. The load is of a block at 170 MHz (4 ms:
+/// 680 000 cycles; 1 ms: 170 000), the latency from a block's last
+/// sample to its last record at one instruction per cycle (for 1 ms
+/// blocks, its sixteen records framed for the link too).
+/// `array_channel` includes the sensor's share of the inputs' levels
+/// (amplitudes and residual).
+fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+    use instrument::array::Layout;
+    let long = array_run(syst, insns, Layout::BLOCK_4MS);
+    let short = array_run(syst, insns, Layout::BLOCK_1MS);
+    println!("check comb_asm_equals_portable ok");
+    println!("bench array_comb_input {} insn/input", long.comb_input);
+    println!("bench array_channel {} insn/record", long.channel);
+    println!("bench array_block {} insn/block", long.block);
     println!(
         "bench array_load_permille {} permille",
-        per_block as u64 * 1000 / 680_000
+        long.block as u64 * 1000 / 680_000
     );
-    println!("bench array_latency_us {} us", per_block / 170);
-    // What 16 or 32 sensors at 250 or 1000 records/s would take, from
-    // the measured parts: the comb per input (a 4 ms block of 100
-    // instants; a 1 ms block of 25, its first 25 rows, as a comb of whole
-    // periods in 1 ms would: 1, 2, 3, 4 and 6 kHz), and per record the
-    // channel's solve and flags with its share of the levels, and the
-    // record's link frame (postcard, CRC-32, COBS); the excitation's
-    // input besides each sensor's, at 25 000 instants/s.
-    let Ok(comb_1ms) = dsp_core::comb::Comb::<25, { instrument::array::TONES }>::new([1, 2, 3, 4, 6]) else {
-        qemu::exit(5)
-    };
-    let rows_1ms: [[i16; 4]; 25] = core::array::from_fn(|n| frame[1][n]);
-    let comb_25 = insns(ticks(syst, || {
-        black_box(comb_1ms.column(black_box(&rows_1ms), 1));
-    }));
+    println!("bench array_latency_us {} us", long.block / 170);
+    // A record to its link frame (postcard, CRC-32, COBS).
     let mut enc = link::Encoder::new();
     let mut out = [0u8; link::MAX_FRAME];
     let frame_t = insns(ticks(syst, || {
-        let record = instrument::frames::from_tone_record(black_box(&last));
+        let record = instrument::frames::from_tone_record(black_box(&long.last));
         black_box(enc.record(&record, black_box(&mut out)).map_or(0, <[u8]>::len));
     }));
-    let comb_100 = comb_t / blocks / (SENSORS as u32 + 1);
-    let record = solve_t / blocks / SENSORS as u32 + frame_t;
-    println!("bench array_comb_1ms_input {} insn/input", comb_25);
+    let record = long.channel + frame_t;
+    let record_1ms = short.channel + frame_t;
+    println!("bench array_comb_1ms_input {} insn/input", short.comb_input);
     println!("bench array_record_linked {} insn/record", record);
+    println!("bench array_record_linked_1ms {} insn/record", record_1ms);
+    // The 1 ms block as measured, with its sixteen records framed.
+    let linked_1ms = short.block + 16 * frame_t;
+    println!(
+        "bench array_load_1000_permille {} permille",
+        linked_1ms as u64 * 1000 / 170_000
+    );
+    println!("bench array_latency_1000_us {} us", linked_1ms / 170);
+    // What 16 or 32 sensors at 250 or 1000 records/s take, from the
+    // measured parts of each layout: the comb per input (the excitation's
+    // besides each sensor's) and per record the channel and its frame.
     for sensors in [16u64, 32] {
-        for (rate, comb) in [(250u64, comb_100), (1000, comb_25)] {
-            let per_s = (sensors + 1) * rate * comb as u64 + sensors * rate * record as u64;
+        for (rate, comb, rec) in [
+            (250u64, long.comb_input, record),
+            (1000, short.comb_input, record_1ms),
+        ] {
+            let per_s = (sensors + 1) * rate * comb as u64 + sensors * rate * rec as u64;
             println!(
                 "bench array_share_{}x{}_permille {} permille",
                 sensors,
@@ -758,10 +793,4 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
             );
         }
     }
-    // From a 1 ms block's last instant to its last record on the link,
-    // 16 sensors, at one instruction per cycle.
-    println!(
-        "bench array_latency_1ms_us {} us",
-        (17 * comb_25 + 16 * record) / 170
-    );
 }

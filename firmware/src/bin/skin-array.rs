@@ -19,7 +19,8 @@
 //! The scenario is the first semihosting argument (`paper`, `check`,
 //! `hum`, `identify`, `skin`, `stairs`). Without further arguments the firmware
 //! measures with the test rig's description of its skin
-//! ([`ArrayScenario::rig`]); `flash=PATH` keeps the settings' flash in a
+//! ([`ArrayScenario::rig`]) in 4 ms blocks (250 records/s; `records=1000`:
+//! 1 ms blocks, [`Layout::BLOCK_1MS`]); `flash=PATH` keeps the settings' flash in a
 //! host file ([`firmware::qemu_flash`]) and measures with the set stored
 //! there (uncalibrated with none; `save` stores the rig's first;
 //! `until-stop` measures past the scenario's end until the host stops
@@ -38,7 +39,7 @@ use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
-use instrument::array::{Frame, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
+use instrument::array::{Frame, Layout, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
 use instrument::calib::POINTS;
 use instrument::commands::Commands;
 use instrument::frames;
@@ -49,12 +50,10 @@ use instrument::sweep::Sweep;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
-/// The block period, µs.
-const BLOCK_US: u64 = BLOCK_INSTANTS as u64 * 1_000_000 / RATE_HZ as u64;
-
-/// The scenario named by the first semihosting argument, and the
+/// The scenario named by the first semihosting argument, the blocks'
+/// layout (`records=250`, the default, or `records=1000`) and the
 /// settings' options (`flash=PATH`, `save`, `until-stop`) after it.
-fn arguments() -> (ArrayScenario, FlashArgs) {
+fn arguments() -> (ArrayScenario, Layout, FlashArgs) {
     qemu::with_args(|args| {
         let name = args.next().unwrap_or("paper");
         let scenario = ArrayScenario::parse(name).unwrap_or_else(|| {
@@ -62,13 +61,22 @@ fn arguments() -> (ArrayScenario, FlashArgs) {
             qemu::exit(2)
         });
         let mut flash = FlashArgs::default();
+        let mut layout = Layout::BLOCK_4MS;
         for arg in args {
-            if !flash.take(arg) {
+            if let Some(rate) = arg.strip_prefix("records=") {
+                match rate.parse().ok().and_then(Layout::of_records_per_s) {
+                    Some(l) => layout = l,
+                    None => {
+                        defmt::println!("records=: 250 or 1000 records/s, not '{=str}'", rate);
+                        qemu::exit(2)
+                    }
+                }
+            } else if !flash.take(arg) {
                 defmt::println!("unknown argument '{=str}'", arg);
                 qemu::exit(2)
             }
         }
-        (scenario, flash)
+        (scenario, layout, flash)
     })
 }
 
@@ -95,6 +103,8 @@ mod app {
         block: u64,
         end_block: u64,
         reader: &'static mut ArrayReader,
+        /// The block period, µs.
+        block_us: u64,
         settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
@@ -116,21 +126,21 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         firmware::stack::paint();
         let (records, logger) = cx.local.queue.split();
-        let (scenario, flash) = arguments();
-        let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario));
+        let (scenario, layout, flash) = arguments();
+        let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
         let (store, set) = flash.set_in_force(&rig);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::new(sensors)) else {
+        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::new(layout, sensors)) else {
             qemu::exit(3)
         };
         let settings = ToneSettings {
             policy: set.policy,
             record_every: set.record_every,
-            ..ToneSettings::new(skin.front_end().dsp_front_end(), sensors)
+            ..ToneSettings::new(layout, skin.front_end().dsp_front_end(), sensors)
         };
         let link = LinkSender::start(
             Uart0::take(),
@@ -145,7 +155,7 @@ mod app {
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",
             SENSORS as u8,
-            RATE_HZ / BLOCK_INSTANTS as u32,
+            layout.records_per_s(),
             defmt::Debug2Format(&scenario)
         );
         (
@@ -158,7 +168,8 @@ mod app {
             Local {
                 skin,
                 block: 0,
-                end_block: flash.end_step((scenario.duration_s() as f64 * 1e6) as u64 / BLOCK_US),
+                block_us: layout.block_us(),
+                end_block: flash.end_step((scenario.duration_s() as f64 * 1e6) as u64 / layout.block_us()),
                 reader,
                 settings,
                 records: RecordSink::new(records),
@@ -197,9 +208,10 @@ mod app {
     }
 
     /// DMA complete: the simulated ADCs filled the block that ends now.
-    #[task(binds = GPIOA, priority = 2, shared = [frame], local = [skin, block])]
+    #[task(binds = GPIOA, priority = 2, shared = [frame], local = [skin, block, block_us])]
     fn dma_done(mut cx: dma_done::Context) {
-        let t_us = *cx.local.block * BLOCK_US + BLOCK_US / 2;
+        let block_us = *cx.local.block_us;
+        let t_us = *cx.local.block * block_us + block_us / 2;
         *cx.local.block += 1;
         let skin = &mut **cx.local.skin;
         let mut truth = [wire::TruthLine::default(); SENSORS];
@@ -220,10 +232,10 @@ mod app {
     async fn process(mut cx: process::Context) {
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
-        let (block, clipped, t_us) = cx
-            .shared
-            .frame
-            .lock(|(frame, clipped, t)| (reader.demodulate(|a| &frame[a]), *clipped, *t));
+        let (block, clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
+            let layout = reader.layout();
+            (reader.demodulate(|a| layout.rows(&frame[a])), *clipped, *t)
+        });
         let sink = &mut *cx.local.records;
         let before = sink.drops();
         reader.solve(
@@ -237,7 +249,7 @@ mod app {
             defmt::println!("drops {=u32}", sink.drops());
             cx.shared.dropped.lock(|d| *d = sink.drops());
         }
-        if (t_us / BLOCK_US) + 1 >= *cx.local.end_block {
+        if (t_us / reader.layout().block_us()) + 1 >= *cx.local.end_block {
             cx.shared.done.lock(|d| *d = true);
         }
     }

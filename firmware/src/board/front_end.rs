@@ -6,9 +6,9 @@
 #[cfg(target_os = "none")]
 use super::{adc, dac, dma, opamp, pac, pins, scan, timer};
 use dsp_core::osc::{dac_code_of_sum, Oscillator, OscillatorState};
-use instrument::array::{Rows, ADCS, BLOCK_INSTANTS, SCAN};
+use instrument::array::{Layout, Rows, ADCS, SCAN};
 #[cfg(target_os = "none")]
-use instrument::array::{DAC_RATE_HZ, DAC_TABLE, RATE_HZ};
+use instrument::array::{DAC_RATE_HZ, RATE_HZ};
 use instrument::config::{ftw, tones, DAC_AMPLITUDES_Q15, SETTLE_PAIRS, SLOT_PAIRS};
 use instrument::design;
 use instrument::sequencer::Step;
@@ -23,11 +23,26 @@ pub type DacSlots = [u16; SLOTS * SLOT_PAIRS];
 /// pairs.
 pub type AdcSlots = [u32; SLOTS * SLOT_PAIRS];
 
-/// The array's ADC buffers: every ADC's circular buffer of two blocks.
+/// The array's ADC buffers: every ADC's circular buffer of two blocks
+/// (of the longest layout; a shorter one's two blocks are its first
+/// rows: [`array_half`]).
 pub type AdcBlocks = [[Rows; 2]; ADCS];
 
-/// Results per array ADC buffer: two blocks of [`SCAN`] positions.
-pub const ARRAY_RESULTS: usize = 2 * BLOCK_INSTANTS * SCAN;
+/// Results per array ADC buffer in blocks of `layout`: two blocks of
+/// [`SCAN`] positions.
+pub const fn array_results(layout: &Layout) -> usize {
+    2 * layout.instants() * SCAN
+}
+
+/// Half `half` (0 or 1) of one ADC's circular buffer in blocks of
+/// `layout`: its block's rows.
+pub fn array_half<'a>(buf: &'a mut [Rows; 2], layout: &Layout, half: usize) -> &'a mut [[i16; SCAN]] {
+    let n = layout.instants();
+    let flat = buf.as_flattened_mut();
+    let start = (half.min(1) * n).min(flat.len());
+    let end = (start + n).min(flat.len());
+    &mut flat[start..end]
+}
 
 /// DMA1 channel (0-based) whose interrupt paces the array's blocks: the
 /// last of the five ADCs the DMA serves.
@@ -87,12 +102,13 @@ pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_buf: &DacSlots
     timer::start(&dp.TIM6);
 }
 
-/// The array's front end: its analog pins, the op-amp followers, DMA1
-/// channels 1–5 (each ADC → its buffer in `adc_bufs`, the pacer with
-/// interrupts) and 6 (`table` → DAC), the DAC on TIM7, the five scanning
-/// ADCs, then TIM7 and TIM6, which start them.
+/// The array's front end in blocks of `layout`: its analog pins, the
+/// op-amp followers, DMA1 channels 1–5 (each ADC → its buffer in
+/// `adc_bufs`, two blocks round, the pacer with interrupts) and 6
+/// (`table`, one block's codes ([`Layout::dac_table`]) → DAC), the DAC
+/// on TIM7, the five scanning ADCs, then TIM7 and TIM6, which start them.
 #[cfg(target_os = "none")]
-pub fn array(dp: &pac::Peripherals, adc_bufs: &AdcBlocks, table: &[u16; DAC_TABLE]) {
+pub fn array(dp: &pac::Peripherals, layout: &Layout, adc_bufs: &AdcBlocks, table: &[u16]) {
     pins::array_analog(&dp.GPIOA, &dp.GPIOB, &dp.GPIOC);
     opamp::followers(&dp.OPAMP);
     dma::array_requests(&dp.DMAMUX);
@@ -102,7 +118,7 @@ pub fn array(dp: &pac::Peripherals, adc_bufs: &AdcBlocks, table: &[u16; DAC_TABL
             a,
             adc.dr().as_ptr() as u32,
             adc_bufs[a].as_ptr() as u32,
-            ARRAY_RESULTS as u16,
+            array_results(layout) as u16,
             a == ARRAY_PACER,
         );
     }
@@ -110,7 +126,7 @@ pub fn array(dp: &pac::Peripherals, adc_bufs: &AdcBlocks, table: &[u16; DAC_TABL
         &dp.DMA1,
         table.as_ptr() as u32,
         dp.DAC1.dhr12r1().as_ptr() as u32,
-        DAC_TABLE as u16,
+        table.len() as u16,
     );
     dac::configure_array(&dp.DAC1);
     scan::init(dp);

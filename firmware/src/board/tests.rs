@@ -750,3 +750,28 @@ fn a_torn_settings_word_is_a_read_error_and_any_other_ecc_failure_is_not() {
     assert_eq!(take_settings_ecc(f.regs::<pac::flash::RegisterBlock>()), None);
     assert_eq!(f.at(0x18), 0x8000_1000);
 }
+
+/// Each layout's DMA count and halves: two blocks round, the 1 ms
+/// blocks in the first 50 rows of the buffer (the DMA's circular count
+/// of 200 results), the 4 ms blocks each one `Rows`.
+#[test]
+fn the_arrays_buffer_halves_follow_the_layout() {
+    use super::front_end::{array_half, array_results};
+    use instrument::array::{Layout, Rows, BLOCK_INSTANTS, SCAN};
+    assert_eq!(array_results(&Layout::BLOCK_4MS), 800);
+    assert_eq!(array_results(&Layout::BLOCK_1MS), 200);
+    let mut buf: [Rows; 2] = [[[0; SCAN]; BLOCK_INSTANTS]; 2];
+    for (n, row) in buf.as_flattened_mut().iter_mut().enumerate() {
+        *row = [n as i16; SCAN];
+    }
+    for (layout, n) in [(Layout::BLOCK_4MS, 100), (Layout::BLOCK_1MS, 25)] {
+        for half in 0..2 {
+            let rows = array_half(&mut buf, &layout, half);
+            assert_eq!(rows.len(), n);
+            assert_eq!(rows[0][0] as usize, half * n);
+            assert_eq!(rows[n - 1][3] as usize, half * n + n - 1);
+        }
+        // A half beyond the second is the second.
+        assert_eq!(array_half(&mut buf, &layout, 7)[0][0] as usize, n);
+    }
+}
