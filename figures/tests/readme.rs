@@ -2,9 +2,10 @@
 //! `docs/figures.md`, each of which the test that measures it checks.
 
 /// The headline tables, in the README's order: (file, block).
-const SOURCES: [(&str, &str); 4] = [
+const SOURCES: [(&str, &str); 5] = [
     ("docs/figures.md", "headline-multiplexed"),
     ("docs/figures.md", "headline-array"),
+    ("docs/figures.md", "headline-array-1ms"),
     ("docs/figures.md", "headline-paper"),
     ("docs/figures.md", "headline-speed"),
 ];

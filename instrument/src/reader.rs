@@ -65,16 +65,47 @@ impl BlockComb {
     /// least a block.
     #[inline]
     pub fn column(&self, rows: &[[i16; SCAN]], col: usize) -> Tones<TONES> {
-        let column = match self {
-            Self::Long(c) => rows.first_chunk().map(|r| c.column(r, col)),
-            Self::Short(c) => rows.first_chunk().map(|r| c.column(r, col)),
-        };
-        column.unwrap_or(Tones {
+        match self {
+            Self::Long(c) => {
+                if let Some(r) = rows.first_chunk() {
+                    return c.column(r, col);
+                }
+            }
+            Self::Short(c) => {
+                if let Some(r) = rows.first_chunk() {
+                    return c.column(r, col);
+                }
+            }
+        }
+        Tones {
             x: [dsp_core::Complex::new(0, 0); TONES],
             n: 0,
             sum: 0,
             sq: 0,
-        })
+        }
+    }
+}
+
+/// Every input's comb in blocks of N instants ([`ArrayReader::demodulate`]).
+fn demodulate_with<'a, const N: usize>(
+    comb: &Comb<N, TONES>,
+    rows: impl Fn(usize) -> &'a [[i16; SCAN]],
+) -> Demodulated {
+    let column = |input: usize| {
+        let (a, j) = adc_position(input);
+        match rows(a).first_chunk::<N>() {
+            Some(r) => comb.column(r, j),
+            None => Tones {
+                x: [dsp_core::Complex::new(0, 0); TONES],
+                n: 0,
+                sum: 0,
+                sq: 0,
+            },
+        }
+    };
+    Demodulated {
+        v: column(VOLTAGE_INPUT),
+        i: core::array::from_fn(|s| column(input_of(s))),
     }
 }
 
@@ -118,13 +149,10 @@ impl ArrayReader {
     /// is ADC a's rows of the block ([`Layout::rows`]; an input whose
     /// rows are short of a block reads as no excitation).
     pub fn demodulate<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> Demodulated {
-        let column = |input: usize| {
-            let (a, j) = adc_position(input);
-            self.comb.column(rows(a), j)
-        };
-        Demodulated {
-            v: column(VOLTAGE_INPUT),
-            i: core::array::from_fn(|s| column(input_of(s))),
+        // One match a block, the comb's length known in each arm.
+        match &self.comb {
+            BlockComb::Long(c) => demodulate_with(c, rows),
+            BlockComb::Short(c) => demodulate_with(c, rows),
         }
     }
 

@@ -232,6 +232,14 @@ pub fn speed_headline(benches: &[Bench]) -> String {
             format!("{:.1} % of the CPU", get("array_load_permille") / 10.0),
         ),
         (
+            "the same at 1000 records/s (1 ms blocks, each record framed for the link)".to_string(),
+            format!(
+                "{:.1} % of the CPU, {} µs from a block's end to its last frame",
+                get("array_load_1000_permille") / 10.0,
+                get("array_latency_1000_us")
+            ),
+        ),
+        (
             "Cortex-M4 at 170 MHz: one multiplexed block".to_string(),
             format!("{:.1} % of the CPU", get("block_load_permille") / 10.0),
         ),

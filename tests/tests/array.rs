@@ -110,6 +110,14 @@ fn sixteen_sensors_1000_times_a_second_within_a_thousandth() {
         assert!(max < tolerance, "sensor {s}: max {max}");
         assert!(mine.iter().all(|r| r.truth.is_some()));
     }
+    // The README's headline shows this run's figures.
+    let sensors = qemu_tests::summary::sensors(&recs).unwrap();
+    figures::check(
+        "docs/figures.md",
+        "headline-array-1ms",
+        &qemu_tests::summary::sensor_headline(&sensors),
+    )
+    .unwrap();
 }
 
 #[test]
