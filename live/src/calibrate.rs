@@ -1125,12 +1125,29 @@ pub struct Guide {
 }
 
 /// Blocks per pair of a sweep over `span_s` of the array's clock
-/// (`link::Request::Sweep`: four pairs), at most the link's limit; in
-/// 4 ms blocks (a device in 1 ms blocks sweeps a quarter of the span).
-pub fn sweep_blocks(span_s: f64) -> u16 {
-    let block_s = instrument::array::Layout::BLOCK_4MS.block_us() as f64 * 1e-6;
+/// (`link::Request::Sweep`: four pairs) in blocks of `block_s`
+/// ([`block_s_of`]), at most the link's limit.
+pub fn sweep_blocks(span_s: f64, block_s: f64) -> u16 {
     let pairs = instrument::sweep::PAIRS.len() as f64;
     ((span_s / (pairs * block_s)).ceil() as u16).clamp(1, link::SWEEP_MAX_BLOCKS)
+}
+
+/// A device's block period, s, from its records: the shortest time
+/// between two records of one sensor (4 ms blocks give 0.004, 1 ms
+/// blocks 0.001; a device reporting one block in n gives n blocks);
+/// `None` before a sensor has two.
+pub fn block_s_of(records: &[link::Record]) -> Option<f64> {
+    let mut last = std::collections::HashMap::new();
+    let mut best: Option<u64> = None;
+    for r in records {
+        if let Some(t0) = last.insert(r.sensor, r.t_us) {
+            if r.t_us > t0 {
+                let d = r.t_us - t0;
+                best = Some(best.map_or(d, |b| b.min(d)));
+            }
+        }
+    }
+    best.map(|us| us as f64 * 1e-6)
 }
 
 /// Calibrate the device at the other end of `port`, step by step: for
@@ -1209,8 +1226,12 @@ fn gather<S: std::io::Read + std::io::Write>(
         };
         if guide.sweep {
             clock.until(t0)?;
+            // The device's blocks, as its records are spaced (an array
+            // device in 4 ms blocks, unless it said otherwise).
+            let block_s = block_s_of(&clock.records)
+                .unwrap_or(instrument::array::Layout::BLOCK_4MS.block_us() as f64 * 1e-6);
             clock.request(link::Request::Sweep {
-                blocks_per_pair: sweep_blocks(guide.settle_s + guide.hold_s),
+                blocks_per_pair: sweep_blocks(guide.settle_s + guide.hold_s, block_s),
             })?;
         }
         let (from_s, to_s) = (t0 + guide.settle_s, t0 + guide.settle_s + guide.hold_s);
@@ -1391,6 +1412,35 @@ mod tests {
             }
         }
         out
+    }
+
+    /// The block period from records of two sensors interleaved, 1 ms
+    /// or 4 ms apart; a sweep's blocks per pair cover the span in either.
+    #[test]
+    fn the_block_period_is_read_from_the_records_and_sizes_the_sweep() {
+        let at = |t_us: u64, sensor: u8| link::Record {
+            t_us,
+            sensor,
+            ..Default::default()
+        };
+        assert_eq!(block_s_of(&[]), None);
+        assert_eq!(block_s_of(&[at(500, 0), at(500, 1)]), None);
+        for period in [1000u64, 4000] {
+            let recs: Vec<link::Record> = (0..6u64)
+                .flat_map(|b| [at(b * period + period / 2, 0), at(b * period + period / 2, 1)])
+                .collect();
+            let block_s = block_s_of(&recs).unwrap();
+            assert!((block_s - period as f64 * 1e-6).abs() < 1e-12);
+            // 2 s over four pairs: 500 ms a pair.
+            assert_eq!(u64::from(sweep_blocks(2.0, block_s)) * period, 500_000);
+        }
+        // A sensor's records out of order, or repeated, are not a period.
+        assert_eq!(
+            block_s_of(&[at(9000, 0), at(5000, 0), at(5000, 0), at(6000, 0)]),
+            Some(1e-3)
+        );
+        assert_eq!(sweep_blocks(1e9, 1e-3), link::SWEEP_MAX_BLOCKS);
+        assert_eq!(sweep_blocks(0.0, 4e-3), 1);
     }
 
     fn stairs() -> Vec<Hold> {
