@@ -427,16 +427,21 @@ pub fn multiplexed(class: &Class) -> Outcome {
     out
 }
 
-/// The array under `class`, or `None` where its front end does not
-/// simulate the class.
+/// The array under `class` in 4 ms blocks, or `None` where its front
+/// end does not simulate the class.
 pub fn array(class: &Class) -> Option<Outcome> {
+    array_in(Layout::BLOCK_4MS, class)
+}
+
+/// The array under `class` in blocks of `layout` (0.4 s of them), or
+/// `None` where its front end does not simulate the class.
+pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
     if matches!(
         class.front,
         Front::Step(_) | Front::Offset(_) | Front::Burst(..) | Front::Stuck(_)
     ) {
         return None;
     }
-    let layout = Layout::BLOCK_4MS;
     let fe = ArrayFrontEnd::reference(layout);
     let paper = SensorParams::PAPER;
     let lead = paper.effects.lead_ratio();
@@ -459,7 +464,7 @@ pub fn array(class: &Class) -> Option<Outcome> {
         worst_valid: 0.0,
     };
     // The tone the policy uses most (the pair's lower one) is what a
-    // tone-relative sinusoid aims at: 500 Hz.
+    // tone-relative sinusoid aims at: 500 Hz (1 ms blocks: 1 kHz).
     let aim = layout.tone_hz(0);
     let sample_rate = RATE_HZ as f32;
     for b in 0..blocks {
