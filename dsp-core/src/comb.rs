@@ -369,13 +369,26 @@ impl<const K: usize> Tones<K> {
         crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32) / self.n as f32
     }
 
-    /// The amplitudes of every tone and the residual, once (a channel
-    /// reads them many times).
+    /// The amplitudes of every tone, the phasors in f32 and the
+    /// residual, once (a channel reads them many times, and every
+    /// sensor's ratio reads the excitation's phasors).
     pub fn levels(&self) -> Levels<K> {
-        let amplitude: [f32; K] = core::array::from_fn(|k| self.amplitude(k));
+        let phasor: [Complex32; K] = core::array::from_fn(|k| {
+            let x = self.x[k];
+            Complex32::new(crate::fmath::i64_to_f32(x.re), crate::fmath::i64_to_f32(x.im))
+        });
+        // As [`Tones::amplitude`], from the same conversions.
+        let scale = if self.n > 0 {
+            2.0 / (Q31 as f32 * self.n as f32)
+        } else {
+            0.0
+        };
+        let amplitude: [f32; K] =
+            core::array::from_fn(|k| crate::fmath::hypot(phasor[k].re, phasor[k].im) * scale);
         Levels {
             largest: amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a)),
             amplitude,
+            phasor,
             residual: self.residual_rms(),
         }
     }
@@ -398,6 +411,27 @@ pub struct Levels<const K: usize> {
     pub residual: f32,
     /// The largest tone's amplitude, counts (0 without tones).
     pub largest: f32,
+    /// Each tone's phasor Xₖ in f32 ([`crate::fmath::i64_to_f32`] of
+    /// the sums, Q31 · counts).
+    pub phasor: [Complex32; K],
+}
+
+impl<const K: usize> Levels<K> {
+    /// V/I of tone `k` from the levels of a voltage input `v` and a
+    /// current input `i`: the same bits as [`Tones::ratio`] of their
+    /// sums (which scales all four conversions by one power of two, an
+    /// exact step that leaves V/I's bits as they are: every product
+    /// and |I|² stays below 2¹²⁷ without it), without converting the
+    /// sums again; `None` for a tone beyond the comb or no current.
+    pub fn ratio(v: &Self, i: &Self, k: usize) -> Option<Complex32> {
+        let (v, i) = (*v.phasor.get(k)?, *i.phasor.get(k)?);
+        let d = i.norm_sqr();
+        if d > 0.0 && d.is_finite() {
+            Some(v * i.conj() / d)
+        } else {
+            None
+        }
+    }
 }
 
 /// The reference's full scale, 2³¹.

@@ -213,3 +213,36 @@ fn bad_combs_and_inputs_say_why() {
     assert_eq!((t.sum, t.sq), (-32768 * N as i64, (1i64 << 30) * N as i64));
     assert!(t.residual_rms() < 1e-3);
 }
+
+proptest::proptest! {
+    /// `Levels::ratio` (the sums converted once) is `Tones::ratio` bit for
+    /// bit, over the whole i64 range of the sums and across the scale
+    /// `Tones::ratio` applies above 2⁴⁰; the amplitudes are
+    /// `Tones::amplitude`'s.
+    #[test]
+    fn levels_ratio_is_the_sums_ratio_bit_for_bit(
+        parts in proptest::array::uniform4(proptest::prelude::any::<i64>()),
+        shift in 0u32..63,
+        n in 1u32..200,
+    ) {
+        use dsp_core::comb::{Levels, Tones};
+        use dsp_core::Complex;
+        let p = parts.map(|x| x >> shift);
+        let tones = |a: i64, b: i64| Tones::<2> {
+            x: [Complex::new(a, b), Complex::new(b, a)],
+            n,
+            sum: 0,
+            sq: 0,
+        };
+        let (v, i) = (tones(p[0], p[1]), tones(p[2], p[3]));
+        let (lv, li) = (v.levels(), i.levels());
+        for k in 0..3 {
+            let want = Tones::ratio(&v, &i, k).map(|z| (z.re.to_bits(), z.im.to_bits()));
+            let got = Levels::ratio(&lv, &li, k).map(|z| (z.re.to_bits(), z.im.to_bits()));
+            proptest::prop_assert_eq!(got, want);
+        }
+        for k in 0..2 {
+            proptest::prop_assert_eq!(lv.amplitude[k].to_bits(), v.amplitude(k).to_bits());
+        }
+    }
+}

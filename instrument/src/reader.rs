@@ -29,6 +29,22 @@ pub struct Demodulated {
     pub i: [Tones<TONES>; SENSORS],
 }
 
+/// No block: every input empty.
+const NO_TONES: Tones<TONES> = Tones {
+    x: [dsp_core::Complex::new(0, 0); TONES],
+    n: 0,
+    sum: 0,
+    sq: 0,
+};
+
+impl Demodulated {
+    /// No block yet: every input empty (read as no excitation).
+    pub const EMPTY: Self = Self {
+        v: NO_TONES,
+        i: [NO_TONES; SENSORS],
+    };
+}
+
 /// The comb demodulator of a layout's blocks (4 KiB for 4 ms blocks,
 /// 1 KiB for 1 ms: the reader is as large as the longer either way).
 #[derive(Clone, Debug)]
@@ -77,35 +93,27 @@ impl BlockComb {
                 }
             }
         }
-        Tones {
-            x: [dsp_core::Complex::new(0, 0); TONES],
-            n: 0,
-            sum: 0,
-            sq: 0,
-        }
+        NO_TONES
     }
 }
 
-/// Every input's comb in blocks of N instants ([`ArrayReader::demodulate`]).
+/// Every input's comb in blocks of N instants, into `out`
+/// ([`ArrayReader::demodulate_into`]).
 fn demodulate_with<'a, const N: usize>(
     comb: &Comb<N, TONES>,
     rows: impl Fn(usize) -> &'a [[i16; SCAN]],
-) -> Demodulated {
+    out: &mut Demodulated,
+) {
     let column = |input: usize| {
         let (a, j) = adc_position(input);
         match rows(a).first_chunk::<N>() {
             Some(r) => comb.column(r, j),
-            None => Tones {
-                x: [dsp_core::Complex::new(0, 0); TONES],
-                n: 0,
-                sum: 0,
-                sq: 0,
-            },
+            None => NO_TONES,
         }
     };
-    Demodulated {
-        v: column(VOLTAGE_INPUT),
-        i: core::array::from_fn(|s| column(input_of(s))),
+    out.v = column(VOLTAGE_INPUT);
+    for (s, i) in out.i.iter_mut().enumerate() {
+        *i = column(input_of(s));
     }
 }
 
@@ -149,10 +157,18 @@ impl ArrayReader {
     /// is ADC a's rows of the block ([`Layout::rows`]; an input whose
     /// rows are short of a block reads as no excitation).
     pub fn demodulate<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> Demodulated {
+        let mut out = Demodulated::EMPTY;
+        self.demodulate_into(rows, &mut out);
+        out
+    }
+
+    /// [`ArrayReader::demodulate`] into a block the firmware keeps (1.7
+    /// KiB: returned, it is copied whole on its way).
+    pub fn demodulate_into<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]], out: &mut Demodulated) {
         // One match a block, the comb's length known in each arm.
         match &self.comb {
-            BlockComb::Long(c) => demodulate_with(c, rows),
-            BlockComb::Short(c) => demodulate_with(c, rows),
+            BlockComb::Long(c) => demodulate_with(c, rows, out),
+            BlockComb::Short(c) => demodulate_with(c, rows, out),
         }
     }
 
@@ -201,7 +217,8 @@ impl ArrayReader {
         clipped: impl Fn(usize) -> bool,
         record: impl FnMut(ToneRecord),
     ) {
-        let block = self.demodulate(rows);
+        let mut block = Demodulated::EMPTY;
+        self.demodulate_into(rows, &mut block);
         self.solve(settings, t_us, &block, clipped, record);
     }
 }

@@ -235,7 +235,7 @@ impl ToneChannel {
         // fixture's cable is measured so (`live calibrate --open`).
         for (j, &k) in fitted.iter().enumerate() {
             let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
-            let z = match Tones::ratio(v.tones, i.tones, k) {
+            let z = match Levels::ratio(&v.levels, &i.levels, k) {
                 Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
                 _ => {
                     rec.flags.set(Flags::OPEN);

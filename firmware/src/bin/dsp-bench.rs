@@ -654,13 +654,13 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
     let mut valid = 0;
     let mut last = instrument::tones::ToneRecord::default();
-    let mut block = reader.demodulate(|a| layout.rows(&frame[a]));
+    let mut block = instrument::reader::Demodulated::EMPTY;
     let block_us = layout.block_us();
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
         // The comb on every input.
         let tc = insns(ticks(syst, || {
-            block = reader.demodulate(|a| layout.rows(black_box(&frame[a])));
+            reader.demodulate_into(|a| layout.rows(black_box(&frame[a])), &mut block);
         }));
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
         let ts = insns(ticks(syst, || {

@@ -69,7 +69,7 @@ use instrument::array::{
 use instrument::calib::POINTS;
 use instrument::commands::{Action, Commands};
 use instrument::frames;
-use instrument::reader::ArrayReader;
+use instrument::reader::{ArrayReader, Demodulated};
 use instrument::sensor::Sensors;
 use instrument::store::{Store, SLOT_BYTES};
 use instrument::stored::Stored;
@@ -343,7 +343,12 @@ mod app {
     }
 
     /// The block's records, straight from the DMA buffers.
-    #[task(priority = 1, shared = [finished, sweep], local = [bufs, reader, settings, records, watchdog])]
+    #[task(
+        priority = 1,
+        shared = [finished, sweep],
+        // The demodulated block (1.7 KiB) kept in place, off the stack.
+        local = [bufs, reader, settings, records, watchdog, demodulated: Demodulated = Demodulated::EMPTY]
+    )]
     async fn process(mut cx: process::Context) {
         let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
@@ -361,14 +366,15 @@ mod app {
         });
         let rails = clipped(|a| rows[a]);
         let reader = &mut *cx.local.reader;
-        let block = reader.demodulate(|a| rows[a]);
+        let block = &mut *cx.local.demodulated;
+        reader.demodulate_into(|a| rows[a], block);
         let sink = &mut *cx.local.records;
         let before = sink.drops();
         let t_us = k * BLOCK_US + BLOCK_US / 2;
         reader.solve(
             &*cx.local.settings,
             t_us,
-            &block,
+            block,
             |input| rails[input],
             |rec| sink.push(rec),
         );

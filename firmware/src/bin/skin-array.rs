@@ -43,7 +43,7 @@ use instrument::array::{Frame, Layout, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SC
 use instrument::calib::POINTS;
 use instrument::commands::Commands;
 use instrument::frames;
-use instrument::reader::ArrayReader;
+use instrument::reader::{ArrayReader, Demodulated};
 use instrument::sensor::Sensors;
 use instrument::store::Store;
 use instrument::sweep::Sweep;
@@ -228,20 +228,27 @@ mod app {
     }
 
     /// Demodulate every input, solve every sensor, log the records.
-    #[task(priority = 1, shared = [frame, done, dropped, sweep], local = [reader, settings, end_block, records])]
+    #[task(
+        priority = 1,
+        shared = [frame, done, dropped, sweep],
+        // The demodulated block (1.7 KiB) kept in place, off the stack.
+        local = [reader, settings, end_block, records, demodulated: Demodulated = Demodulated::EMPTY]
+    )]
     async fn process(mut cx: process::Context) {
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
-        let (block, clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
+        let block = &mut *cx.local.demodulated;
+        let (clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
             let layout = reader.layout();
-            (reader.demodulate(|a| layout.rows(&frame[a])), *clipped, *t)
+            reader.demodulate_into(|a| layout.rows(&frame[a]), block);
+            (*clipped, *t)
         });
         let sink = &mut *cx.local.records;
         let before = sink.drops();
         reader.solve(
             &*cx.local.settings,
             t_us,
-            &block,
+            block,
             |input| clipped[input],
             |rec| sink.push(rec),
         );
