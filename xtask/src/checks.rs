@@ -143,6 +143,8 @@ fn board(root: &Path) -> Result<()> {
     let flags = qemu_tests::firmware_rustflags();
     let env = [("CARGO_ENCODED_RUSTFLAGS", flags.as_str())];
     cargo::run_env(&fw, &["build-board"], &env)?;
+    // The 1 ms variant first: the default's image is the one left.
+    cargo::run_env(&fw, &["build-array-board-1ms"], &env)?;
     cargo::run_env(&fw, &["build-array-board"], &env)?;
     cargo::run(&fw, &["test", "--lib", "--features", "board"])
 }

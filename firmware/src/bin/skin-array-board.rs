@@ -79,9 +79,15 @@ use instrument::tones::{ToneRecord, ToneSettings};
 /// The link's byte queue: two blocks of frames.
 const LINK_BYTES: usize = 2048;
 
-/// The blocks' layout: [`Layout::BLOCK_4MS`] (250 records/s) or
-/// [`Layout::BLOCK_1MS`] (1000 records/s).
+/// The blocks' layout: [`Layout::BLOCK_4MS`] (250 records/s), or with
+/// the feature `array-1ms` [`Layout::BLOCK_1MS`] (1000 records/s;
+/// `cargo flash-array-board-1ms`).
+#[cfg(not(feature = "array-1ms"))]
 const LAYOUT: Layout = Layout::BLOCK_4MS;
+/// The blocks' layout: [`Layout::BLOCK_1MS`] (1000 records/s; the
+/// feature `array-1ms`).
+#[cfg(feature = "array-1ms")]
+const LAYOUT: Layout = Layout::BLOCK_1MS;
 /// The block period, µs.
 const BLOCK_US: u64 = LAYOUT.block_us();
 
