@@ -352,8 +352,7 @@ mod app {
     #[task(
         priority = 1,
         shared = [finished, sweep],
-        // The demodulated block (1.7 KiB) kept in place, off the stack.
-        local = [bufs, reader, settings, records, watchdog, demodulated: Demodulated = Demodulated::EMPTY]
+        local = [bufs, reader, settings, records, watchdog]
     )]
     async fn process(mut cx: process::Context) {
         let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
@@ -372,7 +371,9 @@ mod app {
         });
         let rails = clipped(|a| rows[a]);
         let reader = &mut *cx.local.reader;
-        let block = &mut *cx.local.demodulated;
+        // Demodulated in place (1.7 KiB: returned, it would be copied).
+        let mut demodulated = Demodulated::EMPTY;
+        let block = &mut demodulated;
         reader.demodulate_into(|a| rows[a], block);
         let sink = &mut *cx.local.records;
         let before = sink.drops();

@@ -231,13 +231,14 @@ mod app {
     #[task(
         priority = 1,
         shared = [frame, done, dropped, sweep],
-        // The demodulated block (1.7 KiB) kept in place, off the stack.
-        local = [reader, settings, end_block, records, demodulated: Demodulated = Demodulated::EMPTY]
+        local = [reader, settings, end_block, records]
     )]
     async fn process(mut cx: process::Context) {
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
-        let block = &mut *cx.local.demodulated;
+        // Demodulated in place (1.7 KiB: returned, it would be copied).
+        let mut demodulated = Demodulated::EMPTY;
+        let block = &mut demodulated;
         let (clipped, t_us) = cx.shared.frame.lock(|(frame, clipped, t)| {
             let layout = reader.layout();
             reader.demodulate_into(|a| layout.rows(&frame[a]), block);
