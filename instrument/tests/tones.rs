@@ -706,3 +706,50 @@ fn interfered(
     }
     Ok(())
 }
+
+/// Rows short of a block (a DMA half cut short, a layout's block read
+/// through another's rows) are no block: every record flagged open, no
+/// line, no panic; and a 1 ms reader reads the first 25 rows of a frame
+/// only, whatever the rest holds.
+#[test]
+fn rows_short_of_a_block_read_as_no_excitation() {
+    use instrument::reader::Demodulated;
+    let layout = Layout::BLOCK_1MS;
+    let fe = ArrayFrontEnd::reference(layout);
+    let paper = SensorParams::PAPER;
+    let each = Sensors::all(
+        skin_sensor::Sensor::calibrated(*paper_cal(), paper.effects.lead_ratio(), Fixture::NONE).unwrap(),
+    );
+    let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
+    let mut reader = ArrayReader::new(layout, &each).unwrap();
+    let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
+    let hz = layout.tones_hz().map(|f| f as f64);
+    let z = [Sensor::settled(paper).impedances(&hz); SENSORS];
+    let clipped = fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut Rng::new(3), &mut frame);
+    let mut recs = vec![];
+    reader.read(
+        &settings,
+        500,
+        |a| &frame[a][..24],
+        |i| clipped[i],
+        |r| recs.push(r),
+    );
+    assert_eq!(recs.len(), SENSORS);
+    assert!(
+        recs.iter().all(|r| r.flags.has(Flags::OPEN) && r.c_farad == 0.0),
+        "{recs:?}"
+    );
+    // The whole frame's rows given: the first 25 are the block, the
+    // rest (here garbage) is not read.
+    let mut whole = Demodulated::EMPTY;
+    reader.demodulate_into(|a| layout.rows(&frame[a]), &mut whole);
+    for rows in frame.iter_mut() {
+        for row in rows[25..].iter_mut() {
+            *row = [i16::MAX; 4];
+        }
+    }
+    let mut again = Demodulated::EMPTY;
+    reader.demodulate_into(|a| &frame[a][..], &mut again);
+    assert_eq!(whole.i.map(|t| t.x), again.i.map(|t| t.x));
+    assert_eq!(whole.v.n, 25);
+}
