@@ -326,10 +326,7 @@ impl<const K: usize> Tones<K> {
     /// [`crate::fmath::hypot`] (relative error below 3·10⁻⁷).
     pub fn amplitude(&self, k: usize) -> f32 {
         match self.x.get(k) {
-            Some(x) if self.n > 0 => {
-                let (re, im) = (crate::fmath::i64_to_f32(x.re), crate::fmath::i64_to_f32(x.im));
-                crate::fmath::hypot(re, im) * (2.0 / (Q31 as f32 * self.n as f32))
-            }
+            Some(&x) if self.n > 0 => amplitude_of(phasor_of(x), self.n),
             _ => 0.0,
         }
     }
@@ -373,18 +370,13 @@ impl<const K: usize> Tones<K> {
     /// residual, once (a channel reads them many times, and every
     /// sensor's ratio reads the excitation's phasors).
     pub fn levels(&self) -> Levels<K> {
-        let phasor: [Complex32; K] = core::array::from_fn(|k| {
-            let x = self.x[k];
-            Complex32::new(crate::fmath::i64_to_f32(x.re), crate::fmath::i64_to_f32(x.im))
-        });
+        let phasor: [Complex32; K] = self.x.map(phasor_of);
         // As [`Tones::amplitude`], from the same conversions.
-        let scale = if self.n > 0 {
-            2.0 / (Q31 as f32 * self.n as f32)
+        let amplitude: [f32; K] = if self.n > 0 {
+            phasor.map(|p| amplitude_of(p, self.n))
         } else {
-            0.0
+            [0.0; K]
         };
-        let amplitude: [f32; K] =
-            core::array::from_fn(|k| crate::fmath::hypot(phasor[k].re, phasor[k].im) * scale);
         Levels {
             largest: amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a)),
             amplitude,
@@ -432,6 +424,17 @@ impl<const K: usize> Levels<K> {
             None
         }
     }
+}
+
+/// A sum Xₖ in f32 ([`crate::fmath::i64_to_f32`], 1.5 ulp).
+fn phasor_of(x: Complex<i64>) -> Complex32 {
+    Complex32::new(crate::fmath::i64_to_f32(x.re), crate::fmath::i64_to_f32(x.im))
+}
+
+/// A tone's amplitude, counts (peak), from its sum in f32 over `n` (> 0)
+/// instants: |X|·2/(2³¹·n) ([`crate::fmath::hypot`]).
+fn amplitude_of(x: Complex32, n: u32) -> f32 {
+    crate::fmath::hypot(x.re, x.im) * (2.0 / (Q31 as f32 * n as f32))
 }
 
 /// The reference's full scale, 2³¹.

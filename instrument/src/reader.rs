@@ -68,14 +68,6 @@ impl BlockComb {
         })
     }
 
-    /// Instants of its blocks.
-    pub const fn instants(&self) -> usize {
-        match self {
-            Self::Long(_) => BLOCK_INSTANTS,
-            Self::Short(_) => SHORT_INSTANTS,
-        }
-    }
-
     /// Demodulate input `col` of a block's rows ([`Comb::column`]): an
     /// empty result (`n` = 0, so no excitation) unless `rows` holds at
     /// least a block.
