@@ -125,24 +125,26 @@ impl<const N: usize, const K: usize> Comb<N, K> {
     /// scanning ADC's DMA leaves them): every tone, Σx and Σx². An input
     /// beyond the row gives an empty result (`n` = 0).
     pub fn column<const S: usize>(&self, rows: &[[i16; S]; N], col: usize) -> Tones<K> {
-        let mut t = Tones {
-            x: [Complex::new(0, 0); K],
-            n: 0,
-            sum: 0,
-            sq: 0,
-        };
+        let mut t = Tones::EMPTY;
+        self.column_into(rows, col, &mut t);
+        t
+    }
+
+    /// [`Comb::column`] into `out` (a block's many results written in
+    /// place, not copied on their way).
+    pub fn column_into<const S: usize>(&self, rows: &[[i16; S]; N], col: usize, out: &mut Tones<K>) {
         if col >= S {
-            return t;
+            *out = Tones::EMPTY;
+            return;
         }
-        for (x, reference) in t.x.iter_mut().zip(&self.reference) {
+        for (x, reference) in out.x.iter_mut().zip(&self.reference) {
             let [c, s] = tone_sums(rows, col, reference);
             *x = Complex::new(c, -s);
         }
         let [sum, sq] = column_moments(rows, col);
-        t.n = N as u32;
-        t.sum = sum;
-        t.sq = sq;
-        t
+        out.n = N as u32;
+        out.sum = sum;
+        out.sq = sq;
     }
 }
 
@@ -320,6 +322,14 @@ pub mod arm {
 }
 
 impl<const K: usize> Tones<K> {
+    /// No instants: every sum 0 (`n` = 0).
+    pub const EMPTY: Self = Self {
+        x: [Complex::new(0, 0); K],
+        n: 0,
+        sum: 0,
+        sq: 0,
+    };
+
     /// Amplitude of tone `k`, counts (peak); 0 for an empty block or a
     /// tone beyond the comb. The sums to f32
     /// ([`crate::fmath::i64_to_f32`], 1.5 ulp) and their magnitude by
