@@ -384,10 +384,13 @@ fn seal<'a, T: Serialize>(value: &T, out: &'a mut [u8]) -> Result<&'a [u8], Erro
 /// (or to the end), the free first byte the distance to the first; the
 /// last byte becomes the closing zero. The same bytes as `crc`'s
 /// checksum then `cobs::encode` (tested against both at every length
-/// a body can have), with no copy of the body and one load a byte for
-/// both, where the CRC then the stuffing took 12 instructions a byte
-/// on the Cortex-M4 (and the crate's encoder, which copies, 14 for the
-/// stuffing alone).
+/// a body can have).
+///
+/// The body goes four bytes a turn: one load, four table steps from the
+/// register, and a mask of the zero bytes among the four (the bytes are
+/// not looked at one by one). About 5 instructions a
+/// byte on the Cortex-M4, where the CRC then the stuffing took 12 (and
+/// the `cobs` crate's encoder, which copies, 14 for the stuffing alone).
 fn checksum_and_stuff(frame: &mut [u8]) {
     let Some(body_end) = frame.len().checked_sub(5) else {
         return;
@@ -395,32 +398,54 @@ fn checksum_and_stuff(frame: &mut [u8]) {
     // The table's own address in a register (not the CRC's, four bytes
     // before it, which costs an add a byte).
     let table: &[u32; 256] = core::hint::black_box(&CRC.table()[0]);
+    let step = |c: u32| table[(c & 0xff) as usize] ^ (c >> 8);
     // CRC-32/ISO-HDLC, reflected: init and final xor all ones.
     let mut crc = !0u32;
     // The byte whose code is pending: the first, then the last zero.
     let mut code = 0;
+    let mut zero_at = |frame: &mut [u8], i: usize| {
+        if let Some(c) = frame.get_mut(code) {
+            *c = (i - code) as u8;
+        }
+        code = i;
+    };
     let mut i = 1;
+    while let Some(w) = frame
+        .get(i..i + 4)
+        .filter(|_| i + 4 <= body_end)
+        .and_then(|b| <[u8; 4]>::try_from(b).ok())
+        .map(u32::from_le_bytes)
+    {
+        crc = step(step(step(step(crc ^ w))));
+        // Bit 7 of each zero byte of w, exactly (the low seven bits'
+        // sum cannot carry into the next byte).
+        let mut zeros = !(((w & 0x7f7f_7f7f) + 0x7f7f_7f7f) | w | 0x7f7f_7f7f);
+        while zeros != 0 {
+            zero_at(frame, i + (zeros.trailing_zeros() / 8) as usize);
+            zeros &= zeros - 1;
+        }
+        i += 4;
+    }
     while let Some(&b) = frame.get(i).filter(|_| i < body_end) {
-        crc = table[usize::from(crc as u8 ^ b)] ^ (crc >> 8);
+        crc = step(crc ^ u32::from(b));
         if b == 0 {
-            if let Some(c) = frame.get_mut(code) {
-                *c = (i - code) as u8;
-            }
-            code = i;
+            zero_at(frame, i);
         }
         i += 1;
     }
     for (j, b) in (!crc).to_le_bytes().into_iter().enumerate() {
-        let i = body_end + j;
-        frame[i] = b;
+        if let Some(slot) = frame.get_mut(body_end + j) {
+            *slot = b;
+        }
         if b == 0 {
-            frame[code] = (i - code) as u8;
-            code = i;
+            zero_at(frame, body_end + j);
         }
     }
     let end = body_end + 4;
-    frame[code] = (end - code) as u8;
-    frame[end] = 0;
+    zero_at(frame, end);
+    if let Some(last) = frame.get_mut(end) {
+        *last = 0;
+    }
 }
 
 /// postcard's output into a byte slice, as its `Slice` flavor, but a
