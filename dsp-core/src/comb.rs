@@ -151,8 +151,9 @@ impl<const N: usize, const K: usize> Comb<N, K> {
 /// Σₙ xₙ·cos θₙ and Σₙ xₙ·sin θₙ of input `col` (< S) against one
 /// tone's reference: on Arm cores with the DSP extension [`arm`] inline
 /// assembly (per instant a post-indexed `LDRSH` of the sample, `LDRD` of
-/// the reference and two `SMLAL`, two instants a turn: 5 instructions
-/// per instant, where the compiler's unrolled loop spilled to 8),
+/// the reference and two `SMLAL`, five instants a turn where five divide
+/// the block: 4.4 instructions an instant, where the compiler's unrolled
+/// loop spilled to 8; inlined, so a column's five tones cost no calls),
 /// elsewhere [`portable`]; the same exact integer sums (no product or
 /// sum can overflow), bit-identical (the QEMU benchmark checks it on the
 /// target).
@@ -212,59 +213,92 @@ pub fn portable<const N: usize, const S: usize>(
 #[cfg(arm_dsp)]
 #[allow(unsafe_code)]
 pub mod arm {
+    /// Instants a loop turn takes: five where they divide the block (the
+    /// array's 25 and 100: 4.4 instructions an instant, where two a
+    /// turn take 5 and leave 25's last instant to Rust), else two.
+    const fn unroll(n: usize) -> usize {
+        if n % 5 == 0 {
+            5
+        } else {
+            2
+        }
+    }
+
+    /// One instant of [`tone_sums`]: the sample, its reference pair, two
+    /// products.
+    macro_rules! tone_step {
+        () => {
+            "ldrsh {x}, [{p}], {stride}\n\
+             ldrd {a}, {b}, [{q}], #8\n\
+             smlal {cl}, {ch}, {x}, {a}\n\
+             smlal {sl}, {sh}, {x}, {b}"
+        };
+    }
+
+    /// One instant of [`moments`]: the sample, its sum and square.
+    macro_rules! moment_step {
+        () => {
+            "ldrsh {x}, [{p}], {stride}\n\
+             add {sum}, {x}\n\
+             smlal {ql}, {qh}, {x}, {x}"
+        };
+    }
+
     /// Same result as [`portable`](super::portable), bit for bit.
-    #[inline(never)]
+    #[inline(always)]
     pub fn tone_sums<const N: usize, const S: usize>(
         rows: &[[i16; S]; N],
         col: usize,
         reference: &[[i32; 2]; N],
     ) -> [i64; 2] {
-        let even = N & !1;
-        if col >= S || even == 0 || S * 2 > 255 {
+        let whole = N - N % unroll(N);
+        if col >= S || whole == 0 || S * 2 > 255 {
             return super::portable(rows, col, reference);
         }
         let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
         let mut p = rows.as_ptr().cast::<i16>().wrapping_add(col);
         let mut q = reference.as_ptr();
-        // SAFETY: `p` walks input `col` (< S) of the first `even` rows,
+        // SAFETY: `p` walks input `col` (< S) of the first `whole` rows,
         // S·2 bytes a step (an immediate of at most 255), and `q` the
-        // first `even` reference words, 8 bytes a step; the loop reads
-        // exactly that many of each (two a turn, `even` even and non-zero)
-        // and stops when `q` reaches `end`. Only registers and the two
-        // arrays' memory are touched.
+        // first `whole` reference words, 8 bytes a step; the loop reads
+        // exactly that many of each (`unroll(N)` a turn, `whole` a
+        // non-zero multiple of it) and stops when `q` reaches `end`.
+        // Only registers and the two arrays' memory are touched.
         unsafe {
-            let end = q.add(even);
-            core::arch::asm!(
-                "2:",
-                "ldrsh {x}, [{p}], {stride}",
-                "ldrd {a}, {b}, [{q}], #8",
-                "smlal {cl}, {ch}, {x}, {a}",
-                "smlal {sl}, {sh}, {x}, {b}",
-                "ldrsh {x}, [{p}], {stride}",
-                "ldrd {a}, {b}, [{q}], #8",
-                "smlal {cl}, {ch}, {x}, {a}",
-                "smlal {sl}, {sh}, {x}, {b}",
-                "cmp {q}, {end}",
-                "bne 2b",
-                stride = const S * 2,
-                p = inout(reg) p,
-                q = inout(reg) q,
-                end = in(reg) end,
-                cl = inout(reg) cl,
-                ch = inout(reg) ch,
-                sl = inout(reg) sl,
-                sh = inout(reg) sh,
-                x = out(reg) _,
-                a = out(reg) _,
-                b = out(reg) _,
-                options(nostack, readonly),
-            );
+            let end = q.add(whole);
+            macro_rules! tone_loop {
+                ($($step:expr),*) => {
+                    core::arch::asm!(
+                        "2:",
+                        $($step,)*
+                        "cmp {q}, {end}",
+                        "bne 2b",
+                        stride = const S * 2,
+                        p = inout(reg) p,
+                        q = inout(reg) q,
+                        end = in(reg) end,
+                        cl = inout(reg) cl,
+                        ch = inout(reg) ch,
+                        sl = inout(reg) sl,
+                        sh = inout(reg) sh,
+                        x = out(reg) _,
+                        a = out(reg) _,
+                        b = out(reg) _,
+                        options(nostack, readonly),
+                    )
+                };
+            }
+            if unroll(N) == 5 {
+                tone_loop!(tone_step!(), tone_step!(), tone_step!(), tone_step!(), tone_step!());
+            } else {
+                tone_loop!(tone_step!(), tone_step!());
+            }
         }
         let _ = (p, q);
         let mut c = ((ch as u64) << 32 | cl as u64) as i64;
         let mut s = ((sh as u64) << 32 | sl as u64) as i64;
         // An odd last instant.
-        if let (Some(row), Some(&[rc, rs])) = (rows.get(even), reference.get(even)) {
+        if let (Some(row), Some(&[rc, rs])) = (rows.get(whole), reference.get(whole)) {
             let v = row[col] as i64;
             c += v * rc as i64;
             s += v * rs as i64;
@@ -274,45 +308,48 @@ pub mod arm {
 
     /// Same result as [`portable_moments`](super::portable_moments), bit
     /// for bit: Σx in 32 bits (|Σx| ≤ 2³¹ over at most 2¹⁶ instants),
-    /// Σx² by `SMLAL`, two instants a turn (4 instructions an instant).
-    #[inline(never)]
+    /// Σx² by `SMLAL` (3 instructions an instant, and the turn's two).
+    #[inline(always)]
     pub fn moments<const N: usize, const S: usize>(rows: &[[i16; S]; N], col: usize) -> [i64; 2] {
-        let even = N & !1;
-        if col >= S || even == 0 || N > 1 << 16 || S * 2 > 255 {
+        let whole = N - N % unroll(N);
+        if col >= S || whole == 0 || N > 1 << 16 || S * 2 > 255 {
             return super::portable_moments(rows, col);
         }
         let (mut sum, mut ql, mut qh) = (0i32, 0u32, 0u32);
         let mut p = rows.as_ptr().cast::<i16>().wrapping_add(col);
-        // SAFETY: `p` walks input `col` (< S) of the first `even` rows,
-        // S·2 bytes a step (an immediate of at most 255), two a turn, and
-        // stops at `end`, one step past the last of them. Only registers
-        // and the rows' memory are touched.
+        // SAFETY: `p` walks input `col` (< S) of the first `whole` rows,
+        // S·2 bytes a step (an immediate of at most 255), `unroll(N)` a
+        // turn, and stops at `end`, one step past the last of them. Only
+        // registers and the rows' memory are touched.
         unsafe {
-            let end = p.add(even * S);
-            core::arch::asm!(
-                "2:",
-                "ldrsh {x}, [{p}], {stride}",
-                "ldrsh {y}, [{p}], {stride}",
-                "add {sum}, {x}",
-                "smlal {ql}, {qh}, {x}, {x}",
-                "add {sum}, {y}",
-                "smlal {ql}, {qh}, {y}, {y}",
-                "cmp {p}, {end}",
-                "bne 2b",
-                stride = const S * 2,
-                p = inout(reg) p,
-                end = in(reg) end,
-                sum = inout(reg) sum,
-                ql = inout(reg) ql,
-                qh = inout(reg) qh,
-                x = out(reg) _,
-                y = out(reg) _,
-                options(nostack, readonly),
-            );
+            let end = p.add(whole * S);
+            macro_rules! moment_loop {
+                ($($step:expr),*) => {
+                    core::arch::asm!(
+                        "2:",
+                        $($step,)*
+                        "cmp {p}, {end}",
+                        "bne 2b",
+                        stride = const S * 2,
+                        p = inout(reg) p,
+                        end = in(reg) end,
+                        sum = inout(reg) sum,
+                        ql = inout(reg) ql,
+                        qh = inout(reg) qh,
+                        x = out(reg) _,
+                        options(nostack, readonly),
+                    )
+                };
+            }
+            if unroll(N) == 5 {
+                moment_loop!(moment_step!(), moment_step!(), moment_step!(), moment_step!(), moment_step!());
+            } else {
+                moment_loop!(moment_step!(), moment_step!());
+            }
         }
         let _ = p;
         let (mut sum, mut sq) = (sum as i64, ((qh as u64) << 32 | ql as u64) as i64);
-        if let Some(row) = rows.get(even) {
+        if let Some(row) = rows.get(whole) {
             let v = row[col] as i64;
             sum += v;
             sq += v * v;
@@ -388,7 +425,10 @@ impl<const K: usize> Tones<K> {
             [0.0; K]
         };
         Levels {
-            largest: amplitude.iter().fold(0.0, |m, &a| crate::fmath::max(m, a)),
+            // (From 0, never NaN: a NaN amplitude is passed over, as by
+            // `fmath::max`, whose NaN test of the running value it
+            // spares.)
+            largest: amplitude.iter().fold(0.0, |m, &a| if a > m { a } else { m }),
             amplitude,
             phasor,
             residual: self.residual_rms(),

@@ -161,12 +161,13 @@ pub fn bench_table(benches: &[Bench]) -> String {
     md
 }
 
-/// A firmware image: (binary, feature, what it is, budget of flash and
-/// static RAM in bytes where it has one).
+/// A firmware image: (binary, features (comma-separated: the first the
+/// target's, any further named beside the binary), what it is, budget of
+/// flash and static RAM in bytes where it has one).
 pub type Image = (&'static str, &'static str, &'static str, Option<(u64, u64)>);
 
 /// The firmware images.
-pub const IMAGES: [Image; 5] = [
+pub const IMAGES: [Image; 6] = [
     (
         "skin-board",
         "board",
@@ -177,6 +178,12 @@ pub const IMAGES: [Image; 5] = [
         "skin-array-board",
         "board",
         "STM32G474, 16 sensors at once",
+        Some(crate::ARRAY_BOARD_BUDGET),
+    ),
+    (
+        "skin-array-board",
+        "board,array-1ms",
+        "the same in 1 ms blocks, 1000 records/s",
         Some(crate::ARRAY_BOARD_BUDGET),
     ),
     (
@@ -211,9 +218,13 @@ pub fn image_table() -> Result<String> {
         let elf = crate::build_firmware(bin, &[feature])?;
         let (flash, ram) = crate::image_size(&elf)?;
         let budget = budget.map_or_else(|| "–".to_string(), |(f, r)| format!("{} / {}", kib(f), kib(r)));
+        let name = match feature.split_once(',') {
+            Some((_, extra)) => format!("`{bin}` (`{extra}`)"),
+            None => format!("`{bin}`"),
+        };
         let _ = writeln!(
             md,
-            "| `{bin}` | {what} | {} | {} | {budget} |",
+            "| {name} | {what} | {} | {} | {budget} |",
             kib(flash),
             kib(ram)
         );
