@@ -289,7 +289,13 @@ pub mod arm {
                 };
             }
             if unroll(N) == 5 {
-                tone_loop!(tone_step!(), tone_step!(), tone_step!(), tone_step!(), tone_step!());
+                tone_loop!(
+                    tone_step!(),
+                    tone_step!(),
+                    tone_step!(),
+                    tone_step!(),
+                    tone_step!()
+                );
             } else {
                 tone_loop!(tone_step!(), tone_step!());
             }
@@ -342,7 +348,13 @@ pub mod arm {
                 };
             }
             if unroll(N) == 5 {
-                moment_loop!(moment_step!(), moment_step!(), moment_step!(), moment_step!(), moment_step!());
+                moment_loop!(
+                    moment_step!(),
+                    moment_step!(),
+                    moment_step!(),
+                    moment_step!(),
+                    moment_step!()
+                );
             } else {
                 moment_loop!(moment_step!(), moment_step!());
             }

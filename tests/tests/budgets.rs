@@ -31,7 +31,9 @@ fn array_board_in_1ms_blocks_fits_the_same_budgets() {
     let elf = qemu_tests::build_firmware("skin-array-board", &["board", "array-1ms"]).unwrap();
     let (flash, ram) = qemu_tests::image_size(&elf).unwrap();
     let (max_flash, max_ram) = qemu_tests::ARRAY_BOARD_BUDGET;
-    println!("skin-array-board (array-1ms): flash {flash} B (≤ {max_flash}), static RAM {ram} B (≤ {max_ram})");
+    println!(
+        "skin-array-board (array-1ms): flash {flash} B (≤ {max_flash}), static RAM {ram} B (≤ {max_ram})"
+    );
     assert!(flash <= max_flash && ram <= max_ram, "flash {flash}, RAM {ram}");
     assert!(ram > 20 * 1024 && flash > 32 * 1024, "flash {flash}, RAM {ram}");
 }
