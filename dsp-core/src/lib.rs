@@ -71,6 +71,7 @@ pub mod invert;
 pub mod lockin;
 pub mod lumped;
 pub mod osc;
+pub mod scan;
 pub mod tline;
 pub mod track;
 pub mod twotone;

@@ -348,27 +348,27 @@ pub const fn on_rail(code: i16) -> bool {
     c <= -HALF_SCALE + RAIL_MARGIN || c >= MAX_CODE - RAIL_MARGIN
 }
 
-/// Which inputs of a block have a result on a rail; `rows(a)` is ADC a's
-/// rows of the block ([`Layout::rows`]).
-pub fn clipped<'a>(rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> [bool; INPUTS] {
-    let mut out = [false; INPUTS];
-    for a in 0..ADCS {
-        for row in rows(a) {
-            for (j, &x) in row.iter().enumerate() {
-                out[a * SCAN + j] |= on_rail(x);
-            }
-        }
+/// One ADC's rows of a block as its DMA leaves them, offset binary (0 …
+/// 65 520, the bias at 32 768), made two's complement around the bias in
+/// place; returns which of its inputs had a result on a rail
+/// ([`on_rail`]; none for no rows). One pass
+/// ([`dsp_core::scan::to_signed`]: each input's extremes as it goes).
+pub fn to_signed(rows: &mut [[i16; SCAN]]) -> [bool; SCAN] {
+    if rows.is_empty() {
+        return [false; SCAN];
     }
-    out
+    dsp_core::scan::to_signed(rows).map(|[lo, hi]| on_rail(lo) || on_rail(hi))
 }
 
-/// The ADC's DMA leaves offset binary (0 … 65 520, the bias at 32 768):
-/// make it two's complement around the bias, in place (flipping the top
-/// bit is subtracting 32 768 modulo 2¹⁶).
-pub fn from_offset_binary(rows: &mut [[i16; SCAN]]) {
-    for x in rows.iter_mut().flatten() {
-        *x ^= i16::MIN;
+/// A block's ADCs' rows ([`Layout::rows`] of each) to two's complement in
+/// place ([`to_signed`]); returns which inputs had a result on a rail,
+/// by input number.
+pub fn to_signed_all(rows: &mut [&mut [[i16; SCAN]]; ADCS]) -> [bool; INPUTS] {
+    let mut rails = [false; INPUTS];
+    for (r, adc) in rails.chunks_exact_mut(SCAN).zip(rows.iter_mut()) {
+        r.copy_from_slice(&to_signed(adc));
     }
+    rails
 }
 
 /// The DAC's mid-scale code: the bias.
@@ -522,17 +522,32 @@ mod tests {
         for (j, &r) in raw.iter().enumerate() {
             rows[7][j] = r as i16;
         }
-        from_offset_binary(&mut rows);
+        for row in rows.iter_mut().skip(8) {
+            *row = [32_768u16 as i16; SCAN];
+        }
+        let rails = to_signed(&mut rows);
         assert_eq!(rows[7], [-32_768, 0, MAX_CODE as i16, 1000]);
         assert_eq!(rows[0], [-32_768; SCAN], "a zero word is the low rail");
+        assert_eq!(rows[8], [0; SCAN]);
+        assert_eq!(
+            rails,
+            [true, true, true, true],
+            "the zero rows are on the low rail"
+        );
         assert!(on_rail(-32_768) && on_rail(MAX_CODE as i16) && on_rail((MAX_CODE - RAIL_MARGIN) as i16));
         assert!(!on_rail(0) && !on_rail((MAX_CODE - RAIL_MARGIN - 1) as i16));
         assert!(!on_rail((-HALF_SCALE + RAIL_MARGIN + 1) as i16));
-        let mut frame: Frame = [[[100; SCAN]; BLOCK_INSTANTS]; ADCS];
-        frame[3][50][2] = MAX_CODE as i16;
-        frame[0][0][0] = -32_700;
-        let c = clipped(|a| &frame[a]);
+        assert_eq!(to_signed(&mut []), [false; SCAN], "no rows, no rail");
+        // A frame of offset-binary words: 100 above the bias, one input
+        // at the top rail and one near the bottom.
+        let mut frame: Frame = [[[(32_768u16 + 100) as i16; SCAN]; BLOCK_INSTANTS]; ADCS];
+        frame[3][50][2] = (MAX_CODE + HALF_SCALE) as u16 as i16;
+        frame[0][0][0] = 68;
+        let [f0, f1, f2, f3, f4] = &mut frame;
+        let c = to_signed_all(&mut [&mut f0[..], &mut f1[..], &mut f2[..], &mut f3[..], &mut f4[..]]);
         assert_eq!(c.iter().filter(|&&x| x).count(), 2);
         assert!(c[14] && c[VOLTAGE_INPUT]);
+        assert_eq!(frame[1][9][1], 100);
+        assert_eq!(frame[3][50][2], MAX_CODE as i16);
     }
 }

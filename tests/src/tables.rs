@@ -83,9 +83,15 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "block_load_permille",
         "its share of a 170 MHz Cortex-M4 over a 5.12 ms block",
     ),
-    ("array_comb_input", "the comb (5 tones) on one array input"),
+    (
+        "array_comb_input",
+        "the comb (5 tones) on one array input, with its share of the block's offset-binary pass and rail check",
+    ),
     ("array_channel", "one array sensor's record"),
-    ("array_block", "one array block: 17 inputs and 16 records"),
+    (
+        "array_block",
+        "one array block as the board's task takes it: the offset-binary pass and rail check, 17 inputs, 16 records",
+    ),
     (
         "array_load_permille",
         "the array's share of a 170 MHz Cortex-M4 (16 sensors × 250 records/s)",
@@ -96,7 +102,7 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
     ),
     (
         "array_comb_1ms_input",
-        "the comb on one input of a 1 ms block (`Layout::BLOCK_1MS`: 25 instants, tones of 1, 2, 3, 4, 6 kHz)",
+        "the same on one input of a 1 ms block (`Layout::BLOCK_1MS`: 25 instants, tones of 1, 2, 3, 4, 6 kHz)",
     ),
     (
         "array_record_linked",

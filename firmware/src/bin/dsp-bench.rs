@@ -621,12 +621,14 @@ struct ArrayCost {
     last: instrument::tones::ToneRecord,
 }
 
-/// One block of the array in `layout` (`skin-array`'s `process`, through
-/// `instrument::reader`): the comb on the excitation and on 16 sensor
-/// inputs, then 16 channels' two-tone lines; averaged over 8 blocks of
-/// sixteen of the paper's sensors, the channels tracking after the first.
-/// Every record must be valid, and the comb's assembly must equal the
-/// portable code bit for bit on every input of the last block.
+/// One block of the array in `layout` (`skin-array-board`'s `process`,
+/// through `instrument::reader`): the ADCs' offset-binary rows to two's
+/// complement with the rail check, the comb on the excitation and on 16
+/// sensor inputs, then 16 channels' two-tone lines; averaged over 8
+/// blocks of sixteen of the paper's sensors, the channels tracking after
+/// the first. Every record must be valid, and the assembly of the comb
+/// and of the offset-binary pass must equal the portable code bit for
+/// bit on every input of the last block.
 fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
     use instrument::array::{Frame, BLOCK_INSTANTS, SENSORS};
     use instrument::reader::{ArrayReader, BlockComb};
@@ -658,8 +660,25 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
     let block_us = layout.block_us();
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
-        // The comb on every input.
+        // As the board's DMA leaves them: offset binary (the flip is its
+        // own inverse).
+        let n = layout.instants();
+        for rows in frame.iter_mut() {
+            dsp_core::scan::portable(&mut rows[..n]);
+        }
+        // The block as the board's `process` takes it: to two's
+        // complement in place noting the inputs on a rail, then the comb
+        // on every input.
+        let mut rails = [false; instrument::array::INPUTS];
         let tc = insns(ticks(syst, || {
+            let [f0, f1, f2, f3, f4] = black_box(&mut frame);
+            rails = instrument::array::to_signed_all(&mut [
+                &mut f0[..n],
+                &mut f1[..n],
+                &mut f2[..n],
+                &mut f3[..n],
+                &mut f4[..n],
+            ]);
             reader.demodulate_into(|a| layout.rows(black_box(&frame[a])), &mut block);
         }));
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
@@ -669,7 +688,7 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
                 &settings,
                 b * block_us + block_us / 2,
                 &block,
-                |_| false,
+                |input| rails[input],
                 |r| {
                     recs[s] = r;
                     s += 1;
@@ -720,6 +739,30 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
                 println!("FAIL comb assembly differs from portable");
                 qemu::exit(1);
             }
+        }
+    }
+    // The offset-binary pass's assembly must equal the portable one:
+    // rows and extremes, on every ADC's rows of the last block and on
+    // the rails.
+    let mut rails_rows = [[0i16; 4]; 7];
+    for (k, row) in rails_rows.iter_mut().enumerate() {
+        *row = [i16::MIN, i16::MAX, -1, 0].map(|x| x.wrapping_add(k as i16));
+    }
+    for rows in frame
+        .iter()
+        .map(|r| &r[..])
+        .chain(core::iter::once(&rails_rows[..]))
+    {
+        let (mut fast, mut slow) = ([[0i16; 4]; BLOCK_INSTANTS], [[0i16; 4]; BLOCK_INSTANTS]);
+        fast[..rows.len()].copy_from_slice(rows);
+        slow[..rows.len()].copy_from_slice(rows);
+        let (f, p) = (
+            dsp_core::scan::to_signed(&mut fast[..rows.len()]),
+            dsp_core::scan::portable(&mut slow[..rows.len()]),
+        );
+        if f != p || fast != slow {
+            println!("FAIL the offset-binary pass's assembly differs from portable");
+            qemu::exit(1);
         }
     }
     if valid != SENSORS * blocks as usize {

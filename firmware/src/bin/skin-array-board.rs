@@ -63,8 +63,7 @@ use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use instrument::array::{
-    clipped, from_offset_binary, Layout, ADCS, BLOCK_INSTANTS, DAC_TABLE, RATE_HZ, SCAN, SENSORS,
-    SENSOR_TIA_OHM,
+    to_signed_all, Layout, ADCS, BLOCK_INSTANTS, DAC_TABLE, RATE_HZ, SCAN, SENSORS, SENSOR_TIA_OHM,
 };
 use instrument::calib::POINTS;
 use instrument::commands::{Action, Commands};
@@ -364,12 +363,11 @@ mod app {
         // the other ones for the next block (4 ms: this task takes 0.7
         // ms; 1 ms: 0.6 ms).
         #[allow(unsafe_code)]
-        let rows: [&[[i16; SCAN]]; ADCS] = core::array::from_fn(|a| unsafe {
-            let r = array_half(&mut (*bufs)[a], &LAYOUT, half);
-            from_offset_binary(r);
-            &*r
-        });
-        let rails = clipped(|a| rows[a]);
+        let mut rows: [&mut [[i16; SCAN]]; ADCS] =
+            core::array::from_fn(|a| unsafe { array_half(&mut (*bufs)[a], &LAYOUT, half) });
+        // To two's complement in place, noting the inputs on a rail.
+        let rails = to_signed_all(&mut rows);
+        let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
         let reader = &mut *cx.local.reader;
         // Demodulated in place (1.7 KiB: returned, it would be copied).
         let mut demodulated = Demodulated::EMPTY;
