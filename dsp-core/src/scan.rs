@@ -22,10 +22,9 @@ pub type Extremes<const S: usize> = [[i16; 2]; S];
 /// extremes (module docs).
 pub fn to_signed<const S: usize>(rows: &mut [[i16; S]]) -> Extremes<S> {
     #[cfg(arm_dsp)]
-    if S == 4 {
-        return arm::to_signed(rows);
-    }
-    portable(rows)
+    return arm::to_signed(rows);
+    #[cfg(not(arm_dsp))]
+    return portable(rows);
 }
 
 /// Reference implementation of [`to_signed`] (all targets, any width).

@@ -388,9 +388,10 @@ fn seal<'a, T: Serialize>(value: &T, out: &'a mut [u8]) -> Result<&'a [u8], Erro
 ///
 /// The body goes four bytes a turn: one load, four table steps from the
 /// register, and a mask of the zero bytes among the four (the bytes are
-/// not looked at one by one). About 5 instructions a
-/// byte on the Cortex-M4, where the CRC then the stuffing took 12 (and
-/// the `cobs` crate's encoder, which copies, 14 for the stuffing alone).
+/// not looked at one by one). About 7 instructions a byte on the
+/// Cortex-M4, a zero byte's code included, where the CRC then the
+/// stuffing took 12 (and the `cobs` crate's encoder, which copies, 14
+/// for the stuffing alone).
 fn checksum_and_stuff(frame: &mut [u8]) {
     let Some(body_end) = frame.len().checked_sub(5) else {
         return;
