@@ -65,8 +65,9 @@ impl core::error::Error for CombError {}
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Comb<const N: usize, const K: usize> {
     periods: [u32; K],
-    /// Instant n of tone k: [cos θₖ,ₙ, sin θₖ,ₙ], Q31 (saturated: +1 is
-    /// i32::MAX).
+    /// Instant n of tone k: [cos θₖ,ₙ, sin θₖ,ₙ], Q31 (saturated: ±1 is
+    /// ±i32::MAX); instant N − n holds instant n's conjugate exactly, as
+    /// the fold ([`folded`]) needs.
     reference: [[[i32; 2]; N]; K],
 }
 
@@ -100,12 +101,19 @@ impl<const N: usize, const K: usize> Comb<N, K> {
         }
         let mut reference = [[[0i32; 2]; N]; K];
         for (row, &p) in reference.iter_mut().zip(&periods) {
-            for (n, w) in row.iter_mut().enumerate() {
-                // The exact phase as a fraction of a turn, 2³² per turn.
-                let m = (p as u64 * n as u64) % N as u64;
-                let phase = (((m << 32) + N as u64 / 2) / N as u64) as u32 as i32;
-                let (c, s) = cossin(phase);
-                *w = [c, s];
+            for n in 0..N {
+                row[n] = if n <= N / 2 {
+                    // The exact phase as a fraction of a turn, 2³² per turn.
+                    let m = (p as u64 * n as u64) % N as u64;
+                    let phase = (((m << 32) + N as u64 / 2) / N as u64) as u32 as i32;
+                    let (c, s) = cossin(phase);
+                    // Symmetric Q31: −1 as −i32::MAX, so that it negates.
+                    [c.max(-i32::MAX), s.max(-i32::MAX)]
+                } else {
+                    // Instant N − n's conjugate, exactly (θ_{N−n} = −θₙ).
+                    let [c, s] = row[N - n];
+                    [c, -s]
+                };
             }
         }
         Ok(Self { periods, reference })
@@ -131,52 +139,76 @@ impl<const N: usize, const K: usize> Comb<N, K> {
     }
 
     /// [`Comb::column`] into `out` (a block's many results written in
-    /// place, not copied on their way).
+    /// place, not copied on their way). The sums are taken over the
+    /// block folded on its mirror ([`folded`]; on Arm cores with the DSP
+    /// extension the `arm` module's assembly): the same exact integers as
+    /// [`portable`] and [`portable_moments`], bit for bit.
     pub fn column_into<const S: usize>(&self, rows: &[[i16; S]; N], col: usize, out: &mut Tones<K>) {
         if col >= S {
             *out = Tones::EMPTY;
             return;
         }
-        for (x, reference) in out.x.iter_mut().zip(&self.reference) {
-            let [c, s] = tone_sums(rows, col, reference);
-            *x = Complex::new(c, -s);
-        }
-        let [sum, sq] = column_moments(rows, col);
-        out.n = N as u32;
-        out.sum = sum;
-        out.sq = sq;
+        #[cfg(arm_dsp)]
+        arm::column_into(self, rows, col, out);
+        #[cfg(not(arm_dsp))]
+        folded(self, rows, col, out);
     }
 }
 
-/// Σₙ xₙ·cos θₙ and Σₙ xₙ·sin θₙ of input `col` (< S) against one
-/// tone's reference: on Arm cores with the DSP extension [`arm`] inline
-/// assembly (per instant a post-indexed `LDRSH` of the sample, `LDRD` of
-/// the reference and two `SMLAL`, five instants a turn where five divide
-/// the block: 4.4 instructions an instant, where the compiler's unrolled
-/// loop spilled to 8; inlined, so a column's five tones cost no calls),
-/// elsewhere [`portable`]; the same exact integer sums (no product or
-/// sum can overflow), bit-identical (the QEMU benchmark checks it on the
-/// target).
-#[inline]
-fn tone_sums<const N: usize, const S: usize>(
-    rows: &[[i16; S]; N],
-    col: usize,
-    reference: &[[i32; 2]; N],
-) -> [i64; 2] {
-    #[cfg(arm_dsp)]
-    return arm::tone_sums(rows, col, reference);
-    #[cfg(not(arm_dsp))]
-    return portable(rows, col, reference);
+/// Instants a fold keeps: 0 to N/2, each with its mirror N − n.
+const fn kept(n: usize) -> usize {
+    n / 2 + 1
 }
 
-/// Σx and Σx² of input `col` (< S): [`arm`] assembly where there is
-/// the DSP extension, else [`portable_moments`]; bit-identical.
-#[inline]
-fn column_moments<const N: usize, const S: usize>(rows: &[[i16; S]; N], col: usize) -> [i64; 2] {
-    #[cfg(arm_dsp)]
-    return arm::moments(rows, col);
-    #[cfg(not(arm_dsp))]
-    return portable_moments(rows, col);
+/// The comb's sums for input `col` (< S) with the block folded on its
+/// mirror: the reference of instant N − n is that of instant n
+/// conjugated, exactly ([`Comb::new`] lays it out so), so
+///
+/// ```text
+/// Σₙ xₙ cos θₙ = Σ_{n ≤ N/2} uₙ cos θₙ,   Σₙ xₙ sin θₙ = Σ_{n ≤ N/2} wₙ sin θₙ,
+/// uₙ = xₙ + x_{N−n},  wₙ = xₙ − x_{N−n}   (uₙ = wₙ = xₙ where n = N − n mod N: n = 0, N/2)
+/// ```
+///
+/// half the products of the plain sums. Σx = Σuₙ and Σx² of the
+/// samples themselves. Every partial sum is a sum of some of the plain
+/// sums' terms, so no more can overflow than there (module docs): the
+/// same exact integers as [`portable`] and [`portable_moments`].
+pub fn folded<const N: usize, const S: usize, const K: usize>(
+    comb: &Comb<N, K>,
+    rows: &[[i16; S]; N],
+    col: usize,
+    out: &mut Tones<K>,
+) {
+    if col >= S {
+        *out = Tones::EMPTY;
+        return;
+    }
+    let mut uw = [[0i32; 2]; N];
+    let (mut sum, mut sq) = (0i64, 0i64);
+    for (n, e) in uw.iter_mut().enumerate().take(kept(N)) {
+        let a = rows[n][col] as i32;
+        sq += (a * a) as i64;
+        match rows.get(N - n).filter(|_| N - n != n) {
+            Some(mirror) => {
+                let b = mirror[col] as i32;
+                sq += (b * b) as i64;
+                *e = [a + b, a - b];
+            }
+            None => *e = [a, a],
+        }
+        sum += e[0] as i64;
+    }
+    for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
+        let (mut c, mut s) = (0i64, 0i64);
+        for (&[u, w], &[rc, rs]) in uw.iter().zip(reference).take(kept(N)) {
+            c += u as i64 * rc as i64;
+            s += w as i64 * rs as i64;
+        }
+        *x = Complex::new(c, -s);
+    }
+    out.n = N as u32;
+    out.sum = sum;
+    out.sq = sq;
 }
 
 /// Reference implementation of the moments (all targets): each square
@@ -192,9 +224,9 @@ pub fn portable_moments<const N: usize, const S: usize>(rows: &[[i16; S]; N], co
 }
 
 /// Σₙ xₙ·cos θₙ and Σₙ xₙ·sin θₙ of input `col` against one tone's
-/// reference: the reference implementation of the comb's inner loop (all
-/// targets; the Cortex-M4 runs `arm::tone_sums` where it has the DSP
-/// extension).
+/// reference, every instant in turn: the definition the folded sums
+/// ([`folded`], and the Cortex-M4's `arm` assembly) are checked
+/// against, bit for bit.
 pub fn portable<const N: usize, const S: usize>(
     rows: &[[i16; S]; N],
     col: usize,
@@ -209,164 +241,216 @@ pub fn portable<const N: usize, const S: usize>(
     [c, s]
 }
 
-/// Cortex-M4 (DSP extension) inner loop of the comb in inline assembly.
+/// Cortex-M4 (DSP extension) folded comb ([`folded`]) in inline
+/// assembly: the fold at 8 instructions a pair of instants (two
+/// post-indexed `LDRSH`, forward and back, two `SMLAL` for Σx², the sum
+/// and difference, Σx, one `STRD`), four pairs a turn; then each tone at
+/// 4 an instant kept (two `LDRD`, two `SMLAL`), several a turn. A 25-
+/// instant input takes 13 products a tone's cosine where the plain sums
+/// took 25.
 #[cfg(arm_dsp)]
 #[allow(unsafe_code)]
 pub mod arm {
-    /// Instants a loop turn takes: five where they divide the block (the
-    /// array's 25 and 100: 4.4 instructions an instant, where two a
-    /// turn take 5 and leave 25's last instant to Rust), else two.
-    const fn unroll(n: usize) -> usize {
-        if n % 5 == 0 {
-            5
-        } else {
-            2
+    use super::{kept, Comb, Tones};
+    use core::mem::MaybeUninit;
+    use num_complex::Complex;
+
+    /// Pairs of instants a turn of the fold.
+    const FOLD_TURN: usize = 4;
+
+    /// Kept instants a turn of a tone's loop: the one of 4 to 7 that
+    /// costs fewest instructions (four per instant, two per turn, the
+    /// last turn padded with zeros): 7 for the 13 of a 25-instant
+    /// block, 4 for the 51 of 100.
+    const fn tone_turn(m: usize) -> usize {
+        let (mut best, mut cost, mut u) = (4, usize::MAX, 4);
+        while u <= 7 {
+            let c = m.div_ceil(u) * (4 * u + 2);
+            if c < cost {
+                (best, cost) = (u, c);
+            }
+            u += 1;
         }
+        best
     }
 
-    /// One instant of [`tone_sums`]: the sample, its reference pair, two
+    /// One pair of the fold: xₙ forward, x_{N−n} back, their squares,
+    /// [u, w] stored, Σx.
+    macro_rules! fold_step {
+        () => {
+            "ldrsh {a}, [{pa}], {stride}\n\
+             ldrsh {b}, [{pb}], #-{stride}\n\
+             smlal {ql}, {qh}, {a}, {a}\n\
+             smlal {ql}, {qh}, {b}, {b}\n\
+             add {u}, {a}, {b}\n\
+             sub {b}, {a}, {b}\n\
+             add {sum}, {u}\n\
+             strd {u}, {b}, [{po}], #8"
+        };
+    }
+
+    /// One kept instant of a tone: [u, w], its reference pair, two
     /// products.
     macro_rules! tone_step {
         () => {
-            "ldrsh {x}, [{p}], {stride}\n\
-             ldrd {a}, {b}, [{q}], #8\n\
-             smlal {cl}, {ch}, {x}, {a}\n\
-             smlal {sl}, {sh}, {x}, {b}"
+            "ldrd {u}, {w}, [{p}], #8\n\
+             ldrd {c}, {s}, [{q}], #8\n\
+             smlal {cl}, {ch}, {u}, {c}\n\
+             smlal {sl}, {sh}, {w}, {s}"
         };
     }
 
-    /// One instant of [`moments`]: the sample, its sum and square.
-    macro_rules! moment_step {
-        () => {
-            "ldrsh {x}, [{p}], {stride}\n\
-             add {sum}, {x}\n\
-             smlal {ql}, {qh}, {x}, {x}"
-        };
-    }
-
-    /// Same result as [`portable`](super::portable), bit for bit.
+    /// [`folded`](super::folded) in assembly, the same sums bit for bit
+    /// (the QEMU benchmark checks it against [`portable`](super::portable)
+    /// on the target); blocks it was not laid out for (rows of over 127
+    /// inputs, fewer than 14 or more than 2¹⁶ instants) go to
+    /// [`folded`](super::folded).
     #[inline(always)]
-    pub fn tone_sums<const N: usize, const S: usize>(
+    pub fn column_into<const N: usize, const S: usize, const K: usize>(
+        comb: &Comb<N, K>,
         rows: &[[i16; S]; N],
         col: usize,
-        reference: &[[i32; 2]; N],
-    ) -> [i64; 2] {
-        let whole = N - N % unroll(N);
-        if col >= S || whole == 0 || S * 2 > 255 {
-            return super::portable(rows, col, reference);
+        out: &mut Tones<K>,
+    ) {
+        let m = kept(N);
+        let turn = tone_turn(m);
+        let padded = m.div_ceil(turn) * turn;
+        // Pairs: instants 1..=pairs with N−1 down to N−pairs.
+        let pairs = (N - 1) / 2;
+        let whole = pairs - pairs % FOLD_TURN;
+        if col >= S || S * 2 > 255 || N < 14 || N > 1 << 16 || padded > N || whole == 0 {
+            return super::folded(comb, rows, col, out);
         }
-        let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
-        let mut p = rows.as_ptr().cast::<i16>().wrapping_add(col);
-        let mut q = reference.as_ptr();
-        // SAFETY: `p` walks input `col` (< S) of the first `whole` rows,
-        // S·2 bytes a step (an immediate of at most 255), and `q` the
-        // first `whole` reference words, 8 bytes a step; the loop reads
-        // exactly that many of each (`unroll(N)` a turn, `whole` a
-        // non-zero multiple of it) and stops when `q` reaches `end`.
-        // Only registers and the two arrays' memory are touched.
-        unsafe {
-            let end = q.add(whole);
-            macro_rules! tone_loop {
-                ($($step:expr),*) => {
-                    core::arch::asm!(
-                        "2:",
-                        $($step,)*
-                        "cmp {q}, {end}",
-                        "bne 2b",
-                        stride = const S * 2,
-                        p = inout(reg) p,
-                        q = inout(reg) q,
-                        end = in(reg) end,
-                        cl = inout(reg) cl,
-                        ch = inout(reg) ch,
-                        sl = inout(reg) sl,
-                        sh = inout(reg) sh,
-                        x = out(reg) _,
-                        a = out(reg) _,
-                        b = out(reg) _,
-                        options(nostack, readonly),
-                    )
-                };
-            }
-            if unroll(N) == 5 {
-                tone_loop!(
-                    tone_step!(),
-                    tone_step!(),
-                    tone_step!(),
-                    tone_step!(),
-                    tone_step!()
-                );
-            } else {
-                tone_loop!(tone_step!(), tone_step!());
-            }
-        }
-        let _ = (p, q);
-        let mut c = ((ch as u64) << 32 | cl as u64) as i64;
-        let mut s = ((sh as u64) << 32 | sl as u64) as i64;
-        // An odd last instant.
-        if let (Some(row), Some(&[rc, rs])) = (rows.get(whole), reference.get(whole)) {
-            let v = row[col] as i64;
-            c += v * rc as i64;
-            s += v * rs as i64;
-        }
-        [c, s]
-    }
-
-    /// Same result as [`portable_moments`](super::portable_moments), bit
-    /// for bit: Σx in 32 bits (|Σx| ≤ 2³¹ over at most 2¹⁶ instants),
-    /// Σx² by `SMLAL` (3 instructions an instant, and the turn's two).
-    #[inline(always)]
-    pub fn moments<const N: usize, const S: usize>(rows: &[[i16; S]; N], col: usize) -> [i64; 2] {
-        let whole = N - N % unroll(N);
-        if col >= S || whole == 0 || N > 1 << 16 || S * 2 > 255 {
-            return super::portable_moments(rows, col);
-        }
+        let mut uw = MaybeUninit::<[[i32; 2]; N]>::uninit();
+        let base = uw.as_mut_ptr().cast::<[i32; 2]>();
+        let x = |n: usize| rows[n][col] as i32;
         let (mut sum, mut ql, mut qh) = (0i32, 0u32, 0u32);
-        let mut p = rows.as_ptr().cast::<i16>().wrapping_add(col);
-        // SAFETY: `p` walks input `col` (< S) of the first `whole` rows,
-        // S·2 bytes a step (an immediate of at most 255), `unroll(N)` a
-        // turn, and stops at `end`, one step past the last of them. Only
-        // registers and the rows' memory are touched.
+        // SAFETY: `pa` walks input `col` (< S) of rows 1..=whole forward
+        // and `pb` of rows N−1 down to N−whole back, S·2 bytes a step (an
+        // immediate of at most 255), `po` writes entries 1..=whole of
+        // `uw` (N entries, whole < N/2), 8 bytes a step; the loop takes
+        // FOLD_TURN pairs a turn (`whole` a non-zero multiple) and stops
+        // when `po` reaches `end`. Only registers, the rows' memory (read)
+        // and `uw` (written) are touched.
         unsafe {
-            let end = p.add(whole * S);
-            macro_rules! moment_loop {
-                ($($step:expr),*) => {
-                    core::arch::asm!(
-                        "2:",
-                        $($step,)*
-                        "cmp {p}, {end}",
-                        "bne 2b",
-                        stride = const S * 2,
-                        p = inout(reg) p,
-                        end = in(reg) end,
-                        sum = inout(reg) sum,
-                        ql = inout(reg) ql,
-                        qh = inout(reg) qh,
-                        x = out(reg) _,
-                        options(nostack, readonly),
-                    )
-                };
-            }
-            if unroll(N) == 5 {
-                moment_loop!(
-                    moment_step!(),
-                    moment_step!(),
-                    moment_step!(),
-                    moment_step!(),
-                    moment_step!()
-                );
-            } else {
-                moment_loop!(moment_step!(), moment_step!());
+            let pa = rows.as_ptr().cast::<i16>().add(S + col);
+            let pb = rows.as_ptr().cast::<i16>().add((N - 1) * S + col);
+            let po = base.add(1);
+            let end = po.add(whole);
+            core::arch::asm!(
+                "2:",
+                fold_step!(),
+                fold_step!(),
+                fold_step!(),
+                fold_step!(),
+                "cmp {po}, {end}",
+                "bne 2b",
+                stride = const S * 2,
+                pa = inout(reg) pa => _,
+                pb = inout(reg) pb => _,
+                po = inout(reg) po => _,
+                end = in(reg) end,
+                sum = inout(reg) sum,
+                ql = inout(reg) ql,
+                qh = inout(reg) qh,
+                a = out(reg) _,
+                b = out(reg) _,
+                u = out(reg) _,
+                options(nostack),
+            );
+        }
+        let mut sum = sum as i64;
+        let mut sq = ((qh as u64) << 32 | ql as u64) as i64;
+        let mut put = |n: usize, e: [i32; 2]| {
+            sum += e[0] as i64;
+            // SAFETY: n < padded ≤ N, inside `uw`.
+            unsafe { base.add(n).write(e) };
+        };
+        // The pairs the turns left, instant 0, and N/2 where N is even.
+        for n in whole + 1..=pairs {
+            let (a, b) = (x(n), x(N - n));
+            sq += (a * a) as i64 + (b * b) as i64;
+            put(n, [a + b, a - b]);
+        }
+        for n in [0, N / 2] {
+            if n == 0 || 2 * n == N {
+                let a = x(n);
+                sq += (a * a) as i64;
+                put(n, [a, a]);
             }
         }
-        let _ = p;
-        let (mut sum, mut sq) = (sum as i64, ((qh as u64) << 32 | ql as u64) as i64);
-        if let Some(row) = rows.get(whole) {
-            let v = row[col] as i64;
-            sum += v;
-            sq += v * v;
+        // Zeros to fill the last turn (adding nothing to any sum).
+        for n in m..padded {
+            // SAFETY: n < padded ≤ N.
+            unsafe { base.add(n).write([0, 0]) };
         }
-        [sum, sq]
+        for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
+            let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
+            // SAFETY: `p` reads entries 0..padded of `uw`, all written
+            // above, `q` the first `padded` (≤ N) reference words, 8
+            // bytes a step each; the loop takes `turn` a turn (`padded` a
+            // non-zero multiple of it) and stops when `p` reaches `end`.
+            // Only registers and the two arrays' memory (read) are
+            // touched.
+            unsafe {
+                let end = base.add(padded);
+                macro_rules! tone_loop {
+                    ($($step:expr),*) => {
+                        core::arch::asm!(
+                            "2:",
+                            $($step,)*
+                            "cmp {p}, {end}",
+                            "bne 2b",
+                            p = inout(reg) base => _,
+                            q = inout(reg) reference.as_ptr() => _,
+                            end = in(reg) end,
+                            cl = inout(reg) cl,
+                            ch = inout(reg) ch,
+                            sl = inout(reg) sl,
+                            sh = inout(reg) sh,
+                            u = out(reg) _,
+                            w = out(reg) _,
+                            c = out(reg) _,
+                            s = out(reg) _,
+                            options(nostack, readonly),
+                        )
+                    };
+                }
+                match turn {
+                    7 => tone_loop!(
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!()
+                    ),
+                    6 => tone_loop!(
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!()
+                    ),
+                    5 => tone_loop!(
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!(),
+                        tone_step!()
+                    ),
+                    _ => tone_loop!(tone_step!(), tone_step!(), tone_step!(), tone_step!()),
+                }
+            }
+            let c = ((ch as u64) << 32 | cl as u64) as i64;
+            let s = ((sh as u64) << 32 | sl as u64) as i64;
+            *x = Complex::new(c, -s);
+        }
+        out.n = N as u32;
+        out.sum = sum;
+        out.sq = sq;
     }
 }
 

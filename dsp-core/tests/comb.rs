@@ -246,3 +246,55 @@ proptest::proptest! {
         }
     }
 }
+
+/// `Comb::column` (the block folded on its mirror) against the plain
+/// sums instant by instant (`comb::portable`, `comb::portable_moments`):
+/// the same integers, on blocks of odd and even length, short and long,
+/// any codes to the rails.
+fn folded_is_plain<const B: usize>(rng: &mut ChaCha8Rng, periods: [u32; 3]) {
+    let comb = Comb::<B, 3>::new(periods).unwrap();
+    // The layout the fold needs: instant B − n is instant n conjugated.
+    for k in 0..3 {
+        let r = comb.reference(k).unwrap();
+        for n in 1..B {
+            assert_eq!(r[B - n], [r[n][0], -r[n][1]], "tone {k}, instant {n} of {B}");
+        }
+    }
+    let mut rows = Box::new([[0i16; S]; B]);
+    for case in 0..40 {
+        for row in rows.iter_mut() {
+            for v in row.iter_mut() {
+                *v = match case {
+                    0 => i16::MIN,
+                    1 => i16::MAX,
+                    _ if case % 2 == 0 => rng.gen(),
+                    _ => rng.gen_range(-2048..2048),
+                };
+            }
+        }
+        for col in 0..S {
+            let t = comb.column(&rows, col);
+            assert_eq!(
+                [t.sum, t.sq],
+                dsp_core::comb::portable_moments(&rows, col),
+                "{B}, {case}"
+            );
+            for (k, x) in t.x.iter().enumerate() {
+                let [c, s] = dsp_core::comb::portable(&rows, col, comb.reference(k).unwrap());
+                assert_eq!((x.re, x.im), (c, -s), "{B} instants, case {case}, tone {k}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_folded_sums_are_the_plain_sums() {
+    let mut rng = ChaCha8Rng::seed_from_u64(30);
+    folded_is_plain::<8>(&mut rng, [1, 2, 3]);
+    folded_is_plain::<9>(&mut rng, [3, 1, 4]);
+    folded_is_plain::<14>(&mut rng, [1, 2, 6]);
+    folded_is_plain::<25>(&mut rng, [1, 4, 6]);
+    folded_is_plain::<100>(&mut rng, [3, 25, 49]);
+    folded_is_plain::<101>(&mut rng, [1, 2, 50]);
+    folded_is_plain::<200>(&mut rng, [2, 24, 99]);
+}

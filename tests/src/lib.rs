@@ -293,7 +293,7 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
 /// line's error amplification κ (two more model evaluations): 5000 → 6000
 /// mean, 10 000 worst. The block budget, the one the firmware lives by,
 /// is unchanged.
-pub const DSP_BUDGETS: [(&str, f64); 10] = [
+pub const DSP_BUDGETS: [(&str, f64); 11] = [
     ("demod_pair", 20.0),
     ("eval_ladder30", 1000.0),
     // Issue 30's inversion: 1,500 / 2,500 on the continuous line, 5,000
@@ -310,9 +310,9 @@ pub const DSP_BUDGETS: [(&str, f64); 10] = [
     // Issue 13: the array's sixteen sensors at 250 records/s each within
     // 30 % of a 170 MHz Cortex-M4 (a 4 ms block: 680 000 cycles).
     ("array_load_permille", 300.0),
-    // Issue 30: 16 × 1000 records/s, ≤ 1 ms from a block's end to its
-    // records on the link (the 50 % share, `array_load_1000_permille`,
-    // is a goal the block's offset-binary pass keeps it just above).
+    // Issue 30: 16 × 1000 records/s within 50 % of the CPU, ≤ 1 ms from
+    // a block's end to its records on the link.
+    ("array_load_1000_permille", 500.0),
     ("array_latency_1000_us", 1000.0),
 ];
 
