@@ -65,9 +65,14 @@ impl core::error::Error for CombError {}
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Comb<const N: usize, const K: usize> {
     periods: [u32; K],
+    /// How many times the comb repeats in a block (every tone's periods
+    /// a multiple of it, N too): a divisor of their greatest common
+    /// one, at most [`REPEAT_MAX`].
+    repeat: usize,
     /// Instant n of tone k: [cos θₖ,ₙ, sin θₖ,ₙ], Q31 (saturated: ±1 is
-    /// ±i32::MAX); instant N − n holds instant n's conjugate exactly, as
-    /// the fold ([`folded`]) needs.
+    /// ±i32::MAX). With L = N/`repeat`, instant n + L holds instant n's
+    /// words and instant L − n their conjugate, exactly, as the fold
+    /// ([`folded`]) needs.
     reference: [[[i32; 2]; N]; K],
 }
 
@@ -99,24 +104,35 @@ impl<const N: usize, const K: usize> Comb<N, K> {
                 return Err(CombError::Repeated(p));
             }
         }
+        let repeat = repeat_of(N, &periods);
+        let l = N / repeat;
         let mut reference = [[[0i32; 2]; N]; K];
         for (row, &p) in reference.iter_mut().zip(&periods) {
             for n in 0..N {
-                row[n] = if n <= N / 2 {
+                // The comb repeats every L = N/repeat instants, and
+                // instant L − j is instant j conjugated (θ_{L−j} = −θⱼ):
+                // both laid out to the bit, as the fold needs.
+                let j = n % l;
+                row[n] = if n <= l / 2 {
                     // The exact phase as a fraction of a turn, 2³² per turn.
                     let m = (p as u64 * n as u64) % N as u64;
                     let phase = (((m << 32) + N as u64 / 2) / N as u64) as u32 as i32;
                     let (c, s) = cossin(phase);
                     // Symmetric Q31: −1 as −i32::MAX, so that it negates.
                     [c.max(-i32::MAX), s.max(-i32::MAX)]
+                } else if j <= l / 2 {
+                    row[j]
                 } else {
-                    // Instant N − n's conjugate, exactly (θ_{N−n} = −θₙ).
-                    let [c, s] = row[N - n];
+                    let [c, s] = row[l - j];
                     [c, -s]
                 };
             }
         }
-        Ok(Self { periods, reference })
+        Ok(Self {
+            periods,
+            repeat,
+            reference,
+        })
     }
 
     /// Periods per block of each tone.
@@ -155,24 +171,43 @@ impl<const N: usize, const K: usize> Comb<N, K> {
     }
 }
 
-/// Instants a fold keeps: 0 to N/2, each with its mirror N − n.
-const fn kept(n: usize) -> usize {
-    n / 2 + 1
+/// The most repeats of the comb a block is folded over: each folded
+/// sample is the sum of `repeat` samples and then of two, which i32
+/// holds with room to spare (|u| ≤ 2·8·2¹⁵ = 2²⁰).
+pub const REPEAT_MAX: usize = 8;
+
+/// How many times a comb of `periods` repeats in `n` instants: the
+/// largest divisor of n and of every count that is at most
+/// [`REPEAT_MAX`] (the 4 ms block's 2, 4, 8, 16, 24 periods in 100
+/// instants repeat twice; the 1 ms block's 1, 2, 3, 4, 6 in 25 do not).
+fn repeat_of(n: usize, periods: &[u32]) -> usize {
+    (1..=REPEAT_MAX)
+        .rev()
+        .find(|&g| n % g == 0 && periods.iter().all(|&p| p as usize % g == 0))
+        .unwrap_or(1)
 }
 
-/// The comb's sums for input `col` (< S) with the block folded on its
-/// mirror: the reference of instant N − n is that of instant n
-/// conjugated, exactly ([`Comb::new`] lays it out so), so
+/// Instants a fold keeps of a period of `l`: 0 to l/2, each with its
+/// mirror l − j.
+const fn kept(l: usize) -> usize {
+    l / 2 + 1
+}
+
+/// The comb's sums for input `col` (< S) with the block folded: the
+/// comb repeats every L = N/g instants (g = the comb's repeat), and in a
+/// period instant L − j is instant j conjugated, exactly ([`Comb::new`]
+/// lays the reference out so), so with yⱼ = Σ_q x_{j+qL} (the g repeats
+/// summed)
 ///
 /// ```text
-/// Σₙ xₙ cos θₙ = Σ_{n ≤ N/2} uₙ cos θₙ,   Σₙ xₙ sin θₙ = Σ_{n ≤ N/2} wₙ sin θₙ,
-/// uₙ = xₙ + x_{N−n},  wₙ = xₙ − x_{N−n}   (uₙ = wₙ = xₙ where n = N − n mod N: n = 0, N/2)
+/// Σₙ xₙ cos θₙ = Σ_{j ≤ L/2} uⱼ cos θⱼ,   Σₙ xₙ sin θₙ = Σ_{j ≤ L/2} wⱼ sin θⱼ,
+/// uⱼ = yⱼ + y_{L−j},  wⱼ = yⱼ − y_{L−j}   (uⱼ = wⱼ = yⱼ where j = L − j mod L: j = 0, L/2)
 /// ```
 ///
-/// half the products of the plain sums. Σx = Σuₙ and Σx² of the
-/// samples themselves. Every partial sum is a sum of some of the plain
-/// sums' terms, so no more can overflow than there (module docs): the
-/// same exact integers as [`portable`] and [`portable_moments`].
+/// 1/(2g) of the plain sums' products. Σx = Σuⱼ; Σx² of the samples
+/// themselves. Every partial sum is a sum of some of the plain sums'
+/// terms, so no more can overflow than there (module docs): the same
+/// exact integers as [`portable`] and [`portable_moments`].
 pub fn folded<const N: usize, const S: usize, const K: usize>(
     comb: &Comb<N, K>,
     rows: &[[i16; S]; N],
@@ -183,24 +218,23 @@ pub fn folded<const N: usize, const S: usize, const K: usize>(
         *out = Tones::EMPTY;
         return;
     }
+    let l = N / comb.repeat;
+    let y = |j: usize| -> i32 { rows[j..].iter().step_by(l).map(|r| r[col] as i32).sum() };
     let mut uw = [[0i32; 2]; N];
-    let (mut sum, mut sq) = (0i64, 0i64);
-    for (n, e) in uw.iter_mut().enumerate().take(kept(N)) {
-        let a = rows[n][col] as i32;
-        sq += (a * a) as i64;
-        match rows.get(N - n).filter(|_| N - n != n) {
-            Some(mirror) => {
-                let b = mirror[col] as i32;
-                sq += (b * b) as i64;
-                *e = [a + b, a - b];
-            }
-            None => *e = [a, a],
-        }
+    let mut sum = 0i64;
+    for (j, e) in uw.iter_mut().enumerate().take(kept(l)) {
+        let a = y(j);
+        *e = if j == 0 || 2 * j == l {
+            [a, a]
+        } else {
+            let b = y(l - j);
+            [a + b, a - b]
+        };
         sum += e[0] as i64;
     }
     for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
         let (mut c, mut s) = (0i64, 0i64);
-        for (&[u, w], &[rc, rs]) in uw.iter().zip(reference).take(kept(N)) {
+        for (&[u, w], &[rc, rs]) in uw.iter().zip(reference).take(kept(l)) {
             c += u as i64 * rc as i64;
             s += w as i64 * rs as i64;
         }
@@ -208,7 +242,7 @@ pub fn folded<const N: usize, const S: usize, const K: usize>(
     }
     out.n = N as u32;
     out.sum = sum;
-    out.sq = sq;
+    out.sq = portable_moments(rows, col)[1];
 }
 
 /// Reference implementation of the moments (all targets): each square
@@ -242,12 +276,14 @@ pub fn portable<const N: usize, const S: usize>(
 }
 
 /// Cortex-M4 (DSP extension) folded comb ([`folded`]) in inline
-/// assembly: the fold at 8 instructions a pair of instants (two
-/// post-indexed `LDRSH`, forward and back, two `SMLAL` for Σx², the sum
-/// and difference, Σx, one `STRD`), four pairs a turn; then each tone at
-/// 4 an instant kept (two `LDRD`, two `SMLAL`), several a turn. A 25-
-/// instant input takes 13 products a tone's cosine where the plain sums
-/// took 25.
+/// assembly. The fold, four pairs of kept instants a turn: where the
+/// comb does not repeat, 8 instructions a pair (two post-indexed `LDRSH`,
+/// forward and back, two `SMLAL` for Σx², the sum and difference, Σx,
+/// one `STRD`); where it repeats twice (the 4 ms block), 14 for a pair's
+/// four samples. Then each tone at 4 instructions a kept instant (two
+/// `LDRD`, two `SMLAL`), several a turn. A 25-instant input takes 13
+/// products a tone's cosine where the plain sums took 25, a 100-instant
+/// one 26 where they took 100.
 #[cfg(arm_dsp)]
 #[allow(unsafe_code)]
 pub mod arm {
@@ -255,13 +291,13 @@ pub mod arm {
     use core::mem::MaybeUninit;
     use num_complex::Complex;
 
-    /// Pairs of instants a turn of the fold.
+    /// Pairs of kept instants a turn of the fold.
     const FOLD_TURN: usize = 4;
 
     /// Kept instants a turn of a tone's loop: the one of 4 to 7 that
     /// costs fewest instructions (four per instant, two per turn, the
     /// last turn padded with zeros): 7 for the 13 of a 25-instant
-    /// block, 4 for the 51 of 100.
+    /// block, and for the 26 of a 100-instant one that repeats twice.
     const fn tone_turn(m: usize) -> usize {
         let (mut best, mut cost, mut u) = (4, usize::MAX, 4);
         while u <= 7 {
@@ -274,14 +310,37 @@ pub mod arm {
         best
     }
 
-    /// One pair of the fold: xₙ forward, x_{N−n} back, their squares,
-    /// [u, w] stored, Σx.
+    /// One pair of the fold of a comb that does not repeat: x_j forward,
+    /// x_{N−j} back, their squares, [u, w] stored, Σx.
     macro_rules! fold_step {
         () => {
             "ldrsh {a}, [{pa}], {stride}\n\
              ldrsh {b}, [{pb}], #-{stride}\n\
              smlal {ql}, {qh}, {a}, {a}\n\
              smlal {ql}, {qh}, {b}, {b}\n\
+             add {u}, {a}, {b}\n\
+             sub {b}, {a}, {b}\n\
+             add {sum}, {u}\n\
+             strd {u}, {b}, [{po}], #8"
+        };
+    }
+
+    /// One pair of the fold of a comb that repeats twice (L = N/2): y_j =
+    /// x_j + x_{j+L} forward, y_{L−j} = x_{L−j} + x_{N−j} back (the
+    /// second of each `off` bytes on), the four squares, [u, w] stored,
+    /// Σx.
+    macro_rules! fold2_step {
+        () => {
+            "ldrsh {a}, [{pa}, {off}]\n\
+             ldrsh {u}, [{pa}], {stride}\n\
+             smlal {ql}, {qh}, {a}, {a}\n\
+             smlal {ql}, {qh}, {u}, {u}\n\
+             add {a}, {u}\n\
+             ldrsh {b}, [{pb}, {off}]\n\
+             ldrsh {u}, [{pb}], #-{stride}\n\
+             smlal {ql}, {qh}, {b}, {b}\n\
+             smlal {ql}, {qh}, {u}, {u}\n\
+             add {b}, {u}\n\
              add {u}, {a}, {b}\n\
              sub {b}, {a}, {b}\n\
              add {sum}, {u}\n\
@@ -303,7 +362,8 @@ pub mod arm {
     /// [`folded`](super::folded) in assembly, the same sums bit for bit
     /// (the QEMU benchmark checks it against [`portable`](super::portable)
     /// on the target); blocks it was not laid out for (rows of over 127
-    /// inputs, fewer than 14 or more than 2¹⁶ instants) go to
+    /// inputs, periods of fewer than 14 or blocks of more than 2¹⁶
+    /// instants, combs repeating more than twice) go to
     /// [`folded`](super::folded).
     #[inline(always)]
     pub fn column_into<const N: usize, const S: usize, const K: usize>(
@@ -312,77 +372,129 @@ pub mod arm {
         col: usize,
         out: &mut Tones<K>,
     ) {
-        let m = kept(N);
+        // Each repeat its own code, every count below known as it is
+        // compiled.
+        match comb.repeat {
+            1 => repeating::<N, S, K, 1>(comb, rows, col, out),
+            2 => repeating::<N, S, K, 2>(comb, rows, col, out),
+            _ => super::folded(comb, rows, col, out),
+        }
+    }
+
+    /// [`column_into`] for a comb that repeats `R` times (1 or 2).
+    #[inline(always)]
+    fn repeating<const N: usize, const S: usize, const K: usize, const R: usize>(
+        comb: &Comb<N, K>,
+        rows: &[[i16; S]; N],
+        col: usize,
+        out: &mut Tones<K>,
+    ) {
+        let repeat = R;
+        let l = N / repeat;
+        let m = kept(l);
         let turn = tone_turn(m);
         let padded = m.div_ceil(turn) * turn;
-        // Pairs: instants 1..=pairs with N−1 down to N−pairs.
-        let pairs = (N - 1) / 2;
+        // Pairs: kept instants 1..=pairs with l−1 down to l−pairs.
+        let pairs = (l - 1) / 2;
         let whole = pairs - pairs % FOLD_TURN;
-        if col >= S || S * 2 > 255 || N < 14 || N > 1 << 16 || padded > N || whole == 0 {
+        if col >= S || S * 2 > 255 || l < 14 || N > 1 << 16 || padded > N || whole == 0 || comb.repeat != R {
             return super::folded(comb, rows, col, out);
         }
         let mut uw = MaybeUninit::<[[i32; 2]; N]>::uninit();
         let base = uw.as_mut_ptr().cast::<[i32; 2]>();
-        let x = |n: usize| rows[n][col] as i32;
         let (mut sum, mut ql, mut qh) = (0i32, 0u32, 0u32);
         // SAFETY: `pa` walks input `col` (< S) of rows 1..=whole forward
-        // and `pb` of rows N−1 down to N−whole back, S·2 bytes a step (an
-        // immediate of at most 255), `po` writes entries 1..=whole of
-        // `uw` (N entries, whole < N/2), 8 bytes a step; the loop takes
-        // FOLD_TURN pairs a turn (`whole` a non-zero multiple) and stops
-        // when `po` reaches `end`. Only registers, the rows' memory (read)
-        // and `uw` (written) are touched.
+        // and `pb` of rows l−1 down to l−whole back, S·2 bytes a step (an
+        // immediate of at most 255), and with a repeat each also reads
+        // the row l on (`off` bytes: rows up to N − 1); `po` writes
+        // entries 1..=whole of `uw` (N entries, whole < l/2), 8 bytes a
+        // step; the loop takes FOLD_TURN pairs a turn (`whole` a
+        // non-zero multiple) and stops when `po` reaches `end`. Only
+        // registers, the rows' memory (read) and `uw` (written) are
+        // touched.
         unsafe {
             let pa = rows.as_ptr().cast::<i16>().add(S + col);
-            let pb = rows.as_ptr().cast::<i16>().add((N - 1) * S + col);
+            let pb = rows.as_ptr().cast::<i16>().add((l - 1) * S + col);
             let po = base.add(1);
             let end = po.add(whole);
-            core::arch::asm!(
-                "2:",
-                fold_step!(),
-                fold_step!(),
-                fold_step!(),
-                fold_step!(),
-                "cmp {po}, {end}",
-                "bne 2b",
-                stride = const S * 2,
-                pa = inout(reg) pa => _,
-                pb = inout(reg) pb => _,
-                po = inout(reg) po => _,
-                end = in(reg) end,
-                sum = inout(reg) sum,
-                ql = inout(reg) ql,
-                qh = inout(reg) qh,
-                a = out(reg) _,
-                b = out(reg) _,
-                u = out(reg) _,
-                options(nostack),
-            );
+            if repeat == 1 {
+                core::arch::asm!(
+                    "2:",
+                    fold_step!(),
+                    fold_step!(),
+                    fold_step!(),
+                    fold_step!(),
+                    "cmp {po}, {end}",
+                    "bne 2b",
+                    stride = const S * 2,
+                    pa = inout(reg) pa => _,
+                    pb = inout(reg) pb => _,
+                    po = inout(reg) po => _,
+                    end = in(reg) end,
+                    sum = inout(reg) sum,
+                    ql = inout(reg) ql,
+                    qh = inout(reg) qh,
+                    a = out(reg) _,
+                    b = out(reg) _,
+                    u = out(reg) _,
+                    options(nostack),
+                );
+            } else {
+                core::arch::asm!(
+                    "2:",
+                    fold2_step!(),
+                    fold2_step!(),
+                    fold2_step!(),
+                    fold2_step!(),
+                    "cmp {po}, {end}",
+                    "bne 2b",
+                    stride = const S * 2,
+                    off = in(reg) l * S * 2,
+                    pa = inout(reg) pa => _,
+                    pb = inout(reg) pb => _,
+                    po = inout(reg) po => _,
+                    end = in(reg) end,
+                    sum = inout(reg) sum,
+                    ql = inout(reg) ql,
+                    qh = inout(reg) qh,
+                    a = out(reg) _,
+                    b = out(reg) _,
+                    u = out(reg) _,
+                    options(nostack),
+                );
+            }
         }
         let mut sum = sum as i64;
         let mut sq = ((qh as u64) << 32 | ql as u64) as i64;
-        let mut put = |n: usize, e: [i32; 2]| {
-            sum += e[0] as i64;
-            // SAFETY: n < padded ≤ N, inside `uw`.
-            unsafe { base.add(n).write(e) };
-        };
-        // The pairs the turns left, instant 0, and N/2 where N is even.
-        for n in whole + 1..=pairs {
-            let (a, b) = (x(n), x(N - n));
-            sq += (a * a) as i64 + (b * b) as i64;
-            put(n, [a + b, a - b]);
-        }
-        for n in [0, N / 2] {
-            if n == 0 || 2 * n == N {
-                let a = x(n);
-                sq += (a * a) as i64;
-                put(n, [a, a]);
+        // The rest in Rust: the pairs the turns left, instant 0, and l/2
+        // where l is even; each y_j with its repeat's sample and squares.
+        let mut y = |j: usize| {
+            let mut a = 0i32;
+            for r in rows[j..].iter().step_by(l) {
+                let x = r[col] as i32;
+                sq += (x * x) as i64;
+                a += x;
             }
+            a
+        };
+        let mut put = |j: usize, a: i32, b: Option<i32>| {
+            let e = b.map_or([a, a], |b| [a + b, a - b]);
+            sum += e[0] as i64;
+            // SAFETY: j < m ≤ padded ≤ N, inside `uw`.
+            unsafe { base.add(j).write(e) };
+        };
+        for j in whole + 1..=pairs {
+            let (a, b) = (y(j), y(l - j));
+            put(j, a, Some(b));
+        }
+        put(0, y(0), None);
+        if l % 2 == 0 {
+            put(l / 2, y(l / 2), None);
         }
         // Zeros to fill the last turn (adding nothing to any sum).
-        for n in m..padded {
-            // SAFETY: n < padded ≤ N.
-            unsafe { base.add(n).write([0, 0]) };
+        for j in m..padded {
+            // SAFETY: j < padded ≤ N.
+            unsafe { base.add(j).write([0, 0]) };
         }
         for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
             let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);

@@ -253,11 +253,18 @@ proptest::proptest! {
 /// any codes to the rails.
 fn folded_is_plain<const B: usize>(rng: &mut ChaCha8Rng, periods: [u32; 3]) {
     let comb = Comb::<B, 3>::new(periods).unwrap();
-    // The layout the fold needs: instant B − n is instant n conjugated.
+    // The layout the fold needs: instant B − n is instant n conjugated,
+    // and the comb repeats every L instants (L = B/g, g the largest
+    // common divisor of B and the periods up to 8).
+    let g = (1..=8usize)
+        .rev()
+        .find(|&g| B % g == 0 && periods.iter().all(|&p| p as usize % g == 0))
+        .unwrap();
     for k in 0..3 {
         let r = comb.reference(k).unwrap();
         for n in 1..B {
             assert_eq!(r[B - n], [r[n][0], -r[n][1]], "tone {k}, instant {n} of {B}");
+            assert_eq!(r[n], r[n % (B / g)], "tone {k}, instant {n} of {B}, {g} repeats");
         }
     }
     let mut rows = Box::new([[0i16; S]; B]);
@@ -297,4 +304,10 @@ fn the_folded_sums_are_the_plain_sums() {
     folded_is_plain::<100>(&mut rng, [3, 25, 49]);
     folded_is_plain::<101>(&mut rng, [1, 2, 50]);
     folded_is_plain::<200>(&mut rng, [2, 24, 99]);
+    // Combs that repeat: the 4 ms block's (twice), and 4, 6, 8 times.
+    folded_is_plain::<100>(&mut rng, [2, 8, 24]);
+    folded_is_plain::<200>(&mut rng, [4, 8, 24]);
+    folded_is_plain::<96>(&mut rng, [6, 12, 42]);
+    folded_is_plain::<200>(&mut rng, [8, 16, 96]);
+    folded_is_plain::<28>(&mut rng, [2, 4, 6]);
 }
