@@ -781,6 +781,38 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
     }
 }
 
+/// `Comb::column` (on this target, the assembly) against the plain sums
+/// (`comb::portable`, `comb::portable_moments`) on a comb of `periods`
+/// over `B` instants: random codes, then the rails, every input of a
+/// 4-input row.
+fn comb_shape<const B: usize>(rng: &mut skin_sim::rng::Rng, periods: [u32; 3]) -> bool {
+    let Ok(comb) = dsp_core::comb::Comb::<B, 3>::new(periods) else {
+        return false;
+    };
+    let mut rows = [[0i16; 4]; B];
+    (0..4).all(|case| {
+        for row in rows.iter_mut() {
+            for v in row.iter_mut() {
+                *v = match case {
+                    0 => i16::MIN,
+                    1 => i16::MAX,
+                    _ => rng.next_u32() as i16,
+                };
+            }
+        }
+        (0..4).all(|col| {
+            let t = comb.column(&rows, col);
+            [t.sum, t.sq] == dsp_core::comb::portable_moments(&rows, col)
+                && t.x.iter().enumerate().all(|(k, x)| {
+                    comb.reference(k).is_some_and(|r| {
+                        let [c, s] = dsp_core::comb::portable(&rows, col, r);
+                        (x.re, x.im) == (c, -s)
+                    })
+                })
+        })
+    })
+}
+
 /// The array in both layouts. The load is of a block at 170 MHz (4 ms:
 /// 680 000 cycles; 1 ms: 170 000), the latency from a block's last
 /// sample to its last record at one instruction per cycle (for 1 ms
@@ -791,6 +823,18 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     use instrument::array::Layout;
     let long = array_run(syst, insns, Layout::BLOCK_4MS);
     let short = array_run(syst, insns, Layout::BLOCK_1MS);
+    // And on shapes the layouts leave out: pairs the assembly's turns
+    // leave to Rust, odd periods, a comb that repeats twice in an odd
+    // period, another that repeats four times (Rust's fold).
+    let mut rng = skin_sim::rng::Rng::new(30);
+    if !(comb_shape::<28>(&mut rng, [2, 4, 6])
+        && comb_shape::<101>(&mut rng, [1, 7, 50])
+        && comb_shape::<58>(&mut rng, [2, 6, 28])
+        && comb_shape::<56>(&mut rng, [4, 8, 20]))
+    {
+        println!("FAIL comb assembly differs from portable");
+        qemu::exit(1);
+    }
     println!("check comb_asm_equals_portable ok");
     println!("bench array_comb_input {} insn/input", long.comb_input);
     println!("bench array_channel {} insn/record", long.channel);
