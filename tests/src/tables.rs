@@ -84,6 +84,14 @@ pub const BENCH_NOTES: &[(&str, &str)] = &[
         "its share of a 170 MHz Cortex-M4 over a 5.12 ms block",
     ),
     (
+        "array_comb_pair_tone",
+        "the comb alone (every input's tones, Σx and Σx²; the excitation's input shared by the 16 sensors) per sensor's sample pair and tone, 4 ms blocks",
+    ),
+    (
+        "array_comb_1ms_pair_tone",
+        "the same in 1 ms blocks",
+    ),
+    (
         "array_comb_input",
         "the comb (5 tones) on one array input, with its share of the block's offset-binary pass and rail check",
     ),

@@ -615,6 +615,9 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// channel per record (its solve and flags, with its share of the
 /// inputs' levels), a whole block, and a record to frame.
 struct ArrayCost {
+    /// The comb alone (every input's tones, Σx and Σx²) per sensor's
+    /// sample pair and tone, hundredths of an instruction.
+    comb_pair_tone_x100: u32,
     comb_input: u32,
     channel: u32,
     block: u32,
@@ -654,10 +657,12 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
     let mut rng = skin_sim::rng::Rng::new(7);
     let mut frame: Frame = [[[0; 4]; BLOCK_INSTANTS]; 5];
     let (mut total, mut comb_t, mut solve_t, mut blocks) = (0u32, 0u32, 0u32, 0u32);
+    let mut demod_t = 0u32;
     let mut valid = 0;
     let mut last = instrument::tones::ToneRecord::default();
     let mut block = instrument::reader::Demodulated::EMPTY;
     let block_us = layout.block_us();
+    let n_instants = layout.instants();
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
         // As the board's DMA leaves them: offset binary (the flip is its
@@ -670,7 +675,7 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
         // complement in place noting the inputs on a rail, then the comb
         // on every input.
         let mut rails = [false; instrument::array::INPUTS];
-        let tc = insns(ticks(syst, || {
+        let tp = insns(ticks(syst, || {
             let [f0, f1, f2, f3, f4] = black_box(&mut frame);
             rails = instrument::array::to_signed_all(&mut [
                 &mut f0[..n],
@@ -679,8 +684,11 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
                 &mut f3[..n],
                 &mut f4[..n],
             ]);
+        }));
+        let td = insns(ticks(syst, || {
             reader.demodulate_into(|a| layout.rows(black_box(&frame[a])), &mut block);
         }));
+        let tc = tp + td;
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
         let ts = insns(ticks(syst, || {
             let mut s = 0;
@@ -698,6 +706,7 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
         // The first block starts every channel from the inversions.
         if b > 0 {
             comb_t += tc;
+            demod_t += td;
             solve_t += ts;
             total += tc + ts;
             blocks += 1;
@@ -773,7 +782,11 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
         );
         qemu::exit(1);
     }
+    // Per sample pair (a sensor's sample and its share of the
+    // excitation's) and tone, in hundredths.
+    let pair_tones = blocks * (SENSORS * n_instants * instrument::array::TONES) as u32;
     ArrayCost {
+        comb_pair_tone_x100: (demod_t as u64 * 100 / pair_tones as u64) as u32,
         comb_input: comb_t / blocks / (SENSORS as u32 + 1),
         channel: solve_t / blocks / SENSORS as u32,
         block: total / blocks,
@@ -836,6 +849,16 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         qemu::exit(1);
     }
     println!("check comb_asm_equals_portable ok");
+    for (name, cost) in [
+        ("array_comb_pair_tone", &long),
+        ("array_comb_1ms_pair_tone", &short),
+    ] {
+        println!(
+            "bench {name} {}.{:02} insn/pair",
+            cost.comb_pair_tone_x100 / 100,
+            cost.comb_pair_tone_x100 % 100
+        );
+    }
     println!("bench array_comb_input {} insn/input", long.comb_input);
     println!("bench array_channel {} insn/record", long.channel);
     println!("bench array_block {} insn/block", long.block);
