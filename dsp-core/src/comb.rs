@@ -30,6 +30,13 @@
 //! E_res = Σx² − (Σx)²/N − Σₖ 2|Xₖ|²/(N·2⁶²),   r = √(E_res/N)
 //! ```
 //!
+//! The reference is laid out to repeat wherever every tone's periods
+//! share a factor with N, and to mirror (instant L − n of a period L is
+//! instant n conjugated), to the bit; so an input's repeats are summed
+//! and each instant is paired with its mirror before any product
+//! ([`folded`]): half the products of the plain sums, a quarter where
+//! the comb repeats twice, and the same exact integers.
+//!
 //! Overflow: each product is at most 2¹⁵·2³¹ = 2⁴⁶ and a sum holds N of
 //! them, so the i64 sums cannot overflow for N < 2¹⁷ ([`Comb::new`]
 //! refuses larger blocks).
@@ -156,9 +163,10 @@ impl<const N: usize, const K: usize> Comb<N, K> {
 
     /// [`Comb::column`] into `out` (a block's many results written in
     /// place, not copied on their way). The sums are taken over the
-    /// block folded on its mirror ([`folded`]; on Arm cores with the DSP
-    /// extension the `arm` module's assembly): the same exact integers as
-    /// [`portable`] and [`portable_moments`], bit for bit.
+    /// block folded on its repeats and mirror ([`folded`]; on Arm cores
+    /// with the DSP extension the `arm` module's assembly): the same
+    /// exact integers as [`portable`] and [`portable_moments`], bit for
+    /// bit.
     pub fn column_into<const S: usize>(&self, rows: &[[i16; S]; N], col: usize, out: &mut Tones<K>) {
         if col >= S {
             *out = Tones::EMPTY;
