@@ -798,6 +798,7 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
 /// (`comb::portable`, `comb::portable_moments`) on a comb of `periods`
 /// over `B` instants: random codes, then the rails, every input of a
 /// 4-input row.
+#[inline(never)]
 fn comb_shape<const B: usize>(rng: &mut skin_sim::rng::Rng, periods: [u32; 3]) -> bool {
     let Ok(comb) = dsp_core::comb::Comb::<B, 3>::new(periods) else {
         return false;
@@ -838,12 +839,12 @@ fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let short = array_run(syst, insns, Layout::BLOCK_1MS);
     // And on shapes the layouts leave out: pairs the assembly's turns
     // leave to Rust, odd periods, a comb that repeats twice in an odd
-    // period, another that repeats four times (Rust's fold).
+    // period (each shape is some 7 KiB of this image; the host tests
+    // more, Rust's fold of combs that repeat more often among them).
     let mut rng = skin_sim::rng::Rng::new(30);
     if !(comb_shape::<28>(&mut rng, [2, 4, 6])
         && comb_shape::<101>(&mut rng, [1, 7, 50])
-        && comb_shape::<58>(&mut rng, [2, 6, 28])
-        && comb_shape::<56>(&mut rng, [4, 8, 20]))
+        && comb_shape::<58>(&mut rng, [2, 6, 28]))
     {
         println!("FAIL comb assembly differs from portable");
         qemu::exit(1);
