@@ -359,7 +359,7 @@ pub mod arm {
     /// One kept instant of a tone: [u, w], its reference pair, two
     /// products.
     macro_rules! tone_step {
-        () => {
+        ($_:tt) => {
             "ldrd {u}, {w}, [{p}], #8\n\
              ldrd {c}, {s}, [{q}], #8\n\
              smlal {cl}, {ch}, {u}, {c}\n\
@@ -425,51 +425,38 @@ pub mod arm {
             let pb = rows.as_ptr().cast::<i16>().add((l - 1) * S + col);
             let po = base.add(1);
             let end = po.add(whole);
+            // The loop, its turn four of `$step` (and any operand the
+            // step alone takes).
+            macro_rules! fold_loop {
+                ($step:ident; $($extra:tt)*) => {
+                    core::arch::asm!(
+                        "2:",
+                        $step!(),
+                        $step!(),
+                        $step!(),
+                        $step!(),
+                        "cmp {po}, {end}",
+                        "bne 2b",
+                        stride = const S * 2,
+                        $($extra)*
+                        pa = inout(reg) pa => _,
+                        pb = inout(reg) pb => _,
+                        po = inout(reg) po => _,
+                        end = in(reg) end,
+                        sum = inout(reg) sum,
+                        ql = inout(reg) ql,
+                        qh = inout(reg) qh,
+                        a = out(reg) _,
+                        b = out(reg) _,
+                        u = out(reg) _,
+                        options(nostack),
+                    )
+                };
+            }
             if repeat == 1 {
-                core::arch::asm!(
-                    "2:",
-                    fold_step!(),
-                    fold_step!(),
-                    fold_step!(),
-                    fold_step!(),
-                    "cmp {po}, {end}",
-                    "bne 2b",
-                    stride = const S * 2,
-                    pa = inout(reg) pa => _,
-                    pb = inout(reg) pb => _,
-                    po = inout(reg) po => _,
-                    end = in(reg) end,
-                    sum = inout(reg) sum,
-                    ql = inout(reg) ql,
-                    qh = inout(reg) qh,
-                    a = out(reg) _,
-                    b = out(reg) _,
-                    u = out(reg) _,
-                    options(nostack),
-                );
+                fold_loop!(fold_step;);
             } else {
-                core::arch::asm!(
-                    "2:",
-                    fold2_step!(),
-                    fold2_step!(),
-                    fold2_step!(),
-                    fold2_step!(),
-                    "cmp {po}, {end}",
-                    "bne 2b",
-                    stride = const S * 2,
-                    off = in(reg) l * S * 2,
-                    pa = inout(reg) pa => _,
-                    pb = inout(reg) pb => _,
-                    po = inout(reg) po => _,
-                    end = in(reg) end,
-                    sum = inout(reg) sum,
-                    ql = inout(reg) ql,
-                    qh = inout(reg) qh,
-                    a = out(reg) _,
-                    b = out(reg) _,
-                    u = out(reg) _,
-                    options(nostack),
-                );
+                fold_loop!(fold2_step; off = in(reg) l * S * 2,);
             }
         }
         let mut sum = sum as i64;
@@ -515,10 +502,10 @@ pub mod arm {
             unsafe {
                 let end = base.add(padded);
                 macro_rules! tone_loop {
-                    ($($step:expr),*) => {
+                    ($($step:tt)*) => {
                         core::arch::asm!(
                             "2:",
-                            $($step,)*
+                            $(tone_step!($step),)*
                             "cmp {p}, {end}",
                             "bne 2b",
                             p = inout(reg) base => _,
@@ -536,32 +523,12 @@ pub mod arm {
                         )
                     };
                 }
+                // One step per token.
                 match turn {
-                    7 => tone_loop!(
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!()
-                    ),
-                    6 => tone_loop!(
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!()
-                    ),
-                    5 => tone_loop!(
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!(),
-                        tone_step!()
-                    ),
-                    _ => tone_loop!(tone_step!(), tone_step!(), tone_step!(), tone_step!()),
+                    7 => tone_loop!(1 2 3 4 5 6 7),
+                    6 => tone_loop!(1 2 3 4 5 6),
+                    5 => tone_loop!(1 2 3 4 5),
+                    _ => tone_loop!(1 2 3 4),
                 }
             }
             let c = ((ch as u64) << 32 | cl as u64) as i64;
