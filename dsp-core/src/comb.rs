@@ -371,8 +371,7 @@ pub mod arm {
     /// (the QEMU benchmark checks it against [`portable`](super::portable)
     /// on the target); blocks it was not laid out for (rows of over 127
     /// inputs, periods of fewer than 14 or blocks of more than 2¹⁶
-    /// instants, combs repeating more than twice) go to
-    /// [`folded`](super::folded).
+    /// instants, combs repeating more than twice) take the plain sums.
     #[inline(always)]
     pub fn column_into<const N: usize, const S: usize, const K: usize>(
         comb: &Comb<N, K>,
@@ -385,8 +384,27 @@ pub mod arm {
         match comb.repeat {
             1 => repeating::<N, S, K, 1>(comb, rows, col, out),
             2 => repeating::<N, S, K, 2>(comb, rows, col, out),
-            _ => super::folded(comb, rows, col, out),
+            _ => plain(comb, rows, col, out),
         }
+    }
+
+    /// The plain sums ([`portable`](super::portable),
+    /// [`portable_moments`](super::portable_moments)) for the shapes the
+    /// assembly was not laid out for: the same integers, in the least
+    /// code (a board image carries one per block length).
+    #[inline(never)]
+    fn plain<const N: usize, const S: usize, const K: usize>(
+        comb: &Comb<N, K>,
+        rows: &[[i16; S]; N],
+        col: usize,
+        out: &mut Tones<K>,
+    ) {
+        for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
+            let [c, s] = super::portable(rows, col, reference);
+            *x = Complex::new(c, -s);
+        }
+        [out.sum, out.sq] = super::portable_moments(rows, col);
+        out.n = N as u32;
     }
 
     /// [`column_into`] for a comb that repeats `R` times (1 or 2).
@@ -406,7 +424,7 @@ pub mod arm {
         let pairs = (l - 1) / 2;
         let whole = pairs - pairs % FOLD_TURN;
         if col >= S || S * 2 > 255 || l < 14 || N > 1 << 16 || padded > N || whole == 0 || comb.repeat != R {
-            return super::folded(comb, rows, col, out);
+            return plain(comb, rows, col, out);
         }
         let mut uw = MaybeUninit::<[[i32; 2]; N]>::uninit();
         let base = uw.as_mut_ptr().cast::<[i32; 2]>();
@@ -465,8 +483,8 @@ pub mod arm {
         // where l is even; each y_j with its repeat's sample and squares.
         let mut y = |j: usize| {
             let mut a = 0i32;
-            for r in rows[j..].iter().step_by(l) {
-                let x = r[col] as i32;
+            for q in 0..R {
+                let x = rows[j + q * l][col] as i32;
                 sq += (x * x) as i64;
                 a += x;
             }
