@@ -415,8 +415,7 @@ pub mod arm {
         col: usize,
         out: &mut Tones<K>,
     ) {
-        let repeat = R;
-        let l = N / repeat;
+        let l = N / R;
         let m = kept(l);
         let turn = tone_turn(m);
         let padded = m.div_ceil(turn) * turn;
@@ -471,7 +470,7 @@ pub mod arm {
                     )
                 };
             }
-            if repeat == 1 {
+            if R == 1 {
                 fold_loop!(fold_step;);
             } else {
                 fold_loop!(fold2_step; off = in(reg) l * S * 2,);
