@@ -90,8 +90,8 @@ pub fn build_firmware(bin: &str, features: &[&str]) -> Result<PathBuf> {
 }
 
 /// The cargo profile an image is built with: `board` for the
-/// single-channel board (release, its channel logic optimized for size to
-/// fit 64 KiB; firmware/Cargo.toml), release for every other.
+/// single-channel board (release, all but the DSP kernels optimized for
+/// size to fit 64 KiB; firmware/Cargo.toml), release for every other.
 pub fn profile_of(bin: &str) -> &'static str {
     if bin == "skin-board" {
         "board"
@@ -387,6 +387,13 @@ pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
 /// The firmware issue's board budgets with 8 channels: flash and static RAM,
 /// bytes.
 pub const BOARD_BUDGET: (u64, u64) = (64 * 1024, 16 * 1024);
+
+/// The multiplexed board's budgets with its settings store (the `store`
+/// feature), flash and static RAM, bytes: a ceiling a tenth above what
+/// it takes, so that it does not grow unseen. Issue 30 asks for the
+/// store within [`BOARD_BUDGET`]: not met (docs/benchmarks.md says
+/// what the room goes to).
+pub const BOARD_STORE_BUDGET: (u64, u64) = (80 * 1024, 24 * 1024);
 
 /// The array board's budgets (16 sensors at once, with the link and its
 /// stored settings), flash and static RAM, bytes: issue 30's 96 / 48 KiB

@@ -181,12 +181,18 @@ pub fn bench_table(benches: &[Bench]) -> String {
 pub type Image = (&'static str, &'static str, &'static str, Option<(u64, u64)>);
 
 /// The firmware images.
-pub const IMAGES: [Image; 6] = [
+pub const IMAGES: [Image; 7] = [
     (
         "skin-board",
         "board",
         "STM32G474, 8 sensors multiplexed",
         Some(crate::BOARD_BUDGET),
+    ),
+    (
+        "skin-board",
+        "board,store",
+        "the same with its settings store (host requests, sets in flash)",
+        Some(crate::BOARD_STORE_BUDGET),
     ),
     (
         "skin-array-board",

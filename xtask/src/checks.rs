@@ -73,7 +73,7 @@ fn lint(root: &Path) -> Result<()> {
             "warnings",
         ],
     )?;
-    for feature in ["qemu", "board"] {
+    for feature in ["qemu", "board", "board,store"] {
         cargo::run(
             &fw,
             &[
@@ -115,7 +115,7 @@ fn docs(root: &Path) -> Result<()> {
         args.extend(["-p", c]);
     }
     cargo::run_env(root, &args, &deny)?;
-    for feature in ["qemu", "board"] {
+    for feature in ["qemu", "board", "board,store"] {
         cargo::run_env(
             &root.join("firmware"),
             &[
@@ -142,8 +142,9 @@ fn board(root: &Path) -> Result<()> {
     // built twice.
     let flags = qemu_tests::firmware_rustflags();
     let env = [("CARGO_ENCODED_RUSTFLAGS", flags.as_str())];
+    // The variants first: the defaults' images are the ones left.
+    cargo::run_env(&fw, &["build-board-store"], &env)?;
     cargo::run_env(&fw, &["build-board"], &env)?;
-    // The 1 ms variant first: the default's image is the one left.
     cargo::run_env(&fw, &["build-array-board-1ms"], &env)?;
     cargo::run_env(&fw, &["build-array-board"], &env)?;
     cargo::run(&fw, &["test", "--lib", "--features", "board"])

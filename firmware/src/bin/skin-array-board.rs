@@ -55,7 +55,8 @@ use dsp_core::demod::FrontEnd;
 use firmware::board::dma::{self, Completion};
 use firmware::board::flash::SettingsFlash;
 use firmware::board::front_end::{self, array_half, AdcBlocks, ARRAY_PACER};
-use firmware::board::link::{self, Receiver, RxRing, Transmitter, RX_BYTES};
+use firmware::board::link::{self, RxRing, Transmitter, RX_BYTES};
+use firmware::board::requests::Requests;
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, dac, pac};
@@ -99,15 +100,6 @@ pub struct DmaBufs(*mut AdcBlocks);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBufs {}
 
-/// The receive ring DMA2 channel 2 writes round, read by `idle` behind
-/// the DMA's position only.
-pub struct Ring(*const u8);
-
-// SAFETY: the pointer is to a 'static ring; `idle` only reads the bytes
-// the DMA has written (`Receiver::take`), with volatile reads.
-#[allow(unsafe_code)]
-unsafe impl Send for Ring {}
-
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
     use super::*;
@@ -137,11 +129,7 @@ mod app {
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         writer: FrameWriter<'static, LINK_BYTES>,
-        ring: Ring,
-        rx: Receiver,
-        requests: ::link::Decoder,
-        commands: Commands,
-        store: Store<SettingsFlash>,
+        requests: Requests,
         sending: bool,
     }
 
@@ -241,11 +229,7 @@ mod app {
                 records: RecordSink::new(records),
                 logger,
                 writer,
-                ring: Ring(ring.as_ptr()),
-                rx: Receiver::new(),
-                requests: ::link::Decoder::new(),
-                commands: Commands::sweeping(),
-                store,
+                requests: Requests::new(ring, Commands::sweeping(), store),
                 sending: true,
             },
         )
@@ -256,7 +240,7 @@ mod app {
     /// ([`instrument::commands`]: the stored settings, start, stop, a
     /// calibration step's sweep); then
     /// the transmitter woken.
-    #[idle(shared = [tx, sweep], local = [logger, writer, ring, rx, requests, commands, store, sending])]
+    #[idle(shared = [tx, sweep], local = [logger, writer, requests, sending])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let l = &mut cx.local;
@@ -267,26 +251,9 @@ mod app {
                 }
             }
             let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
-            let ring = l.ring.0;
-            let mut request = None;
-            // SAFETY: within the 'static ring; the DMA has written these
-            // bytes and writes others.
-            #[allow(unsafe_code)]
-            let byte = |k: usize| unsafe { core::ptr::read_volatile(ring.add(k)) };
-            l.rx.take(remaining, byte, |b| {
-                if let Some(Ok(::link::Frame {
-                    seq,
-                    body: ::link::Body::Request(r),
-                })) = l.requests.push(b)
-                {
-                    request = Some((seq, r));
-                }
-            });
-            if let Some((seq, req)) = request {
-                let writer = &mut *l.writer;
-                match l.commands.handle(seq, &req, &mut *l.store, |r| {
-                    writer.reply(r);
-                }) {
+            let writer = &mut *l.writer;
+            if let Some(action) = l.requests.answer(remaining, writer) {
+                match action {
                     Action::Start => *l.sending = true,
                     Action::Stop => {
                         *l.sending = false;

@@ -26,11 +26,20 @@
 //! * `link_tx` (DMA2 channel 1): the link's frames through LPUART1, the
 //!   ST-LINK's virtual COM port ([`firmware::board::link`]). defmt over
 //!   RTT carries log messages only, and never blocks.
+//! * `idle`: with the settings store, the host's requests, which come
+//!   back on the same port (DMA2 channel 2 round a ring), answered
+//!   ([`firmware::board::requests`]): read and write the stored settings,
+//!   start, stop.
 //!
-//! This image keeps no settings: every sensor is read with the line
-//! model alone (no tab leads, no wiring) and its stretch is marked not
-//! calibrated (`Flags::UNCALIBRATED`). `skin-array-board` keeps each
-//! sensor's calibration in flash.
+//! Settings: built as `cargo build-board`, this image keeps none: every
+//! sensor is read with the line model alone (no tab leads, no wiring)
+//! and its stretch is marked not calibrated (`Flags::UNCALIBRATED`). Built
+//! as `cargo build-board-store` (the `store` feature), it measures with
+//! the set stored in the last 8 KiB of flash at start, as
+//! `skin-array-board` does: each sensor's tab leads, wiring and stretch
+//! table; a set that comes down the link is in force from the next
+//! start. That image is larger than the 64 KiB / 16 KiB this one keeps
+//! to (`docs/benchmarks.md`).
 #![no_std]
 #![no_main]
 
@@ -45,6 +54,7 @@ use firmware::board::{clocks, dac, pac};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
+use instrument::commands::Action;
 use instrument::config::{
     BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
 };
@@ -52,7 +62,7 @@ use instrument::design;
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::ranging::Ranging;
-use instrument::sensor::{Sensor, Sensors};
+use instrument::sensor::Sensors;
 use instrument::sequencer::{Sequencer, Slot};
 
 /// The multiplexer on PB0..PB2.
@@ -72,6 +82,114 @@ pub struct DmaBuf(*const u32);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBuf {}
 
+/// The sensors' settings and the host's requests: the set stored in
+/// flash and a request side that answers from it (the `store` feature),
+/// or sensors nothing was measured on and no requests.
+#[cfg(feature = "store")]
+mod settings {
+    use super::*;
+    use firmware::board::flash::SettingsFlash;
+    use firmware::board::link::{self, RX_BYTES};
+    use firmware::board::setup::LinkPort;
+    use instrument::commands::Commands;
+    use instrument::store::{Store, SLOT_BYTES};
+    use instrument::stored::Stored;
+
+    /// A sensor's settings each.
+    pub const SENSORS: usize = CHANNELS;
+    /// The receive ring's bytes.
+    pub const RING: usize = RX_BYTES;
+    pub use firmware::board::requests::Requests;
+
+    /// The set stored in flash (with none, sensors nothing was measured
+    /// on), its sensors built into `slot`, and the request side over
+    /// `ring`, which DMA2 channel 2 fills from now on; `None` if the
+    /// flash's slots do not hold or a set's lead ratio is beyond the
+    /// line model (logged).
+    pub fn load(
+        flash: pac::FLASH,
+        slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
+        ring: &'static mut [u8; RING],
+        port: &LinkPort,
+    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
+        let Ok(mut store) = Store::new(SettingsFlash::new(flash), 0, SLOT_BYTES) else {
+            defmt::println!("settings: the slots do not fit the flash");
+            return None;
+        };
+        let loaded = store.load();
+        firmware::settings_log::announce(&loaded);
+        let set = match loaded {
+            Ok(Some(l)) => l.set,
+            _ => {
+                defmt::println!(
+                    "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
+                );
+                Stored::uncalibrated()
+            }
+        };
+        let Ok(sensors) = firmware::settings_log::sensors_in(slot, &set) else {
+            defmt::println!("settings: a tab-lead ratio beyond the line model");
+            return None;
+        };
+        let settings = Settings {
+            policy: set.policy,
+            record_every: set.record_every,
+            ..Settings::new(
+                Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
+                Ranging::DEFAULT,
+                sensors,
+            )
+        };
+        link::receive(&port.dma, port.rdr, ring.as_ptr() as u32);
+        Some((settings, Requests::new(ring, Commands::new(), store)))
+    }
+}
+
+/// The sensors' settings and the host's requests: the set stored in
+/// flash and a request side that answers from it (the `store` feature),
+/// or sensors nothing was measured on and no requests.
+#[cfg(not(feature = "store"))]
+mod settings {
+    use super::*;
+    use firmware::board::setup::LinkPort;
+    use instrument::sensor::Sensor;
+
+    /// One sensor's settings, every channel's.
+    pub const SENSORS: usize = 1;
+    /// No receive ring.
+    pub const RING: usize = 0;
+
+    /// No requests are read.
+    pub struct Requests;
+
+    impl Requests {
+        /// Never a request.
+        pub fn answer<const N: usize>(&mut self, _: u16, _: &mut FrameWriter<'_, N>) -> Option<Action> {
+            None
+        }
+    }
+
+    /// Every sensor read as one nothing was measured on; no requests.
+    pub fn load(
+        _: pac::FLASH,
+        slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
+        _: &'static mut [u8; RING],
+        _: &LinkPort,
+    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
+        let sensors = slot.write(Sensors::all(Sensor::uncalibrated(
+            design::SENSOR_C_REST_FARAD as f32,
+        )));
+        let settings = Settings::new(
+            Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
+            Ranging::DEFAULT,
+            sensors,
+        );
+        Some((settings, Requests))
+    }
+}
+
+use settings::{Requests, RING, SENSORS};
+
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
     use super::*;
@@ -87,6 +205,13 @@ mod app {
     struct Shared {
         slot: Option<Finished>,
         channels: [Channel; CHANNELS],
+        /// The link's port: its transmit task, and `idle` for the receive
+        /// position.
+        tx: Transmitter<'static, LINK_BYTES>,
+        /// The link's writer: records from `process`, replies from `idle`.
+        writer: FrameWriter<'static, LINK_BYTES>,
+        /// Records are sent (until the host asks to stop).
+        sending: bool,
     }
 
     #[local]
@@ -99,9 +224,8 @@ mod app {
         mux: BoardMux,
         ranges: RangeSwitch,
         seq: Sequencer,
-        settings: Settings<'static, POINTS, 1>,
-        writer: FrameWriter<'static, LINK_BYTES>,
-        tx: Transmitter<'static, LINK_BYTES>,
+        settings: Settings<'static, POINTS, SENSORS>,
+        requests: Requests,
     }
 
     #[init(local = [
@@ -111,24 +235,18 @@ mod app {
         // starts.
         dac: DacSlots = [0; SLOTS * SLOT_PAIRS],
         link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
-        sensors: MaybeUninit<Sensors<POINTS, 1>> = MaybeUninit::uninit(),
+        sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
+        rx_ring: [u8; RING] = [0; RING],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         setup::begin(&dp);
         clocks::peripherals(&dp.RCC);
-        // This image keeps no settings (its 64 KiB leave no room for the
-        // store): every sensor is read as one nothing was measured on.
-        let settings = Settings::new(
-            Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
-            Ranging::DEFAULT,
-            cx.local.sensors.write(Sensors::all(Sensor::uncalibrated(
-                design::SENSOR_C_REST_FARAD as f32,
-            ))),
-        );
-        let channels = [Channel::new(settings.sensors.of(0).rest_farad); CHANNELS];
-        // Slots 0 and 1 play their channels at their start frequencies.
-        let (seq, slots) = Sequencer::start(|c| channels[c as usize].plan());
+        // Slots 0 and 1 play their channels' start frequencies, which no
+        // setting moves (a channel's plan starts at the policy's first
+        // frequency and the lowest range), so the front end starts before
+        // the flash, which `setup::finish` hands over, is read.
+        let (seq, slots) = Sequencer::start(|_| Channel::new(0.0).plan());
         let (first, second) = cx.local.dac.split_at_mut(SLOT_PAIRS);
         front_end::fill_slot(first, slots[0].fidx);
         front_end::fill_slot(second, slots[1].fidx);
@@ -140,6 +258,17 @@ mod app {
         let dac_buf: &'static mut DacSlots = cx.local.dac;
         front_end::multiplexed(&dp, adc_buf, dac_buf);
         let owned = setup::finish(dp);
+        let Some((settings, requests)) =
+            settings::load(owned.flash, cx.local.sensors, cx.local.rx_ring, &owned.link)
+        else {
+            // Nothing is fed: the watchdog restarts the board in 100 ms.
+            defmt::println!("settings: none usable; watchdog reset follows");
+            loop {
+                cortex_m::asm::wfi();
+            }
+        };
+        let channels: [Channel; CHANNELS] =
+            core::array::from_fn(|c| Channel::new(settings.sensors.of(c as u8).rest_farad));
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
@@ -155,7 +284,13 @@ mod app {
         rtic::pend(pac::Interrupt::DMA2_CH1);
         defmt::println!("start {=u8} channels", CHANNELS as u8);
         (
-            Shared { slot: None, channels },
+            Shared {
+                slot: None,
+                channels,
+                tx,
+                writer,
+                sending: true,
+            },
             Local {
                 dma: owned.dma,
                 dac1: owned.dac,
@@ -166,15 +301,36 @@ mod app {
                 ranges,
                 seq,
                 settings,
-                writer,
-                tx,
+                requests,
             },
         )
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    /// The host's requests answered (with the settings store), then the
+    /// transmitter woken.
+    #[idle(shared = [tx, writer, sending], local = [requests])]
+    fn idle(mut cx: idle::Context) -> ! {
         loop {
+            let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
+            let requests = &mut *cx.local.requests;
+            let action = cx.shared.writer.lock(|w| {
+                let action = requests.answer(remaining, w);
+                if let Some(Action::Stop) = action {
+                    w.end(0);
+                }
+                action
+            });
+            match action {
+                Some(Action::Start) => cx.shared.sending.lock(|s| *s = true),
+                Some(Action::Stop) => cx.shared.sending.lock(|s| *s = false),
+                Some(Action::Apply) => {
+                    defmt::println!("settings: a new set stored, in force from the next start")
+                }
+                Some(Action::Sweep(_) | Action::None) | None => {}
+            }
+            if action.is_some() {
+                rtic::pend(pac::Interrupt::DMA2_CH1);
+            }
             cortex_m::asm::wfi();
         }
     }
@@ -227,14 +383,14 @@ mod app {
 
     /// DMA2 channel 1 (or pended by the writer): the chunk sent released,
     /// the next one started.
-    #[task(binds = DMA2_CH1, priority = 2, local = [tx])]
-    fn link_tx(cx: link_tx::Context) {
-        cx.local.tx.service();
+    #[task(binds = DMA2_CH1, priority = 2, shared = [tx])]
+    fn link_tx(mut cx: link_tx::Context) {
+        cx.shared.tx.lock(|t| t.service());
     }
 
     /// Demodulate, correct and queue one block's record, straight from
     /// the DMA buffer.
-    #[task(priority = 1, shared = [slot, channels], local = [adc_buf, settings, watchdog, writer])]
+    #[task(priority = 1, shared = [slot, channels, writer, sending], local = [adc_buf, settings, watchdog])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let Some(Finished { half, slot }) = cx.shared.slot.lock(|s| s.take()) else {
@@ -267,11 +423,19 @@ mod app {
                 // the policy switched since; skip, the next slot catches up.
                 return None;
             }
-            Some(channel.process(settings, ch, slot.block_mid_us(), &ph, clipped, slot.range))
+            let rec = channel.process(settings, ch, slot.block_mid_us(), &ph, clipped, slot.range);
+            Some((rec, channel.due(settings.record_every)))
         });
         match rec {
-            Some(rec) => {
-                if local.writer.record(frames::from_record(&rec)) {
+            // An empty socket: measured (its channel keeps its turn), not
+            // reported; nor the blocks between those `record_every` asks
+            // for (as `skin-qemu`).
+            Some(_) if !settings.sensors.of(ch).in_use => {}
+            Some((_, false)) => {}
+            Some((rec, true)) => {
+                let sent = cx.shared.sending.lock(|s| *s)
+                    && cx.shared.writer.lock(|w| w.record(frames::from_record(&rec)));
+                if sent {
                     rtic::pend(pac::Interrupt::DMA2_CH1);
                 }
             }
