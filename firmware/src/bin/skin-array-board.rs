@@ -129,7 +129,7 @@ mod app {
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         writer: FrameWriter<'static, LINK_BYTES>,
-        requests: Requests,
+        requests: Requests<SettingsFlash>,
         sending: bool,
     }
 

@@ -99,7 +99,8 @@ mod settings {
     pub const SENSORS: usize = CHANNELS;
     /// The receive ring's bytes.
     pub const RING: usize = RX_BYTES;
-    pub use firmware::board::requests::Requests;
+    /// The request side over the board's flash.
+    pub type Requests = firmware::board::requests::Requests<SettingsFlash>;
 
     /// The set stored in flash (with none, sensors nothing was measured
     /// on), its sensors built into `slot`, and the request side over

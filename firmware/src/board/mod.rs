@@ -17,7 +17,7 @@
 //! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events; the array's channels 1–6 |
 //! | [`lpuart`] | LPUART1 on PA2/PA3 at [`link::BOARD_BAUD`](::link::BOARD_BAUD): the ST-LINK's virtual COM port |
 //! | [`link`] | DMA2 channel 1: the record link's queued frames into LPUART1; channel 2: the host's bytes round a ring |
-//! | `requests` | the host's requests from the ring, answered from the settings store (target only) |
+//! | [`requests`] | the host's requests from the ring, answered from the settings store |
 //! | [`flash`] | the settings' 8 KiB of flash as an `embedded-storage` `NorFlash`: unlock, page erase, double-word programming, error flags |
 //! | [`front_end`] | each front end started in RM0440's order; the DAC's slot waveforms; the DMA buffers' shapes |
 //! | [`timer`] | TIM6 at the sample rate |
@@ -39,7 +39,6 @@ pub mod link;
 pub mod lpuart;
 pub mod opamp;
 pub mod pins;
-#[cfg(target_os = "none")]
 pub mod requests;
 #[cfg(target_os = "none")]
 mod runtime;
