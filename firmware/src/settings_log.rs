@@ -3,8 +3,10 @@
 //! a host computes of the same set with `instrument::digest`), and the
 //! sensors it builds from them.
 
+use embedded_storage::nor_flash::NorFlash;
 use instrument::digest::Digest;
-use instrument::store::{Loaded, StoreError};
+use instrument::store::{Corruption, Loaded, Store, StoreError};
+use instrument::stored::Stored;
 
 /// Log the set in force, as [`instrument::store::Store::load`] found it.
 pub fn announce<E>(loaded: &Result<Option<Loaded>, StoreError<E>>) {
@@ -16,6 +18,24 @@ pub fn announce<E>(loaded: &Result<Option<Loaded>, StoreError<E>>) {
         ),
         Ok(None) => defmt::println!("settings: none stored"),
         Err(_) => defmt::println!("settings: the flash cannot be read"),
+    }
+}
+
+/// The set in force at start: the one `store` holds, or with none (or a
+/// flash that cannot be read) the set of sensors nothing was measured on;
+/// either logged.
+pub fn in_force<F: NorFlash>(store: &mut Store<F>) -> Stored
+where
+    F::Error: Corruption,
+{
+    let loaded = store.load();
+    announce(&loaded);
+    match loaded {
+        Ok(Some(l)) => l.set,
+        _ => {
+            defmt::println!("settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)");
+            Stored::uncalibrated()
+        }
     }
 }
 

@@ -72,7 +72,6 @@ use instrument::frames;
 use instrument::reader::{ArrayReader, Demodulated};
 use instrument::sensor::Sensors;
 use instrument::store::{Store, SLOT_BYTES};
-use instrument::stored::Stored;
 use instrument::sweep::Sweep;
 use instrument::tones::{ToneRecord, ToneSettings};
 
@@ -159,17 +158,7 @@ mod app {
             }
         };
         // The stored set; with none, sensors nothing was measured on.
-        let loaded = store.load();
-        firmware::settings_log::announce(&loaded);
-        let set = match loaded {
-            Ok(Some(l)) => l.set,
-            _ => {
-                defmt::println!(
-                    "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
-                );
-                Stored::uncalibrated()
-            }
-        };
+        let set = firmware::settings_log::in_force(&mut store);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
             loop {

@@ -93,7 +93,6 @@ mod settings {
     use firmware::board::setup::LinkPort;
     use instrument::commands::Commands;
     use instrument::store::{Store, SLOT_BYTES};
-    use instrument::stored::Stored;
 
     /// A sensor's settings each.
     pub const SENSORS: usize = CHANNELS;
@@ -117,17 +116,8 @@ mod settings {
             defmt::println!("settings: the slots do not fit the flash");
             return None;
         };
-        let loaded = store.load();
-        firmware::settings_log::announce(&loaded);
-        let set = match loaded {
-            Ok(Some(l)) => l.set,
-            _ => {
-                defmt::println!(
-                    "settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)"
-                );
-                Stored::uncalibrated()
-            }
-        };
+        // The stored set; with none, sensors nothing was measured on.
+        let set = firmware::settings_log::in_force(&mut store);
         let Ok(sensors) = firmware::settings_log::sensors_in(slot, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model");
             return None;
