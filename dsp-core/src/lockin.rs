@@ -383,8 +383,11 @@ impl<const H: usize> Lockin<H> {
         pack(q15(32767.0 * w * c), q15(32767.0 * w * s))
     }
 
-    /// Σw·x/Σw of each channel, counts.
-    fn windowed_means(&self, pairs: &[[i16; 2]]) -> [f64; 2] {
+    /// Σw·x/Σw of each channel, counts. Once a block, so a function of
+    /// its own (as [`Lockin::tone_of`]): the block's loop is compiled
+    /// alone, whatever these become.
+    #[inline(never)]
+    fn windowed_means(&self, pairs: &[[i16; 2]]) -> [f32; 2] {
         let w = &self.basis.window;
         let (mut v, mut i) = (0i64, 0i64);
         let mut add = |&[x, y]: &[i16; 2], w: u16| {
@@ -403,8 +406,8 @@ impl<const H: usize> Lockin<H> {
                 add(p, w);
             }
         }
-        let s = self.basis.window_sum as f64;
-        [v as f64 / s, i as f64 / s]
+        let s = self.basis.window_sum as f32;
+        [v as f32 / s, i as f32 / s]
     }
 
     /// Periods of the tone per block.
@@ -534,7 +537,7 @@ impl<const H: usize> Lockin<H> {
     /// is taken out with the block's mean through the same window, which
     /// sees DC as the tone does and far energy not at all (the bare mean
     /// of an interferer of b bins and a counts is up to a/(πb)).
-    fn means(&self, pairs: &[[i16; 2]]) -> Option<[f64; 2]> {
+    fn means(&self, pairs: &[[i16; 2]]) -> Option<[f32; 2]> {
         (self.periods < 5).then(|| self.windowed_means(pairs))
     }
 
@@ -543,17 +546,21 @@ impl<const H: usize> Lockin<H> {
     ///
     /// The tone and the mean see each other (real parts only, by the
     /// window's symmetry): Re X·scale = T + a·d and M = d + b·T, solved
-    /// for the tone T and the mean d. In f64: for 3 periods the mean's
-    /// share of X (≈ 1.8 % of a bias of up to 2¹⁵ counts) can be 10³
-    /// times a weak tone's.
-    fn tone_of(&self, x: [i64; 2], means: Option<[f64; 2]>, c: usize) -> (Complex32, f32) {
+    /// for the tone T and the mean d. In f32 (hardware floats on the
+    /// Cortex-M4F; f64 was soft-float, 3 KiB of image): for 3 periods the
+    /// mean's share of X (≈ 1.8 % of a bias of up to 2¹⁵ counts) can be
+    /// 10³ times a weak tone's, so the cancellation costs ten bits of
+    /// f32's 24: a 0.5-count tone on a 32 000-count bias reads within
+    /// 3·10⁻⁴ counts of the f64 reference (`tests/lockin.rs`: a fifth of
+    /// its bound; the samples' own rounding is 0.29 counts rms).
+    #[inline(never)]
+    fn tone_of(&self, x: [i64; 2], means: Option<[f32; 2]>, c: usize) -> (Complex32, f32) {
         let scale = Self::scale();
         let (re, mean) = match means {
             Some(m) => {
-                let s64 = scale as f64;
-                let (a, b) = (self.dc as f64 * s64, self.mean_leak as f64);
-                let t = (x[0] as f64 * s64 - a * m[c]) / (1.0 - a * b);
-                (t as f32, (m[c] - b * t) as f32)
+                let (a, b) = (self.dc as f32 * scale, self.mean_leak);
+                let t = (x[0] as f32 * scale - a * m[c]) / (1.0 - a * b);
+                (t, m[c] - b * t)
             }
             None => (x[0] as f32 * scale, 0.0),
         };

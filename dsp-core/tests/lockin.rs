@@ -313,9 +313,8 @@ fn the_tone_alone_is_the_readings_tone_and_a_second_tone_leaves_it() {
 /// ±32 000 counts, three phases, reads as the f64 reference of the
 /// samples less their mean within 2·10⁻⁵ of the tone plus 10⁻³ counts
 /// (the samples' own rounding is 0.29 counts rms). For 3 periods the
-/// bias's share of the sum is 10³ times a 0.5-count tone's: this is what
-/// the solve's f64 is for (in f32 the error is still within the bound,
-/// at 0.21 of it against 0.12).
+/// bias's share of the sum is 10³ times a 0.5-count tone's, and the solve
+/// runs in f32: 0.21 of the bound (0.12 in f64).
 #[test]
 fn a_weak_tone_on_a_bias_at_the_rails_reads_as_the_f64_reference() {
     let mut worst = 0.0f64;

@@ -25,7 +25,7 @@ fn board_image_fits_64k_flash_and_16k_ram() {
 
 /// The multiplexed board with its settings store (feature `store`):
 /// within its own ceiling (not yet within the plain image's 64 / 16 KiB),
-/// and above what the plain image takes (55.5 / 14.9 KiB): the request
+/// and above what the plain image takes (52 / 14.9 KiB): the request
 /// side, the store, and eight sensors' settings where it keeps one.
 #[test]
 fn board_image_with_the_store_fits_its_ceiling() {
