@@ -195,7 +195,47 @@ pub struct Chunk {
     /// Bytes used of `bytes`.
     pub len: u8,
     /// The bytes (the rest zero).
+    #[serde(with = "chunk_bytes")]
     pub bytes: [u8; CHUNK],
+}
+
+/// [`Chunk::bytes`] on the wire as serde's derive puts an array (a tuple
+/// of [`CHUNK`] elements, each byte as itself in postcard), written and
+/// read by a loop: the derive's reader unrolls its 32 elements, 1 KiB of
+/// code in every image that takes requests.
+mod chunk_bytes {
+    use super::CHUNK;
+    use serde::de::{self, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(bytes: &[u8; CHUNK], s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(CHUNK)?;
+        for b in bytes {
+            t.serialize_element(b)?;
+        }
+        t.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[u8; CHUNK], D::Error> {
+        struct Bytes;
+        impl<'de> Visitor<'de> for Bytes {
+            type Value = [u8; CHUNK];
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                f.write_str("a chunk's bytes")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut out = [0u8; CHUNK];
+                for (k, b) in out.iter_mut().enumerate() {
+                    *b = seq
+                        .next_element()?
+                        .ok_or_else(|| de::Error::invalid_length(k, &self))?;
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_tuple(CHUNK, Bytes)
+    }
 }
 
 impl Chunk {
@@ -724,6 +764,39 @@ mod tests {
     extern crate std;
     use proptest::prelude::*;
     use std::{vec, vec::Vec};
+
+    /// A chunk as serde's derive writes and reads it (its array field
+    /// plain), to hold [`super::Chunk`]'s looped field to the same wire.
+    #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+    struct Derived {
+        offset: u16,
+        len: u8,
+        bytes: [u8; super::CHUNK],
+    }
+
+    proptest! {
+        /// A chunk's bytes on the wire are the derive's, both ways; a
+        /// piece cut short is refused by both.
+        #[test]
+        fn a_chunk_is_on_the_wire_as_the_derive_puts_it(
+            offset: u16,
+            len: u8,
+            bytes in proptest::array::uniform32(any::<u8>()),
+            cut in 0usize..36,
+        ) {
+            let chunk = super::Chunk { offset, len, bytes };
+            let derived = Derived { offset, len, bytes };
+            let mut a = [0u8; 64];
+            let mut b = [0u8; 64];
+            let a = postcard::to_slice(&chunk, &mut a).unwrap();
+            let b = postcard::to_slice(&derived, &mut b).unwrap();
+            prop_assert_eq!(&a[..], &b[..]);
+            prop_assert_eq!(postcard::from_bytes::<super::Chunk>(b).unwrap(), chunk);
+            let short = &b[..cut.min(b.len() - 1)];
+            prop_assert!(postcard::from_bytes::<super::Chunk>(short).is_err());
+            prop_assert!(postcard::from_bytes::<Derived>(short).is_err());
+        }
+    }
 
     /// The one-pass CRC and stuffing against the crates: the body, its
     /// `crc` CRC, `cobs::encode` of both and the closing zero; and back
