@@ -82,6 +82,16 @@ pub struct DmaBuf(*const u32);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBuf {}
 
+/// The board's settings for `sensors`: its front end's ranges, the
+/// default policy and thresholds.
+fn board_settings<const S: usize>(sensors: &'static Sensors<POINTS, S>) -> Settings<'static, POINTS, S> {
+    Settings::new(
+        Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
+        Ranging::DEFAULT,
+        sensors,
+    )
+}
+
 /// The sensors' settings and the host's requests: the set stored in
 /// flash and a request side that answers from it (the `store` feature),
 /// or sensors nothing was measured on and no requests.
@@ -125,11 +135,7 @@ mod settings {
         let settings = Settings {
             policy: set.policy,
             record_every: set.record_every,
-            ..Settings::new(
-                Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
-                Ranging::DEFAULT,
-                sensors,
-            )
+            ..board_settings(sensors)
         };
         link::receive(&port.dma, port.rdr, ring.as_ptr() as u32);
         Some((settings, Requests::new(ring, Commands::new(), store)))
@@ -170,12 +176,7 @@ mod settings {
         let sensors = slot.write(Sensors::all(Sensor::uncalibrated(
             design::SENSOR_C_REST_FARAD as f32,
         )));
-        let settings = Settings::new(
-            Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
-            Ranging::DEFAULT,
-            sensors,
-        );
-        Some((settings, Requests))
+        Some((board_settings(sensors), Requests))
     }
 }
 
