@@ -37,6 +37,20 @@ fn main() {
         writeln!(s, "    {q},").unwrap();
     }
     writeln!(s, "];").unwrap();
+    // Its first quarter turn again: 1 KiB for an image that needs the
+    // sine only at the table's points ([`crate::cossin::sin_nearest`]).
+    writeln!(
+        s,
+        "/// [`SIN_Q31`]'s first quarter turn, i = 0..=2^(SIN_BITS − 2)."
+    )
+    .unwrap();
+    writeln!(s, "pub static SIN_QUARTER_Q31: [i32; {}] = [", n / 4 + 1).unwrap();
+    for i in 0..=n / 4 {
+        let v = (2.0 * PI * i as f64 / n as f64).sin() * 2f64.powi(31);
+        let q = v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+        writeln!(s, "    {q},").unwrap();
+    }
+    writeln!(s, "];").unwrap();
 
     // Demodulation reference: cos in the low half word, sin in the high
     // half word, both Q15 scaled by 32767.

@@ -14,12 +14,15 @@
 //!   switch's.
 //!
 //! * `init`: `board::setup` begins (reset cause, watchdog, clocks), the
-//!   DAC's first two slots, `board::front_end::multiplexed`, and
-//!   `board::setup` ends, handing DMA1 and the IWDG to the tasks.
+//!   DAC ring's first two quarter slots (`board::excitation`),
+//!   `board::front_end::multiplexed`, and `board::setup` ends, handing
+//!   DMA1 and the IWDG to the tasks.
 //! * `dma_done` (DMA1 channel 1's half and full transfer): the
 //!   completion (`board::dma::Completion`), the sequencer's step (which
 //!   slot completed, which channel and range to select, which frequency
-//!   to write into the DAC half just finished), then `process`.
+//!   the slot after next plays), then `process`.
+//! * `dac_refill` (DMA1 channel 2's half and full transfer): the quarter
+//!   slot after next written into the half of the DAC's ring just played.
 //! * `process`: the finished half demodulated in place, the channel's
 //!   record queued on the record link ([`firmware::link_out`]), the
 //!   watchdog fed.
@@ -45,8 +48,9 @@
 
 use core::mem::MaybeUninit;
 
-use firmware::board::dma::{self, Completion};
-use firmware::board::front_end::{self, AdcSlots, DacSlots, SLOTS};
+use firmware::board::dma::{self, Completion, DAC_CHANNEL};
+use firmware::board::excitation::{DacRing, Feed, QUARTER};
+use firmware::board::front_end::{self, AdcSlots, SLOTS};
 use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
@@ -196,6 +200,11 @@ mod app {
     #[shared]
     struct Shared {
         slot: Option<Finished>,
+        /// DMA1: the acquisition's channel and the excitation's.
+        dma: pac::DMA1,
+        /// What the DAC plays: the slots' frequencies from `dma_done`,
+        /// the ring's refills in `dac_refill`.
+        feed: Feed,
         channels: [Channel; CHANNELS],
         /// The link's port: its transmit task, and `idle` for the receive
         /// position.
@@ -208,11 +217,10 @@ mod app {
 
     #[local]
     struct Local {
-        dma: pac::DMA1,
         dac1: pac::DAC1,
         watchdog: Watchdog,
         adc_buf: DmaBuf,
-        dac_buf: &'static mut DacSlots,
+        dac_ring: &'static mut DacRing,
         mux: BoardMux,
         ranges: RangeSwitch,
         seq: Sequencer,
@@ -222,10 +230,9 @@ mod app {
 
     #[init(local = [
         adc: AdcSlots = [0; SLOTS * SLOT_PAIRS],
-        // Zero, so that it lives in .bss and not as 4 KiB of initial
-        // values in flash: both slots are written below before the DAC
-        // starts.
-        dac: DacSlots = [0; SLOTS * SLOT_PAIRS],
+        // Zero, so that it lives in .bss and not as initial values in
+        // flash: both halves are written below before the DAC starts.
+        dac: DacRing = [0; 2 * QUARTER],
         link_queue: LinkQueue<LINK_BYTES> = LinkQueue::new(),
         sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
         rx_ring: [u8; RING] = [0; RING],
@@ -239,16 +246,14 @@ mod app {
         // frequency and the lowest range), so the front end starts before
         // the flash, which `setup::finish` hands over, is read.
         let (seq, slots) = Sequencer::start(|_| Channel::new(0.0).plan());
-        let (first, second) = cx.local.dac.split_at_mut(SLOT_PAIRS);
-        front_end::fill_slot(first, slots[0].fidx);
-        front_end::fill_slot(second, slots[1].fidx);
+        let feed = Feed::start([slots[0].fidx, slots[1].fidx], cx.local.dac);
         let mut mux = Mux::new(pins::mux_pins());
         let Ok(_) = mux.select(slots[0].channel);
         let mut ranges = Mux::new(pins::range_pins());
         let Ok(_) = ranges.select(slots[0].range);
         let adc_buf: &'static mut AdcSlots = cx.local.adc;
-        let dac_buf: &'static mut DacSlots = cx.local.dac;
-        front_end::multiplexed(&dp, adc_buf, dac_buf);
+        let dac_ring: &'static mut DacRing = cx.local.dac;
+        front_end::multiplexed(&dp, adc_buf, dac_ring);
         let owned = setup::finish(dp);
         let Some((settings, requests)) =
             settings::load(owned.flash, cx.local.sensors, cx.local.rx_ring, &owned.link)
@@ -278,17 +283,18 @@ mod app {
         (
             Shared {
                 slot: None,
+                dma: owned.dma,
+                feed,
                 channels,
                 tx,
                 writer,
                 sending: true,
             },
             Local {
-                dma: owned.dma,
                 dac1: owned.dac,
                 watchdog: owned.watchdog,
                 adc_buf: DmaBuf(adc_buf.as_ptr()),
-                dac_buf,
+                dac_ring,
                 mux,
                 ranges,
                 seq,
@@ -328,16 +334,24 @@ mod app {
     }
 
     /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels], local = [dma, dac1, dac_buf, mux, ranges, seq])]
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels, dma, feed], local = [dac1, mux, ranges, seq])]
     fn dma_done(mut cx: dma_done::Context) {
-        if dac::excitation_stopped(cx.local.dac1, cx.local.dma, 1) {
-            // The DAC's DMA (channel 2) underran or failed: nothing is fed
-            // from here on, the watchdog restarts the board within 100 ms.
-            defmt::println!("excitation stopped (DAC DMA underrun or error): watchdog reset follows");
+        let stopped = cx
+            .shared
+            .dma
+            .lock(|dma| dac::excitation_stopped(cx.local.dac1, dma, DAC_CHANNEL));
+        if stopped || cx.shared.feed.lock(|f| f.stopped()) {
+            // The DAC's DMA underran or failed, or its ring lost step:
+            // nothing is fed from here on, the watchdog restarts the
+            // board within 100 ms.
+            defmt::println!(
+                "excitation stopped (DAC DMA underrun, error or late refill): watchdog reset follows"
+            );
             return;
         }
         let expected = (cx.local.seq.next_index() % 2) as usize;
-        let (half, lost) = match dma::take_event(cx.local.dma).completion(expected) {
+        let event = cx.shared.dma.lock(|dma| dma::take_event(dma));
+        let (half, lost) = match event.completion(expected) {
             Completion::Done { half, lost } => (half, lost),
             Completion::Error => {
                 // Nothing is fed from here on: the watchdog restarts the
@@ -348,29 +362,54 @@ mod app {
             Completion::Nothing => return,
         };
         let seq = &mut *cx.local.seq;
-        let dac = &mut *cx.local.dac_buf;
+        let mut channels = cx.shared.channels;
+        let mut complete = || channels.lock(|c| seq.complete(|ch| c[ch as usize].plan()));
         if lost {
-            let st = cx
-                .shared
-                .channels
-                .lock(|c| seq.complete(|ch| c[ch as usize].plan()));
-            front_end::prepare(dac, &st);
+            let st = complete();
+            cx.shared.feed.lock(|f| f.plan(st.prepare.index, st.prepare.fidx));
             defmt::println!("lost {=u64} {=u8}", st.done.block_mid_us(), st.done.channel);
         }
-        let st = cx
-            .shared
-            .channels
-            .lock(|c| seq.complete(|ch| c[ch as usize].plan()));
+        let st = complete();
         // The slot that begins now: select its channel (within its settling).
         let Ok(_) = cx.local.mux.select(st.select);
         let Ok(_) = cx.local.ranges.select(st.select_range);
+        let played = cx.shared.feed.lock(|f| {
+            f.plan(st.prepare.index, st.prepare.fidx);
+            f.played_as_planned(st.done.index)
+        });
+        if !played {
+            // Its plan came too late for the DAC: played at another
+            // frequency than the slot says.
+            defmt::println!("skip {=u64} {=u8}", st.done.block_mid_us(), st.done.channel);
+            return;
+        }
         cx.shared
             .slot
             .lock(|s| *s = Some(Finished { half, slot: st.done }));
-        front_end::prepare(dac, &st);
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", st.done.index);
         }
+    }
+
+    /// DMA1 channel 2's half and full transfer: the DAC played half of
+    /// its ring; the quarter slot after next is written there. A late or
+    /// failed refill stops the feed (`dma_done` then lets the watchdog
+    /// restart the board).
+    #[task(binds = DMA1_CH2, priority = 2, shared = [dma, feed], local = [dac_ring])]
+    fn dac_refill(mut cx: dac_refill::Context) {
+        let event = cx.shared.dma.lock(|dma| dma::take_event_of(dma, DAC_CHANNEL));
+        let ring = &mut *cx.local.dac_ring;
+        cx.shared.feed.lock(|f| match event {
+            dma::Event::None => {}
+            e => match e.half() {
+                Some(half) => {
+                    f.refill(ring, half);
+                }
+                // Both halves played (a refill came too late) or a
+                // transfer error.
+                None => f.stop(),
+            },
+        });
     }
 
     /// DMA2 channel 1 (or pended by the writer): the chunk sent released,

@@ -1,6 +1,7 @@
 //! DMA1: channel 1 moves the packed ADC pairs into a circular buffer of
-//! two slots; channel 2 feeds the DAC from a matching buffer. Channel 1's
-//! half- and full-transfer interrupts pace the firmware.
+//! two slots; channel 2 feeds the DAC from a ring of two quarter slots.
+//! Channel 1's half- and full-transfer interrupts pace the firmware;
+//! channel 2's refill the ring.
 
 use super::pac::{dma1, dmamux};
 
@@ -58,16 +59,23 @@ pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
     });
 }
 
-/// Channel 2: `codes` 16-bit DAC codes from `from` to the DAC's 12-bit
-/// right-aligned holding register `to`, circular; the peripheral side is
-/// written as 32-bit words (a 16-bit write to a DAC register is not
-/// supported, RM0440 22.7).
+/// DMA1 channel 2 (0-based), which feeds the multiplexed board's DAC.
+pub const DAC_CHANNEL: usize = 1;
+
+/// Channel 2: `codes` 16-bit DAC codes from the ring `from` to the DAC's
+/// 12-bit right-aligned holding register `to`, circular; the peripheral
+/// side is written as 32-bit words (a 16-bit write to a DAC register is
+/// not supported, RM0440 22.7). Half-transfer, transfer-complete and
+/// transfer-error interrupts: the half just played is refilled
+/// ([`super::excitation::Feed`]).
 pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
-    to_dac(dma.ch(1), from, to, codes);
+    to_dac(dma.ch(DAC_CHANNEL), from, to, codes, true);
 }
 
-/// A channel from memory to a DAC's holding register, circular.
-fn to_dac(ch: &dma1::CH, from: u32, to: u32, codes: u16) {
+/// A channel from memory to a DAC's holding register, circular; with
+/// half-transfer, transfer-complete and transfer-error interrupts if
+/// `interrupts`.
+fn to_dac(ch: &dma1::CH, from: u32, to: u32, codes: u16, interrupts: bool) {
     addresses(ch, to, from, codes);
     ch.cr().write(|w| {
         w.dir()
@@ -80,6 +88,12 @@ fn to_dac(ch: &dma1::CH, from: u32, to: u32, codes: u16) {
             .set_bit()
             .circ()
             .set_bit()
+            .htie()
+            .bit(interrupts)
+            .tcie()
+            .bit(interrupts)
+            .teie()
+            .bit(interrupts)
             .en()
             .set_bit()
     });
@@ -134,7 +148,7 @@ pub fn scan_channel(dma: &dma1::RegisterBlock, c: usize, from: u32, to: u32, res
 /// to the DAC's holding register `to`, circular, as [`dac_channel`] does
 /// for the single-tone board.
 pub fn table_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
-    to_dac(dma.ch(ARRAY_DAC_CHANNEL), from, to, codes);
+    to_dac(dma.ch(ARRAY_DAC_CHANNEL), from, to, codes, false);
 }
 
 /// What channel 1's interrupt found.

@@ -4,20 +4,16 @@
 //! in its peripheral's module (and tested there).
 
 #[cfg(target_os = "none")]
+use super::excitation::DacRing;
+#[cfg(target_os = "none")]
 use super::{adc, dac, dma, opamp, pac, pins, scan, timer};
-use dsp_core::osc::{dac_code_of_sum, Oscillator, OscillatorState};
 use instrument::array::{Layout, Rows, ADCS, SCAN};
 #[cfg(target_os = "none")]
 use instrument::array::{DAC_RATE_HZ, RATE_HZ};
-use instrument::config::{ftw, tones, DAC_AMPLITUDES_Q15, SETTLE_PAIRS, SLOT_PAIRS};
-use instrument::design;
-use instrument::sequencer::Step;
+use instrument::config::SLOT_PAIRS;
 
-/// The multiplexed board's circular buffers hold two slots.
+/// The multiplexed board's ADC buffer holds two slots.
 pub const SLOTS: usize = 2;
-
-/// The multiplexed board's DAC buffer: two slots of codes.
-pub type DacSlots = [u16; SLOTS * SLOT_PAIRS];
 
 /// The multiplexed board's ADC buffer: two slots of packed (ADC1, ADC2)
 /// pairs.
@@ -48,39 +44,11 @@ pub fn array_half<'a>(buf: &'a mut [Rows; 2], layout: &Layout, half: usize) -> &
 /// last of the five ADCs the DMA serves.
 pub const ARRAY_PACER: usize = ADCS - 1;
 
-/// Write one slot of DAC codes for frequency index `fidx`: its two tones
-/// ([`instrument::config::tones`]) at their amplitudes
-/// ([`DAC_AMPLITUDES_Q15`]); the settling pairs lead into the block, where
-/// both start at phase 0.
-pub fn fill_slot(buf: &mut [u16], fidx: usize) {
-    let [a, b] = tones(fidx);
-    let start = |k: usize| OscillatorState {
-        phase: (ftw(k).wrapping_mul(SETTLE_PAIRS as u32) as i32).wrapping_neg(),
-    };
-    let (osc_a, osc_b) = (Oscillator::from_ftw(ftw(a)), Oscillator::from_ftw(ftw(b)));
-    let (mut st_a, mut st_b) = (start(a), start(b));
-    for code in buf.iter_mut() {
-        let (_, sa) = osc_a.next(&mut st_a);
-        let (_, sb) = osc_b.next(&mut st_b);
-        *code = dac_code_of_sum(
-            &[(sa, DAC_AMPLITUDES_Q15[0]), (sb, DAC_AMPLITUDES_Q15[1])],
-            design::DAC_BITS,
-        );
-    }
-}
-
-/// The slot after next reuses the DAC half of the slot `step` completed:
-/// write its frequency there.
-pub fn prepare(dac: &mut DacSlots, step: &Step) {
-    let h = (step.done.index % SLOTS as u64) as usize;
-    fill_slot(&mut dac[h * SLOT_PAIRS..(h + 1) * SLOT_PAIRS], step.prepare.fidx);
-}
-
 /// The multiplexed front end: PA0/PA1 analog, the multiplexer's address
-/// lines, DMA1 channels 1 (ADC pairs → `adc_buf`) and 2 (`dac_buf` →
-/// DAC), the DAC, ADC1 + ADC2 in dual mode, then TIM6, which starts them.
+/// lines, DMA1 channels 1 (ADC pairs → `adc_buf`) and 2 (the excitation's
+/// ring `dac_ring` → DAC, [`super::excitation`]), the DAC, ADC1 + ADC2 in dual mode, then TIM6, which starts them.
 #[cfg(target_os = "none")]
-pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_buf: &DacSlots) {
+pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_ring: &DacRing) {
     pins::analog(&dp.GPIOA);
     pins::mux_outputs(&dp.GPIOB);
     dma::requests(&dp.DMAMUX);
@@ -92,9 +60,9 @@ pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_buf: &DacSlots
     );
     dma::dac_channel(
         &dp.DMA1,
-        dac_buf.as_ptr() as u32,
+        dac_ring.as_ptr() as u32,
         dp.DAC1.dhr12r1().as_ptr() as u32,
-        dac_buf.len() as u16,
+        dac_ring.len() as u16,
     );
     dac::configure(&dp.DAC1);
     adc::init(dp);

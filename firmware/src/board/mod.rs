@@ -14,6 +14,7 @@
 //! | [`scan`] | the array: five ADCs each scanning four inputs, 16× oversampled; the pin map |
 //! | [`opamp`] | the array: three op-amps as followers into ADC3 and ADC5 |
 //! | [`dac`] | DAC1 channel 1, paced by TIM6 (the array: TIM7), fed by DMA |
+//! | [`excitation`] | the multiplexed board's DAC ring of quarter slots, refilled as it plays |
 //! | [`dma`] | DMAMUX and DMA1 channels 1 (ADC → RAM) and 2 (RAM → DAC), the interrupt's events; the array's channels 1–6 |
 //! | [`lpuart`] | LPUART1 on PA2/PA3 at [`link::BOARD_BAUD`](::link::BOARD_BAUD): the ST-LINK's virtual COM port |
 //! | [`link`] | DMA2 channel 1: the record link's queued frames into LPUART1; channel 2: the host's bytes round a ring |
@@ -33,6 +34,7 @@ pub mod adc;
 pub mod clocks;
 pub mod dac;
 pub mod dma;
+pub mod excitation;
 pub mod flash;
 pub mod front_end;
 pub mod link;

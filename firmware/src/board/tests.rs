@@ -110,7 +110,7 @@ fn dma_channels_and_requests() {
     let mut d = Fake::new(&[]);
     let regs = d.regs::<pac::dma1::RegisterBlock>();
     dma::adc_channel(regs, 0x5000_030C, 0x2000_1000, 2176);
-    dma::dac_channel(regs, 0x2000_3000, 0x5000_0808, 2176);
+    dma::dac_channel(regs, 0x2000_3000, 0x5000_0808, 544);
     // Channel 1 (CCR at 0x08): EN, TCIE, HTIE, TEIE, CIRC, MINC, 32-bit
     // both sides, peripheral → memory.
     assert_eq!(
@@ -122,11 +122,15 @@ fn dma_channels_and_requests() {
         (2176, 0x5000_030C, 0x2000_1000)
     );
     // Channel 2 (CCR at 0x1C): memory → DAC, 16-bit codes written as
-    // 32-bit words (PSIZE = 0b10), circular, no interrupts.
-    assert_eq!(d.at(0x1C), 1 | 1 << 4 | 1 << 5 | 1 << 7 | 0b10 << 8 | 0b01 << 10);
+    // 32-bit words (PSIZE = 0b10), circular, with TCIE, HTIE, TEIE (the
+    // ring's refills).
+    assert_eq!(
+        d.at(0x1C),
+        1 | 1 << 1 | 1 << 2 | 1 << 3 | 1 << 4 | 1 << 5 | 1 << 7 | 0b10 << 8 | 0b01 << 10
+    );
     assert_eq!(
         (d.at(0x20), d.at(0x24), d.at(0x28)),
-        (2176, 0x5000_0808, 0x2000_3000)
+        (544, 0x5000_0808, 0x2000_3000)
     );
     // The interrupt's events: an error first, both halves = a lost slot.
     assert_eq!(Event::from_flags(true, true, false), Event::Error);
