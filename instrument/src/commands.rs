@@ -8,7 +8,7 @@
 //! ([`crate::stored::Stored::check`]); the store keeps the set in force
 //! through any failure ([`crate::store`]).
 
-use crate::store::{Store, StoreError};
+use crate::store::{Staged, Store, StoreError};
 use crate::stored::{Stored, MAX_BYTES};
 use embedded_storage::nor_flash::NorFlash;
 use link::{Chunk, Reason, Reply, Request, CHUNK};
@@ -34,10 +34,10 @@ pub enum Action {
     Sweep(u16),
 }
 
-/// The pieces of a new set received so far.
+/// The new set being received: its pieces go straight to the store's
+/// slot not in force ([`Store::begin`]), so a device holds no copy.
 pub struct Commands {
-    staged: [u8; MAX_BYTES],
-    len: usize,
+    staged: Option<Staged>,
     /// The application sweeps tone pairs ([`Commands::sweeping`]).
     sweeps: bool,
 }
@@ -53,8 +53,7 @@ impl Commands {
     /// [`Reason::Unsupported`].
     pub const fn new() -> Self {
         Self {
-            staged: [0; MAX_BYTES],
-            len: 0,
+            staged: None,
             sweeps: false,
         }
     }
@@ -105,47 +104,51 @@ impl Commands {
                 }
             }
             Request::WriteChunk(chunk) => {
-                // A piece at 0 begins a new set.
-                if chunk.offset == 0 {
-                    self.len = 0;
-                }
+                // A piece at 0 begins a new set; any other continues the
+                // one staged, where its bytes end.
                 let data = chunk.data();
-                let reason = if usize::from(chunk.offset) != self.len || usize::from(chunk.len) > CHUNK {
-                    Some(Reason::OutOfOrder)
-                } else if self.len + data.len() > MAX_BYTES {
-                    Some(Reason::TooLong)
-                } else {
-                    None
+                let received = match chunk.offset {
+                    0 => Some(0),
+                    _ => self.staged.map(|s| s.len()),
                 };
-                match reason {
-                    Some(r) => {
-                        self.len = 0;
-                        reply(refuse(r));
+                let reason = match received {
+                    _ if usize::from(chunk.len) > CHUNK => Some(Reason::OutOfOrder),
+                    Some(n) if n == usize::from(chunk.offset) => {
+                        (n + data.len() > MAX_BYTES).then_some(Reason::TooLong)
                     }
-                    None => {
-                        self.staged[self.len..self.len + data.len()].copy_from_slice(data);
-                        self.len += data.len();
+                    _ => Some(Reason::OutOfOrder),
+                };
+                let staged = match (reason, self.staged.take()) {
+                    (Some(r), _) => Err(r),
+                    (None, Some(s)) if chunk.offset != 0 => Ok(s),
+                    (None, _) => store.begin().map_err(|_| Reason::Flash),
+                };
+                let staged = staged.and_then(|mut s| match store.append(&mut s, data) {
+                    Ok(()) => Ok(s),
+                    Err(_) => Err(Reason::Flash),
+                });
+                match staged {
+                    Ok(s) => {
+                        self.staged = Some(s);
                         reply(ack(0));
                     }
+                    Err(r) => reply(refuse(r)),
                 }
                 Action::None
             }
             Request::Commit { len, crc: want } => {
-                let bytes = &self.staged[..self.len];
-                let outcome = if usize::from(len) != bytes.len() || crc(bytes) != want {
-                    Err(Reason::Mismatch)
-                } else {
-                    match Stored::from_bytes(bytes) {
-                        None => Err(Reason::Malformed),
-                        Some(Err(r)) => Err(setting(r)),
-                        Some(Ok(set)) => match store.save(&set) {
-                            Ok(g) => Ok(g),
-                            Err(StoreError::Refused(r)) => Err(setting(r)),
-                            Err(_) => Err(Reason::Flash),
-                        },
-                    }
+                let outcome = match self.staged.take() {
+                    Some(s) if usize::from(len) == s.len() => match store.commit(s, want) {
+                        Ok(g) => Ok(g),
+                        Err(StoreError::Mismatch) => Err(Reason::Mismatch),
+                        Err(StoreError::Malformed) => Err(Reason::Malformed),
+                        Err(StoreError::Refused(r)) => Err(setting(r)),
+                        Err(_) => Err(Reason::Flash),
+                    },
+                    // Nothing staged, or not as many bytes as the commit
+                    // says.
+                    _ => Err(Reason::Mismatch),
                 };
-                self.len = 0;
                 match outcome {
                     Ok(g) => {
                         reply(ack(g));

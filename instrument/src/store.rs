@@ -55,6 +55,41 @@ pub enum StoreError<E> {
     /// What was written does not read back (the set in force is
     /// unchanged).
     Verify,
+    /// A staged set's bytes do not have the CRC its commit gives
+    /// (nothing put in force).
+    Mismatch,
+    /// A staged set's bytes are not a set (nothing put in force).
+    Malformed,
+}
+
+/// The largest flash word a store writes through, bytes (a header is
+/// whole words of any size up to its own).
+const WORD_MAX: usize = HEADER;
+
+/// A set being written into the slot not in force as its pieces come
+/// ([`Store::begin`], [`Store::append`], [`Store::commit`]): a device
+/// stages an upload in flash, not in 2 KiB of RAM.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Staged {
+    /// The slot written (not the one in force).
+    slot: usize,
+    /// Body bytes received.
+    len: usize,
+    /// The bytes received past the last whole flash word: written with
+    /// the word they complete (or, padded, at the commit).
+    tail: [u8; WORD_MAX],
+}
+
+impl Staged {
+    /// Body bytes received so far.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Nothing received yet.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }
 
 /// A slot's header.
@@ -125,7 +160,10 @@ where
         if base % page != 0 || slot_bytes % page != 0 {
             return Err(StoreError::Layout("the slots must be whole erase pages"));
         }
-        if (slot_bytes as usize) < HEADER + MAX_BYTES || HEADER % F::WRITE_SIZE != 0 {
+        if (slot_bytes as usize) < HEADER + MAX_BYTES
+            || HEADER % F::WRITE_SIZE != 0
+            || F::WRITE_SIZE > WORD_MAX
+        {
             return Err(StoreError::Layout(
                 "a slot must hold a header and the longest set",
             ));
@@ -212,56 +250,137 @@ where
             }))
     }
 
-    /// Slot `slot` holds `header` and `set` (read back after a write), in
-    /// a frame of its own.
-    #[inline(never)]
-    fn written_as(&mut self, slot: usize, header: &Header, set: &Stored) -> Result<bool, F::Error> {
-        let mut back = Stored::uncalibrated();
-        Ok(matches!(self.read_slot(slot, &mut back)?, Some(h) if h == *header && back == *set))
-    }
-
     /// Check `set` and make it the set in force (in the slot not in
     /// force); its generation. On any error the set in force is
     /// unchanged.
     pub fn save(&mut self, set: &Stored) -> Result<u32, StoreError<F::Error>> {
         set.check().map_err(StoreError::Refused)?;
-        let mut body = [0xFFu8; MAX_BYTES];
-        let len = set
+        let mut body = [0u8; MAX_BYTES];
+        let bytes = set
             .to_bytes(&mut body)
-            .ok_or(StoreError::Layout("the set is longer than a slot holds"))?
-            .len();
-        let (slot, generation) = match self.current().map_err(StoreError::Flash)? {
-            Some((slot, generation)) => (1 - slot, generation.wrapping_add(1)),
-            None => (0, 1),
+            .ok_or(StoreError::Layout("the set is longer than a slot holds"))?;
+        let crc = link::CRC.checksum(bytes);
+        let mut staged = self.begin()?;
+        self.append(&mut staged, bytes)?;
+        match self.commit(staged, crc) {
+            // The bytes were ours: the flash did not keep them.
+            Err(StoreError::Mismatch | StoreError::Malformed) => Err(StoreError::Verify),
+            other => other,
+        }
+    }
+
+    /// Begin a new set in the slot not in force: erased, ready for
+    /// [`Store::append`]. The set in force is untouched until
+    /// [`Store::commit`].
+    pub fn begin(&mut self) -> Result<Staged, StoreError<F::Error>> {
+        let slot = match self.current().map_err(StoreError::Flash)? {
+            Some((slot, _)) => 1 - slot,
+            None => 0,
         };
         let at = self.slot_at(slot);
         self.flash
             .erase(at, at + self.slot_bytes)
             .map_err(StoreError::Flash)?;
-        // The body padded with erased bytes to whole words.
-        let padded = len.div_ceil(F::WRITE_SIZE) * F::WRITE_SIZE;
-        body[len..padded].fill(0xFF);
-        self.flash
-            .write(at + HEADER as u32, &body[..padded])
-            .map_err(StoreError::Flash)?;
+        Ok(Staged {
+            slot,
+            len: 0,
+            tail: [0xFF; WORD_MAX],
+        })
+    }
+
+    /// The next bytes of the staged set, written through whole flash
+    /// words (a last partial word waits in the tail).
+    pub fn append(&mut self, staged: &mut Staged, data: &[u8]) -> Result<(), StoreError<F::Error>> {
+        if staged.len + data.len() > MAX_BYTES {
+            return Err(StoreError::Layout("the set is longer than a slot holds"));
+        }
+        let w = F::WRITE_SIZE;
+        let body = self.slot_at(staged.slot) + HEADER as u32;
+        let mut data = data;
+        while !data.is_empty() {
+            let fill = staged.len % w;
+            let n = if fill == 0 && data.len() >= w {
+                // Whole words straight from the piece.
+                let n = data.len() / w * w;
+                self.flash
+                    .write(body + staged.len as u32, &data[..n])
+                    .map_err(StoreError::Flash)?;
+                n
+            } else {
+                let n = (w - fill).min(data.len());
+                staged.tail[fill..fill + n].copy_from_slice(&data[..n]);
+                if fill + n == w {
+                    self.flash
+                        .write(body + (staged.len - fill) as u32, &staged.tail[..w])
+                        .map_err(StoreError::Flash)?;
+                }
+                n
+            };
+            staged.len += n;
+            data = &data[n..];
+        }
+        Ok(())
+    }
+
+    /// Put the staged set in force if its bytes have CRC-32 `crc` and
+    /// are a set that keeps every rule: its header written last, a
+    /// generation above the one in force, read back; the new generation.
+    /// On any error the set in force is unchanged.
+    pub fn commit(&mut self, mut staged: Staged, crc: u32) -> Result<u32, StoreError<F::Error>> {
+        let (w, len) = (F::WRITE_SIZE, staged.len);
+        let at = self.slot_at(staged.slot);
+        let fill = len % w;
+        if fill != 0 {
+            // The last word, padded as erased.
+            staged.tail[fill..w].fill(0xFF);
+            self.flash
+                .write(at + (HEADER + len - fill) as u32, &staged.tail[..w])
+                .map_err(StoreError::Flash)?;
+        }
+        let generation = match self.current().map_err(StoreError::Flash)? {
+            // The slot in force is never written: not a set staged here.
+            Some((slot, _)) if slot == staged.slot => return Err(StoreError::Verify),
+            Some((_, generation)) => generation.wrapping_add(1),
+            None => 1,
+        };
+        self.check_staged(at, len, crc)?;
         let header = Header {
             generation,
             len: len as u32,
-            body_crc: link::CRC.checksum(&body[..len]),
+            body_crc: crc,
         };
         self.flash
             .write(at, &header.to_bytes())
             .map_err(StoreError::Flash)?;
-        match self.written_as(slot, &header, set).map_err(StoreError::Flash)? {
-            true => Ok(generation),
-            false => {
-                // Not what was written: take the slot out of the running
-                // (an erased slot is not valid), the set in force stays.
-                self.flash
-                    .erase(at, at + self.slot_bytes)
-                    .map_err(StoreError::Flash)?;
-                Err(StoreError::Verify)
-            }
+        if self.valid_header(staged.slot).map_err(StoreError::Flash)? != Some(header) {
+            // Not what was written: take the slot out of the running
+            // (an erased slot is not valid), the set in force stays.
+            self.flash
+                .erase(at, at + self.slot_bytes)
+                .map_err(StoreError::Flash)?;
+            return Err(StoreError::Verify);
+        }
+        Ok(generation)
+    }
+
+    /// The `len` staged bytes after the header at `at` have CRC `crc`
+    /// and are a set that keeps every rule. Its own frame: the body and
+    /// the set it parses (3.8 KiB) are not kept on the caller's stack.
+    #[inline(never)]
+    fn check_staged(&mut self, at: u32, len: usize, crc: u32) -> Result<(), StoreError<F::Error>> {
+        let mut body = [0u8; MAX_BYTES];
+        let body = &mut body[..len];
+        match self.flash.read(at + HEADER as u32, body) {
+            Err(e) if e.corrupt() => return Err(StoreError::Mismatch),
+            other => other.map_err(StoreError::Flash)?,
+        }
+        if link::CRC.checksum(body) != crc {
+            return Err(StoreError::Mismatch);
+        }
+        match Stored::from_bytes(body) {
+            None => Err(StoreError::Malformed),
+            Some(Err(r)) => Err(StoreError::Refused(r)),
+            Some(Ok(_)) => Ok(()),
         }
     }
 }

@@ -77,9 +77,14 @@ const MAX_BODY: usize = MAX_FRAME - 4 - 2 - 1;
 
 /// The table of [`CRC`]: 1 KiB, a byte at a time (the firmware's); with
 /// the `fast-crc` feature 16 KiB, sixteen bytes at a time (the host's
-/// decoder, which replays streams of 10⁶ records a second).
-#[cfg(not(feature = "fast-crc"))]
+/// decoder, which replays streams of 10⁶ records a second); with
+/// `small-crc` none, a bit at a time (the single-channel board with its
+/// store). The same CRC whichever.
+#[cfg(not(any(feature = "fast-crc", feature = "small-crc")))]
 pub type CrcTable = crc::Table<1>;
+/// The table of [`CRC`] (see the other definition).
+#[cfg(all(feature = "small-crc", not(feature = "fast-crc")))]
+pub type CrcTable = crc::NoTable;
 /// The table of [`CRC`] (see the other definition).
 #[cfg(feature = "fast-crc")]
 pub type CrcTable = crc::Table<16>;
@@ -436,10 +441,22 @@ fn checksum_and_stuff(frame: &mut [u8]) {
     let Some(body_end) = frame.len().checked_sub(5) else {
         return;
     };
-    // The table's own address in a register (not the CRC's, four bytes
-    // before it, which costs an add a byte).
-    let table: &[u32; 256] = core::hint::black_box(&CRC.table()[0]);
-    let step = |c: u32| table[(c & 0xff) as usize] ^ (c >> 8);
+    // One byte's step of the reflected CRC: the table's entry, or the
+    // entry's eight bit steps where the image keeps no table.
+    #[cfg(not(all(feature = "small-crc", not(feature = "fast-crc"))))]
+    let step = {
+        // The table's own address in a register (not the CRC's, four
+        // bytes before it, which costs an add a byte).
+        let table: &[u32; 256] = core::hint::black_box(&CRC.table()[0]);
+        move |c: u32| table[(c & 0xff) as usize] ^ (c >> 8)
+    };
+    #[cfg(all(feature = "small-crc", not(feature = "fast-crc")))]
+    let step = |mut c: u32| {
+        for _ in 0..8 {
+            c = (c >> 1) ^ (0xEDB8_8320 & (c & 1).wrapping_neg());
+        }
+        c
+    };
     // CRC-32/ISO-HDLC, reflected: init and final xor all ones.
     let mut crc = !0u32;
     // The byte whose code is pending: the first, then the last zero.

@@ -345,3 +345,53 @@ fn a_ram_flash_image_holds_a_set_as_the_board_would() {
     assert_eq!(f.write(4, &[0u8; 8]), Err(RamFlashError::Bounds));
     assert_eq!(f.erase(0, 100), Err(RamFlashError::Bounds));
 }
+
+/// A set staged in pieces of any length (not whole flash words, as the
+/// link's last piece is not) commits to the set itself; a commit whose
+/// CRC or bytes do not hold leaves the set in force, and the slot in
+/// force is never written while a set is staged.
+#[test]
+fn a_set_staged_in_pieces_of_any_length_is_the_set() {
+    let mut flash = store(Model::new(8));
+    assert_eq!(flash.save(&set(0)), Ok(1));
+    let mut buf = [0u8; MAX_BYTES];
+    let bytes = set(1).to_bytes(&mut buf).unwrap().to_vec();
+    let crc = link::CRC.checksum(&bytes);
+    for sizes in [&[1usize, 3, 8, 13, 32, 5][..], &[7], &[32], &[bytes.len()]] {
+        let before = flash.load().unwrap().unwrap();
+        let mut staged = flash.begin().unwrap();
+        assert_ne!(staged.slot, before.slot, "staged beside the set in force");
+        let mut rest = &bytes[..];
+        for &n in sizes.iter().cycle() {
+            if rest.is_empty() {
+                break;
+            }
+            let n = n.min(rest.len());
+            flash.append(&mut staged, &rest[..n]).unwrap();
+            rest = &rest[n..];
+            assert_eq!(flash.load().unwrap(), Some(before), "in force while staged");
+        }
+        assert_eq!(staged.len(), bytes.len());
+        // A wrong CRC: refused, nothing in force changes.
+        assert_eq!(flash.commit(staged, crc ^ 1), Err(StoreError::Mismatch));
+        assert_eq!(flash.load().unwrap(), Some(before));
+        // Staged again, with the right one: in force, a generation on.
+        let mut staged = flash.begin().unwrap();
+        for piece in bytes.chunks(sizes[0]) {
+            flash.append(&mut staged, piece).unwrap();
+        }
+        let g = flash.commit(staged, crc).unwrap();
+        assert_eq!(g, before.generation + 1);
+        let loaded = restart(flash.release_ref()).load().unwrap().unwrap();
+        assert_eq!((loaded.set, loaded.generation), (set(1), g));
+    }
+    // Bytes with a matching CRC that are not a set.
+    let junk = [0x55u8; 40];
+    let mut staged = flash.begin().unwrap();
+    flash.append(&mut staged, &junk).unwrap();
+    assert_eq!(
+        flash.commit(staged, link::CRC.checksum(&junk)),
+        Err(StoreError::Malformed)
+    );
+    assert_eq!(flash.load().unwrap().map(|l| l.set), Some(set(1)));
+}
