@@ -12,6 +12,11 @@ const SIN_BITS: u32 = 10;
 const REF_BITS: u32 = 11;
 /// log2 of the number of entries of the 2^-f table.
 const EXP2_BITS: u32 = 6;
+/// The inverter's grid: `invert::GRID` points from `invert::X_ASYMPTOTE`
+/// to `tline::X_MAX` (a test holds these to those).
+const INVERT_GRID: usize = 56;
+const INVERT_X_ASYMPTOTE: f32 = 0.01;
+const INVERT_X_MAX: f32 = 3200.0;
 
 /// Every table of dsp-core, generated at build time. One function on
 /// purpose: each table is a few lines of f64 arithmetic and its
@@ -149,6 +154,25 @@ fn main() {
     {
         println!("cargo:rustc-cfg=arm_fpu");
     }
+
+    // The inverter's grid in ln x: GRID points log-spaced from
+    // X_ASYMPTOTE to X_MAX, each the f32 ln of the f32 x it stands for
+    // (libm's logf and expf, the functions the device runs: pure Rust,
+    // the same bits on every target; `invert`'s tests recompute it).
+    let (x_lo, x_hi): (f32, f32) = (INVERT_X_ASYMPTOTE, INVERT_X_MAX);
+    let (u0, u1) = (libm::logf(x_lo), libm::logf(x_hi));
+    writeln!(
+        s,
+        "/// ln x at the inverter's {INVERT_GRID} grid points (log-spaced, 0.01 to 3200)."
+    )
+    .unwrap();
+    writeln!(s, "pub static INVERT_GRID_U: [f32; {INVERT_GRID}] = [").unwrap();
+    for k in 0..INVERT_GRID {
+        let u = u0 + (u1 - u0) * k as f32 / (INVERT_GRID - 1) as f32;
+        let x = libm::expf(u).min(x_hi);
+        writeln!(s, "    f32::from_bits({:#010x}),", libm::logf(x).to_bits()).unwrap();
+    }
+    writeln!(s, "];").unwrap();
 
     let out = PathBuf::from(env::var_os("OUT_DIR").unwrap()).join("tables.rs");
     fs::write(out, s).unwrap();

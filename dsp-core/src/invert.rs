@@ -51,6 +51,7 @@
 //! β of each electrode's end-to-end resistance in its two leads.
 
 use crate::fmath::{self, max, min, positive_finite};
+use crate::tables::INVERT_GRID_U;
 use crate::tline::{LineModel, ModelError};
 use crate::Complex32;
 use core::f32::consts::TAU;
@@ -60,8 +61,10 @@ pub const X_ASYMPTOTE: f32 = 0.01;
 /// Default upper end of the inversion range (x = ωRC).
 pub const X_MAX_DEFAULT: f32 = 10.0;
 /// Number of grid points from [`X_ASYMPTOTE`] to [`crate::tline::X_MAX`]
-/// (log-spaced, ≈ 0.23 apart in ln x).
+/// (log-spaced, ≈ 0.23 apart in ln x): ln x at each is
+/// [`INVERT_GRID_U`], one table every inverter shares.
 const GRID: usize = 56;
+const _: () = assert!(GRID == INVERT_GRID_U.len() && GRID <= 64);
 /// Largest number of monotone branches of D(x) kept (rising, falling,
 /// rising again for a ladder; the continuous line has two).
 const BRANCHES: usize = 4;
@@ -156,8 +159,13 @@ pub struct Line {
 pub struct Inverter {
     model: LineModel,
     x_max: f32,
-    /// ln x at the grid points.
-    u: [f32; GRID],
+    /// Grid points moved onto an extremum of D ([`Inverter::refine`]):
+    /// point `moved_at[j]` is at ln x `moved_u[j]` (`u8::MAX`: none).
+    /// Every other point is the shared grid's ([`INVERT_GRID_U`]): 224
+    /// bytes less per inverter, one per sensor.
+    moved_at: [u8; BRANCHES],
+    /// ln x of the moved points.
+    moved_u: [f32; BRANCHES],
     /// D at the grid points.
     d: [f32; GRID],
     /// Grid indices of the ends of the monotone branches: `ends[0] = 0`,
@@ -221,7 +229,8 @@ impl Inverter {
         let mut s = Self {
             model,
             x_max,
-            u: [0.0; GRID],
+            moved_at: [u8::MAX; BRANCHES],
+            moved_u: [0.0; BRANCHES],
             d: [0.0; GRID],
             ends: [GRID - 1; BRANCHES + 1],
             branches: 1,
@@ -230,11 +239,11 @@ impl Inverter {
             tail_band: None,
             lead,
         };
-        for k in 0..GRID {
-            let u = u0 + (u1 - u0) * k as f32 / (GRID - 1) as f32;
-            // The top point rounds to a hair above X_MAX in f32.
-            let x = libm::expf(u).min(crate::tline::X_MAX);
-            s.u[k] = libm::logf(x);
+        for (k, &u) in INVERT_GRID_U.iter().enumerate() {
+            // exp(ln x) as it was when x was the grid point: the top point
+            // rounds to a hair above X_MAX in f32.
+            let x = libm::expf(u0 + (u1 - u0) * k as f32 / (GRID - 1) as f32).min(crate::tline::X_MAX);
+            debug_assert_eq!(libm::logf(x).to_bits(), u.to_bits());
             s.d[k] = dissipation(zeta_with(model, lead, x)?);
         }
         // Branch ends: where D turns by more than EXTREMUM_TOL (f32 noise
@@ -272,10 +281,10 @@ impl Inverter {
                 break;
             }
         }
-        s.x_max = s.x_max.min(libm::expf(s.u[s.ends[s.resolved]]));
+        s.x_max = s.x_max.min(libm::expf(s.u(s.ends[s.resolved])));
         for k in s.ends[s.resolved]..GRID {
             if s.resolved < s.branches {
-                let z = zeta_with(model, lead, libm::expf(s.u[k]).min(crate::tline::X_MAX))?;
+                let z = zeta_with(model, lead, libm::expf(s.u(k)).min(crate::tline::X_MAX))?;
                 s.tail_zeta = s.tail_zeta.min(crate::fmath::hypot(z.re, z.im) * 0.999);
             }
         }
@@ -295,7 +304,7 @@ impl Inverter {
         const R: f32 = 0.618_034;
         let sign = if max { 1.0 } else { -1.0 };
         let f = |u: f32| self.zeta(libm::expf(u)).map(|z| sign * dissipation(z));
-        let (mut a, mut b) = (self.u[k - 1], self.u[k + 1]);
+        let (mut a, mut b) = (self.u(k - 1), self.u(k + 1));
         let (mut c, mut d) = (b - R * (b - a), a + R * (b - a));
         let (mut fc, mut fd) = (f(c)?, f(d)?);
         for _ in 0..30 {
@@ -311,10 +320,38 @@ impl Inverter {
         }
         let (u, du) = if fc > fd { (c, fc) } else { (d, fd) };
         if du > sign * self.d[k] {
-            self.u[k] = u;
+            self.set_u(k, u);
             self.d[k] = sign * du;
         }
         Ok(())
+    }
+
+    /// ln x at grid point `k`: the shared grid's, or where it was moved.
+    /// Out of line: inlined at its nine uses it took 1.1 KiB more flash.
+    #[inline(never)]
+    fn u(&self, k: usize) -> f32 {
+        match self.moved_at.iter().position(|&at| usize::from(at) == k) {
+            Some(j) => self.moved_u[j],
+            None => INVERT_GRID_U.get(k).copied().unwrap_or(f32::NAN),
+        }
+    }
+
+    /// Move grid point `k` to ln x = `u`: at most [`BRANCHES`] points
+    /// move, the branches' inner ends.
+    fn set_u(&mut self, k: usize, u: f32) {
+        let free = self
+            .moved_at
+            .iter()
+            .position(|&at| usize::from(at) == k || at == u8::MAX);
+        match free {
+            Some(j) if k < GRID => {
+                self.moved_at[j] = k as u8;
+                self.moved_u[j] = u;
+            }
+            // No room (the construction moves no more; debug builds say
+            // so): the point stays where it was.
+            _ => debug_assert!(false, "grid point {k}: no room to move it"),
+        }
     }
 
     /// The model this inverter fits.
@@ -456,7 +493,7 @@ impl Inverter {
     /// way). Near it the inversion is ill-conditioned: dD/dx = 0.
     pub fn peak(&self) -> (f32, f32) {
         let k = self.ends[1];
-        (libm::expf(self.u[k]), self.d[k])
+        (libm::expf(self.u(k)), self.d[k])
     }
 
     /// Largest x up to which one impedance fits only one line over the
@@ -477,7 +514,7 @@ impl Inverter {
             * (1.0 - D_MARGIN);
         match self.root(floor, 0, self.ends[1]) {
             Ok(r) => r.x.min(self.x_max),
-            Err(_) => libm::expf(self.u[0]),
+            Err(_) => libm::expf(self.u(0)),
         }
     }
 
@@ -746,13 +783,14 @@ impl Inverter {
         let mut u = if i1 - i0 >= 3 {
             // The four grid points around the cell, inside the branch.
             let k = a.saturating_sub(1).max(i0).min(i1 - 3);
-            cubic_through(d, &self.d[k..k + 4], &self.u[k..k + 4])
+            let u = [self.u(k), self.u(k + 1), self.u(k + 2), self.u(k + 3)];
+            cubic_through(d, &self.d[k..k + 4], &u)
         } else {
             // Too short a branch for a cubic: the falsi below.
             f32::NAN
         };
         // The bracket in u, g = D − d of opposite signs at its ends.
-        let (mut ua, mut ga, mut ub, mut gb) = (self.u[a], self.d[a] - d, self.u[b], self.d[b] - d);
+        let (mut ua, mut ga, mut ub, mut gb) = (self.u(a), self.d[a] - d, self.u(b), self.d[b] - d);
         let falsi = |ua: f32, ga: f32, ub: f32, gb: f32| ua - ga * (ub - ua) / (gb - ga);
         // (NaN fails both comparisons.)
         if !(u > ua && u < ub) {
@@ -881,4 +919,46 @@ enum Select {
 #[inline]
 fn dissipation(zeta: Complex32) -> f32 {
     zeta.re / -zeta.im
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shared grid is, bit for bit, the grid each inverter computed
+    /// for itself before: X_ASYMPTOTE to X_MAX, log-spaced, through
+    /// libm's expf and logf.
+    #[test]
+    fn the_shared_grid_is_the_computed_one() {
+        let (u0, u1) = (libm::logf(X_ASYMPTOTE), libm::logf(crate::tline::X_MAX));
+        for (k, &u) in INVERT_GRID_U.iter().enumerate() {
+            let x = libm::expf(u0 + (u1 - u0) * k as f32 / (GRID - 1) as f32).min(crate::tline::X_MAX);
+            assert_eq!(libm::logf(x).to_bits(), u.to_bits(), "point {k}");
+        }
+    }
+
+    /// Moved points read back where they were moved; the others stay the
+    /// grid's.
+    #[test]
+    fn moved_points_read_back() {
+        for model in [LineModel::Continuous, LineModel::Ladder(30)] {
+            let inv = Inverter::new(model);
+            let mut n = 0;
+            for k in 0..GRID {
+                let ends = &inv.ends[1..inv.branches];
+                if ends.contains(&k) {
+                    n += 1;
+                    assert_ne!(inv.u(k), INVERT_GRID_U[k], "{model:?} end {k} refined");
+                } else {
+                    assert_eq!(inv.u(k).to_bits(), INVERT_GRID_U[k].to_bits());
+                }
+            }
+            assert_eq!(
+                n,
+                inv.moved_at.iter().filter(|&&a| a != u8::MAX).count(),
+                "{model:?}"
+            );
+            assert!(n >= 1, "{model:?}: the first peak is refined");
+        }
+    }
 }
