@@ -5,6 +5,7 @@ use crate::tables::{EXP2_BITS, EXP2_NEG_Q31};
 /// Split a positive normal `f32` into a mantissa in [2³⁰, 2³¹) and a right
 /// shift: x = m·2^(−sh). Exact (a 24-bit f32 mantissa fits in 31 bits).
 #[inline]
+#[cfg(any(feature = "ladder", test))]
 pub(crate) fn split_f32(x: f32) -> (u32, i32) {
     let b = x.to_bits();
     let e = ((b >> 23) & 0xff) as i32;

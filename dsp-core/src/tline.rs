@@ -57,7 +57,9 @@
 //! `SMULL`/`UMULL` each on Cortex-M4.
 
 use crate::cossin::cossin;
-use crate::fixed::{exp_neg_q31, split_f32, sqrtf};
+#[cfg(feature = "ladder")]
+use crate::fixed::split_f32;
+use crate::fixed::{exp_neg_q31, sqrtf};
 use crate::Complex32;
 use core::f32::consts::TAU;
 
@@ -113,7 +115,10 @@ impl LineModel {
             return Err(ModelError::OutOfRange);
         }
         match *self {
+            #[cfg(feature = "ladder")]
             LineModel::Ladder(n) if (1..=N_MAX).contains(&n) => Ok(ladder_zeta(n as u32, x)),
+            // (Without the `ladder` feature, every ladder: an image that
+            // reads only continuous lines keeps no ladder kernel.)
             LineModel::Ladder(_) => Err(ModelError::BadElements),
             LineModel::Continuous => Ok(continuous_zeta(x)),
         }
@@ -154,6 +159,7 @@ impl LineModel {
 pub const LADDER_SERIES_X: f32 = 0.02;
 
 /// ζ of an n-element ladder; `n` in 1..=64, `x` in the declared range.
+#[cfg(feature = "ladder")]
 fn ladder_zeta(n: u32, x: f32) -> Complex32 {
     if x < LADDER_SERIES_X {
         let [q1, q2, q3, q4] = crate::tables::LADDER_SERIES[(n - 1) as usize];
@@ -174,6 +180,7 @@ fn ladder_zeta(n: u32, x: f32) -> Complex32 {
 
 /// β = m·2^-(32+s) < ½ kernel; returns (p, q) as [re, im].
 #[inline(never)]
+#[cfg(feature = "ladder")]
 fn ladder_small_beta(n: u32, m: u32, s: u32) -> ([i32; 2], [i32; 2]) {
     // m' = round(m / 2^s) ≤ 2^31 − 1 (m < 2^31): β = m'·2^-32.
     let mb = ((m as u64 + ((1u64 << s) >> 1)) >> s).min(i32::MAX as u64) as i32;
@@ -201,6 +208,7 @@ fn ladder_small_beta(n: u32, m: u32, s: u32) -> ([i32; 2], [i32; 2]) {
 
 /// β = m·2^-sh ≥ ½ kernel (sh in 25..=31); returns (p, q) as [re, im].
 #[inline(never)]
+#[cfg(feature = "ladder")]
 fn ladder_large_beta(n: u32, m: u32, sh: u32) -> ([i32; 2], [i32; 2]) {
     // Components stay below 2^L before each half step: a product m·a is
     // below 2^(31+L) and a half step grows a component to below

@@ -61,6 +61,12 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
         }
     }
 
+    /// Room for the longest frame now (its number not spent).
+    pub fn has_room(&mut self) -> bool {
+        // A grant dropped uncommitted gives its bytes back.
+        self.producer.grant_exact(link::MAX_FRAME).is_ok()
+    }
+
     /// Queue one record; false (and counted) if there was no room.
     pub fn record(&mut self, rec: link::Record) -> bool {
         let sent = self.queue(|e, out| e.record(&rec, out));

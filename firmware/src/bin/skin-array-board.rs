@@ -241,7 +241,9 @@ mod app {
             }
             let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
             let writer = &mut *l.writer;
-            if let Some(action) = l.requests.answer(remaining, writer) {
+            // A long reply waits for the transmitter, kicked.
+            let kick = || rtic::pend(pac::Interrupt::DMA2_CH1);
+            if let Some(action) = l.requests.answer(remaining, writer, kick) {
                 match action {
                     Action::Start => *l.sending = true,
                     Action::Stop => {

@@ -165,7 +165,12 @@ mod settings {
 
     impl Requests {
         /// Never a request.
-        pub fn answer<const N: usize>(&mut self, _: u16, _: &mut FrameWriter<'_, N>) -> Option<Action> {
+        pub fn answer<const N: usize>(
+            &mut self,
+            _: u16,
+            _: &mut FrameWriter<'_, N>,
+            _: impl FnMut(),
+        ) -> Option<Action> {
             None
         }
     }
@@ -312,7 +317,8 @@ mod app {
             let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
             let requests = &mut *cx.local.requests;
             let action = cx.shared.writer.lock(|w| {
-                let action = requests.answer(remaining, w);
+                // A long reply waits for the transmitter, kicked.
+                let action = requests.answer(remaining, w, || rtic::pend(pac::Interrupt::DMA2_CH1));
                 if let Some(Action::Stop) = action {
                     w.end(0);
                 }

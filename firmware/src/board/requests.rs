@@ -11,6 +11,11 @@ use embedded_storage::nor_flash::NorFlash;
 use instrument::commands::{Action, Commands};
 use instrument::store::{Corruption, Store};
 
+/// How many times a reply kicks the transmitter while it waits for room
+/// (each a pend and a look at the queue, well under a microsecond: a
+/// frame leaves in 64 µs at the link's 15 MBd).
+pub const KICKS: u32 = 100_000;
+
 /// The receive ring, read only behind the DMA's position.
 struct Ring(*const u8);
 
@@ -47,14 +52,22 @@ where
     }
 
     /// The request the ring now holds whole, if one, answered through
-    /// `writer` (one reply frame); then what the application must do.
-    /// `remaining`: the receive channel's count
+    /// `writer`; then what the application must do. `remaining`: the
+    /// receive channel's count
     /// ([`super::link::Transmitter::rx_remaining`]). The host sends one
     /// request and waits for its reply, so one a call is all there is.
+    ///
+    /// A read's reply is the set in pieces, some 2.5 KiB of frames, more
+    /// than a board's queue holds: each reply waits for room, calling
+    /// `kick` (which pends the transmitter) as the link drains the
+    /// queue, so that no piece is lost. The wait is bounded
+    /// ([`KICKS`] once a request): a link that does not drain loses the
+    /// replies, as before, and the host asks again.
     pub fn answer<const N: usize>(
         &mut self,
         remaining: u16,
         writer: &mut FrameWriter<'_, N>,
+        mut kick: impl FnMut(),
     ) -> Option<Action> {
         let ring = self.ring.0;
         // SAFETY: within the 'static ring of RX_BYTES; the DMA has
@@ -73,7 +86,16 @@ where
             }
         });
         let (seq, req) = request?;
+        // Once a reply has waited in vain, the rest of this request's
+        // replies do not wait.
+        let mut patient = true;
         Some(self.commands.handle(seq, &req, &mut self.store, |r| {
+            let mut tries = 0;
+            while patient && !writer.has_room() {
+                kick();
+                tries += 1;
+                patient = tries < KICKS;
+            }
             writer.reply(r);
         }))
     }
@@ -175,7 +197,8 @@ mod tests {
             sample_rate_hz: 200_000,
         };
         let mut writer = FrameWriter::start(queue, start);
-        let mut answer = |dma: &Dma, w: &mut FrameWriter<'_, 4096>| requests.answer(dma.remaining(), w);
+        let mut answer =
+            |dma: &Dma, w: &mut FrameWriter<'_, 4096>| requests.answer(dma.remaining(), w, || {});
 
         // Nothing yet; then half a request: still nothing.
         assert_eq!(answer(&dma, &mut writer), None);
@@ -246,5 +269,76 @@ mod tests {
             matches!(replies[replies.len() - 2].1, Reply::Ack { generation: g, .. } if g > 0),
             "{replies:?}"
         );
+    }
+
+    /// A stored set read back through the board's 512-byte queue: its
+    /// pieces are several queues' worth, and each waits for the
+    /// transmitter (here a kick drains a frame's worth) instead of being
+    /// dropped. With no kick that drains, the reply is lost after
+    /// [`KICKS`] tries, not waited for forever.
+    #[test]
+    fn a_read_longer_than_the_queue_waits_for_the_link() {
+        let ring: &'static mut RxRing = Box::leak(Box::new([0u8; RX_BYTES]));
+        let mut dma = Dma {
+            ring: ring.as_mut_ptr(),
+            at: 0,
+        };
+        let mem: &'static mut [u8] = Box::leak(vec![0xff; 2 * SLOT_BYTES as usize].into_boxed_slice());
+        let mut store = Store::new(RamFlash::new(mem), 0, SLOT_BYTES).unwrap();
+        let set = instrument::stored::Stored::uncalibrated();
+        assert_eq!(store.save(&set), Ok(1));
+        let mut requests = Requests::new(ring, Commands::new(), store);
+        let queue: &'static LinkQueue<512> = Box::leak(Box::new(LinkQueue::new()));
+        let start = link::Start {
+            version: link::VERSION,
+            firmware: link::Start::firmware_field("test"),
+            settings_digest: 0,
+            calibration_digest: 0,
+            sensors: 8,
+            sample_rate_hz: 200_000,
+        };
+        let mut writer = FrameWriter::start(queue, start);
+        let consumer = queue.stream_consumer();
+        let mut sent = Vec::new();
+        let mut kicks = 0;
+        dma.write(&frame(1, Request::ReadSettings));
+        let action = requests.answer(dma.remaining(), &mut writer, || {
+            // The transmitter: a frame's worth of bytes leaves.
+            kicks += 1;
+            if let Ok(g) = consumer.read() {
+                let n = g.len().min(link::MAX_FRAME);
+                sent.extend_from_slice(&g[..n]);
+                g.release(n);
+            }
+        });
+        assert_eq!(action, Some(Action::None));
+        while let Ok(g) = consumer.read() {
+            sent.extend_from_slice(&g);
+            let n = g.len();
+            g.release(n);
+        }
+        let mut d = link::Decoder::new();
+        let mut bytes = Vec::new();
+        let mut acked = false;
+        for f in sent.iter().filter_map(|&b| d.push(b)) {
+            match f.unwrap().body {
+                Body::Reply(Reply::Chunk { chunk, .. }) => {
+                    assert_eq!(usize::from(chunk.offset), bytes.len(), "a piece lost");
+                    bytes.extend_from_slice(chunk.data());
+                }
+                Body::Reply(Reply::Ack { generation, .. }) => acked = generation == 1,
+                _ => {}
+            }
+        }
+        assert!(acked && kicks > 0, "kicks {kicks}");
+        assert!(bytes.len() > 512, "{} bytes", bytes.len());
+        assert_eq!(instrument::stored::Stored::from_bytes(&bytes), Some(Ok(set)));
+
+        // A link that never drains: the reply is given up, not waited for.
+        let mut kicks = 0u32;
+        dma.write(&frame(2, Request::ReadSettings));
+        let action = requests.answer(dma.remaining(), &mut writer, || kicks += 1);
+        assert_eq!(action, Some(Action::None));
+        assert_eq!(kicks, KICKS, "one wait in vain, then none");
     }
 }
