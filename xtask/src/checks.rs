@@ -40,6 +40,34 @@ pub fn all(root: &Path) -> Result<()> {
     )?;
     cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
     cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
+    // The feature sets the workspace run does not build: the link's
+    // encoder with the table-less CRC (the single-channel board's store
+    // image), held to the crates' CRC and COBS at every length; dsp-core
+    // without its ladder kernels (the boards').
+    cargo::run(
+        root,
+        &[
+            "test",
+            "--release",
+            "-p",
+            "link",
+            "--lib",
+            "--features",
+            "small-crc",
+        ],
+    )?;
+    cargo::run(
+        root,
+        &[
+            "clippy",
+            "-p",
+            "dsp-core",
+            "--no-default-features",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    )?;
     // dsp-core on every core we support: M4F (DSP + FPU) and M3.
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;

@@ -41,8 +41,8 @@
 //! the set stored in the last 8 KiB of flash at start, as
 //! `skin-array-board` does: each sensor's tab leads, wiring and stretch
 //! table; a set that comes down the link is in force from the next
-//! start. That image is larger than the 64 KiB / 16 KiB this one keeps
-//! to (`docs/benchmarks.md`).
+//! start. Both keep to 64 KiB of flash and 16 KiB of RAM
+//! (`docs/benchmarks.md`).
 #![no_std]
 #![no_main]
 
