@@ -15,8 +15,9 @@
 //!
 //! * `init`: `board::setup` begins (reset cause, watchdog, clocks), the
 //!   DAC ring's first two quarter slots (`board::excitation`),
-//!   `board::front_end::multiplexed`, and `board::setup` ends, handing
-//!   DMA1 and the IWDG to the tasks.
+//!   `board::front_end::multiplexed`, `board::setup` ends, handing DMA1
+//!   and the IWDG to the tasks, the settings are read, and the sample
+//!   clock (TIM6) starts last.
 //! * `dma_done` (DMA1 channel 1's half and full transfer): the
 //!   completion (`board::dma::Completion`), the sequencer's step (which
 //!   slot completed, which channel and range to select, which frequency
@@ -54,7 +55,7 @@ use firmware::board::front_end::{self, AdcSlots, SLOTS};
 use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
-use firmware::board::{clocks, dac, pac};
+use firmware::board::{clocks, dac, pac, timer};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
@@ -248,8 +249,9 @@ mod app {
         clocks::peripherals(&dp.RCC);
         // Slots 0 and 1 play their channels' start frequencies, which no
         // setting moves (a channel's plan starts at the policy's first
-        // frequency and the lowest range), so the front end starts before
-        // the flash, which `setup::finish` hands over, is read.
+        // frequency and the lowest range), so the front end is set up
+        // before the flash, which `setup::finish` hands over, is read; its
+        // sample clock starts at the end.
         let (seq, slots) = Sequencer::start(|_| Channel::new(0.0).plan());
         let feed = Feed::start([slots[0].fidx, slots[1].fidx], cx.local.dac);
         let mut mux = Mux::new(pins::mux_pins());
@@ -284,6 +286,10 @@ mod app {
         );
         let tx = Transmitter::new(owned.link.dma, queue.stream_consumer(), owned.link.tdr);
         rtic::pend(pac::Interrupt::DMA2_CH1);
+        // The sample clock last: the DAC's ring holds 2.7 ms, which
+        // reading the settings and building eight sensors' trackers
+        // could outlast with the interrupts still masked.
+        timer::start(&owned.sample_clock);
         defmt::println!("start {=u8} channels", CHANNELS as u8);
         (
             Shared {

@@ -46,7 +46,11 @@ pub const ARRAY_PACER: usize = ADCS - 1;
 
 /// The multiplexed front end: PA0/PA1 analog, the multiplexer's address
 /// lines, DMA1 channels 1 (ADC pairs → `adc_buf`) and 2 (the excitation's
-/// ring `dac_ring` → DAC, [`super::excitation`]), the DAC, ADC1 + ADC2 in dual mode, then TIM6, which starts them.
+/// ring `dac_ring` → DAC, [`super::excitation`]), the DAC, ADC1 + ADC2 in
+/// dual mode, then TIM6, configured but not counting: the application
+/// starts it ([`super::timer::start`], TIM6 from
+/// [`super::setup::Owned`]) at the end of its `init`, once its tasks can
+/// refill the DAC's ring (two quarter slots, 2.7 ms) in time.
 #[cfg(target_os = "none")]
 pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_ring: &DacRing) {
     pins::analog(&dp.GPIOA);
@@ -67,7 +71,6 @@ pub fn multiplexed(dp: &pac::Peripherals, adc_buf: &AdcSlots, dac_ring: &DacRing
     dac::configure(&dp.DAC1);
     adc::init(dp);
     timer::configure(&dp.TIM6);
-    timer::start(&dp.TIM6);
 }
 
 /// The array's front end in blocks of `layout`: its analog pins, the

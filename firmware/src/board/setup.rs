@@ -45,6 +45,9 @@ pub struct Owned {
     pub link: LinkPort,
     /// The flash controller, for the stored settings (`board::flash`).
     pub flash: pac::FLASH,
+    /// TIM6, the sample clock: the multiplexed board starts it last
+    /// (`board::front_end::multiplexed`); the array's front end has.
+    pub sample_clock: pac::TIM6,
 }
 
 /// The record link's port: DMA2, whose channel 1 feeds LPUART1 and whose
@@ -95,5 +98,6 @@ pub fn finish(dp: pac::Peripherals) -> Owned {
             dma: dp.DMA2,
         },
         flash: dp.FLASH,
+        sample_clock: dp.TIM6,
     }
 }
