@@ -31,6 +31,24 @@ pub(super) fn addresses(ch: &dma1::CH, peripheral: u32, memory: u32, count: u16)
     ch.ndtr().write(|w| w.ndt().set(count));
 }
 
+/// The rest of a circular channel's CCR: memory increment, circular,
+/// half-transfer, transfer-complete and transfer-error interrupts if
+/// `interrupts`, enabled.
+fn circular(w: &mut dma1::ch::cr::W, interrupts: bool) -> &mut dma1::ch::cr::W {
+    w.minc()
+        .set_bit()
+        .circ()
+        .set_bit()
+        .htie()
+        .bit(interrupts)
+        .tcie()
+        .bit(interrupts)
+        .teie()
+        .bit(interrupts)
+        .en()
+        .set_bit()
+}
+
 /// Channel 1: `words` 32-bit words from the ADC common data register
 /// `from` to `to`, circular, with half-transfer, transfer-complete and
 /// transfer-error interrupts.
@@ -38,24 +56,8 @@ pub fn adc_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, words: u16) {
     let ch = dma.ch(0);
     addresses(ch, from, to, words);
     ch.cr().write(|w| {
-        w.dir()
-            .from_peripheral()
-            .psize()
-            .bits32()
-            .msize()
-            .bits32()
-            .minc()
-            .set_bit()
-            .circ()
-            .set_bit()
-            .htie()
-            .set_bit()
-            .tcie()
-            .set_bit()
-            .teie()
-            .set_bit()
-            .en()
-            .set_bit()
+        let w = w.dir().from_peripheral().psize().bits32().msize().bits32();
+        circular(w, true)
     });
 }
 
@@ -78,24 +80,8 @@ pub fn dac_channel(dma: &dma1::RegisterBlock, from: u32, to: u32, codes: u16) {
 fn to_dac(ch: &dma1::CH, from: u32, to: u32, codes: u16, interrupts: bool) {
     addresses(ch, to, from, codes);
     ch.cr().write(|w| {
-        w.dir()
-            .from_memory()
-            .psize()
-            .bits32()
-            .msize()
-            .bits16()
-            .minc()
-            .set_bit()
-            .circ()
-            .set_bit()
-            .htie()
-            .bit(interrupts)
-            .tcie()
-            .bit(interrupts)
-            .teie()
-            .bit(interrupts)
-            .en()
-            .set_bit()
+        let w = w.dir().from_memory().psize().bits32().msize().bits16();
+        circular(w, interrupts)
     });
 }
 
@@ -123,24 +109,8 @@ pub fn scan_channel(dma: &dma1::RegisterBlock, c: usize, from: u32, to: u32, res
     let ch = dma.ch(c);
     addresses(ch, from, to, results);
     ch.cr().write(|w| {
-        w.dir()
-            .from_peripheral()
-            .psize()
-            .bits16()
-            .msize()
-            .bits16()
-            .minc()
-            .set_bit()
-            .circ()
-            .set_bit()
-            .htie()
-            .bit(interrupts)
-            .tcie()
-            .bit(interrupts)
-            .teie()
-            .bit(interrupts)
-            .en()
-            .set_bit()
+        let w = w.dir().from_peripheral().psize().bits16().msize().bits16();
+        circular(w, interrupts)
     });
 }
 

@@ -150,6 +150,34 @@ mod tests {
         }
     }
 
+    /// A receive ring and the DMA that writes it, from its start.
+    fn ring() -> (&'static mut RxRing, Dma) {
+        let ring: &'static mut RxRing = Box::leak(Box::new([0u8; RX_BYTES]));
+        let dma = Dma {
+            ring: ring.as_mut_ptr(),
+            at: 0,
+        };
+        (ring, dma)
+    }
+
+    /// A store over two erased slots in RAM.
+    fn store() -> Store<RamFlash<'static>> {
+        let mem: &'static mut [u8] = Box::leak(vec![0xff; 2 * SLOT_BYTES as usize].into_boxed_slice());
+        Store::new(RamFlash::new(mem), 0, SLOT_BYTES).unwrap()
+    }
+
+    /// A start frame for the writer.
+    fn start() -> link::Start {
+        link::Start {
+            version: link::VERSION,
+            firmware: link::Start::firmware_field("test"),
+            settings_digest: 0,
+            calibration_digest: 0,
+            sensors: 8,
+            sample_rate_hz: 200_000,
+        }
+    }
+
     /// The replies the writer queued (its start frame left out).
     fn replies<const N: usize>(queue: &LinkQueue<N>) -> Vec<(u32, Reply)> {
         let c = queue.stream_consumer();
@@ -179,24 +207,10 @@ mod tests {
     /// pieces and committed is stored and read back.
     #[test]
     fn requests_from_the_ring_are_answered_in_order() {
-        let ring: &'static mut RxRing = Box::leak(Box::new([0u8; RX_BYTES]));
-        let mut dma = Dma {
-            ring: ring.as_mut_ptr(),
-            at: 0,
-        };
-        let mem: &'static mut [u8] = Box::leak(vec![0xff; 2 * SLOT_BYTES as usize].into_boxed_slice());
-        let store = Store::new(RamFlash::new(mem), 0, SLOT_BYTES).unwrap();
-        let mut requests = Requests::new(ring, Commands::new(), store);
+        let (ring, mut dma) = ring();
+        let mut requests = Requests::new(ring, Commands::new(), store());
         let queue: &'static LinkQueue<4096> = Box::leak(Box::new(LinkQueue::new()));
-        let start = link::Start {
-            version: link::VERSION,
-            firmware: link::Start::firmware_field("test"),
-            settings_digest: 0,
-            calibration_digest: 0,
-            sensors: 8,
-            sample_rate_hz: 200_000,
-        };
-        let mut writer = FrameWriter::start(queue, start);
+        let mut writer = FrameWriter::start(queue, start());
         let mut answer =
             |dma: &Dma, w: &mut FrameWriter<'_, 4096>| requests.answer(dma.remaining(), w, || {});
 
@@ -278,26 +292,13 @@ mod tests {
     /// [`KICKS`] tries, not waited for forever.
     #[test]
     fn a_read_longer_than_the_queue_waits_for_the_link() {
-        let ring: &'static mut RxRing = Box::leak(Box::new([0u8; RX_BYTES]));
-        let mut dma = Dma {
-            ring: ring.as_mut_ptr(),
-            at: 0,
-        };
-        let mem: &'static mut [u8] = Box::leak(vec![0xff; 2 * SLOT_BYTES as usize].into_boxed_slice());
-        let mut store = Store::new(RamFlash::new(mem), 0, SLOT_BYTES).unwrap();
+        let (ring, mut dma) = ring();
+        let mut store = store();
         let set = instrument::stored::Stored::uncalibrated();
         assert_eq!(store.save(&set), Ok(1));
         let mut requests = Requests::new(ring, Commands::new(), store);
         let queue: &'static LinkQueue<512> = Box::leak(Box::new(LinkQueue::new()));
-        let start = link::Start {
-            version: link::VERSION,
-            firmware: link::Start::firmware_field("test"),
-            settings_digest: 0,
-            calibration_digest: 0,
-            sensors: 8,
-            sample_rate_hz: 200_000,
-        };
-        let mut writer = FrameWriter::start(queue, start);
+        let mut writer = FrameWriter::start(queue, start());
         let consumer = queue.stream_consumer();
         let mut sent = Vec::new();
         let mut kicks = 0;
