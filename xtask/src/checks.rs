@@ -171,7 +171,7 @@ fn board(root: &Path) -> Result<()> {
     let flags = qemu_tests::firmware_rustflags();
     let env = [("CARGO_ENCODED_RUSTFLAGS", flags.as_str())];
     // The variants first: the defaults' images are the ones left.
-    cargo::run_env(&fw, &["build-board-store"], &env)?;
+    cargo::run_env(&fw, &["build-board-plain"], &env)?;
     cargo::run_env(&fw, &["build-board"], &env)?;
     cargo::run_env(&fw, &["build-array-board-1ms"], &env)?;
     cargo::run_env(&fw, &["build-array-board"], &env)?;

@@ -35,10 +35,11 @@
 //!   ([`firmware::board::requests`]): read and write the stored settings,
 //!   start, stop.
 //!
-//! Settings: built as `cargo build-board`, this image keeps none: every
-//! sensor is read with the line model alone (no tab leads, no wiring)
-//! and its stretch is marked not calibrated (`Flags::UNCALIBRATED`). Built
-//! as `cargo build-board-store` (the `store` feature), it measures with
+//! Settings: built as `cargo build-board-plain`, this image keeps none:
+//! every sensor is read with the line model alone (no tab leads, no
+//! wiring) and its stretch is marked not calibrated
+//! (`Flags::UNCALIBRATED`). Built as `cargo build-board` (the `store`
+//! feature), it measures with
 //! the set stored in the last 8 KiB of flash at start, as
 //! `skin-array-board` does: each sensor's tab leads, wiring and stretch
 //! table; a set that comes down the link is in force from the next
