@@ -68,8 +68,10 @@ pub struct Feed {
     /// The frequency index of the slot being written (taken from its
     /// plan at its first quarter).
     fidx: u8,
-    /// The latest slot played at a stale frequency (its plan came late).
-    stale: Option<u64>,
+    /// Slots played at a stale frequency (their plan came late): bit
+    /// `s % 32` for slot `s`, set or cleared as the slot's first quarter
+    /// is written, so it speaks for the last [`Feed::REMEMBERED`] slots.
+    stale: u32,
     /// The ring lost step or its DMA failed: what plays is not known.
     stopped: bool,
 }
@@ -83,7 +85,7 @@ impl Feed {
             written: 0,
             plans: [(0, first[0]), (1, first[1])],
             fidx: first[0],
-            stale: None,
+            stale: 0,
             stopped: false,
         };
         feed.refill(ring, 0);
@@ -117,10 +119,12 @@ impl Feed {
         );
         if quarter == 0 {
             let (planned, fidx) = self.plans[(slot % 2) as usize];
-            if planned != slot {
-                // Still the plan of the slot two before: the whole slot
-                // plays its frequency, and is said to.
-                self.stale = Some(slot);
+            // Still the plan of the slot two before: the whole slot plays
+            // its frequency, and is said to.
+            let bit = 1 << (slot % 32);
+            match planned == slot {
+                true => self.stale &= !bit,
+                false => self.stale |= bit,
             }
             self.fidx = fidx;
         }
@@ -133,9 +137,15 @@ impl Feed {
         true
     }
 
-    /// Slot `slot` was played throughout at the frequency planned for it.
+    /// How many slots back [`Feed::played_as_planned`] can tell.
+    pub const REMEMBERED: u64 = 16;
+
+    /// Slot `slot`, one of the last [`Feed::REMEMBERED`] begun, was played
+    /// throughout at the frequency planned for it (false for a slot not
+    /// begun or further back: not vouched for).
     pub fn played_as_planned(&self, slot: u64) -> bool {
-        self.stale != Some(slot)
+        let begun = self.written.div_ceil(QUARTERS as u64);
+        slot < begun && begun - slot <= Self::REMEMBERED && self.stale >> (slot % 32) & 1 == 0
     }
 
     /// The ring's DMA failed or an interrupt came too late to tell which
@@ -279,6 +289,42 @@ mod tests {
         assert!(!feed.played_as_planned(3));
         assert_eq!(slots[4], slot_by_quarters(2));
         assert!(feed.played_as_planned(4) && feed.played_as_planned(2));
+    }
+
+    /// Plans late for two slots running (the acquisition's interrupt held
+    /// off for two slots): both are marked, each asked about later still
+    /// says so; a slot far back or not begun is not vouched for.
+    #[test]
+    fn two_late_plans_running_mark_both_slots() {
+        let mut ring = [0u16; 2 * QUARTER];
+        let mut feed = Feed::start([0, 1], &mut ring);
+        for event in 0u64..4 * 8 {
+            assert!(feed.refill(&mut ring, (event % 2) as usize));
+            if event % 4 == 3 {
+                let s = event / 4;
+                match s {
+                    // The ends of slots 1 and 2 served late, at slot 3's.
+                    1 | 2 => {}
+                    3 => {
+                        for k in 3..=5 {
+                            feed.plan(k, 2);
+                        }
+                    }
+                    _ => feed.plan(s + 2, 2),
+                }
+            }
+        }
+        // Quarters of slot 8 are being written.
+        assert!(!feed.played_as_planned(3) && !feed.played_as_planned(4));
+        assert!(feed.played_as_planned(2) && feed.played_as_planned(5));
+        assert!(!feed.played_as_planned(9), "not begun");
+        for _ in 0..4 * Feed::REMEMBERED {
+            let half = feed.expected();
+            assert!(feed.refill(&mut ring, half));
+            let s = feed.written / 4;
+            feed.plan(s + 2, 2);
+        }
+        assert!(!feed.played_as_planned(5), "too far back to tell");
     }
 
     #[test]
