@@ -352,7 +352,7 @@ where
         self.flash
             .write(at, &header.to_bytes())
             .map_err(StoreError::Flash)?;
-        if self.valid_header(staged.slot).map_err(StoreError::Flash)? != Some(header) {
+        if !self.header_reads_back(at, header).map_err(StoreError::Flash)? {
             // Not what was written: take the slot out of the running
             // (an erased slot is not valid), the set in force stays.
             self.flash
@@ -361,6 +361,17 @@ where
             return Err(StoreError::Verify);
         }
         Ok(generation)
+    }
+
+    /// The header at `at` reads back as `header` (the body behind it was
+    /// read back whole by [`Store::check_staged`] before it was written).
+    fn header_reads_back(&mut self, at: u32, header: Header) -> Result<bool, F::Error> {
+        let mut h = [0u8; HEADER];
+        match self.flash.read(at, &mut h) {
+            Err(e) if e.corrupt() => return Ok(false),
+            other => other?,
+        }
+        Ok(Header::from_bytes(&h) == Some(header))
     }
 
     /// The `len` staged bytes after the header at `at` have CRC `crc`

@@ -395,3 +395,51 @@ fn a_set_staged_in_pieces_of_any_length_is_the_set() {
     );
     assert_eq!(flash.load().unwrap().map(|l| l.set), Some(set(1)));
 }
+
+/// A flash whose header writes come back with a bit flipped: the
+/// commit's read-back of its header catches it, the slot is taken out of
+/// the running, and the set in force stays.
+#[test]
+fn a_header_that_does_not_read_back_is_not_put_in_force() {
+    struct FlipHeaders<'a>(RamFlash<'a>);
+    impl ErrorType for FlipHeaders<'_> {
+        type Error = RamFlashError;
+    }
+    impl ReadNorFlash for FlipHeaders<'_> {
+        const READ_SIZE: usize = 1;
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Self::Error> {
+            self.0.read(offset, bytes)
+        }
+        fn capacity(&self) -> usize {
+            self.0.capacity()
+        }
+    }
+    impl NorFlash for FlipHeaders<'_> {
+        const WRITE_SIZE: usize = RamFlash::WRITE_SIZE;
+        const ERASE_SIZE: usize = RamFlash::ERASE_SIZE;
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), Self::Error> {
+            self.0.erase(from, to)
+        }
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Self::Error> {
+            let mut b = bytes.to_vec();
+            if offset % SLOT_BYTES == 0 && bytes.len() == HEADER {
+                b[4] ^= 0x01;
+            }
+            self.0.write(offset, &b)
+        }
+    }
+    let mut mem = vec![0xFFu8; REGION_BYTES];
+    {
+        let mut good = Store::new(RamFlash::new(&mut mem), 0, SLOT_BYTES).unwrap();
+        assert_eq!(good.save(&set(0)), Ok(1));
+    }
+    let mut bad = Store::new(FlipHeaders(RamFlash::new(&mut mem)), 0, SLOT_BYTES).unwrap();
+    assert_eq!(bad.save(&set(1)), Err(StoreError::Verify));
+    let loaded = bad.load().unwrap().unwrap();
+    assert_eq!((loaded.set, loaded.generation), (set(0), 1));
+    // Its slot was erased: nothing of the failed set is left.
+    let other = 1 - loaded.slot;
+    assert!(mem[other * SLOT_BYTES as usize..][..HEADER]
+        .iter()
+        .all(|&b| b == 0xFF));
+}
