@@ -247,6 +247,41 @@ proptest::proptest! {
     }
 }
 
+proptest::proptest! {
+    /// The tones' energy T = Σ (re² + im²)/2⁶¹ (the residual's largest
+    /// term) within one unit of the exactly rounded sum for the array's
+    /// five tones, two for sixteen, over components of any size below
+    /// 2⁵⁶ (its three-multiply path: each exponent drawn alike, the
+    /// edges of h = X/2³² among them) and beyond (the exact path, the
+    /// same bits).
+    #[test]
+    fn the_tones_energy_is_within_a_unit_of_the_exact_sum(
+        parts in proptest::array::uniform32(proptest::prelude::any::<i64>()),
+        shifts in proptest::array::uniform32(0u32..64),
+        edge in proptest::array::uniform32(0u8..6),
+    ) {
+        use dsp_core::comb::{tones_energy, tones_energy_exact};
+        use dsp_core::Complex;
+        let limit = (1i64 << 56) - 1;
+        let v: [i64; 32] = core::array::from_fn(|j| match edge[j] {
+            0 => limit,
+            1 => -limit - 1,
+            2 => limit - (parts[j] >> 40).abs(),
+            _ => parts[j] >> shifts[j].max(8),
+        });
+        let five: [Complex<i64>; 5] = core::array::from_fn(|k| Complex::new(v[2 * k], v[2 * k + 1]));
+        let sixteen: [Complex<i64>; 16] = core::array::from_fn(|k| Complex::new(v[2 * k], v[2 * k + 1]));
+        let diff = |a: u128, b: u128| a.abs_diff(b);
+        proptest::prop_assert!(diff(tones_energy(&five), tones_energy_exact(&five)) <= 1);
+        proptest::prop_assert!(diff(tones_energy(&sixteen), tones_energy_exact(&sixteen)) <= 2);
+        // Beyond 2⁵⁶ (down to i64's rails, whose squares' sum the exact
+        // path still holds for five tones): the exact sum itself.
+        let mut big = five;
+        big[0].re = (1 << 57) + (v[0] >> 8);
+        proptest::prop_assert_eq!(tones_energy(&big), tones_energy_exact(&big));
+    }
+}
+
 /// `Comb::column` (the block folded on its mirror) against the plain
 /// sums instant by instant (`comb::portable`, `comb::portable_moments`):
 /// the same integers, on blocks of odd and even length, short and long,

@@ -3,6 +3,7 @@
 use anyhow::{bail, Context, Result};
 use std::path::Path;
 use std::process::Command;
+use std::time::Instant;
 
 /// The cargo that runs xtask.
 pub fn bin() -> String {
@@ -18,12 +19,20 @@ pub fn run_env(dir: &Path, args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
         shown.concat(),
         args.join(" ")
     );
+    let started = Instant::now();
     let st = Command::new(bin())
         .current_dir(dir)
         .args(args)
         .envs(envs.iter().copied())
         .status()
         .context("running cargo")?;
+    // How long each step took (build and run), so that a CI log shows
+    // where its time goes.
+    eprintln!(
+        "$ cargo {}: {:.1} s",
+        args.join(" "),
+        started.elapsed().as_secs_f64()
+    );
     if !st.success() {
         bail!("cargo {} failed", args.join(" "));
     }
