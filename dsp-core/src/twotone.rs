@@ -560,18 +560,6 @@ struct Evaluated<const K: usize> {
     prior: f32,
 }
 
-impl<const K: usize> Evaluated<K> {
-    const EMPTY: Self = Self {
-        chi2: 0.0,
-        jtj: [0.0; 6],
-        jtr: [0.0; 3],
-        cols: [[Complex32::new(0.0, 0.0); 3]; K],
-        res: [Complex32::new(0.0, 0.0); K],
-        at: [(0.0, 0.0); K],
-        prior: 0.0,
-    };
-}
-
 #[inline(always)]
 fn evaluate<const K: usize>(
     inv: &Inverter,
@@ -581,24 +569,48 @@ fn evaluate<const K: usize>(
 ) -> Result<Evaluated<K>, InvertError> {
     let [r, c, t] = p;
     let (u, du) = Dielectric::u(t);
-    let mut e = Evaluated::EMPTY;
-    for (n, tone) in tones.iter().enumerate() {
-        let w = TAU * tone.f_hz;
-        let x = w * r * c;
-        let scale = 1.0 / (w * c * tone.sigma_ohm);
-        let (zeta, dz) = inv.zeta_slope_at(x)?;
-        // Weighted model and its derivatives in ln R, ln C and tan δ.
-        let d_r = dz * scale;
+    // Each tone's x, ζ and ζ' first, then its columns and residual, each
+    // array built whole (a zeroed `Evaluated` filled in place made the
+    // compiler clear its 41 words on every call); the first tone out of
+    // the model's range is the error.
+    let mut out_of_range = None;
+    let at: [(f32, f32); K] = core::array::from_fn(|n| {
+        let w = TAU * tones[n].f_hz;
+        (w * r * c, w * c * tones[n].sigma_ohm)
+    });
+    let zs: [(Complex32, Complex32); K] = core::array::from_fn(|n| {
+        inv.zeta_slope_at(at[n].0).unwrap_or_else(|e| {
+            out_of_range.get_or_insert(e);
+            (Complex32::new(0.0, 0.0), Complex32::new(0.0, 0.0))
+        })
+    });
+    if let Some(e) = out_of_range {
+        return Err(e);
+    }
+    // Weighted derivatives in ln R, ln C and tan δ.
+    let cols: [[Complex32; 3]; K] = core::array::from_fn(|n| {
+        let (zeta, dz) = zs[n];
+        let scale = 1.0 / at[n].1;
         let d_c = (dz - zeta) * scale;
-        let d_t = du * d_c;
-        let model = zeta * scale + u * d_c;
-        let res = tone.z / tone.sigma_ohm - model;
+        [dz * scale, d_c, du * d_c]
+    });
+    let res: [Complex32; K] = core::array::from_fn(|n| {
+        let scale = 1.0 / at[n].1;
+        let model = zs[n].0 * scale + u * cols[n][1];
+        tones[n].z / tones[n].sigma_ohm - model
+    });
+    let mut e = Evaluated {
+        chi2: 0.0,
+        jtj: [0.0; 6],
+        jtr: [0.0; 3],
+        cols,
+        res,
+        at,
+        prior: 0.0,
+    };
+    let dot = |a: Complex32, b: Complex32| a.re * b.re + a.im * b.im;
+    for (cols, &res) in cols.iter().zip(&res) {
         e.chi2 += res.norm_sqr();
-        e.res[n] = res;
-        e.at[n] = (x, w * c * tone.sigma_ohm);
-        let dot = |a: Complex32, b: Complex32| a.re * b.re + a.im * b.im;
-        let cols = [d_r, d_c, d_t];
-        e.cols[n] = cols;
         let mut k = 0;
         for i in 0..3 {
             e.jtr[i] += dot(cols[i], res);
