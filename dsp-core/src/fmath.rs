@@ -24,7 +24,7 @@ pub fn hypot(a: f32, b: f32) -> f32 {
     let s = a * a + b * b;
     // Two float comparisons (a NaN fails the first, +∞ the second):
     // `is_finite` is an integer test of the bits besides.
-    if s >= 1e-36 && s <= f32::MAX {
+    if (1e-36..=f32::MAX).contains(&s) {
         sqrt(s)
     } else {
         hypot_scaled(a, b)
