@@ -573,19 +573,13 @@ fn evaluate<const K: usize>(
     // array built whole (a zeroed `Evaluated` filled in place made the
     // compiler clear its 41 words on every call); the first tone out of
     // the model's range is the error.
-    let mut out_of_range = None;
     let at: [(f32, f32); K] = core::array::from_fn(|n| {
         let w = TAU * tones[n].f_hz;
         (w * r * c, w * c * tones[n].sigma_ohm)
     });
-    let zs: [(Complex32, Complex32); K] = core::array::from_fn(|n| {
-        inv.zeta_slope_at(at[n].0).unwrap_or_else(|e| {
-            out_of_range.get_or_insert(e);
-            (Complex32::new(0.0, 0.0), Complex32::new(0.0, 0.0))
-        })
-    });
-    if let Some(e) = out_of_range {
-        return Err(e);
+    let mut zs = [(Complex32::new(0.0, 0.0), Complex32::new(0.0, 0.0)); K];
+    for (z, &(x, _)) in zs.iter_mut().zip(&at) {
+        *z = inv.zeta_slope_at(x)?;
     }
     // Weighted derivatives in ln R, ln C and tan δ.
     let cols: [[Complex32; 3]; K] = core::array::from_fn(|n| {
