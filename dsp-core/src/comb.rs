@@ -585,8 +585,8 @@ impl<const K: usize> Tones<K> {
     /// energy), is formed in i128, only its square root in f32: the same
     /// bits on every target, and no cancellation however large the tones;
     /// r = √(N·E_res)/N. T is [`tones_energy`]'s: within one unit of the
-    /// exact sum (N·E_res is at least N²/12 for ADC codes, their rounding
-    /// alone; 25² / 12 = 52 units in the shortest block).
+    /// exact sum, where the rounding of ADC codes alone leaves about
+    /// N²/12 units in N·E_res (52 in the array's shortest block).
     pub fn residual_rms(&self) -> f32 {
         if self.n == 0 {
             return 0.0;
@@ -670,8 +670,8 @@ impl<const K: usize> Levels<K> {
 /// T = Σₖ 2|Xₖ|²/2⁶² = Σ (re² + im²)/2⁶¹ over the comb's sums (Q31 ·
 /// counts), within one unit: exactly rounded ([`tones_energy_exact`],
 /// u128 squares) unless every component is below 2⁵⁶ in size and there
-/// are at most 32 of them, which is every block of ADC codes up to
-/// 2⁹ instants at full scale and every realistic one: then each
+/// are at most 32 of them, which holds for every block of fewer than 2¹⁰
+/// instants even at full scale (|X| ≤ 2³¹·N·2¹⁵): then each
 /// component X = h·2³² + l (h signed, |h| < 2²⁴; l unsigned) squares
 /// as 8h² + 2h·(l/2)/2²⁸ + (l/2¹⁶)²/2²⁹ units, three multiply-accumulates
 /// into i64 (Σh² < 2⁵³, Σh·(l/2) < 2⁶⁰, Σ(l/2¹⁶)² < 2³⁷: no overflow),
