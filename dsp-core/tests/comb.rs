@@ -274,8 +274,8 @@ proptest::proptest! {
         let diff = |a: u128, b: u128| a.abs_diff(b);
         proptest::prop_assert!(diff(tones_energy(&five), tones_energy_exact(&five)) <= 1);
         proptest::prop_assert!(diff(tones_energy(&sixteen), tones_energy_exact(&sixteen)) <= 2);
-        // Beyond 2⁵⁶ (down to i64's rails, whose squares' sum the exact
-        // path still holds for five tones): the exact sum itself.
+        // A component beyond 2⁵⁶ sends the whole sum down the exact path:
+        // the exact sum itself.
         let mut big = five;
         big[0].re = (1 << 57) + (v[0] >> 8);
         proptest::prop_assert_eq!(tones_energy(&big), tones_energy_exact(&big));
