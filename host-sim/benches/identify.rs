@@ -6,7 +6,7 @@
 //! every single effect, then every pair, the slowest path); a set nothing
 //! in the library explains (dielectric dispersion: every single effect
 //! and every pair tried, then "unexplained"); and a set whose one trace
-//! holds 10⁶ rows (read, decimated, fitted). Targets (issue 29): ≤ 10 s
+//! holds 10⁶ rows (read, decimated, fitted). Targets: ≤ 10 s
 //! each on 2 cores in release, ≤ 60 s for the 10⁶-row trace.
 
 use criterion::{criterion_group, criterion_main, Criterion};

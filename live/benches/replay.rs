@@ -1,7 +1,7 @@
 //! Replaying a recorded stream (`live --replay FILE`, `live::replay`):
 //! the array's link at 16 sensors × 1,000 records/s for 10 s (160,000
 //! record frames, COBS-framed postcard with CRC-32), decoded, checked
-//! and written as a data set. Target (issue 30): ≥ 10⁶ records/s.
+//! and written as a data set. Target: ≥ 10⁶ records/s.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use link::{Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};

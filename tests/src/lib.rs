@@ -296,7 +296,7 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
 pub const DSP_BUDGETS: [(&str, f64); 13] = [
     ("demod_pair", 20.0),
     ("eval_ladder30", 1000.0),
-    // Issue 30's inversion: 1,500 / 2,500 on the continuous line, 5,000
+    // The inversion: 1,500 / 2,500 on the continuous line, 5,000
     // worst on the 30-element ladder, the tracked two-tone solve 2,000 /
     // 3,000.
     ("invert_continuous", 1500.0),
@@ -304,17 +304,17 @@ pub const DSP_BUDGETS: [(&str, f64); 13] = [
     ("invert_ladder30_worst", 5000.0),
     ("twotone_tracked", 2000.0),
     ("twotone_tracked_worst", 3000.0),
-    // The firmware issue: a block's processing "well within" its duration
+    // The multiplexed firmware: a block's processing "well within" its duration
     // (5.12 ms at 170 MHz); 10 % at one instruction per cycle.
     ("block_load_permille", 100.0),
-    // Issue 13: the array's sixteen sensors at 250 records/s each within
+    // The array's sixteen sensors at 250 records/s each within
     // 30 % of a 170 MHz Cortex-M4 (a 4 ms block: 680 000 cycles).
     ("array_load_permille", 300.0),
-    // Issue 30's first item on the comb: ≤ 6 instructions a sample pair
+    // The comb: ≤ 6 instructions a sample pair
     // (and tone), every moment included.
     ("array_comb_pair_tone", 6.0),
     ("array_comb_1ms_pair_tone", 6.0),
-    // Issue 30: 16 × 1000 records/s within 50 % of the CPU, ≤ 1 ms from
+    // 16 × 1000 records/s within 50 % of the CPU, ≤ 1 ms from
     // a block's end to its records on the link.
     ("array_load_1000_permille", 500.0),
     ("array_latency_1000_us", 1000.0),
@@ -389,13 +389,13 @@ pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
 pub const BOARD_BUDGET: (u64, u64) = (64 * 1024, 16 * 1024);
 
 /// The multiplexed board's budgets with its settings store (the `store`
-/// feature), flash and static RAM, bytes: issue 30's, the plain image's
+/// feature), flash and static RAM, bytes: the plain image's
 /// [`BOARD_BUDGET`] (the link and stored settings in).
 pub const BOARD_STORE_BUDGET: (u64, u64) = BOARD_BUDGET;
 
 /// The array board's budgets (16 sensors at once, with the link and its
-/// stored settings), flash and static RAM, bytes: issue 30's 96 / 48 KiB
-/// (the array issue's were 128 / 64).
+/// stored settings), flash and static RAM, bytes: 96 / 48 KiB
+/// (first 128 / 64).
 pub const ARRAY_BOARD_BUDGET: (u64, u64) = (96 * 1024, 48 * 1024);
 
 /// The least stack a QEMU run must leave never touched, bytes: there is

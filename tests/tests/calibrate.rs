@@ -1,7 +1,7 @@
 //! The calibration workflow in QEMU (`qemu_tests::calibration`): sixteen
 //! hand-made sensors calibrated over the link, QEMU restarted, the
 //! settings back, each sensor's stretch within 0.1 mm RMS over the whole
-//! trapezoid (issue 28's goal; measured 0.017–0.050 mm) and 0.05 mm where
+//! trapezoid (the goal; docs/live.md has the measured figures) and 0.05 mm where
 //! the skin holds still, and no record marked valid more than 1 % off in
 //! C.
 
