@@ -22,8 +22,6 @@ use crate::sequencer::Plan;
 use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::Dielectric;
 use dsp_core::lumped::SeriesRc;
-use dsp_core::tline::LineModel;
-use dsp_core::track::Tracker;
 use dsp_core::twotone::{self, Tone};
 use dsp_core::Complex32;
 
@@ -65,23 +63,6 @@ impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
             record_every: 1,
         }
     }
-}
-
-/// The line tracker every channel uses: the continuous line over
-/// x ≤ [`Tracker::X_MAX`].
-pub fn tracker() -> Tracker {
-    match tracker_with_leads(0.0) {
-        Ok(t) => t,
-        Err(_) => unreachable!("the continuous model without leads is always valid"),
-    }
-}
-
-/// The tracker for a sensor with tab leads of `lead_ratio` times the
-/// line's resistance at the read end (`EffectSet::lead_ratio` of its
-/// calibration, always within range); an error for a ratio outside
-/// 0..=`dsp_core::invert::LEAD_MAX`.
-pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, dsp_core::tline::ModelError> {
-    Tracker::with_leads(LineModel::Continuous, Tracker::X_MAX, lead_ratio)
 }
 
 /// One record reported in every `every` blocks.

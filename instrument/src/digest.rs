@@ -330,7 +330,7 @@ mod tests {
         let sensor_changes: [fn(&mut Sensors<POINTS, 8>); 5] = [
             |x| x.of_mut(2).fixture.series_ohm = 1.0,
             |x| x.of_mut(0).tracker = x.of(0).tracker.with_band(0.8, 1.5),
-            |x| x.of_mut(7).tracker = crate::channel::tracker_with_leads(0.5).unwrap(),
+            |x| x.of_mut(7).tracker = crate::sensor::tracker_with_leads(0.5).unwrap(),
             |x| x.of_mut(7).in_use = false,
             |x| x.of_mut(1).calibrated = false,
         ];

@@ -3,13 +3,13 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
+//! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics (`skin-spec`) |
 //! | [`digest`] | digests of settings and calibrations (a start frame's): CRC-32 over the values' bits |
-//! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor |
-//! | [`config`] | block, slot, channels, the excitation frequency set and each frequency's second tone |
+//! | [`design`] | the front end's design parameters: rates, gains, ADC and DAC scales, the reference sensor (`skin-spec`) |
+//! | [`config`] | block, slot, channels, the excitation frequency set and each frequency's second tone (`skin-spec`) |
 //! | [`policy`] | adaptive excitation frequency from the measured resistance peaks |
-//! | [`ranging`] | auto-ranging of the transimpedance stage from the current of the last block |
-//! | [`calib`] | stretch from capacitance through a calibration table in flash |
+//! | [`ranging`] | auto-ranging of the transimpedance stage from the current of the last block (`skin-spec`) |
+//! | [`calib`] | stretch from capacitance through a calibration table in flash (`skin-spec`) |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
@@ -21,7 +21,7 @@
 //! | [`sequencer`] | the slot sequence: slot → channel, the frequency of the slot after next, record times |
 //! | [`wire`] | the record wire format: its writer (defmt) and its parser |
 //! | [`frames`] | records as frames of the record link (`link`), and the digests of a start frame |
-//! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
+//! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs (`skin-spec`) |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
@@ -38,20 +38,18 @@
 #[cfg(test)]
 extern crate std;
 
-pub mod array;
-pub mod calib;
+// What the simulated skin shares with the instrument lives below both, in
+// `skin-spec`; it is part of the instrument's API under the same names.
+pub use skin_spec::{array, calib, config, design, effects, ranging};
+
 pub mod channel;
 pub mod commands;
-pub mod config;
-pub mod design;
 pub mod digest;
-pub mod effects;
 pub mod faults;
 pub mod frames;
 pub mod joint;
 pub mod mux;
 pub mod policy;
-pub mod ranging;
 pub mod reader;
 pub mod sensor;
 pub mod sequencer;

@@ -208,3 +208,16 @@ impl ArrayReader {
         self.solve(settings, t_us, &block, clipped, record);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::array::Layout;
+
+    /// The comb is laid out for every block length the layouts name.
+    #[test]
+    fn every_layout_has_its_comb() {
+        for layout in Layout::ALL {
+            assert!(super::BlockComb::new(&layout).is_ok(), "{layout:?}");
+        }
+    }
+}

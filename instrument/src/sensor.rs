@@ -11,11 +11,31 @@
 //! constants.
 
 use crate::calib::{CalTable, POINTS};
+use crate::config::PERIODS;
 use crate::faults::Flags;
-use crate::stored::{SensorSettings, Stored, SENSORS_MAX};
+use crate::policy::Policy;
+use crate::stored::{SensorSettings, Stored, FORMAT_VERSION, SENSORS_MAX};
 use dsp_core::fixture::Fixture;
+use dsp_core::tline::LineModel;
 use dsp_core::tline::ModelError;
 use dsp_core::track::Tracker;
+
+/// The line tracker every sensor is read with: the continuous line over
+/// x ≤ [`Tracker::X_MAX`].
+pub fn tracker() -> Tracker {
+    match tracker_with_leads(0.0) {
+        Ok(t) => t,
+        Err(_) => unreachable!("the continuous model without leads is always valid"),
+    }
+}
+
+/// The tracker for a sensor with tab leads of `lead_ratio` times the
+/// line's resistance at the read end (`EffectSet::lead_ratio` of its
+/// calibration, always within range); an error for a ratio outside
+/// 0..=`dsp_core::invert::LEAD_MAX`.
+pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, dsp_core::tline::ModelError> {
+    Tracker::with_leads(LineModel::Continuous, Tracker::X_MAX, lead_ratio)
+}
 
 /// One sensor.
 #[derive(Clone, Copy, Debug)]
@@ -69,7 +89,7 @@ impl Sensor<POINTS> {
     ) -> Result<Self, ModelError> {
         Ok(Self {
             in_use: true,
-            tracker: crate::channel::tracker_with_leads(lead_ratio)?,
+            tracker: tracker_with_leads(lead_ratio)?,
             fixture,
             rest_farad: table.rest_capacitance(),
             table,
@@ -82,7 +102,7 @@ impl Sensor<POINTS> {
     pub fn uncalibrated(nominal_farad: f32) -> Self {
         Self {
             in_use: true,
-            tracker: crate::channel::tracker(),
+            tracker: tracker(),
             fixture: Fixture::NONE,
             rest_farad: nominal_farad,
             table: CalTable {
@@ -98,7 +118,7 @@ impl Sensor<POINTS> {
     pub fn of(s: &SensorSettings) -> Result<Self, ModelError> {
         Ok(Self {
             in_use: s.in_use,
-            tracker: crate::channel::tracker_with_leads(s.lead_ratio)?,
+            tracker: tracker_with_leads(s.lead_ratio)?,
             fixture: Fixture {
                 parallel_farad: s.parasitic_farad,
                 series_ohm: s.contact_ohm,
@@ -202,6 +222,36 @@ impl<const S: usize> Sensors<POINTS, S> {
 /// The sensors' calibration alone (see [`Sensors::calibration`]).
 #[derive(Clone, Copy, Debug)]
 pub struct Calibration<'a, const N: usize, const S: usize>(pub &'a Sensors<N, S>);
+
+impl Stored {
+    /// The set an instrument runs with: each of its sensors (entry
+    /// `min(s, S − 1)` for sensor `s`), the first `sensors` in use and the
+    /// rest not, nominal R `r_ohm`, its policy.
+    pub fn of_sensors<const S: usize>(
+        sensors: &Sensors<POINTS, S>,
+        policy: &Policy,
+        r_ohm: f32,
+        in_use: usize,
+    ) -> Self {
+        let p = policy;
+        Self {
+            version: FORMAT_VERSION,
+            record_every: 1,
+            policy: Policy {
+                // Within the set, as the check asks.
+                tones: {
+                    let (lo, hi) = p.limits(PERIODS.len());
+                    (lo as u8, hi as u8)
+                },
+                ..*p
+            },
+            sensors: core::array::from_fn(|s| SensorSettings {
+                in_use: s < in_use,
+                ..sensors.of(s as u8).settings(r_ohm)
+            }),
+        }
+    }
+}
 
 #[cfg(test)]
 mod tests {

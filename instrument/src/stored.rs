@@ -301,34 +301,6 @@ impl Stored {
         }
     }
 
-    /// The set an instrument runs with: each of its sensors (entry
-    /// `min(s, S − 1)` for sensor `s`), the first `sensors` in use and the
-    /// rest not, nominal R `r_ohm`, its policy.
-    pub fn of_sensors<const S: usize>(
-        sensors: &crate::sensor::Sensors<POINTS, S>,
-        policy: &Policy,
-        r_ohm: f32,
-        in_use: usize,
-    ) -> Self {
-        let p = policy;
-        Self {
-            version: FORMAT_VERSION,
-            record_every: 1,
-            policy: Policy {
-                // Within the set, as the check asks.
-                tones: {
-                    let (lo, hi) = p.limits(PERIODS.len());
-                    (lo as u8, hi as u8)
-                },
-                ..*p
-            },
-            sensors: core::array::from_fn(|s| SensorSettings {
-                in_use: s < in_use,
-                ..sensors.of(s as u8).settings(r_ohm)
-            }),
-        }
-    }
-
     /// Check the whole set: the first setting out of its range, by name.
     pub fn check(&self) -> Result<(), Refused> {
         if self.version != FORMAT_VERSION {

@@ -26,30 +26,10 @@ use dsp_core::Complex32;
 
 /// The first word of a record line.
 pub const REC: &str = "rec";
-/// The first word of a truth line.
-pub const TRUTH: &str = "truth";
 /// The first word of an array record line.
 pub const TONE: &str = "tone";
 
-/// What the simulated skin truly was during one block (QEMU only): the
-/// rig's view of the sensor.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TruthLine {
-    /// Middle of the block, µs.
-    pub t_us: u64,
-    /// Channel.
-    pub channel: u8,
-    /// Line capacitance, F.
-    pub c_farad: f32,
-    /// Line resistance (both electrodes, no contacts), Ω.
-    pub r_line_ohm: f32,
-    /// Stretch, mm.
-    pub stretch_mm: f32,
-    /// End-to-end top electrode resistance through its tabs, Ω.
-    pub r_top_ohm: f32,
-    /// End-to-end bottom electrode resistance, Ω.
-    pub r_bottom_ohm: f32,
-}
+pub use skin_spec::truth::{TruthLine, TRUTH};
 
 /// One parsed line.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,23 +185,6 @@ impl defmt::Format for ToneRecord {
             self.sigma_c,
             self.stretch_mm,
             self.flags.0
-        )
-    }
-}
-
-#[cfg(feature = "defmt")]
-impl defmt::Format for TruthLine {
-    fn format(&self, f: defmt::Formatter) {
-        defmt::write!(
-            f,
-            "truth {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32}",
-            self.t_us,
-            self.channel,
-            self.c_farad * 1e12,
-            self.r_line_ohm,
-            self.stretch_mm,
-            self.r_top_ohm,
-            self.r_bottom_ohm
         )
     }
 }

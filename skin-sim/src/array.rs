@@ -1,4 +1,4 @@
-//! The array's analog front end and ADCs ([`instrument::array`]): one comb
+//! The array's analog front end and ADCs ([`skin_spec::array`]): one comb
 //! excitation, a transimpedance stage per sensor, five ADCs scanning four
 //! inputs each, as their DMA leaves a block.
 //!
@@ -8,7 +8,7 @@
 //! input reads v = g_v·Σ Aₖ cos θ; sensor s's input reads the inverting
 //! stage's −R_f·Σ Re{Aₖ·e^(jθ)/Zₛ,ₖ}, Zₛ,ₖ its impedance at tone k (held over
 //! the block: the sensor moves slowly against a block of 1 or 4 ms; the
-//! layout, [`instrument::array::Layout`], is the front end's). Each result is
+//! layout, [`skin_spec::array::Layout`], is the front end's). Each result is
 //! quantized to the 15-bit oversampled scale with Gaussian noise of
 //! [`NOISE_COUNTS`] and clipped at the rails (reported per input). Spare
 //! inputs read noise. Phases use dsp-core's integer `cossin` and the
@@ -18,14 +18,14 @@
 use crate::frontend::Disturbance;
 use crate::rng::Rng;
 use dsp_core::cossin::cossin;
-use instrument::array::{
+use num_complex::Complex64;
+use skin_spec::array::{
     adc_position, input_of, Frame, Layout, HALF_SCALE, NOISE_COUNTS, RATE_HZ, SCAN, SCAN_STEP_S, SENSORS,
     SENSOR_TIA_OHM, TONES, VOLTAGE_INPUT,
 };
-use instrument::design;
-use num_complex::Complex64;
+use skin_spec::design;
 
-pub use instrument::array::INPUTS;
+pub use skin_spec::array::INPUTS;
 
 /// The array front end's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -44,7 +44,7 @@ pub struct ArrayFrontEnd {
 }
 
 impl ArrayFrontEnd {
-    /// As designed ([`instrument::array`]), with 4 ms blocks.
+    /// As designed ([`skin_spec::array`]), with 4 ms blocks.
     pub const REFERENCE: Self = Self::reference(Layout::BLOCK_4MS);
 
     /// As designed, with blocks of `layout`.

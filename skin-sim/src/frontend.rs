@@ -15,9 +15,9 @@
 use crate::rng::Rng;
 use dsp_core::demod::FrontEnd;
 use dsp_core::{Oscillator, OscillatorState};
-use instrument::design;
-use instrument::ranging::Ranging;
 use num_complex::Complex64;
+use skin_spec::design;
+use skin_spec::ranging::Ranging;
 
 /// Front-end parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,7 +39,7 @@ pub struct FrontEndParams {
 }
 
 impl FrontEndParams {
-    /// The reference front end, as designed ([`instrument::design`]:
+    /// The reference front end, as designed ([`skin_spec::design`]:
     /// 200 kSa/s, 1 V excitation, 100 kΩ transimpedance, 12-bit ±1.65 V
     /// ADC), with 0.7 LSB rms noise.
     pub const REFERENCE: Self = Self {
@@ -106,7 +106,7 @@ impl FrontEndParams {
     }
 
     /// One block of the multiplexed board at set entry `i`: its two tones
-    /// ([`instrument::config::tones`]) at their shares of the excitation,
+    /// ([`skin_spec::config::tones`]) at their shares of the excitation,
     /// the sensor's impedance at each from `z` (Hz → Ω), `d` added at the
     /// ADC inputs. Returns true if any sample clipped.
     pub fn mux_block(
@@ -117,7 +117,7 @@ impl FrontEndParams {
         out: &mut [[i16; 2]],
         d: &Disturbance,
     ) -> bool {
-        use instrument::config::{freq_hz, ftw, tones, TONE_SHARES};
+        use skin_spec::config::{freq_hz, ftw, tones, TONE_SHARES};
         let [a, b] = tones(i);
         let tone = |k: usize, share: f32| Excitation {
             osc: Oscillator::from_ftw(ftw(k)),

@@ -8,7 +8,7 @@
 //! against itself.
 //!
 //! Optional non-ideal effects of the sensor and its wiring, from the
-//! catalogue ([`instrument::effects`], all off by default): contact
+//! catalogue ([`skin_spec::effects`], all off by default): contact
 //! resistance at the tabs, parasitic (cable) capacitance at the meter,
 //! electrode resistance varying linearly along the sensor, dielectric
 //! leakage, stretch varying linearly along the sensor, dielectric
@@ -19,10 +19,10 @@
 
 use crate::electrode::{ElectrodeParams, ElectrodeState};
 use crate::profile::Profile;
-use instrument::calib::{CalTable, POINTS};
-use instrument::design;
-use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
+use skin_spec::calib::{CalTable, POINTS};
+use skin_spec::design;
+use skin_spec::effects::{Effect, EffectSet};
 
 /// Number of grid segments.
 pub const SEGMENTS: usize = 240;
@@ -39,7 +39,7 @@ pub struct SensorParams {
     pub top: ElectrodeParams,
     /// Bottom electrode.
     pub bottom: ElectrodeParams,
-    /// Non-ideal effects (SI, [`instrument::effects`]).
+    /// Non-ideal effects (SI, [`skin_spec::effects`]).
     pub effects: EffectSet,
 }
 
@@ -148,8 +148,8 @@ pub struct Truth {
 impl Truth {
     /// The truth line of the block whose middle is `t_us` on `channel`,
     /// as the QEMU firmware logs it beside the record.
-    pub fn line(&self, t_us: u64, channel: u8) -> instrument::wire::TruthLine {
-        instrument::wire::TruthLine {
+    pub fn line(&self, t_us: u64, channel: u8) -> skin_spec::truth::TruthLine {
+        skin_spec::truth::TruthLine {
             t_us,
             channel,
             c_farad: self.c_farad as f32,

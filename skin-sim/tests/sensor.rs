@@ -2,12 +2,12 @@
 
 use dsp_core::demod::Demodulator;
 use dsp_core::Oscillator;
-use instrument::effects::{Effect, EffectSet};
 use num_complex::Complex64;
 use skin_sim::frontend::FrontEndParams;
 use skin_sim::profile::Profile;
 use skin_sim::rng::Rng;
 use skin_sim::sensor::{Sensor, SensorParams};
+use skin_spec::effects::{Effect, EffectSet};
 
 /// Continuous uniform line, f64: Z = √(R/(jωC))·coth √(jωRC).
 fn line(r: f64, c: f64, f: f64) -> Complex64 {

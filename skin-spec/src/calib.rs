@@ -1,6 +1,6 @@
 //! Stretch from capacitance: a calibration table (capacitance → stretch),
 //! inverted by linear interpolation. Each sensor has its own
-//! ([`crate::sensor::Sensor`]).
+//! (`instrument::sensor::Sensor`).
 
 use crate::design;
 
