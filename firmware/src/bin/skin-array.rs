@@ -20,7 +20,8 @@
 //! `hum`, `identify`, `skin`, `stairs`). Without further arguments the firmware
 //! measures with the test rig's description of its skin
 //! ([`ArrayScenario::rig`]) in 4 ms blocks (250 records/s; `records=1000`:
-//! 1 ms blocks, [`Layout::BLOCK_1MS`]); `flash=PATH` keeps the settings' flash in a
+//! 1 ms blocks, [`Layout::BLOCK_1MS`]; `seconds=S`: the first S whole
+//! seconds of the scenario, not all of it); `flash=PATH` keeps the settings' flash in a
 //! host file ([`firmware::qemu_flash`]) and measures with the set stored
 //! there (uncalibrated with none; `save` stores the rig's first;
 //! `until-stop` measures past the scenario's end until the host stops
@@ -50,10 +51,23 @@ use instrument::sweep::Sweep;
 use instrument::tones::{ToneRecord, ToneSettings};
 use instrument::wire;
 
-/// The scenario named by the first semihosting argument, the blocks'
-/// layout (`records=250`, the default, or `records=1000`) and the
-/// settings' options (`flash=PATH`, `save`, `until-stop`) after it.
-fn arguments() -> (ArrayScenario, Layout, FlashArgs) {
+/// What the command line asks for.
+struct Arguments {
+    /// The scenario named by the first semihosting argument.
+    scenario: ArrayScenario,
+    /// The blocks' layout: `records=250` (the default) or `records=1000`.
+    layout: Layout,
+    /// How long to simulate, s: `seconds=S` (whole seconds, more than 0,
+    /// at most the scenario's duration, which is the default; an integer
+    /// keeps core's float parser, 18 KiB, out of the image).
+    duration_s: f32,
+    /// The settings' options (`flash=PATH`, `save`, `until-stop`).
+    flash: FlashArgs,
+}
+
+/// The command line: the scenario first, then its options; a run with
+/// an argument it does not know ends with exit code 2.
+fn arguments() -> Arguments {
     qemu::with_args(|args| {
         let name = args.next().unwrap_or("paper");
         let scenario = ArrayScenario::parse(name).unwrap_or_else(|| {
@@ -62,6 +76,7 @@ fn arguments() -> (ArrayScenario, Layout, FlashArgs) {
         });
         let mut flash = FlashArgs::default();
         let mut layout = Layout::BLOCK_4MS;
+        let mut duration_s = scenario.duration_s();
         for arg in args {
             if let Some(rate) = arg.strip_prefix("records=") {
                 match rate.parse().ok().and_then(Layout::of_records_per_s) {
@@ -71,12 +86,28 @@ fn arguments() -> (ArrayScenario, Layout, FlashArgs) {
                         qemu::exit(2)
                     }
                 }
+            } else if let Some(s) = arg.strip_prefix("seconds=") {
+                match s.parse::<u16>() {
+                    Ok(v) if v > 0 && v as f32 <= scenario.duration_s() => duration_s = v as f32,
+                    _ => {
+                        defmt::println!(
+                            "seconds=: whole seconds, more than 0, at most the scenario's, not '{=str}'",
+                            s
+                        );
+                        qemu::exit(2)
+                    }
+                }
             } else if !flash.take(arg) {
                 defmt::println!("unknown argument '{=str}'", arg);
                 qemu::exit(2)
             }
         }
-        (scenario, layout, flash)
+        Arguments {
+            scenario,
+            layout,
+            duration_s,
+            flash,
+        }
     })
 }
 
@@ -126,7 +157,12 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         firmware::stack::paint();
         let (records, logger) = cx.local.queue.split();
-        let (scenario, layout, flash) = arguments();
+        let Arguments {
+            scenario,
+            layout,
+            duration_s,
+            flash,
+        } = arguments();
         let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
         let (store, set) = flash.set_in_force(&rig);
@@ -169,7 +205,7 @@ mod app {
                 skin,
                 block: 0,
                 block_us: layout.block_us(),
-                end_block: flash.end_step((scenario.duration_s() as f64 * 1e6) as u64 / layout.block_us()),
+                end_block: flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
                 reader,
                 settings,
                 records: RecordSink::new(records),
