@@ -3,7 +3,8 @@
 //! panic, and no non-finite or non-positive value returned as `Ok`.
 //!
 //! The number of cases per target is `FUZZ_CASES` (default 100 000, the
-//! README's test command); `cargo xtask fuzz` runs 1 000 000.
+//! full pass, `cargo xtask test --full`; the README's test command runs
+//! 1 000); `cargo xtask fuzz` runs 1 000 000.
 
 use dsp_core::demod::{Demodulator, FrontEnd};
 use dsp_core::invert::Inverter;

@@ -156,7 +156,7 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
 /// at [`physical_strength`]; a row per set and the summary the README
 /// quotes.
 #[test]
-#[ignore]
+#[ignore = "survey: cargo xtask survey"]
 fn survey() {
     let tmp = tempfile::tempdir().unwrap();
     let n: u64 = std::env::var("SEEDS")
@@ -215,6 +215,7 @@ fn run(dir: &Path, fx: EffectSet, meter: Meter, seed: u64) -> Report {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn undeclared_effects_are_named_and_explained_over_50_seeds() {
     let tmp = tempfile::tempdir().unwrap();
     let (mut detectable, mut right, mut bad) = (0, 0, vec![]);
@@ -284,6 +285,7 @@ fn undeclared_effects_are_named_and_explained_over_50_seeds() {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn clean_sets_are_clean_and_outside_effects_are_unexplained() {
     let tmp = tempfile::tempdir().unwrap();
     for seed in [21, 22, 23] {
@@ -375,6 +377,7 @@ fn a_found_effect_reports_its_parameter_and_uncertainty() {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn tab_leads_are_recovered_with_their_uncertainty() {
     let tmp = tempfile::tempdir().unwrap();
     let (fx, meter) = hidden(Effect::LeadResistance, 0.4);
@@ -394,6 +397,7 @@ fn tab_leads_are_recovered_with_their_uncertainty() {
 /// decimates it to every 250th row, says so in its reports, and still
 /// finds the hidden contact resistance.
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn a_million_row_trace_is_decimated_and_still_read() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
@@ -422,6 +426,7 @@ fn a_million_row_trace_is_decimated_and_still_read() {
 /// 1 s windows): searched as far as the 30 s traces hold (±2 s), each
 /// named and its parameter recovered.
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn time_effects_are_searched_as_far_as_the_trace_holds() {
     let tmp = tempfile::tempdir().unwrap();
     for (k, (effect, v)) in [
@@ -481,6 +486,7 @@ fn time_effects_are_searched_as_far_as_the_trace_holds() {
 /// order in part): named as the meter's response with its order, n within
 /// 0.05 and τ within 2 % (5σ), explained to 1.3× the noise.
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn a_response_of_several_sections_is_named_with_its_order() {
     let tmp = tempfile::tempdir().unwrap();
     for (k, (tau, order)) in [(0.04, 3.0), (0.03, 2.5)].into_iter().enumerate() {
@@ -523,6 +529,7 @@ fn a_response_of_several_sections_is_named_with_its_order() {
 /// figures: the selection's bookkeeping, and the sweep that separates a
 /// resistance gradient from a parasitic capacitance.)
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn competing_explanations_are_listed_with_what_separates_them() {
     let tmp = tempfile::tempdir().unwrap();
     let fx = EffectSet::NONE.with(Effect::ParasiticCapacitance, 2e-12);

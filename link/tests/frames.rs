@@ -180,7 +180,8 @@ fn a_clean_stream_replays_whole() {
     );
 }
 
-/// Cases of corruption (the test command runs this many; the long fuzz
+/// Cases of corruption (the full pass runs this many, the test command
+/// 1 000; the long fuzz
 /// command more, through `LINK_CASES`).
 fn cases() -> u64 {
     std::env::var("LINK_CASES")

@@ -279,7 +279,7 @@ pub fn parse_bench(stdout: &str) -> Vec<Bench> {
 
 /// Build and run the dsp-core instruction-count benchmark.
 pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
-    let elf = build_firmware("dsp-bench", &["qemu"])?;
+    let elf = build_firmware("dsp-bench", &["bench"])?;
     let run = run_qemu(&elf, Duration::from_secs(120))?.ok()?;
     let b = parse_bench(&run.stdout);
     Ok((run, b))

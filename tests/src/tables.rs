@@ -220,7 +220,7 @@ pub const IMAGES: [Image; 7] = [
     ),
     (
         "dsp-bench",
-        "qemu",
+        "bench",
         "QEMU, the instruction-count benchmarks",
         None,
     ),

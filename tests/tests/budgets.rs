@@ -13,6 +13,7 @@ fn fits(bin: &str, features: &[&str], budget: (u64, u64), floor: (u64, u64)) {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn board_image_fits_64k_flash_and_16k_ram() {
     // Not trivially small either: the DMA buffers alone take 9.6 KiB
     // (the ADC's two slots 8.5, the DAC's ring 1.06).
@@ -55,6 +56,7 @@ fn array_board_image_fits_96k_flash_and_48k_ram() {
 /// The array in 1 ms blocks (feature `array-1ms`) within the same
 /// budgets.
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn array_board_in_1ms_blocks_fits_the_same_budgets() {
     fits(
         "skin-array-board",
@@ -65,6 +67,7 @@ fn array_board_in_1ms_blocks_fits_the_same_budgets() {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn every_image_is_tabulated() {
     let table = qemu_tests::tables::image_table().unwrap();
     assert_eq!(

@@ -9,6 +9,7 @@ use live::calibrate::Outcome;
 use skin_sim::sensor::SensorParams;
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
     let tmp = tempfile::tempdir().unwrap();
     let w = qemu_tests::calibration::run(tmp.path()).unwrap();

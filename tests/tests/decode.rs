@@ -2,6 +2,7 @@
 //! is a complete data set: `residual` and `identify` read it.
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn the_main_jobs_recording_decodes_into_a_data_set_residual_and_identify_read() {
     let (run, recs) = qemu_tests::records::run_scenario("paper").unwrap();
     let run = run.ok().unwrap();

@@ -78,7 +78,7 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
 #[test]
 fn watchdog_catches_a_hang_and_exit_codes_pass_through() {
     // A firmware image that never exits must be killed and reported.
-    let elf = qemu_tests::build_firmware("dsp-bench", &["qemu"]).unwrap();
+    let elf = qemu_tests::build_firmware("dsp-bench", &["bench"]).unwrap();
     let run = qemu_tests::run_qemu(&elf, std::time::Duration::from_millis(1)).unwrap();
     assert_eq!(run.code, None, "{run:?}");
     let err = run.ok().unwrap_err().to_string();

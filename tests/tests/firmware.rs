@@ -232,6 +232,7 @@ fn panic_fails_with_a_clear_message() {
 }
 
 #[test]
+#[ignore = "long: cargo xtask test --full"]
 fn hang_is_caught_by_the_watchdog() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let run = qemu_tests::run_qemu_args(&elf, &["hang"], Duration::from_secs(20)).unwrap();

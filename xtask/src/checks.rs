@@ -1,13 +1,14 @@
-//! `cargo xtask test`: every check CI runs, in the order that fails
-//! cheapest first.
+//! `cargo xtask test [--full]`: every check CI runs, in the order that
+//! fails cheapest first, at two speeds ([`Pass`]).
 
 use crate::cargo;
 use anyhow::Result;
 use std::path::Path;
 
 /// The host crates rustdoc checks.
-const DOC_CRATES: [&str; 9] = [
+const DOC_CRATES: [&str; 10] = [
     "dsp-core",
+    "skin-spec",
     "link",
     "live",
     "instrument",
@@ -21,23 +22,37 @@ const DOC_CRATES: [&str; 9] = [
 /// The seed of the test command's fuzz targets.
 pub const PROPTEST_SEED: &str = "26";
 
-/// Everything: formatting, lints, docs, host tests, cross builds, the
-/// board images and the QEMU tests (which run with the host tests).
-pub fn all(root: &Path) -> Result<()> {
+/// How much a run of the checks covers.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Pass {
+    /// The test command (`cargo xtask test`): every check, each long
+    /// sweep and QEMU scenario at its smoke size, each fuzz target at
+    /// [`FAST_CASES`] cases.
+    Fast,
+    /// `cargo xtask test --full`: the same checks, then the long tests
+    /// (`#[ignore = "long: …"]`) and every fuzz target at its full count
+    /// (10⁵ cases).
+    Full,
+}
+
+/// Cases per fuzz target in the fast pass (fixed seed [`PROPTEST_SEED`]).
+pub const FAST_CASES: &str = "1000";
+
+/// The cargo profile of every host test: release code without fat LTO
+/// (the workspace's `Cargo.toml`), xtask's own.
+pub const TEST_PROFILE: &str = "quick";
+
+/// Everything of `pass`: formatting, lints, docs, host tests, cross
+/// builds, the board images and the QEMU tests (which run with the host
+/// tests).
+pub fn all(root: &Path, pass: Pass) -> Result<()> {
     format(root)?;
-    lint(root)?;
+    lint(root, pass)?;
     docs(root)?;
-    // Host tests in release: the Monte-Carlo and sweep tests are large;
-    // overflow checks stay on through the dev-profile run of the
-    // fixed-point unit tests below. The QEMU tests are in this run. The
-    // fuzz targets (proptest, 10⁵ cases each) draw from one fixed seed,
-    // so that a run is reproducible and a red one is the code's, not the
-    // draw's: `cargo xtask fuzz` draws fresh seeds, 10⁶ cases each.
-    cargo::run_env(
-        root,
-        &["test", "--release", "--workspace"],
-        &[("PROPTEST_RNG_SEED", PROPTEST_SEED)],
-    )?;
+    // The QEMU tests run the firmware's images: build them first, once,
+    // so that each test's build finds them ready.
+    images(root)?;
+    host_tests(root, pass)?;
     cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
     cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
     // The feature sets the workspace run does not build: the link's
@@ -48,7 +63,8 @@ pub fn all(root: &Path) -> Result<()> {
         root,
         &[
             "test",
-            "--release",
+            "--profile",
+            TEST_PROFILE,
             "-p",
             "link",
             "--lib",
@@ -72,8 +88,28 @@ pub fn all(root: &Path) -> Result<()> {
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
     }
-    board(root)
+    cargo::run(&root.join("firmware"), &["test", "--lib", "--features", "board"])
 }
+
+/// Every host test (the QEMU tests among them) in [`TEST_PROFILE`]. The
+/// fuzz targets (proptest) draw from one fixed seed, so that a run is
+/// reproducible and a red one is the code's, not the draw's: `cargo
+/// xtask fuzz` draws fresh seeds, 10⁶ cases each. Overflow checks stay
+/// on through the dev-profile run of dsp-core's fixed-point unit tests.
+fn host_tests(root: &Path, pass: Pass) -> Result<()> {
+    let mut args = vec!["test", "--profile", TEST_PROFILE, "--workspace"];
+    let mut env = vec![("PROPTEST_RNG_SEED", PROPTEST_SEED)];
+    match pass {
+        Pass::Fast => env.extend(FAST_COUNTS.map(|var| (var, FAST_CASES))),
+        // The long tests too; the surveys are `cargo xtask survey`'s.
+        Pass::Full => args.extend(["--", "--include-ignored", "--exact", "--skip", "survey"]),
+    }
+    cargo::run_env(root, &args, &env)
+}
+
+/// The variables that set a fuzz target's count of cases (each test's
+/// default is the full pass's).
+const FAST_COUNTS: [&str; 3] = ["FUZZ_CASES", "LINK_CASES", "COMMAND_CASES"];
 
 /// `cargo fmt --check` on both workspaces.
 fn format(root: &Path) -> Result<()> {
@@ -82,56 +118,37 @@ fn format(root: &Path) -> Result<()> {
 }
 
 /// clippy with warnings as errors: the host crates with all their
-/// targets; the firmware's images for the target, and its library with
-/// its tests on the host (the board's register tests), for each feature.
-fn lint(root: &Path) -> Result<()> {
+/// targets; the firmware's images for the target, for each feature set
+/// (`bench` holds the QEMU images, `qemu` with the benchmarks); its
+/// library with its tests on the host (the board's register tests) with
+/// `board`, and in the full pass with the other feature sets too.
+fn lint(root: &Path, pass: Pass) -> Result<()> {
     cargo::run(root, &["clippy", "--all-targets", "--", "-D", "warnings"])?;
     let fw = root.join("firmware");
     let t = qemu_tests::TARGET;
-    cargo::run(
-        &fw,
-        &[
-            "clippy",
-            "--release",
-            "--target",
-            t,
-            "--bins",
-            "--",
-            "-D",
-            "warnings",
-        ],
-    )?;
-    for feature in ["qemu", "board", "board,store"] {
-        cargo::run(
-            &fw,
-            &[
-                "clippy",
-                "--release",
-                "--target",
-                t,
-                "--bins",
-                "--features",
-                feature,
-                "--",
-                "-D",
-                "warnings",
-            ],
-        )?;
-        cargo::run(
-            &fw,
-            &[
-                "clippy",
-                "--lib",
-                "--tests",
-                "--features",
-                feature,
-                "--",
-                "-D",
-                "warnings",
-            ],
-        )?;
+    for feature in FIRMWARE_FEATURES {
+        let args = ["--release", "--target", t, "--bins", "--features", feature];
+        clippy(&fw, &args)?;
+    }
+    let host_lib: &[&str] = match pass {
+        Pass::Fast => &["board"],
+        Pass::Full => &["qemu", "board", "board,store"],
+    };
+    for feature in host_lib {
+        clippy(&fw, &["--lib", "--tests", "--features", feature])?;
     }
     Ok(())
+}
+
+/// The firmware's feature sets, one for each set of images.
+const FIRMWARE_FEATURES: [&str; 3] = ["bench", "board", "board,store"];
+
+/// `cargo clippy ARGS -- -D warnings` in `dir`.
+fn clippy(dir: &Path, args: &[&str]) -> Result<()> {
+    let mut all = vec!["clippy"];
+    all.extend_from_slice(args);
+    all.extend(["--", "-D", "warnings"]);
+    cargo::run(dir, &all)
 }
 
 /// rustdoc on every crate, no warnings, no broken links: the host crates,
@@ -143,7 +160,7 @@ fn docs(root: &Path) -> Result<()> {
         args.extend(["-p", c]);
     }
     cargo::run_env(root, &args, &deny)?;
-    for feature in ["qemu", "board", "board,store"] {
+    for feature in FIRMWARE_FEATURES {
         cargo::run_env(
             &root.join("firmware"),
             &[
@@ -161,19 +178,32 @@ fn docs(root: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The board images, built through the aliases users flash with
-/// (`flash-board` takes the same arguments): they must build and link
-/// even with no board here; then the board's register tests on the host.
-fn board(root: &Path) -> Result<()> {
+/// Every firmware image the pass runs or measures, built once: the QEMU
+/// ones with the tests' flags and profile (what `qemu_tests::build_firmware`
+/// builds), and the board images through the aliases users flash with
+/// (`flash-board` takes the same arguments), which must build and link
+/// even with no board here. Their variants (the board without its store,
+/// the array in 1 ms blocks) are the full pass's: its budget tests build
+/// them.
+fn images(root: &Path) -> Result<()> {
     let fw = root.join("firmware");
     // With the tests' flags, so the images the budgets measure are not
     // built twice.
     let flags = qemu_tests::firmware_rustflags();
     let env = [("CARGO_ENCODED_RUSTFLAGS", flags.as_str())];
-    // The variants first: the defaults' images are the ones left.
-    cargo::run_env(&fw, &["build-board-plain"], &env)?;
+    let t = qemu_tests::TARGET;
+    let release = ["build", "--release", "--target", t];
+    for (bins, feature) in [
+        (&["skin-qemu", "skin-array"][..], "qemu"),
+        (&["dsp-bench"], "bench"),
+    ] {
+        let mut args = release.to_vec();
+        args.extend(["--features", feature]);
+        for b in bins {
+            args.extend(["--bin", b]);
+        }
+        cargo::run_env(&fw, &args, &env)?;
+    }
     cargo::run_env(&fw, &["build-board"], &env)?;
-    cargo::run_env(&fw, &["build-array-board-1ms"], &env)?;
-    cargo::run_env(&fw, &["build-array-board"], &env)?;
-    cargo::run(&fw, &["test", "--lib", "--features", "board"])
+    cargo::run_env(&fw, &["build-array-board"], &env)
 }

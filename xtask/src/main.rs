@@ -4,7 +4,9 @@
 //! * `setup` ([`setup`]): install what a fresh Debian machine lacks (QEMU,
 //!   ngspice) and the Rust targets of `rust-toolchain.toml`.
 //! * `test` ([`checks`]): set-up, then formatting, clippy, rustdoc, every
-//!   host and QEMU test, the cross builds and the board images.
+//!   host and QEMU test, the cross builds and the board images: the fast
+//!   pass (smoke sizes, 10³ cases a fuzz target), or with `--full` the
+//!   long tests and 10⁵ cases a fuzz target as well.
 //! * `run` ([`main_job`]): the main job (see the README).
 //! * `bench` ([`mod@bench`]): instruction counts on Cortex-M4 in QEMU
 //!   (`-icount`), image sizes, and with `--host` the criterion benchmarks.
@@ -38,8 +40,15 @@ struct Cli {
 enum Cmd {
     /// Install QEMU and ngspice when missing (apt-get), and the Rust targets.
     Setup,
-    /// Everything CI runs: fmt, clippy, rustdoc, host and QEMU tests, firmware builds.
-    Test,
+    /// The test command: fmt, clippy, rustdoc, every host and QEMU test
+    /// at its smoke size, the firmware builds (--full: the long tests and
+    /// full fuzz counts too).
+    Test {
+        /// Also the long sweeps, every QEMU scenario and 10⁵ cases per
+        /// fuzz target: what CI runs after the test command.
+        #[arg(long)]
+        full: bool,
+    },
     /// Instruction counts on Cortex-M4 (QEMU -icount) and image sizes; --host adds criterion.
     Bench {
         /// Also run the criterion benchmarks on the host.
@@ -85,9 +94,14 @@ fn main() -> Result<()> {
     std::env::set_current_dir(&root)?;
     match Cli::parse().cmd {
         Cmd::Setup => setup::run(),
-        Cmd::Test => {
+        Cmd::Test { full } => {
             setup::run()?;
-            checks::all(&root)
+            let pass = if full {
+                checks::Pass::Full
+            } else {
+                checks::Pass::Fast
+            };
+            checks::all(&root, pass)
         }
         Cmd::Bench { host } => {
             setup::run()?;
@@ -109,7 +123,8 @@ fn main() -> Result<()> {
             &root,
             &[
                 "test",
-                "--release",
+                "--profile",
+                checks::TEST_PROFILE,
                 "-p",
                 "host-sim",
                 "--test",
@@ -132,9 +147,9 @@ fn main() -> Result<()> {
         }
         Cmd::Fuzz { cases } => {
             let n = cases.to_string();
-            // `cargo test --release <selection> -- --nocapture` with `env`.
+            // `cargo test --profile quick <selection> -- --nocapture` with `env`.
             let run = |selection: &[&str], env: (&str, &str)| {
-                let mut args = vec!["test", "--release"];
+                let mut args = vec!["test", "--profile", checks::TEST_PROFILE];
                 args.extend_from_slice(selection);
                 args.extend(["--", "--nocapture"]);
                 cargo::run_env(&root, &args, &[env])

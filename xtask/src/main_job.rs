@@ -20,7 +20,18 @@ pub fn all(root: &Path) -> Result<()> {
     println!("{}", run_array(&root.join("out/array"), &root.join("out/live"))?);
     println!("{}", run_calibration(&root.join("out/calibrate"))?);
     let st = std::process::Command::new(crate::cargo::bin())
-        .args(["run", "--release", "-q", "-p", "host-sim", "--", "paper", "--out"])
+        // xtask's profile: host-sim's dependencies are xtask's, built.
+        .args([
+            "run",
+            "--profile",
+            "quick",
+            "-q",
+            "-p",
+            "host-sim",
+            "--",
+            "paper",
+            "--out",
+        ])
         .arg(root.join("out/paper"))
         .status()
         .context("running host-sim")?;
