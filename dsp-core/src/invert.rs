@@ -327,7 +327,8 @@ impl Inverter {
     }
 
     /// ln x at grid point `k`: the shared grid's, or where it was moved.
-    /// Out of line: inlined at its nine uses it took 1.1 KiB more flash.
+    /// Out of line: inlined at its nine uses it took a kilobyte more of
+    /// flash.
     #[inline(never)]
     fn u(&self, k: usize) -> f32 {
         match self.moved_at.iter().position(|&at| usize::from(at) == k) {

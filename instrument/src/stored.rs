@@ -286,8 +286,8 @@ impl Stored {
     ///
     /// One sensor laid out at compile time (a static) and copied sixteen
     /// times by a loop: built in place, the sixteen sensors' constants
-    /// were 8.8 KiB of stores in every image that reads a stored set, and
-    /// a whole set as a static 1.8 KiB of flash.
+    /// took kilobytes of stores in every image that reads a stored set,
+    /// and a whole set as a static as much again of flash.
     #[inline(never)]
     pub fn uncalibrated() -> Self {
         // Opaque, so that the copies are not folded back into a set's

@@ -346,10 +346,10 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
             c_rest(s) * 1e12,
             rms * 100.0
         );
-        // Every sensor ≥ 98 % vouched for (measured: 100 % up to 197 pF,
-        // then falling to 98.2 % at 290 pF, whose lowest pair leaves the
-        // third tone at x ≈ 6.5, where what a one-tone error could hide
-        // behind χ² grows (`instrument::joint::hidden`)).
+        // Every sensor ≥ 98 % vouched for (the share falls with C: at
+        // 290 pF the lowest pair leaves the third tone at x ≈ 6.5, where
+        // what a one-tone error could hide behind χ² grows,
+        // `instrument::joint::hidden`).
         assert!(valid * 1000 >= recs.len() * 980, "sensor {s}: {valid} valid");
         assert!(rms < 1e-3, "sensor {s}: C rms {rms}");
         // 0.1 % of C is 0.1–0.13 mm of a 100 mm sensor stretched 0–30 mm

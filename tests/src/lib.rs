@@ -285,14 +285,10 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
     Ok((run, b))
 }
 
-/// The budgets from the dsp-core issue: (bench name, max instructions).
-///
-/// Raised since: the demodulator also keeps Σv, Σv², Σi, Σi² per block for
-/// the disturbance check (12 → 20 per pair), and the inversion solves
-/// every line that fits over the model's whole range and returns each
-/// line's error amplification κ (two more model evaluations): 5000 → 6000
-/// mean, 10 000 worst. The block budget, the one the firmware lives by,
-/// is unchanged.
+/// The instruction budgets: (bench name, max instructions). The
+/// demodulator's includes the moments of the disturbance check (Σv, Σv²,
+/// Σi, Σi² per block); the block budget is the one the firmware lives
+/// by.
 pub const DSP_BUDGETS: [(&str, f64); 13] = [
     ("demod_pair", 20.0),
     ("eval_ladder30", 1000.0),

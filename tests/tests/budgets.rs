@@ -27,7 +27,7 @@ fn board_image_fits_64k_flash_and_16k_ram() {
 
 /// The multiplexed board with its settings store (feature `store`):
 /// within the same 64 / 16 KiB, and above what the plain image takes
-/// (47.3 / 11.5 KiB): the request side, the store, and eight sensors'
+/// (docs/benchmarks.md): the request side, the store, and eight sensors'
 /// settings where it keeps one.
 #[test]
 fn board_image_with_the_store_fits_64k_flash_and_16k_ram() {

@@ -59,7 +59,7 @@ struct Arguments {
     layout: Layout,
     /// How long to simulate, s: `seconds=S` (whole seconds, more than 0,
     /// at most the scenario's duration, which is the default; an integer
-    /// keeps core's float parser, 18 KiB, out of the image).
+    /// keeps core's float parser out of the image).
     duration_s: f32,
     /// The settings' options (`flash=PATH`, `save`, `until-stop`).
     flash: FlashArgs,
