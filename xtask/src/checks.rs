@@ -47,47 +47,56 @@ pub const TEST_PROFILE: &str = "quick";
 /// tests).
 pub fn all(root: &Path, pass: Pass) -> Result<()> {
     format(root)?;
-    lint(root, pass)?;
-    docs(root)?;
-    // The QEMU tests run the firmware's images: build them first, once,
-    // so that each test's build finds them ready.
-    images(root)?;
-    host_tests(root, pass)?;
+    // The firmware's workspace (its own target folder) is linted, documented
+    // and built beside the host's lints and docs: its fat-LTO links leave
+    // a core idle that the host's builds take. The QEMU tests run the
+    // images it builds, so the host tests wait for it.
+    let (firmware, host) = std::thread::scope(|s| {
+        let fw = s.spawn(|| firmware(root, pass));
+        let host = lint(root)
+            .and_then(|()| docs(root))
+            .and_then(|()| host_extras(root));
+        (fw.join(), host)
+    });
+    host?;
+    firmware.map_err(|_| anyhow::anyhow!("the firmware's checks panicked"))??;
+    host_tests(root, pass)
+}
+
+/// The host's checks beside the workspace's tests, and those tests
+/// built: dsp-core's unit tests
+/// with overflow checks (dev profile) and its doc tests; the feature sets
+/// the workspace run does not build (the link's encoder with the
+/// table-less CRC, the single-channel board's store image, held to the
+/// crates' CRC and COBS at every length; dsp-core without its ladder
+/// kernels, the boards'); dsp-core built for every core we support, M4F
+/// (DSP + FPU) and M3.
+fn host_extras(root: &Path) -> Result<()> {
     cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
     cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
-    // The feature sets the workspace run does not build: the link's
-    // encoder with the table-less CRC (the single-channel board's store
-    // image), held to the crates' CRC and COBS at every length; dsp-core
-    // without its ladder kernels (the boards').
+    let crc = ["--lib", "--features", "small-crc"];
     cargo::run(
         root,
-        &[
-            "test",
-            "--profile",
-            TEST_PROFILE,
-            "-p",
-            "link",
-            "--lib",
-            "--features",
-            "small-crc",
-        ],
+        &[&["test", "--profile", TEST_PROFILE, "-p", "link"][..], &crc].concat(),
     )?;
-    cargo::run(
-        root,
-        &[
-            "clippy",
-            "-p",
-            "dsp-core",
-            "--no-default-features",
-            "--",
-            "-D",
-            "warnings",
-        ],
-    )?;
-    // dsp-core on every core we support: M4F (DSP + FPU) and M3.
+    clippy(root, &["-p", "dsp-core", "--no-default-features"])?;
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
     }
+    // The workspace's tests built while the firmware's images still are.
+    cargo::run(
+        root,
+        &["test", "--profile", TEST_PROFILE, "--workspace", "--no-run"],
+    )
+}
+
+/// The firmware's workspace: clippy and rustdoc on its images and
+/// library, its images built once, the board's register tests on the
+/// host.
+fn firmware(root: &Path, pass: Pass) -> Result<()> {
+    firmware_lint(root, pass)?;
+    firmware_docs(root)?;
+    images(root)?;
     cargo::run(&root.join("firmware"), &["test", "--lib", "--features", "board"])
 }
 
@@ -117,25 +126,28 @@ fn format(root: &Path) -> Result<()> {
     cargo::run(&root.join("firmware"), &["fmt", "--all", "--check"])
 }
 
-/// clippy with warnings as errors: the host crates with all their
-/// targets; the firmware's images for the target, for each feature set
-/// (`bench` holds the QEMU images, `qemu` with the benchmarks); its
-/// library with its tests on the host (the board's register tests) with
-/// `board`, and in the full pass with the other feature sets too.
-fn lint(root: &Path, pass: Pass) -> Result<()> {
-    cargo::run(root, &["clippy", "--all-targets", "--", "-D", "warnings"])?;
+/// clippy with warnings as errors on the host crates with all their
+/// targets.
+fn lint(root: &Path) -> Result<()> {
+    clippy(root, &["--all-targets"])
+}
+
+/// clippy with warnings as errors on the firmware's images for the
+/// target, for each feature set (`bench` holds the QEMU images, `qemu`
+/// with the benchmarks); in the full pass also on its library with its
+/// tests on the host (the board's register tests), for each feature set
+/// (the fast pass builds those tests, with `board`).
+fn firmware_lint(root: &Path, pass: Pass) -> Result<()> {
     let fw = root.join("firmware");
     let t = qemu_tests::TARGET;
     for feature in FIRMWARE_FEATURES {
         let args = ["--release", "--target", t, "--bins", "--features", feature];
         clippy(&fw, &args)?;
     }
-    let host_lib: &[&str] = match pass {
-        Pass::Fast => &["board"],
-        Pass::Full => &["qemu", "board", "board,store"],
-    };
-    for feature in host_lib {
-        clippy(&fw, &["--lib", "--tests", "--features", feature])?;
+    if pass == Pass::Full {
+        for feature in ["qemu", "board", "board,store"] {
+            clippy(&fw, &["--lib", "--tests", "--features", feature])?;
+        }
     }
     Ok(())
 }
@@ -151,15 +163,17 @@ fn clippy(dir: &Path, args: &[&str]) -> Result<()> {
     cargo::run(dir, &all)
 }
 
-/// rustdoc on every crate, no warnings, no broken links: the host crates,
-/// and the firmware (library and apps) for each of its images.
+/// rustdoc on every host crate, no warnings, no broken links.
 fn docs(root: &Path) -> Result<()> {
-    let deny = [("RUSTDOCFLAGS", "-D warnings")];
     let mut args = vec!["doc", "--no-deps"];
     for c in DOC_CRATES {
         args.extend(["-p", c]);
     }
-    cargo::run_env(root, &args, &deny)?;
+    cargo::run_env(root, &args, &[DENY_DOC_WARNINGS])
+}
+
+/// rustdoc on the firmware (library and apps) for each set of images.
+fn firmware_docs(root: &Path) -> Result<()> {
     for feature in FIRMWARE_FEATURES {
         cargo::run_env(
             &root.join("firmware"),
@@ -172,11 +186,14 @@ fn docs(root: &Path) -> Result<()> {
                 "--features",
                 feature,
             ],
-            &deny,
+            &[DENY_DOC_WARNINGS],
         )?;
     }
     Ok(())
 }
+
+/// rustdoc's warnings (broken links among them) as errors.
+const DENY_DOC_WARNINGS: (&str, &str) = ("RUSTDOCFLAGS", "-D warnings");
 
 /// Every firmware image the pass runs or measures, built once: the QEMU
 /// ones with the tests' flags and profile (what `qemu_tests::build_firmware`
