@@ -64,21 +64,17 @@ pub fn all(root: &Path, pass: Pass) -> Result<()> {
 }
 
 /// The host's checks beside the workspace's tests, and those tests
-/// built: dsp-core's unit tests
-/// with overflow checks (dev profile) and its doc tests; the feature sets
-/// the workspace run does not build (the link's encoder with the
-/// table-less CRC, the single-channel board's store image, held to the
-/// crates' CRC and COBS at every length; dsp-core without its ladder
-/// kernels, the boards'); dsp-core built for every core we support, M4F
-/// (DSP + FPU) and M3.
+/// built: dsp-core's unit tests with overflow checks (dev profile) and
+/// its doc tests; the feature sets the workspace run does not build (the
+/// link's encoder with the table-less CRC, the single-channel board's
+/// store image, held to the crates' CRC and COBS at every length;
+/// dsp-core without its ladder kernels, the boards'); dsp-core built for
+/// every core we support, M4F (DSP + FPU) and M3.
 fn host_extras(root: &Path) -> Result<()> {
     cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
     cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
-    let crc = ["--lib", "--features", "small-crc"];
-    cargo::run(
-        root,
-        &[&["test", "--profile", TEST_PROFILE, "-p", "link"][..], &crc].concat(),
-    )?;
+    let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
+    cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
     clippy(root, &["-p", "dsp-core", "--no-default-features"])?;
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
