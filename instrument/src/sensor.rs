@@ -16,8 +16,7 @@ use crate::faults::Flags;
 use crate::policy::Policy;
 use crate::stored::{SensorSettings, Stored, FORMAT_VERSION, SENSORS_MAX};
 use dsp_core::fixture::Fixture;
-use dsp_core::tline::LineModel;
-use dsp_core::tline::ModelError;
+use dsp_core::tline::{LineModel, ModelError};
 use dsp_core::track::Tracker;
 
 /// The line tracker every sensor is read with: the continuous line over
@@ -33,7 +32,7 @@ pub fn tracker() -> Tracker {
 /// line's resistance at the read end (`EffectSet::lead_ratio` of its
 /// calibration, always within range); an error for a ratio outside
 /// 0..=`dsp_core::invert::LEAD_MAX`.
-pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, dsp_core::tline::ModelError> {
+pub fn tracker_with_leads(lead_ratio: f32) -> Result<Tracker, ModelError> {
     Tracker::with_leads(LineModel::Continuous, Tracker::X_MAX, lead_ratio)
 }
 

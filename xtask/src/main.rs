@@ -145,43 +145,45 @@ fn main() -> Result<()> {
             eprintln!("wrote {}", out.display());
             Ok(())
         }
-        Cmd::Fuzz { cases } => {
-            let n = cases.to_string();
-            // `cargo test --profile quick <selection> -- --nocapture` with `env`.
-            let run = |selection: &[&str], env: (&str, &str)| {
-                let mut args = vec!["test", "--profile", checks::TEST_PROFILE];
-                args.extend_from_slice(selection);
-                args.extend(["--", "--nocapture"]);
-                cargo::run_env(&root, &args, &[env])
-            };
-            run(
-                &[
-                    "-p",
-                    "dsp-core",
-                    "-p",
-                    "instrument",
-                    "-p",
-                    "host-sim",
-                    "--test",
-                    "fuzz",
-                ],
-                ("FUZZ_CASES", &n),
-            )?;
-            // The array under interferers of any frequency and amplitude
-            // (beside the array's own tests: it runs their simulated skin).
-            run(
-                &["-p", "instrument", "--test", "tones", "interferers"],
-                ("FUZZ_CASES", &n),
-            )?;
-            // The record link: corrupted streams.
-            run(&["-p", "link", "--test", "frames"], ("LINK_CASES", &n))?;
-            // The device's requests: fuzzed command streams against a
-            // store (each case a whole stream of uploads and damage).
-            let streams = cases.to_string();
-            run(
-                &["-p", "instrument", "--lib", "commands"],
-                ("COMMAND_CASES", &streams),
-            )
-        }
+        Cmd::Fuzz { cases } => fuzz(&root, cases),
     }
+}
+
+/// The fuzz targets with `cases` cases each (fresh seeds): dsp-core's
+/// API, the channel logic, the wire format and the readers; the array
+/// under interferers; the record link's corrupted streams; the device's
+/// fuzzed command streams.
+fn fuzz(root: &std::path::Path, cases: u64) -> Result<()> {
+    let n = cases.to_string();
+    // `cargo test --profile quick <selection> -- --nocapture` with `env`.
+    let run = |selection: &[&str], env: (&str, &str)| {
+        let mut args = vec!["test", "--profile", checks::TEST_PROFILE];
+        args.extend_from_slice(selection);
+        args.extend(["--", "--nocapture"]);
+        cargo::run_env(root, &args, &[env])
+    };
+    run(
+        &[
+            "-p",
+            "dsp-core",
+            "-p",
+            "instrument",
+            "-p",
+            "host-sim",
+            "--test",
+            "fuzz",
+        ],
+        ("FUZZ_CASES", &n),
+    )?;
+    // The array under interferers of any frequency and amplitude
+    // (beside the array's own tests: it runs their simulated skin).
+    run(
+        &["-p", "instrument", "--test", "tones", "interferers"],
+        ("FUZZ_CASES", &n),
+    )?;
+    // The record link: corrupted streams.
+    run(&["-p", "link", "--test", "frames"], ("LINK_CASES", &n))?;
+    // The device's requests: fuzzed command streams against a
+    // store (each case a whole stream of uploads and damage).
+    run(&["-p", "instrument", "--lib", "commands"], ("COMMAND_CASES", &n))
 }
