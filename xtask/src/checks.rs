@@ -55,7 +55,7 @@ pub fn all(root: &Path, pass: Pass) -> Result<()> {
         let fw = s.spawn(|| firmware(root, pass));
         let host = lint(root)
             .and_then(|()| docs(root))
-            .and_then(|()| host_extras(root));
+            .and_then(|()| host_extras(root, pass));
         (fw.join(), host)
     });
     host?;
@@ -64,20 +64,19 @@ pub fn all(root: &Path, pass: Pass) -> Result<()> {
 }
 
 /// The host's checks beside the workspace's tests, and those tests
-/// built: dsp-core's unit tests with overflow checks (dev profile) and
-/// its doc tests; the feature sets the workspace run does not build (the
+/// built: the feature sets the workspace run does not build (dsp-core
+/// without its ladder kernels, the boards'; in the full pass also the
 /// link's encoder with the table-less CRC, the single-channel board's
-/// store image, held to the crates' CRC and COBS at every length;
-/// dsp-core without its ladder kernels, the boards'); dsp-core built for
-/// every core we support, M4F (DSP + FPU) and M3.
-fn host_extras(root: &Path) -> Result<()> {
-    cargo::run(root, &["test", "-p", "dsp-core", "--lib"])?;
-    cargo::run(root, &["test", "--doc", "-p", "dsp-core"])?;
-    let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
-    cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
+/// store image, held to the crates' CRC and COBS at every length);
+/// dsp-core built for every core we support, M4F (DSP + FPU) and M3.
+fn host_extras(root: &Path, pass: Pass) -> Result<()> {
     clippy(root, &["-p", "dsp-core", "--no-default-features"])?;
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
+    }
+    if pass == Pass::Full {
+        let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
+        cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
     }
     // The workspace's tests built while the firmware's images still are.
     cargo::run(
@@ -99,8 +98,8 @@ fn firmware(root: &Path, pass: Pass) -> Result<()> {
 /// Every host test (the QEMU tests among them) in [`TEST_PROFILE`]. The
 /// fuzz targets (proptest) draw from one fixed seed, so that a run is
 /// reproducible and a red one is the code's, not the draw's: `cargo
-/// xtask fuzz` draws fresh seeds, 10⁶ cases each. Overflow checks stay
-/// on through the dev-profile run of dsp-core's fixed-point unit tests.
+/// xtask fuzz` draws fresh seeds, 10⁶ cases each. dsp-core runs with
+/// overflow checks and debug assertions on (the profile's override).
 fn host_tests(root: &Path, pass: Pass) -> Result<()> {
     let mut args = vec!["test", "--profile", TEST_PROFILE, "--workspace"];
     let mut env = vec![("PROPTEST_RNG_SEED", PROPTEST_SEED)];
