@@ -4,6 +4,7 @@
 use crate::cargo;
 use anyhow::Result;
 use std::path::Path;
+use std::thread::JoinHandle;
 
 /// The host crates rustdoc checks.
 const DOC_CRATES: [&str; 10] = [
@@ -44,8 +45,8 @@ pub const TEST_PROFILE: &str = "quick";
 
 /// Everything of `pass`: formatting, lints, docs, host tests, cross
 /// builds, the board images and the QEMU tests (which run with the host
-/// tests).
-pub fn all(root: &Path, pass: Pass) -> Result<()> {
+/// tests, once `packages`, the system packages being installed, are).
+pub fn all(root: &Path, pass: Pass, packages: JoinHandle<Result<()>>) -> Result<()> {
     format(root)?;
     // The firmware's workspace (its own target folder) is linted, documented
     // and built beside the host's lints and docs: its fat-LTO links leave
@@ -60,6 +61,9 @@ pub fn all(root: &Path, pass: Pass) -> Result<()> {
     });
     host?;
     firmware.map_err(|_| anyhow::anyhow!("the firmware's checks panicked"))??;
+    packages
+        .join()
+        .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
     host_tests(root, pass)
 }
 

@@ -95,13 +95,13 @@ fn main() -> Result<()> {
     match Cli::parse().cmd {
         Cmd::Setup => setup::run(),
         Cmd::Test { full } => {
-            setup::run()?;
+            let packages = setup::packages_in_background()?;
             let pass = if full {
                 checks::Pass::Full
             } else {
                 checks::Pass::Fast
             };
-            checks::all(&root, pass)
+            checks::all(&root, pass, packages)
         }
         Cmd::Bench { host } => {
             setup::run()?;

@@ -5,6 +5,8 @@
 
 use anyhow::{bail, Context, Result};
 use std::process::Command;
+use std::thread::JoinHandle;
+use std::time::Instant;
 
 /// The system packages the tests need: (a program on PATH, its package).
 const PACKAGES: [(&str, &str); 4] = [
@@ -19,19 +21,46 @@ const TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv7m-none-eabi"];
 
 /// Install what is missing.
 pub fn run() -> Result<()> {
+    targets()?;
+    packages()
+}
+
+/// [`packages`] in a thread of its own, for a command whose first steps
+/// (lints, builds) need none of them: apt's download and unpacking then
+/// overlap the compiler's work. Join it before the first step that runs
+/// QEMU, ngspice or Chromium.
+pub fn packages_in_background() -> Result<JoinHandle<Result<()>>> {
+    targets()?;
+    Ok(std::thread::spawn(packages))
+}
+
+/// The system packages of [`PACKAGES`] that are missing, installed.
+fn packages() -> Result<()> {
     let need: Vec<&str> = PACKAGES
         .into_iter()
         .filter(|(bin, _)| !on_path(bin))
         .map(|(_, pkg)| pkg)
         .collect();
-    if !need.is_empty() {
-        eprintln!("installing {}", need.join(" "));
-        apt(&["update"])?;
-        let mut args = vec!["install", "-y", "--no-install-recommends"];
-        args.extend(&need);
-        apt(&args)?;
+    if need.is_empty() {
+        return Ok(());
     }
-    // rust-toolchain.toml lists the targets; make sure rustup has them.
+    eprintln!("installing {}", need.join(" "));
+    let start = Instant::now();
+    apt(&["update"])?;
+    let mut args = vec!["install", "-y", "--no-install-recommends"];
+    args.extend(&need);
+    apt(&args)?;
+    eprintln!(
+        "installed {} in {:.0} s",
+        need.join(" "),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The Cortex-M targets of `rust-toolchain.toml`, which rustup may not
+/// have yet.
+fn targets() -> Result<()> {
     let mut args = vec!["target", "add"];
     args.extend(TARGETS);
     if let Ok(st) = Command::new("rustup").args(&args).status() {
@@ -45,7 +74,7 @@ pub fn run() -> Result<()> {
 /// `apt-get ARGS`, through sudo unless root.
 fn apt(args: &[&str]) -> Result<()> {
     let mut all: Vec<&str> = if is_root() { vec![] } else { vec!["sudo"] };
-    all.push("apt-get");
+    all.extend(["apt-get", "-q"]);
     all.extend_from_slice(args);
     let st = Command::new(all[0])
         .args(&all[1..])
