@@ -11,10 +11,10 @@
 //! record is flagged [`Flags::MODEL`]; where it does, what such an error
 //! could still hide joins the record's error bound.
 
-use crate::config::{freq_hz, tones, tones_hz, Readings};
+use crate::config::{freq_hz, tones, tones_hz, Readings, FREQS_HZ};
+use crate::decide::{Course, Rules};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
 use crate::sensor::Sensors;
@@ -127,13 +127,9 @@ pub struct Record {
 pub struct Channel {
     /// Frequency policy state.
     pub policy: PolicyState,
-    /// The line of the two tones, tracked.
-    joint: Joint,
-    /// Where a fresh line starts: the sensor's rest capacitance.
-    prior_farad: f32,
-    last_t_us: Option<u64>,
-    /// The frequency is fixed (recording a data set at one frequency).
-    pinned: bool,
+    /// The line of the two tones from block to block (pinned: the
+    /// frequency is fixed, recording a data set at one frequency).
+    course: Course,
     /// Transimpedance range for the next block.
     range: u8,
     /// Which records are reported.
@@ -145,10 +141,7 @@ impl Channel {
     pub const fn new(prior_farad: f32) -> Self {
         Self {
             policy: PolicyState::new(),
-            joint: Joint::new(),
-            prior_farad,
-            last_t_us: None,
-            pinned: false,
+            course: Course::new(prior_farad, false),
             range: 0,
             reports: Decimation::new(),
         }
@@ -168,7 +161,7 @@ impl Channel {
     pub const fn pinned(prior_farad: f32, index: usize) -> Self {
         let mut c = Self::new(prior_farad);
         c.policy.index = crate::config::index(index);
-        c.pinned = true;
+        c.course = Course::new(prior_farad, true);
         c
     }
 
@@ -223,12 +216,7 @@ impl Channel {
         range: u8,
     ) -> Record {
         let f = tones_hz(self.policy.index);
-        // Seconds since this channel's last block (f32 is exact enough for
-        // a difference, whatever the uptime).
-        let dt = self.last_t_us.map_or(0.0, |t0| {
-            dsp_core::fmath::i64_to_f32(t_us.saturating_sub(t0).min(i64::MAX as u64) as i64) * 1e-6
-        });
-        self.last_t_us = Some(t_us);
+        let dt = self.course.elapsed(t_us);
         let mut rec = Record {
             t_us,
             channel,
@@ -250,124 +238,99 @@ impl Channel {
         }
         let th = &s.thresholds;
         let front_end = &s.front_ends[(range as usize).min(RANGES - 1)];
-        // Each tone's impedance, or why there is none.
-        let tone = &ph.tone;
-        let companion = ph.companion;
-        let excited = |v: f32, i: f32| i >= th.open_counts && v >= th.no_excitation_counts;
-        let (z, z2) = match (tone.impedance(front_end), companion.impedance(front_end)) {
-            (Some(z), Some(z2))
-                if excited(tone.v_amplitude(), tone.i_amplitude())
-                    && excited(companion.v_amplitude(), companion.i_amplitude()) =>
-            {
-                (z, z2)
-            }
-            _ => {
-                rec.flags.set(Flags::OPEN);
-                return rec;
-            }
+        let Some((pair, noise)) = read_tones(th, front_end, ph, f, &mut rec) else {
+            return rec;
         };
-        // A lossy capacitor at both tones (Re Z ≥ 0, Im Z < 0), not a short.
-        let capacitor =
-            |z: Complex32| z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm;
-        match SeriesRc::from_impedance(z, f[0]) {
-            Ok(m) if capacitor(z) && capacitor(z2) => {
-                rec.cs_farad = m.cs_farad;
-                rec.rs_ohm = m.rs_ohm;
-                rec.companion_z = z2;
-            }
-            _ => {
-                rec.flags.set(Flags::SHORTED);
-                return rec;
-            }
-        }
-        if th.disturbed(tone) {
+        if th.disturbed(&ph.tone) {
             rec.flags.set(Flags::DISTURBED);
         }
-        if clipped || rec.flags.has(Flags::DISTURBED) {
-            // A clipped or disturbed block's tones are biased: report the
-            // lumped reading, keep the tracked line and the policy as they
-            // were.
-            return rec;
-        }
-        // Each tone's noise: the ADC's, or what the guards show if more.
-        let (sigma_v, sigma_i) = (th.sigma(tone, 0), th.sigma(tone, 1));
-        let relative = |g: f32, av: f32, ai: f32| {
-            let (ev, ei) = (sigma_v / av, sigma_i / ai);
-            g * dsp_core::fmath::sqrt(ev * ev + ei * ei)
+        let rules = Rules {
+            sensor,
+            dielectric: &s.dielectric,
+            thresholds: th,
+            chi2_flag: twotone::CHI2_FLAG,
+            policy: &s.policy,
+            set_hz: &FREQS_HZ,
         };
-        let noise = [
-            relative(tone.noise_gain, tone.v_amplitude(), tone.i_amplitude()),
-            relative(
-                companion.noise_gain,
-                companion.v_amplitude(),
-                companion.i_amplitude(),
-            ),
-        ];
-        // Each tone's 1σ per component of Z: |Z| times its relative noise.
-        let measured = [z, z2];
-        let pair: [Tone; 2] = core::array::from_fn(|k| Tone {
-            z: measured[k],
-            f_hz: f[k],
-            sigma_ohm: dsp_core::fmath::sqrt(measured[k].norm_sqr()) * noise[k],
-        });
-        // The lumped reading stays what the meter saw; the line is what is
-        // left behind the wiring.
-        let solution =
-            self.joint
-                .solve_behind(sensor, &s.dielectric, pair, self.prior_farad, twotone::CHI2_FLAG);
-        let sol = match solution {
-            Ok(sol) => sol,
-            Err(why) => {
-                // Out of range, a free channel falls back to its lowest
-                // frequency.
-                if why == Unsolved::Range && !self.pinned {
-                    s.policy.fallback(&mut self.policy);
-                }
-                rec.flags.set(why.flag());
-                return rec;
-            }
-        };
-        let line = sol.line;
-        rec.c_farad = line.c_farad;
-        rec.r_ohm = line.r_ohm;
-        rec.chi2 = sol.chi2;
-        rec.sigma_c = sol.sigma_ln_c;
-        let (stretch, status) = sensor.read(line.c_farad, th.c_tolerance);
-        rec.stretch_mm = stretch;
-        rec.flags.set(status);
-        let consistent = sol.chi2 <= twotone::CHI2_FLAG;
-        if !consistent {
-            rec.flags.set(Flags::MODEL);
-        }
-        // Within tolerance: five σ of the block's noise, what the energy
-        // near the policy's tone could have moved it by (its V/I's shift
-        // in units of its noise, through the fit's sensitivity: a
-        // weighted least-squares fit moves ln C by at most σ_lnC times
-        // that), and what an error at one tone no guard sees could hide
-        // behind this χ². A NaN is no bound.
-        let near = sol.sigma_ln_c * th.near_shift(tone) / noise[0];
-        let bound = 5.0 * sol.sigma_ln_c + near + crate::joint::hidden(&sol, twotone::CHI2_FLAG);
-        if bound.is_nan() || bound > th.c_tolerance {
-            rec.flags.set(Flags::UNCERTAIN);
-        }
-        // Beyond the electrodes' range, or a line without resistance (x
-        // below what the inversion resolves): no sensor of this kind.
-        if line.r_ohm > th.r_max_ohm || line.r_ohm.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
-            rec.flags.set(Flags::RANGE);
-            self.joint.lose();
-            if !self.pinned {
-                s.policy.fallback(&mut self.policy);
-            }
-            return rec;
-        }
-        if consistent {
-            self.joint.keep(&sol);
-        }
-        if !self.pinned {
-            s.policy.update(&mut self.policy, line.r_ohm, line.c_farad, dt);
+        // What the energy near the policy's tone could have moved ln C
+        // by: its V/I's shift in units of its noise, through the fit's
+        // sensitivity (a weighted least-squares fit moves ln C by at most
+        // σ_lnC times that).
+        let near = |sigma_ln_c: f32| sigma_ln_c * th.near_shift(&ph.tone) / noise;
+        let decided = self
+            .course
+            .decide(&rules, &mut self.policy, pair, near, dt, &mut rec.flags);
+        if let Some(line) = decided {
+            rec.c_farad = line.c_farad;
+            rec.r_ohm = line.r_ohm;
+            rec.chi2 = line.chi2;
+            rec.sigma_c = line.sigma_ln_c;
+            rec.stretch_mm = line.stretch_mm;
         }
         rec
     }
+}
+
+/// The block's two tones, each with its noise (1σ per component of Z,
+/// Ω), and the policy's tone's relative noise; None where there are none
+/// (the record flagged OPEN or SHORTED). The lumped reading, which stays
+/// what the meter saw, and the second tone's impedance go into `rec`.
+fn read_tones(
+    th: &Thresholds,
+    front_end: &FrontEnd,
+    ph: &Readings,
+    f: [f32; 2],
+    rec: &mut Record,
+) -> Option<([Tone; 2], f32)> {
+    let (tone, companion) = (&ph.tone, &ph.companion);
+    let excited = |v: f32, i: f32| i >= th.open_counts && v >= th.no_excitation_counts;
+    let (z, z2) = match (tone.impedance(front_end), companion.impedance(front_end)) {
+        (Some(z), Some(z2))
+            if excited(tone.v_amplitude(), tone.i_amplitude())
+                && excited(companion.v_amplitude(), companion.i_amplitude()) =>
+        {
+            (z, z2)
+        }
+        _ => {
+            rec.flags.set(Flags::OPEN);
+            return None;
+        }
+    };
+    // A lossy capacitor at both tones (Re Z ≥ 0, Im Z < 0), not a short.
+    let capacitor = |z: Complex32| z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm;
+    match SeriesRc::from_impedance(z, f[0]) {
+        Ok(m) if capacitor(z) && capacitor(z2) => {
+            rec.cs_farad = m.cs_farad;
+            rec.rs_ohm = m.rs_ohm;
+            rec.companion_z = z2;
+        }
+        _ => {
+            rec.flags.set(Flags::SHORTED);
+            return None;
+        }
+    }
+    // Each tone's noise: the ADC's, or what the guards show if more.
+    let (sigma_v, sigma_i) = (th.sigma(tone, 0), th.sigma(tone, 1));
+    let relative = |g: f32, av: f32, ai: f32| {
+        let (ev, ei) = (sigma_v / av, sigma_i / ai);
+        g * dsp_core::fmath::sqrt(ev * ev + ei * ei)
+    };
+    let noise = [
+        relative(tone.noise_gain, tone.v_amplitude(), tone.i_amplitude()),
+        relative(
+            companion.noise_gain,
+            companion.v_amplitude(),
+            companion.i_amplitude(),
+        ),
+    ];
+    // Each tone's 1σ per component of Z: |Z| times its relative noise.
+    let measured = [z, z2];
+    let pair = core::array::from_fn(|k| Tone {
+        z: measured[k],
+        f_hz: f[k],
+        sigma_ohm: dsp_core::fmath::sqrt(measured[k].norm_sqr()) * noise[k],
+    });
+    Some((pair, noise[0]))
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
 //! | [`joint`] | the line of a block's two tones, tracked, and what its model check vouches for (both front ends) |
+//! | [`decide`] | what every channel decides once its tones are read: the line, its flags, the policy's next step (both front ends) |
 //! | [`channel`] | one sensor channel of the multiplexer: a block's two tones → a line-corrected record with its model check |
 //! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop, sweep; each acknowledged or refused |
 //! | [`stored`] | the settings a device keeps: each sensor's calibration and wiring, the policy, the record rate; checked as a whole |
@@ -44,6 +45,7 @@ pub use skin_spec::{array, calib, config, design, effects, ranging};
 
 pub mod channel;
 pub mod commands;
+pub mod decide;
 pub mod digest;
 pub mod faults;
 pub mod frames;

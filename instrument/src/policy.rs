@@ -22,7 +22,7 @@
 //! Higher frequencies mean shorter periods, more periods per block, and
 //! less 50/60 Hz pickup, so the policy sits as high as the bound allows.
 
-use crate::config::{freq_hz, PERIODS};
+use crate::config::{freq_hz, FREQS_HZ, PERIODS};
 use core::f32::consts::TAU;
 use dsp_core::fmath;
 
@@ -102,8 +102,7 @@ impl Policy {
     /// Update with a measured line (R Ω, C F) after `dt_s` seconds; returns
     /// true if the frequency changed.
     pub fn update(&self, st: &mut PolicyState, r_ohm: f32, c_farad: f32, dt_s: f32) -> bool {
-        let set: [f32; PERIODS.len()] = core::array::from_fn(freq_hz);
-        self.update_on(&set, st, r_ohm, c_farad, dt_s)
+        self.update_on(&FREQS_HZ, st, r_ohm, c_farad, dt_s)
     }
 
     /// As [`Policy::update`] on another frequency set (`set_hz`, Hz,

@@ -26,8 +26,8 @@
 
 use crate::array::SENSORS;
 use crate::array::{Layout, TONES};
+use crate::decide::{Course, Rules};
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
@@ -141,10 +141,8 @@ impl<'a> Input<'a> {
 pub struct ToneChannel {
     /// Tone policy state (`index`: the higher tone).
     pub policy: PolicyState,
-    /// The last line solved consistently.
-    joint: Joint,
-    last_t_us: Option<u64>,
-    prior_farad: f32,
+    /// The line from block to block.
+    course: Course,
 }
 
 impl ToneChannel {
@@ -152,9 +150,7 @@ impl ToneChannel {
     pub const fn new(prior_farad: f32) -> Self {
         Self {
             policy: PolicyState::new(),
-            joint: Joint::new(),
-            last_t_us: None,
-            prior_farad,
+            course: Course::new(prior_farad, false),
         }
     }
 
@@ -197,10 +193,7 @@ impl ToneChannel {
         clipped: bool,
         rotation: &[Complex32; TONES],
     ) -> ToneRecord {
-        let dt = self.last_t_us.map_or(0.0, |t0| {
-            dsp_core::fmath::i64_to_f32(t_us.saturating_sub(t0).min(i64::MAX as u64) as i64) * 1e-6
-        });
-        self.last_t_us = Some(t_us);
+        let dt = self.course.elapsed(t_us);
         let pair = s.sweep.map_or_else(|| self.pair(), Self::pair_of);
         let mut rec = ToneRecord {
             t_us,
@@ -216,120 +209,97 @@ impl ToneChannel {
         if clipped {
             rec.flags.set(Flags::CLIPPED);
         }
-        // Each fitted tone's impedance, or why there is none.
         let fitted = Self::fitted_of(pair);
-        let mut tones = [Tone {
-            z: Complex32::new(0.0, 0.0),
-            f_hz: 0.0,
-            sigma_ohm: 0.0,
-        }; 3];
         let n = v.tones.n.min(i.tones.n);
-        // The noise's σ from the residual's own degrees of freedom: the
-        // residual rms is over the block's N instants, but its mean and
-        // 2·K tone components were fitted out of them.
-        let dof = s.layout.residual_dof() as f32;
-        let unbiased = dsp_core::fmath::sqrt(n as f32 / dof);
-        let (rv, ri) = (unbiased * v.levels.residual, unbiased * i.levels.residual);
-        // Both tones' impedances are kept whenever the excitation is
-        // there, also on a record flagged open or shorted: an open
-        // fixture's cable is measured so (`live calibrate --open`).
-        for (j, &k) in fitted.iter().enumerate() {
-            let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
-            let z = match Levels::ratio(&v.levels, &i.levels, k) {
-                Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
-                _ => {
-                    rec.flags.set(Flags::OPEN);
-                    return rec;
-                }
-            };
-            for (slot, &p) in rec.z.iter_mut().zip(&pair) {
-                if p == k {
-                    *slot = z;
-                }
-            }
-            if ai < th.open_counts {
-                rec.flags.set(Flags::OPEN);
-            } else if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
-                // Not a lossy capacitor (Re Z ≥ 0, Im Z < 0), or a short.
-                rec.flags.set(Flags::SHORTED);
-            }
-            tones[j] = Tone {
-                z,
-                f_hz: s.layout.tone_hz(k),
-                sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
-            };
-        }
-        if rec.flags.has(Flags::OPEN) || rec.flags.has(Flags::SHORTED) {
+        let Some(tones) = read_tones(s, v, i, rotation, pair, fitted, &mut rec) else {
             return rec;
-        }
+        };
         // What no tone of the comb explains, against the largest tone.
         let limit = |a: f32| fmath::max(th.residual_counts, th.residual_rel * a);
         let (raw_v, raw_i) = (v.levels.residual, i.levels.residual);
         if !(raw_v <= limit(v.levels.largest) && raw_i <= limit(i.levels.largest)) {
             rec.flags.set(Flags::DISTURBED);
         }
-        if clipped || rec.flags.has(Flags::DISTURBED) {
-            // Biased tones: keep the line and the policy as they were.
-            return rec;
-        }
-        // The line is what is left behind the wiring.
-        let solution = self
-            .joint
-            .solve_behind(sensor, &s.dielectric, tones, self.prior_farad, s.chi2_flag);
-        let sol = match solution {
-            Ok(sol) => sol,
-            Err(why) => {
-                rec.flags.set(why.flag());
-                if why == Unsolved::Range {
-                    s.policy.fallback(&mut self.policy);
-                }
-                return rec;
-            }
+        let set_hz = s.layout.tones_hz();
+        let rules = Rules {
+            sensor,
+            dielectric: &s.dielectric,
+            thresholds: th,
+            chi2_flag: s.chi2_flag,
+            policy: &s.policy,
+            set_hz: &set_hz,
         };
-        rec.c_farad = sol.line.c_farad;
-        rec.r_ohm = sol.line.r_ohm;
-        rec.chi2 = sol.chi2;
-        rec.sigma_c = sol.sigma_ln_c;
-        let (stretch, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
-        rec.stretch_mm = stretch;
-        rec.flags.set(status);
-        if sol.chi2 > s.chi2_flag {
-            rec.flags.set(Flags::MODEL);
+        let disturbance =
+            |sigma_ln_c: f32| disturbance_bound(th, &v.levels, &i.levels, &fitted, n, sigma_ln_c);
+        let decided = self
+            .course
+            .decide(&rules, &mut self.policy, tones, disturbance, dt, &mut rec.flags);
+        if let Some(line) = decided {
+            rec.c_farad = line.c_farad;
+            rec.r_ohm = line.r_ohm;
+            rec.chi2 = line.chi2;
+            rec.sigma_c = line.sigma_ln_c;
+            rec.stretch_mm = line.stretch_mm;
         }
-        // Within tolerance: five standard deviations of the block's noise,
-        // what a disturbance the residual sees could have moved the tones
-        // by, and what a one-tone error no residual sees (an interferer at
-        // a tone's frequency or its alias) could hide behind this χ² (a
-        // NaN is no bound).
-        // (Where the model check already failed, the record is flagged
-        // MODEL and the bound says nothing more: UNCERTAIN stays the
-        // block's own, as a per-tone reading of the record needs.)
-        let hidden = crate::joint::hidden(&sol, s.chi2_flag);
-        let within = 5.0 * sol.sigma_ln_c
-            + disturbance_bound(th, &v.levels, &i.levels, &fitted, n, sol.sigma_ln_c)
-            + hidden
-            <= th.c_tolerance;
-        if !within {
-            rec.flags.set(Flags::UNCERTAIN);
-        }
-        if sol.line.r_ohm > th.r_max_ohm {
-            rec.flags.set(Flags::RANGE);
-            self.joint.lose();
-            s.policy.fallback(&mut self.policy);
-            return rec;
-        }
-        if !rec.flags.has(Flags::MODEL) {
-            self.joint.keep(&sol);
-        }
-        s.policy.update_on(
-            &s.layout.tones_hz(),
-            &mut self.policy,
-            sol.line.r_ohm,
-            sol.line.c_farad,
-            dt,
-        );
         rec
     }
+}
+
+/// Each fitted tone's impedance with its noise (1σ per component, Ω),
+/// the pair's into `rec`; None where the block has none (flagged OPEN or
+/// SHORTED). Both tones' impedances are kept whenever the excitation is
+/// there, also on a record flagged open or shorted: an open fixture's
+/// cable is measured so (`live calibrate --open`).
+fn read_tones<const N: usize>(
+    s: &ToneSettings<'_, N>,
+    v: &Input<'_>,
+    i: &Input<'_>,
+    rotation: &[Complex32; TONES],
+    pair: [usize; 2],
+    fitted: [usize; 3],
+    rec: &mut ToneRecord,
+) -> Option<[Tone; 3]> {
+    let th = &s.thresholds;
+    let mut tones = [Tone {
+        z: Complex32::new(0.0, 0.0),
+        f_hz: 0.0,
+        sigma_ohm: 0.0,
+    }; 3];
+    let n = v.tones.n.min(i.tones.n);
+    // The noise's σ from the residual's own degrees of freedom: the
+    // residual rms is over the block's N instants, but its mean and
+    // 2·K tone components were fitted out of them.
+    let dof = s.layout.residual_dof() as f32;
+    let unbiased = dsp_core::fmath::sqrt(n as f32 / dof);
+    let (rv, ri) = (unbiased * v.levels.residual, unbiased * i.levels.residual);
+    for (j, &k) in fitted.iter().enumerate() {
+        let (av, ai) = (v.levels.amplitude[k], i.levels.amplitude[k]);
+        let z = match Levels::ratio(&v.levels, &i.levels, k) {
+            Some(r) if av >= th.no_excitation_counts => r * s.front_end.gain * rotation[k],
+            _ => {
+                rec.flags.set(Flags::OPEN);
+                return None;
+            }
+        };
+        for (slot, &p) in rec.z.iter_mut().zip(&pair) {
+            if p == k {
+                *slot = z;
+            }
+        }
+        if ai < th.open_counts {
+            rec.flags.set(Flags::OPEN);
+        } else if !(z.re >= 0.0 && z.im < 0.0 && z.norm_sqr() >= th.short_ohm * th.short_ohm) {
+            // Not a lossy capacitor (Re Z ≥ 0, Im Z < 0), or a short.
+            rec.flags.set(Flags::SHORTED);
+        }
+        tones[j] = Tone {
+            z,
+            f_hz: s.layout.tone_hz(k),
+            sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
+        };
+    }
+    let biased = rec.flags.has(Flags::OPEN) || rec.flags.has(Flags::SHORTED);
+    (!biased).then_some(tones)
 }
 
 /// What a disturbance could have moved C by, relative: the block's

@@ -31,10 +31,22 @@ pub const SLOT_S: f32 = (BLOCK_PAIRS + SETTLE_PAIRS) as f32 / SAMPLE_RATE_HZ;
 /// 586, 977, 1953, 3906, 5859 Hz. Ascending.
 pub const PERIODS: [u32; 5] = [3, 5, 10, 20, 30];
 
+/// The set's frequencies, Hz, ascending: k·f_s/N for each entry of
+/// [`PERIODS`].
+pub const FREQS_HZ: [f32; PERIODS.len()] = {
+    let mut f = [0.0; PERIODS.len()];
+    let mut i = 0;
+    while i < PERIODS.len() {
+        f[i] = PERIODS[i] as f32 * SAMPLE_RATE_HZ / BLOCK_PAIRS as f32;
+        i += 1;
+    }
+    f
+};
+
 /// Frequency of set entry `i`, Hz.
 /// An index beyond the set means its highest entry.
-pub fn freq_hz(i: usize) -> f32 {
-    PERIODS[index(i)] as f32 * SAMPLE_RATE_HZ / BLOCK_PAIRS as f32
+pub const fn freq_hz(i: usize) -> f32 {
+    FREQS_HZ[index(i)]
 }
 
 /// Oscillator tuning word of set entry `i` (an index beyond the set means

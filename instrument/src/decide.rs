@@ -1,0 +1,181 @@
+//! The decisions every channel makes once its block's tones are read:
+//! from the tones' impedances to the line a record reports, its flags,
+//! and the policy's next step. The multiplexed channel
+//! ([`crate::channel`]) and the array's ([`crate::tones`]) differ only in
+//! how they read their tones (lock-ins with guards; a comb with its
+//! residual); from there on both run [`Course::decide`], in this order:
+//!
+//! 1. A block flagged open, shorted, clipped or disturbed has biased
+//!    tones, or none: no line; the tracked line and the policy stay.
+//! 2. The line the tones leave behind the sensor's wiring
+//!    ([`Joint::solve_behind`]). None: OPEN (the wiring explains the
+//!    tones) or RANGE (no line inverts), and out of range a free channel
+//!    falls back to its lowest frequency.
+//! 3. The stretch from the sensor's calibration, and its status.
+//! 4. χ² above the flag: MODEL, and the line is not tracked.
+//! 5. The error bound: five σ of the block's noise, what a disturbance
+//!    the reader sees could have moved C by, and what an error at one
+//!    tone nothing sees could hide behind χ² ([`crate::joint::hidden`]).
+//!    Beyond the tolerance, or NaN: UNCERTAIN.
+//! 6. R beyond the electrodes' range, or not positive: RANGE, the line is
+//!    lost and a free channel falls back.
+//! 7. Otherwise the line is tracked (when χ² passed) and the policy
+//!    moves on it.
+
+use crate::faults::{Flags, Thresholds};
+use crate::joint::{hidden, Joint, Unsolved};
+use crate::policy::{Policy, PolicyState};
+use crate::sensor::Sensor;
+use dsp_core::dielectric::Dielectric;
+use dsp_core::twotone::Tone;
+
+/// What a channel's decisions read: its sensor and the settings every
+/// channel of its front end shares.
+#[derive(Clone, Copy, Debug)]
+pub struct Rules<'a, const N: usize> {
+    /// The sensor: its wiring, its line's inversion, its stretch table.
+    pub sensor: &'a Sensor<N>,
+    /// The film between the electrodes.
+    pub dielectric: &'a Dielectric,
+    /// Fault thresholds (the tolerance and the electrodes' range).
+    pub thresholds: &'a Thresholds,
+    /// χ² above which a record is flagged [`Flags::MODEL`].
+    pub chi2_flag: f32,
+    /// Frequency policy.
+    pub policy: &'a Policy,
+    /// The frequencies the policy moves on, Hz, ascending.
+    pub set_hz: &'a [f32],
+}
+
+/// The line a record reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Reading {
+    /// Line capacitance, F.
+    pub c_farad: f32,
+    /// Line resistance (both electrodes), Ω.
+    pub r_ohm: f32,
+    /// χ² of the tones against one uniform line.
+    pub chi2: f32,
+    /// 1σ of ln C from the block's noise (relative error of C).
+    pub sigma_ln_c: f32,
+    /// Stretch from the calibration, mm (0 without one).
+    pub stretch_mm: f32,
+}
+
+/// A channel's line from block to block: the last one vouched for, where
+/// a fresh one starts, when the last block was, and whether the policy
+/// may move the frequency.
+#[derive(Clone, Copy, Debug)]
+pub struct Course {
+    joint: Joint,
+    prior_farad: f32,
+    last_t_us: Option<u64>,
+    pinned: bool,
+}
+
+impl Course {
+    /// A channel whose sensor rests at `prior_farad` (F); `pinned`: its
+    /// frequency is held whatever the policy says.
+    pub const fn new(prior_farad: f32, pinned: bool) -> Self {
+        Self {
+            joint: Joint::new(),
+            prior_farad,
+            last_t_us: None,
+            pinned,
+        }
+    }
+
+    /// Whether the frequency is held.
+    pub const fn pinned(&self) -> bool {
+        self.pinned
+    }
+
+    /// Seconds since the previous block (0 for the first), block time
+    /// `t_us` (µs) remembered for the next. f32 is exact enough for a
+    /// difference, whatever the uptime.
+    pub fn elapsed(&mut self, t_us: u64) -> f32 {
+        let dt = self.last_t_us.map_or(0.0, |t0| {
+            let us = t_us.saturating_sub(t0).min(i64::MAX as u64) as i64;
+            dsp_core::fmath::i64_to_f32(us) * 1e-6
+        });
+        self.last_t_us = Some(t_us);
+        dt
+    }
+
+    /// The decisions of the module's docs on a block's `tones` (as
+    /// measured, Ω, each with its noise), `dt_s` seconds after the
+    /// previous block: the line with `flags` set, or None where there is
+    /// none (`flags` says why). `disturbance` gives, from the line's σ of
+    /// ln C, what a disturbance the reader sees could have moved ln C by.
+    pub fn decide<const N: usize, const K: usize>(
+        &mut self,
+        rules: &Rules<'_, N>,
+        policy: &mut PolicyState,
+        tones: [Tone; K],
+        disturbance: impl FnOnce(f32) -> f32,
+        dt_s: f32,
+        flags: &mut Flags,
+    ) -> Option<Reading> {
+        const BIASED: u16 = Flags::OPEN | Flags::SHORTED | Flags::CLIPPED | Flags::DISTURBED;
+        if flags.0 & BIASED != 0 {
+            return None;
+        }
+        let th = rules.thresholds;
+        let sensor = rules.sensor;
+        let solved =
+            self.joint
+                .solve_behind(sensor, rules.dielectric, tones, self.prior_farad, rules.chi2_flag);
+        let sol = match solved {
+            Ok(sol) => sol,
+            Err(why) => {
+                if why == Unsolved::Range {
+                    self.fall_back(rules.policy, policy);
+                }
+                flags.set(why.flag());
+                return None;
+            }
+        };
+        let line = sol.line;
+        let (stretch_mm, status) = sensor.read(line.c_farad, th.c_tolerance);
+        flags.set(status);
+        let consistent = sol.chi2 <= rules.chi2_flag;
+        if !consistent {
+            flags.set(Flags::MODEL);
+        }
+        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(&sol, rules.chi2_flag);
+        if bound.is_nan() || bound > th.c_tolerance {
+            flags.set(Flags::UNCERTAIN);
+        }
+        let reading = Reading {
+            c_farad: line.c_farad,
+            r_ohm: line.r_ohm,
+            chi2: sol.chi2,
+            sigma_ln_c: sol.sigma_ln_c,
+            stretch_mm,
+        };
+        // Beyond the electrodes' range, or a line without resistance (x
+        // below what the inversion resolves): no sensor of this kind.
+        if !(line.r_ohm > 0.0 && line.r_ohm <= th.r_max_ohm) {
+            flags.set(Flags::RANGE);
+            self.joint.lose();
+            self.fall_back(rules.policy, policy);
+            return Some(reading);
+        }
+        if consistent {
+            self.joint.keep(&sol);
+        }
+        if !self.pinned {
+            rules
+                .policy
+                .update_on(rules.set_hz, policy, line.r_ohm, line.c_farad, dt_s);
+        }
+        Some(reading)
+    }
+
+    /// Out of range: a free channel falls back to its lowest frequency.
+    fn fall_back(&self, rules: &Policy, policy: &mut PolicyState) {
+        if !self.pinned {
+            rules.fallback(policy);
+        }
+    }
+}
