@@ -10,6 +10,7 @@
 //! * [`model`]: the forward model with the candidate effects (f64).
 //! * [`numerics`]: the shared numerical helpers (solve, fits, interpolation, statistics).
 //! * [`identify`]: trace a residual to an effect by model selection.
+//! * [`lsq`]: bounded weighted least squares with its covariance (`identify`, `live calibrate`).
 //! * [`experiments`]: the paper's experiments, CSV + SVG + summary.
 //! * [`plot`]: SVG figures.
 //! * [`recording`]: firmware recordings (the wire format) → data sets.
@@ -21,6 +22,7 @@ pub mod dataset;
 pub mod disturbances;
 pub mod experiments;
 pub mod identify;
+pub mod lsq;
 pub mod meter;
 pub mod model;
 pub mod numerics;

@@ -6,8 +6,8 @@
 use super::{FileError, Fit};
 use crate::baseline::noise_sigma;
 use crate::dataset::Kind;
+use crate::lsq::{self, par_map};
 use crate::model::{Averaging, Effect, Line, Params, Prepared, Search};
-use crate::numerics::solve;
 
 /// Noise-weighted residuals and statistics of `pred` against the data.
 pub(super) struct Evaluated {
@@ -179,44 +179,6 @@ impl Problem<'_> {
         }
     }
 
-    /// JᵀJ and Jᵀr of the noise-weighted residual r at `p` (evaluated as
-    /// `at`), with J by one-sided differences of 10⁻⁴ of each effect's
-    /// range (stepping inwards at the upper bound).
-    pub(super) fn normal_equations(
-        &self,
-        effects: &[Effect],
-        p: Params,
-        at: &Evaluated,
-    ) -> Option<(Vec<Vec<f64>>, Vec<f64>)> {
-        let r0 = self.weighted(at);
-        // The columns on the machine's cores (each is a model
-        // evaluation on every row).
-        let jac = par_map(effects, |&e| {
-            let (lo, hi) = self.prep.search.range(e);
-            let h = 1e-4 * (hi - lo);
-            let (v, sign) = if p.get(e) + h <= hi {
-                (p.get(e) + h, 1.0)
-            } else {
-                (p.get(e) - h, -1.0)
-            };
-            let rj = self.weighted(&self.eval(p.with(e, v))?);
-            Some(
-                rj.iter()
-                    .zip(&r0)
-                    .map(|(a, b)| sign * (a - b) / h)
-                    .collect::<Vec<f64>>(),
-            )
-        })
-        .into_iter()
-        .collect::<Option<Vec<Vec<f64>>>>()?;
-        let a = jac
-            .iter()
-            .map(|x| jac.iter().map(|y| dot(x, y)).collect())
-            .collect();
-        let g = jac.iter().map(|x| dot(x, &r0)).collect();
-        Some((a, g))
-    }
-
     /// Fit `effects` starting from `start` (the others held): a grid over
     /// the range of each effect not yet set in `start` (`scan`), evaluated
     /// on `coarse` (the same data, traces decimated: the grid only picks
@@ -236,8 +198,8 @@ impl Problem<'_> {
         let bump_shape = |e: &Effect| Effect::BUMP_SHAPES.contains(e);
         let carried = effects.iter().any(bump_shape) && !scan.iter().any(bump_shape);
         if carried {
-            if let Some(ev) = coarse.eval(p) {
-                p = coarse.levenberg_marquardt(effects, p, ev, LM_STEPS).0;
+            if let Some((q, _, _)) = coarse.levenberg_marquardt(effects, p, LM_STEPS) {
+                p = q;
             }
         }
         if !scan.is_empty() {
@@ -295,16 +257,15 @@ impl Problem<'_> {
                 // Each walked a few steps down, the best of them to the
                 // bottom (on the coarse copy).
                 let walked = par_map(&starts, |&q| {
-                    let ev = coarse.eval(q)?;
-                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS);
+                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, WALK_STEPS)?;
                     Some((ev, q))
                 })
                 .into_iter()
                 .flatten()
                 .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
-                .map(|(ev, q)| {
-                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, ev, WALK_STEPS * 3);
-                    (ev.s, q)
+                .and_then(|(_, q)| {
+                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, WALK_STEPS * 3)?;
+                    Some((ev.s, q))
                 });
                 if let Some((s, q)) = walked {
                     if s < s_best {
@@ -352,156 +313,83 @@ impl Problem<'_> {
             }
         }
         let k = effects.len();
-        let (p, best, jtj_at_p) = self.levenberg_marquardt(effects, p, self.eval(p)?, LM_STEPS);
+        let (p, best, jtj_at_p) = self.levenberg_marquardt(effects, p, LM_STEPS)?;
         // Uncertainty: s²·(JᵀJ)⁻¹, s² = S/(n − k), at the optimum.
+        let unknowns = Unknowns::of(self, effects, p);
         let a = match jtj_at_p {
             Some(a) => a,
-            None => self.normal_equations(effects, p, &best)?.0,
+            None => lsq::normal_equations(&unknowns, &lsq::Point::at(&unknowns, unknowns.start())?)?.0,
         };
         let mut s2 = best.s / (self.rows.saturating_sub(k).max(1)) as f64;
         if self.declared {
             s2 = s2.max(1.0);
         }
-        // (JᵀJ)⁻¹ by columns (None: singular, nothing pinned down).
-        let inv: Vec<Option<Vec<f64>>> = (0..k)
-            .map(|i| {
-                let mut unit = vec![0.0; k];
-                unit[i] = 1.0;
-                solve(a.clone(), unit)
-            })
-            .collect();
-        let sigma: Vec<f64> = inv
-            .iter()
-            .enumerate()
-            .map(|(i, col)| {
-                col.as_ref()
-                    .map_or(f64::INFINITY, |c| (s2 * c[i]).max(0.0).sqrt())
-            })
-            .collect();
-        // Correlations ρᵢⱼ = Cᵢⱼ/√(CᵢᵢCⱼⱼ) (NaN where singular).
-        let correlation = (0..k)
-            .map(|i| {
-                (0..k)
-                    .map(|j| match (&inv[i], &inv[j]) {
-                        (Some(ci), Some(cj)) => ci[j] / (ci[i] * cj[j]).sqrt(),
-                        _ => f64::NAN,
-                    })
-                    .collect()
-            })
-            .collect();
+        let (sigma, correlation) = lsq::sigma_correlation(lsq::covariance(&a, s2).as_deref(), k);
         let mut fit = self.fit_of(effects.to_vec(), p, sigma, best);
         fit.correlation = correlation;
         Some(fit)
     }
 
-    /// Projected Levenberg–Marquardt on `effects` from `p` (evaluated as
-    /// `best`): the optimum, its evaluation, and JᵀJ there when the last
-    /// iteration left `p` where it was.
+    /// The bounded fit ([`lsq::fit`]) of `effects` from `p` for at most
+    /// `steps` iterations: the optimum, its evaluation, and JᵀJ there
+    /// when the last iteration left `p` where it was. None where `p`
+    /// cannot be evaluated.
     #[allow(clippy::type_complexity)]
     fn levenberg_marquardt(
         &self,
         effects: &[Effect],
-        mut p: Params,
-        mut best: Evaluated,
+        p: Params,
         steps: usize,
-    ) -> (Params, Evaluated, Option<Vec<Vec<f64>>>) {
-        let clamp = |e: Effect, v: f64| {
-            let (lo, hi) = self.prep.search.range(e);
-            v.clamp(lo, hi)
-        };
-        let mut lambda = 1e-3;
-        for _ in 0..steps {
-            let Some((a, g)) = self.normal_equations(effects, p, &best) else {
-                break;
-            };
-            let (mut improved, mut moved) = (false, false);
-            // A parameter at a bound that the step pushes outward is held
-            // there for the step (the active set), and the step solved
-            // again for the others, until none more is held: a step for
-            // all of them, clamped after, moves the free ones too little
-            // and crawls along the bound (a bump's width at 1, its centre
-            // at an end: over a hundred evaluations).
-            let at_edge = |i: usize, di: f64| {
-                let e = effects[i];
-                let (lo, hi) = self.prep.search.range(e);
-                let (v, edge) = (p.get(e), 1e-9 * (hi - lo));
-                (v <= lo + edge && di < 0.0) || (v >= hi - edge && di > 0.0)
-            };
-            while lambda < 1e10 {
-                let step = bounded_step(&a, &g, lambda, at_edge);
-                let Some(d) = step else {
-                    lambda *= 10.0;
-                    continue;
-                };
-                let mut q = p;
-                for (i, &e) in effects.iter().enumerate() {
-                    q = q.with(e, clamp(e, p.get(e) + d[i]));
-                }
-                // A step (after the bounds) below 10⁻⁹ of every range
-                // moves nothing the data can see: converged.
-                if effects.iter().all(|&e| {
-                    let (lo, hi) = self.prep.search.range(e);
-                    (q.get(e) - p.get(e)).abs() <= 1e-9 * (hi - lo)
-                }) {
-                    break;
-                }
-                match self.eval(q) {
-                    Some(ev) if ev.s < best.s => {
-                        // Converged when a step lowers BIC = n·ln(S/n) +
-                        // … by under 0.01 (n·ΔS/S), and S by under 0.01
-                        // (S is noise-weighted: BIC decides on differences
-                        // of 10, σ on differences of 1). A model far from
-                        // the data (S/n in the thousands) is not walked
-                        // along its valley for changes BIC cannot see.
-                        improved = best.s - ev.s > 1e-2 * (best.s / self.rows.max(1) as f64).max(1.0);
-                        moved = true;
-                        p = q;
-                        best = ev;
-                        lambda = (lambda / 4.0).max(1e-9);
-                        break;
-                    }
-                    _ => lambda *= 4.0,
-                }
-            }
-            if !improved {
-                // `p` is unchanged only if no step was accepted.
-                return (p, best, (!moved).then_some(a));
-            }
-        }
-        (p, best, None)
+    ) -> Option<(Params, Evaluated, Option<Vec<Vec<f64>>>)> {
+        let unknowns = Unknowns::of(self, effects, p);
+        let fitted = lsq::fit(&unknowns, lsq::Point::at(&unknowns, unknowns.start())?, steps);
+        let q = unknowns.params(&fitted.best.x);
+        Some((q, self.eval(q)?, fitted.jtj))
     }
 }
 
-/// The damped Gauss–Newton step d of (A + λ·diag A)·d = −g, a parameter
-/// `at_edge(i, dᵢ)` (at a bound the step pushes it past) held at zero and
-/// the step solved again for the others, until none more is held (the
-/// active set); None where the matrix is singular.
-fn bounded_step(
-    a: &[Vec<f64>],
-    g: &[f64],
-    lambda: f64,
-    at_edge: impl Fn(usize, f64) -> bool,
-) -> Option<Vec<f64>> {
-    let mut held = vec![false; g.len()];
-    loop {
-        let mut m = a.to_vec();
-        let mut rhs: Vec<f64> = g.iter().map(|v| -v).collect();
-        for i in 0..m.len() {
-            m[i][i] += lambda * a[i][i].max(1e-300);
-            if held[i] {
-                // Its row and column those of the identity.
-                m.iter_mut().for_each(|row| row[i] = 0.0);
-                m[i].fill(0.0);
-                m[i][i] = 1.0;
-                rhs[i] = 0.0;
-            }
+/// A model's `effects` as the unknowns of a least-squares problem, the
+/// other parameters held at `base`'s; each bounded by its search range.
+struct Unknowns<'a, 'p> {
+    problem: &'a Problem<'p>,
+    effects: &'a [Effect],
+    base: Params,
+    bounds: Vec<(f64, f64)>,
+}
+
+impl<'a, 'p> Unknowns<'a, 'p> {
+    fn of(problem: &'a Problem<'p>, effects: &'a [Effect], base: Params) -> Self {
+        let bounds = effects.iter().map(|&e| problem.prep.search.range(e)).collect();
+        Self {
+            problem,
+            effects,
+            base,
+            bounds,
         }
-        let d = solve(m, rhs)?;
-        let more: Vec<usize> = (0..d.len()).filter(|&i| !held[i] && at_edge(i, d[i])).collect();
-        if more.is_empty() {
-            return Some(d);
-        }
-        more.into_iter().for_each(|i| held[i] = true);
+    }
+
+    /// The unknowns at `base`.
+    fn start(&self) -> Vec<f64> {
+        self.effects.iter().map(|&e| self.base.get(e)).collect()
+    }
+
+    /// `base` with the unknowns `x`.
+    fn params(&self, x: &[f64]) -> Params {
+        self.effects
+            .iter()
+            .zip(x)
+            .fold(self.base, |p, (&e, &v)| p.with(e, v))
+    }
+}
+
+impl lsq::Problem for Unknowns<'_, '_> {
+    fn bounds(&self) -> &[(f64, f64)] {
+        &self.bounds
+    }
+
+    fn residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let ev = self.problem.eval(self.params(x))?;
+        Some(self.problem.weighted(&ev))
     }
 }
 
@@ -525,37 +413,6 @@ const BUMP_STARTS: usize = 3;
 
 /// A bump's widths on its joint grid (fractions of the sensor).
 const BUMP_WIDTHS: [f64; 4] = [0.25, 0.4, 0.65, 1.0];
-
-/// `f` over `items`, in order, on as many scoped threads as the machine
-/// has cores (the items in contiguous runs, the first on the calling
-/// thread). A fit's model evaluations are independent of each other and
-/// take milliseconds each: where one candidate is left running (the
-/// longest of a round), its Jacobian's columns and its bump's grid use
-/// the cores the others have finished with. The result is the same as
-/// a sequential map's, whatever the core count.
-fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let per = items.len().div_ceil(cores.max(1)).max(1);
-    if items.len() <= 1 || cores <= 1 {
-        return items.iter().map(&f).collect();
-    }
-    let f = &f;
-    std::thread::scope(|sc| {
-        let mut runs = items.chunks(per);
-        let first = runs.next().unwrap_or_default();
-        let rest: Vec<_> = runs
-            .map(|run| sc.spawn(move || run.iter().map(f).collect::<Vec<R>>()))
-            .collect();
-        let mut out: Vec<R> = first.iter().map(f).collect();
-        for h in rest {
-            match h.join() {
-                Ok(v) => out.extend(v),
-                Err(e) => std::panic::resume_unwind(e),
-            }
-        }
-        out
-    })
-}
 
 /// Σ xᵢ·yᵢ.
 fn dot(x: &[f64], y: &[f64]) -> f64 {
@@ -630,33 +487,6 @@ pub(super) fn grid(search: &Search, e: Effect) -> Vec<f64> {
 mod tests {
     use super::*;
 
-    /// The active set on S = (x − x₀, y − y₀)·A·(…) with x ≥ 0 and the
-    /// free optimum at x₀ < 0, from x = 0: the step holds x and takes y
-    /// to its optimum given x = 0 (y₀ − A₀₁/A₁₁·(0 − x₀)), exactly; a
-    /// step for both, clamped after, leaves y short of it.
-    #[test]
-    fn a_parameter_pushed_past_its_bound_is_held_and_the_rest_solved() {
-        let a = vec![vec![2.0, 0.9], vec![0.9, 1.0]];
-        let (x0, y0) = (-1.0, 2.0);
-        // At (0, 0): g = A·((0, 0) − (x0, y0)).
-        let g = [a[0][0] * -x0 + a[0][1] * -y0, a[1][0] * -x0 + a[1][1] * -y0];
-        let at_edge = |i: usize, d: f64| i == 0 && d < 0.0;
-        let d = bounded_step(&a, &g, 0.0, at_edge).unwrap();
-        let want = y0 - a[1][0] / a[1][1] * (0.0 - x0);
-        assert_eq!(d[0], 0.0);
-        assert!((d[1] - want).abs() < 1e-12, "{} against {want}", d[1]);
-        // Free: the full step to (x0, y0); clamped after, y stops short.
-        let free = bounded_step(&a, &g, 0.0, |_, _| false).unwrap();
-        assert!((free[0] - x0).abs() < 1e-12 && (free[1] - y0).abs() < 1e-12);
-        assert!((free[1] - want).abs() > 0.5);
-        // Damped, the held row stays the identity's.
-        let damped = bounded_step(&a, &g, 10.0, at_edge).unwrap();
-        assert_eq!(damped[0], 0.0);
-        assert!((damped[1] - -g[1] / (11.0 * a[1][1])).abs() < 1e-12);
-        // Singular: None.
-        assert!(bounded_step(&[vec![0.0; 2], vec![0.0; 2]], &g, 0.0, |_, _| false).is_none());
-    }
-
     /// `(S, r)` of a model `r(a) = y − a·x − κ·a²·x` on a fixed row set.
     fn model<'a>(x: &'a [f64], y: &'a [f64], kappa: f64) -> impl Fn(f64) -> Option<(f64, Vec<f64>)> + 'a {
         move |a| {
@@ -707,18 +537,6 @@ mod tests {
                     "truth {truth} κ {kappa}: {a} against {reference}"
                 );
             }
-        }
-    }
-
-    /// The parallel map is the sequential one, in order, for every
-    /// length (around the core count and its multiples).
-    #[test]
-    fn par_map_is_the_sequential_map_in_order() {
-        for n in 0..40usize {
-            let items: Vec<usize> = (0..n).collect();
-            let got = par_map(&items, |&i| i * i + 1);
-            let want: Vec<usize> = items.iter().map(|&i| i * i + 1).collect();
-            assert_eq!(got, want, "n = {n}");
         }
     }
 

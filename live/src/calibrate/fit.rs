@@ -184,8 +184,10 @@ pub fn fit_sensor(
     let open_cp = open_cp(&seen.obs);
     let n_holds = order.len();
     let n_parts = seen.part_hold.len();
-    let residuals = |x: &[f64], out: &mut Vec<f64>| residuals(&seen.obs, n_holds, x, out);
-    let (cost, x, bounds) = solve(&residuals, start(&seen.obs, n_holds, &seen.part_hold));
+    let misfits = Misfits::new(&seen.obs, n_holds, seen.part_hold.len());
+    let (cost, x) = solve(&misfits, start(&seen.obs, n_holds, &seen.part_hold))
+        .ok_or("the fit could not evaluate its model at any start")?;
+    let bounds = &misfits.bounds;
     // Free unknowns: globals off their bounds, every C, every R (every
     // part has observations).
     let free: Vec<usize> = (0..x.len())
@@ -201,7 +203,7 @@ pub fn fit_sensor(
     }
     let dof = m - free.len();
     let chi2_dof = cost / dof as f64;
-    let (sigma, rho) = uncertainty(&residuals, &x, &free, m, chi2_dof);
+    let (sigma, rho) = uncertainty(&misfits, &x, &free, chi2_dof);
     let r: Vec<f64> = (0..n_holds)
         .map(|k| {
             let rs: Vec<f64> = (0..n_parts)
@@ -454,19 +456,46 @@ fn residuals(obs: &[Obs], n_holds: usize, x: &[f64], out: &mut Vec<f64>) {
     }
 }
 
-/// The bounded fit from several starts of the globals (it is not convex
-/// in them): the lowest cost, its unknowns, and the unknowns' bounds.
-fn solve(residuals: &impl Fn(&[f64], &mut Vec<f64>), start: Vec<f64>) -> (f64, Vec<f64>, Vec<(f64, f64)>) {
-    let n_par = start.len();
-    // Every R unknown has observations: every unknown is free.
-    let has_part = vec![true; n_par - GLOBALS];
-    let bounds: Vec<(f64, f64)> = (0..n_par)
-        .map(|i| match i {
-            i if i < GLOBALS => (BOUNDS[i].0 / SCALE[i], BOUNDS[i].1 / SCALE[i]),
-            _ => (f64::NEG_INFINITY, f64::INFINITY),
-        })
-        .collect();
-    let mut best: Option<(f64, Vec<f64>)> = None;
+/// A sensor's unknowns as a least-squares problem: every observation's
+/// misfit ([`residuals`]); the globals within the device's ranges
+/// ([`BOUNDS`]), each line's ln C within 1 pF … 100 nF and ln R within
+/// 100 Ω … 1 GΩ (no sensor of this kind lies beyond).
+struct Misfits<'a> {
+    obs: &'a [Obs],
+    n_holds: usize,
+    bounds: Vec<(f64, f64)>,
+}
+
+impl<'a> Misfits<'a> {
+    fn new(obs: &'a [Obs], n_holds: usize, n_parts: usize) -> Self {
+        let globals = (0..GLOBALS).map(|g| (BOUNDS[g].0 / SCALE[g], BOUNDS[g].1 / SCALE[g]));
+        let c = std::iter::repeat_n((1e-12f64.ln(), 1e-7f64.ln()), n_holds);
+        let r = std::iter::repeat_n((1e2f64.ln(), 1e9f64.ln()), n_parts);
+        Self {
+            obs,
+            n_holds,
+            bounds: globals.chain(c).chain(r).collect(),
+        }
+    }
+}
+
+impl host_sim::lsq::Problem for Misfits<'_> {
+    fn bounds(&self) -> &[(f64, f64)] {
+        &self.bounds
+    }
+
+    fn residuals(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let mut out = Vec::with_capacity(2 * self.obs.len());
+        residuals(self.obs, self.n_holds, x, &mut out);
+        Some(out)
+    }
+}
+
+/// The bounded fit ([`host_sim::lsq::fit`]) from several starts of the
+/// globals (it is not convex in them): the lowest cost and its unknowns;
+/// None where no start can be evaluated.
+fn solve(misfits: &Misfits, start: Vec<f64>) -> Option<(f64, Vec<f64>)> {
+    let mut best: Option<host_sim::lsq::Point> = None;
     for lead in [0.0, 0.3, 1.0] {
         for cp in [0.0, 10.0] {
             // None, and a silicone's (`Dielectric::SILICONE`), in 10⁻³.
@@ -475,43 +504,41 @@ fn solve(residuals: &impl Fn(&[f64], &mut Vec<f64>), start: Vec<f64>) -> (f64, V
                 x[0] = lead;
                 x[2] = cp;
                 x[3] = loss;
-                let (cost, x) = levenberg_marquardt(residuals, x, &bounds, &has_part);
-                if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-                    best = Some((cost, x));
+                for (v, b) in x.iter_mut().zip(&misfits.bounds) {
+                    *v = v.clamp(b.0, b.1);
+                }
+                let Some(at) = host_sim::lsq::Point::at(misfits, x) else {
+                    continue;
+                };
+                let fitted = host_sim::lsq::fit(misfits, at, LM_STEPS).best;
+                if best.as_ref().is_none_or(|b| fitted.s < b.s) {
+                    best = Some(fitted);
                 }
             }
         }
     }
-    let (cost, x) = best.expect("a start");
-    (cost, x, bounds)
+    best.map(|b| (b.s, b.x))
 }
 
+/// The fit's most iterations from each start.
+const LM_STEPS: usize = 200;
+
 /// The globals' 1σ (NaN where not free) and the correlation of leads and
-/// contact, from the covariance of the `free` unknowns at `x` (`m`
-/// residuals), scaled by χ²/dof when above 1.
-fn uncertainty(
-    residuals: &impl Fn(&[f64], &mut Vec<f64>),
-    x: &[f64],
-    free: &[usize],
-    m: usize,
-    chi2_dof: f64,
-) -> ([f64; GLOBALS], f64) {
-    let jac = jacobian(residuals, x, free);
-    let mut jtj = vec![vec![0.0; free.len()]; free.len()];
-    for (a, row) in jtj.iter_mut().enumerate() {
-        for (b, v) in row.iter_mut().enumerate() {
-            *v = (0..m).map(|i| jac[a][i] * jac[b][i]).sum();
-        }
-    }
-    let cov = invert(&jtj).map(|c| {
-        let s = chi2_dof.max(1.0);
-        c.into_iter()
-            .map(|row| row.into_iter().map(|v| v * s).collect::<Vec<_>>())
-            .collect::<Vec<_>>()
-    });
+/// contact, from the covariance of the `free` unknowns at `x`, scaled by
+/// χ²/dof when above 1.
+fn uncertainty(misfits: &Misfits, x: &[f64], free: &[usize], chi2_dof: f64) -> ([f64; GLOBALS], f64) {
     let mut sigma = [f64::NAN; GLOBALS];
     let mut rho = f64::NAN;
-    if let Some(cov) = &cov {
+    let jtj = host_sim::lsq::Point::at(misfits, x.to_vec())
+        .and_then(|at| host_sim::lsq::normal_equations(misfits, &at));
+    let Some((jtj, _)) = jtj else {
+        return (sigma, rho);
+    };
+    let sub: Vec<Vec<f64>> = free
+        .iter()
+        .map(|&a| free.iter().map(|&b| jtj[a][b]).collect())
+        .collect();
+    if let Some(cov) = host_sim::lsq::covariance(&sub, chi2_dof.max(1.0)) {
         let at = |i: usize| free.iter().position(|&f| f == i);
         for (g, s) in sigma.iter_mut().enumerate() {
             if let Some(a) = at(g) {
@@ -612,110 +639,4 @@ impl SensorFit {
         }
         out
     }
-}
-
-/// Forward-difference Jacobian of `f` at `x` over unknowns `free`:
-/// `jac[a][i]` = ∂f_i/∂x_free[a].
-pub(crate) fn jacobian(f: &impl Fn(&[f64], &mut Vec<f64>), x: &[f64], free: &[usize]) -> Vec<Vec<f64>> {
-    let mut r0 = vec![];
-    f(x, &mut r0);
-    let mut xp = x.to_vec();
-    let mut r1 = vec![];
-    free.iter()
-        .map(|&i| {
-            let h = 1e-6 * x[i].abs().max(1e-3);
-            xp[i] = x[i] + h;
-            f(&xp, &mut r1);
-            xp[i] = x[i];
-            r1.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect()
-        })
-        .collect()
-}
-
-/// Levenberg–Marquardt on ½‖f‖² with box bounds (steps projected onto
-/// them); unknowns with `active[i − first R] == false` are held. The
-/// final cost ‖f‖² and the unknowns.
-pub(crate) fn levenberg_marquardt(
-    f: &impl Fn(&[f64], &mut Vec<f64>),
-    mut x: Vec<f64>,
-    bounds: &[(f64, f64)],
-    has_part: &[bool],
-) -> (f64, Vec<f64>) {
-    let n_r = has_part.len();
-    let first_r = x.len() - n_r;
-    let free: Vec<usize> = (0..x.len())
-        .filter(|&i| i < first_r || has_part[i - first_r])
-        .collect();
-    for (v, b) in x.iter_mut().zip(bounds) {
-        *v = v.clamp(b.0, b.1);
-    }
-    let cost = |x: &[f64]| {
-        let mut r = vec![];
-        f(x, &mut r);
-        let c: f64 = r.iter().map(|v| v * v).sum();
-        if c.is_finite() {
-            c
-        } else {
-            f64::INFINITY
-        }
-    };
-    let mut c = cost(&x);
-    let mut lambda = 1e-3;
-    let mut r = vec![];
-    for _ in 0..200 {
-        f(&x, &mut r);
-        let jac = jacobian(f, &x, &free);
-        let n = free.len();
-        let mut a = vec![vec![0.0; n]; n];
-        let mut g = vec![0.0; n];
-        for i in 0..n {
-            g[i] = -(0..r.len()).map(|k| jac[i][k] * r[k]).sum::<f64>();
-            for j in i..n {
-                let v: f64 = (0..r.len()).map(|k| jac[i][k] * jac[j][k]).sum();
-                a[i][j] = v;
-                a[j][i] = v;
-            }
-        }
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut m = a.clone();
-            for (i, row) in m.iter_mut().enumerate() {
-                row[i] += lambda * a[i][i].max(1e-12);
-            }
-            let Some(step) = host_sim::numerics::solve(m, g.clone()) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut xn = x.clone();
-            for (k, &i) in free.iter().enumerate() {
-                xn[i] = (x[i] + step[k]).clamp(bounds[i].0, bounds[i].1);
-            }
-            let cn = cost(&xn);
-            if cn < c {
-                let done = (c - cn) <= 1e-10 * c.max(1e-300);
-                x = xn;
-                c = cn;
-                lambda = (lambda / 3.0).max(1e-12);
-                improved = !done;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    (c, x)
-}
-
-/// The inverse of a symmetric positive definite matrix (None: singular).
-pub(crate) fn invert(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-    let n = a.len();
-    let mut cols = vec![];
-    for j in 0..n {
-        let mut e = vec![0.0; n];
-        e[j] = 1.0;
-        cols.push(host_sim::numerics::solve(a.to_vec(), e)?);
-    }
-    Some((0..n).map(|i| (0..n).map(|j| cols[j][i]).collect()).collect())
 }
