@@ -1,6 +1,11 @@
-//! Every sensor of the array from one block: the comb on the excitation
-//! and on each sensor's input ([`dsp_core::comb`]), then each sensor's
-//! two tones turned into a record ([`crate::tones`]).
+//! A block to its records, for either front end: the multiplexer's
+//! channels ([`MuxReader`]: one sensor a slot, [`crate::channel`]) and
+//! the array's ([`ArrayReader`]). The board and QEMU apps of each keep
+//! only what moves their samples.
+//!
+//! The array reads every sensor from one block: the comb on the
+//! excitation and on each sensor's input ([`dsp_core::comb`]), then each
+//! sensor's two tones turned into a record ([`crate::tones`]).
 //!
 //! The board and QEMU keep a block differently (the board's five DMA
 //! buffers, each with two halves; QEMU's one [`Frame`](crate::array::Frame)),
@@ -13,11 +18,81 @@
 use crate::array::{
     adc_position, input_of, Layout, BLOCK_INSTANTS, SCAN, SENSORS, SHORT_INSTANTS, TONES, VOLTAGE_INPUT,
 };
-use crate::channel::Decimation;
+use crate::channel::{Channel, Decimation, Record, Settings};
+use crate::config::{Readings, CHANNELS};
 use crate::sensor::Sensors;
+use crate::sequencer::{Plan, Slot};
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
 use dsp_core::Complex32;
+
+/// What became of a multiplexed slot's block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Read {
+    /// Its record, to report.
+    Report(Record),
+    /// Measured (its channel's line and policy follow it), not reported:
+    /// an empty socket, or a block between those the settings'
+    /// `record_every` asks for.
+    Quiet,
+    /// Played at another frequency than its channel's policy now wants
+    /// (the policy switched after the slot was planned): not measured;
+    /// the next slot catches up.
+    Skipped,
+}
+
+/// The multiplexer's channels, each following its sensor from slot to
+/// slot: the multiplexed front end's reader.
+#[derive(Clone, Debug)]
+pub struct MuxReader {
+    /// Each sensor's channel.
+    pub channels: [Channel; CHANNELS],
+}
+
+impl MuxReader {
+    /// Every channel free, resting at its sensor's rest capacitance.
+    pub fn new<const N: usize, const S: usize>(sensors: &crate::sensor::Sensors<N, S>) -> Self {
+        Self::with(|c| Channel::new(sensors.of(c).rest_farad))
+    }
+
+    /// Channel c as `channel(c)` makes it (pinned, for a recording at one
+    /// frequency).
+    pub fn with(channel: impl Fn(u8) -> Channel) -> Self {
+        Self {
+            channels: core::array::from_fn(|c| channel(c as u8)),
+        }
+    }
+
+    /// What channel `c` wants for its next slot.
+    pub fn plan(&self, c: u8) -> Plan {
+        self.channels[usize::from(c) % CHANNELS].plan()
+    }
+
+    /// The record of `slot`'s block, read by the lock-ins as `readings`
+    /// (`clipped`: an ADC sample hit a rail).
+    pub fn read<const N: usize, const S: usize>(
+        &mut self,
+        settings: &Settings<'_, N, S>,
+        slot: &Slot,
+        readings: &Readings,
+        clipped: bool,
+    ) -> Read {
+        let Some(channel) = self.channels.get_mut(usize::from(slot.channel)) else {
+            return Read::Skipped;
+        };
+        if channel.freq_index() != slot.fidx {
+            return Read::Skipped;
+        }
+        let t_us = slot.block_mid_us();
+        let rec = channel.process(settings, slot.channel, t_us, readings, clipped, slot.range);
+        let due = channel.due(settings.record_every);
+        if due && settings.sensors.of(slot.channel).in_use {
+            Read::Report(rec)
+        } else {
+            Read::Quiet
+        }
+    }
+}
 
 /// A block demodulated: the comb's sums of the excitation and of every
 /// sensor's input.

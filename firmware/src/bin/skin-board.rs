@@ -67,7 +67,7 @@ use instrument::config::{
 use instrument::design;
 use instrument::frames;
 use instrument::mux::Mux;
-use instrument::ranging::Ranging;
+use instrument::reader::{MuxReader, Read};
 use instrument::sensor::Sensors;
 use instrument::sequencer::{Sequencer, Slot};
 
@@ -88,110 +88,7 @@ pub struct DmaBuf(*const u32);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBuf {}
 
-/// The board's settings for `sensors`: its front end's ranges, the
-/// default policy and thresholds.
-fn board_settings<const S: usize>(sensors: &'static Sensors<POINTS, S>) -> Settings<'static, POINTS, S> {
-    Settings::new(
-        Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
-        Ranging::DEFAULT,
-        sensors,
-    )
-}
-
-/// The sensors' settings and the host's requests: the set stored in
-/// flash and a request side that answers from it (the `store` feature),
-/// or sensors nothing was measured on and no requests.
-#[cfg(feature = "store")]
-mod settings {
-    use super::*;
-    use firmware::board::flash::SettingsFlash;
-    use firmware::board::link::{self, RX_BYTES};
-    use firmware::board::setup::LinkPort;
-    use instrument::commands::Commands;
-    use instrument::store::{Store, SLOT_BYTES};
-
-    /// A sensor's settings each.
-    pub const SENSORS: usize = CHANNELS;
-    /// The receive ring's bytes.
-    pub const RING: usize = RX_BYTES;
-    /// The request side over the board's flash.
-    pub type Requests = firmware::board::requests::Requests<SettingsFlash>;
-
-    /// The set stored in flash (with none, sensors nothing was measured
-    /// on), its sensors built into `slot`, and the request side over
-    /// `ring`, which DMA2 channel 2 fills from now on; `None` if the
-    /// flash's slots do not hold or a set's lead ratio is beyond the
-    /// line model (logged).
-    pub fn load(
-        flash: pac::FLASH,
-        slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
-        ring: &'static mut [u8; RING],
-        port: &LinkPort,
-    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
-        let Ok(mut store) = Store::new(SettingsFlash::new(flash), 0, SLOT_BYTES) else {
-            defmt::println!("settings: the slots do not fit the flash");
-            return None;
-        };
-        // The stored set; with none, sensors nothing was measured on.
-        let set = firmware::settings_log::in_force(&mut store);
-        let Ok(sensors) = firmware::settings_log::sensors_in(slot, &set) else {
-            defmt::println!("settings: a tab-lead ratio beyond the line model");
-            return None;
-        };
-        let settings = Settings {
-            policy: set.policy,
-            record_every: set.record_every,
-            ..board_settings(sensors)
-        };
-        link::receive(&port.dma, port.rdr, ring.as_ptr() as u32);
-        Some((settings, Requests::new(ring, Commands::new(), store)))
-    }
-}
-
-/// The sensors' settings and the host's requests: the set stored in
-/// flash and a request side that answers from it (the `store` feature),
-/// or sensors nothing was measured on and no requests.
-#[cfg(not(feature = "store"))]
-mod settings {
-    use super::*;
-    use firmware::board::setup::LinkPort;
-    use instrument::sensor::Sensor;
-
-    /// One sensor's settings, every channel's.
-    pub const SENSORS: usize = 1;
-    /// No receive ring.
-    pub const RING: usize = 0;
-
-    /// No requests are read.
-    pub struct Requests;
-
-    impl Requests {
-        /// Never a request.
-        pub fn answer<const N: usize>(
-            &mut self,
-            _: u16,
-            _: &mut FrameWriter<'_, N>,
-            _: impl FnMut(),
-        ) -> Option<Action> {
-            None
-        }
-    }
-
-    /// Every sensor read as one nothing was measured on; no requests.
-    pub fn load(
-        _: pac::FLASH,
-        slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
-        _: &'static mut [u8; RING],
-        _: &LinkPort,
-    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
-        let sensors = slot.write(Sensors::all(Sensor::uncalibrated(
-            design::SENSOR_C_REST_FARAD as f32,
-        )));
-        Some((board_settings(sensors), Requests))
-    }
-}
-
-use settings::{Requests, RING, SENSORS};
+use firmware::board::settings::{self, Requests, RING, SENSORS};
 
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
@@ -212,7 +109,7 @@ mod app {
         /// What the DAC plays: the slots' frequencies from `dma_done`,
         /// the ring's refills in `dac_refill`.
         feed: Feed,
-        channels: [Channel; CHANNELS],
+        reader: MuxReader,
         /// The link's port: its transmit task, and `idle` for the receive
         /// position.
         tx: Transmitter<'static, LINK_BYTES>,
@@ -272,8 +169,7 @@ mod app {
                 cortex_m::asm::wfi();
             }
         };
-        let channels: [Channel; CHANNELS] =
-            core::array::from_fn(|c| Channel::new(settings.sensors.of(c as u8).rest_farad));
+        let reader = MuxReader::new(settings.sensors);
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
@@ -297,7 +193,7 @@ mod app {
                 slot: None,
                 dma: owned.dma,
                 feed,
-                channels,
+                reader,
                 tx,
                 writer,
                 sending: true,
@@ -347,7 +243,7 @@ mod app {
     }
 
     /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, channels, dma, feed], local = [dac1, mux, ranges, seq])]
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, reader, dma, feed], local = [dac1, mux, ranges, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         let stopped = cx
             .shared
@@ -375,8 +271,8 @@ mod app {
             Completion::Nothing => return,
         };
         let seq = &mut *cx.local.seq;
-        let mut channels = cx.shared.channels;
-        let mut complete = || channels.lock(|c| seq.complete(|ch| c[ch as usize].plan()));
+        let mut reader = cx.shared.reader;
+        let mut complete = || reader.lock(|r| seq.complete(|ch| r.plan(ch)));
         if lost {
             let st = complete();
             cx.shared.feed.lock(|f| f.plan(st.prepare.index, st.prepare.fidx));
@@ -434,13 +330,12 @@ mod app {
 
     /// Demodulate, correct and queue one block's record, straight from
     /// the DMA buffer.
-    #[task(priority = 1, shared = [slot, channels, writer, sending], local = [adc_buf, settings, watchdog])]
+    #[task(priority = 1, shared = [slot, reader, writer, sending], local = [adc_buf, settings, watchdog])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let Some(Finished { half, slot }) = cx.shared.slot.lock(|s| s.take()) else {
             return;
         };
-        let (ch, fidx) = (slot.channel, slot.fidx);
         // SAFETY: the DMA finished this half and writes the other one for
         // the next 5.44 ms; processing takes about 0.5 ms (`block_process`,
         // docs/benchmarks.md: 68 600 instructions).
@@ -458,32 +353,22 @@ mod app {
         let clipped = pairs
             .iter()
             .any(|&[v, i]| design::on_rail(v as u16) || design::on_rail(i as u16));
-        let ph = instrument::config::read(fidx, pairs);
+        let readings = instrument::config::read(slot.fidx, pairs);
         let settings = &*local.settings;
-        let rec = cx.shared.channels.lock(|c| {
-            let channel = &mut c[ch as usize];
-            if channel.freq_index() != fidx {
-                // Played at another frequency than the policy now wants:
-                // the policy switched since; skip, the next slot catches up.
-                return None;
-            }
-            let rec = channel.process(settings, ch, slot.block_mid_us(), &ph, clipped, slot.range);
-            Some((rec, channel.due(settings.record_every)))
-        });
-        match rec {
-            // An empty socket: measured (its channel keeps its turn), not
-            // reported; nor the blocks between those `record_every` asks
-            // for (as `skin-qemu`).
-            Some(_) if !settings.sensors.of(ch).in_use => {}
-            Some((_, false)) => {}
-            Some((rec, true)) => {
+        match cx
+            .shared
+            .reader
+            .lock(|r| r.read(settings, &slot, &readings, clipped))
+        {
+            Read::Report(rec) => {
                 let sent = cx.shared.sending.lock(|s| *s)
                     && cx.shared.writer.lock(|w| w.record(frames::from_record(&rec)));
                 if sent {
                     rtic::pend(pac::Interrupt::DMA2_CH1);
                 }
             }
-            None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), ch),
+            Read::Quiet => {}
+            Read::Skipped => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
         // A block went all the way through: the chain is alive.
         local.watchdog.feed();

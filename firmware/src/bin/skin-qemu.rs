@@ -43,6 +43,7 @@ use instrument::effects::{Effect, EffectSet};
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::policy::Policy;
+use instrument::reader::{MuxReader, Read};
 use instrument::sensor::{Sensor, Sensors};
 use instrument::sequencer::{pairs_us, Sequencer, Slot};
 use instrument::store::Store;
@@ -120,7 +121,7 @@ mod app {
     #[shared]
     struct Shared {
         block: Block,
-        channels: [Channel; CHANNELS],
+        reader: MuxReader,
         done: bool,
     }
 
@@ -177,16 +178,16 @@ mod app {
                 sensors,
             )
         };
-        let channels: [Channel; CHANNELS] = core::array::from_fn(|ch| {
-            let rest = settings.sensors.of(ch as u8).rest_farad;
-            match scenario.pinned(ch) {
+        let reader = MuxReader::with(|c| {
+            let rest = settings.sensors.of(c).rest_farad;
+            match scenario.pinned(c as usize) {
                 Some(i) => Channel::pinned(rest, i),
                 None => Channel::new(rest),
             }
         });
         // As on the board: slots 0 and 1 are planned, slot 0's channel
         // selected; the simulated DMA then completes one slot per pend.
-        let (seq, first) = Sequencer::start(|c| channels[c as usize].plan());
+        let (seq, first) = Sequencer::start(|c| reader.plan(c));
         let zero = settings.sensors.of(0);
         let mut mux = Mux::new(mux_pins());
         let Ok(_) = mux.select(first[0].channel);
@@ -208,7 +209,7 @@ mod app {
                     clipped: false,
                     slot: first[0],
                 },
-                channels,
+                reader,
                 done: false,
             },
             Local {
@@ -248,13 +249,11 @@ mod app {
     /// DMA complete: the simulated front end filled the slot that ends now
     /// (the channel the multiplexer selects, at the frequency the sequencer
     /// prepared for it), as the board's DMA half-transfer would.
-    #[task(binds = GPIOA, priority = 2, shared = [block, channels], local = [skin, mux, ranges, scenario, seq])]
+    #[task(binds = GPIOA, priority = 2, shared = [block, reader], local = [skin, mux, ranges, scenario, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         let step = {
             let seq = &mut *cx.local.seq;
-            cx.shared
-                .channels
-                .lock(|c| seq.complete(|ch| c[ch as usize].plan()))
+            cx.shared.reader.lock(|r| seq.complete(|ch| r.plan(ch)))
         };
         let done = step.done;
         if done.index == 10 {
@@ -286,7 +285,7 @@ mod app {
 
     /// Demodulate, correct and log one block; then the requests the host
     /// sent down the link, answered there.
-    #[task(priority = 1, shared = [block, channels, done], local = [settings, end_slot, link, store, commands])]
+    #[task(priority = 1, shared = [block, reader, done], local = [settings, end_slot, link, store, commands])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         // Stopped (by request, or at the scenario's end): the end frame
@@ -299,34 +298,13 @@ mod app {
             .block
             .lock(|b| (instrument::config::read(b.slot.fidx, &b.pairs), b.clipped, b.slot));
         let settings = &*local.settings;
-        let rec = cx.shared.channels.lock(|c| {
-            let channel = &mut c[slot.channel as usize];
-            // Played at another frequency than the policy now wants (the
-            // policy switched after the slot was prepared): skip it, as the
-            // board does.
-            (channel.freq_index() == slot.fidx).then(|| {
-                let rec = channel.process(
-                    settings,
-                    slot.channel,
-                    slot.block_mid_us(),
-                    &ph,
-                    clipped,
-                    slot.range,
-                );
-                (rec, channel.due(settings.record_every))
-            })
-        });
-        match rec {
-            // An empty socket: measured (its channel keeps its turn), not
-            // reported; nor the blocks between those `record_every` asks
-            // for.
-            Some(_) if !settings.sensors.of(slot.channel).in_use => {}
-            Some((_, false)) => {}
-            Some((rec, true)) => {
+        match cx.shared.reader.lock(|r| r.read(settings, &slot, &ph, clipped)) {
+            Read::Report(rec) => {
                 defmt::println!("{}", rec);
                 local.link.record(frames::from_record(&rec));
             }
-            None => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
+            Read::Quiet => {}
+            Read::Skipped => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
         let stop = qemu_flash::answer(local.link, local.commands, local.store.as_mut()).stop;
         if stop || slot.index + 1 >= *local.end_slot {

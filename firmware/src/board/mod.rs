@@ -23,6 +23,7 @@
 //! | [`front_end`] | each front end started in RM0440's order; the DAC's slot waveforms; the DMA buffers' shapes |
 //! | [`timer`] | TIM6 at the sample rate |
 //! | [`watchdog`] | IWDG (100 ms), the cause of the last reset |
+//! | `settings` | (target) the multiplexed board's sensors at start: the set stored in flash, or uncalibrated; the request side |
 //! | [`setup`] | the start and end of both board apps' `init`: reset cause, watchdog, clocks, the peripherals the tasks own |
 //!
 //! The front end's values (sample rate, clock, amplitude) come from
@@ -45,6 +46,8 @@ pub mod requests;
 #[cfg(target_os = "none")]
 mod runtime;
 pub mod scan;
+#[cfg(target_os = "none")]
+pub mod settings;
 pub mod setup;
 pub mod timer;
 pub mod watchdog;
