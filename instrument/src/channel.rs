@@ -119,7 +119,7 @@ pub struct Record {
     /// freedom; 0 when not solved).
     pub chi2: f32,
     /// 1σ relative error of C from the block's noise (0 when not solved).
-    pub sigma_c: f32,
+    pub sigma_ln_c: f32,
 }
 
 /// State of one channel.
@@ -155,19 +155,19 @@ impl Channel {
         self.reports.due(every)
     }
 
-    /// A channel held at frequency index `index` whatever the policy
+    /// A channel held at frequency index `fidx` whatever the policy
     /// says, as a data-set recording at one frequency needs.
     /// An index beyond the set means its highest frequency.
-    pub const fn pinned(prior_farad: f32, index: usize) -> Self {
+    pub const fn pinned(prior_farad: f32, fidx: usize) -> Self {
         let mut c = Self::new(prior_farad);
-        c.policy.index = crate::config::index(index);
+        c.policy.fidx = crate::config::index(fidx);
         c.course = Course::new(prior_farad, true);
         c
     }
 
     /// Frequency index to excite the next block with.
-    pub fn freq_index(&self) -> usize {
-        crate::config::index(self.policy.index)
+    pub fn fidx(&self) -> usize {
+        crate::config::index(self.policy.fidx)
     }
 
     /// Transimpedance range to read the next block through.
@@ -178,7 +178,7 @@ impl Channel {
     /// What the channel wants for its next slot.
     pub fn plan(&self) -> Plan {
         Plan {
-            fidx: self.freq_index(),
+            fidx: self.fidx(),
             range: self.range,
         }
     }
@@ -195,11 +195,11 @@ impl Channel {
         clipped: bool,
         range: u8,
     ) -> Record {
-        let played = tones(self.policy.index);
+        let played = tones(self.policy.fidx);
         let rec = self.measure(s, channel, t_us, ph, clipped, range);
         // The next block's current at its peak: each tone's, grown with
         // its frequency (a capacitor's current), the two in phase.
-        let next = tones(self.policy.index);
+        let next = tones(self.policy.fidx);
         let growth = |k: usize| (freq_hz(next[k]) / freq_hz(played[k])).max(1.0);
         let peak = ph.tone.i_amplitude() * growth(0) + ph.companion.i_amplitude() * growth(1);
         self.range = s.ranging.next(range as usize, peak, clipped, 1.0) as u8;
@@ -215,7 +215,7 @@ impl Channel {
         clipped: bool,
         range: u8,
     ) -> Record {
-        let f = tones_hz(self.policy.index);
+        let f = tones_hz(self.policy.fidx);
         let dt = self.course.elapsed(t_us);
         let mut rec = Record {
             t_us,
@@ -264,7 +264,7 @@ impl Channel {
             rec.c_farad = line.c_farad;
             rec.r_ohm = line.r_ohm;
             rec.chi2 = line.chi2;
-            rec.sigma_c = line.sigma_ln_c;
+            rec.sigma_ln_c = line.sigma_ln_c;
             rec.stretch_mm = line.stretch_mm;
         }
         rec

@@ -27,7 +27,7 @@ pub fn from_tone_record(r: &ToneRecord) -> link::Record {
         stretch_mm: r.stretch_mm,
         chosen_hz: r.f_hz[1],
         chi2: r.chi2,
-        sigma_c: r.sigma_c,
+        sigma_ln_c: r.sigma_ln_c,
         flags: r.flags.0,
     }
 }
@@ -42,7 +42,7 @@ pub fn to_tone_record(r: &link::Record) -> ToneRecord {
         c_farad: r.c_farad,
         r_ohm: r.r_ohm,
         chi2: r.chi2,
-        sigma_c: r.sigma_c,
+        sigma_ln_c: r.sigma_ln_c,
         stretch_mm: r.stretch_mm,
         flags: Flags(r.flags),
     }
@@ -79,7 +79,7 @@ pub fn from_record(r: &Record) -> link::Record {
         stretch_mm: r.stretch_mm,
         chosen_hz: r.freq_hz,
         chi2: r.chi2,
-        sigma_c: r.sigma_c,
+        sigma_ln_c: r.sigma_ln_c,
         flags: r.flags.0,
     }
 }
@@ -118,7 +118,7 @@ mod tests {
             c_farad: 205.1e-12,
             r_ohm: 1.0e6,
             chi2: 1.2,
-            sigma_c: 4e-4,
+            sigma_ln_c: 4e-4,
             stretch_mm: 3.5,
             flags: Flags(Flags::MODEL),
         };
@@ -140,7 +140,7 @@ mod tests {
             companion_hz: 976.5625,
             companion_z: Complex32::new(2.5e5, -8.1e5),
             chi2: 3.5,
-            sigma_c: 2e-4,
+            sigma_ln_c: 2e-4,
         };
         let l = from_record(&r);
         let cs = -1.0 / (core::f32::consts::TAU * l.tones[0].f_hz * l.tones[0].z_im_ohm);
@@ -155,7 +155,7 @@ mod tests {
                 l.tones[1].z_re_ohm,
                 l.tones[1].z_im_ohm,
                 l.chi2,
-                l.sigma_c
+                l.sigma_ln_c
             ),
             (976.5625, 2.5e5, -8.1e5, 3.5, 2e-4)
         );

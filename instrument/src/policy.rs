@@ -66,7 +66,7 @@ impl Policy {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PolicyState {
     /// Index into the frequency set.
-    pub index: usize,
+    pub fidx: usize,
     /// Remembered peak resistance R̂, Ω.
     pub r_peak: f32,
     /// Time since the last switch, s.
@@ -79,7 +79,7 @@ impl PolicyState {
     /// Start at the lowest frequency with no memory, free to climb.
     pub const fn new() -> Self {
         Self {
-            index: 0,
+            fidx: 0,
             r_peak: 0.0,
             since_switch_s: f32::MAX,
             settling: 1,
@@ -106,7 +106,7 @@ impl Policy {
     }
 
     /// As [`Policy::update`] on another frequency set (`set_hz`, Hz,
-    /// ascending; `st.index` indexes it): the array's comb.
+    /// ascending; `st.fidx` indexes it): the array's comb.
     pub fn update_on(
         &self,
         set_hz: &[f32],
@@ -120,17 +120,17 @@ impl Policy {
         let decayed = st.r_peak * fmath::max(1.0 - self.decay_per_s * dt_s, 0.0);
         st.r_peak = fmath::max(decayed, r_ohm);
         let (lo, hi) = self.limits(set_hz.len());
-        let mut target = st.index.clamp(lo, hi);
+        let mut target = st.fidx.clamp(lo, hi);
         while target > lo && x(target, st.r_peak) > self.x_limit {
             target -= 1;
         }
-        if target == st.index && st.since_switch_s >= self.hold_s {
+        if target == st.fidx && st.since_switch_s >= self.hold_s {
             while target < hi && x(target + 1, st.r_peak) <= self.x_limit * (1.0 - self.hysteresis) {
                 target += 1;
             }
         }
-        if target != st.index {
-            st.index = target;
+        if target != st.fidx {
+            st.fidx = target;
             st.since_switch_s = 0.0;
             st.settling = self.settle_blocks;
             true
@@ -151,9 +151,9 @@ impl Policy {
     /// lowest allowed, which tolerates the most resistance.
     pub fn fallback(&self, st: &mut PolicyState) -> bool {
         let lo = self.limits(PERIODS.len()).0;
-        let changed = st.index != lo;
+        let changed = st.fidx != lo;
         if changed {
-            st.index = lo;
+            st.fidx = lo;
             st.since_switch_s = 0.0;
             st.settling = self.settle_blocks;
         }
@@ -176,15 +176,15 @@ mod tests {
         // A tiny line: every tone is allowed. From the start (index 0) the
         // policy steps into its limits, then climbs to 3, not 4.
         p.update(&mut st, 1e3, 1e-12, 0.01);
-        assert_eq!(st.index, 1);
+        assert_eq!(st.fidx, 1);
         p.update(&mut st, 1e3, 1e-12, 0.01);
-        assert_eq!(st.index, 3);
+        assert_eq!(st.fidx, 3);
         // A huge line: down to 1, not 0.
         p.update(&mut st, 1e9, 1e-9, 0.01);
-        assert_eq!(st.index, 1);
-        st.index = 4;
+        assert_eq!(st.fidx, 1);
+        st.fidx = 4;
         p.fallback(&mut st);
-        assert_eq!(st.index, 1);
+        assert_eq!(st.fidx, 1);
         // Limits beyond the set end at its last entry.
         let wide = Policy {
             tones: (9, 200),

@@ -80,7 +80,7 @@ impl MuxReader {
         let Some(channel) = self.channels.get_mut(usize::from(slot.channel)) else {
             return Read::Skipped;
         };
-        if channel.freq_index() != slot.fidx {
+        if channel.fidx() != slot.fidx {
             return Read::Skipped;
         }
         let t_us = slot.block_mid_us();

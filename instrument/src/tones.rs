@@ -109,7 +109,7 @@ pub struct ToneRecord {
     /// one uniform line (4 degrees of freedom; 0 when not solved).
     pub chi2: f32,
     /// 1σ relative error of C from the block's noise.
-    pub sigma_c: f32,
+    pub sigma_ln_c: f32,
     /// Stretch from the calibration, mm.
     pub stretch_mm: f32,
     /// Flags.
@@ -139,7 +139,7 @@ impl<'a> Input<'a> {
 /// State of one array sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct ToneChannel {
-    /// Tone policy state (`index`: the higher tone).
+    /// Tone policy state (`fidx`: the higher tone).
     pub policy: PolicyState,
     /// The line from block to block.
     course: Course,
@@ -156,7 +156,7 @@ impl ToneChannel {
 
     /// The comb tones the next block is read at, lower first.
     pub fn pair(&self) -> [usize; 2] {
-        Self::pair_of(self.policy.index as u8)
+        Self::pair_of(self.policy.fidx as u8)
     }
 
     /// The pair whose upper tone index is `hi` (clamped to 1 … TONES −
@@ -238,7 +238,7 @@ impl ToneChannel {
             rec.c_farad = line.c_farad;
             rec.r_ohm = line.r_ohm;
             rec.chi2 = line.chi2;
-            rec.sigma_c = line.sigma_ln_c;
+            rec.sigma_ln_c = line.sigma_ln_c;
             rec.stretch_mm = line.stretch_mm;
         }
         rec

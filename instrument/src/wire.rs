@@ -7,7 +7,7 @@
 //! ```text
 //! rec   t_us channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags
 //! truth t_us channel c_pF r_line_ohm stretch_mm r_top_ohm r_bottom_ohm
-//! tone  t_us channel f_lo_hz re_lo_ohm im_lo_ohm f_hi_hz re_hi_ohm im_hi_ohm c_pF r_ohm chi2 sigma_c stretch_mm flags
+//! tone  t_us channel f_lo_hz re_lo_ohm im_lo_ohm f_hi_hz re_hi_ohm im_hi_ohm c_pF r_ohm chi2 sigma_ln_c stretch_mm flags
 //! ```
 //!
 //! A `tone` line is one record of the array ([`crate::tones`]): the two
@@ -130,7 +130,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
             c_farad: num(9)? * 1e-12,
             r_ohm: num(10)?,
             chi2: num(11)?,
-            sigma_c: num(12)?,
+            sigma_ln_c: num(12)?,
             stretch_mm: num(13)?,
             flags: flags(14)?,
         }),
@@ -182,7 +182,7 @@ impl defmt::Format for ToneRecord {
             self.c_farad * 1e12,
             self.r_ohm,
             self.chi2,
-            self.sigma_c,
+            self.sigma_ln_c,
             self.stretch_mm,
             self.flags.0
         )
@@ -232,7 +232,7 @@ mod tests {
             (2000, 15, [500.0, 2000.0], Flags(Flags::MODEL))
         );
         assert_eq!(t.z[1], Complex32::new(400000.0, -520000.0));
-        assert!((t.c_farad - 205.1e-12).abs() < 1e-16 && t.chi2 == 1.7 && t.sigma_c == 0.0004);
+        assert!((t.c_farad - 205.1e-12).abs() < 1e-16 && t.chi2 == 1.7 && t.sigma_ln_c == 0.0004);
         assert_eq!(
             parse("tone 1 2 3"),
             Err(WireError::FieldCount {

@@ -31,30 +31,30 @@ fn policy_drops_at_once_and_climbs_back_with_hysteresis() {
     let c = 210e-12;
     // Start low, climb after the first good block: at rest (712 kΩ) the
     // highest frequency with x ≤ 4 is 3906 Hz.
-    assert_eq!(st.index, 0);
+    assert_eq!(st.fidx, 0);
     assert!(p.update(&mut st, 712e3, c, 0.04));
-    assert_eq!(freq_hz(st.index).round(), 3906.0);
+    assert_eq!(freq_hz(st.fidx).round(), 3906.0);
     for _ in 0..200 {
         p.update(&mut st, 712e3, c, 0.04);
     }
-    assert_eq!(freq_hz(st.index).round(), 3906.0);
+    assert_eq!(freq_hz(st.fidx).round(), 3906.0);
     // A resistance peak to 1.4 MΩ: down in the same block.
     assert!(p.update(&mut st, 1.4e6, c, 0.04));
-    assert!(Policy::x(st.index, 1.4e6, c) <= p.x_limit);
+    assert!(Policy::x(st.fidx, 1.4e6, c) <= p.x_limit);
     assert_eq!(st.settling, p.settle_blocks);
-    let low = st.index;
+    let low = st.fidx;
     // Back at rest: not immediately (peak memory, hold), but within seconds.
     let mut t = 0.0;
-    while st.index == low && t < 10.0 {
+    while st.fidx == low && t < 10.0 {
         p.update(&mut st, 712e3, c, 0.04);
         t += 0.04;
     }
-    assert!(st.index > low && t > 0.5 && t < 5.0, "climbed after {t} s");
+    assert!(st.fidx > low && t > 0.5 && t < 5.0, "climbed after {t} s");
     // Never above the bound with the remembered peak.
-    assert!(Policy::x(st.index, st.r_peak, c) <= p.x_limit);
+    assert!(Policy::x(st.fidx, st.r_peak, c) <= p.x_limit);
     // A very high resistance falls back to the lowest frequency.
     p.update(&mut st, 20e6, c, 0.04);
-    assert_eq!(st.index, 0);
+    assert_eq!(st.fidx, 0);
 }
 
 #[test]
@@ -82,10 +82,10 @@ fn indices_beyond_the_frequency_set_saturate() {
     assert_eq!(freq_hz(99), freq_hz(last));
     assert_eq!(ftw(usize::MAX), ftw(last));
     let ch = Channel::pinned(210e-12, 7);
-    assert_eq!(ch.freq_index(), last);
+    assert_eq!(ch.fidx(), last);
     let mut free = Channel::new(210e-12);
-    free.policy.index = 1000;
-    assert_eq!(free.freq_index(), last);
+    free.policy.fidx = 1000;
+    assert_eq!(free.fidx(), last);
 }
 
 /// Run one channel on a simulated sensor; returns the records.
@@ -112,7 +112,7 @@ fn run(
     let mut out = vec![];
     let mut t = 0.0f32;
     while t < secs {
-        let i = ch.freq_index();
+        let i = ch.fidx();
         s.advance(&profile, t as f64);
         let clipped = fe.at_range(&settings.ranging, ch.range()).mux_block(
             i,
@@ -386,7 +386,7 @@ fn blocks(
     let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     (0..n)
         .map(|b| {
-            let i = ch.freq_index();
+            let i = ch.fidx();
             let range = ch.range();
             let clipped =
                 fe.at_range(&settings.ranging, range)

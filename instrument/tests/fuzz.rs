@@ -120,7 +120,7 @@ proptest! {
         let mut ch = if pinned { Channel::pinned(prior, index) } else { Channel::new(prior) };
         for (ph, clipped, t_us, range) in steps {
             let r = ch.process(&s, 3, t_us, &ph, clipped, range);
-            prop_assert!(ch.freq_index() < PERIODS.len());
+            prop_assert!(ch.fidx() < PERIODS.len());
             prop_assert!((ch.range() as usize) < instrument::design::RANGES);
             if r.flags.valid() && r.c_farad != 0.0 {
                 prop_assert!(r.c_farad.is_finite() && r.c_farad > 0.0, "{r:?}");
@@ -161,7 +161,7 @@ fn measure(
     d: &Disturbance,
     rng: &mut Rng,
 ) -> (instrument::channel::Record, f64) {
-    let i = ch.freq_index();
+    let i = ch.fidx();
     let mut buf = [[0i16; 2]; BLOCK_PAIRS];
     let clipped = FrontEndParams::REFERENCE
         .at_range(&s.ranging, ch.range())
@@ -331,14 +331,14 @@ impl Interfered {
             Channel::pinned(REFERENCE.rest_capacitance(), self.index)
         } else {
             let mut c = Channel::new(REFERENCE.rest_capacitance());
-            c.policy.index = self.index;
+            c.policy.fidx = self.index;
             c
         };
         let counts = self.counts;
         let mut rng = Rng::new(self.seed);
         for b in 0..6 {
             let t0 = self.start + b as f64 * SLOT_S as f64;
-            let i = ch.freq_index();
+            let i = ch.fidx();
             sensor.advance(&profile, t0 + 0.5 * SLOT_S as f64);
             let d = Disturbance {
                 hum_hz: self.hz as f32,

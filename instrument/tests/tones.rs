@@ -193,7 +193,7 @@ fn sixteen_sensors_under_the_papers_stretching(layout: Layout, bounds: &Bounds, 
         .iter()
         .flatten()
         .filter(|(r, _)| r.flags.valid())
-        .map(|(r, c)| (r.c_farad as f64 / c - 1.0) / r.sigma_c as f64)
+        .map(|(r, c)| (r.c_farad as f64 / c - 1.0) / r.sigma_ln_c as f64)
         .collect();
     let z_rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
     let z_max = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));

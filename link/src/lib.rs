@@ -57,7 +57,7 @@ pub fn longest_record_frame() -> usize {
         stretch_mm: 10.0,
         chosen_hz: 1.0e4,
         chi2: 100.0,
-        sigma_c: 1.0,
+        sigma_ln_c: 1.0,
         flags: u16::MAX,
     };
     let frame = Frame {
@@ -128,7 +128,7 @@ pub struct Record {
     /// and the tone between them: 4 degrees of freedom).
     pub chi2: f32,
     /// 1σ relative error of C (0: not stated).
-    pub sigma_c: f32,
+    pub sigma_ln_c: f32,
     /// Flags (`instrument::faults::Flags`), 0 = valid.
     pub flags: u16,
 }

@@ -32,7 +32,7 @@ fn record() -> impl Strategy<Value = Record> {
             stretch_mm: v[2],
             chosen_hz: v[3],
             chi2: v[4],
-            sigma_c: v[5],
+            sigma_ln_c: v[5],
             flags,
         })
 }
@@ -142,7 +142,7 @@ fn stream(n: u32) -> (Vec<u8>, Vec<Frame>) {
             stretch_mm: 0.01 * k as f32,
             chosen_hz: 2000.0,
             chi2: 1.5,
-            sigma_c: 4e-4,
+            sigma_ln_c: 4e-4,
             flags: (k % 7 == 0) as u16 * 64,
         };
         push(Body::Record(rec), &mut bytes, &mut frames);

@@ -53,7 +53,7 @@ fn stream() -> (Vec<u8>, u32) {
             stretch_mm: 100.0 * (c / 205e-12 - 1.0),
             chosen_hz: 4000.0,
             chi2: 3.9,
-            sigma_c: 4e-4,
+            sigma_ln_c: 4e-4,
             flags: if k % 97 == 0 { 128 } else { 0 },
         };
         bytes.extend_from_slice(enc.record(&rec, &mut out).unwrap());

@@ -28,7 +28,7 @@ pub const RECORDS_CSV: &str = "records.csv";
 pub const INCOMPLETE: &str = "INCOMPLETE";
 
 /// The header of [`RECORDS_CSV`].
-const RECORDS_HEADER: &str = "seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_c,flags";
+const RECORDS_HEADER: &str = "seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags";
 
 /// How a stream ended.
 #[derive(Clone, Debug, PartialEq)]
@@ -284,7 +284,7 @@ fn write_record(w: &mut impl Write, line: &mut Vec<u8>, seq: u32, r: &Record) ->
     }
     line.push(b',');
     fixed(line, r.c_farad as f64 * 1e12, 4);
-    for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_c] {
+    for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_ln_c] {
         line.push(b',');
         shortest_f32(line, x);
     }

@@ -49,7 +49,7 @@ pub struct SensorFigures {
     /// held still, and where it moved, mm.
     pub after_still_moving_mm: (f64, f64),
     /// RMS of each valid record's C error over its own stated 1σ
-    /// (`sigma_c`): about 1 where the scatter is the noise the record
+    /// (`sigma_ln_c`): about 1 where the scatter is the noise the record
     /// declares.
     pub after_z_rms: f64,
     /// Records whose stretch is marked valid after, and records.
@@ -219,7 +219,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
         let z: Vec<f64> = a
             .iter()
             .filter(|r| r.rec.flags.stretch_valid())
-            .filter_map(|r| Some(r.c_error()? / r.rec.sigma_c as f64))
+            .filter_map(|r| Some(r.c_error()? / r.rec.sigma_ln_c as f64))
             .collect();
         let (after_mm, after_max_mm, _) = rms_max(after_valid.iter().copied());
         sensors.push(SensorFigures {

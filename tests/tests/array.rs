@@ -316,7 +316,7 @@ fn link_carries(run: &qemu_tests::Run, recs: &[LoggedToneRecord]) {
                 l.c_farad,
                 l.r_ohm,
                 l.chi2,
-                l.sigma_c,
+                l.sigma_ln_c,
                 l.stretch_mm,
             ],
             [
@@ -327,7 +327,7 @@ fn link_carries(run: &qemu_tests::Run, recs: &[LoggedToneRecord]) {
                 r.c_farad,
                 r.r_ohm,
                 r.chi2,
-                r.sigma_c,
+                r.sigma_ln_c,
                 r.stretch_mm,
             ],
         );

@@ -520,7 +520,7 @@ fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         c_farad: 205.1e-12,
         r_ohm: 1.0e6,
         chi2: 1.2,
-        sigma_c: 4e-4,
+        sigma_ln_c: 4e-4,
         stretch_mm: 3.5,
         flags: instrument::faults::Flags(0),
     };
@@ -575,7 +575,7 @@ fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
         &sensors,
     );
     let mut ch = Channel::new(REFERENCE.rest_capacitance());
-    ch.policy.index = fidx;
+    ch.policy.fidx = fidx;
     ch.policy.settling = 0;
     let lockin = &instrument::config::LOCKINS[fidx];
     let lockin_insns = insns(ticks(syst, || {

@@ -136,7 +136,7 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<Logged
                         r.f_hz[1]
                     );
                 }
-                if r.c_farad < 0.0 || r.r_ohm < 0.0 || r.chi2 < 0.0 || r.sigma_c < 0.0 {
+                if r.c_farad < 0.0 || r.r_ohm < 0.0 || r.chi2 < 0.0 || r.sigma_ln_c < 0.0 {
                     bail!(
                         "{source}:{n}: a negative capacitance, resistance, chi2 or sigma: '{}'",
                         clip(l)
