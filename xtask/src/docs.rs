@@ -38,7 +38,7 @@ const TESTS: [&str; 9] = [
     "the_docs_show_what_host_sim_paper_prints",
     "the_docs_show_the_example_data_sets_verdicts",
     "the_docs_show_what_model_and_invert_print",
-    "the_array_vouches_for_no_wrong_record_under_any_disturbance",
+    "neither_path_vouches_for_a_wrong_record_under_any_disturbance",
 ];
 
 /// Run the main job, copy its plots, rewrite the figure blocks.

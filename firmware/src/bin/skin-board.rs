@@ -337,8 +337,8 @@ mod app {
             return;
         };
         // SAFETY: the DMA finished this half and writes the other one for
-        // the next 5.44 ms; processing takes about 0.5 ms (`block_process`,
-        // docs/benchmarks.md: 68 600 instructions).
+        // the next slot; processing takes a tenth of that at most
+        // (`block_process` in docs/benchmarks.md).
         #[allow(unsafe_code)]
         let words: &[u32] = unsafe {
             core::slice::from_raw_parts(local.adc_buf.0.add(half * SLOT_PAIRS + SETTLE_PAIRS), BLOCK_PAIRS)
