@@ -82,98 +82,104 @@ impl Commands {
     {
         let ack = |generation| Reply::Ack { to: seq, generation };
         let refuse = |reason| Reply::Refused { to: seq, reason };
-        match *req {
-            Request::Start => {
-                reply(ack(0));
-                Action::Start
-            }
-            Request::Stop => {
-                reply(ack(0));
-                Action::Stop
-            }
-            Request::Sweep { blocks_per_pair } => {
-                if !self.sweeps {
-                    reply(refuse(Reason::Unsupported));
-                    Action::None
-                } else if !(1..=link::SWEEP_MAX_BLOCKS).contains(&blocks_per_pair) {
-                    reply(refuse(Reason::OutOfRange));
-                    Action::None
-                } else {
-                    reply(ack(0));
-                    Action::Sweep(blocks_per_pair)
-                }
-            }
-            Request::WriteChunk(chunk) => {
-                // A piece at 0 begins a new set; any other continues the
-                // one staged, where its bytes end.
-                let data = chunk.data();
-                let received = match chunk.offset {
-                    0 => Some(0),
-                    _ => self.staged.map(|s| s.len()),
-                };
-                let reason = match received {
-                    _ if usize::from(chunk.len) > CHUNK => Some(Reason::OutOfOrder),
-                    Some(n) if n == usize::from(chunk.offset) => {
-                        (n + data.len() > MAX_BYTES).then_some(Reason::TooLong)
-                    }
-                    _ => Some(Reason::OutOfOrder),
-                };
-                let staged = match (reason, self.staged.take()) {
-                    (Some(r), _) => Err(r),
-                    (None, Some(s)) if chunk.offset != 0 => Ok(s),
-                    (None, _) => store.begin().map_err(|_| Reason::Flash),
-                };
-                let staged = staged.and_then(|mut s| match store.append(&mut s, data) {
-                    Ok(()) => Ok(s),
-                    Err(_) => Err(Reason::Flash),
-                });
-                match staged {
-                    Ok(s) => {
-                        self.staged = Some(s);
-                        reply(ack(0));
-                    }
-                    Err(r) => reply(refuse(r)),
-                }
-                Action::None
-            }
-            Request::Commit { len, crc: want } => {
-                let outcome = match self.staged.take() {
-                    Some(s) if usize::from(len) == s.len() => match store.commit(s, want) {
-                        Ok(g) => Ok(g),
-                        Err(StoreError::Mismatch) => Err(Reason::Mismatch),
-                        Err(StoreError::Malformed) => Err(Reason::Malformed),
-                        Err(StoreError::Refused(r)) => Err(setting(r)),
-                        Err(_) => Err(Reason::Flash),
-                    },
-                    // Nothing staged, or not as many bytes as the commit
-                    // says.
-                    _ => Err(Reason::Mismatch),
-                };
-                match outcome {
-                    Ok(g) => {
-                        reply(ack(g));
-                        Action::Apply
-                    }
-                    Err(r) => {
-                        reply(refuse(r));
-                        Action::None
-                    }
-                }
-            }
+        let (outcome, action) = match *req {
+            Request::Start => (Ok(0), Action::Start),
+            Request::Stop => (Ok(0), Action::Stop),
+            Request::Sweep { blocks_per_pair } => match self.sweep(blocks_per_pair) {
+                Ok(action) => (Ok(0), action),
+                Err(r) => (Err(r), Action::None),
+            },
+            Request::WriteChunk(chunk) => (self.write_chunk(&chunk, store).map(|()| 0), Action::None),
+            Request::Commit { len, crc } => match self.commit(len, crc, store) {
+                Ok(g) => (Ok(g), Action::Apply),
+                Err(r) => (Err(r), Action::None),
+            },
             Request::ReadSettings => {
-                match store.load() {
-                    Ok(Some(l)) => {
-                        let mut buf = [0u8; MAX_BYTES];
-                        let bytes = l.set.to_bytes(&mut buf).map_or(&[][..], |b| &*b);
-                        pieces(bytes, |chunk| reply(Reply::Chunk { to: seq, chunk }));
-                        reply(ack(l.generation));
-                    }
-                    Ok(None) => reply(refuse(Reason::NothingStored)),
-                    Err(_) => reply(refuse(Reason::Flash)),
-                }
-                Action::None
+                let read = read_settings(store, |chunk| reply(Reply::Chunk { to: seq, chunk }));
+                (read, Action::None)
             }
+        };
+        reply(match outcome {
+            Ok(g) => ack(g),
+            Err(r) => refuse(r),
+        });
+        action
+    }
+
+    /// A sweep of `blocks_per_pair` blocks a tone pair, if this
+    /// application sweeps and the count is within the link's range.
+    fn sweep(&self, blocks_per_pair: u16) -> Result<Action, Reason> {
+        if !self.sweeps {
+            Err(Reason::Unsupported)
+        } else if !(1..=link::SWEEP_MAX_BLOCKS).contains(&blocks_per_pair) {
+            Err(Reason::OutOfRange)
+        } else {
+            Ok(Action::Sweep(blocks_per_pair))
         }
+    }
+
+    /// A piece of a set staged in flash: at 0 it begins a new set; any
+    /// other continues the one staged, where its bytes end.
+    fn write_chunk<F: NorFlash>(&mut self, chunk: &Chunk, store: &mut Store<F>) -> Result<(), Reason>
+    where
+        F::Error: crate::store::Corruption,
+    {
+        let data = chunk.data();
+        let received = match chunk.offset {
+            0 => Some(0),
+            _ => self.staged.map(|s| s.len()),
+        };
+        let reason = match received {
+            _ if usize::from(chunk.len) > CHUNK => Some(Reason::OutOfOrder),
+            Some(n) if n == usize::from(chunk.offset) => {
+                (n + data.len() > MAX_BYTES).then_some(Reason::TooLong)
+            }
+            _ => Some(Reason::OutOfOrder),
+        };
+        let staged = match (reason, self.staged.take()) {
+            (Some(r), _) => Err(r),
+            (None, Some(s)) if chunk.offset != 0 => Ok(s),
+            (None, _) => store.begin().map_err(|_| Reason::Flash),
+        };
+        let mut staged = staged?;
+        store.append(&mut staged, data).map_err(|_| Reason::Flash)?;
+        self.staged = Some(staged);
+        Ok(())
+    }
+
+    /// The staged set of `len` bytes and CRC `want` committed: its
+    /// generation.
+    fn commit<F: NorFlash>(&mut self, len: u16, want: u32, store: &mut Store<F>) -> Result<u32, Reason>
+    where
+        F::Error: crate::store::Corruption,
+    {
+        match self.staged.take() {
+            Some(s) if usize::from(len) == s.len() => store.commit(s, want).map_err(|e| match e {
+                StoreError::Mismatch => Reason::Mismatch,
+                StoreError::Malformed => Reason::Malformed,
+                StoreError::Refused(r) => setting(r),
+                _ => Reason::Flash,
+            }),
+            // Nothing staged, or not as many bytes as the commit says.
+            _ => Err(Reason::Mismatch),
+        }
+    }
+}
+
+/// The set in force, as pieces to `piece`: its generation.
+fn read_settings<F: NorFlash>(store: &mut Store<F>, piece: impl FnMut(Chunk)) -> Result<u32, Reason>
+where
+    F::Error: crate::store::Corruption,
+{
+    match store.load() {
+        Ok(Some(l)) => {
+            let mut buf = [0u8; MAX_BYTES];
+            let bytes = l.set.to_bytes(&mut buf).map_or(&[][..], |b| &*b);
+            pieces(bytes, piece);
+            Ok(l.generation)
+        }
+        Ok(None) => Err(Reason::NothingStored),
+        Err(_) => Err(Reason::Flash),
     }
 }
 
