@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 use live::dashboard::Dashboard;
 use live::{follow, Outcome, Session, Sink, Stopped};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -333,47 +333,13 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         return verify_device(target, holds, guide, replay, report, keep, stop);
     }
     let text = match (&replay, &target.flash) {
-        (Some(path), _) => {
-            let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-            let records = cal::records_of(&bytes);
-            // A flash image not yet made is a new device.
-            let base = match &target.flash {
-                Some(f) if !f.exists() => instrument::stored::Stored::uncalibrated(),
-                _ => with_target(&target, None)?.0,
-            };
-            let (set, outcomes) = cal::calibrate(&records, &holds, &base, &opts);
-            let text = cal::report(&holds, &outcomes);
-            if !outcomes.iter().any(|o| matches!(o, cal::Outcome::Fitted(_))) {
-                anyhow::bail!("no sensor could be calibrated:\n{text}");
-            }
-            if !dry_run {
-                let change = |_: Option<instrument::stored::Stored>| Ok(set);
-                let (_, generation, _) = with_target(&target, Some(&change))?;
-                println!("stored: generation {generation}");
-            }
-            text
-        }
+        (Some(path), _) => calibrate_recording(&target, path, &holds, &opts, dry_run)?,
         (None, Some(_)) => anyhow::bail!("--flash holds no records: give the recorded stream with --replay"),
         (None, None) => {
             if dry_run {
                 anyhow::bail!("--dry-run fits a recording: give it with --replay");
             }
-            let port = open_device(&target)?;
-            let done = match &guide {
-                Some(g) => cal::guided(port, g, ask, &opts, stop, REPLY_TIMEOUT)?,
-                None => cal::on_device(port, &holds, &opts, stop, REPLY_TIMEOUT)?,
-            };
-            if let Some(path) = &keep {
-                std::fs::write(path, &done.stream).with_context(|| format!("writing {}", path.display()))?;
-            }
-            for (k, said) in done.sweeps.iter().enumerate().filter(|(_, s)| *s != "swept") {
-                eprintln!("hold {}: {said}", k + 1);
-            }
-            println!(
-                "stored: generation {} (in force from the device's next start)",
-                done.generation
-            );
-            cal::report(&done.holds, &done.outcomes)
+            calibrate_device(&target, guide.as_ref(), &holds, &opts, stop, keep.as_deref())?
         }
     };
     println!("{text}");
@@ -381,6 +347,65 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// `live calibrate --replay`: the recorded stream at `path` fitted, the
+/// set stored into `target` unless `dry_run`; the report.
+fn calibrate_recording(
+    target: &Target,
+    path: &Path,
+    holds: &[live::calibrate::Hold],
+    opts: &live::calibrate::Options,
+    dry_run: bool,
+) -> Result<String> {
+    use live::calibrate as cal;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let records = cal::records_of(&bytes);
+    // A flash image not yet made is a new device.
+    let base = match &target.flash {
+        Some(f) if !f.exists() => instrument::stored::Stored::uncalibrated(),
+        _ => with_target(target, None)?.0,
+    };
+    let (set, outcomes) = cal::calibrate(&records, holds, &base, opts);
+    let text = cal::report(holds, &outcomes);
+    if !outcomes.iter().any(|o| matches!(o, cal::Outcome::Fitted(_))) {
+        anyhow::bail!("no sensor could be calibrated:\n{text}");
+    }
+    if !dry_run {
+        let change = |_: Option<instrument::stored::Stored>| Ok(set);
+        let (_, generation, _) = with_target(target, Some(&change))?;
+        println!("stored: generation {generation}");
+    }
+    Ok(text)
+}
+
+/// `live calibrate` on a running device: guided (`guide`) or at the
+/// spans of `holds`, the stream kept at `keep`; the report.
+fn calibrate_device(
+    target: &Target,
+    guide: Option<&live::calibrate::Guide>,
+    holds: &[live::calibrate::Hold],
+    opts: &live::calibrate::Options,
+    stop: bool,
+    keep: Option<&Path>,
+) -> Result<String> {
+    use live::calibrate as cal;
+    let port = open_device(target)?;
+    let done = match guide {
+        Some(g) => cal::guided(port, g, ask, opts, stop, REPLY_TIMEOUT)?,
+        None => cal::on_device(port, holds, opts, stop, REPLY_TIMEOUT)?,
+    };
+    if let Some(path) = keep {
+        std::fs::write(path, &done.stream).with_context(|| format!("writing {}", path.display()))?;
+    }
+    for (k, said) in done.sweeps.iter().enumerate().filter(|(_, s)| *s != "swept") {
+        eprintln!("hold {}: {said}", k + 1);
+    }
+    println!(
+        "stored: generation {} (in force from the device's next start)",
+        done.generation
+    );
+    Ok(cal::report(&done.holds, &done.outcomes))
 }
 
 /// `live calibrate --verify`: the device measured again at known
