@@ -19,7 +19,6 @@ pub(crate) fn fmt_value(g: usize, v: f64) -> String {
 /// data left unresolved and why sensors were refused.
 pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
     let mut md = String::new();
-    let reference = instrument::calib::REFERENCE;
     let s = SensorFit::stretches(holds);
     let _ = writeln!(
         md,
@@ -59,38 +58,7 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                 ));
             }
             Outcome::Fitted(f) => {
-                let pm = |g: usize, k: f64, d: usize| match f.sigma[g].is_nan() {
-                    true if f.values[g] <= BOUNDS[g].0 => "none".to_string(),
-                    true => format!("{:.*} (limit)", d, f.values[g] * k),
-                    false => format!("{:.*} ± {:.*}", d, f.values[g] * k, d, f.sigma[g] * k),
-                };
-                let off = rms(f
-                    .c_read_farad
-                    .iter()
-                    .zip(&f.c_farad)
-                    .map(|(r, c)| 100.0 * (r / c - 1.0)));
-                let before = rms(f
-                    .c_read_farad
-                    .iter()
-                    .zip(&s)
-                    .map(|(c, s)| reference.stretch(*c as f32) as f64 - s));
-                let _ = write!(
-                    md,
-                    "| {i} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
-                    f.records,
-                    pm(0, 1.0, 4),
-                    pm(1, 1e-3, 2),
-                    pm(2, 1e12, 3),
-                    pm(3, 1e3, 2),
-                    f.c_farad[0] * 1e12,
-                    f.r_ohm[0] / 1e3,
-                    f.chi2_dof,
-                );
-                let _ = match (open, f.open_cp) {
-                    (false, _) => writeln!(md),
-                    (true, Some((c, e))) => writeln!(md, " {:.3} ± {:.3} |", c * 1e12, e * 1e12),
-                    (true, None) => writeln!(md, " |"),
-                };
+                fitted_row(&mut md, i, f, &s, open);
                 for u in f.unresolved() {
                     notes.push(format!("sensor {i}: {u}"));
                 }
@@ -104,6 +72,44 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
         }
     }
     md
+}
+
+/// Sensor `i`'s row of [`report`] for its fit `f` at stretches `s`
+/// (mm), with the open fixture's column when `open`.
+fn fitted_row(md: &mut String, i: usize, f: &SensorFit, s: &[f64], open: bool) {
+    let reference = instrument::calib::REFERENCE;
+    let pm = |g: usize, k: f64, d: usize| match f.sigma[g].is_nan() {
+        true if f.values[g] <= BOUNDS[g].0 => "none".to_string(),
+        true => format!("{:.*} (limit)", d, f.values[g] * k),
+        false => format!("{:.*} ± {:.*}", d, f.values[g] * k, d, f.sigma[g] * k),
+    };
+    let off = rms(f
+        .c_read_farad
+        .iter()
+        .zip(&f.c_farad)
+        .map(|(r, c)| 100.0 * (r / c - 1.0)));
+    let before = rms(f
+        .c_read_farad
+        .iter()
+        .zip(s)
+        .map(|(c, s)| reference.stretch(*c as f32) as f64 - s));
+    let _ = write!(
+        md,
+        "| {i} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {off:.2} % | {before:.2} mm | stored |",
+        f.records,
+        pm(0, 1.0, 4),
+        pm(1, 1e-3, 2),
+        pm(2, 1e12, 3),
+        pm(3, 1e3, 2),
+        f.c_farad[0] * 1e12,
+        f.r_ohm[0] / 1e3,
+        f.chi2_dof,
+    );
+    let _ = match (open, f.open_cp) {
+        (false, _) => writeln!(md),
+        (true, Some((c, e))) => writeln!(md, " {:.3} ± {:.3} |", c * 1e12, e * 1e12),
+        (true, None) => writeln!(md, " |"),
+    };
 }
 
 /// One sensor measured again at known stretches (a device running with
