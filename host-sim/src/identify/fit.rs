@@ -219,98 +219,13 @@ impl Problem<'_> {
                 .find(|e| Effect::BUMPS.contains(e))
                 .filter(|_| scan.contains(&Effect::BumpCentre));
             if let Some(b) = bump {
-                // At each place and width, the best amplitude by
-                // Gauss–Newton on it alone (the bump is near linear in
-                // its amplitude): a probe, then two secant steps.
-                let (lo, hi) = coarse.prep.search.range(b);
-                let r0 = coarse.eval(p).map(|ev| coarse.weighted(&ev));
-                let places: Vec<(f64, f64)> = BUMP_CENTRES
-                    .iter()
-                    .flat_map(|&c| BUMP_WIDTHS.iter().map(move |&w| (c, w)))
-                    .collect();
-                let mut at: Vec<(f64, Params)> = par_map(&places, |&(c, w)| {
-                    let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
-                    let (s, a) = secant_amplitude(
-                        |a| coarse.eval(q.with(b, a)).map(|ev| (ev.s, coarse.weighted(&ev))),
-                        r0.clone()?,
-                        (lo, hi),
-                    )?;
-                    Some((s, q.with(b, a)))
-                })
-                .into_iter()
-                .flatten()
-                .collect();
-                at.sort_by(|a, b| a.0.total_cmp(&b.0));
-                // The best [`BUMP_STARTS`] places, and the best of the
-                // other sign if none of them has it (a bump's mirror).
-                let sign = |q: &Params| q.get(b) > 0.0;
-                let mut starts: Vec<Params> = vec![];
-                for (_, q) in &at {
-                    let c = q.get(Effect::BumpCentre);
-                    if starts.len() < BUMP_STARTS && starts.iter().all(|x| x.get(Effect::BumpCentre) != c) {
-                        starts.push(*q);
-                    }
-                }
-                if let Some(mirror) = at.iter().find(|x| starts.iter().all(|q| sign(q) != sign(&x.1))) {
-                    starts.push(mirror.1);
-                }
-                // Each walked a few steps down, the best of them to the
-                // bottom (on the coarse copy).
-                let walked = par_map(&starts, |&q| {
-                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, WALK_STEPS)?;
-                    Some((ev, q))
-                })
-                .into_iter()
-                .flatten()
-                .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
-                .and_then(|(_, q)| {
-                    let (q, ev, _) = coarse.levenberg_marquardt(effects, q, WALK_STEPS * 3)?;
-                    Some((ev.s, q))
-                });
-                if let Some((s, q)) = walked {
+                if let Some((s, q)) = coarse.bump_start(effects, p, b) {
                     if s < s_best {
                         (s_best, p) = (s, q);
                     }
                 }
             }
-            // A response with its order: its time constant's grid at each
-            // whole order (the two trade along n·τ, the kernel's
-            // centroid).
-            let orders: &[f64] = if scan.contains(&Effect::MeterOrder) {
-                &ORDERS
-            } else {
-                &[0.0]
-            };
-            let start = p;
-            for &order in orders {
-                let mut q = start;
-                if order > 0.0 {
-                    q = q.with(Effect::MeterOrder, order);
-                }
-                for &e in scan.iter().filter(|e| {
-                    **e != Effect::MeterOrder
-                        && (bump.is_none() || !(Effect::BUMPS.contains(e) || bump_shape(e)))
-                }) {
-                    let mut at = q.get(e);
-                    let mut found = false;
-                    for v in grid(&coarse.prep.search, e) {
-                        if let Some(ev) = coarse.eval(q.with(e, v)) {
-                            if ev.s < s_best {
-                                (s_best, at, found) = (ev.s, v, true);
-                            }
-                        }
-                    }
-                    q = q.with(e, at);
-                    if found {
-                        p = q;
-                    }
-                }
-            }
-            // No order improved on the start: the response starts first
-            // order.
-            if scan.contains(&Effect::MeterOrder) && p.get(Effect::MeterOrder) == 0.0 {
-                p = p.with(Effect::MeterOrder, 1.0);
-            }
+            p = coarse.grid_start(scan, p, s_best, bump.is_some());
         }
         let k = effects.len();
         let (p, best, jtj_at_p) = self.levenberg_marquardt(effects, p, LM_STEPS)?;
@@ -328,6 +243,108 @@ impl Problem<'_> {
         let mut fit = self.fit_of(effects.to_vec(), p, sigma, best);
         fit.correlation = correlation;
         Some(fit)
+    }
+
+    /// A bump `b` with its place and width, on this (coarse) copy: the
+    /// best amplitude at each place and width of a joint grid, then the
+    /// [`BUMP_STARTS`] best places and the best of the other sign walked
+    /// down from `p`, the best of them to the bottom: its S and
+    /// parameters.
+    fn bump_start(&self, effects: &[Effect], p: Params, b: Effect) -> Option<(f64, Params)> {
+        // At each place and width, the best amplitude by
+        // Gauss–Newton on it alone (the bump is near linear in
+        // its amplitude): a probe, then two secant steps.
+        let (lo, hi) = self.prep.search.range(b);
+        let r0 = self.eval(p).map(|ev| self.weighted(&ev));
+        let places: Vec<(f64, f64)> = BUMP_CENTRES
+            .iter()
+            .flat_map(|&c| BUMP_WIDTHS.iter().map(move |&w| (c, w)))
+            .collect();
+        let mut at: Vec<(f64, Params)> = par_map(&places, |&(c, w)| {
+            let q = p.with(Effect::BumpCentre, c).with(Effect::BumpWidth, w);
+            let (s, a) = secant_amplitude(
+                |a| self.eval(q.with(b, a)).map(|ev| (ev.s, self.weighted(&ev))),
+                r0.clone()?,
+                (lo, hi),
+            )?;
+            Some((s, q.with(b, a)))
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        at.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // The best [`BUMP_STARTS`] places, and the best of the
+        // other sign if none of them has it (a bump's mirror).
+        let sign = |q: &Params| q.get(b) > 0.0;
+        let mut starts: Vec<Params> = vec![];
+        for (_, q) in &at {
+            let c = q.get(Effect::BumpCentre);
+            if starts.len() < BUMP_STARTS && starts.iter().all(|x| x.get(Effect::BumpCentre) != c) {
+                starts.push(*q);
+            }
+        }
+        if let Some(mirror) = at.iter().find(|x| starts.iter().all(|q| sign(q) != sign(&x.1))) {
+            starts.push(mirror.1);
+        }
+        // Each walked a few steps down, the best of them to the
+        // bottom (on this coarse copy).
+        par_map(&starts, |&q| {
+            let (q, ev, _) = self.levenberg_marquardt(effects, q, WALK_STEPS)?;
+            Some((ev, q))
+        })
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.0.s.total_cmp(&b.0.s))
+        .and_then(|(_, q)| {
+            let (q, ev, _) = self.levenberg_marquardt(effects, q, WALK_STEPS * 3)?;
+            Some((ev.s, q))
+        })
+    }
+
+    /// Each effect of `scan` on its grid from `p` (S `s_best` there), on
+    /// this (coarse) copy, a response's time constant at each whole order;
+    /// a bump's effects left to [`Problem::bump_start`] when `bump`: the
+    /// best parameters found.
+    fn grid_start(&self, scan: &[Effect], mut p: Params, mut s_best: f64, bump: bool) -> Params {
+        let bump_shape = |e: &Effect| Effect::BUMP_SHAPES.contains(e);
+        // A response with its order: its time constant's grid at each
+        // whole order (the two trade along n·τ, the kernel's
+        // centroid).
+        let orders: &[f64] = if scan.contains(&Effect::MeterOrder) {
+            &ORDERS
+        } else {
+            &[0.0]
+        };
+        let start = p;
+        for &order in orders {
+            let mut q = start;
+            if order > 0.0 {
+                q = q.with(Effect::MeterOrder, order);
+            }
+            for &e in scan.iter().filter(|e| {
+                **e != Effect::MeterOrder && (!bump || !(Effect::BUMPS.contains(e) || bump_shape(e)))
+            }) {
+                let mut at = q.get(e);
+                let mut found = false;
+                for v in grid(&self.prep.search, e) {
+                    if let Some(ev) = self.eval(q.with(e, v)) {
+                        if ev.s < s_best {
+                            (s_best, at, found) = (ev.s, v, true);
+                        }
+                    }
+                }
+                q = q.with(e, at);
+                if found {
+                    p = q;
+                }
+            }
+        }
+        // No order improved on the start: the response starts first
+        // order.
+        if scan.contains(&Effect::MeterOrder) && p.get(Effect::MeterOrder) == 0.0 {
+            p = p.with(Effect::MeterOrder, 1.0);
+        }
+        p
     }
 
     /// The bounded fit ([`lsq::fit`]) of `effects` from `p` for at most
