@@ -85,11 +85,6 @@ impl Course {
         }
     }
 
-    /// Whether the frequency is held.
-    pub const fn pinned(&self) -> bool {
-        self.pinned
-    }
-
     /// Seconds since the previous block (0 for the first), block time
     /// `t_us` (µs) remembered for the next. f32 is exact enough for a
     /// difference, whatever the uptime.
