@@ -41,22 +41,9 @@ fn spin(n: u32) {
     }
 }
 
-#[entry]
-fn main() -> ! {
-    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| qemu::exit(3));
-    let syst = &mut cp.SYST;
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(0x00ff_ffff);
-    syst.enable_counter();
-
-    // Ticks per instruction from two spin lengths (overhead cancels).
-    let (t1, t2) = (ticks(syst, || spin(20_000)), ticks(syst, || spin(60_000)));
-    let per_insn = (t2 - t1) as f32 / 80_000.0;
-    let empty = ticks(syst, || black_box(()));
-    let insns = move |t: u32| ((t.saturating_sub(empty)) as f32 / per_insn) as u32;
-    println!("calib ticks_per_insn={}", per_insn);
-
-    // Demodulation of one block of sample pairs.
+/// Demodulation of one block of sample pairs, with its peers; its
+/// assembly inner loop checked against the portable one.
+fn demod(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let osc = Oscillator::coherent(6000.0, 200e3, 11).unwrap_or_else(|_| qemu::exit(4));
     let mut st = OscillatorState::default();
     let mut buf = [[0i16; 2]; PAIRS];
@@ -79,17 +66,19 @@ fn main() -> ! {
         qemu::exit(1);
     }
     println!("check demod_asm_equals_portable ok");
-    lockin_peer(syst, &insns, &buf, &fast, osc.ftw());
-    idsp_block_peer(syst, &insns, &buf, osc.ftw());
-    m4_floor(syst, &insns, &buf, dm.reference(), &slow);
+    lockin_peer(syst, insns, &buf, &fast, osc.ftw());
+    idsp_block_peer(syst, insns, &buf, osc.ftw());
+    m4_floor(syst, insns, &buf, dm.reference(), &slow);
     println!("bench demod_block {} insn/block", n);
     println!(
         "bench demod_pair {}.{:02} insn/pair",
         n / PAIRS as u32,
         (n % PAIRS as u32) * 100 / PAIRS as u32
     );
+}
 
-    // Model evaluations and inversions, averaged over a few x.
+/// Model evaluations and inversions, averaged over a few x.
+fn models(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
     for (name, model) in [
         ("ladder30", LineModel::Ladder(30)),
@@ -118,8 +107,11 @@ fn main() -> ! {
         println!("bench invert_{} {} insn/inversion", name, total / xs.len() as u32);
         println!("bench invert_{}_worst {} insn/inversion", name, worst);
     }
-    // The FPU's square root must give libm's bits (IEEE: both correctly
-    // rounded), or host and target would differ.
+}
+
+/// The FPU's square root must give libm's bits (IEEE: both correctly
+/// rounded), or host and target would differ.
+fn vsqrt_equals_libm() {
     let mut x = 1e-30f32;
     while x < 1e30 {
         if dsp_core::fmath::sqrt(x).to_bits() != libm::sqrtf(x).to_bits() {
@@ -129,6 +121,26 @@ fn main() -> ! {
         x *= 1.013;
     }
     println!("check vsqrt_equals_libm ok");
+}
+
+#[entry]
+fn main() -> ! {
+    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| qemu::exit(3));
+    let syst = &mut cp.SYST;
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(0x00ff_ffff);
+    syst.enable_counter();
+
+    // Ticks per instruction from two spin lengths (overhead cancels).
+    let (t1, t2) = (ticks(syst, || spin(20_000)), ticks(syst, || spin(60_000)));
+    let per_insn = (t2 - t1) as f32 / 80_000.0;
+    let empty = ticks(syst, || black_box(()));
+    let insns = move |t: u32| ((t.saturating_sub(empty)) as f32 / per_insn) as u32;
+    println!("calib ticks_per_insn={}", per_insn);
+
+    demod(syst, &insns);
+    models(syst, &insns);
+    vsqrt_equals_libm();
     two_tones(syst, &insns);
     newton_peer(syst, &insns);
     math(syst, &insns);
@@ -634,7 +646,7 @@ struct ArrayCost {
 /// bit on every input of the last block.
 fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
     use instrument::array::{Frame, BLOCK_INSTANTS, SENSORS};
-    use instrument::reader::{ArrayReader, BlockComb};
+    use instrument::reader::ArrayReader;
     use instrument::tones::ToneSettings;
     use skin_sim::array::ArrayFrontEnd;
     use skin_sim::frontend::Disturbance;
@@ -660,119 +672,36 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
     let mut demod_t = 0u32;
     let mut valid = 0;
     let mut last = instrument::tones::ToneRecord::default();
-    let mut block = instrument::reader::Demodulated::EMPTY;
     let block_us = layout.block_us();
     let n_instants = layout.instants();
     for b in 0..9u64 {
         fe.frame(&z, &[Disturbance::NONE; SENSORS], &mut rng, &mut frame);
         // As the board's DMA leaves them: offset binary (the flip is its
         // own inverse).
-        let n = layout.instants();
         for rows in frame.iter_mut() {
-            dsp_core::scan::portable(&mut rows[..n]);
+            dsp_core::scan::portable(&mut rows[..n_instants]);
         }
-        // The block as the board's `process` takes it: to two's
-        // complement in place noting the inputs on a rail, then the comb
-        // on every input.
-        let mut rails = [false; instrument::array::INPUTS];
-        let tp = insns(ticks(syst, || {
-            let [f0, f1, f2, f3, f4] = black_box(&mut frame);
-            rails = instrument::array::to_signed_all(&mut [
-                &mut f0[..n],
-                &mut f1[..n],
-                &mut f2[..n],
-                &mut f3[..n],
-                &mut f4[..n],
-            ]);
-        }));
-        let td = insns(ticks(syst, || {
-            reader.demodulate_into(|a| layout.rows(black_box(&frame[a])), &mut block);
-        }));
-        let tc = tp + td;
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
-        let ts = insns(ticks(syst, || {
-            let mut s = 0;
-            reader.solve(
-                &settings,
-                b * block_us + block_us / 2,
-                &block,
-                |input| rails[input],
-                |r| {
-                    recs[s] = r;
-                    s += 1;
-                },
-            );
-        }));
+        let t_us = b * block_us + block_us / 2;
+        let cost = array_block(syst, insns, &mut reader, &settings, &mut frame, t_us, &mut recs);
         // The first block starts every channel from the inversions.
         if b > 0 {
-            comb_t += tc;
-            demod_t += td;
-            solve_t += ts;
-            total += tc + ts;
+            comb_t += cost.to_signed + cost.comb;
+            demod_t += cost.comb;
+            solve_t += cost.solve;
+            total += cost.to_signed + cost.comb + cost.solve;
             blocks += 1;
             valid += recs.iter().filter(|r| r.flags.valid()).count();
             last = recs[0];
         }
     }
-    // The comb's assembly inner loop must match the portable one bit for
-    // bit, on every input of the last block.
-    let same = |rows: &[[i16; 4]], col: usize| -> bool {
-        let fast = reader.comb().column(rows, col);
-        let moments_same = |m: [i64; 2]| m == [fast.sum, fast.sq];
-        match reader.comb() {
-            BlockComb::Long(c) => rows.first_chunk::<BLOCK_INSTANTS>().is_some_and(|r| {
-                moments_same(dsp_core::comb::portable_moments(r, col))
-                    && fast.x.iter().enumerate().all(|(k, x)| {
-                        c.reference(k).is_some_and(|reference| {
-                            let [cs, sn] = dsp_core::comb::portable(r, col, reference);
-                            x.re == cs && x.im == -sn
-                        })
-                    })
-            }),
-            BlockComb::Short(c) => rows
-                .first_chunk::<{ instrument::array::SHORT_INSTANTS }>()
-                .is_some_and(|r| {
-                    moments_same(dsp_core::comb::portable_moments(r, col))
-                        && fast.x.iter().enumerate().all(|(k, x)| {
-                            c.reference(k).is_some_and(|reference| {
-                                let [cs, sn] = dsp_core::comb::portable(r, col, reference);
-                                x.re == cs && x.im == -sn
-                            })
-                        })
-                }),
-        }
-    };
-    for rows in &frame {
-        for col in 0..4 {
-            if !same(layout.rows(rows), col) {
-                println!("FAIL comb assembly differs from portable");
-                qemu::exit(1);
-            }
-        }
+    if !comb_matches_portable(reader.comb(), layout, &frame) {
+        println!("FAIL comb assembly differs from portable");
+        qemu::exit(1);
     }
-    // The offset-binary pass's assembly must equal the portable one:
-    // rows and extremes, on every ADC's rows of the last block and on
-    // the rails.
-    let mut rails_rows = [[0i16; 4]; 7];
-    for (k, row) in rails_rows.iter_mut().enumerate() {
-        *row = [i16::MIN, i16::MAX, -1, 0].map(|x| x.wrapping_add(k as i16));
-    }
-    for rows in frame
-        .iter()
-        .map(|r| &r[..])
-        .chain(core::iter::once(&rails_rows[..]))
-    {
-        let (mut fast, mut slow) = ([[0i16; 4]; BLOCK_INSTANTS], [[0i16; 4]; BLOCK_INSTANTS]);
-        fast[..rows.len()].copy_from_slice(rows);
-        slow[..rows.len()].copy_from_slice(rows);
-        let (f, p) = (
-            dsp_core::scan::to_signed(&mut fast[..rows.len()]),
-            dsp_core::scan::portable(&mut slow[..rows.len()]),
-        );
-        if f != p || fast != slow {
-            println!("FAIL the offset-binary pass's assembly differs from portable");
-            qemu::exit(1);
-        }
+    if !offset_binary_matches_portable(&frame) {
+        println!("FAIL the offset-binary pass's assembly differs from portable");
+        qemu::exit(1);
     }
     if valid != SENSORS * blocks as usize {
         println!(
@@ -792,6 +721,122 @@ fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::ar
         block: total / blocks,
         last,
     }
+}
+
+/// Instructions of one array block, by stage.
+struct BlockCost {
+    /// The ADCs' rows to two's complement, with the rail check.
+    to_signed: u32,
+    /// The comb on every input.
+    comb: u32,
+    /// Every sensor's channel: its solve and flags.
+    solve: u32,
+}
+
+/// One block as the board's `process` takes it, counted by stage: to
+/// two's complement in place noting the inputs on a rail, the comb on
+/// every input, then every channel; its records into `recs`.
+fn array_block<const N: usize>(
+    syst: &mut SYST,
+    insns: &dyn Fn(u32) -> u32,
+    reader: &mut instrument::reader::ArrayReader,
+    settings: &instrument::tones::ToneSettings<'_, N>,
+    frame: &mut instrument::array::Frame,
+    t_us: u64,
+    recs: &mut [instrument::tones::ToneRecord; instrument::array::SENSORS],
+) -> BlockCost {
+    let layout = settings.layout;
+    let n = layout.instants();
+    let mut rails = [false; instrument::array::INPUTS];
+    let to_signed = insns(ticks(syst, || {
+        let [f0, f1, f2, f3, f4] = black_box(&mut *frame);
+        rails = instrument::array::to_signed_all(&mut [
+            &mut f0[..n],
+            &mut f1[..n],
+            &mut f2[..n],
+            &mut f3[..n],
+            &mut f4[..n],
+        ]);
+    }));
+    let mut block = instrument::reader::Demodulated::EMPTY;
+    let comb = insns(ticks(syst, || {
+        reader.demodulate_into(|a| layout.rows(black_box(&frame[a])), &mut block);
+    }));
+    let solve = insns(ticks(syst, || {
+        let mut s = 0;
+        reader.solve(
+            settings,
+            t_us,
+            &block,
+            |input| rails[input],
+            |r| {
+                recs[s] = r;
+                s += 1;
+            },
+        );
+    }));
+    BlockCost {
+        to_signed,
+        comb,
+        solve,
+    }
+}
+
+/// The comb's assembly inner loop against the portable one, bit for bit,
+/// on every input of `frame` (a block of `layout`).
+fn comb_matches_portable(
+    comb: &instrument::reader::BlockComb,
+    layout: instrument::array::Layout,
+    frame: &instrument::array::Frame,
+) -> bool {
+    use instrument::reader::BlockComb;
+    frame.iter().all(|rows| {
+        let rows = layout.rows(rows);
+        (0..4).all(|col| match comb {
+            BlockComb::Long(c) => rows.first_chunk().is_some_and(|r| column_matches(c, r, col)),
+            BlockComb::Short(c) => rows.first_chunk().is_some_and(|r| column_matches(c, r, col)),
+        })
+    })
+}
+
+/// One input's tones and moments from `comb` equal the plain sums.
+fn column_matches<const B: usize, const K: usize>(
+    comb: &dsp_core::comb::Comb<B, K>,
+    rows: &[[i16; 4]; B],
+    col: usize,
+) -> bool {
+    let fast = comb.column(rows, col);
+    [fast.sum, fast.sq] == dsp_core::comb::portable_moments(rows, col)
+        && fast.x.iter().enumerate().all(|(k, x)| {
+            comb.reference(k).is_some_and(|reference| {
+                let [cs, sn] = dsp_core::comb::portable(rows, col, reference);
+                x.re == cs && x.im == -sn
+            })
+        })
+}
+
+/// The offset-binary pass's assembly against the portable one: rows and
+/// extremes, on every ADC's rows of `frame` and on the rails.
+fn offset_binary_matches_portable(frame: &instrument::array::Frame) -> bool {
+    use instrument::array::BLOCK_INSTANTS;
+    let mut rails_rows = [[0i16; 4]; 7];
+    for (k, row) in rails_rows.iter_mut().enumerate() {
+        *row = [i16::MIN, i16::MAX, -1, 0].map(|x| x.wrapping_add(k as i16));
+    }
+    frame
+        .iter()
+        .map(|r| &r[..])
+        .chain(core::iter::once(&rails_rows[..]))
+        .all(|rows| {
+            let (mut fast, mut slow) = ([[0i16; 4]; BLOCK_INSTANTS], [[0i16; 4]; BLOCK_INSTANTS]);
+            fast[..rows.len()].copy_from_slice(rows);
+            slow[..rows.len()].copy_from_slice(rows);
+            let (f, p) = (
+                dsp_core::scan::to_signed(&mut fast[..rows.len()]),
+                dsp_core::scan::portable(&mut slow[..rows.len()]),
+            );
+            f == p && fast == slow
+        })
 }
 
 /// `Comb::column` (on this target, the assembly) against the plain sums
