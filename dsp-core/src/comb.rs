@@ -427,15 +427,79 @@ pub mod arm {
         }
         let mut uw = MaybeUninit::<[[i32; 2]; N]>::uninit();
         let base = uw.as_mut_ptr().cast::<[i32; 2]>();
+        // SAFETY: col < S, S·2 ≤ 255, whole a non-zero multiple of
+        // FOLD_TURN below l/2, and R·l ≤ N (checked above); `base` is
+        // `uw`'s, N entries.
+        let (sum, ql, qh) = unsafe { fold_turns::<N, S, R>(rows, col, l, whole, base) };
+        let mut sum = sum as i64;
+        let mut sq = ((qh as u64) << 32 | ql as u64) as i64;
+        // The rest in Rust: the pairs the turns left, instant 0, and l/2
+        // where l is even; each y_j with its repeat's sample and squares.
+        let mut y = |j: usize| {
+            let mut a = 0i32;
+            for q in 0..R {
+                let x = rows[j + q * l][col] as i32;
+                sq += (x * x) as i64;
+                a += x;
+            }
+            a
+        };
+        let mut put = |j: usize, a: i32, b: Option<i32>| {
+            let e = b.map_or([a, a], |b| [a + b, a - b]);
+            sum += e[0] as i64;
+            // SAFETY: j < m ≤ padded ≤ N, inside `uw`.
+            unsafe { base.add(j).write(e) };
+        };
+        for j in whole + 1..=pairs {
+            let (a, b) = (y(j), y(l - j));
+            put(j, a, Some(b));
+        }
+        put(0, y(0), None);
+        if l % 2 == 0 {
+            put(l / 2, y(l / 2), None);
+        }
+        // Zeros to fill the last turn (adding nothing to any sum).
+        for j in m..padded {
+            // SAFETY: j < padded ≤ N.
+            unsafe { base.add(j).write([0, 0]) };
+        }
+        for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
+            // SAFETY: entries 0..padded of `uw` are written above;
+            // padded ≤ N, a non-zero multiple of turn (4 to 7).
+            *x = unsafe { tone_sums(base, padded, turn, reference) };
+        }
+        out.n = N as u32;
+        out.sum = sum;
+        out.sq = sq;
+    }
+
+    /// [`repeating`]'s fold in assembly: entries 1..=`whole` of the
+    /// block at `base`, each pair of kept instants (j, l − j) of input
+    /// `col` as [y_j + y_(l−j), y_j − y_(l−j)], y_j the sum of the `R`
+    /// repeats' samples; the sum of those and the squares' sum (low and
+    /// high words), FOLD_TURN pairs a turn.
+    ///
+    /// # Safety
+    /// `col` < S, S·2 ≤ 255, `whole` a non-zero multiple of FOLD_TURN
+    /// with `whole` < l/2, R·l ≤ N, and `base` valid for writes of N
+    /// entries.
+    #[inline(always)]
+    unsafe fn fold_turns<const N: usize, const S: usize, const R: usize>(
+        rows: &[[i16; S]; N],
+        col: usize,
+        l: usize,
+        whole: usize,
+        base: *mut [i32; 2],
+    ) -> (i32, u32, u32) {
         let (mut sum, mut ql, mut qh) = (0i32, 0u32, 0u32);
         // SAFETY: `pa` walks input `col` (< S) of rows 1..=whole forward
         // and `pb` of rows l−1 down to l−whole back, S·2 bytes a step (an
         // immediate of at most 255), and with a repeat each also reads
         // the row l on (`off` bytes: rows up to N − 1); `po` writes
-        // entries 1..=whole of `uw` (N entries, whole < l/2), 8 bytes a
+        // entries 1..=whole at `base` (N entries, whole < l/2), 8 bytes a
         // step; the loop takes FOLD_TURN pairs a turn (`whole` a
         // non-zero multiple) and stops when `po` reaches `end`. Only
-        // registers, the rows' memory (read) and `uw` (written) are
+        // registers, the rows' memory (read) and `base`'s (written) are
         // touched.
         unsafe {
             let pa = rows.as_ptr().cast::<i16>().add(S + col);
@@ -476,85 +540,65 @@ pub mod arm {
                 fold_loop!(fold2_step; off = in(reg) l * S * 2,);
             }
         }
-        let mut sum = sum as i64;
-        let mut sq = ((qh as u64) << 32 | ql as u64) as i64;
-        // The rest in Rust: the pairs the turns left, instant 0, and l/2
-        // where l is even; each y_j with its repeat's sample and squares.
-        let mut y = |j: usize| {
-            let mut a = 0i32;
-            for q in 0..R {
-                let x = rows[j + q * l][col] as i32;
-                sq += (x * x) as i64;
-                a += x;
+        (sum, ql, qh)
+    }
+
+    /// [`repeating`]'s sums for one tone in assembly: Σ over entries
+    /// 0..`padded` at `base` of the folded pair against `reference`,
+    /// `turn` entries a turn; the tone's cosine and (negated) sine sums.
+    ///
+    /// # Safety
+    /// Entries 0..`padded` at `base` written, `padded` ≤ N a non-zero
+    /// multiple of `turn` (4 to 7).
+    #[inline(always)]
+    unsafe fn tone_sums<const N: usize>(
+        base: *mut [i32; 2],
+        padded: usize,
+        turn: usize,
+        reference: &[[i32; 2]; N],
+    ) -> Complex<i64> {
+        let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
+        // SAFETY: `p` reads entries 0..padded at `base`, all written
+        // (the caller's contract), `q` the first `padded` (≤ N) reference words, 8
+        // bytes a step each; the loop takes `turn` a turn (`padded` a
+        // non-zero multiple of it) and stops when `p` reaches `end`.
+        // Only registers and the two arrays' memory (read) are
+        // touched.
+        unsafe {
+            let end = base.add(padded);
+            macro_rules! tone_loop {
+                ($($step:tt)*) => {
+                    core::arch::asm!(
+                        "2:",
+                        $(tone_step!($step),)*
+                        "cmp {p}, {end}",
+                        "bne 2b",
+                        p = inout(reg) base => _,
+                        q = inout(reg) reference.as_ptr() => _,
+                        end = in(reg) end,
+                        cl = inout(reg) cl,
+                        ch = inout(reg) ch,
+                        sl = inout(reg) sl,
+                        sh = inout(reg) sh,
+                        u = out(reg) _,
+                        w = out(reg) _,
+                        c = out(reg) _,
+                        s = out(reg) _,
+                        options(nostack, readonly),
+                    )
+                };
             }
-            a
-        };
-        let mut put = |j: usize, a: i32, b: Option<i32>| {
-            let e = b.map_or([a, a], |b| [a + b, a - b]);
-            sum += e[0] as i64;
-            // SAFETY: j < m ≤ padded ≤ N, inside `uw`.
-            unsafe { base.add(j).write(e) };
-        };
-        for j in whole + 1..=pairs {
-            let (a, b) = (y(j), y(l - j));
-            put(j, a, Some(b));
-        }
-        put(0, y(0), None);
-        if l % 2 == 0 {
-            put(l / 2, y(l / 2), None);
-        }
-        // Zeros to fill the last turn (adding nothing to any sum).
-        for j in m..padded {
-            // SAFETY: j < padded ≤ N.
-            unsafe { base.add(j).write([0, 0]) };
-        }
-        for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
-            let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
-            // SAFETY: `p` reads entries 0..padded of `uw`, all written
-            // above, `q` the first `padded` (≤ N) reference words, 8
-            // bytes a step each; the loop takes `turn` a turn (`padded` a
-            // non-zero multiple of it) and stops when `p` reaches `end`.
-            // Only registers and the two arrays' memory (read) are
-            // touched.
-            unsafe {
-                let end = base.add(padded);
-                macro_rules! tone_loop {
-                    ($($step:tt)*) => {
-                        core::arch::asm!(
-                            "2:",
-                            $(tone_step!($step),)*
-                            "cmp {p}, {end}",
-                            "bne 2b",
-                            p = inout(reg) base => _,
-                            q = inout(reg) reference.as_ptr() => _,
-                            end = in(reg) end,
-                            cl = inout(reg) cl,
-                            ch = inout(reg) ch,
-                            sl = inout(reg) sl,
-                            sh = inout(reg) sh,
-                            u = out(reg) _,
-                            w = out(reg) _,
-                            c = out(reg) _,
-                            s = out(reg) _,
-                            options(nostack, readonly),
-                        )
-                    };
-                }
-                // One step per token.
-                match turn {
-                    7 => tone_loop!(1 2 3 4 5 6 7),
-                    6 => tone_loop!(1 2 3 4 5 6),
-                    5 => tone_loop!(1 2 3 4 5),
-                    _ => tone_loop!(1 2 3 4),
-                }
+            // One step per token.
+            match turn {
+                7 => tone_loop!(1 2 3 4 5 6 7),
+                6 => tone_loop!(1 2 3 4 5 6),
+                5 => tone_loop!(1 2 3 4 5),
+                _ => tone_loop!(1 2 3 4),
             }
-            let c = ((ch as u64) << 32 | cl as u64) as i64;
-            let s = ((sh as u64) << 32 | sl as u64) as i64;
-            *x = Complex::new(c, -s);
         }
-        out.n = N as u32;
-        out.sum = sum;
-        out.sq = sq;
+        let c = ((ch as u64) << 32 | cl as u64) as i64;
+        let s = ((sh as u64) << 32 | sl as u64) as i64;
+        Complex::new(c, -s)
     }
 }
 

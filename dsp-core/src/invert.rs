@@ -573,47 +573,42 @@ impl Inverter {
     }
 
     fn solve_unchecked(&self, z: Complex32, f_hz: f32, hint: Select) -> Result<Line, InvertError> {
-        if !positive_finite(f_hz) {
-            return Err(InvertError::BadFrequency);
-        }
-        if !(z.re.is_finite() && z.im.is_finite() && z.re >= 0.0 && z.im < 0.0) {
-            return Err(InvertError::NotCapacitive);
-        }
-        let good = positive_finite;
-        match hint {
-            Select::Near(c) if !good(c) => return Err(InvertError::BadPrior),
-            Select::Within(lo, hi) if !(good(lo) && good(hi) && lo <= hi) => {
-                return Err(InvertError::BadPrior)
-            }
-            _ => {}
-        }
+        check_inputs(z, f_hz, hint)?;
         let w = TAU * f_hz;
         let zabs = crate::fmath::hypot(z.re, z.im);
         let d = z.re / -z.im;
-        let line = |r: Root| {
-            let c = crate::fmath::hypot(r.zeta.re, r.zeta.im) / (w * zabs);
-            Line {
-                r_ohm: r.x / (w * c),
-                c_farad: c,
-                x: r.x,
-                kappa: r.kappa,
-            }
-        };
-        // Which lines fit: the small-x asymptote, a branch, the flat tail.
-        // A reading's D is uncertain by up to D_MARGIN: a branch whose D
-        // comes that close fits too (at its nearest end), so near a peak or
-        // trough both sides count, and x_unique is where D is D_MARGIN
-        // below the trough. This needs no model evaluation, so a reading
-        // that more than one line fits is refused without solving any.
+        let fits = self.fits(d);
+        // The tail's lines have C of at least its smallest |ζ| over ω|Z|
+        // (|ζ| grows with x there).
+        let tail_c = fits.tail.then(|| self.tail_zeta / (w * zabs));
+        if fits.n == 0 {
+            return Err(if tail_c.is_some() {
+                InvertError::Ambiguous
+            } else {
+                InvertError::OutOfRange
+            });
+        }
+        if matches!(hint, Select::Unique) && (fits.n > 1 || tail_c.is_some()) {
+            return Err(InvertError::Ambiguous);
+        }
+        let (found, k) = self.lines(&fits, d, w, zabs)?;
+        let chosen = choose(hint, &found[..k], fits.n == 1 && tail_c.is_none(), tail_c)?;
+        self.finish(chosen)
+    }
+
+    /// Which lines fit a reading's D: the small-x asymptote, a branch,
+    /// the flat tail. A reading's D is uncertain by up to [`D_MARGIN`]: a
+    /// branch whose D comes that close fits too (at its nearest end), so
+    /// near a peak or trough both sides count, and x_unique is where D is
+    /// D_MARGIN below the trough. This needs no model evaluation, so a
+    /// reading that more than one line fits is refused without solving
+    /// any.
+    fn fits(&self, d: f32) -> Fits {
         let margin = D_MARGIN * d;
         let small = d <= self.d[0];
-        // A flat branch reaching D: some line far beyond the range fits.
-        // Its x cannot be told, but its C is at least the tail's smallest
-        // |ζ| over ω|Z| (|ζ| grows with x there).
-        let tail_c = match self.tail_band {
-            Some((lo, hi)) if d >= lo - margin && d <= hi + margin => Some(self.tail_zeta / (w * zabs)),
-            _ => None,
-        };
+        // A flat branch reaching D: some line far beyond the range fits
+        // (its x cannot be told).
+        let tail = matches!(self.tail_band, Some((lo, hi)) if d >= lo - margin && d <= hi + margin);
         let mut inside = [false; BRANCHES];
         let mut n = small as usize;
         for (b, slot) in inside.iter_mut().enumerate().take(self.resolved) {
@@ -627,19 +622,35 @@ impl Inverter {
             };
             n += *slot as usize;
         }
-        if n == 0 {
-            return Err(if tail_c.is_some() {
-                InvertError::Ambiguous
-            } else {
-                InvertError::OutOfRange
-            });
+        Fits {
+            small,
+            inside,
+            n,
+            tail,
         }
-        if matches!(hint, Select::Unique) && (n > 1 || tail_c.is_some()) {
-            return Err(InvertError::Ambiguous);
-        }
-        let mut found = [None::<Line>; BRANCHES];
+    }
+
+    /// The line of each fit but the tail's, solved at `d` for an
+    /// impedance of magnitude `zabs` at `w` rad/s: the lines and how many.
+    fn lines(
+        &self,
+        fits: &Fits,
+        d: f32,
+        w: f32,
+        zabs: f32,
+    ) -> Result<([Option<Line>; BRANCHES], usize), InvertError> {
+        let line = |r: Root| {
+            let c = crate::fmath::hypot(r.zeta.re, r.zeta.im) / (w * zabs);
+            Line {
+                r_ohm: r.x / (w * c),
+                c_farad: c,
+                x: r.x,
+                kappa: r.kappa,
+            }
+        };
+        let mut found = [None; BRANCHES];
         let mut k = 0;
-        if small {
+        if fits.small {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);
             let a = self.model.low_freq_resistance_fraction() + self.lead;
@@ -650,7 +661,7 @@ impl Inverter {
             }));
             k = 1;
         }
-        for b in (0..self.resolved).filter(|&b| inside[b]) {
+        for b in (0..self.resolved).filter(|&b| fits.inside[b]) {
             let (i0, i1) = (self.ends[b], self.ends[b + 1]);
             let (d0, d1) = (self.d[i0], self.d[i1]);
             // fmath's clamp, not f32's (its order check would link core's
@@ -660,60 +671,19 @@ impl Inverter {
             found[k] = Some(line(self.root(d, i0, i1)?));
             k += 1;
         }
-        let mut lines = found.iter().take(k).flatten();
-        let Some(&first) = lines.next() else {
-            return Err(InvertError::OutOfRange);
-        };
-        let chosen = match hint {
-            _ if n == 1 && tail_c.is_none() => first,
-            Select::Within(lo, hi) => {
-                let inside = |c: f32| c >= lo && c <= hi;
-                let mut picked = inside(first.c_farad).then_some(first);
-                for l in lines.filter(|l| inside(l.c_farad)) {
-                    if picked.is_some() {
-                        return Err(InvertError::Ambiguous);
-                    }
-                    picked = Some(*l);
-                }
-                if tail_c.is_some_and(|ct| ct <= hi) {
-                    return Err(InvertError::Ambiguous);
-                }
-                picked.ok_or(InvertError::OutOfRange)?
-            }
-            Select::Unique => return Err(InvertError::Ambiguous),
-            Select::Near(c) => {
-                let dist = |l: &Line| libm::fabsf(libm::logf(l.c_farad / c));
-                let (mut best, mut d_best, mut d_next) = (first, dist(&first), f32::INFINITY);
-                for l in lines {
-                    let dl = dist(l);
-                    if dl < d_best {
-                        (best, d_next, d_best) = (*l, d_best, dl);
-                    } else {
-                        // (A NaN dl leaves d_next, as min would.)
-                        d_next = min(d_next, dl);
-                    }
-                }
-                // The tail's lines: the closest of them to the prior.
-                if let Some(ct) = tail_c {
-                    d_next = min(d_next, max(libm::logf(ct / c), 0.0));
-                }
-                // NaN distances (a non-finite C) never pass.
-                let gap = d_next - d_best;
-                if gap.is_nan() || gap < SEPARATION {
-                    return Err(InvertError::Ambiguous);
-                }
-                best
-            }
-        };
-        // 10⁻⁴ of slack: a line at x_max may come back a hair above it.
+        Ok((found, k))
+    }
+
+    /// The chosen line within the range: 10⁻⁴ of slack, for a line at
+    /// x_max may come back a hair above it. A ladder's forward
+    /// difference resolves Im ζ' only above [`KAPPA_SLOPE_X`] (below,
+    /// κ < 10⁻² is its f32 rounding), and D's slope to 10⁻² only where
+    /// κ < [`KAPPA_SLOPE_MAX`] (near a peak of D the slope vanishes):
+    /// elsewhere κ from central differences, as [`Self::kappa`] gives it.
+    fn finish(&self, chosen: Line) -> Result<Line, InvertError> {
         if chosen.x > self.x_max * (1.0 + 1e-4) {
             return Err(InvertError::OutOfRange);
         }
-        // A ladder's forward difference resolves Im ζ' only above
-        // KAPPA_SLOPE_X (below, κ < 10⁻² is its f32 rounding), and D's
-        // slope to 10⁻² only where κ < KAPPA_SLOPE_MAX (near a peak of D
-        // the slope vanishes): elsewhere κ from central differences, as
-        // `kappa` gives it.
         if matches!(self.model, LineModel::Ladder(_))
             && !(chosen.x >= KAPPA_SLOPE_X && chosen.kappa < KAPPA_SLOPE_MAX)
         {
@@ -770,26 +740,7 @@ impl Inverter {
     /// when the guess is within [`NEWTON_LAST`], which it is away from the
     /// ends of a branch.
     fn root(&self, d: f32, i0: usize, i1: usize) -> Result<Root, InvertError> {
-        let up = self.d[i1] >= self.d[i0];
-        // Bracketing cell by bisection over the grid (no model evaluations).
-        let (mut a, mut b) = (i0, i1);
-        while b - a > 1 {
-            let m = (a + b) / 2;
-            if (self.d[m] < d) == up {
-                a = m;
-            } else {
-                b = m;
-            }
-        }
-        let mut u = if i1 - i0 >= 3 {
-            // The four grid points around the cell, inside the branch.
-            let k = a.saturating_sub(1).max(i0).min(i1 - 3);
-            let u = [self.u(k), self.u(k + 1), self.u(k + 2), self.u(k + 3)];
-            cubic_through(d, &self.d[k..k + 4], &u)
-        } else {
-            // Too short a branch for a cubic: the falsi below.
-            f32::NAN
-        };
+        let (a, b, mut u) = self.start(d, i0, i1);
         // The bracket in u, g = D − d of opposite signs at its ends.
         let (mut ua, mut ga, mut ub, mut gb) = (self.u(a), self.d[a] - d, self.u(b), self.d[b] - d);
         let falsi = |ua: f32, ga: f32, ub: f32, gb: f32| ua - ga * (ub - ua) / (gb - ga);
@@ -812,23 +763,7 @@ impl Inverter {
             let dg = (zeta.re * s.im - s.re * zeta.im) / (zeta.im * zeta.im);
             let step = -g / dg;
             if libm::fabsf(step) <= NEWTON_LAST {
-                // Along the slope: x·e^step and ζ + ζ'·step, to step².
-                let x = min(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
-                let zeta = zeta + s * step;
-                // The continuous line's slope follows from ζ: κ at the
-                // root itself (near the peak of D, κ moves by 10⁻³ over
-                // such a step).
-                let s = match self.model {
-                    LineModel::Continuous => {
-                        self.continuous_slope(Complex32::new(zeta.re - self.lead * x, zeta.im), x)
-                    }
-                    LineModel::Ladder(_) => s,
-                };
-                return Ok(Root {
-                    x,
-                    zeta,
-                    kappa: kappa_of(zeta, s),
-                });
+                return Ok(self.last_step(x, zeta, s, step));
             }
             if g.abs() < best_g {
                 best_g = g.abs();
@@ -854,6 +789,52 @@ impl Inverter {
             };
         }
         Ok(best)
+    }
+
+    /// Where [`Self::root`] starts on the branch of grid points `i0..=i1`:
+    /// the grid cell `a..=b` whose D brackets `d` (by bisection, no model
+    /// evaluations) and the guess in ln x, the cubic through the four
+    /// grid points around the cell inside the branch (NaN on a branch too
+    /// short for one: the caller's falsi).
+    fn start(&self, d: f32, i0: usize, i1: usize) -> (usize, usize, f32) {
+        let up = self.d[i1] >= self.d[i0];
+        let (mut a, mut b) = (i0, i1);
+        while b - a > 1 {
+            let m = (a + b) / 2;
+            if (self.d[m] < d) == up {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        let u = if i1 - i0 >= 3 {
+            let k = a.saturating_sub(1).max(i0).min(i1 - 3);
+            let u = [self.u(k), self.u(k + 1), self.u(k + 2), self.u(k + 3)];
+            cubic_through(d, &self.d[k..k + 4], &u)
+        } else {
+            f32::NAN
+        };
+        (a, b, u)
+    }
+
+    /// [`Self::root`]'s last Newton step, along the slope: x·e^step and
+    /// ζ + ζ'·step, to step², from the line at `x` (`zeta`, its slope
+    /// `s`). The continuous line's slope follows from ζ: κ at the root
+    /// itself (near the peak of D, κ moves by 10⁻³ over such a step).
+    fn last_step(&self, x: f32, zeta: Complex32, s: Complex32, step: f32) -> Root {
+        let x = min(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
+        let zeta = zeta + s * step;
+        let s = match self.model {
+            LineModel::Continuous => {
+                self.continuous_slope(Complex32::new(zeta.re - self.lead * x, zeta.im), x)
+            }
+            LineModel::Ladder(_) => s,
+        };
+        Root {
+            x,
+            zeta,
+            kappa: kappa_of(zeta, s),
+        }
     }
 }
 
@@ -882,6 +863,87 @@ fn cubic_through(d: f32, ds: &[f32], us: &[f32]) -> f32 {
     u0 * (e1 * e2 * e3) / (d01 * d02 * d03) - u1 * (e0 * e2 * e3) / (d01 * d12 * d13)
         + u2 * (e0 * e1 * e3) / (d02 * d12 * d23)
         - u3 * (e0 * e1 * e2) / (d03 * d13 * d23)
+}
+
+/// Which lines fit a reading's D ([`Inverter::fits`]).
+struct Fits {
+    /// The small-x asymptote.
+    small: bool,
+    /// Each resolved branch.
+    inside: [bool; BRANCHES],
+    /// How many of those: the asymptote and the branches.
+    n: usize,
+    /// The flat tail beyond the range.
+    tail: bool,
+}
+
+/// A frequency and an impedance an inversion can take: f finite and
+/// positive, Z finite and capacitive (Re ≥ 0, Im < 0), and a prior of
+/// positive finite capacitances in order.
+fn check_inputs(z: Complex32, f_hz: f32, hint: Select) -> Result<(), InvertError> {
+    if !positive_finite(f_hz) {
+        return Err(InvertError::BadFrequency);
+    }
+    if !(z.re.is_finite() && z.im.is_finite() && z.re >= 0.0 && z.im < 0.0) {
+        return Err(InvertError::NotCapacitive);
+    }
+    let good = positive_finite;
+    match hint {
+        Select::Near(c) if !good(c) => Err(InvertError::BadPrior),
+        Select::Within(lo, hi) if !(good(lo) && good(hi) && lo <= hi) => Err(InvertError::BadPrior),
+        _ => Ok(()),
+    }
+}
+
+/// The line `hint` picks of `lines` (at least one), where `one` says a
+/// single line fits and `tail_c` is the least C of the tail's lines, if
+/// they fit too.
+fn choose(hint: Select, lines: &[Option<Line>], one: bool, tail_c: Option<f32>) -> Result<Line, InvertError> {
+    let mut rest = lines.iter().flatten();
+    let Some(&first) = rest.next() else {
+        return Err(InvertError::OutOfRange);
+    };
+    match hint {
+        _ if one => Ok(first),
+        Select::Within(lo, hi) => {
+            let inside = |c: f32| c >= lo && c <= hi;
+            let mut picked = inside(first.c_farad).then_some(first);
+            for l in rest.filter(|l| inside(l.c_farad)) {
+                if picked.is_some() {
+                    return Err(InvertError::Ambiguous);
+                }
+                picked = Some(*l);
+            }
+            if tail_c.is_some_and(|ct| ct <= hi) {
+                return Err(InvertError::Ambiguous);
+            }
+            picked.ok_or(InvertError::OutOfRange)
+        }
+        Select::Unique => Err(InvertError::Ambiguous),
+        Select::Near(c) => {
+            let dist = |l: &Line| libm::fabsf(libm::logf(l.c_farad / c));
+            let (mut best, mut d_best, mut d_next) = (first, dist(&first), f32::INFINITY);
+            for l in rest {
+                let dl = dist(l);
+                if dl < d_best {
+                    (best, d_next, d_best) = (*l, d_best, dl);
+                } else {
+                    // (A NaN dl leaves d_next, as min would.)
+                    d_next = min(d_next, dl);
+                }
+            }
+            // The tail's lines: the closest of them to the prior.
+            if let Some(ct) = tail_c {
+                d_next = min(d_next, max(libm::logf(ct / c), 0.0));
+            }
+            // NaN distances (a non-finite C) never pass.
+            let gap = d_next - d_best;
+            if gap.is_nan() || gap < SEPARATION {
+                return Err(InvertError::Ambiguous);
+            }
+            Ok(best)
+        }
+    }
 }
 
 /// A root of D(x) = d.
