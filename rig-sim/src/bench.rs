@@ -10,6 +10,7 @@
 use crate::meter::{Dynamics, Exponential, Meter, SAMPLE_S};
 use crate::motion::Cycle;
 use crate::sensor::{series_c, Effects, Sensor, State};
+use num_complex::Complex64;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -56,6 +57,137 @@ pub struct Bench {
     pub row_s: f64,
     /// Seed of the noise.
     pub seed: u64,
+}
+
+/// A trace's rows on the meter's sample grid.
+struct Grid {
+    /// The first sample the meter takes, s.
+    t0: f64,
+    /// Samples per row.
+    step: usize,
+    /// The row interval, s (`step` samples).
+    row_s: f64,
+    /// How many rows.
+    rows: usize,
+    /// The meter's time offset of a reading from its row, s.
+    offset: f64,
+}
+
+impl Grid {
+    /// Row k's time stamp, s.
+    fn time(&self, k: usize) -> f64 {
+        k as f64 * self.row_s
+    }
+
+    /// Each row's reading through the meter's `dynamics`, from its
+    /// samples `z_at(t)`.
+    fn readings(&self, dynamics: Dynamics, z_at: &dyn Fn(f64) -> Complex64) -> Vec<Complex64> {
+        match dynamics {
+            Dynamics::Instant => (0..self.rows).map(|k| z_at(self.time(k) + self.offset)).collect(),
+            Dynamics::Window { length_s, centred } => self.window(length_s, centred, z_at),
+            Dynamics::FirstOrder { tau_s } => self.first_order(tau_s, z_at),
+            Dynamics::Cascade { tau_s, sections } => self.cascade(tau_s, sections, z_at),
+            Dynamics::MovingMean { .. } | Dynamics::Ewma { .. } => self.discrete(dynamics, z_at),
+        }
+    }
+
+    /// n samples over `length_s` ending at the row's time (trailing) or
+    /// centred on it; the rows' windows overlap, so the samples are
+    /// taken once and summed by prefix sums.
+    fn window(&self, length_s: f64, centred: bool, z_at: &dyn Fn(f64) -> Complex64) -> Vec<Complex64> {
+        let n = ((length_s / SAMPLE_S).round() as usize).max(1);
+        let shift = if centred { 0.5 * (n - 1) as f64 } else { 0.0 };
+        let first = self.offset + (shift - (n - 1) as f64) * SAMPLE_S;
+        let m = (self.rows - 1) * self.step + n;
+        let mut prefix = Vec::with_capacity(m + 1);
+        let mut acc = Complex64::default();
+        prefix.push(acc);
+        for i in 0..m {
+            acc += z_at(first + i as f64 * SAMPLE_S);
+            prefix.push(acc);
+        }
+        (0..self.rows)
+            .map(|k| (prefix[k * self.step + n] - prefix[k * self.step]) / n as f64)
+            .collect()
+    }
+
+    /// A first-order average of time constant `tau_s` along the meter's
+    /// samples; each row takes the average at the sample just before its
+    /// time, advanced over the remaining fraction of a sample.
+    fn first_order(&self, tau_s: f64, z_at: &dyn Fn(f64) -> Complex64) -> Vec<Complex64> {
+        let mut avg = Exponential::new(tau_s);
+        let mut out = Vec::with_capacity(self.rows);
+        let mut t = self.t0;
+        let mut y = avg.update(z_at(t));
+        for k in 0..self.rows {
+            let target = self.time(k) + self.offset;
+            while t + SAMPLE_S <= target {
+                t += SAMPLE_S;
+                y = avg.update(z_at(t));
+            }
+            let frac = (target - t) / SAMPLE_S;
+            let decay = (-(target - t) / tau_s).exp();
+            let zt = z_at(target);
+            out.push(if frac > 0.0 { zt + (y - zt) * decay } else { y });
+        }
+        out
+    }
+
+    /// `sections` first-order averages of time constant `tau_s` in
+    /// series, each averaging the one before it sample by sample; a row
+    /// takes the sections at the sample just before its time, each
+    /// advanced over the remaining fraction of a sample towards its
+    /// input there.
+    fn cascade(&self, tau_s: f64, sections: usize, z_at: &dyn Fn(f64) -> Complex64) -> Vec<Complex64> {
+        let mut avgs: Vec<Exponential> = (0..sections.max(1)).map(|_| Exponential::new(tau_s)).collect();
+        let run = |avgs: &mut Vec<Exponential>, z: Complex64| avgs.iter_mut().fold(z, |x, a| a.update(x));
+        let mut out = Vec::with_capacity(self.rows);
+        let mut t = self.t0;
+        run(&mut avgs, z_at(t));
+        for k in 0..self.rows {
+            let target = self.time(k) + self.offset;
+            while t + SAMPLE_S <= target {
+                t += SAMPLE_S;
+                run(&mut avgs, z_at(t));
+            }
+            let decay = (-(target - t) / tau_s).exp();
+            let y = avgs.iter().fold(z_at(target), |x, a| x + (a.value() - x) * decay);
+            out.push(y);
+        }
+        out
+    }
+
+    /// One reading per row at the row's time, from `back` rows before
+    /// the first; row k reads the kernel over the readings up to
+    /// k − delay.
+    fn discrete(&self, dynamics: Dynamics, z_at: &dyn Fn(f64) -> Complex64) -> Vec<Complex64> {
+        let back = dynamics.rows_back();
+        let reading = |j: usize| z_at((j as f64 - back as f64) * self.row_s + self.offset);
+        let inst: Vec<Complex64> = (0..self.rows + back).map(reading).collect();
+        match dynamics {
+            Dynamics::MovingMean { readings, delay } => {
+                let n = readings.max(1);
+                (0..self.rows)
+                    .map(|k| {
+                        let last = k + back - delay;
+                        inst[last + 1 - n..=last].iter().sum::<Complex64>() / n as f64
+                    })
+                    .collect()
+            }
+            Dynamics::Ewma { weight, delay } => {
+                let mut y = inst[0];
+                let filtered: Vec<Complex64> = inst
+                    .iter()
+                    .map(|&x| {
+                        y = x * weight + y * (1.0 - weight);
+                        y
+                    })
+                    .collect();
+                (0..self.rows).map(|k| filtered[k + back - delay]).collect()
+            }
+            _ => unreachable!("a discrete kernel"),
+        }
+    }
 }
 
 impl Bench {
@@ -141,11 +273,9 @@ fn round(v: f64, decimals: i32) -> f64 {
 }
 
 impl Bench {
-    /// A trace of `cycle` at `freq_hz`.
-    ///
-    /// One function of about 90 lines on purpose: the film's damage, the
-    /// meter's dynamics and its noise act on the same millisecond samples
-    /// in one loop, the order a bench's instruments see them in.
+    /// A trace of `cycle` at `freq_hz`: the film's damage, the meter's
+    /// dynamics and its noise act on the same millisecond samples, in the
+    /// order a bench's instruments see them.
     pub fn trace(&self, cycle: &Cycle, freq_hz: f64, rng: &mut ChaCha8Rng) -> Vec<Row> {
         let (before, after) = self.meter.reach(self.row_s);
         let t_end = cycle.duration_s();
@@ -157,125 +287,30 @@ impl Bench {
         };
         let fx = &self.effects;
         // A sample of the meter: (Cs pF, Rs Ω) as a complex pair, so the
-        // averages below run on the readings themselves.
+        // averages run on the readings themselves.
         let z_at = |t: f64| {
             let z = self.sensor.read(fx, state(t), freq_hz).z;
-            num_complex::Complex64::new(series_c(z, freq_hz) * 1e12, z.re)
+            Complex64::new(series_c(z, freq_hz) * 1e12, z.re)
         };
         // Rows on the meter's sample grid (the row interval rounded to
         // whole samples).
         let step = ((self.row_s / SAMPLE_S).round() as usize).max(1);
-        let row_s = step as f64 * SAMPLE_S;
-        let rows = (t_end / row_s).floor() as usize + 1;
-        let stamps: Vec<f64> = (0..rows).map(|k| k as f64 * row_s).collect();
-        let offset = self.meter.offset_s;
-        let readings: Vec<num_complex::Complex64> = match self.meter.dynamics {
-            Dynamics::Instant => stamps.iter().map(|&t| z_at(t + offset)).collect(),
-            Dynamics::Window { length_s, centred } => {
-                // n samples ending at the row's time (trailing) or centred
-                // on it; the rows' windows overlap, so the samples are
-                // taken once and summed by prefix sums.
-                let n = ((length_s / SAMPLE_S).round() as usize).max(1);
-                let shift = if centred { 0.5 * (n - 1) as f64 } else { 0.0 };
-                let first = offset + (shift - (n - 1) as f64) * SAMPLE_S;
-                let m = (rows - 1) * step + n;
-                let mut prefix = Vec::with_capacity(m + 1);
-                let mut acc = num_complex::Complex64::default();
-                prefix.push(acc);
-                for i in 0..m {
-                    acc += z_at(first + i as f64 * SAMPLE_S);
-                    prefix.push(acc);
-                }
-                (0..rows)
-                    .map(|k| (prefix[k * step + n] - prefix[k * step]) / n as f64)
-                    .collect()
-            }
-            Dynamics::FirstOrder { tau_s } => {
-                // Run the average along the meter's samples; each row
-                // takes the average at the sample just before its time,
-                // advanced over the remaining fraction of a sample.
-                let mut avg = Exponential::new(tau_s);
-                let mut out = Vec::with_capacity(rows);
-                let mut t = t0;
-                let mut y = avg.update(z_at(t));
-                for &s in &stamps {
-                    let target = s + offset;
-                    while t + SAMPLE_S <= target {
-                        t += SAMPLE_S;
-                        y = avg.update(z_at(t));
-                    }
-                    let frac = (target - t) / SAMPLE_S;
-                    let decay = (-(target - t) / tau_s).exp();
-                    let zt = z_at(target);
-                    out.push(if frac > 0.0 { zt + (y - zt) * decay } else { y });
-                }
-                out
-            }
-            Dynamics::Cascade { tau_s, sections } => {
-                // Each section averages the one before it, sample by
-                // sample; a row takes the sections at the sample just
-                // before its time, each advanced over the remaining
-                // fraction of a sample towards its input there.
-                let mut avgs: Vec<Exponential> =
-                    (0..sections.max(1)).map(|_| Exponential::new(tau_s)).collect();
-                let run = |avgs: &mut Vec<Exponential>, z: num_complex::Complex64| {
-                    avgs.iter_mut().fold(z, |x, a| a.update(x))
-                };
-                let mut out = Vec::with_capacity(rows);
-                let mut t = t0;
-                run(&mut avgs, z_at(t));
-                for &s in &stamps {
-                    let target = s + offset;
-                    while t + SAMPLE_S <= target {
-                        t += SAMPLE_S;
-                        run(&mut avgs, z_at(t));
-                    }
-                    let decay = (-(target - t) / tau_s).exp();
-                    let y = avgs.iter().fold(z_at(target), |x, a| x + (a.value() - x) * decay);
-                    out.push(y);
-                }
-                out
-            }
-            Dynamics::MovingMean { .. } | Dynamics::Ewma { .. } => {
-                // One reading per row at the row's time, from `back`
-                // rows before the first; row k reads the kernel over the
-                // readings up to k − delay.
-                let back = self.meter.dynamics.rows_back();
-                let reading = |j: usize| z_at((j as f64 - back as f64) * row_s + offset);
-                let inst: Vec<num_complex::Complex64> = (0..rows + back).map(reading).collect();
-                match self.meter.dynamics {
-                    Dynamics::MovingMean { readings, delay } => {
-                        let n = readings.max(1);
-                        (0..rows)
-                            .map(|k| {
-                                let last = k + back - delay;
-                                inst[last + 1 - n..=last].iter().sum::<num_complex::Complex64>() / n as f64
-                            })
-                            .collect()
-                    }
-                    Dynamics::Ewma { weight, delay } => {
-                        let mut y = inst[0];
-                        let filtered: Vec<num_complex::Complex64> = inst
-                            .iter()
-                            .map(|&x| {
-                                y = x * weight + y * (1.0 - weight);
-                                y
-                            })
-                            .collect();
-                        (0..rows).map(|k| filtered[k + back - delay]).collect()
-                    }
-                    _ => unreachable!("a discrete kernel"),
-                }
-            }
+        let grid = Grid {
+            t0,
+            step,
+            row_s: step as f64 * SAMPLE_S,
+            rows: (t_end / (step as f64 * SAMPLE_S)).floor() as usize + 1,
+            offset: self.meter.offset_s,
         };
+        let readings = grid.readings(self.meter.dynamics, &z_at);
         let noise = self.meter.noise;
         let unit = Normal::new(0.0, 1.0).expect("unit normal");
         let mut drift = noise.drift_pf * unit.sample(rng);
         let innov = (1.0 - noise.drift_rho * noise.drift_rho).sqrt();
-        stamps
-            .iter()
+        (0..grid.rows)
+            .map(|k| grid.time(k))
             .zip(readings)
-            .map(|(&t, z)| {
+            .map(|(t, z)| {
                 let truth = self.sensor.read(fx, state(t), freq_hz);
                 let cs = z.re;
                 drift = noise.drift_rho * drift + innov * noise.drift_pf * unit.sample(rng);
