@@ -172,51 +172,35 @@ impl Family {
     /// window, negative when centred; for a discrete meter, its kernel's
     /// centroid at the bench's 20 ms rows, s).
     pub fn draw(self, rng: &mut impl Rng) -> (Effects, Meter, f64) {
-        let log = |rng: &mut dyn rand::RngCore, lo: f64, hi: f64| lo * (hi / lo).powf(rng.gen::<f64>());
-        let sign = |rng: &mut dyn rand::RngCore| if rng.gen::<bool>() { 1.0 } else { -1.0 };
         let mut fx = Effects::default();
         let mut meter = Meter::BENCH;
+        let v = match self.draw_meter(rng, &mut meter) {
+            Some(v) => v,
+            None => self.draw_effects(rng, &mut fx),
+        };
+        (fx, meter, v)
+    }
+
+    /// [`Self::draw`] for a family of the meter's: its value, `None`
+    /// for a family of the sensor's effects.
+    fn draw_meter(self, rng: &mut impl Rng, meter: &mut Meter) -> Option<f64> {
         let v;
         match self {
-            Family::Contact => {
-                v = log(rng, 1e3, 3e6);
-                fx.contact_ohm = v;
-            }
-            Family::Parasitic => {
-                v = log(rng, 0.3e-12, 40e-12);
-                fx.parasitic_f = v;
-            }
-            Family::ResistanceProfile => {
-                v = sign(rng) * log(rng, 0.1, 3.0);
-                fx.resistance_kappa = v;
-            }
-            Family::StretchTilt => {
-                v = sign(rng) * log(rng, 0.1, 2.5);
-                fx.stretch_kappa = v;
-            }
-            Family::StretchBulge => {
-                v = sign(rng) * log(rng, 0.05, 0.9);
-                fx.stretch_bulge = v;
-            }
-            Family::Leakage => {
-                v = log(rng, 2e-9, 300e-9);
-                fx.leakage_s = v;
-            }
             Family::Window => {
                 // One sample to seconds: as far as the bench's shortest
                 // trace (21.6 s) holds a window (a fifth of it left out:
                 // offsets and windows to 1.44 s).
-                let length_s = log(rng, 0.02, 1.4);
+                let length_s = log_uniform(rng, 0.02, 1.4);
                 let centred = rng.gen::<bool>();
                 meter.dynamics = Dynamics::Window { length_s, centred };
                 v = if centred { -length_s } else { length_s };
             }
             Family::FirstOrder => {
-                v = log(rng, 0.01, 0.7);
+                v = log_uniform(rng, 0.01, 0.7);
                 meter.dynamics = Dynamics::FirstOrder { tau_s: v };
             }
             Family::Cascade => {
-                v = log(rng, 5e-3, 0.15);
+                v = log_uniform(rng, 5e-3, 0.15);
                 meter.dynamics = Dynamics::Cascade {
                     tau_s: v,
                     sections: rng.gen_range(2..=4),
@@ -231,31 +215,64 @@ impl Family {
             }
             Family::Ewma => {
                 meter.dynamics = Dynamics::Ewma {
-                    weight: log(rng, 0.05, 0.7),
+                    weight: log_uniform(rng, 0.05, 0.7),
                     delay: rng.gen_range(0..=3),
                 };
                 v = meter.dynamics.centroid_s(ROW_S);
             }
             Family::Offset => {
-                v = sign(rng) * log(rng, 5e-3, 1.4);
+                v = random_sign(rng) * log_uniform(rng, 5e-3, 1.4);
                 meter.offset_s = v;
+            }
+            _ => return None,
+        }
+        Some(v)
+    }
+
+    /// [`Self::draw`] for a family of the sensor's effects: its value.
+    fn draw_effects(self, rng: &mut impl Rng, fx: &mut Effects) -> f64 {
+        let v;
+        match self {
+            Family::Contact => {
+                v = log_uniform(rng, 1e3, 3e6);
+                fx.contact_ohm = v;
+            }
+            Family::Parasitic => {
+                v = log_uniform(rng, 0.3e-12, 40e-12);
+                fx.parasitic_f = v;
+            }
+            Family::ResistanceProfile => {
+                v = random_sign(rng) * log_uniform(rng, 0.1, 3.0);
+                fx.resistance_kappa = v;
+            }
+            Family::StretchTilt => {
+                v = random_sign(rng) * log_uniform(rng, 0.1, 2.5);
+                fx.stretch_kappa = v;
+            }
+            Family::StretchBulge => {
+                v = random_sign(rng) * log_uniform(rng, 0.05, 0.9);
+                fx.stretch_bulge = v;
+            }
+            Family::Leakage => {
+                v = log_uniform(rng, 2e-9, 300e-9);
+                fx.leakage_s = v;
             }
             Family::Leads => {
                 v = rng.gen_range(0.05..0.8);
                 fx.lead_fraction = v;
             }
             Family::FilmDispersion => {
-                v = log(rng, 2e-6, 300e-6);
+                v = log_uniform(rng, 2e-6, 300e-6);
                 fx.film_tau_s = v;
             }
             Family::StretchBump | Family::ResistanceBump => {
                 let up = if self == Family::StretchBump { 2.0 } else { 6.0 };
                 v = if rng.gen::<bool>() {
-                    log(rng, 0.2, up)
+                    log_uniform(rng, 0.2, up)
                 } else {
-                    -log(rng, 0.2, 0.8)
+                    -log_uniform(rng, 0.2, 0.8)
                 };
-                let (centre, width) = (rng.gen_range(0.1..0.9), log(rng, 0.25, 1.0));
+                let (centre, width) = (rng.gen_range(0.1..0.9), log_uniform(rng, 0.25, 1.0));
                 let bump = Bump {
                     amplitude: v,
                     start: centre - 0.5 * width,
@@ -271,17 +288,32 @@ impl Family {
                 v = rng.gen_range(0.01..0.06);
                 fx.dielectric = ColeCole {
                     delta: v,
-                    tau_s: 1.0 / (2.0 * std::f64::consts::PI * log(rng, 800.0, 4000.0)),
+                    tau_s: 1.0 / (2.0 * std::f64::consts::PI * log_uniform(rng, 800.0, 4000.0)),
                     alpha: 0.7,
                 };
             }
             Family::BlockingContact => {
-                v = log(rng, 2e-9, 20e-9);
-                fx.contact_ohm = log(rng, 50e3, 500e3);
+                v = log_uniform(rng, 2e-9, 20e-9);
+                fx.contact_ohm = log_uniform(rng, 50e3, 500e3);
                 fx.contact_cap_f = v;
             }
+            _ => unreachable!("a family of the meter's"),
         }
-        (fx, meter, v)
+        v
+    }
+}
+
+/// A draw log-uniform between `lo` and `hi`.
+fn log_uniform(rng: &mut impl Rng, lo: f64, hi: f64) -> f64 {
+    lo * (hi / lo).powf(rng.gen::<f64>())
+}
+
+/// +1 or −1, evenly.
+fn random_sign(rng: &mut impl Rng) -> f64 {
+    if rng.gen::<bool>() {
+        1.0
+    } else {
+        -1.0
     }
 }
 
