@@ -122,9 +122,46 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     // 1. Before, on a thread of its own while the calibration runs.
     let before = std::thread::spawn(|| crate::records::run_array_args(&["skin"]));
     // 2. The calibration, over the link.
+    let done = calibrate_over_link(&elf, &flash_arg, dir)?;
+    let report = cal::report(&done.holds, &done.outcomes);
+    // 3. After: a restart on the same flash.
+    let (run, after) = crate::records::run_array_args(&["skin", &flash_arg])?;
+    let run = run.ok()?;
+    let want = format!(
+        "settings: generation {} digest {:#010x}",
+        done.generation,
+        Digest::of(&done.set)
+    );
+    let came_back = run.stdout.lines().any(|l| l.starts_with(&want));
+    let (before_run, before) = before
+        .join()
+        .map_err(|_| anyhow::anyhow!("the before run panicked"))??;
+    before_run.ok()?;
+    let sensors = (0..instrument::array::SENSORS as u8)
+        .map(|s| sensor_figures(s, &before, &after))
+        .collect();
+    Ok(Workflow {
+        holds: done.holds,
+        report,
+        set: done.set,
+        generation: done.generation,
+        came_back,
+        outcomes: done.outcomes,
+        sensors,
+        after,
+        stream: done.stream,
+        sweeps: done.sweeps,
+    })
+}
+
+/// Step 2: the device, nothing stored, on the stairs (`elf` with its
+/// flash argument `flash_arg`), calibrated over the link by a guided
+/// `live calibrate` that stops it; its log (kept in `dir` for a run that
+/// goes wrong) in the error.
+fn calibrate_over_link(elf: &Path, flash_arg: &str, dir: &Path) -> Result<cal::Done> {
     let holds = stairs_holds();
     let log = dir.join("calibration-run.defmt");
-    let (mut qemu, sock) = crate::connect_qemu_tcp_logged(&elf, &["stairs", &flash_arg, "until-stop"], &log)?;
+    let (mut qemu, sock) = crate::connect_qemu_tcp_logged(elf, &["stairs", flash_arg, "until-stop"], &log)?;
     // Guided, as a user on a stage that keeps to the stairs' schedule:
     // each hold begins when the stairs reach its stretch.
     let guide = cal::Guide {
@@ -160,7 +197,7 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     // What the device said, for a run that went wrong.
     let said = || {
         let raw = std::fs::read(&log).unwrap_or_default();
-        let lines = host_sim::recording::decode_defmt(&elf, &raw).unwrap_or_default();
+        let lines = host_sim::recording::decode_defmt(elf, &raw).unwrap_or_default();
         let tail: Vec<String> = lines
             .iter()
             .rev()
@@ -183,73 +220,48 @@ pub fn run(dir: &Path) -> Result<Workflow> {
     }
     let _ = std::fs::remove_file(&log);
     let _ = std::fs::remove_file(log.with_extension("err"));
-    let report = cal::report(&done.holds, &done.outcomes);
-    // 3. After: a restart on the same flash.
-    let (run, after) = crate::records::run_array_args(&["skin", &flash_arg])?;
-    let run = run.ok()?;
-    let want = format!(
-        "settings: generation {} digest {:#010x}",
-        done.generation,
-        Digest::of(&done.set)
-    );
-    let came_back = run.stdout.lines().any(|l| l.starts_with(&want));
-    let (before_run, before) = before
-        .join()
-        .map_err(|_| anyhow::anyhow!("the before run panicked"))??;
-    before_run.ok()?;
-    let mut sensors = vec![];
-    for s in 0..instrument::array::SENSORS as u8 {
-        let b = judged(&before, s);
-        let a = judged(&after, s);
-        let err =
-            |r: &&LoggedToneRecord| r.rec.stretch_mm as f64 - r.truth.map_or(f64::NAN, |t| t.stretch_mm);
-        let before_all: Vec<f64> = b.iter().filter(|r| r.rec.c_farad > 0.0).map(err).collect();
-        let after_valid: Vec<f64> = a
-            .iter()
-            .filter(|r| r.rec.flags.stretch_valid())
-            .map(err)
-            .collect();
-        let (mut still, mut moving) = (vec![], vec![]);
-        for p in a.windows(2) {
-            if p[1].rec.flags.stretch_valid() {
-                let held = p[1].truth.map(|t| t.stretch_mm) == p[0].truth.map(|t| t.stretch_mm);
-                if held { &mut still } else { &mut moving }.push(err(&p[1]));
-            }
+    Ok(done)
+}
+
+/// Sensor `s`'s figures from the records `before` and `after`.
+fn sensor_figures(s: u8, before: &[LoggedToneRecord], after: &[LoggedToneRecord]) -> SensorFigures {
+    let b = judged(before, s);
+    let a = judged(after, s);
+    let err = |r: &&LoggedToneRecord| r.rec.stretch_mm as f64 - r.truth.map_or(f64::NAN, |t| t.stretch_mm);
+    let before_all: Vec<f64> = b.iter().filter(|r| r.rec.c_farad > 0.0).map(err).collect();
+    let after_valid: Vec<f64> = a
+        .iter()
+        .filter(|r| r.rec.flags.stretch_valid())
+        .map(err)
+        .collect();
+    let (mut still, mut moving) = (vec![], vec![]);
+    for p in a.windows(2) {
+        if p[1].rec.flags.stretch_valid() {
+            let held = p[1].truth.map(|t| t.stretch_mm) == p[0].truth.map(|t| t.stretch_mm);
+            if held { &mut still } else { &mut moving }.push(err(&p[1]));
         }
-        let z: Vec<f64> = a
-            .iter()
-            .filter(|r| r.rec.flags.stretch_valid())
-            .filter_map(|r| Some(r.c_error()? / r.rec.sigma_ln_c as f64))
-            .collect();
-        let (after_mm, after_max_mm, _) = rms_max(after_valid.iter().copied());
-        sensors.push(SensorFigures {
-            sensor: s,
-            before_all_mm: rms_max(before_all).0,
-            before_valid: (b.iter().filter(|r| r.rec.flags.stretch_valid()).count(), b.len()),
-            after_mm,
-            after_max_mm,
-            after_mean_mm: after_valid.iter().sum::<f64>() / after_valid.len().max(1) as f64,
-            after_still_moving_mm: (rms_max(still).0, rms_max(moving).0),
-            after_z_rms: rms_max(z).0,
-            after_valid: (after_valid.len(), a.len()),
-            c_off: (
-                b.iter().filter(|r| c_off(r)).count(),
-                a.iter().filter(|r| c_off(r)).count(),
-            ),
-        });
     }
-    Ok(Workflow {
-        holds: done.holds,
-        report,
-        set: done.set,
-        generation: done.generation,
-        came_back,
-        outcomes: done.outcomes,
-        sensors,
-        after,
-        stream: done.stream,
-        sweeps: done.sweeps,
-    })
+    let z: Vec<f64> = a
+        .iter()
+        .filter(|r| r.rec.flags.stretch_valid())
+        .filter_map(|r| Some(r.c_error()? / r.rec.sigma_ln_c as f64))
+        .collect();
+    let (after_mm, after_max_mm, _) = rms_max(after_valid.iter().copied());
+    SensorFigures {
+        sensor: s,
+        before_all_mm: rms_max(before_all).0,
+        before_valid: (b.iter().filter(|r| r.rec.flags.stretch_valid()).count(), b.len()),
+        after_mm,
+        after_max_mm,
+        after_mean_mm: after_valid.iter().sum::<f64>() / after_valid.len().max(1) as f64,
+        after_still_moving_mm: (rms_max(still).0, rms_max(moving).0),
+        after_z_rms: rms_max(z).0,
+        after_valid: (after_valid.len(), a.len()),
+        c_off: (
+            b.iter().filter(|r| c_off(r)).count(),
+            a.iter().filter(|r| c_off(r)).count(),
+        ),
+    }
 }
 
 impl Workflow {
