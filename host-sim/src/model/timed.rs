@@ -71,18 +71,14 @@ impl std::fmt::Display for Averaging {
 /// piecewise-linear samples for τ); with an offset alone, the model at
 /// t + δ directly.
 ///
-/// About 90 lines on purpose: the grid, its spacing and its node map are
-/// shared by the instant, windowed and first-order paths; the parts that
-/// stand alone ([`cumulative`], [`first_order`]) are functions of their
-/// own.
+/// The grid, its spacing and its node map ([`Grid`]) are shared by the
+/// windowed and first-order paths.
 pub(super) fn timed(
     file: &File,
     p: &Params,
     averaging: Averaging,
     at: impl Fn(f64, f64, f64) -> Option<Complex64>,
 ) -> Vec<f64> {
-    let n = file.t.len();
-    let (t0, t1) = (file.t[0], file.t[n - 1]);
     let window = p.get(Effect::MeterLag);
     let tau = p.get(Effect::MeterResponse);
     let order = p.get(Effect::MeterOrder);
@@ -105,12 +101,12 @@ pub(super) fn timed(
         Averaging::Admittance => Model::series(y.inv(), f) * 1e12,
         Averaging::Readings => y.re * 1e12,
     };
+    let y_at = |x: f64| {
+        let (r, s) = inputs(x);
+        at(r, s, f).map_or(nan, sample)
+    };
     let (mean_n, memory) = (p.get(Effect::MeterMean), p.get(Effect::MeterEwma));
     if mean_n > 0.0 || memory > 0.0 {
-        let y_at = |x: f64| {
-            let (r, s) = inputs(x);
-            at(r, s, f).map_or(nan, sample)
-        };
         return discrete(file, offset, mean_n, memory, y_at, reading);
     }
     if window <= 1e-9 && tau <= 1e-9 {
@@ -124,58 +120,108 @@ pub(super) fn timed(
             })
             .collect();
     }
-    // Eight grid steps per row, but at most MAX_GRID points over the span
-    // (rows packed closer than the kernel needs are over-resolved anyway).
-    // With both kernels the window's own reach comes first.
-    let reach = window.max(0.0) * if tau > 1e-9 { 2.0 } else { 1.0 };
-    let span = t1 - t0 + reach + offset.abs();
-    let h = ((t1 - t0) / ((n - 1).max(1) as f64 * 8.0)).max(span / MAX_GRID as f64);
-    let (lo, hi) = (t0 - reach + offset.min(0.0) - h, t1 + offset.max(0.0) + h);
-    let m = ((hi - lo) / h).ceil() as usize + 1;
-    let grid: Vec<Complex64> = (0..m)
-        .map(|j| {
-            let (r, s) = inputs(lo + j as f64 * h);
-            at(r, s, f).map_or(nan, sample)
-        })
-        .collect();
-    // The sample at x, linear between grid nodes.
-    let node = |x: f64| -> (usize, f64) {
-        let u = ((x - lo) / h).clamp(0.0, (m - 1) as f64);
+    let grid = Grid::new(file, window, tau, offset, y_at);
+    if window > 1e-9 {
+        return windowed(file, &grid, window, (tau, order), offset, reading);
+    }
+    first_order(
+        &grid.y,
+        (tau, order),
+        grid.h,
+        |x| grid.node(x),
+        file,
+        offset,
+        reading,
+    )
+}
+
+/// The averaged quantity on a uniform grid of time around a trace.
+struct Grid {
+    /// The first node's time, s.
+    lo: f64,
+    /// The spacing, s.
+    h: f64,
+    /// The samples at the nodes.
+    y: Vec<Complex64>,
+}
+
+impl Grid {
+    /// Eight grid steps per row of `file`, but at most [`MAX_GRID`]
+    /// points over the span (rows packed closer than the kernel needs
+    /// are over-resolved anyway), reaching back as far as the kernels
+    /// (`window`, then `tau`) and `offset` need; the samples `y_at`.
+    /// With both kernels the window's own reach comes first.
+    fn new(file: &File, window: f64, tau: f64, offset: f64, y_at: impl Fn(f64) -> Complex64) -> Self {
+        let n = file.t.len();
+        let (t0, t1) = (file.t[0], file.t[n - 1]);
+        let reach = window.max(0.0) * if tau > 1e-9 { 2.0 } else { 1.0 };
+        let span = t1 - t0 + reach + offset.abs();
+        let h = ((t1 - t0) / ((n - 1).max(1) as f64 * 8.0)).max(span / MAX_GRID as f64);
+        let (lo, hi) = (t0 - reach + offset.min(0.0) - h, t1 + offset.max(0.0) + h);
+        let m = ((hi - lo) / h).ceil() as usize + 1;
+        let y = (0..m).map(|j| y_at(lo + j as f64 * h)).collect();
+        Self { lo, h, y }
+    }
+
+    /// The node left of time `x` and the fraction of the step beyond it
+    /// (the sample at x is linear between nodes).
+    fn node(&self, x: f64) -> (usize, f64) {
+        let m = self.y.len();
+        let u = ((x - self.lo) / self.h).clamp(0.0, (m - 1) as f64);
         let j = (u.floor() as usize).min(m - 2);
         (j, u - j as f64)
+    }
+}
+
+/// The window's average of the samples `grid` (length `window`, s),
+/// then, where `tau` > 0, the first-order sections of `(tau, order)` on
+/// its output; read at every row's t + `offset`.
+fn windowed(
+    file: &File,
+    grid: &Grid,
+    window: f64,
+    (tau, order): (f64, f64),
+    offset: f64,
+    reading: impl Fn(Complex64) -> f64,
+) -> Vec<f64> {
+    let (h, y, m) = (grid.h, &grid.y, grid.y.len());
+    let cum = cumulative(y, h);
+    // Integral over [lo, x]: cum at the left node plus the partial
+    // trapezoid of the linear segment.
+    let integral = |x: f64| {
+        let (j, a) = grid.node(x);
+        cum[j] + h * a * (y[j] + 0.5 * a * (y[j + 1] - y[j]))
     };
-    if window > 1e-9 {
-        let cum = cumulative(&grid, h);
-        // Integral over [lo, x]: cum at the left node plus the partial
-        // trapezoid of the linear segment.
-        let integral = |x: f64| {
-            let (j, a) = node(x);
-            cum[j] + h * a * (grid[j] + 0.5 * a * (grid[j + 1] - grid[j]))
-        };
-        if tau <= 1e-9 {
-            return file
-                .t
-                .iter()
-                .map(|&t| {
-                    let b = t + offset;
-                    reading((integral(b) - integral(b - window)) / window)
-                })
-                .collect();
-        }
-        // Both kernels (a window, then a first-order filter on its
-        // output): the window's average at every node, filtered below.
-        // Nodes whose window reaches before the grid hold the first full
-        // window's value (the filter starts settled on it).
-        let first = ((window / h).ceil() as usize).min(m - 1);
-        let windowed: Vec<Complex64> = (0..m)
-            .map(|j| {
-                let x = lo + j.max(first) as f64 * h;
-                (integral(x) - integral(x - window)) / window
+    if tau <= 1e-9 {
+        return file
+            .t
+            .iter()
+            .map(|&t| {
+                let b = t + offset;
+                reading((integral(b) - integral(b - window)) / window)
             })
             .collect();
-        return first_order(&windowed, (tau, order), h, node, file, offset, reading);
     }
-    first_order(&grid, (tau, order), h, node, file, offset, reading)
+    // Both kernels (a window, then a first-order filter on its output):
+    // the window's average at every node, filtered below. Nodes whose
+    // window reaches before the grid hold the first full window's value
+    // (the filter starts settled on it).
+    let first = ((window / h).ceil() as usize).min(m - 1);
+    let windowed: Vec<Complex64> = (0..m)
+        .map(|j| {
+            let x = grid.lo + j.max(first) as f64 * h;
+            (integral(x) - integral(x - window)) / window
+        })
+        .collect();
+    first_order(
+        &windowed,
+        (tau, order),
+        h,
+        |x| grid.node(x),
+        file,
+        offset,
+        reading,
+    )
 }
 
 /// The cumulative integral of the samples `grid` (spacing `h`) from its
