@@ -597,6 +597,32 @@ fn resistance_of(ds: &DataSet) -> String {
     }
 }
 
+/// The files read decimated: name, rows read, stride.
+fn decimated(prep: &Prepared) -> Vec<(String, usize, usize)> {
+    prep.files
+        .iter()
+        .filter(|f| f.stride > 1)
+        .map(|f| (f.name.clone(), f.rows_read, f.stride))
+        .collect()
+}
+
+/// The files whose rows the meter flagged: name, rows flagged.
+fn flagged(ds: &DataSet) -> Vec<(String, usize)> {
+    ds.traces
+        .iter()
+        .chain(&ds.sweep)
+        .chain([&ds.calibration])
+        .filter(|t| t.flagged > 0)
+        .map(|t| {
+            let name = t
+                .path
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            (name, t.flagged)
+        })
+        .collect()
+}
+
 /// Run `identify` on a data set.
 pub fn identify(ds: &DataSet, options: Options) -> Result<Report> {
     identify_with(ds, options, &ProgressBar::hidden())
@@ -638,27 +664,9 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         competing: vec![],
         unexplained: false,
         rows,
-        decimated: prep
-            .files
-            .iter()
-            .filter(|f| f.stride > 1)
-            .map(|f| (f.name.clone(), f.rows_read, f.stride))
-            .collect(),
+        decimated: decimated(&prep),
         resistance: resistance_of(ds),
-        flagged: ds
-            .traces
-            .iter()
-            .chain(&ds.sweep)
-            .chain([&ds.calibration])
-            .filter(|t| t.flagged > 0)
-            .map(|t| {
-                let name = t
-                    .path
-                    .file_name()
-                    .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-                (name, t.flagged)
-            })
-            .collect(),
+        flagged: flagged(ds),
         search: prep.search,
         left_out: left_out(&prep),
         options,
