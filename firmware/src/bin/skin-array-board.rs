@@ -59,7 +59,7 @@ use firmware::board::link::{self, RxRing, Transmitter, RX_BYTES};
 use firmware::board::requests::Requests;
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
-use firmware::board::{clocks, dac, pac};
+use firmware::board::{clocks, dac, pac, watchdog};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
@@ -153,23 +153,17 @@ mod app {
         let owned = setup::finish(dp);
         let Ok(mut store) = Store::new(SettingsFlash::new(owned.flash), 0, SLOT_BYTES) else {
             defmt::println!("settings: the slots do not fit the flash; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
+            watchdog::await_reset()
         };
         // The stored set; with none, sensors nothing was measured on.
         let set = firmware::settings_log::in_force(&mut store);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
+            watchdog::await_reset()
         };
         let Ok(reader) = ArrayReader::new(LAYOUT, sensors) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
+            watchdog::await_reset()
         };
         let settings = ToneSettings {
             policy: set.policy,

@@ -56,7 +56,7 @@ use firmware::board::front_end::{self, AdcSlots, SLOTS};
 use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
-use firmware::board::{clocks, dac, pac, timer};
+use firmware::board::{clocks, dac, pac, timer, watchdog};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
@@ -165,9 +165,7 @@ mod app {
         else {
             // Nothing is fed: the watchdog restarts the board in 100 ms.
             defmt::println!("settings: none usable; watchdog reset follows");
-            loop {
-                cortex_m::asm::wfi();
-            }
+            watchdog::await_reset()
         };
         let reader = MuxReader::new(settings.sensors);
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;

@@ -113,6 +113,36 @@ fn arguments() -> Args {
     })
 }
 
+/// The sensors as the command line describes them, as a stored set (the
+/// test rig knows its simulated sensor, as a calibration run would).
+fn rig_set(scenario: &Scenario, fixture: Fixture, lead_ratio: f32) -> Stored {
+    let Ok(rig) = Sensor::calibrated(*scenario.calibration(), lead_ratio, fixture) else {
+        defmt::println!("tab-lead ratio {=f32} beyond the line model's range", lead_ratio);
+        qemu::exit(2)
+    };
+    Stored::of_sensors(
+        &Sensors::<POINTS, 1>::all(rig),
+        &Policy::DEFAULT,
+        SENSOR_R_REST_OHM as f32,
+        CHANNELS,
+    )
+}
+
+/// The start line: the channels, the scenario, and the first sensor's
+/// wiring, tab leads and stretch table.
+fn print_start(scenario: &Scenario, settings: &Settings<'_, POINTS, CHANNELS>) {
+    let zero = settings.sensors.of(0);
+    defmt::println!(
+        "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm, tab-lead ratio {=f32}, stretch calibrated {=bool}",
+        CHANNELS as u8,
+        defmt::Debug2Format(scenario),
+        zero.fixture.parallel_farad * 1e12,
+        zero.fixture.series_ohm,
+        zero.tracker.inverter().lead_ratio(),
+        zero.calibrated
+    );
+}
+
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
 mod app {
     use super::*;
@@ -152,19 +182,7 @@ mod app {
             flash,
         } = arguments();
         let skin = Skin::new(scenario);
-        // The sensors as the command line describes them (the test rig
-        // knows its simulated sensor, as a calibration run would).
-        let Ok(rig) = Sensor::calibrated(*scenario.calibration(), lead_ratio, fixture) else {
-            defmt::println!("tab-lead ratio {=f32} beyond the line model's range", lead_ratio);
-            qemu::exit(2)
-        };
-        let rig = Stored::of_sensors(
-            &Sensors::<POINTS, 1>::all(rig),
-            &Policy::DEFAULT,
-            SENSOR_R_REST_OHM as f32,
-            CHANNELS,
-        );
-        let (store, set) = flash.set_in_force(&rig);
+        let (store, set) = flash.set_in_force(&rig_set(&scenario, fixture, lead_ratio));
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
@@ -188,20 +206,11 @@ mod app {
         // As on the board: slots 0 and 1 are planned, slot 0's channel
         // selected; the simulated DMA then completes one slot per pend.
         let (seq, first) = Sequencer::start(|c| reader.plan(c));
-        let zero = settings.sensors.of(0);
         let mut mux = Mux::new(mux_pins());
         let Ok(_) = mux.select(first[0].channel);
         let mut ranges = Mux::new(range_pins());
         let Ok(_) = ranges.select(first[0].range);
-        defmt::println!(
-            "start {=u8} channels, scenario {}, wiring calibration {=f32} pF {=f32} ohm, tab-lead ratio {=f32}, stretch calibrated {=bool}",
-            CHANNELS as u8,
-            defmt::Debug2Format(&scenario),
-            zero.fixture.parallel_farad * 1e12,
-            zero.fixture.series_ohm,
-            zero.tracker.inverter().lead_ratio(),
-            zero.calibrated
-        );
+        print_start(&scenario, &settings);
         (
             Shared {
                 block: Block {

@@ -55,6 +55,16 @@ pub fn feed(iwdg: &iwdg::RegisterBlock) {
     iwdg.kr().write(|w| w.key().feed());
 }
 
+/// Wait, feeding nothing, for the watchdog's reset (within
+/// [`TIMEOUT_MS`] of the last [`feed`]): how start-up gives up on a board
+/// it cannot run, after logging why.
+#[cfg(target_os = "none")]
+pub fn await_reset() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
 /// Why the board last reset, from RCC_CSR's flags.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ResetCause {
