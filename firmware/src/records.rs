@@ -46,12 +46,12 @@ mod tests {
         let mut sink = RecordSink::new(p);
         for k in 0..QUEUE as u8 + 2 {
             sink.push(ToneRecord {
-                channel: k,
+                sensor: k,
                 ..ToneRecord::default()
             });
         }
         assert_eq!(sink.drops(), 3, "64 held, 3 dropped");
-        assert_eq!(c.dequeue().map(|r| r.channel), Some(0), "oldest first");
+        assert_eq!(c.dequeue().map(|r| r.sensor), Some(0), "oldest first");
         sink.push(ToneRecord::default());
         assert_eq!(sink.drops(), 3, "room again");
     }

@@ -494,7 +494,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
             |input| clipped[input],
             |rec| {
                 if b > 0 {
-                    out.add(rec.flags.valid(), rec.c_farad, truth[usize::from(rec.channel)]);
+                    out.add(rec.flags.valid(), rec.c_farad, truth[usize::from(rec.sensor)]);
                 }
             },
         );

@@ -255,7 +255,7 @@ proptest! {
             .enumerate()
             .map(|(k, &(channel, freq_hz, [cs_pf, rs_ohm, c_pf, r_ohm, stretch_mm], flags))| LoggedRecord {
                 t_s: 0.01 * k as f64,
-                channel,
+                sensor: channel,
                 freq_hz,
                 cs_pf,
                 rs_ohm,
@@ -300,7 +300,7 @@ proptest! {
             let f = table.rows.first().map_or(f64::NAN, |r| r.freq_hz());
             let mine: Vec<&LoggedRecord> = rows
                 .iter()
-                .filter(|r| r.channel == ch && r.freq_hz == f && unusable(r, false).is_none())
+                .filter(|r| r.sensor == ch && r.freq_hz == f && unusable(r, false).is_none())
                 .collect();
             let vouched: Vec<&&LoggedRecord> = mine.iter().filter(|r| r.valid()).collect();
             prop_assert_eq!(table.rows.len(), vouched.len(), "{}", name);

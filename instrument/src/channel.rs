@@ -94,8 +94,8 @@ impl Decimation {
 pub struct Record {
     /// Time of the block's middle since start, µs.
     pub t_us: u64,
-    /// Channel.
-    pub channel: u8,
+    /// Sensor (the multiplexer's channel it is wired to).
+    pub sensor: u8,
     /// Excitation frequency, Hz.
     pub freq_hz: f32,
     /// Lumped series capacitance, F (0 when not measured).
@@ -219,7 +219,7 @@ impl Channel {
         let dt = self.course.elapsed(t_us);
         let mut rec = Record {
             t_us,
-            channel,
+            sensor: channel,
             freq_hz: f[0],
             companion_hz: f[1],
             ..Record::default()

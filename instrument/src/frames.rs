@@ -20,7 +20,7 @@ pub fn from_tone_record(r: &ToneRecord) -> link::Record {
     };
     link::Record {
         t_us: r.t_us,
-        sensor: r.channel,
+        sensor: r.sensor,
         tones: [tone(0), tone(1)],
         c_farad: r.c_farad,
         r_ohm: r.r_ohm,
@@ -36,7 +36,7 @@ pub fn from_tone_record(r: &ToneRecord) -> link::Record {
 pub fn to_tone_record(r: &link::Record) -> ToneRecord {
     ToneRecord {
         t_us: r.t_us,
-        channel: r.sensor,
+        sensor: r.sensor,
         f_hz: [r.tones[0].f_hz, r.tones[1].f_hz],
         z: r.tones.map(|t| Complex32::new(t.z_re_ohm, t.z_im_ohm)),
         c_farad: r.c_farad,
@@ -72,7 +72,7 @@ pub fn from_record(r: &Record) -> link::Record {
     };
     link::Record {
         t_us: r.t_us,
-        sensor: r.channel,
+        sensor: r.sensor,
         tones: [tone, companion],
         c_farad: r.c_farad,
         r_ohm: r.r_ohm,
@@ -112,7 +112,7 @@ mod tests {
     fn a_tone_record_survives_the_link() {
         let r = ToneRecord {
             t_us: 12_345_678,
-            channel: 7,
+            sensor: 7,
             f_hz: [500.0, 2000.0],
             z: [Complex32::new(4.1e5, -1.6e6), Complex32::new(2.0e5, -3.9e5)],
             c_farad: 205.1e-12,
@@ -129,7 +129,7 @@ mod tests {
     fn a_multiplexed_record_carries_its_lumped_reading_and_its_second_tone() {
         let r = Record {
             t_us: 2560,
-            channel: 3,
+            sensor: 3,
             freq_hz: 1953.125,
             cs_farad: 201.5e-12,
             rs_ohm: 123_456.0,

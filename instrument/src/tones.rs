@@ -95,7 +95,7 @@ pub struct ToneRecord {
     /// Middle of the block since start, µs.
     pub t_us: u64,
     /// Sensor.
-    pub channel: u8,
+    pub sensor: u8,
     /// The two tones' frequencies, Hz, lower first.
     pub f_hz: [f32; 2],
     /// The measured impedance at each, Ω (0 when not measured; the tone
@@ -197,7 +197,7 @@ impl ToneChannel {
         let pair = s.sweep.map_or_else(|| self.pair(), Self::pair_of);
         let mut rec = ToneRecord {
             t_us,
-            channel,
+            sensor: channel,
             f_hz: pair.map(|k| s.layout.tone_hz(k)),
             ..ToneRecord::default()
         };

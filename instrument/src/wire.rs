@@ -5,9 +5,9 @@
 //! beside it; the host reads them back with [`parse`]:
 //!
 //! ```text
-//! rec   t_us channel freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags
-//! truth t_us channel c_pF r_line_ohm stretch_mm r_top_ohm r_bottom_ohm
-//! tone  t_us channel f_lo_hz re_lo_ohm im_lo_ohm f_hi_hz re_hi_ohm im_hi_ohm c_pF r_ohm chi2 sigma_ln_c stretch_mm flags
+//! rec   t_us sensor freq_hz cs_pF rs_ohm c_pF r_ohm stretch_mm flags
+//! truth t_us sensor c_pF r_line_ohm stretch_mm r_top_ohm r_bottom_ohm
+//! tone  t_us sensor f_lo_hz re_lo_ohm im_lo_ohm f_hi_hz re_hi_ohm im_hi_ohm c_pF r_ohm chi2 sigma_ln_c stretch_mm flags
 //! ```
 //!
 //! A `tone` line is one record of the array ([`crate::tones`]): the two
@@ -16,7 +16,7 @@
 //!
 //! `t_us` is the middle of the block in µs since start (an integer, exact
 //! for 584 000 years); a truth line belongs to the record with the same
-//! `t_us` and `channel`. Capacitances are in pF on the wire, F in
+//! `t_us` and `sensor`. Capacitances are in pF on the wire, F in
 //! [`Record`]. `flags` are the bits of [`crate::faults::Flags`].
 
 use crate::channel::Record;
@@ -111,7 +111,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
     Ok(match kind {
         REC => Line::Rec(Record {
             t_us: int(1)?,
-            channel: byte(2)?,
+            sensor: byte(2)?,
             freq_hz: num(3)?,
             cs_farad: num(4)? * 1e-12,
             rs_ohm: num(5)?,
@@ -124,7 +124,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
         }),
         TONE => Line::Tone(ToneRecord {
             t_us: int(1)?,
-            channel: byte(2)?,
+            sensor: byte(2)?,
             f_hz: [num(3)?, num(6)?],
             z: [Complex32::new(num(4)?, num(5)?), Complex32::new(num(7)?, num(8)?)],
             c_farad: num(9)? * 1e-12,
@@ -136,7 +136,7 @@ pub fn parse(line: &str) -> Result<Line, WireError> {
         }),
         _ => Line::Truth(TruthLine {
             t_us: int(1)?,
-            channel: byte(2)?,
+            sensor: byte(2)?,
             c_farad: num(3)? * 1e-12,
             r_line_ohm: num(4)?,
             stretch_mm: num(5)?,
@@ -153,7 +153,7 @@ impl defmt::Format for Record {
             f,
             "rec {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u16}",
             self.t_us,
-            self.channel,
+            self.sensor,
             self.freq_hz,
             self.cs_farad * 1e12,
             self.rs_ohm,
@@ -172,7 +172,7 @@ impl defmt::Format for ToneRecord {
             f,
             "tone {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=f32} {=u16}",
             self.t_us,
-            self.channel,
+            self.sensor,
             self.f_hz[0],
             self.z[0].re,
             self.z[0].im,
@@ -198,13 +198,13 @@ mod tests {
         let Ok(Line::Rec(r)) = parse("rec 2560 3 1953.125 201.5 123456 209.9 700000 -0.1 32") else {
             panic!("not a record")
         };
-        assert_eq!((r.t_us, r.channel, r.flags), (2560, 3, Flags(32)));
+        assert_eq!((r.t_us, r.sensor, r.flags), (2560, 3, Flags(32)));
         assert!((r.cs_farad - 201.5e-12).abs() < 1e-16 && (r.c_farad - 209.9e-12).abs() < 1e-16);
         assert_eq!((r.rs_ohm, r.r_ohm, r.stretch_mm), (123456.0, 700000.0, -0.1));
         let Ok(Line::Truth(t)) = parse("truth 2560 3 210 711000 0 355500 355500") else {
             panic!("not a truth line")
         };
-        assert_eq!((t.t_us, t.channel, t.r_top_ohm), (2560, 3, 355500.0));
+        assert_eq!((t.t_us, t.sensor, t.r_top_ohm), (2560, 3, 355500.0));
         assert_eq!(parse("start 8 channels"), Err(WireError::NotARecord));
         assert_eq!(parse(""), Err(WireError::NotARecord));
         assert_eq!(
@@ -228,7 +228,7 @@ mod tests {
             panic!("not a tone line")
         };
         assert_eq!(
-            (t.t_us, t.channel, t.f_hz, t.flags),
+            (t.t_us, t.sensor, t.f_hz, t.flags),
             (2000, 15, [500.0, 2000.0], Flags(Flags::MODEL))
         );
         assert_eq!(t.z[1], Complex32::new(400000.0, -520000.0));

@@ -92,7 +92,7 @@ fn run_with<'a>(
             |a| layout.rows(&frame[a]),
             |input| clipped[input],
             |rec| {
-                let s = usize::from(rec.channel);
+                let s = usize::from(rec.sensor);
                 out[s].push((rec, truth[s]));
             },
         );
@@ -432,7 +432,7 @@ fn one_block_in_every_n_is_reported_and_empty_sockets_never() {
             k * 4000,
             &block,
             |_| false,
-            |r| got.push((k, r.channel)),
+            |r| got.push((k, r.sensor)),
         );
     }
     let blocks: std::collections::BTreeSet<u64> = got.iter().map(|g| g.0).collect();
@@ -548,7 +548,7 @@ fn an_open_fixture_is_flagged_and_its_cable_measured() {
                 open += rec.flags.has(Flags::OPEN) as usize;
                 for (f, z) in rec.f_hz.iter().zip(rec.z) {
                     assert!(z.re.is_finite() && z.im.is_finite() && z != dsp_core::Complex32::new(0.0, 0.0));
-                    y[usize::from(rec.channel)].push((*f, Complex64::new(z.re as f64, z.im as f64).inv()));
+                    y[usize::from(rec.sensor)].push((*f, Complex64::new(z.re as f64, z.im as f64).inv()));
                 }
             },
         );

@@ -243,7 +243,7 @@ pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
             let lumped = SeriesRc::from_impedance(Complex32::new(t.z_re_ohm, t.z_im_ohm), t.f_hz).ok();
             out.push(LoggedRecord {
                 t_s: r.t_us as f64 * 1e-6,
-                channel: r.sensor,
+                sensor: r.sensor,
                 freq_hz: t.f_hz as f64,
                 cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
                 rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),

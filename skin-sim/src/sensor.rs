@@ -146,12 +146,12 @@ pub struct Truth {
 }
 
 impl Truth {
-    /// The truth line of the block whose middle is `t_us` on `channel`,
+    /// The truth line of the block whose middle is `t_us` of `sensor`,
     /// as the QEMU firmware logs it beside the record.
-    pub fn line(&self, t_us: u64, channel: u8) -> skin_spec::truth::TruthLine {
+    pub fn line(&self, t_us: u64, sensor: u8) -> skin_spec::truth::TruthLine {
         skin_spec::truth::TruthLine {
             t_us,
-            channel,
+            sensor,
             c_farad: self.c_farad as f32,
             r_line_ohm: self.r_line_ohm as f32,
             stretch_mm: self.stretch_mm as f32,

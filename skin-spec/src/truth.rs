@@ -11,8 +11,8 @@ pub const TRUTH: &str = "truth";
 pub struct TruthLine {
     /// Middle of the block, µs.
     pub t_us: u64,
-    /// Channel.
-    pub channel: u8,
+    /// Sensor.
+    pub sensor: u8,
     /// Line capacitance, F.
     pub c_farad: f32,
     /// Line resistance (both electrodes, no contacts), Ω.
@@ -32,7 +32,7 @@ impl defmt::Format for TruthLine {
             f,
             "truth {=u64} {=u8} {=f32} {=f32} {=f32} {=f32} {=f32}",
             self.t_us,
-            self.channel,
+            self.sensor,
             self.c_farad * 1e12,
             self.r_line_ohm,
             self.stretch_mm,

@@ -100,7 +100,7 @@ pub fn stairs_holds() -> Vec<Hold> {
 /// the first second (the tracker's start).
 fn judged(recs: &[LoggedToneRecord], s: u8) -> Vec<&LoggedToneRecord> {
     recs.iter()
-        .filter(|r| r.rec.channel == s && r.truth.is_some() && r.t_s() >= 1.0)
+        .filter(|r| r.rec.sensor == s && r.truth.is_some() && r.t_s() >= 1.0)
         .collect()
 }
 

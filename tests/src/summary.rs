@@ -99,12 +99,12 @@ pub struct ChannelFigures {
 
 /// The figures of every channel of a multiplexed run (`skin-qemu`).
 pub fn channels(recs: &[LoggedRecord]) -> Vec<ChannelFigures> {
-    let mut ids: Vec<u8> = recs.iter().map(|r| r.channel).collect();
+    let mut ids: Vec<u8> = recs.iter().map(|r| r.sensor).collect();
     ids.sort_unstable();
     ids.dedup();
     ids.into_iter()
         .map(|ch| {
-            let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.channel == ch).collect();
+            let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.sensor == ch).collect();
             let valid: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
             let err = |r: &&&LoggedRecord| r.truth.map_or(f64::NAN, |t| r.c_pf - t.c_pf);
             let (rms, mx, _) = rms_max(valid.iter().map(err));
@@ -180,12 +180,12 @@ pub struct SensorFigures {
 
 /// The figures of every sensor of an array run (`skin-array`).
 pub fn sensors(recs: &[LoggedToneRecord]) -> Result<Vec<SensorFigures>> {
-    let mut ids: Vec<u8> = recs.iter().map(|r| r.rec.channel).collect();
+    let mut ids: Vec<u8> = recs.iter().map(|r| r.rec.sensor).collect();
     ids.sort_unstable();
     ids.dedup();
     ids.into_iter()
         .map(|s| {
-            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s).collect();
+            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.sensor == s).collect();
             let (Some(first), Some(last)) = (rs.first(), rs.last()) else {
                 bail!("sensor {s}: no records");
             };

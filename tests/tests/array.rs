@@ -22,7 +22,7 @@ fn stats(recs: &[&LoggedToneRecord]) -> (usize, f64, f64) {
 /// `tolerance`.
 fn each_sensor(recs: &[LoggedToneRecord], seconds: f64, per_s: f64, valid_share: f64, tolerance: f64) {
     for s in 0..16u8 {
-        let mine: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s).collect();
+        let mine: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.sensor == s).collect();
         let (valid, rms, max) = stats(&mine);
         let span = mine.last().unwrap().t_s() - mine[0].t_s();
         let rate = (mine.len() - 1) as f64 / span;
@@ -163,7 +163,7 @@ fn the_model_check_tells_undeclared_wiring_from_clean_sensors() {
     for s in 0..16u8 {
         let mine: Vec<&LoggedToneRecord> = recs
             .iter()
-            .filter(|r| r.rec.channel == s && r.rec.chi2 > 0.0)
+            .filter(|r| r.rec.sensor == s && r.rec.chi2 > 0.0)
             .collect();
         let model = mine.iter().filter(|r| r.rec.flags.has(Flags::MODEL)).count();
         println!("sensor {s:2}: model flags {model} of {}", mine.len());
@@ -184,7 +184,7 @@ fn hum_is_flagged_and_never_passes_as_valid() {
     for s in 0..16u8 {
         let during: Vec<&LoggedToneRecord> = recs
             .iter()
-            .filter(|r| r.rec.channel == s && (1.0..2.0).contains(&r.t_s()))
+            .filter(|r| r.rec.sensor == s && (1.0..2.0).contains(&r.t_s()))
             .collect();
         let flagged = during.iter().filter(|r| !r.rec.flags.valid()).count();
         let (_, rms, max) = stats(&during);
@@ -304,8 +304,8 @@ fn link_carries(run: &qemu_tests::Run, recs: &[LoggedToneRecord]) {
     for (l, r) in sent.iter().zip(recs.iter()) {
         let (l, r) = (instrument::frames::to_tone_record(l), r.rec);
         assert_eq!(
-            (l.t_us, l.channel, l.flags, l.f_hz),
-            (r.t_us, r.channel, r.flags, r.f_hz)
+            (l.t_us, l.sensor, l.flags, l.f_hz),
+            (r.t_us, r.sensor, r.flags, r.f_hz)
         );
         let (a, b) = (
             [
@@ -411,7 +411,7 @@ fn a_skin_of_other_sensors_read_on_the_papers_description_is_flagged_not_wrong()
     run.ok().unwrap();
     let mut flagged_sensors = 0;
     for s in 0..16u8 {
-        let mine: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s).collect();
+        let mine: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.sensor == s).collect();
         let model = mine.iter().filter(|r| r.rec.flags.has(Flags::MODEL)).count();
         let (valid, rms, max) = stats(&mine);
         println!(

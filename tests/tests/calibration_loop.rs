@@ -18,7 +18,7 @@ use qemu_tests::records::{run_scenario_args, LoggedRecord};
 fn error(recs: &[LoggedRecord], channels: &[u8]) -> (f64, f64, usize) {
     let e: Vec<f64> = recs
         .iter()
-        .filter(|r| channels.contains(&r.channel) && r.valid() && r.c_pf > 0.0)
+        .filter(|r| channels.contains(&r.sensor) && r.valid() && r.c_pf > 0.0)
         .filter_map(|r| r.truth.map(|t| r.c_pf - t.c_pf))
         .collect();
     let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len().max(1) as f64).sqrt();
@@ -69,7 +69,7 @@ fn identified_wiring_calibrates_the_firmware() {
     // how many the model check flagged.
     let measured: Vec<&LoggedRecord> = before
         .iter()
-        .filter(|r| [0, 1].contains(&r.channel) && r.cs_pf > 0.0 && r.c_pf > 0.0)
+        .filter(|r| [0, 1].contains(&r.sensor) && r.cs_pf > 0.0 && r.c_pf > 0.0)
         .collect();
     let model = measured.iter().filter(|r| r.flags.has(Flags::MODEL)).count();
     println!(

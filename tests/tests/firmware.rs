@@ -7,7 +7,7 @@ use qemu_tests::records::{run_scenario, LoggedRecord};
 use std::time::Duration;
 
 fn channel(recs: &[LoggedRecord], ch: u8) -> Vec<LoggedRecord> {
-    recs.iter().filter(|r| r.channel == ch).copied().collect()
+    recs.iter().filter(|r| r.sensor == ch).copied().collect()
 }
 
 fn rel_err(r: &LoggedRecord) -> f64 {

@@ -245,7 +245,7 @@ fn records_with_truth(log: &[String]) -> Vec<(instrument::channel::Record, f32)>
     for l in log {
         match parse(l) {
             Ok(Line::Truth(t)) => {
-                truth.insert((t.t_us, t.channel), t.stretch_mm);
+                truth.insert((t.t_us, t.sensor), t.stretch_mm);
             }
             Ok(Line::Rec(r)) => recs.push(r),
             _ => {}
@@ -253,7 +253,7 @@ fn records_with_truth(log: &[String]) -> Vec<(instrument::channel::Record, f32)>
     }
     recs.into_iter()
         .map(|r| {
-            let s = truth[&(r.t_us, r.channel)];
+            let s = truth[&(r.t_us, r.sensor)];
             (r, s)
         })
         .collect()
@@ -365,7 +365,7 @@ fn the_array_measures_with_its_stored_set() {
             })
             .collect()
     };
-    let per_sensor = |recs: &[ToneRecord], s: u8| recs.iter().filter(|r| r.channel == s).count();
+    let per_sensor = |recs: &[ToneRecord], s: u8| recs.iter().filter(|r| r.sensor == s).count();
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("array.bin");
     let flash = format!("flash={}", path.display());
@@ -393,7 +393,7 @@ fn the_array_measures_with_its_stored_set() {
     assert_eq!(per_sensor(&second, 5), 0, "an empty socket");
     assert!(second
         .iter()
-        .all(|r| r.flags.has(Flags::UNCALIBRATED) == (r.channel != 2)));
+        .all(|r| r.flags.has(Flags::UNCALIBRATED) == (r.sensor != 2)));
     assert!(per_sensor(&second, 0).abs_diff(per_sensor(&first, 0) / 2) <= 1);
 
     // `save`: the rig's set (every sensor on the paper's table) stored

@@ -58,7 +58,7 @@ fn c_panel(title: String, truth: Vec<(f64, f64)>, measured: Vec<Series>) -> Pane
 /// a fixed 6 kHz series meter), and the frequency the firmware chose with
 /// the electrode resistance.
 fn channel_panels(ch: u8, motion: Motion, recs: &[LoggedRecord]) -> [Panel; 2] {
-    let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.channel == ch).collect();
+    let rs: Vec<&LoggedRecord> = recs.iter().filter(|r| r.sensor == ch).collect();
     let valid: Vec<&&LoggedRecord> = rs.iter().filter(|r| r.valid() && r.truth.is_some()).collect();
     let capacitance = c_panel(
         format!("channel {ch}: capacitance ({motion})"),
@@ -182,7 +182,7 @@ pub fn run_array(out: &Path, live_dir: &Path) -> Result<String> {
         .iter()
         .step_by(8)
         .map(|s| {
-            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.channel == s.sensor).collect();
+            let rs: Vec<&LoggedToneRecord> = recs.iter().filter(|r| r.rec.sensor == s.sensor).collect();
             c_panel(
                 format!("sensor {}: capacitance, {:.0} records/s", s.sensor, s.rate),
                 rs.iter().filter_map(|r| Some((r.t_s(), r.truth?.c_pf))).collect(),
@@ -248,7 +248,7 @@ pub fn run_calibration(out: &Path) -> Result<String> {
                 "truth",
                 w.after
                     .iter()
-                    .filter(|r| r.rec.channel == s)
+                    .filter(|r| r.rec.sensor == s)
                     .filter_map(|r| Some((r.t_s(), r.truth?.stretch_mm)))
                     .collect(),
             ),
@@ -256,7 +256,7 @@ pub fn run_calibration(out: &Path) -> Result<String> {
                 "firmware, its own table (valid records)",
                 w.after
                     .iter()
-                    .filter(|r| r.rec.channel == s && r.rec.flags.stretch_valid())
+                    .filter(|r| r.rec.sensor == s && r.rec.flags.stretch_valid())
                     .map(|r| (r.t_s(), r.rec.stretch_mm as f64))
                     .collect(),
             ),

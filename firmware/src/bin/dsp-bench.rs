@@ -526,7 +526,7 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
     let rec = instrument::tones::ToneRecord {
         t_us: 12_345_678,
-        channel: 11,
+        sensor: 11,
         f_hz: [500.0, 2000.0],
         z: [Complex32::new(4.1e5, -1.6e6), Complex32::new(2.0e5, -3.9e5)],
         c_farad: 205.1e-12,

@@ -72,13 +72,13 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<LoggedRecord
         let (n, l, line) = item?;
         match line {
             Line::Truth(t) => {
-                truth.insert((t.t_us, t.channel), t);
+                truth.insert((t.t_us, t.sensor), t);
             }
             Line::Tone(_) => bail!(
                 "{source}:{n}: an array record ('tone' line) among single-tone records: read array recordings with parse_tones"
             ),
             Line::Rec(r) => {
-                let t = truth.remove(&(r.t_us, r.channel)).map(truth_of);
+                let t = truth.remove(&(r.t_us, r.sensor)).map(truth_of);
                 if r.freq_hz <= 0.0 {
                     bail!("{source}:{n}: frequency {} Hz is not positive", r.freq_hz);
                 }
@@ -89,14 +89,14 @@ pub fn parse(source: &str, lines: &[(usize, String)]) -> Result<Vec<LoggedRecord
                         clip(l)
                     );
                 }
-                if let Some(prev) = out.iter().rev().find(|p: &&LoggedRecord| p.channel == r.channel) {
+                if let Some(prev) = out.iter().rev().find(|p: &&LoggedRecord| p.sensor == r.sensor) {
                     if r.t_us as f64 * 1e-6 <= prev.t_s {
-                        bail!("{source}:{n}: channel {} goes back in time", r.channel);
+                        bail!("{source}:{n}: channel {} goes back in time", r.sensor);
                     }
                 }
                 out.push(LoggedRecord {
                     t_s: r.t_us as f64 * 1e-6,
-                    channel: r.channel,
+                    sensor: r.sensor,
                     freq_hz: r.freq_hz as f64,
                     cs_pf: r.cs_farad as f64 * 1e12,
                     rs_ohm: r.rs_ohm as f64,
@@ -125,7 +125,7 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<Logged
         let (n, l, line) = item?;
         match line {
             Line::Truth(t) => {
-                truth.insert((t.t_us, t.channel), t);
+                truth.insert((t.t_us, t.sensor), t);
             }
             Line::Rec(_) => bail!("{source}:{n}: a single-tone record ('rec' line) in an array recording"),
             Line::Tone(r) => {
@@ -142,13 +142,13 @@ pub fn parse_tones(source: &str, lines: &[(usize, String)]) -> Result<Vec<Logged
                         clip(l)
                     );
                 }
-                if let Some(&t0) = last.get(&r.channel) {
+                if let Some(&t0) = last.get(&r.sensor) {
                     if r.t_us <= t0 {
-                        bail!("{source}:{n}: sensor {} goes back in time", r.channel);
+                        bail!("{source}:{n}: sensor {} goes back in time", r.sensor);
                     }
                 }
-                last.insert(r.channel, r.t_us);
-                let t = truth.remove(&(r.t_us, r.channel)).map(truth_of);
+                last.insert(r.sensor, r.t_us);
+                let t = truth.remove(&(r.t_us, r.sensor)).map(truth_of);
                 out.push(LoggedToneRecord { rec: r, truth: t });
             }
         }

@@ -79,8 +79,8 @@ impl BlockTruth {
 pub struct LoggedRecord {
     /// Middle of the block, s since start.
     pub t_s: f64,
-    /// Channel.
-    pub channel: u8,
+    /// Sensor.
+    pub sensor: u8,
     /// Excitation frequency, Hz.
     pub freq_hz: f64,
     /// Lumped Cs, pF (0: not measured).
@@ -174,7 +174,7 @@ impl LoggedToneRecord {
             let lumped = dsp_core::lumped::SeriesRc::from_impedance(r.z[k], r.f_hz[k]).ok();
             LoggedRecord {
                 t_s: self.t_s(),
-                channel: r.channel,
+                sensor: r.sensor,
                 freq_hz: r.f_hz[k] as f64,
                 cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
                 rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),

@@ -103,7 +103,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
     };
     let mut channels: BTreeMap<u8, Vec<&LoggedRecord>> = BTreeMap::new();
     for r in recs {
-        channels.entry(r.channel).or_default().push(r);
+        channels.entry(r.sensor).or_default().push(r);
     }
     let truth = recs.iter().any(|r| r.truth.is_some());
     let mut out = Written {
@@ -260,7 +260,7 @@ pub fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
 /// cannot be a trace row ([`unusable`]). Returns how many.
 fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
-    writeln!(faults, "time_s,channel,freq_hz,flags,reason")?;
+    writeln!(faults, "time_s,sensor,freq_hz,flags,reason")?;
     let mut n = 0;
     for r in recs {
         // Flagged, or valid but not a row a trace can hold (no lumped
@@ -274,7 +274,7 @@ fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize>
         writeln!(
             faults,
             "{:.6},{},{},{},{reason}",
-            r.t_s, r.channel, r.freq_hz, r.flags.0
+            r.t_s, r.sensor, r.freq_hz, r.flags.0
         )?;
         n += 1;
     }
