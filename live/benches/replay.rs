@@ -74,7 +74,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("array_16x1000_10s", |b| {
         b.iter(|| {
             let dir = tempfile::tempdir().unwrap();
-            let done = live::replay(&bytes, dir.path()).unwrap();
+            let done = live::replay(&bytes, dir.path(), live::Earlier::Refuse).unwrap();
             assert_eq!(done.summary.records, n as usize);
         })
     });

@@ -4,9 +4,13 @@
 //! data set ([`host_sim::recording`]'s writer, the format of
 //! `docs/data-format.md`).
 //!
-//! A stream that ends without its end frame (the device crashed, hung or
-//! was unplugged) leaves an `INCOMPLETE` file beside the data that says
-//! so, and [`Session::finish`] returns [`Outcome::Incomplete`].
+//! A session writes nothing until its stream's start frame has arrived,
+//! and never over another session's files: a folder that holds files
+//! already is refused unless the user asks to replace them
+//! ([`Earlier::Overwrite`]). A stream that ends without its end frame
+//! (the device crashed, hung or was unplugged) leaves an `INCOMPLETE`
+//! file beside the data that says so, and [`Session::finish`] returns
+//! [`Outcome::Incomplete`].
 
 pub mod calibrate;
 pub mod config;
@@ -24,6 +28,11 @@ use std::time::{Duration, Instant};
 
 /// The records file, written as records arrive (at least once a second).
 pub const RECORDS_CSV: &str = "records.csv";
+/// The raw stream, every byte as it arrived from the start frame's on.
+pub const STREAM_BIN: &str = "stream.bin";
+/// The most bytes a session holds while it waits for the start frame: a
+/// source that sends this many without one is not a record stream.
+pub const BEFORE_START_MAX: usize = 1 << 20;
 /// The marker of a stream that did not end with its end frame.
 pub const INCOMPLETE: &str = "INCOMPLETE";
 
@@ -40,19 +49,34 @@ pub enum Outcome {
     Incomplete(String),
 }
 
+/// What a session does with a folder that holds files already.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Earlier {
+    /// Refuse it: nothing is written there.
+    #[default]
+    Refuse,
+    /// Replace the earlier session's files (its records, stream, marker
+    /// and data set; other files stay) once the new stream has started.
+    Overwrite,
+}
+
 /// A link session: bytes in; records, counts and files out.
 pub struct Session {
     dir: PathBuf,
+    earlier: Earlier,
     decoder: Decoder,
     start: Option<Start>,
     end: Option<link::End>,
     records: Vec<Record>,
     /// Each record's frame sequence number.
     seqs: Vec<u32>,
-    /// `records.csv`, which holds the first `in_csv` records (the rest
-    /// join it at the next [`Session::flush`], at least once a second
-    /// while following a stream, or at [`Session::finish`]).
-    csv: std::io::BufWriter<std::fs::File>,
+    /// `records.csv` and `stream.bin`, open from the start frame on;
+    /// `records.csv` holds the first `in_csv` records (the rest join it
+    /// at the next [`Session::flush`], at least once a second while
+    /// following a stream, or at [`Session::finish`]).
+    files: Option<Files>,
+    /// The bytes before the start frame's end, while it has not arrived.
+    before_start: Vec<u8>,
     in_csv: usize,
     /// One line of `records.csv`, its buffer kept.
     line: Vec<u8>,
@@ -66,27 +90,37 @@ pub struct Session {
 /// How many refused frames a session describes (the rest are counted).
 pub const REFUSED_SHOWN: usize = 20;
 
+/// A session's files.
+struct Files {
+    csv: std::io::BufWriter<std::fs::File>,
+    raw: std::io::BufWriter<std::fs::File>,
+}
+
 impl Session {
-    /// A session writing into `dir` (created; an earlier session's
-    /// [`INCOMPLETE`] marker removed).
-    pub fn new(dir: &Path) -> Result<Self> {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let marker = dir.join(INCOMPLETE);
-        if marker.exists() {
-            std::fs::remove_file(&marker).with_context(|| format!("removing {}", marker.display()))?;
+    /// A session that will write into `dir` once its stream's start
+    /// frame arrives (nothing before). A `dir` that holds files already
+    /// is refused here, unless `earlier` says to overwrite them.
+    pub fn new(dir: &Path, earlier: Earlier) -> Result<Self> {
+        if earlier == Earlier::Refuse {
+            let held = held_files(dir)?;
+            if !held.is_empty() {
+                bail!(
+                    "{} holds files already ({}): a session never writes over another; choose a new folder, or pass --overwrite to replace the session there",
+                    dir.display(),
+                    held.join(", ")
+                );
+            }
         }
-        let path = dir.join(RECORDS_CSV);
-        let file = std::fs::File::create(&path).with_context(|| format!("creating {}", path.display()))?;
-        let mut csv = std::io::BufWriter::new(file);
-        writeln!(csv, "{RECORDS_HEADER}")?;
         Ok(Self {
             dir: dir.to_path_buf(),
+            earlier,
             decoder: Decoder::new(),
             start: None,
             end: None,
             records: vec![],
             seqs: vec![],
-            csv,
+            files: None,
+            before_start: vec![],
             in_csv: 0,
             line: Vec::with_capacity(192),
             stray: 0,
@@ -94,8 +128,65 @@ impl Session {
         })
     }
 
+    /// The start frame has arrived: the folder made ready (an earlier
+    /// session's files taken away where the user asked) and the
+    /// session's files created.
+    fn open_files(&mut self) -> Result<Files> {
+        let dir = &self.dir;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        if self.earlier == Earlier::Overwrite {
+            for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+                let entry = entry?;
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if entry.file_type()?.is_file() && session_file(&name) {
+                    std::fs::remove_file(entry.path())
+                        .with_context(|| format!("removing {}", entry.path().display()))?;
+                }
+            }
+        }
+        // Created anew, never through a link an earlier run left.
+        let create = |name: &str| {
+            let path = dir.join(name);
+            std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&path)
+                .map(std::io::BufWriter::new)
+                .with_context(|| format!("creating {}", path.display()))
+        };
+        let mut csv = create(RECORDS_CSV)?;
+        writeln!(csv, "{RECORDS_HEADER}")?;
+        let raw = create(STREAM_BIN)?;
+        Ok(Files { csv, raw })
+    }
+
     /// Take `bytes` as they arrived; the records they completed.
     pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
+        let n = self.decode(bytes)?;
+        match &mut self.files {
+            Some(files) => files.raw.write_all(bytes).context("keeping the raw stream")?,
+            None if self.start.is_some() => {
+                let mut files = self.open_files()?;
+                files.raw.write_all(&self.before_start)?;
+                files.raw.write_all(bytes).context("keeping the raw stream")?;
+                self.before_start = vec![];
+                self.files = Some(files);
+            }
+            None => {
+                self.before_start.extend_from_slice(bytes);
+                if self.before_start.len() > BEFORE_START_MAX {
+                    bail!(
+                        "no start frame in the first {} bytes: not a record stream (the wrong port, or the wrong baud rate?); nothing written",
+                        self.before_start.len()
+                    );
+                }
+            }
+        }
+        Ok(n)
+    }
+
+    /// The frames `bytes` complete, taken in; the records among them.
+    fn decode(&mut self, bytes: &[u8]) -> Result<usize> {
         let mut n = 0;
         let mut rest = bytes;
         while let Some(got) = self.decoder.next_frame(&mut rest) {
@@ -164,15 +255,19 @@ impl Session {
     /// Write the records received so far into `records.csv` (a reader
     /// may be watching).
     pub fn flush(&mut self) -> Result<()> {
+        let Some(files) = &mut self.files else {
+            return Ok(());
+        };
         let from = self.in_csv;
         write_records(
-            &mut self.csv,
+            &mut files.csv,
             &mut self.line,
             &self.seqs[from..],
             &self.records[from..],
         )?;
         self.in_csv = self.records.len();
-        self.csv.flush().context("writing records.csv")
+        files.raw.flush().context("keeping the raw stream")?;
+        files.csv.flush().context("writing records.csv")
     }
 
     /// The stream is over: write the data set of what arrived, and the
@@ -187,18 +282,29 @@ impl Session {
                 self.records.len()
             )),
         };
+        let Some(mut files) = self.files.take() else {
+            // No start frame: nothing was written, and nothing is.
+            return Ok(Finished {
+                outcome: Outcome::Incomplete(
+                    "no start frame: nothing from the device; nothing written".into(),
+                ),
+                summary,
+                written: recording::Written::default(),
+            });
+        };
+        files.raw.flush().context("keeping the raw stream")?;
         // The rest of records.csv on a thread of its own while the data
         // set is written (a replay's records all arrive at once).
         let Self {
             dir,
             records,
             seqs,
-            csv,
             in_csv,
             line,
             ..
         } = &mut self;
         let (records, from) = (&*records, *in_csv);
+        let csv = &mut files.csv;
         let (rest, written) = std::thread::scope(|scope| {
             let rest = scope.spawn(move || {
                 write_records(csv, line, &seqs[from..], &records[from..])?;
@@ -223,6 +329,24 @@ impl Session {
             written,
         })
     }
+}
+
+/// The names of the entries `dir` holds (none where it does not exist).
+fn held_files(dir: &Path) -> Result<Vec<String>> {
+    match std::fs::read_dir(dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(vec![]),
+        Err(e) => Err(e).with_context(|| format!("reading {}", dir.display())),
+        Ok(entries) => entries
+            .map(|e| Ok(e?.file_name().to_string_lossy().into_owned()))
+            .collect::<std::io::Result<Vec<_>>>()
+            .with_context(|| format!("reading {}", dir.display())),
+    }
+}
+
+/// Whether `name` is a file a session writes: its records, its stream,
+/// its marker, its data set's files.
+fn session_file(name: &str) -> bool {
+    name == RECORDS_CSV || name == STREAM_BIN || name == INCOMPLETE || recording::is_dataset_file(name)
 }
 
 /// The link's records as the data set writer takes them: an array record
@@ -386,9 +510,10 @@ pub struct Finished {
     pub written: recording::Written,
 }
 
-/// Replay a recorded stream's `bytes` into `dir`.
-pub fn replay(bytes: &[u8], dir: &Path) -> Result<Finished> {
-    let mut s = Session::new(dir)?;
+/// Replay a recorded stream's `bytes` into `dir` (a folder that holds
+/// files already as `earlier` says).
+pub fn replay(bytes: &[u8], dir: &Path, earlier: Earlier) -> Result<Finished> {
+    let mut s = Session::new(dir, earlier)?;
     s.push(bytes)?;
     s.finish()
 }
@@ -427,12 +552,8 @@ pub enum Stopped {
 
 /// Read `source` until it ends (EOF, a closed socket, a port that
 /// vanished), the stream's end frame arrives or `stop` is set (checked at
-/// least every read timeout), keeping every byte in `stream.bin` and
-/// printing the link's health each second.
-pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path, stop: &AtomicBool) -> Result<Stopped> {
-    let raw_path = dir.join("stream.bin");
-    let mut raw =
-        std::fs::File::create(&raw_path).with_context(|| format!("creating {}", raw_path.display()))?;
+/// least every read timeout), printing the link's health each second.
+pub fn follow(mut source: impl Read, sink: &mut Sink, stop: &AtomicBool) -> Result<Stopped> {
     let mut buf = [0u8; 4096];
     let mut last = Instant::now();
     let stopped = loop {
@@ -454,7 +575,6 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path, stop: &AtomicB
             }
             Err(e) => break Stopped::Source(e.to_string()),
         };
-        raw.write_all(&buf[..n]).context("keeping the raw stream")?;
         sink.push(&buf[..n])?;
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
@@ -465,6 +585,6 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, dir: &Path, stop: &AtomicB
             break Stopped::End;
         }
     };
-    raw.flush()?;
+    sink.session.flush()?;
     Ok(stopped)
 }

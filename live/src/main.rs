@@ -35,9 +35,16 @@ struct Cli {
     #[arg(long)]
     tcp: Option<String>,
     /// Where the data set goes (records.csv as records arrive, the data
-    /// set's files at the end, stream.bin with the raw bytes).
-    #[arg(long, default_value = "out/live")]
-    dataset: PathBuf,
+    /// set's files at the end, stream.bin with the raw bytes): a folder
+    /// that is new or empty. Default: a new folder per session,
+    /// out/sessions/<UTC date and time>.
+    #[arg(long)]
+    dataset: Option<PathBuf>,
+    /// Replace the session in --dataset's folder (its records, stream,
+    /// marker and data set) once the new stream has started, instead of
+    /// refusing a folder that holds files.
+    #[arg(long)]
+    overwrite: bool,
     /// Serve the live dashboard on this local address (127.0.0.1:PORT;
     /// port 0 picks a free one); its address is printed first.
     #[arg(long)]
@@ -518,7 +525,13 @@ fn run(cli: Cli) -> Result<Outcome> {
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("installing the Ctrl-C handler")?;
-    let mut session = Session::new(&cli.dataset)?;
+    let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
+    let earlier = if cli.overwrite {
+        live::Earlier::Overwrite
+    } else {
+        live::Earlier::Refuse
+    };
+    let mut session = Session::new(&dataset, earlier)?;
     let mut sink = Sink {
         session: &mut session,
         dashboard: dashboard.as_ref(),
@@ -535,16 +548,13 @@ fn run(cli: Cli) -> Result<Outcome> {
                 .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
             report(
                 &format!("the serial port {name}"),
-                follow(port, &mut sink, &cli.dataset, &stop)?,
+                follow(port, &mut sink, &stop)?,
             );
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            report(
-                &format!("the socket {addr}"),
-                follow(sock, &mut sink, &cli.dataset, &stop)?,
-            );
+            report(&format!("the socket {addr}"), follow(sock, &mut sink, &stop)?);
         }
         (None, None, None) => {
             anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")
@@ -566,13 +576,32 @@ fn run(cli: Cli) -> Result<Outcome> {
             session.stats().bad - session.refused().len() as u64
         );
     }
+    let started = session.start().is_some();
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
-    println!(
-        "wrote {}: records.csv, {} trace files, {} fragments, calibration.csv, faults.csv",
-        cli.dataset.display(),
-        finished.written.traces.len(),
-        finished.written.fragments.len()
-    );
+    if started {
+        println!(
+            "wrote {}: records.csv, stream.bin, {} trace files, {} fragments, calibration.csv, faults.csv",
+            dataset.display(),
+            finished.written.traces.len(),
+            finished.written.fragments.len()
+        );
+    } else {
+        println!("no start frame arrived: nothing written to {}", dataset.display());
+    }
     Ok(finished.outcome)
+}
+
+/// A new session's folder: out/sessions/<UTC date and time>, with `-2`,
+/// `-3`, … after a name an earlier session of the same second took.
+fn new_session_folder() -> PathBuf {
+    let stamp = chrono::Utc::now().format("%Y-%m-%dT%H-%M-%SZ").to_string();
+    let base = PathBuf::from("out/sessions");
+    (1..)
+        .map(|k| match k {
+            1 => base.join(&stamp),
+            _ => base.join(format!("{stamp}-{k}")),
+        })
+        .find(|p| !p.exists())
+        .unwrap_or_else(|| base.join(stamp))
 }

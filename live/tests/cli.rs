@@ -5,10 +5,17 @@ mod common;
 
 use common::stream;
 use link::VERSION;
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
 fn live(stream: &[u8], dir: &Path) -> (Option<i32>, String, String) {
+    live_with(stream, dir, &[])
+}
+
+/// `live --replay` of `stream` (kept as `dir`/stream.bin) into `dir`/ds,
+/// with `extra` arguments.
+fn live_with(stream: &[u8], dir: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
     let file = dir.join("stream.bin");
     std::fs::write(&file, stream).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_live"))
@@ -16,13 +23,32 @@ fn live(stream: &[u8], dir: &Path) -> (Option<i32>, String, String) {
         .arg(&file)
         .arg("--dataset")
         .arg(dir.join("ds"))
+        .args(extra)
         .output()
         .unwrap();
+    outcome(out)
+}
+
+fn outcome(out: std::process::Output) -> (Option<i32>, String, String) {
     (
         out.status.code(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// Every file of `dir` and its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
 }
 
 fn rows(path: &Path) -> usize {
@@ -52,10 +78,91 @@ fn a_cut_stream_keeps_what_arrived_marks_it_and_fails() {
     assert_eq!(rows(&tmp.path().join("ds/records.csv")), 12);
     let marker = std::fs::read_to_string(tmp.path().join("ds").join(live::INCOMPLETE)).unwrap();
     assert!(marker.contains("12 records"), "{marker}");
-    // A complete run into the same folder takes the marker away.
-    let (code, _, _) = live(&stream(4, true, VERSION), tmp.path());
+    // A complete run asked to replace it takes the marker away.
+    let (code, _, _) = live_with(&stream(4, true, VERSION), tmp.path(), &["--overwrite"]);
     assert_eq!(code, Some(0));
     assert!(!tmp.path().join("ds").join(live::INCOMPLETE).exists());
+    assert_eq!(rows(&tmp.path().join("ds/records.csv")), 4);
+}
+
+#[test]
+fn a_session_never_writes_over_an_earlier_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    let (code, _, err) = live(&stream(12, false, VERSION), tmp.path());
+    assert_eq!(code, Some(3), "{err}");
+    let earlier = snapshot(&ds);
+    assert!(earlier.contains_key(live::INCOMPLETE) && earlier.contains_key("stream.bin"));
+    // Another session into the same folder is refused, and says how.
+    let (code, _, err) = live(&stream(4, true, VERSION), tmp.path());
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("holds files already") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert_eq!(snapshot(&ds), earlier);
+    let follow = |source: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_live"))
+            .args(source)
+            .arg("--dataset")
+            .arg(&ds)
+            .arg("--overwrite")
+            .output()
+            .unwrap();
+        outcome(out)
+    };
+    // Even asked to overwrite: nothing is touched before the source is
+    // open and its start frame has arrived. A refused connection:
+    let (code, _, err) = follow(&["--tcp", "127.0.0.1:1"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert_eq!(snapshot(&ds), earlier);
+    // A socket that accepts and closes at once:
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let closer = std::thread::spawn(move || drop(listener.accept().unwrap()));
+    let (code, out, err) = follow(&["--tcp", &addr]);
+    closer.join().unwrap();
+    assert_eq!(code, Some(3), "{err}");
+    assert!(out.contains("nothing written"), "{out}");
+    assert_eq!(snapshot(&ds), earlier);
+    // Junk with no start frame:
+    let (code, _, _) = live_with(&[0x55; 3000], tmp.path(), &["--overwrite"]);
+    assert_eq!(code, Some(3));
+    assert_eq!(snapshot(&ds), earlier);
+}
+
+#[test]
+fn without_a_folder_each_session_gets_its_own() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("in.bin");
+    std::fs::write(&file, stream(6, true, VERSION)).unwrap();
+    for _ in 0..2 {
+        let out = Command::new(env!("CARGO_BIN_EXE_live"))
+            .arg("--replay")
+            .arg(&file)
+            .current_dir(tmp.path())
+            .output()
+            .unwrap();
+        let (code, _, err) = outcome(out);
+        assert_eq!(code, Some(0), "{err}");
+    }
+    let sessions = snapshot_dirs(&tmp.path().join("out/sessions"));
+    assert_eq!(sessions.len(), 2, "{sessions:?}");
+    for s in &sessions {
+        assert_eq!(rows(&s.join("records.csv")), 6);
+        assert_eq!(
+            std::fs::read(s.join("stream.bin")).unwrap(),
+            std::fs::read(&file).unwrap()
+        );
+    }
+}
+
+/// The folders in `dir`.
+fn snapshot_dirs(dir: &Path) -> Vec<std::path::PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect()
 }
 
 #[test]
@@ -92,7 +199,7 @@ fn a_replay_rebuilds_the_same_data_set() {
     let tmp = tempfile::tempdir().unwrap();
     let bytes = stream(200, true, VERSION);
     let first = tmp.path().join("first");
-    live::replay(&bytes, &first).unwrap();
+    live::replay(&bytes, &first, live::Earlier::Refuse).unwrap();
     let (code, _, err) = live(&bytes, tmp.path());
     assert_eq!(code, Some(0), "{err}");
     let mut names: Vec<_> = std::fs::read_dir(&first)

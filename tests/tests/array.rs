@@ -275,7 +275,7 @@ fn the_link_carries_every_record_of_two_seconds_and_survives_corruption() {
 /// frames that were sent.
 fn link_carries(run: &qemu_tests::Run, recs: &[LoggedToneRecord]) {
     let tmp = tempfile::tempdir().unwrap();
-    let done = live::replay(&run.serial, tmp.path()).unwrap();
+    let done = live::replay(&run.serial, tmp.path(), live::Earlier::Refuse).unwrap();
     println!("{}", done.summary.line());
     assert_eq!(done.outcome, live::Outcome::Complete);
     assert_eq!(done.summary.records, recs.len());

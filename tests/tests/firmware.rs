@@ -207,7 +207,7 @@ fn faults_raise_the_right_flag_and_clear_without_a_reset() {
 /// and the INCOMPLETE marker.
 fn incomplete(run: &qemu_tests::Run) {
     let tmp = tempfile::tempdir().unwrap();
-    let done = live::replay(&run.serial, tmp.path()).unwrap();
+    let done = live::replay(&run.serial, tmp.path(), live::Earlier::Refuse).unwrap();
     assert!(
         matches!(done.outcome, live::Outcome::Incomplete(_)),
         "{:?}",
@@ -248,12 +248,12 @@ fn live_follows_a_running_qemu_over_its_socket() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["slow"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
-    let mut session = live::Session::new(tmp.path()).unwrap();
+    let mut session = live::Session::new(tmp.path(), live::Earlier::Refuse).unwrap();
     let mut sink = live::Sink {
         session: &mut session,
         dashboard: None,
     };
-    let stopped = live::follow(sock, &mut sink, tmp.path(), &Default::default()).unwrap();
+    let stopped = live::follow(sock, &mut sink, &Default::default()).unwrap();
     assert_eq!(stopped, live::Stopped::End);
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");

@@ -90,7 +90,7 @@ fn dashboard_screenshot(root: &Path) -> Result<()> {
         .arg(root.join("out/live/stream.bin"))
         .arg("--dataset")
         .arg(root.join("out/live-docs"))
-        .args(["--serve", "127.0.0.1:0", "--linger", "120"])
+        .args(["--overwrite", "--serve", "127.0.0.1:0", "--linger", "120"])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()

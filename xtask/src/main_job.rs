@@ -160,9 +160,8 @@ pub fn run_array(out: &Path, live_dir: &Path) -> Result<String> {
     let (run, recs) = records::run_array("paper")?;
     let run = run.ok()?;
     std::fs::write(out.join("array.log"), &run.stdout)?;
-    std::fs::create_dir_all(live_dir)?;
-    std::fs::write(live_dir.join("stream.bin"), &run.serial)?;
-    let link = live::replay(&run.serial, live_dir)?;
+    // The main job's own folder: its last run's session is replaced.
+    let link = live::replay(&run.serial, live_dir, live::Earlier::Overwrite)?;
     let per_tone: Vec<LoggedRecord> = recs.iter().flat_map(LoggedToneRecord::per_tone).collect();
     let written = recording::write_dataset(out, &per_tone, &Roles::default())?;
     let figures = summary::sensors(&recs)?;

@@ -32,7 +32,7 @@ mod decode;
 mod write;
 
 pub use decode::{decode_defmt, log_lines, parse, parse_tones, read, read_recording, END};
-pub use write::{unusable, write_dataset, Written, INCOMPLETE};
+pub use write::{is_dataset_file, unusable, write_dataset, Written, INCOMPLETE};
 
 use instrument::faults::Flags;
 

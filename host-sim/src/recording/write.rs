@@ -30,7 +30,7 @@ pub struct Written {
 pub const INCOMPLETE: &str = "INCOMPLETE";
 
 /// Whether `name` is a file a data set written here consists of.
-fn ours(name: &str) -> bool {
+pub fn is_dataset_file(name: &str) -> bool {
     name == "calibration.csv"
         || name == "faults.csv"
         || ((name.starts_with("trace_ch") || name.starts_with("fragment_ch")) && name.ends_with("hz.csv"))
@@ -61,7 +61,7 @@ pub fn write_dataset(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result
     .with_context(|| format!("writing {}", mark.display()))?;
     for entry in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
         let entry = entry?;
-        if entry.file_type()?.is_file() && ours(&entry.file_name().to_string_lossy()) {
+        if entry.file_type()?.is_file() && is_dataset_file(&entry.file_name().to_string_lossy()) {
             std::fs::remove_file(entry.path())
                 .with_context(|| format!("removing {}", entry.path().display()))?;
         }
