@@ -524,6 +524,9 @@ fn decode(input: &Path, elf: Option<&Path>, out: &Path, roles: host_sim::recordi
         w.faults,
         out.display()
     );
+    for why in &w.left_out {
+        println!("left out: {why}");
+    }
     if !ended {
         return Err(Incomplete(format!(
             "{}: no '{}' line: the run was cut short (a crash, a hang, or a recording stopped by hand); \

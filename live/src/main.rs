@@ -586,6 +586,9 @@ fn run(cli: Cli) -> Result<Outcome> {
             finished.written.traces.len(),
             finished.written.fragments.len()
         );
+        for why in &finished.written.left_out {
+            println!("left out: {why}");
+        }
     } else {
         println!("no start frame arrived: nothing written to {}", dataset.display());
     }

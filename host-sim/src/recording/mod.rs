@@ -355,6 +355,50 @@ mod tests {
     }
 
     #[test]
+    fn a_held_sensor_with_no_usable_record_is_left_out_not_the_whole_set() {
+        // Channels 1-3 held at 0, 10, 20 mm; every record of channel 3
+        // failed the model check (MODEL, 256), as an uncalibrated
+        // device's may.
+        let mut log = String::new();
+        for k in 0..40u64 {
+            for ch in 0..4u64 {
+                let t = (k * 4 + ch) * 5440 + 2880;
+                let s = if ch == 0 {
+                    0.5 * k as f64
+                } else {
+                    10.0 * (ch - 1) as f64
+                };
+                let c = 210.0 * (1.0 + s / 100.0);
+                let flags = if ch == 3 { 256 } else { 0 };
+                log += &format!(
+                    "rec {t} {ch} 1953.125 {:.3} 90000 {c:.3} 712000 {s:.3} {flags}\n",
+                    c - 2.0
+                );
+            }
+        }
+        let recs = parse("board.log", &lines(&log)).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
+        assert_eq!((w.calibration_points, w.traces.len()), (2, 1));
+        assert_eq!(w.left_out.len(), 1, "{:?}", w.left_out);
+        assert!(w.left_out[0].starts_with("sensor 3,"), "{:?}", w.left_out);
+        let cal = std::fs::read_to_string(dir.path().join("calibration.csv")).unwrap();
+        assert!(
+            cal.contains("# sensor 3, held still, has no calibration point"),
+            "{cal}"
+        );
+        let ds = crate::dataset::read_dir(dir.path()).unwrap();
+        assert_eq!(ds.calibration.rows.len(), 2);
+        // Listed with the flag each record carries.
+        let faults = std::fs::read_to_string(dir.path().join("faults.csv")).unwrap();
+        assert_eq!(faults.lines().count(), 41, "{faults}");
+        assert!(
+            faults.lines().skip(1).all(|l| l.split(',').nth(3) == Some("256")),
+            "{faults}"
+        );
+    }
+
+    #[test]
     fn malformed_records_are_errors_with_their_position() {
         let err = parse("log", &lines("rec 0 0 585.9 1 2 3\n"))
             .unwrap_err()

@@ -22,6 +22,10 @@ pub struct Written {
     pub calibration_points: usize,
     /// Records listed in `faults.csv`.
     pub faults: usize,
+    /// What was left out, and why (a sensor held still whose records
+    /// are all flagged gives no calibration point): one line each, also
+    /// written as comments in the file it is missing from.
+    pub left_out: Vec<String>,
 }
 
 /// The mark a data set carries while it is being replaced: a run killed
@@ -94,6 +98,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
     // A record that failed the model check is a row of lumped readings
     // without a line (as the array's are once read).
     // (Copied only when one needs it: a replay's records are many.)
+    let original = recs;
     let rows: Vec<LoggedRecord>;
     let recs = if recs.iter().any(|r| r.flags.has(instrument::faults::Flags::MODEL)) {
         rows = recs.iter().map(LoggedRecord::as_row).collect();
@@ -107,7 +112,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
     }
     let truth = recs.iter().any(|r| r.truth.is_some());
     let mut out = Written {
-        faults: write_faults(dir, recs, truth)?,
+        faults: write_faults(dir, original, recs, truth)?,
         ..Written::default()
     };
     let statics: Vec<(u8, &[&LoggedRecord])> = channels
@@ -115,7 +120,7 @@ fn write_files(dir: &Path, recs: &[LoggedRecord], roles: &Roles) -> Result<Writt
         .filter(|(&ch, rs)| roles.is_static(ch, rs))
         .map(|(&ch, rs)| (ch, rs.as_slice()))
         .collect();
-    out.calibration_points = write_calibration(dir, &statics, truth)?;
+    (out.calibration_points, out.left_out) = write_calibration(dir, &statics, truth)?;
     // One trace per channel and exact frequency (a trace holds one): named
     // by the frequency in whole Hz, or to the mHz where two of a channel's
     // frequencies round to the same Hz.
@@ -256,13 +261,16 @@ pub fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
     }
 }
 
-/// `faults.csv`: every record flagged invalid, and every valid one that
-/// cannot be a trace row ([`unusable`]). Returns how many.
-fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize> {
+/// `faults.csv`: every record of `recs` whose row (`rows`, one each)
+/// is flagged invalid, and every valid one that cannot be a trace row
+/// ([`unusable`]), with the record's own flags. Returns how many.
+fn write_faults(dir: &Path, recs: &[LoggedRecord], rows: &[LoggedRecord], truth: bool) -> Result<usize> {
     let mut faults = std::io::BufWriter::new(std::fs::File::create(dir.join("faults.csv"))?);
     writeln!(faults, "time_s,sensor,freq_hz,flags,reason")?;
     let mut n = 0;
-    for r in recs {
+    // Judged as the rows hold them, listed with the flags the records
+    // carry (a MODEL record's row is valid for its lumped reading).
+    for (r, flags) in rows.iter().zip(recs.iter().map(|r| r.flags.0)) {
         // Flagged, or valid but not a row a trace can hold (no lumped
         // reading, or no resistance to model it with): listed either
         // way, never dropped without a word.
@@ -271,11 +279,7 @@ fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize>
             (true, Some(why)) => why.to_string(),
             (true, None) => continue,
         };
-        writeln!(
-            faults,
-            "{:.6},{},{},{},{reason}",
-            r.t_s, r.sensor, r.freq_hz, r.flags.0
-        )?;
+        writeln!(faults, "{:.6},{},{},{flags},{reason}", r.t_s, r.sensor, r.freq_hz)?;
         n += 1;
     }
     faults.flush()?;
@@ -283,8 +287,14 @@ fn write_faults(dir: &Path, recs: &[LoggedRecord], truth: bool) -> Result<usize>
 }
 
 /// `calibration.csv`: one point per static channel, the mean of its valid
-/// records at the frequency it was read at most. Returns how many.
-fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool) -> Result<usize> {
+/// records at the frequency it was read at most; a channel with none is
+/// left out, with a comment that says so. Returns how many points, and
+/// what was left out.
+fn write_calibration(
+    dir: &Path,
+    statics: &[(u8, &[&LoggedRecord])],
+    truth: bool,
+) -> Result<(usize, Vec<String>)> {
     let mut cal = std::io::BufWriter::new(std::fs::File::create(dir.join("calibration.csv"))?);
     writeln!(
         cal,
@@ -296,6 +306,7 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool
         "r_line_ohm"
     };
     writeln!(cal, "stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}")?;
+    let mut left_out = vec![];
     for &(ch, rs) in statics {
         let good: Vec<&&LoggedRecord> = rs
             .iter()
@@ -306,7 +317,13 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool
             *count.entry(r.freq_hz.to_bits()).or_default() += 1;
         }
         let Some((&f, _)) = count.iter().max_by_key(|(_, n)| **n) else {
-            bail!("static channel {ch} has no valid record");
+            let why = format!(
+                "sensor {ch}, held still, has no calibration point: none of its {} records is valid and usable (they are in faults.csv)",
+                rs.len()
+            );
+            writeln!(cal, "# {why}")?;
+            left_out.push(why);
+            continue;
         };
         let at: Vec<&&&LoggedRecord> = good.iter().filter(|r| r.freq_hz.to_bits() == f).collect();
         let n = at.len() as f64;
@@ -328,7 +345,7 @@ fn write_calibration(dir: &Path, statics: &[(u8, &[&LoggedRecord])], truth: bool
         )?;
     }
     cal.flush()?;
-    Ok(statics.len())
+    Ok((statics.len() - left_out.len(), left_out))
 }
 
 /// One trace (or fragment) file: channel `ch`'s records `rs` at `f` Hz,
