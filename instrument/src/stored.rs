@@ -340,6 +340,7 @@ impl Stored {
     /// layout postcard gives the whole: the fields in order, a fixed
     /// array as its elements), so that a device parses it with one set on
     /// its stack rather than serde's copies of sixteen sensors (7 KiB).
+    /// Bytes after the set are no set: None.
     fn parse(&mut self, bytes: &[u8]) -> Option<()> {
         let ((version, record_every, policy), mut rest) =
             postcard::take_from_bytes::<(u16, u8, Policy)>(bytes).ok()?;
@@ -349,7 +350,7 @@ impl Stored {
             *sensor = s;
             rest = r;
         }
-        Some(())
+        rest.is_empty().then_some(())
     }
 }
 
@@ -379,6 +380,11 @@ mod tests {
         assert!(n <= MAX_BYTES && n > 16 * POINTS * 8, "{n} bytes");
         assert_eq!(Stored::from_bytes(&buf[..n]), Some(Ok(s)));
         assert_eq!(Stored::from_bytes(&buf[..n - 1]), None, "cut short");
+        let mut longer = buf[..n].to_vec();
+        for tail in [0u8, 0xFF] {
+            longer.push(tail);
+            assert_eq!(Stored::from_bytes(&longer), None, "trailing bytes");
+        }
         // The piecewise parse reads what serde's derive reads.
         let derived: Stored = postcard::from_bytes(&buf[..n]).unwrap();
         assert_eq!(derived, s);

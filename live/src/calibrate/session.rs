@@ -236,6 +236,10 @@ pub enum Step {
     Stretch(f64),
 }
 
+/// The longest hold or settling a guided calibration takes, s (an hour:
+/// a sensor's drift over longer says nothing of its stretch).
+pub const HOLD_MAX_S: f64 = 3600.0;
+
 /// A guided calibration: the stretches to hold in turn, how long each
 /// move settles and each hold is measured.
 #[derive(Clone, Debug)]
@@ -339,8 +343,14 @@ pub(crate) fn gather<S: std::io::Read + std::io::Write>(
     if guide.at_mm.len() < 2 {
         bail!("a calibration needs two stretches at least");
     }
-    if !(guide.hold_s > 0.0 && guide.settle_s >= 0.0) {
-        bail!("the hold must last, and the settling cannot be negative");
+    if !(guide.hold_s > 0.0 && guide.hold_s <= HOLD_MAX_S) {
+        bail!(
+            "a hold lasts more than 0 s and {HOLD_MAX_S} s at most, not {} s",
+            guide.hold_s
+        );
+    }
+    if !(guide.settle_s >= 0.0 && guide.settle_s <= HOLD_MAX_S) {
+        bail!("the settling lasts 0 to {HOLD_MAX_S} s, not {} s", guide.settle_s);
     }
     let mut holds = vec![];
     let mut open = None;

@@ -166,3 +166,37 @@ fn holds_files_say_where_they_are_wrong() {
     write_holds(&p, &holds).unwrap();
     assert_eq!(read_holds(&p).unwrap(), holds);
 }
+
+#[test]
+fn a_hold_or_settling_beyond_an_hour_is_refused_before_anything_waits() {
+    for (hold_s, settle_s) in [
+        (f64::INFINITY, 1.0),
+        (f64::NAN, 1.0),
+        (0.0, 1.0),
+        (5.0, 1e9),
+        (5.0, -1.0),
+    ] {
+        let guide = Guide {
+            open: false,
+            at_mm: vec![0.0, 10.0],
+            settle_s,
+            hold_s,
+            sweep: false,
+        };
+        let port = std::io::Cursor::new(Vec::<u8>::new());
+        let err = guided(
+            port,
+            &guide,
+            |_, _, _| Ok(Ready::Now),
+            &Options::default(),
+            false,
+            std::time::Duration::from_secs(3600),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("s at most") || err.contains("0 to 3600 s"),
+            "{hold_s} {settle_s}: {err}"
+        );
+    }
+}
