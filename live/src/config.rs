@@ -3,7 +3,8 @@
 //! settings file, `skin-qemu flash=PATH`) with the device's own store
 //! ([`instrument::store`]). A value is checked with the device's rules
 //! before anything is written; a refused set leaves the file as it was;
-//! the file is replaced whole (written beside it, then renamed).
+//! the file is replaced whole (written beside it under a name of its own,
+//! then renamed), one writer at a time ([`update_image`]).
 
 use anyhow::{anyhow, bail, Context, Result};
 use instrument::store::{RamFlash, Store, REGION_BYTES, SLOT_BYTES};
@@ -193,9 +194,27 @@ fn sensor(s: &mut SensorSettings, name: &str, field: &str, value: &str) -> Resul
 }
 
 /// The set stored in the flash image at `path` and its generation; None
-/// if the image holds none (a new device).
+/// if the image is erased (a new device). An image that holds data but
+/// no set that reads back is an error that says so.
 pub fn read_image(path: &Path) -> Result<Option<(Stored, u32)>> {
-    let mut image = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    refuse_link(path)?;
+    let image = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    match load(path, image)? {
+        (None, false) => bail!("{}", unreadable_message(path)),
+        (loaded, _) => Ok(loaded),
+    }
+}
+
+fn unreadable_message(path: &Path) -> String {
+    format!(
+        "{}: the image holds data but no set that reads back (a spoiled slot?)",
+        path.display()
+    )
+}
+
+/// The set `image` (the flash image at `path`) holds and its
+/// generation, and whether it is erased throughout (a new device's).
+fn load(path: &Path, mut image: Vec<u8>) -> Result<(Option<(Stored, u32)>, bool)> {
     if image.len() != REGION_BYTES {
         bail!(
             "{}: {} bytes, not a settings flash image ({REGION_BYTES} bytes)",
@@ -203,34 +222,128 @@ pub fn read_image(path: &Path) -> Result<Option<(Stored, u32)>> {
             image.len()
         );
     }
+    let erased = image.iter().all(|&b| b == 0xFF);
     let mut store = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES).map_err(|e| anyhow!("{e:?}"))?;
     let loaded = store.load().map_err(|e| anyhow!("{}: {e:?}", path.display()))?;
-    Ok(loaded.map(|l| (l.set, l.generation)))
+    Ok((loaded.map(|l| (l.set, l.generation)), erased))
 }
 
 /// Store `set` in the flash image at `path` (created erased if missing),
 /// as the device would: the rules checked first, then written to the
 /// slot not in force; the file replaced whole. The new generation.
+/// ([`update_image`] with a change that ignores what was there.)
 pub fn write_image(path: &Path, set: &Stored) -> Result<u32> {
-    set.check().map_err(|r| anyhow!("refused: {r}"))?;
-    let mut image = match std::fs::read(path) {
-        Ok(b) if b.len() == REGION_BYTES => b,
-        Ok(b) => bail!(
-            "{}: {} bytes, not a settings flash image ({REGION_BYTES} bytes)",
-            path.display(),
-            b.len()
-        ),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => vec![0xFF; REGION_BYTES],
+    update_image(path, Unreadable::Replace, |_| Ok(set.clone())).map(|(_, g)| g)
+}
+
+/// What [`update_image`] does with an image that holds data but no set
+/// that reads back (a slot a bit flip or a torn write spoiled).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unreadable {
+    /// Refuse: the calibration it held may be recovered yet.
+    Refuse,
+    /// Store the new set (the change starts from nothing stored).
+    Replace,
+}
+
+/// Read the set in the flash image at `path`, `change` it and store the
+/// result (created erased if missing), as one step: writers to one image
+/// wait for each other (an exclusive lock on `path`.lock), and the file
+/// must still be what was read when the new one replaces it. The new
+/// file is written beside it under a name of its own, then renamed over
+/// it; a symbolic link at `path` or at the lock is refused. An image
+/// that holds data but no readable set is refused unless `unreadable`
+/// says to replace it. The set stored and its generation.
+pub fn update_image(
+    path: &Path,
+    unreadable: Unreadable,
+    change: impl FnOnce(Option<Stored>) -> Result<Stored>,
+) -> Result<(Stored, u32)> {
+    refuse_link(path)?;
+    let _lock = lock(path)?;
+    let before = match std::fs::read(path) {
+        Ok(b) => Some(b),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
     };
+    let current = match &before {
+        None => None,
+        Some(image) => match load(path, image.clone())? {
+            (None, false) if unreadable == Unreadable::Refuse => bail!(
+                "{}: refusing to store a set made from the defaults over it (`live config set --replace-unreadable` does)",
+                unreadable_message(path)
+            ),
+            (loaded, _) => loaded.map(|(s, _)| s),
+        },
+    };
+    let set = change(current)?;
+    set.check().map_err(|r| anyhow!("refused: {r}"))?;
+    let mut image = before.clone().unwrap_or_else(|| vec![0xFF; REGION_BYTES]);
     let generation = Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES)
         .map_err(|e| anyhow!("{e:?}"))?
-        .save(set)
+        .save(&set)
         .map_err(|e| anyhow!("{}: {e:?}", path.display()))?;
-    let tmp = path.with_extension("bin.new");
-    std::fs::write(&tmp, &image).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("replacing {}", path.display()))?;
-    Ok(generation)
+    replace(path, &image, before.as_deref())?;
+    Ok((set, generation))
+}
+
+/// Refuse a symbolic link at `path`: a settings file is written where it
+/// is, never through a link planted there.
+fn refuse_link(path: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            bail!("{}: a symbolic link, not a flash image: refused", path.display())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The lock beside `path` (`path`.lock), held exclusively until dropped.
+fn lock(path: &Path) -> Result<std::fs::File> {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".lock");
+    let at = std::path::PathBuf::from(name);
+    refuse_link(&at)?;
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&at)
+        .with_context(|| format!("opening {}", at.display()))?;
+    file.lock().with_context(|| format!("locking {}", at.display()))?;
+    Ok(file)
+}
+
+/// Replace the file at `path` with `image`, if it still holds `before`
+/// (None: there was none): written to a new file of its own in the same
+/// folder, then renamed over it.
+fn replace(path: &Path, image: &[u8], before: Option<&[u8]>) -> Result<()> {
+    use std::io::Write as _;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".flash-")
+        .tempfile_in(dir)
+        .with_context(|| format!("a new file in {}", dir.display()))?;
+    tmp.write_all(image)
+        .and_then(|()| tmp.as_file().sync_all())
+        .with_context(|| format!("writing {}", tmp.path().display()))?;
+    let now = match std::fs::read(path) {
+        Ok(b) => Some(b),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+    };
+    if now.as_deref() != before {
+        bail!(
+            "{}: changed while the new set was being written (a device running on it?): nothing stored",
+            path.display()
+        );
+    }
+    tmp.persist(path)
+        .map_err(|e| anyhow!("replacing {}: {}", path.display(), e.error))?;
+    Ok(())
 }
 
 /// A device on the link: requests down, replies up (records passed over).
@@ -414,5 +527,118 @@ mod tests {
         assert!(err("sensor.0.in_use", "yes", &mut set).contains("true or false"));
         assert!(err("sensor.0.table", "1e-10:0", &mut set).contains("11 points"));
         assert!(err("record_every", "300", &mut set).contains("not a whole number"));
+    }
+
+    /// Sensor `k`'s parasitic capacitance set to `k` pF.
+    fn mark(set: &mut Stored, k: usize) {
+        set.sensors[k].parasitic_farad = k as f32 * 1e-12;
+    }
+
+    #[test]
+    fn writers_to_one_image_wait_for_each_other_and_lose_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        std::thread::scope(|scope| {
+            for k in 0..16 {
+                let path = &path;
+                scope.spawn(move || {
+                    update_image(path, Unreadable::Refuse, |set| {
+                        let mut set = set.unwrap_or_else(Stored::uncalibrated);
+                        mark(&mut set, k);
+                        // Slow enough that unguarded writers overlap.
+                        std::thread::sleep(std::time::Duration::from_millis(5));
+                        Ok(set)
+                    })
+                    .unwrap()
+                });
+            }
+        });
+        let (set, generation) = read_image(&path).unwrap().unwrap();
+        assert_eq!(generation, 16);
+        for k in 0..16 {
+            assert_eq!(set.sensors[k].parasitic_farad, k as f32 * 1e-12, "sensor {k}");
+        }
+        // No file of a writer is left behind but the lock.
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["flash.bin", "flash.bin.lock"]);
+    }
+
+    #[test]
+    fn a_spoiled_image_is_named_and_not_replaced_by_defaults_unasked() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        let mut set = Stored::uncalibrated();
+        mark(&mut set, 5);
+        write_image(&path, &set).unwrap();
+        // One bit flipped in the stored set's body.
+        let mut image = std::fs::read(&path).unwrap();
+        let at = image.iter().position(|&b| b != 0xFF).unwrap() + 40;
+        image[at] ^= 0x10;
+        std::fs::write(&path, &image).unwrap();
+        let err = read_image(&path).unwrap_err().to_string();
+        assert!(err.contains("no set that reads back"), "{err}");
+        let err = update_image(&path, Unreadable::Refuse, |s| {
+            Ok(s.unwrap_or_else(Stored::uncalibrated))
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("--replace-unreadable"), "{err}");
+        assert_eq!(std::fs::read(&path).unwrap(), image, "left as it was");
+        let (_, generation) = update_image(&path, Unreadable::Replace, |s| {
+            assert!(s.is_none());
+            Ok(Stored::uncalibrated())
+        })
+        .unwrap();
+        assert!(generation >= 1);
+        assert!(read_image(&path).unwrap().is_some());
+    }
+
+    #[test]
+    fn links_and_a_file_changed_meanwhile_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        let elsewhere = dir.path().join("elsewhere.bin");
+        std::fs::write(&elsewhere, b"keep").unwrap();
+        std::os::unix::fs::symlink(&elsewhere, &path).unwrap();
+        let err = write_image(&path, &Stored::uncalibrated())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("symbolic link"), "{err}");
+        assert_eq!(std::fs::read(&elsewhere).unwrap(), b"keep");
+        std::fs::remove_file(&path).unwrap();
+        // The lock's name, planted as a link.
+        std::os::unix::fs::symlink(&elsewhere, dir.path().join("flash.bin.lock")).unwrap();
+        assert!(write_image(&path, &Stored::uncalibrated()).is_err());
+        assert_eq!(std::fs::read(&elsewhere).unwrap(), b"keep");
+        std::fs::remove_file(dir.path().join("flash.bin.lock")).unwrap();
+        // Another writer (a device running on the image) meanwhile.
+        write_image(&path, &Stored::uncalibrated()).unwrap();
+        let err = update_image(&path, Unreadable::Refuse, |s| {
+            let mut other = Stored::uncalibrated();
+            mark(&mut other, 2);
+            write_image_unlocked(&path, &other);
+            Ok(s.unwrap())
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("changed while"), "{err}");
+        assert_eq!(
+            read_image(&path).unwrap().unwrap().0.sensors[2].parasitic_farad,
+            2e-12
+        );
+    }
+
+    /// What a device does to its image: a new set stored, no lock taken.
+    fn write_image_unlocked(path: &Path, set: &Stored) {
+        let mut image = std::fs::read(path).unwrap();
+        Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES)
+            .unwrap()
+            .save(set)
+            .unwrap();
+        std::fs::write(path, image).unwrap();
     }
 }

@@ -5,6 +5,7 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use live::config::Unreadable;
 use live::dashboard::Dashboard;
 use live::{follow, Outcome, Session, Sink, Stopped};
 use std::io::Write;
@@ -98,6 +99,11 @@ enum ConfigAction {
         /// `name=value` (`live config get` lists the names).
         #[arg(required = true)]
         assignments: Vec<String>,
+        /// With --flash: store over an image that holds data but no set
+        /// that reads back (a spoiled slot), starting from the defaults;
+        /// without it, such an image is refused.
+        #[arg(long)]
+        replace_unreadable: bool,
     },
 }
 
@@ -124,23 +130,19 @@ const REPLY_TIMEOUT: Duration = Duration::from_secs(20);
 fn with_target(
     target: &Target,
     change: Option<&dyn Fn(Option<instrument::stored::Stored>) -> Result<instrument::stored::Stored>>,
+    unreadable: live::config::Unreadable,
 ) -> Result<(instrument::stored::Stored, u32, bool)> {
-    use live::config::{read_image, write_image, Device};
+    use live::config::{read_image, update_image, Device};
     let device = |port: Box<dyn ReadWrite>| Device::new(port, REPLY_TIMEOUT);
     let mut dev = match (&target.flash, &target.tcp, &target.serial) {
         (Some(flash), _, _) => {
-            let stored = match flash.exists() || change.is_none() {
-                true => read_image(flash)?,
-                false => None,
-            };
             return match change {
-                None => Ok(stored.map_or(
+                None => Ok(read_image(flash)?.map_or(
                     (instrument::stored::Stored::uncalibrated(), 0, false),
                     |(s, g)| (s, g, true),
                 )),
                 Some(f) => {
-                    let set = f(stored.map(|(s, _)| s))?;
-                    let g = write_image(flash, &set)?;
+                    let (set, g) = update_image(flash, unreadable, f)?;
                     Ok((set, g, true))
                 }
             };
@@ -189,7 +191,7 @@ fn config(action: ConfigAction) -> Result<()> {
     use live::config::{assign, entries};
     match action {
         ConfigAction::Get { target } => {
-            let (set, generation, stored) = with_target(&target, None)?;
+            let (set, generation, stored) = with_target(&target, None, Unreadable::Refuse)?;
             let mut lines = vec![];
             match stored {
                 true => lines.push(format!("# generation {generation}")),
@@ -206,7 +208,11 @@ fn config(action: ConfigAction) -> Result<()> {
                 }
             }
         }
-        ConfigAction::Set { target, assignments } => {
+        ConfigAction::Set {
+            target,
+            assignments,
+            replace_unreadable,
+        } => {
             let change = |current: Option<instrument::stored::Stored>| {
                 // A new device starts from its defaults.
                 let mut set = current.unwrap_or_else(instrument::stored::Stored::uncalibrated);
@@ -216,7 +222,11 @@ fn config(action: ConfigAction) -> Result<()> {
                 }
                 Ok(set)
             };
-            let (_, generation, _) = with_target(&target, Some(&change))?;
+            let unreadable = match replace_unreadable {
+                true => Unreadable::Replace,
+                false => Unreadable::Refuse,
+            };
+            let (_, generation, _) = with_target(&target, Some(&change), unreadable)?;
             println!("stored: generation {generation}");
         }
     }
@@ -371,7 +381,7 @@ fn calibrate_recording(
     // A flash image not yet made is a new device.
     let base = match &target.flash {
         Some(f) if !f.exists() => instrument::stored::Stored::uncalibrated(),
-        _ => with_target(target, None)?.0,
+        _ => with_target(target, None, Unreadable::Refuse)?.0,
     };
     let (set, outcomes) = cal::calibrate(&records, holds, &base, opts);
     let text = cal::report(holds, &outcomes);
@@ -380,7 +390,7 @@ fn calibrate_recording(
     }
     if !dry_run {
         let change = |_: Option<instrument::stored::Stored>| Ok(set);
-        let (_, generation, _) = with_target(target, Some(&change))?;
+        let (_, generation, _) = with_target(target, Some(&change), Unreadable::Refuse)?;
         println!("stored: generation {generation}");
     }
     Ok(text)
