@@ -233,7 +233,7 @@ fn load(path: &Path, mut image: Vec<u8>) -> Result<(Option<(Stored, u32)>, bool)
 /// slot not in force; the file replaced whole. The new generation.
 /// ([`update_image`] with a change that ignores what was there.)
 pub fn write_image(path: &Path, set: &Stored) -> Result<u32> {
-    update_image(path, Unreadable::Replace, |_| Ok(set.clone())).map(|(_, g)| g)
+    update_image(path, Unreadable::Replace, |_| Ok(*set)).map(|(_, g)| g)
 }
 
 /// What [`update_image`] does with an image that holds data but no set
