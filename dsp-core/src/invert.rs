@@ -577,38 +577,30 @@ impl Inverter {
         let w = TAU * f_hz;
         let zabs = crate::fmath::hypot(z.re, z.im);
         let d = z.re / -z.im;
-        let fits = self.fits(d);
-        // The tail's lines have C of at least its smallest |ζ| over ω|Z|
-        // (|ζ| grows with x there).
-        let tail_c = fits.tail.then(|| self.tail_zeta / (w * zabs));
-        if fits.n == 0 {
-            return Err(if tail_c.is_some() {
-                InvertError::Ambiguous
-            } else {
-                InvertError::OutOfRange
-            });
-        }
-        if matches!(hint, Select::Unique) && (fits.n > 1 || tail_c.is_some()) {
-            return Err(InvertError::Ambiguous);
-        }
-        let (found, k) = self.lines(&fits, d, w, zabs)?;
-        let chosen = choose(hint, &found[..k], fits.n == 1 && tail_c.is_none(), tail_c)?;
-        self.finish(chosen)
-    }
-
-    /// Which lines fit a reading's D: the small-x asymptote, a branch,
-    /// the flat tail. A reading's D is uncertain by up to [`D_MARGIN`]: a
-    /// branch whose D comes that close fits too (at its nearest end), so
-    /// near a peak or trough both sides count, and x_unique is where D is
-    /// D_MARGIN below the trough. This needs no model evaluation, so a
-    /// reading that more than one line fits is refused without solving
-    /// any.
-    fn fits(&self, d: f32) -> Fits {
+        let line = |r: Root| {
+            let c = crate::fmath::hypot(r.zeta.re, r.zeta.im) / (w * zabs);
+            Line {
+                r_ohm: r.x / (w * c),
+                c_farad: c,
+                x: r.x,
+                kappa: r.kappa,
+            }
+        };
+        // Which lines fit: the small-x asymptote, a branch, the flat tail.
+        // A reading's D is uncertain by up to D_MARGIN: a branch whose D
+        // comes that close fits too (at its nearest end), so near a peak or
+        // trough both sides count, and x_unique is where D is D_MARGIN
+        // below the trough. This needs no model evaluation, so a reading
+        // that more than one line fits is refused without solving any.
         let margin = D_MARGIN * d;
         let small = d <= self.d[0];
-        // A flat branch reaching D: some line far beyond the range fits
-        // (its x cannot be told).
-        let tail = matches!(self.tail_band, Some((lo, hi)) if d >= lo - margin && d <= hi + margin);
+        // A flat branch reaching D: some line far beyond the range fits.
+        // Its x cannot be told, but its C is at least the tail's smallest
+        // |ζ| over ω|Z| (|ζ| grows with x there).
+        let tail_c = match self.tail_band {
+            Some((lo, hi)) if d >= lo - margin && d <= hi + margin => Some(self.tail_zeta / (w * zabs)),
+            _ => None,
+        };
         let mut inside = [false; BRANCHES];
         let mut n = small as usize;
         for (b, slot) in inside.iter_mut().enumerate().take(self.resolved) {
@@ -622,35 +614,19 @@ impl Inverter {
             };
             n += *slot as usize;
         }
-        Fits {
-            small,
-            inside,
-            n,
-            tail,
+        if n == 0 {
+            return Err(if tail_c.is_some() {
+                InvertError::Ambiguous
+            } else {
+                InvertError::OutOfRange
+            });
         }
-    }
-
-    /// The line of each fit but the tail's, solved at `d` for an
-    /// impedance of magnitude `zabs` at `w` rad/s: the lines and how many.
-    fn lines(
-        &self,
-        fits: &Fits,
-        d: f32,
-        w: f32,
-        zabs: f32,
-    ) -> Result<([Option<Line>; BRANCHES], usize), InvertError> {
-        let line = |r: Root| {
-            let c = crate::fmath::hypot(r.zeta.re, r.zeta.im) / (w * zabs);
-            Line {
-                r_ohm: r.x / (w * c),
-                c_farad: c,
-                x: r.x,
-                kappa: r.kappa,
-            }
-        };
-        let mut found = [None; BRANCHES];
+        if matches!(hint, Select::Unique) && (n > 1 || tail_c.is_some()) {
+            return Err(InvertError::Ambiguous);
+        }
+        let mut found = [None::<Line>; BRANCHES];
         let mut k = 0;
-        if fits.small {
+        if small {
             // Small x: ζ = −j + a·x, scaled so that it meets the grid at x_lo.
             let x = d * (X_ASYMPTOTE / self.d[0]);
             let a = self.model.low_freq_resistance_fraction() + self.lead;
@@ -661,7 +637,7 @@ impl Inverter {
             }));
             k = 1;
         }
-        for b in (0..self.resolved).filter(|&b| fits.inside[b]) {
+        for b in (0..self.resolved).filter(|&b| inside[b]) {
             let (i0, i1) = (self.ends[b], self.ends[b + 1]);
             let (d0, d1) = (self.d[i0], self.d[i1]);
             // fmath's clamp, not f32's (its order check would link core's
@@ -671,7 +647,8 @@ impl Inverter {
             found[k] = Some(line(self.root(d, i0, i1)?));
             k += 1;
         }
-        Ok((found, k))
+        let chosen = choose(hint, &found[..k], n == 1 && tail_c.is_none(), tail_c)?;
+        self.finish(chosen)
     }
 
     /// The chosen line within the range: 10⁻⁴ of slack, for a line at
@@ -680,6 +657,7 @@ impl Inverter {
     /// κ < 10⁻² is its f32 rounding), and D's slope to 10⁻² only where
     /// κ < [`KAPPA_SLOPE_MAX`] (near a peak of D the slope vanishes):
     /// elsewhere κ from central differences, as [`Self::kappa`] gives it.
+    #[inline(always)]
     fn finish(&self, chosen: Line) -> Result<Line, InvertError> {
         if chosen.x > self.x_max * (1.0 + 1e-4) {
             return Err(InvertError::OutOfRange);
@@ -796,6 +774,7 @@ impl Inverter {
     /// evaluations) and the guess in ln x, the cubic through the four
     /// grid points around the cell inside the branch (NaN on a branch too
     /// short for one: the caller's falsi).
+    #[inline(always)]
     fn start(&self, d: f32, i0: usize, i1: usize) -> (usize, usize, f32) {
         let up = self.d[i1] >= self.d[i0];
         let (mut a, mut b) = (i0, i1);
@@ -821,6 +800,7 @@ impl Inverter {
     /// ζ + ζ'·step, to step², from the line at `x` (`zeta`, its slope
     /// `s`). The continuous line's slope follows from ζ: κ at the root
     /// itself (near the peak of D, κ moves by 10⁻³ over such a step).
+    #[inline(always)]
     fn last_step(&self, x: f32, zeta: Complex32, s: Complex32, step: f32) -> Root {
         let x = min(x * (1.0 + step * (1.0 + 0.5 * step)), crate::tline::X_MAX);
         let zeta = zeta + s * step;
@@ -865,21 +845,10 @@ fn cubic_through(d: f32, ds: &[f32], us: &[f32]) -> f32 {
         - u3 * (e0 * e1 * e2) / (d03 * d13 * d23)
 }
 
-/// Which lines fit a reading's D ([`Inverter::fits`]).
-struct Fits {
-    /// The small-x asymptote.
-    small: bool,
-    /// Each resolved branch.
-    inside: [bool; BRANCHES],
-    /// How many of those: the asymptote and the branches.
-    n: usize,
-    /// The flat tail beyond the range.
-    tail: bool,
-}
-
 /// A frequency and an impedance an inversion can take: f finite and
 /// positive, Z finite and capacitive (Re ≥ 0, Im < 0), and a prior of
 /// positive finite capacitances in order.
+#[inline(always)]
 fn check_inputs(z: Complex32, f_hz: f32, hint: Select) -> Result<(), InvertError> {
     if !positive_finite(f_hz) {
         return Err(InvertError::BadFrequency);
@@ -898,6 +867,7 @@ fn check_inputs(z: Complex32, f_hz: f32, hint: Select) -> Result<(), InvertError
 /// The line `hint` picks of `lines` (at least one), where `one` says a
 /// single line fits and `tail_c` is the least C of the tail's lines, if
 /// they fit too.
+#[inline(always)]
 fn choose(hint: Select, lines: &[Option<Line>], one: bool, tail_c: Option<f32>) -> Result<Line, InvertError> {
     let mut rest = lines.iter().flatten();
     let Some(&first) = rest.next() else {
