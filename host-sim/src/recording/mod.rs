@@ -322,9 +322,9 @@ mod tests {
         assert_eq!(w.faults, 2);
     }
 
-    #[test]
-    fn a_board_recording_without_truth_reads_back_with_the_line_estimate() {
-        // Channel 0 moves; channels 1-3 are held at 0, 10, 20 mm.
+    /// A board's log without truth: channel 0 moves, channels 1-3 are
+    /// held at 0, 10, 20 mm; channel ch's records carry `flags(ch)`.
+    fn board_log(flags: impl Fn(u64) -> u32) -> String {
         let mut log = String::new();
         for k in 0..40u64 {
             for ch in 0..4u64 {
@@ -336,11 +336,18 @@ mod tests {
                 };
                 let c = 210.0 * (1.0 + s / 100.0);
                 log += &format!(
-                    "rec {t} {ch} 1953.125 {:.3} 90000 {c:.3} 712000 {s:.3} 0\n",
-                    c - 2.0
+                    "rec {t} {ch} 1953.125 {:.3} 90000 {c:.3} 712000 {s:.3} {}\n",
+                    c - 2.0,
+                    flags(ch)
                 );
             }
         }
+        log
+    }
+
+    #[test]
+    fn a_board_recording_without_truth_reads_back_with_the_line_estimate() {
+        let log = board_log(|_| 0);
         let recs = parse("board.log", &lines(&log)).unwrap();
         assert!(recs.iter().all(|r| r.truth.is_none()));
         let dir = tempfile::tempdir().unwrap();
@@ -356,26 +363,9 @@ mod tests {
 
     #[test]
     fn a_held_sensor_with_no_usable_record_is_left_out_not_the_whole_set() {
-        // Channels 1-3 held at 0, 10, 20 mm; every record of channel 3
-        // failed the model check (MODEL, 256), as an uncalibrated
-        // device's may.
-        let mut log = String::new();
-        for k in 0..40u64 {
-            for ch in 0..4u64 {
-                let t = (k * 4 + ch) * 5440 + 2880;
-                let s = if ch == 0 {
-                    0.5 * k as f64
-                } else {
-                    10.0 * (ch - 1) as f64
-                };
-                let c = 210.0 * (1.0 + s / 100.0);
-                let flags = if ch == 3 { 256 } else { 0 };
-                log += &format!(
-                    "rec {t} {ch} 1953.125 {:.3} 90000 {c:.3} 712000 {s:.3} {flags}\n",
-                    c - 2.0
-                );
-            }
-        }
+        // Every record of channel 3 (held at 20 mm) failed the model
+        // check (MODEL, 256), as an uncalibrated device's may.
+        let log = board_log(|ch| if ch == 3 { 256 } else { 0 });
         let recs = parse("board.log", &lines(&log)).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
