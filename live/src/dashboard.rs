@@ -5,11 +5,18 @@
 //! server-sent events (`/events`: first every record so far, then each
 //! batch as it arrives). The chart library (uPlot, from npm, with its
 //! licence at `/uPlot.LICENSE`) is embedded in the binary: the page loads
-//! nothing from the internet.
+//! nothing from the internet. A request is served only where its `Host`
+//! names the bound address (or `localhost` and its port): a page of
+//! another site that a DNS rebinding points at 127.0.0.1 gets nothing.
+//! A page that falls behind the records is told the gap and reconnects
+//! for the backlog, so it never shows fewer records without saying so.
 
 use anyhow::{Context, Result};
-use axum::http::header;
+use axum::extract::{Request, State};
+use axum::http::{header, StatusCode};
+use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 use futures_util::stream::{self, Stream, StreamExt};
@@ -18,6 +25,7 @@ use std::convert::Infallible;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use tokio::sync::broadcast;
+use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
 
 const INDEX: &str = include_str!("../web/index.html");
 const UPLOT_JS: &[u8] = include_bytes!(concat!(env!("UPLOT_DIST"), "/uPlot.iife.min.js"));
@@ -44,7 +52,7 @@ fn batch_json(records: &[Record]) -> String {
 }
 
 /// What the open pages are sent after their backlog.
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 enum Message {
     /// New records, as JSON.
     Batch(Arc<String>),
@@ -75,7 +83,7 @@ impl Dashboard {
             .enable_all()
             .build()
             .context("starting the dashboard's runtime")?;
-        let (messages, _) = broadcast::channel(1024);
+        let (messages, _) = broadcast::channel(BATCHES_BEHIND);
         let shared = Shared {
             records: Arc::new(Mutex::new((vec![], false))),
             messages,
@@ -102,7 +110,8 @@ impl Dashboard {
                 get(|| async { ([(header::CONTENT_TYPE, "text/plain")], UPLOT_LICENSE) }),
             )
             .route("/events", get(events))
-            .with_state(shared.clone());
+            .with_state(shared.clone())
+            .layer(middleware::from_fn_with_state(hosts(addr), this_host_only));
         runtime.spawn(async move {
             let _ = axum::serve(listener, app).await;
         });
@@ -141,35 +150,165 @@ impl Dashboard {
     }
 }
 
-/// `/events`: every record so far (event `backlog`), then each new
-/// batch, and `end` when the stream is over (the event stream closes).
-async fn events(
-    axum::extract::State(shared): axum::extract::State<Shared>,
-) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+/// How many batches a page may fall behind the newest before it is told
+/// the gap (and reconnects for the backlog).
+const BATCHES_BEHIND: usize = 1024;
+
+/// The `Host` values a request may carry: the bound address, and
+/// `localhost` with its port.
+fn hosts(addr: SocketAddr) -> Arc<[String]> {
+    Arc::from([addr.to_string(), format!("localhost:{}", addr.port())])
+}
+
+/// Serve a request only where its `Host` is one of `allowed`: 421
+/// otherwise (a DNS rebinding's name, or none).
+async fn this_host_only(State(allowed): State<Arc<[String]>>, request: Request, next: Next) -> Response {
+    let host = request.headers().get(header::HOST).and_then(|h| h.to_str().ok());
+    match host {
+        Some(h) if allowed.iter().any(|a| a.eq_ignore_ascii_case(h)) => next.run(request).await,
+        _ => (
+            StatusCode::MISDIRECTED_REQUEST,
+            "this dashboard answers requests for its own address only\n",
+        )
+            .into_response(),
+    }
+}
+
+/// What a page's event stream carries, in order.
+#[derive(Clone, Debug, PartialEq)]
+enum Out {
+    /// Every record so far (event `backlog`: a page that reconnects
+    /// starts over from it).
+    Backlog(String),
+    /// New records.
+    Batch(Arc<String>),
+    /// The page fell behind by this many batches (event `gap`): the
+    /// stream ends, and the page reconnects for the backlog.
+    Gap(u64),
+    /// The stream is over (event `end`).
+    End,
+}
+
+/// A page's stream: `backlog`, then (unless the stream has `ended`) the
+/// batches from `rx`, up to and including the end or a gap.
+fn page_stream(
+    backlog: String,
+    ended: bool,
+    rx: broadcast::Receiver<Message>,
+) -> impl Stream<Item = Out> + Send {
+    let first = stream::once(async move { Out::Backlog(backlog) });
+    let live = tokio_stream::wrappers::BroadcastStream::new(rx)
+        .map(|m| match m {
+            Ok(Message::Batch(b)) => Out::Batch(b),
+            Ok(Message::End) => Out::End,
+            Err(BroadcastStreamRecvError::Lagged(n)) => Out::Gap(n),
+        })
+        // The dashboard gone without its end: the end all the same.
+        .chain(stream::once(async { Out::End }));
+    let rest = match ended {
+        true => stream::once(async { Out::End }).boxed(),
+        false => live.boxed(),
+    };
+    first.chain(rest).scan(false, |over, out| {
+        let next = (!*over).then(|| {
+            *over = matches!(out, Out::End | Out::Gap(_));
+            out
+        });
+        async move { next }
+    })
+}
+
+/// `/events`: [`page_stream`] as server-sent events.
+async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
     let (backlog, ended, rx) = {
         let all = shared.records.lock().unwrap_or_else(|p| p.into_inner());
         (batch_json(&all.0), all.1, shared.messages.subscribe())
     };
-    // Named: a page that reconnects starts over from it.
-    let first = stream::once(async move { Ok(Event::default().event("backlog").data(backlog)) });
-    let end = stream::once(async { Ok(Event::default().event("end").data("end")) });
-    let rest: std::pin::Pin<Box<dyn Stream<Item = Result<Event, Infallible>> + Send>> = if ended {
-        Box::pin(end)
-    } else {
-        Box::pin(
-            tokio_stream::wrappers::BroadcastStream::new(rx)
-                .take_while(|m| {
-                    let go = !matches!(m, Ok(Message::End));
-                    async move { go }
-                })
-                .filter_map(|m| async move {
-                    match m {
-                        Ok(Message::Batch(b)) => Some(Ok(Event::default().data(b.as_str()))),
-                        _ => None,
-                    }
-                })
-                .chain(end),
-        )
-    };
-    Sse::new(first.chain(rest)).keep_alive(KeepAlive::default())
+    let events = page_stream(backlog, ended, rx).map(|out| {
+        Ok(match out {
+            Out::Backlog(b) => Event::default().event("backlog").data(b),
+            Out::Batch(b) => Event::default().data(b.as_str()),
+            Out::Gap(n) => Event::default().event("gap").data(n.to_string()),
+            Out::End => Event::default().event("end").data("end"),
+        })
+    });
+    Sse::new(events).keep_alive(KeepAlive::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::{Read, Write};
+
+    fn collect(s: impl Stream<Item = Out> + Send) -> Vec<Out> {
+        tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap()
+            .block_on(s.collect())
+    }
+
+    #[test]
+    fn a_page_that_falls_behind_is_told_the_gap_and_its_stream_ends() {
+        let (tx, rx) = broadcast::channel(2);
+        for k in 0..5 {
+            tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
+        }
+        tx.send(Message::End).unwrap();
+        let got = collect(page_stream("[]".into(), false, rx));
+        assert_eq!(got, [Out::Backlog("[]".into()), Out::Gap(4)]);
+    }
+
+    #[test]
+    fn a_page_that_keeps_up_gets_every_batch_then_the_end() {
+        let (tx, rx) = broadcast::channel(8);
+        for k in 0..3 {
+            tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
+        }
+        tx.send(Message::End).unwrap();
+        tx.send(Message::Batch(Arc::new("[9]".into()))).unwrap();
+        let got = collect(page_stream("[]".into(), false, rx));
+        let batch = |k: u32| Out::Batch(Arc::new(format!("[{k}]")));
+        assert_eq!(
+            got,
+            [Out::Backlog("[]".into()), batch(0), batch(1), batch(2), Out::End]
+        );
+        // A page that opens after the end: the backlog and the end.
+        let (_tx, rx) = broadcast::channel(8);
+        assert_eq!(
+            collect(page_stream("[1]".into(), true, rx)),
+            [Out::Backlog("[1]".into()), Out::End]
+        );
+    }
+
+    /// The status line of `GET /` with `host` (None: no Host header).
+    fn status(addr: SocketAddr, host: Option<&str>) -> String {
+        let mut sock = std::net::TcpStream::connect(addr).unwrap();
+        let host = host.map_or(String::new(), |h| format!("Host: {h}\r\n"));
+        write!(sock, "GET / HTTP/1.1\r\n{host}Connection: close\r\n\r\n").unwrap();
+        let mut text = String::new();
+        sock.read_to_string(&mut text).unwrap();
+        text.lines().next().unwrap_or_default().to_string()
+    }
+
+    #[test]
+    fn a_request_for_another_host_is_refused() {
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap()).unwrap();
+        let (addr, port) = (d.addr(), d.addr().port());
+        for host in [
+            addr.to_string(),
+            format!("localhost:{port}"),
+            format!("LOCALHOST:{port}"),
+        ] {
+            assert!(status(addr, Some(&host)).contains(" 200 "), "{host}");
+        }
+        for host in [
+            "evil.example",
+            &format!("evil.example:{port}"),
+            "127.0.0.1",
+            &format!("127.0.0.2:{port}"),
+        ] {
+            assert!(status(addr, Some(host)).contains(" 421 "), "{host}");
+        }
+        assert!(!status(addr, None).contains(" 200 "));
+    }
 }

@@ -8,7 +8,8 @@ use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-/// Two sensors on a slow triangle of stretch, `n` records each.
+/// Two sensors on a slow triangle of stretch, `n` records each, and a
+/// last one of sensor 1 without values.
 fn stream(n: u32) -> Vec<u8> {
     let mut enc = Encoder::new();
     let mut out = [0u8; MAX_FRAME];
@@ -47,8 +48,21 @@ fn stream(n: u32) -> Vec<u8> {
             bytes.extend_from_slice(enc.frame(Body::Record(rec), &mut out).unwrap());
         }
     }
+    // Sensor 1's last record has no values (NaN on the device): a gap,
+    // not a broken page.
+    let nan = Record {
+        t_us: 4000 * u64::from(n) + 2000,
+        sensor: 1,
+        c_farad: f32::NAN,
+        r_ohm: f32::NAN,
+        stretch_mm: f32::NAN,
+        chosen_hz: f32::NAN,
+        flags: 256,
+        ..Record::default()
+    };
+    bytes.extend_from_slice(enc.frame(Body::Record(nan), &mut out).unwrap());
     let end = End {
-        records: 2 * n,
+        records: 2 * n + 1,
         dropped: 0,
     };
     bytes.extend_from_slice(enc.frame(Body::End(end), &mut out).unwrap());
@@ -109,10 +123,16 @@ fn the_page_shows_every_record_it_was_sent() {
         let at = dom.find(&tag)? + tag.len();
         dom[at..].split('<').next()?.parse().ok()
     };
-    assert_eq!(count("records"), Some(800), "{dom}");
+    assert_eq!(count("records"), Some(801), "{dom}");
     assert_eq!(count("sensors"), Some(2));
-    assert_eq!(count("flagged"), Some(16));
+    assert_eq!(count("flagged"), Some(17));
     assert!(dom.contains("sensor 0: C"), "no charts: {dom}");
+    // The table's row of sensor 1: its last record's values as dashes.
+    let row = dom
+        .split("<tr")
+        .find(|r| r.contains("<td>1</td><td>401</td>"))
+        .unwrap_or_else(|| panic!("no row of sensor 1: {dom}"));
+    assert_eq!(row.matches("<td>–</td>").count(), 4, "{row}");
     assert!(
         shot.is_file() && std::fs::metadata(&shot).unwrap().len() > 10_000,
         "no screenshot"
