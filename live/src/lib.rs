@@ -85,6 +85,32 @@ pub struct Session {
     /// The first frames refused: where (the byte that closed them) and
     /// why.
     refused: Vec<(u64, link::Error)>,
+    /// Records that decoded but cannot be the device's, set aside.
+    set_aside: SetAside,
+    /// Each sensor's last record time in this run of the device, µs.
+    last_t_us: std::collections::BTreeMap<u8, u64>,
+    /// Start frames after the first: the device restarted.
+    restarts: u32,
+    /// Why the session took no more frames, where it stopped early.
+    stopped: Option<String>,
+}
+
+/// Records that decoded but that the stream's own terms rule out: set
+/// aside (not written), counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SetAside {
+    /// Of a sensor beyond the count the start frame gave.
+    pub beyond_sensors: u64,
+    /// Not after its sensor's previous record in time (time going
+    /// backwards, or a record again).
+    pub not_later: u64,
+}
+
+impl SetAside {
+    /// How many in all.
+    pub fn total(&self) -> u64 {
+        self.beyond_sensors + self.not_later
+    }
 }
 
 /// How many refused frames a session describes (the rest are counted).
@@ -125,6 +151,10 @@ impl Session {
             line: Vec::with_capacity(192),
             stray: 0,
             refused: vec![],
+            set_aside: SetAside::default(),
+            last_t_us: Default::default(),
+            restarts: 0,
+            stopped: None,
         })
     }
 
@@ -189,7 +219,10 @@ impl Session {
     fn decode(&mut self, bytes: &[u8]) -> Result<usize> {
         let mut n = 0;
         let mut rest = bytes;
-        while let Some(got) = self.decoder.next_frame(&mut rest) {
+        while self.stopped.is_none() {
+            let Some(got) = self.decoder.next_frame(&mut rest) else {
+                break;
+            };
             let frame = match got {
                 Ok(frame) => frame,
                 Err(e) => {
@@ -200,30 +233,71 @@ impl Session {
                 }
             };
             match frame.body {
-                Body::Start(s) => {
-                    if s.version != link::VERSION {
-                        bail!(
-                            "the stream is of wire version {} and this tool reads version {}: update the host tools",
-                            s.version,
-                            link::VERSION
-                        );
-                    }
-                    if self.start.is_some() {
-                        // The device restarted: a second stream follows.
-                        self.stray += 1;
-                    }
-                    self.start = Some(s);
-                }
+                Body::Start(s) => self.started(s)?,
                 Body::Record(r) if self.start.is_some() && self.end.is_none() => {
-                    self.records.push(r);
-                    self.seqs.push(frame.seq);
-                    n += 1;
+                    if self.take(&r) {
+                        self.records.push(r);
+                        self.seqs.push(frame.seq);
+                        n += 1;
+                    }
                 }
                 Body::End(e) if self.start.is_some() => self.end = Some(e),
                 _ => self.stray += 1,
             }
         }
         Ok(n)
+    }
+
+    /// A start frame: the stream's first, or the device's again after a
+    /// restart (its records' times start over). Of another wire version:
+    /// refused when it is the first (nothing came before it), else the
+    /// session stops, keeping what came before.
+    fn started(&mut self, s: Start) -> Result<()> {
+        if s.version != link::VERSION {
+            let why = format!(
+                "the stream is of wire version {} and this tool reads version {}: update the host tools",
+                s.version,
+                link::VERSION
+            );
+            if self.start.is_none() {
+                bail!("{why}");
+            }
+            self.stopped = Some(format!(
+                "the device restarted and {why}; the records before are kept"
+            ));
+            return Ok(());
+        }
+        if self.start.is_some() {
+            self.restarts += 1;
+            self.last_t_us.clear();
+        }
+        self.start = Some(s);
+        Ok(())
+    }
+
+    /// Whether record `r` can be the device's: of a sensor the start
+    /// frame counts, and later than its sensor's last record since the
+    /// device started. Counted where it is set aside.
+    fn take(&mut self, r: &Record) -> bool {
+        let sensors = self.start.map_or(0, |s| s.sensors);
+        if r.sensor >= sensors {
+            self.set_aside.beyond_sensors += 1;
+            return false;
+        }
+        match self.last_t_us.insert(r.sensor, r.t_us) {
+            Some(last) if r.t_us <= last => {
+                self.last_t_us.insert(r.sensor, last);
+                self.set_aside.not_later += 1;
+                false
+            }
+            _ => true,
+        }
+    }
+
+    /// Why the session took no more frames, if it stopped early (the
+    /// device restarted with another wire version).
+    pub fn stopped(&self) -> Option<&str> {
+        self.stopped.as_deref()
     }
 
     /// The start frame, once received.
@@ -275,6 +349,7 @@ impl Session {
     pub fn finish(mut self) -> Result<Finished> {
         let summary = self.summary();
         let outcome = match (&self.start, &self.end) {
+            _ if self.stopped.is_some() => Outcome::Incomplete(self.stopped.clone().unwrap_or_default()),
             (_, Some(_)) => Outcome::Complete,
             (None, None) => Outcome::Incomplete("no start frame: nothing from the device".into()),
             (Some(_), None) => Outcome::Incomplete(format!(
@@ -437,6 +512,14 @@ pub struct Summary {
     pub sensors: usize,
     /// Records per second per sensor: least and most.
     pub rate: (f64, f64),
+    /// Records set aside: of no sensor the start frame counts, or not
+    /// later than their sensor's last.
+    pub set_aside: SetAside,
+    /// Times the device restarted (a start frame again).
+    pub restarts: u32,
+    /// Where the end frame's count of records sent disagrees with what
+    /// arrived: how.
+    pub end_mismatch: Option<String>,
 }
 
 impl Summary {
@@ -459,7 +542,29 @@ impl Summary {
             self.link.lost,
             self.link.repeated,
             self.dropped.map_or(String::new(), |d| format!("; {d} dropped on the device"))
-        )
+        ) + &self.remarks()
+    }
+
+    /// What the line adds where the stream broke its own terms.
+    fn remarks(&self) -> String {
+        let mut out = String::new();
+        let a = self.set_aside;
+        if a.beyond_sensors > 0 {
+            out += &format!(
+                "; {} records of sensors beyond the start frame's count set aside",
+                a.beyond_sensors
+            );
+        }
+        if a.not_later > 0 {
+            out += &format!("; {} records not later than their sensor's last set aside (time went backwards, or a record again)", a.not_later);
+        }
+        if self.restarts > 0 {
+            out += &format!("; the device restarted {} time(s)", self.restarts);
+        }
+        if let Some(m) = &self.end_mismatch {
+            out += &format!("; {m}");
+        }
+        out
     }
 }
 
@@ -490,12 +595,36 @@ impl Session {
                 .count(),
             link: stats,
             dropped: self.end.map(|e| e.dropped),
+            set_aside: self.set_aside,
+            restarts: self.restarts,
+            end_mismatch: self.end_mismatch(&stats),
             sensors: per.len(),
             rate: (
                 rates.iter().copied().fold(f64::NAN, f64::min),
                 rates.iter().copied().fold(f64::NAN, f64::max),
             ),
         }
+    }
+}
+
+impl Session {
+    /// Where the end frame's count of records sent cannot be what
+    /// arrived: fewer than arrived, or more than arrived and the frames
+    /// lost could hold. (A restart starts the device's count over: from
+    /// it on only.)
+    fn end_mismatch(&self, stats: &link::Stats) -> Option<String> {
+        let sent = u64::from(self.end?.records);
+        let since = match self.restarts {
+            0 => self.records.len() as u64 + self.set_aside.total(),
+            // Records since the last start: a restart's count is its own.
+            _ => return None,
+        };
+        (sent < since || sent > since + stats.lost).then(|| {
+            format!(
+                "the end frame says {sent} records were sent, but {since} arrived and {} frames were lost",
+                stats.lost
+            )
+        })
     }
 }
 
@@ -583,6 +712,9 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, stop: &AtomicBool) -> Resu
         }
         if sink.session.end().is_some() {
             break Stopped::End;
+        }
+        if let Some(why) = sink.session.stopped() {
+            break Stopped::Source(why.to_string());
         }
     };
     sink.session.flush()?;
