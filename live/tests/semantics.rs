@@ -48,6 +48,13 @@ impl Device {
         }));
     }
 
+    /// `n` records of sensors 0 and 1 in turn, 1 ms apart from 0.5 ms.
+    fn records(&mut self, n: u64) {
+        for k in 0..n {
+            self.record((k % 2) as u8, 1000 * k + 500);
+        }
+    }
+
     fn end(&mut self, records: u32) {
         self.send(Body::End(End { records, dropped: 0 }));
     }
@@ -62,9 +69,7 @@ fn replay(bytes: &[u8]) -> live::Finished {
 fn records_beyond_the_sensors_or_not_later_are_set_aside_by_name() {
     let mut d = Device::new();
     d.start(VERSION, 2);
-    for k in 0..10u64 {
-        d.record((k % 2) as u8, 1000 * k + 500);
-    }
+    d.records(10);
     d.record(200, 20_000);
     d.record(255, 20_000);
     // Time going backwards on sensor 0, and sensor 1's last record again.
@@ -93,9 +98,7 @@ fn an_end_frame_that_cannot_be_what_arrived_is_named() {
     for said in [3u32, 40] {
         let mut d = Device::new();
         d.start(VERSION, 2);
-        for k in 0..10u64 {
-            d.record((k % 2) as u8, 1000 * k + 500);
-        }
+        d.records(10);
         d.end(said);
         let s = replay(&d.bytes).summary;
         let m = s.end_mismatch.clone().unwrap_or_default();
@@ -111,14 +114,10 @@ fn an_end_frame_that_cannot_be_what_arrived_is_named() {
 fn a_restart_keeps_every_record_and_is_counted() {
     let mut d = Device::new();
     d.start(VERSION, 2);
-    for k in 0..6u64 {
-        d.record((k % 2) as u8, 1000 * k + 500);
-    }
+    d.records(6);
     // The device restarts: its clock and numbering start over.
     d.start(VERSION, 2);
-    for k in 0..4u64 {
-        d.record((k % 2) as u8, 1000 * k + 500);
-    }
+    d.records(4);
     d.end(4);
     let done = replay(&d.bytes);
     assert_eq!(done.summary.records, 10, "{}", done.summary.line());
@@ -131,13 +130,9 @@ fn a_restart_keeps_every_record_and_is_counted() {
 fn another_wire_version_after_a_restart_stops_the_session_keeping_what_came() {
     let mut d = Device::new();
     d.start(VERSION, 2);
-    for k in 0..6u64 {
-        d.record((k % 2) as u8, 1000 * k + 500);
-    }
+    d.records(6);
     d.start(VERSION + 1, 2);
-    for k in 0..4u64 {
-        d.record((k % 2) as u8, 1000 * k + 500);
-    }
+    d.records(4);
     d.end(4);
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("ds");
