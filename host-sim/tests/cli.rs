@@ -381,7 +381,7 @@ fn no_record_is_left_out_without_a_word() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let faults = std::fs::read_to_string(out.join("faults.csv")).unwrap();
     assert!(
-        faults.starts_with("time_s,channel,freq_hz,flags,reason\n"),
+        faults.starts_with("time_s,sensor,freq_hz,flags,reason\n"),
         "{faults}"
     );
     assert!(
