@@ -261,11 +261,7 @@ pub fn update_image(
 ) -> Result<(Stored, u32)> {
     refuse_link(path)?;
     let _lock = lock(path)?;
-    let before = match std::fs::read(path) {
-        Ok(b) => Some(b),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
-    };
+    let before = read_if_there(path)?;
     let current = match &before {
         None => None,
         Some(image) => match load(path, image.clone())? {
@@ -285,6 +281,15 @@ pub fn update_image(
         .map_err(|e| anyhow!("{}: {e:?}", path.display()))?;
     replace(path, &image, before.as_deref())?;
     Ok((set, generation))
+}
+
+/// The file at `path`, None where there is none.
+fn read_if_there(path: &Path) -> Result<Option<Vec<u8>>> {
+    match std::fs::read(path) {
+        Ok(b) => Ok(Some(b)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(e).with_context(|| format!("reading {}", path.display())),
+    }
 }
 
 /// Refuse a symbolic link at `path`: a settings file is written where it
@@ -330,12 +335,7 @@ fn replace(path: &Path, image: &[u8], before: Option<&[u8]>) -> Result<()> {
     tmp.write_all(image)
         .and_then(|()| tmp.as_file().sync_all())
         .with_context(|| format!("writing {}", tmp.path().display()))?;
-    let now = match std::fs::read(path) {
-        Ok(b) => Some(b),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
-    };
-    if now.as_deref() != before {
+    if read_if_there(path)?.as_deref() != before {
         bail!(
             "{}: changed while the new set was being written (a device running on it?): nothing stored",
             path.display()

@@ -284,14 +284,12 @@ impl Session {
             self.set_aside.beyond_sensors += 1;
             return false;
         }
-        match self.last_t_us.insert(r.sensor, r.t_us) {
-            Some(last) if r.t_us <= last => {
-                self.last_t_us.insert(r.sensor, last);
-                self.set_aside.not_later += 1;
-                false
-            }
-            _ => true,
+        if self.last_t_us.get(&r.sensor).is_some_and(|&last| r.t_us <= last) {
+            self.set_aside.not_later += 1;
+            return false;
         }
+        self.last_t_us.insert(r.sensor, r.t_us);
+        true
     }
 
     /// Why the session took no more frames, if it stopped early (the
@@ -348,15 +346,7 @@ impl Session {
     /// [`INCOMPLETE`] marker if it did not end with its end frame.
     pub fn finish(mut self) -> Result<Finished> {
         let summary = self.summary();
-        let outcome = match (&self.start, &self.end) {
-            _ if self.stopped.is_some() => Outcome::Incomplete(self.stopped.clone().unwrap_or_default()),
-            (_, Some(_)) => Outcome::Complete,
-            (None, None) => Outcome::Incomplete("no start frame: nothing from the device".into()),
-            (Some(_), None) => Outcome::Incomplete(format!(
-                "the stream stopped after {} records without its end frame (a crash, a hang, the link was cut, or it was stopped)",
-                self.records.len()
-            )),
-        };
+        // The files are open from the start frame on.
         let Some(mut files) = self.files.take() else {
             // No start frame: nothing was written, and nothing is.
             return Ok(Finished {
@@ -366,6 +356,14 @@ impl Session {
                 summary,
                 written: recording::Written::default(),
             });
+        };
+        let outcome = match (&self.stopped, &self.end) {
+            (Some(why), _) => Outcome::Incomplete(why.clone()),
+            (None, Some(_)) => Outcome::Complete,
+            (None, None) => Outcome::Incomplete(format!(
+                "the stream stopped after {} records without its end frame (a crash, a hang, the link was cut, or it was stopped)",
+                self.records.len()
+            )),
         };
         files.raw.flush().context("keeping the raw stream")?;
         // The rest of records.csv on a thread of its own while the data
@@ -605,23 +603,20 @@ impl Session {
             ),
         }
     }
-}
 
-impl Session {
     /// Where the end frame's count of records sent cannot be what
     /// arrived: fewer than arrived, or more than arrived and the frames
-    /// lost could hold. (A restart starts the device's count over: from
-    /// it on only.)
+    /// lost could hold. Not judged across a restart: the device's count
+    /// starts over with it.
     fn end_mismatch(&self, stats: &link::Stats) -> Option<String> {
         let sent = u64::from(self.end?.records);
-        let since = match self.restarts {
-            0 => self.records.len() as u64 + self.set_aside.total(),
-            // Records since the last start: a restart's count is its own.
-            _ => return None,
-        };
-        (sent < since || sent > since + stats.lost).then(|| {
+        if self.restarts > 0 {
+            return None;
+        }
+        let arrived = self.records.len() as u64 + self.set_aside.total();
+        (sent < arrived || sent > arrived + stats.lost).then(|| {
             format!(
-                "the end frame says {sent} records were sent, but {since} arrived and {} frames were lost",
+                "the end frame says {sent} records were sent, but {arrived} arrived and {} frames were lost",
                 stats.lost
             )
         })
