@@ -517,18 +517,7 @@ fn report(what: &str, stopped: Stopped) {
 }
 
 fn run(cli: Cli) -> Result<Outcome> {
-    let dashboard = match cli.serve {
-        Some(addr) if !addr.ip().is_loopback() => {
-            anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
-        }
-        Some(addr) => {
-            let d = Dashboard::serve(addr)?;
-            println!("dashboard: http://{}/", d.addr());
-            std::io::stdout().flush()?;
-            Some(d)
-        }
-        None => None,
-    };
+    let dashboard = serve(cli.serve)?;
     // Ctrl-C ends a live stream (a board's never ends by itself): the
     // data set is written with what arrived, marked incomplete.
     let stop = Arc::new(AtomicBool::new(false));
@@ -577,15 +566,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
         std::thread::sleep(Duration::from_secs(cli.linger));
     }
-    for (at, why) in session.refused() {
-        eprintln!("a frame ending at byte {at} of the stream was refused: {why}");
-    }
-    if session.stats().bad > session.refused().len() as u64 {
-        eprintln!(
-            "… and {} more refused",
-            session.stats().bad - session.refused().len() as u64
-        );
-    }
+    print_refused(&session);
     let started = session.start().is_some();
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
@@ -603,6 +584,33 @@ fn run(cli: Cli) -> Result<Outcome> {
         println!("no start frame arrived: nothing written to {}", dataset.display());
     }
     Ok(finished.outcome)
+}
+
+/// The dashboard on `addr`, where asked (this machine's addresses only);
+/// its address printed first.
+fn serve(addr: Option<std::net::SocketAddr>) -> Result<Option<Dashboard>> {
+    let Some(addr) = addr else {
+        return Ok(None);
+    };
+    if !addr.ip().is_loopback() {
+        anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
+    }
+    let d = Dashboard::serve(addr)?;
+    println!("dashboard: http://{}/", d.addr());
+    std::io::stdout().flush()?;
+    Ok(Some(d))
+}
+
+/// The frames the session refused: the first named with their place,
+/// the rest counted.
+fn print_refused(session: &Session) {
+    for (at, why) in session.refused() {
+        eprintln!("a frame ending at byte {at} of the stream was refused: {why}");
+    }
+    let more = session.stats().bad.saturating_sub(session.refused().len() as u64);
+    if more > 0 {
+        eprintln!("… and {more} more refused");
+    }
 }
 
 /// A new session's folder: out/sessions/<UTC date and time>, with `-2`,
