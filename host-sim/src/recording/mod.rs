@@ -26,13 +26,17 @@
 //! so ([`crate::dataset::Table::resistance`]).
 //!
 //! Reading is the module `decode` (log lines, raw defmt, the wire format's records
-//! and truth lines paired), writing the module `write` (the data set's files).
+//! and truth lines paired), writing the modules `writer` (a data set
+//! appended to as records arrive) and `write` (a whole recording's, put
+//! in place of the last).
 
 mod decode;
 mod write;
+mod writer;
 
 pub use decode::{decode_defmt, log_lines, parse, parse_tones, read, read_recording, END};
 pub use write::{is_dataset_file, unusable, write_dataset, Written, INCOMPLETE};
+pub use writer::DatasetWriter;
 
 use instrument::faults::Flags;
 
