@@ -553,10 +553,17 @@ impl std::fmt::Display for Incomplete {
 impl std::error::Error for Incomplete {}
 
 /// Say so when the data set in `dir` was recorded by a run cut short
-/// (`decode`'s or `live`'s INCOMPLETE mark).
+/// (`decode`'s or `live`'s INCOMPLETE mark), or by a `live` session that
+/// never ended (its records, no manifest).
 fn note_incomplete(dir: &Path) {
-    if let Ok(why) = std::fs::read_to_string(dir.join("INCOMPLETE")) {
+    use host_sim::recording::{INCOMPLETE, MANIFEST};
+    if let Ok(why) = std::fs::read_to_string(dir.join(INCOMPLETE)) {
         eprintln!("note: {} is marked INCOMPLETE: {}", dir.display(), why.trim());
+    } else if dir.join("records.csv").exists() && !dir.join(MANIFEST).exists() {
+        eprintln!(
+            "note: {} is incomplete: a live session's folder without its {MANIFEST} (the session never ended: killed, crashed or out of disk)",
+            dir.display()
+        );
     }
 }
 

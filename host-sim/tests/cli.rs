@@ -467,3 +467,27 @@ fn a_record_without_its_line_is_listed_not_written_as_a_row_nobody_can_read() {
     let o = run(&["residual".as_ref(), set.as_os_str()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A `live` session's folder without its manifest (the session never
+/// ended) is said to be incomplete by the readers, marker or not.
+#[test]
+fn a_session_folder_without_its_manifest_is_said_incomplete() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("records.csv"), "segment,seq\n").unwrap();
+    for cmd in ["residual", "identify"] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .arg(cmd)
+            .arg(tmp.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("without its session.json"), "{cmd}: {err}");
+    }
+    std::fs::write(tmp.path().join(host_sim::recording::MANIFEST), "{}").unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("residual")
+        .arg(tmp.path())
+        .output()
+        .unwrap();
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("incomplete"));
+}

@@ -537,8 +537,9 @@ fn run(cli: Cli) -> Result<Outcome> {
     };
     match (&cli.replay, &cli.serial, &cli.tcp) {
         (Some(path), _, _) => {
-            let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-            sink.push(&bytes)?;
+            // Read in pieces: a recording of a day does not fit in memory.
+            let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+            live::replay_from(file, &mut sink)?;
         }
         (None, Some(name), _) => {
             let port = serialport::new(name, cli.baud)

@@ -148,3 +148,106 @@ fn another_wire_version_after_a_restart_stops_the_session_keeping_what_came() {
     assert_eq!(csv.lines().count(), 7, "{csv}");
     assert!(dir.join(live::INCOMPLETE).is_file());
 }
+
+/// A record of `sensor` at `t_us` with a capacitor's impedance at 2 kHz:
+/// a row of its trace.
+fn measured(d: &mut Device, sensor: u8, t_us: u64) {
+    d.send(Body::Record(Record {
+        t_us,
+        sensor,
+        tones: [
+            link::Tone {
+                f_hz: 2000.0,
+                z_re_ohm: 2.3e5,
+                z_im_ohm: -3.9e5,
+            },
+            link::Tone::default(),
+        ],
+        c_farad: 205e-12,
+        r_ohm: 7e5,
+        stretch_mm: 0.1 * t_us as f32 / 1000.0,
+        ..Record::default()
+    }));
+}
+
+#[test]
+fn a_restart_is_a_segment_of_its_own_in_every_file() {
+    let mut d = Device::new();
+    d.start(VERSION, 1);
+    for k in 0..20 {
+        measured(&mut d, 0, 1000 * k + 500);
+    }
+    // The device restarts: its clock and numbering start over.
+    d.start(VERSION, 1);
+    for k in 0..12 {
+        measured(&mut d, 0, 1000 * k + 500);
+    }
+    d.end(12);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    let done = live::replay(&d.bytes, &dir, live::Earlier::Refuse).unwrap();
+    assert_eq!(done.outcome, live::Outcome::Complete);
+    assert_eq!(done.summary.end_mismatch, None, "{}", done.summary.line());
+    let csv = std::fs::read_to_string(dir.join("records.csv")).unwrap();
+    let segs: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(segs, [vec!["1"; 20], vec!["2"; 12]].concat());
+    // A trace per segment, each in its own time.
+    for (name, rows) in [("trace_ch0_2000hz.csv", 20), ("trace_s2_ch0_2000hz.csv", 12)] {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        let t: Vec<f64> = text.lines().skip(2).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+        assert_eq!(t.len(), rows, "{name}");
+        assert!(t.windows(2).all(|w| w[1] > w[0]), "{name}: {t:?}");
+    }
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join(live::MANIFEST)).unwrap()).unwrap();
+    let kept: Vec<u64> = m["segments"].as_array().unwrap().iter().map(|s| s["records_kept"].as_u64().unwrap()).collect();
+    assert_eq!(kept, [20, 12]);
+    assert_eq!(m["segments"][1]["end"]["agrees"], true);
+}
+
+#[test]
+fn frames_replayed_later_are_duplicates_not_records_nor_losses() {
+    let mut d = Device::new();
+    d.start(VERSION, 1);
+    let mut at = vec![];
+    for k in 0..10 {
+        at.push(d.bytes.len());
+        measured(&mut d, 0, 1000 * k + 500);
+    }
+    // Frames 3 to 6 again, as a link that replays what it buffered.
+    let again = d.bytes[at[3]..at[7]].to_vec();
+    d.bytes.extend_from_slice(&again);
+    for k in 10..20 {
+        measured(&mut d, 0, 1000 * k + 500);
+    }
+    d.end(20);
+    let done = replay(&d.bytes);
+    let s = &done.summary;
+    assert_eq!(s.records, 20, "{}", s.line());
+    assert_eq!((s.link.lost, s.link.repeated), (0, 4), "{}", s.line());
+    assert_eq!(s.set_aside.total(), 0, "{}", s.line());
+    assert_eq!(s.end_mismatch, None, "{}", s.line());
+}
+
+#[test]
+fn a_killed_session_leaves_its_marker_no_manifest_and_whole_lines() {
+    let mut d = Device::new();
+    d.start(VERSION, 1);
+    for k in 0..50 {
+        measured(&mut d, 0, 1000 * k + 500);
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("ds");
+    let mut s = live::Session::new(&dir, live::Earlier::Refuse).unwrap();
+    s.push(&d.bytes).unwrap();
+    s.flush().unwrap();
+    // More arrives, then the process dies: nothing more is written.
+    measured(&mut d, 0, 60_500);
+    std::mem::forget(s);
+    assert!(dir.join(live::INCOMPLETE).is_file());
+    assert!(!dir.join(live::MANIFEST).exists());
+    let csv = std::fs::read_to_string(dir.join("records.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 51);
+    assert!(csv.ends_with('\n'));
+    let trace = std::fs::read_to_string(dir.join("trace_ch0_2000hz.csv")).unwrap();
+    assert_eq!(trace.lines().count(), 52);
+}

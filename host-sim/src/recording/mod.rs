@@ -35,8 +35,8 @@ mod write;
 mod writer;
 
 pub use decode::{decode_defmt, log_lines, parse, parse_tones, read, read_recording, END};
-pub use write::{is_dataset_file, unusable, write_dataset, Written, INCOMPLETE};
-pub use writer::DatasetWriter;
+pub use write::{is_dataset_file, unusable, write_dataset, Written, INCOMPLETE, MANIFEST};
+pub use writer::{DatasetWriter, LineFile};
 
 use instrument::faults::Flags;
 

@@ -34,6 +34,10 @@ pub struct Written {
 /// another reason, on a recording cut short).
 pub const INCOMPLETE: &str = "INCOMPLETE";
 
+/// The manifest a `live` session writes when it ends: a session's folder
+/// without one is incomplete.
+pub const MANIFEST: &str = "session.json";
+
 /// Whether `name` is a file a data set written here consists of.
 pub fn is_dataset_file(name: &str) -> bool {
     name == "calibration.csv"

@@ -17,8 +17,9 @@ use std::path::{Path, PathBuf};
 /// are opened again to append).
 const OPEN_MAX: usize = 128;
 
-/// A file appended to: the lines not yet written, and how long it is.
-struct Appender {
+/// A file appended to in whole lines: those not yet written, and how
+/// long it is.
+pub struct LineFile {
     path: PathBuf,
     file: Option<File>,
     pending: Vec<u8>,
@@ -26,10 +27,10 @@ struct Appender {
     len: u64,
 }
 
-impl Appender {
+impl LineFile {
     /// A new file at `path` (created here: never an earlier file, nor
     /// one a link points at), starting with `head`.
-    fn create(path: PathBuf, head: &str) -> Result<Self> {
+    pub fn create(path: PathBuf, head: &str) -> Result<Self> {
         let file = OpenOptions::new()
             .write(true)
             .create_new(true)
@@ -46,7 +47,7 @@ impl Appender {
     /// Write what is pending; the file left with whole lines only (cut
     /// back to them where a write failed: a full disk). `keep` says
     /// whether to keep the file open.
-    fn flush(&mut self, keep: bool) -> Result<()> {
+    pub fn flush(&mut self, keep: bool) -> Result<()> {
         if !self.pending.is_empty() {
             let file = match &mut self.file {
                 Some(f) => f,
@@ -70,6 +71,11 @@ impl Appender {
         Ok(())
     }
 
+    /// Lines to write at the next flush (each ending in a newline).
+    pub fn pending(&mut self) -> &mut Vec<u8> {
+        &mut self.pending
+    }
+
     /// Move the file to `to` (it stays open where it is).
     fn rename(&mut self, to: PathBuf) -> Result<()> {
         std::fs::rename(&self.path, &to)
@@ -82,7 +88,7 @@ impl Appender {
 /// One trace (or, while shorter than a trace, fragment) file: a
 /// sensor's records at one frequency in one segment of the recording.
 struct Trace {
-    file: Appender,
+    file: LineFile,
     rows: usize,
     /// The frequency's text in the rows.
     hz: Vec<u8>,
@@ -128,7 +134,7 @@ pub struct DatasetWriter {
     segment: u32,
     sensors: BTreeMap<u8, Sensor>,
     traces: BTreeMap<(u32, u8, u64), Trace>,
-    faults: Appender,
+    faults: LineFile,
     n_faults: usize,
     line: Vec<u8>,
 }
@@ -138,7 +144,7 @@ impl DatasetWriter {
     /// they are created anew), of records with the rig's truth (`truth`)
     /// or without.
     pub fn create(dir: &Path, truth: bool, roles: Roles) -> Result<Self> {
-        let faults = Appender::create(dir.join("faults.csv"), "time_s,sensor,freq_hz,flags,reason\n")?;
+        let faults = LineFile::create(dir.join("faults.csv"), "time_s,sensor,freq_hz,flags,reason\n")?;
         Ok(Self {
             dir: dir.to_path_buf(),
             truth,
@@ -273,7 +279,7 @@ impl DatasetWriter {
         let mut text = vec![];
         crate::numfmt::shortest(&mut text, hz);
         Ok(Trace {
-            file: Appender::create(self.dir.join(file_name("fragment", seg, ch, &f)), &head)?,
+            file: LineFile::create(self.dir.join(file_name("fragment", seg, ch, &f)), &head)?,
             rows: 0,
             hz: text,
         })

@@ -1,0 +1,100 @@
+//! A session's manifest, `session.json`: written when the session ends,
+//! never before, so that a folder without one is a session that did not
+//! end (killed, crashed, out of disk). It says how the stream ended, the
+//! device's runs (segments: each start frame's firmware, digests and
+//! sensors, and what arrived), the link's counts, the end frame's counts
+//! checked against what arrived, and the data set's files.
+
+use crate::session::{Finished, Outcome, Segment, Session};
+use anyhow::{Context, Result};
+use serde_json::{json, Value};
+use std::io::Write;
+
+/// The manifest's file name.
+pub use host_sim::recording::MANIFEST;
+
+/// The manifest's layout version.
+const LAYOUT: u32 = 1;
+
+/// Write `session`'s manifest (replacing none: created once, whole).
+pub(crate) fn write(session: &Session, done: &Finished) -> Result<()> {
+    let text = serde_json::to_string_pretty(&manifest(session, done))?;
+    let dir = session.dir();
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".session-")
+        .tempfile_in(dir)
+        .with_context(|| format!("a new {MANIFEST} in {}", dir.display()))?;
+    tmp.write_all(text.as_bytes())?;
+    tmp.write_all(b"\n")?;
+    tmp.as_file().sync_all()?;
+    let path = dir.join(MANIFEST);
+    tmp.persist_noclobber(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+/// The manifest's contents.
+fn manifest(session: &Session, done: &Finished) -> Value {
+    let s = &done.summary;
+    let w = &done.written;
+    let name = |p: &std::path::PathBuf| p.file_name().map(|n| n.to_string_lossy().into_owned());
+    json!({
+        "layout": LAYOUT,
+        "tool": concat!("live ", env!("CARGO_PKG_VERSION")),
+        "opened_utc": session.opened.map(|t| t.to_rfc3339()),
+        "ended_utc": chrono::Utc::now().to_rfc3339(),
+        "complete": done.outcome == Outcome::Complete,
+        "outcome": match &done.outcome {
+            Outcome::Complete => "the stream ended with its end frame".to_string(),
+            Outcome::Incomplete(why) => why.clone(),
+        },
+        "segments": session.segments().iter().map(segment).collect::<Vec<_>>(),
+        "bytes": s.bytes,
+        "frames": {
+            "decoded": s.link.frames,
+            "refused": s.link.bad,
+            "lost": s.link.lost,
+            "duplicates": s.link.repeated,
+            "stray": session.stray,
+        },
+        "records": {
+            "kept": s.records,
+            "flagged": s.flagged,
+            "set_aside_beyond_sensors": s.set_aside.beyond_sensors,
+            "set_aside_not_later": s.set_aside.not_later,
+        },
+        "dataset": {
+            "traces": w.traces.iter().filter_map(name).collect::<Vec<_>>(),
+            "fragments": w.fragments.iter().filter_map(name).collect::<Vec<_>>(),
+            "trace_rows": w.rows,
+            "calibration_points": w.calibration_points,
+            "faults": w.faults,
+            "left_out": w.left_out,
+        },
+    })
+}
+
+/// One segment's entry: its start frame, what arrived, its end frame's
+/// counts and whether they agree.
+fn segment(g: &Segment) -> Value {
+    json!({
+        "firmware": g.start.firmware_str(),
+        "wire_version": g.start.version,
+        "settings_digest": format!("{:08x}", g.start.settings_digest),
+        "calibration_digest": format!("{:08x}", g.start.calibration_digest),
+        "sensors": g.start.sensors,
+        "sample_rate_hz": g.start.sample_rate_hz,
+        "first_seq": g.first_seq,
+        "last_seq": g.high_seq,
+        "records_arrived": g.arrived,
+        "records_kept": g.records,
+        "frames_lost": g.lost(),
+        "frames_duplicate": g.duplicates,
+        "end": g.end.map(|e| json!({
+            "records_sent": e.records,
+            "dropped_on_device": e.dropped,
+            "agrees": g.end_mismatch().is_none(),
+            "mismatch": g.end_mismatch(),
+        })),
+    })
+}

@@ -1,0 +1,84 @@
+//! `records.csv`: every record as it arrived, one line each, and the
+//! link's records as the data set's writer takes them.
+
+use dsp_core::lumped::SeriesRc;
+use dsp_core::Complex32;
+use host_sim::recording::{LoggedRecord, LoggedToneRecord};
+use link::Record;
+
+/// The records file, appended to as records arrive.
+pub const RECORDS_CSV: &str = "records.csv";
+
+/// The header of [`RECORDS_CSV`]: the segment (1, then one more after
+/// each restart of the device), the frame's sequence number, then the
+/// record's fields.
+pub(crate) const HEADER: &str = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags\n";
+
+/// Record `r`'s line (segment `segment`, frame `seq`), appended to
+/// `line`.
+pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record) {
+    // Through `numfmt`: `{}` on eleven floats was most of a replay.
+    use host_sim::numfmt::{fixed, int, shortest_f32};
+    int(line, segment);
+    line.push(b',');
+    int(line, seq);
+    line.push(b',');
+    int(line, r.t_us);
+    line.push(b',');
+    int(line, r.sensor);
+    for t in r.tones {
+        for x in [t.f_hz, t.z_re_ohm, t.z_im_ohm] {
+            line.push(b',');
+            shortest_f32(line, x);
+        }
+    }
+    line.push(b',');
+    fixed(line, r.c_farad as f64 * 1e12, 4);
+    for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_ln_c] {
+        line.push(b',');
+        shortest_f32(line, x);
+    }
+    line.push(b',');
+    int(line, r.flags);
+    line.push(b'\n');
+}
+
+/// The link's records as the data set writer takes them: an array record
+/// (two tones) as a record per tone, a multiplexed one as it is.
+pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
+    let mut out = Vec::with_capacity(2 * records.len());
+    for r in records {
+        out.extend_from_slice(&rows(r));
+    }
+    out
+}
+
+/// Record `r` as the data set's writer takes it: one or two records.
+pub(crate) fn rows(r: &Record) -> heapless::Vec<LoggedRecord, 2> {
+    let mut out = heapless::Vec::new();
+    if r.measured().count() == 2 {
+        let tone = LoggedToneRecord {
+            rec: instrument::frames::to_tone_record(r),
+            truth: None,
+        };
+        return heapless::Vec::from_slice(&tone.per_tone()).unwrap_or_default();
+    }
+    let t = r.tones[0];
+    // The lumped reading of its one tone, as `per_tone` takes an array
+    // record's (none where the tone has no capacitive Z).
+    let lumped = SeriesRc::from_impedance(Complex32::new(t.z_re_ohm, t.z_im_ohm), t.f_hz).ok();
+    // One row in room for two.
+    let _ = out.push(LoggedRecord {
+        t_s: r.t_us as f64 * 1e-6,
+        sensor: r.sensor,
+        freq_hz: t.f_hz as f64,
+        cs_pf: lumped.map_or(0.0, |m| m.cs_farad as f64 * 1e12),
+        rs_ohm: lumped.map_or(0.0, |m| m.rs_ohm as f64),
+        c_pf: r.c_farad as f64 * 1e12,
+        r_ohm: r.r_ohm as f64,
+        stretch_mm: r.stretch_mm as f64,
+        flags: instrument::faults::Flags(r.flags),
+        truth: None,
+    });
+    out
+}

@@ -1,0 +1,168 @@
+//! What a session received, in numbers: counted as records arrive (a
+//! few numbers per sensor, whatever the session's length).
+
+use std::collections::BTreeMap;
+
+/// Records that decoded but that the stream's own terms rule out: set
+/// aside (not written), counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SetAside {
+    /// Of a sensor beyond the count the start frame gave.
+    pub beyond_sensors: u64,
+    /// Not after its sensor's previous record in time (time going
+    /// backwards).
+    pub not_later: u64,
+}
+
+impl SetAside {
+    /// How many in all.
+    pub fn total(&self) -> u64 {
+        self.beyond_sensors + self.not_later
+    }
+}
+
+/// A sensor's records in one segment: how many, the first and last
+/// time, µs.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Span {
+    pub n: usize,
+    pub first_us: u64,
+    pub last_us: u64,
+}
+
+/// The counts a session keeps as records arrive.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Counts {
+    pub records: usize,
+    pub flagged: usize,
+    /// Per segment and sensor.
+    pub spans: BTreeMap<(u32, u8), Span>,
+    pub set_aside: SetAside,
+}
+
+impl Counts {
+    /// Count record `r` of `segment`, kept.
+    pub fn record(&mut self, segment: u32, r: &link::Record) {
+        self.records += 1;
+        if !instrument::faults::Flags(r.flags).valid() {
+            self.flagged += 1;
+        }
+        self.spans
+            .entry((segment, r.sensor))
+            .and_modify(|s| {
+                s.n += 1;
+                s.last_us = r.t_us;
+            })
+            .or_insert(Span {
+                n: 1,
+                first_us: r.t_us,
+                last_us: r.t_us,
+            });
+    }
+
+    /// Sensors heard from.
+    pub fn sensors(&self) -> usize {
+        let mut ids: Vec<u8> = self.spans.keys().map(|&(_, s)| s).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        ids.len()
+    }
+
+    /// Records per second per sensor (within a segment): least and most.
+    pub fn rate(&self) -> (f64, f64) {
+        let rates: Vec<f64> = self
+            .spans
+            .values()
+            .filter(|s| s.n > 1 && s.last_us > s.first_us)
+            .map(|s| (s.n - 1) as f64 / ((s.last_us - s.first_us) as f64 * 1e-6))
+            .collect();
+        (
+            rates.iter().copied().fold(f64::NAN, f64::min),
+            rates.iter().copied().fold(f64::NAN, f64::max),
+        )
+    }
+}
+
+/// What a session received, in numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// The firmware that sent it (from the start frame).
+    pub firmware: Option<String>,
+    /// Bytes received.
+    pub bytes: u64,
+    /// Records received.
+    pub records: usize,
+    /// Records flagged (not valid).
+    pub flagged: usize,
+    /// The link's counts: frames decoded, refused, lost (numbers never
+    /// seen), repeated (a frame again, dropped).
+    pub link: link::Stats,
+    /// Records the device dropped before sending (from the end frame).
+    pub dropped: Option<u32>,
+    /// Sensors heard from.
+    pub sensors: usize,
+    /// Records per second per sensor: least and most.
+    pub rate: (f64, f64),
+    /// Records set aside: of no sensor the start frame counts, or not
+    /// later than their sensor's last.
+    pub set_aside: SetAside,
+    /// Times the device restarted (a start frame again): the session's
+    /// segments less one.
+    pub restarts: u32,
+    /// Where the end frame's count of records sent disagrees with what
+    /// arrived: how.
+    pub end_mismatch: Option<String>,
+}
+
+impl Summary {
+    /// Mean bytes on the wire per record.
+    pub fn bytes_per_record(&self) -> f64 {
+        self.bytes as f64 / self.records.max(1) as f64
+    }
+
+    /// One line for a terminal.
+    pub fn line(&self) -> String {
+        format!(
+            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
+            self.records,
+            self.sensors,
+            self.rate.0,
+            self.rate.1,
+            self.flagged,
+            self.bytes_per_record(),
+            self.link.bad,
+            self.link.lost,
+            self.link.repeated,
+            self.dropped.map_or(String::new(), |d| format!("; {d} dropped on the device"))
+        ) + &self.remarks()
+    }
+
+    /// What the line adds where the stream broke its own terms.
+    fn remarks(&self) -> String {
+        let mut out = String::new();
+        let a = self.set_aside;
+        if a.beyond_sensors > 0 {
+            out += &format!(
+                "; {} records of sensors beyond the start frame's count set aside",
+                a.beyond_sensors
+            );
+        }
+        if a.not_later > 0 {
+            out += &format!(
+                "; {} records not later than their sensor's last set aside (time went backwards)",
+                a.not_later
+            );
+        }
+        if self.restarts > 0 {
+            out += &format!(
+                "; the device restarted {} time(s): {} segments",
+                self.restarts,
+                self.restarts + 1
+            );
+        }
+        if let Some(m) = &self.end_mismatch {
+            out += &format!("; {m}");
+        }
+        out
+    }
+}
