@@ -2,8 +2,11 @@
 //! 127.0.0.1 while a session runs. The page (`web/index.html`) charts C,
 //! R, stretch, the chosen frequency and the flags of the sensor chosen,
 //! and shows every sensor's latest record; records reach it by
-//! server-sent events (`/events`: first every record so far, then each
-//! batch as it arrives). The chart library (uPlot, from npm, with its
+//! server-sent events (`/events`: first the latest records so far, read
+//! from the session's `records.csv` in pages, then each batch as it
+//! arrives). The server holds only the records not yet written to
+//! `records.csv`, and each open page a page of it: its memory does not
+//! grow with the session, nor with the pages open. The chart library (uPlot, from npm, with its
 //! licence at `/uPlot.LICENSE`) is embedded in the binary: the page loads
 //! nothing from the internet. A request is served only where its `Host`
 //! names the bound address (or `localhost` and its port): a page of
@@ -21,8 +24,12 @@ use axum::routing::get;
 use axum::Router;
 use futures_util::stream::{self, Stream, StreamExt};
 use link::Record;
+use std::collections::VecDeque;
 use std::convert::Infallible;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use tokio::sync::broadcast;
 use tokio_stream::wrappers::errors::BroadcastStreamRecvError;
@@ -60,15 +67,37 @@ enum Message {
     End,
 }
 
-/// The records so far, whether the stream is over, and the channel that
-/// carries what comes next.
+/// The records written to `records.csv` (how many, and its length in
+/// bytes), those not yet (each with its index), whether the stream is
+/// over, and the channel that carries what comes next.
 #[derive(Clone)]
 struct Shared {
-    records: Arc<Mutex<(Vec<Record>, bool)>>,
+    state: Arc<Mutex<Held>>,
     messages: broadcast::Sender<Message>,
+    records_csv: Arc<PathBuf>,
 }
 
-/// A running dashboard: hand it records as they arrive.
+/// What the dashboard holds.
+#[derive(Default)]
+struct Held {
+    on_disk: OnDisk,
+    tail: VecDeque<(u64, Record)>,
+    next: u64,
+    ended: bool,
+}
+
+/// How much of `records.csv` holds whole records: how many, and its
+/// length in bytes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OnDisk {
+    /// Records written.
+    pub records: u64,
+    /// Bytes written (whole lines, its header included).
+    pub bytes: u64,
+}
+
+/// A running dashboard: hand it records as they arrive, and say how much
+/// of `records.csv` is written.
 pub struct Dashboard {
     shared: Shared,
     addr: SocketAddr,
@@ -76,8 +105,9 @@ pub struct Dashboard {
 }
 
 impl Dashboard {
-    /// Serve on `addr` (127.0.0.1 and a port; port 0 picks a free one).
-    pub fn serve(addr: SocketAddr) -> Result<Self> {
+    /// Serve on `addr` (127.0.0.1 and a port; port 0 picks a free one)
+    /// the session whose records go to `records_csv`.
+    pub fn serve(addr: SocketAddr, records_csv: &Path) -> Result<Self> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .enable_all()
@@ -85,8 +115,9 @@ impl Dashboard {
             .context("starting the dashboard's runtime")?;
         let (messages, _) = broadcast::channel(BATCHES_BEHIND);
         let shared = Shared {
-            records: Arc::new(Mutex::new((vec![], false))),
+            state: Arc::new(Mutex::new(Held::default())),
             messages,
+            records_csv: Arc::new(records_csv.to_path_buf()),
         };
         let listener = runtime
             .block_on(tokio::net::TcpListener::bind(addr))
@@ -127,8 +158,12 @@ impl Dashboard {
         self.addr
     }
 
-    /// Records that arrived: kept for pages that open later, and pushed
-    /// to the open ones.
+    fn state(&self) -> std::sync::MutexGuard<'_, Held> {
+        self.shared.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Records that arrived: held until they are written, and pushed to
+    /// the open pages.
     pub fn push(&self, records: &[Record]) {
         if records.is_empty() {
             return;
@@ -136,16 +171,31 @@ impl Dashboard {
         let batch = Arc::new(batch_json(records));
         // Under the lock, so that a page that opens now gets each record
         // once: in its backlog or in a batch.
-        let mut all = self.shared.records.lock().unwrap_or_else(|p| p.into_inner());
-        all.0.extend_from_slice(records);
+        let mut state = self.state();
+        for r in records {
+            let k = state.next;
+            state.tail.push_back((k, *r));
+            state.next += 1;
+        }
         let _ = self.shared.messages.send(Message::Batch(batch));
     }
 
+    /// `records.csv` holds the first `on_disk.records` records: those are
+    /// read from it, no longer held.
+    pub fn written(&self, on_disk: OnDisk) {
+        let mut state = self.state();
+        while state.tail.front().is_some_and(|(k, _)| *k < on_disk.records) {
+            state.tail.pop_front();
+        }
+        state.on_disk = on_disk;
+    }
+
     /// The stream is over: the pages are told, and their event streams
-    /// close (a page that opens later gets every record and the end).
+    /// close (a page that opens later gets the latest records and the
+    /// end).
     pub fn end(&self) {
-        let mut all = self.shared.records.lock().unwrap_or_else(|p| p.into_inner());
-        all.1 = true;
+        let mut state = self.state();
+        state.ended = true;
         let _ = self.shared.messages.send(Message::End);
     }
 }
@@ -177,10 +227,10 @@ async fn this_host_only(State(allowed): State<Arc<[String]>>, request: Request, 
 /// What a page's event stream carries, in order.
 #[derive(Clone, Debug, PartialEq)]
 enum Out {
-    /// Every record so far (event `backlog`: a page that reconnects
-    /// starts over from it).
-    Backlog(String),
-    /// New records.
+    /// The page starts over (event `backlog`): this many records came
+    /// before the latest ones it is sent next.
+    Backlog(u64),
+    /// Records: of the backlog, or new.
     Batch(Arc<String>),
     /// The page fell behind by this many batches (event `gap`): the
     /// stream ends, and the page reconnects for the backlog.
@@ -189,14 +239,29 @@ enum Out {
     End,
 }
 
-/// A page's stream: `backlog`, then (unless the stream has `ended`) the
-/// batches from `rx`, up to and including the end or a gap.
+/// The latest records a page is sent when it opens, at most (bytes of
+/// `records.csv`).
+#[cfg(not(test))]
+const BACKLOG_BYTES: u64 = 16 << 20;
+#[cfg(test)]
+const BACKLOG_BYTES: u64 = 1 << 20;
+/// Records in one page of the backlog.
+const PAGE_RECORDS: usize = 2000;
+
+/// A page's stream: the backlog (`before` records it is not sent, then
+/// `pages`), the records not yet written (`tail`), then (unless the
+/// stream has `ended`) the batches from `rx`, up to and including the
+/// end or a gap.
 fn page_stream(
-    backlog: String,
+    before: u64,
+    pages: impl Stream<Item = String> + Send + 'static,
+    tail: Vec<Record>,
     ended: bool,
     rx: broadcast::Receiver<Message>,
 ) -> impl Stream<Item = Out> + Send {
-    let first = stream::once(async move { Out::Backlog(backlog) });
+    let first = stream::once(async move { Out::Backlog(before) })
+        .chain(pages.map(|p| Out::Batch(Arc::new(p))))
+        .chain(stream::iter((!tail.is_empty()).then(|| Out::Batch(Arc::new(batch_json(&tail))))));
     let live = tokio_stream::wrappers::BroadcastStream::new(rx)
         .map(|m| match m {
             Ok(Message::Batch(b)) => Out::Batch(b),
@@ -218,21 +283,111 @@ fn page_stream(
     })
 }
 
-/// `/events`: [`page_stream`] as server-sent events.
+/// `/events`: [`page_stream`] as server-sent events, its backlog the
+/// latest [`BACKLOG_BYTES`] of `records.csv`.
 async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let (backlog, ended, rx) = {
-        let all = shared.records.lock().unwrap_or_else(|p| p.into_inner());
-        (batch_json(&all.0), all.1, shared.messages.subscribe())
+    let (on_disk, tail, ended, rx) = {
+        let state = shared.state.lock().unwrap_or_else(|p| p.into_inner());
+        let tail: Vec<Record> = state.tail.iter().map(|(_, r)| *r).collect();
+        (state.on_disk, tail, state.ended, shared.messages.subscribe())
     };
-    let events = page_stream(backlog, ended, rx).map(|out| {
+    let backlog = Backlog::open(&shared.records_csv, on_disk).unwrap_or_default();
+    let before = on_disk.records.saturating_sub(backlog.records);
+    let pages = stream::unfold(backlog, |mut b| async move {
+        let page = b.page()?;
+        Some((page, b))
+    });
+    let events = page_stream(before, pages, tail, ended, rx).map(|out| {
         Ok(match out {
-            Out::Backlog(b) => Event::default().event("backlog").data(b),
+            Out::Backlog(n) => Event::default().event("backlog").data(n.to_string()),
             Out::Batch(b) => Event::default().data(b.as_str()),
             Out::Gap(n) => Event::default().event("gap").data(n.to_string()),
             Out::End => Event::default().event("end").data("end"),
         })
     });
     Sse::new(events).keep_alive(KeepAlive::default())
+}
+
+/// The latest records of `records.csv`, read a page at a time.
+#[derive(Default)]
+struct Backlog {
+    lines: Option<std::io::Take<BufReader<File>>>,
+    /// Records it holds.
+    records: u64,
+}
+
+impl Backlog {
+    /// The last lines of `path` within its first `on_disk.bytes`, at
+    /// most [`BACKLOG_BYTES`] of them.
+    fn open(path: &Path, on_disk: OnDisk) -> std::io::Result<Self> {
+        let mut file = BufReader::new(File::open(path)?);
+        let from = on_disk.bytes.saturating_sub(BACKLOG_BYTES);
+        file.seek(SeekFrom::Start(from))?;
+        // The header, or the line the window cuts.
+        let mut skipped = vec![];
+        let cut = file.read_until(b'\n', &mut skipped)? as u64;
+        let len = on_disk.bytes.saturating_sub(from + cut);
+        let mut records = 0;
+        let mut counted = (&mut file).take(len);
+        loop {
+            let buf = counted.fill_buf()?;
+            if buf.is_empty() {
+                break;
+            }
+            records += buf.iter().filter(|&&b| b == b'\n').count() as u64;
+            let n = buf.len();
+            counted.consume(n);
+        }
+        file.seek(SeekFrom::Start(from + cut))?;
+        Ok(Self {
+            lines: Some(file.take(len)),
+            records,
+        })
+    }
+
+    /// The next page as a batch's JSON; None at its end.
+    fn page(&mut self) -> Option<String> {
+        let lines = self.lines.as_mut()?;
+        let mut rows = Vec::with_capacity(PAGE_RECORDS);
+        let mut line = String::new();
+        while rows.len() < PAGE_RECORDS {
+            line.clear();
+            match lines.read_line(&mut line) {
+                Ok(0) | Err(_) => break,
+                Ok(_) => rows.extend(row_of_line(&line)),
+            }
+        }
+        if rows.is_empty() {
+            self.lines = None;
+            return None;
+        }
+        Some(serde_json::Value::Array(rows).to_string())
+    }
+}
+
+/// A `records.csv` line as the page takes a record (see [`batch_json`]):
+/// a field with no value (empty, or not finite) is null.
+fn row_of_line(line: &str) -> Option<serde_json::Value> {
+    let f: Vec<&str> = line.trim_end().split(',').collect();
+    if f.len() != 17 {
+        return None;
+    }
+    let num = |i: usize| -> serde_json::Value {
+        f[i].parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .map_or(serde_json::Value::Null, serde_json::Value::from)
+    };
+    let t_us: f64 = f[2].parse().ok()?;
+    Some(serde_json::json!([
+        t_us * 1e-6,
+        f[3].parse::<u8>().ok()?,
+        num(10),
+        num(11),
+        num(12),
+        num(13),
+        f[16].parse::<u16>().ok()?
+    ]))
 }
 
 #[cfg(test)]
@@ -254,8 +409,8 @@ mod tests {
             tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
         }
         tx.send(Message::End).unwrap();
-        let got = collect(page_stream("[]".into(), false, rx));
-        assert_eq!(got, [Out::Backlog("[]".into()), Out::Gap(4)]);
+        let got = collect(page_stream(0, stream::empty(), vec![], false, rx));
+        assert_eq!(got, [Out::Backlog(0), Out::Gap(4)]);
     }
 
     #[test]
@@ -266,17 +421,18 @@ mod tests {
         }
         tx.send(Message::End).unwrap();
         tx.send(Message::Batch(Arc::new("[9]".into()))).unwrap();
-        let got = collect(page_stream("[]".into(), false, rx));
+        let pages = stream::iter(["[7]".to_string(), "[8]".to_string()]);
+        let got = collect(page_stream(5, pages, vec![], false, rx));
         let batch = |k: u32| Out::Batch(Arc::new(format!("[{k}]")));
         assert_eq!(
             got,
-            [Out::Backlog("[]".into()), batch(0), batch(1), batch(2), Out::End]
+            [Out::Backlog(5), batch(7), batch(8), batch(0), batch(1), batch(2), Out::End]
         );
         // A page that opens after the end: the backlog and the end.
         let (_tx, rx) = broadcast::channel(8);
         assert_eq!(
-            collect(page_stream("[1]".into(), true, rx)),
-            [Out::Backlog("[1]".into()), Out::End]
+            collect(page_stream(0, stream::iter(["[1]".to_string()]), vec![], true, rx)),
+            [Out::Backlog(0), batch(1), Out::End]
         );
     }
 
@@ -291,8 +447,49 @@ mod tests {
     }
 
     #[test]
+    fn the_dashboard_holds_only_the_records_not_yet_written() {
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
+        d.push(&[Record::default(); 10]);
+        d.written(OnDisk { records: 7, bytes: 900 });
+        assert_eq!(d.state().tail.iter().map(|(k, _)| *k).collect::<Vec<_>>(), [7, 8, 9]);
+        d.push(&[Record::default(); 2]);
+        d.written(OnDisk { records: 12, bytes: 1500 });
+        assert!(d.state().tail.is_empty());
+    }
+
+    #[test]
+    fn the_backlog_is_the_latest_whole_lines_in_pages() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("records.csv");
+        let mut text = crate::records_csv::HEADER.to_string();
+        let n = 30_000u64;
+        for k in 0..n {
+            text += &format!("1,{k},{},{},2000,1,-1,0,0,0,205.5,700000,NaN,2000,,0.001,0\n", 1000 * k, k % 16);
+        }
+        std::fs::write(&path, &text).unwrap();
+        // Written so far: all but a line cut in half.
+        let bytes = text.len() as u64 - 30;
+        let mut b = Backlog::open(&path, OnDisk { records: n - 1, bytes }).unwrap();
+        let mut rows = vec![];
+        while let Some(page) = b.page() {
+            let p: Vec<serde_json::Value> = serde_json::from_str(&page).unwrap();
+            assert!(p.len() <= PAGE_RECORDS);
+            rows.extend(p);
+        }
+        assert_eq!(rows.len() as u64, b.records);
+        assert!(b.records > 1000 && (b.records as usize) < n as usize, "{}", b.records);
+        // The latest, in order, up to the last whole line; no value as null.
+        let last = &rows[rows.len() - 1];
+        assert_eq!(last[0].as_f64(), Some((1000 * (n - 2)) as f64 * 1e-6));
+        assert_eq!(last[4], serde_json::Value::Null);
+        assert_eq!(last[2].as_f64(), Some(205.5));
+        // No file yet: no backlog.
+        assert!(Backlog::open(&dir.path().join("none.csv"), OnDisk::default()).is_err());
+    }
+
+    #[test]
     fn a_request_for_another_host_is_refused() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap()).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
         let (addr, port) = (d.addr(), d.addr().port());
         for host in [
             addr.to_string(),

@@ -59,13 +59,18 @@ impl Sink<'_> {
         self.session.push(bytes)?;
         if let Some(d) = self.dashboard {
             d.push(self.session.fresh());
+            d.written(self.session.on_disk());
         }
         Ok(())
     }
 
     /// Write what arrived so far (see [`Session::flush`]).
     pub fn flush(&mut self) -> Result<()> {
-        self.session.flush()
+        self.session.flush()?;
+        if let Some(d) = self.dashboard {
+            d.written(self.session.on_disk());
+        }
+        Ok(())
     }
 }
 

@@ -517,14 +517,14 @@ fn report(what: &str, stopped: Stopped) {
 }
 
 fn run(cli: Cli) -> Result<Outcome> {
-    let dashboard = serve(cli.serve)?;
+    let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
+    let dashboard = serve(cli.serve, &dataset)?;
     // Ctrl-C ends a live stream (a board's never ends by itself): the
     // data set is written with what arrived, marked incomplete.
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("installing the Ctrl-C handler")?;
-    let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
     let earlier = if cli.overwrite {
         live::Earlier::Overwrite
     } else {
@@ -589,14 +589,14 @@ fn run(cli: Cli) -> Result<Outcome> {
 
 /// The dashboard on `addr`, where asked (this machine's addresses only);
 /// its address printed first.
-fn serve(addr: Option<std::net::SocketAddr>) -> Result<Option<Dashboard>> {
+fn serve(addr: Option<std::net::SocketAddr>, dataset: &std::path::Path) -> Result<Option<Dashboard>> {
     let Some(addr) = addr else {
         return Ok(None);
     };
     if !addr.ip().is_loopback() {
         anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
     }
-    let d = Dashboard::serve(addr)?;
+    let d = Dashboard::serve(addr, &dataset.join(live::RECORDS_CSV))?;
     println!("dashboard: http://{}/", d.addr());
     std::io::stdout().flush()?;
     Ok(Some(d))

@@ -113,6 +113,10 @@ impl Segment {
 /// A session's files, open from the start frame on.
 struct Files {
     csv: LineFile,
+    /// Records in `csv`'s pending lines.
+    csv_pending: u64,
+    /// Records written to `csv`.
+    csv_written: u64,
     raw: std::io::BufWriter<std::fs::File>,
     data: DatasetWriter,
 }
@@ -207,6 +211,8 @@ impl Session {
         self.opened = Some(chrono::Utc::now());
         Ok(Files {
             csv,
+            csv_pending: 0,
+            csv_written: 0,
             raw: std::io::BufWriter::new(raw),
             data,
         })
@@ -323,6 +329,7 @@ impl Session {
         self.counts.record(segment, &r);
         if let Some(files) = &mut self.files {
             records_csv::line(files.csv.pending(), segment, seq, &r);
+            files.csv_pending += 1;
             for row in records_csv::rows(&r) {
                 files.data.push(&row)?;
             }
@@ -403,7 +410,16 @@ impl Session {
         };
         files.raw.flush().context("keeping the raw stream")?;
         files.csv.flush(true)?;
+        files.csv_written += std::mem::take(&mut files.csv_pending);
         files.data.flush()
+    }
+
+    /// How much of `records.csv` is written: records, and bytes.
+    pub fn on_disk(&self) -> crate::dashboard::OnDisk {
+        self.files.as_ref().map_or_else(Default::default, |f| crate::dashboard::OnDisk {
+            records: f.csv_written,
+            bytes: f.csv.written_bytes(),
+        })
     }
 
     /// What the session has received so far.

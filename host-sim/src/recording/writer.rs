@@ -71,6 +71,11 @@ impl LineFile {
         Ok(())
     }
 
+    /// Bytes written (whole lines).
+    pub fn written_bytes(&self) -> u64 {
+        self.len
+    }
+
     /// Lines to write at the next flush (each ending in a newline).
     pub fn pending(&mut self) -> &mut Vec<u8> {
         &mut self.pending
