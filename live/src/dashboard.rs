@@ -261,7 +261,9 @@ fn page_stream(
 ) -> impl Stream<Item = Out> + Send {
     let first = stream::once(async move { Out::Backlog(before) })
         .chain(pages.map(|p| Out::Batch(Arc::new(p))))
-        .chain(stream::iter((!tail.is_empty()).then(|| Out::Batch(Arc::new(batch_json(&tail))))));
+        .chain(stream::iter(
+            (!tail.is_empty()).then(|| Out::Batch(Arc::new(batch_json(&tail)))),
+        ));
     let live = tokio_stream::wrappers::BroadcastStream::new(rx)
         .map(|m| match m {
             Ok(Message::Batch(b)) => Out::Batch(b),
@@ -426,12 +428,26 @@ mod tests {
         let batch = |k: u32| Out::Batch(Arc::new(format!("[{k}]")));
         assert_eq!(
             got,
-            [Out::Backlog(5), batch(7), batch(8), batch(0), batch(1), batch(2), Out::End]
+            [
+                Out::Backlog(5),
+                batch(7),
+                batch(8),
+                batch(0),
+                batch(1),
+                batch(2),
+                Out::End
+            ]
         );
         // A page that opens after the end: the backlog and the end.
         let (_tx, rx) = broadcast::channel(8);
         assert_eq!(
-            collect(page_stream(0, stream::iter(["[1]".to_string()]), vec![], true, rx)),
+            collect(page_stream(
+                0,
+                stream::iter(["[1]".to_string()]),
+                vec![],
+                true,
+                rx
+            )),
             [Out::Backlog(0), batch(1), Out::End]
         );
     }
@@ -450,10 +466,19 @@ mod tests {
     fn the_dashboard_holds_only_the_records_not_yet_written() {
         let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
         d.push(&[Record::default(); 10]);
-        d.written(OnDisk { records: 7, bytes: 900 });
-        assert_eq!(d.state().tail.iter().map(|(k, _)| *k).collect::<Vec<_>>(), [7, 8, 9]);
+        d.written(OnDisk {
+            records: 7,
+            bytes: 900,
+        });
+        assert_eq!(
+            d.state().tail.iter().map(|(k, _)| *k).collect::<Vec<_>>(),
+            [7, 8, 9]
+        );
         d.push(&[Record::default(); 2]);
-        d.written(OnDisk { records: 12, bytes: 1500 });
+        d.written(OnDisk {
+            records: 12,
+            bytes: 1500,
+        });
         assert!(d.state().tail.is_empty());
     }
 
@@ -464,12 +489,23 @@ mod tests {
         let mut text = crate::records_csv::HEADER.to_string();
         let n = 30_000u64;
         for k in 0..n {
-            text += &format!("1,{k},{},{},2000,1,-1,0,0,0,205.5,700000,NaN,2000,,0.001,0\n", 1000 * k, k % 16);
+            text += &format!(
+                "1,{k},{},{},2000,1,-1,0,0,0,205.5,700000,NaN,2000,,0.001,0\n",
+                1000 * k,
+                k % 16
+            );
         }
         std::fs::write(&path, &text).unwrap();
         // Written so far: all but a line cut in half.
         let bytes = text.len() as u64 - 30;
-        let mut b = Backlog::open(&path, OnDisk { records: n - 1, bytes }).unwrap();
+        let mut b = Backlog::open(
+            &path,
+            OnDisk {
+                records: n - 1,
+                bytes,
+            },
+        )
+        .unwrap();
         let mut rows = vec![];
         while let Some(page) = b.page() {
             let p: Vec<serde_json::Value> = serde_json::from_str(&page).unwrap();
@@ -477,7 +513,11 @@ mod tests {
             rows.extend(p);
         }
         assert_eq!(rows.len() as u64, b.records);
-        assert!(b.records > 1000 && (b.records as usize) < n as usize, "{}", b.records);
+        assert!(
+            b.records > 1000 && (b.records as usize) < n as usize,
+            "{}",
+            b.records
+        );
         // The latest, in order, up to the last whole line; no value as null.
         let last = &rows[rows.len() - 1];
         assert_eq!(last[0].as_f64(), Some((1000 * (n - 2)) as f64 * 1e-6));

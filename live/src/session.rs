@@ -416,10 +416,12 @@ impl Session {
 
     /// How much of `records.csv` is written: records, and bytes.
     pub fn on_disk(&self) -> crate::dashboard::OnDisk {
-        self.files.as_ref().map_or_else(Default::default, |f| crate::dashboard::OnDisk {
-            records: f.csv_written,
-            bytes: f.csv.written_bytes(),
-        })
+        self.files
+            .as_ref()
+            .map_or_else(Default::default, |f| crate::dashboard::OnDisk {
+                records: f.csv_written,
+                bytes: f.csv.written_bytes(),
+            })
     }
 
     /// What the session has received so far.

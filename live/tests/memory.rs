@@ -78,7 +78,9 @@ fn peak_resident(cmd: &mut Command) -> (Option<i32>, i64) {
 }
 
 fn lines(path: &std::path::Path) -> usize {
-    std::io::BufReader::new(std::fs::File::open(path).unwrap()).lines().count()
+    std::io::BufReader::new(std::fs::File::open(path).unwrap())
+        .lines()
+        .count()
 }
 
 #[test]
@@ -99,7 +101,8 @@ fn a_long_replay_stays_within_its_memory_and_keeps_every_record() {
     assert_eq!(code, Some(0));
     assert!(kib <= RESIDENT_MAX_KIB, "peak resident {kib} KiB");
     assert_eq!(lines(&ds.join(live::RECORDS_CSV)), n as usize + 1);
-    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(ds.join(live::MANIFEST)).unwrap()).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(ds.join(live::MANIFEST)).unwrap()).unwrap();
     assert_eq!(m["complete"], true);
     assert_eq!(m["records"]["kept"], n);
     assert_eq!(m["segments"][0]["end"]["agrees"], true);

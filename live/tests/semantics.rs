@@ -189,17 +189,31 @@ fn a_restart_is_a_segment_of_its_own_in_every_file() {
     assert_eq!(done.outcome, live::Outcome::Complete);
     assert_eq!(done.summary.end_mismatch, None, "{}", done.summary.line());
     let csv = std::fs::read_to_string(dir.join("records.csv")).unwrap();
-    let segs: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    let segs: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
     assert_eq!(segs, [vec!["1"; 20], vec!["2"; 12]].concat());
     // A trace per segment, each in its own time.
     for (name, rows) in [("trace_ch0_2000hz.csv", 20), ("trace_s2_ch0_2000hz.csv", 12)] {
         let text = std::fs::read_to_string(dir.join(name)).unwrap();
-        let t: Vec<f64> = text.lines().skip(2).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+        let t: Vec<f64> = text
+            .lines()
+            .skip(2)
+            .map(|l| l.split(',').next().unwrap().parse().unwrap())
+            .collect();
         assert_eq!(t.len(), rows, "{name}");
         assert!(t.windows(2).all(|w| w[1] > w[0]), "{name}: {t:?}");
     }
-    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join(live::MANIFEST)).unwrap()).unwrap();
-    let kept: Vec<u64> = m["segments"].as_array().unwrap().iter().map(|s| s["records_kept"].as_u64().unwrap()).collect();
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join(live::MANIFEST)).unwrap()).unwrap();
+    let kept: Vec<u64> = m["segments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["records_kept"].as_u64().unwrap())
+        .collect();
     assert_eq!(kept, [20, 12]);
     assert_eq!(m["segments"][1]["end"]["agrees"], true);
 }

@@ -338,7 +338,10 @@ impl DatasetWriter {
     fn is_static(&self, ch: u8) -> bool {
         match &self.roles.statics {
             Some(list) => list.contains(&ch),
-            None => self.sensors.get(&ch).is_some_and(|s| is_static_spread(s.hi - s.lo)),
+            None => self
+                .sensors
+                .get(&ch)
+                .is_some_and(|s| is_static_spread(s.hi - s.lo)),
         }
     }
 
@@ -365,7 +368,12 @@ impl DatasetWriter {
         };
         text += &format!("stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}\n");
         let mut left_out = vec![];
-        let statics: Vec<u8> = self.sensors.keys().copied().filter(|&ch| self.is_static(ch)).collect();
+        let statics: Vec<u8> = self
+            .sensors
+            .keys()
+            .copied()
+            .filter(|&ch| self.is_static(ch))
+            .collect();
         for &ch in &statics {
             let s = &self.sensors[&ch];
             match s.at.iter().max_by_key(|(_, a)| a.n) {
