@@ -297,10 +297,10 @@ pub fn parse_table(path: &Path, bytes: Vec<u8>, kind: Kind) -> Result<Table> {
         let line = physical(rec.position().map_or(0, |p| p.line()));
         let row = header.row(&name, &rec, line)?;
         header.check_order(&name, &row, &rows, kind)?;
-        if !Flags(header.flags(&name, &rec, line)?).valid() {
-            flagged += 1;
-        } else {
+        if header.usable(&row, header.flags(&name, &rec, line)?) {
             rows.push(row);
+        } else {
+            flagged += 1;
         }
     }
     if rows.is_empty() {
@@ -385,9 +385,19 @@ impl Header {
             );
         }
         let mut values = [f64::NAN; 9];
+        // An instrument's own r_line_ohm is modelled only where no
+        // four-terminal resistances are given, and has no value (an empty
+        // field, or 0) in a record the instrument flagged.
+        let flagged = self.flags_at.is_some_and(|i| {
+            rec.get(i)
+                .is_some_and(|f| f.trim().parse::<u16>().map_or(true, |f| !Flags(f).valid()))
+        });
         for (k, col) in COLUMNS.iter().enumerate() {
             let Some(i) = self.index[k] else { continue };
             let field = rec.get(i).unwrap_or("");
+            if field.is_empty() && flagged && *col == "r_line_ohm" {
+                continue;
+            }
             let v: f64 = match field.parse::<f64>() {
                 Ok(v) if v.is_finite() => v,
                 _ => bail!(
@@ -406,13 +416,6 @@ impl Header {
             // Zero is no reading: Cs is undefined at DC, a zero Cs is no
             // capacitor, a zero resistance no carbon electrode; none can
             // be modelled.
-            // An instrument's own r_line_ohm is modelled only where no
-            // four-terminal resistances are given, and is 0 in a record the
-            // instrument flagged (no line estimate).
-            let flagged = self.flags_at.is_some_and(|i| {
-                rec.get(i)
-                    .is_some_and(|f| f.trim().parse::<u16>().map_or(true, |f| !Flags(f).valid()))
-            });
             let positive = match *col {
                 "freq_hz" | "cs_pf" | "r_top_ohm" | "r_bottom_ohm" | "cs_sigma_pf" => true,
                 "r_line_ohm" => self.resistance == Resistance::InstrumentLine && !flagged,
@@ -434,6 +437,16 @@ impl Header {
             values[k] = v;
         }
         Ok(Row { values, line })
+    }
+
+    /// Whether `row`, of `flags`, is one the analyses take: one with no
+    /// fault bit, or flagged only by the model check ([`Flags::MODEL`]:
+    /// its lumped reading stands, its line has no value) where its
+    /// resistance does not come from that line.
+    fn usable(&self, row: &Row, flags: u16) -> bool {
+        let model_only = flags & Flags::MODEL != 0 && Flags(flags & !Flags::MODEL).valid();
+        Flags(flags).valid()
+            || (model_only && (self.resistance != Resistance::InstrumentLine || row.r_line_ohm() > 0.0))
     }
 
     /// The row's `flags` (0 without the column): an error naming the place

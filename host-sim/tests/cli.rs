@@ -385,13 +385,12 @@ fn no_record_is_left_out_without_a_word() {
         "{faults}"
     );
     assert!(
-        faults.contains(",2,2000,0,no lumped reading: the tone's impedance is not a lossy capacitor's"),
+        faults.contains(",2,2000,0,\"no lumped reading: the tone's impedance is not a lossy capacitor's\""),
         "{faults}"
     );
-    // The flagged record's two tones, each with its flags named (MODEL is
-    // the line's, which the per-tone rows leave out).
+    // The flagged record's two tones, each with its flags, named.
     assert_eq!(faults.matches(",5,").count(), 2, "{faults}");
-    assert!(faults.contains(",5,500,128,UNCERTAIN"), "{faults}");
+    assert!(faults.contains(",5,500,384,\"UNCERTAIN MODEL\""), "{faults}");
 }
 
 /// A real recording (no truth, so no ohmmeter): a record whose two tones

@@ -11,7 +11,8 @@ pub const RECORDS_CSV: &str = "records.csv";
 
 /// The header of [`RECORDS_CSV`]: the segment (1, then one more after
 /// each restart of the device), the frame's sequence number, then the
-/// record's fields.
+/// record's fields (a value the record lacks, NaN on the device, is an
+/// empty field).
 pub(crate) const HEADER: &str = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags\n";
 
 /// Record `r`'s line (segment `segment`, frame `seq`), appended to
@@ -26,17 +27,24 @@ pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record) {
     int(line, r.t_us);
     line.push(b',');
     int(line, r.sensor);
+    // No value (NaN or infinite on the device): an empty field.
+    let value = |line: &mut Vec<u8>, x: f32| {
+        line.push(b',');
+        if x.is_finite() {
+            shortest_f32(line, x);
+        }
+    };
     for t in r.tones {
         for x in [t.f_hz, t.z_re_ohm, t.z_im_ohm] {
-            line.push(b',');
-            shortest_f32(line, x);
+            value(line, x);
         }
     }
     line.push(b',');
-    fixed(line, r.c_farad as f64 * 1e12, 4);
+    if r.c_farad.is_finite() {
+        fixed(line, r.c_farad as f64 * 1e12, 4);
+    }
     for x in [r.r_ohm, r.stretch_mm, r.chosen_hz, r.chi2, r.sigma_ln_c] {
-        line.push(b',');
-        shortest_f32(line, x);
+        value(line, x);
     }
     line.push(b',');
     int(line, r.flags);

@@ -200,7 +200,7 @@ fn a_restart_is_a_segment_of_its_own_in_every_file() {
         let text = std::fs::read_to_string(dir.join(name)).unwrap();
         let t: Vec<f64> = text
             .lines()
-            .skip(2)
+            .skip(1)
             .map(|l| l.split(',').next().unwrap().parse().unwrap())
             .collect();
         assert_eq!(t.len(), rows, "{name}");
@@ -263,5 +263,5 @@ fn a_killed_session_leaves_its_marker_no_manifest_and_whole_lines() {
     assert_eq!(csv.lines().count(), 51);
     assert!(csv.ends_with('\n'));
     let trace = std::fs::read_to_string(dir.join("trace_ch0_2000hz.csv")).unwrap();
-    assert_eq!(trace.lines().count(), 52);
+    assert_eq!(trace.lines().count(), 51);
 }

@@ -1,6 +1,7 @@
 //! What a fresh Debian machine lacks (apt-get, as root or through sudo):
-//! QEMU, ngspice, Chromium (the dashboard's test) and npm (the
-//! dashboard's chart library); and the Rust targets of
+//! QEMU, ngspice, Chromium (the dashboard's test), npm (the
+//! dashboard's chart library) and Python's pandas (the CSV files read as
+//! a lab reads them); and the Rust targets of
 //! `rust-toolchain.toml`.
 
 use anyhow::{bail, Context, Result};
@@ -8,13 +9,43 @@ use std::process::Command;
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-/// The system packages the tests need: (a program on PATH, its package).
-const PACKAGES: [(&str, &str); 4] = [
-    ("qemu-system-arm", "qemu-system-arm"),
-    ("ngspice", "ngspice"),
-    ("chromium", "chromium"),
-    ("npm", "npm"),
+/// The system packages the tests need: (what shows it is there, its
+/// package).
+const PACKAGES: [(Present, &str); 5] = [
+    (Present::Program("qemu-system-arm"), "qemu-system-arm"),
+    (Present::Program("ngspice"), "ngspice"),
+    (Present::Program("chromium"), "chromium"),
+    (Present::Program("npm"), "npm"),
+    // The CSV files the tools write, read as a lab reads them.
+    (Present::PythonModule("pandas"), "python3-pandas"),
 ];
+
+/// What shows a package is installed.
+#[derive(Clone, Copy)]
+enum Present {
+    /// A program on PATH.
+    Program(&'static str),
+    /// A module `python3` imports.
+    PythonModule(&'static str),
+}
+
+impl Present {
+    fn here(self) -> bool {
+        match self {
+            Present::Program(bin) => on_path(bin),
+            // On PATH, or the system's (PATH may lead to another, such
+            // as pyenv's): the tests look in both.
+            Present::PythonModule(m) => ["python3", "/usr/bin/python3"].iter().any(|py| {
+                Command::new(py)
+                    .args(["-c", &format!("import {m}")])
+                    .stdout(std::process::Stdio::null())
+                    .stderr(std::process::Stdio::null())
+                    .status()
+                    .is_ok_and(|s| s.success())
+            }),
+        }
+    }
+}
 
 /// The Cortex-M targets of `rust-toolchain.toml`.
 const TARGETS: [&str; 2] = ["thumbv7em-none-eabihf", "thumbv7m-none-eabi"];
@@ -38,7 +69,7 @@ pub fn packages_in_background() -> Result<JoinHandle<Result<()>>> {
 fn packages() -> Result<()> {
     let need: Vec<&str> = PACKAGES
         .into_iter()
-        .filter(|(bin, _)| !on_path(bin))
+        .filter(|(present, _)| !present.here())
         .map(|(_, pkg)| pkg)
         .collect();
     if need.is_empty() {

@@ -20,6 +20,13 @@
 //!   (fewer than [`crate::model::prepared::MIN_TRACE_ROWS`] records, such as the one start-up block
 //!   at the lowest frequency), same columns: kept, but not a trace.
 //! * `faults.csv`: every record flagged invalid, with its flags.
+//! * `dataset.json`: what the columns hold, each trace's sensor,
+//!   frequency, segment and rows, and what was left out and why (the CSV
+//!   files hold no comments: any CSV reader takes them as they are).
+//!
+//! A value a record lacks is an empty field: the line's `c_line_pf` and
+//! `r_line_ohm` of a record the model check failed (it keeps its flag,
+//! [`Flags::MODEL`], and its lumped reading) or that has no line.
 //!
 //! Without truth lines (a board) the stretch is the firmware's calibrated
 //! one and the resistance its line estimate `r_line_ohm`: the analyses say
@@ -35,7 +42,7 @@ mod write;
 mod writer;
 
 pub use decode::{decode_defmt, log_lines, parse, parse_tones, read, read_recording, END};
-pub use write::{is_dataset_file, unusable, write_dataset, Written, INCOMPLETE, MANIFEST};
+pub use write::{is_dataset_file, unusable, write_dataset, Written, DATASET_JSON, INCOMPLETE, MANIFEST};
 pub use writer::{DatasetWriter, LineFile};
 
 use instrument::faults::Flags;
@@ -91,9 +98,9 @@ pub struct LoggedRecord {
     pub cs_pf: f64,
     /// Lumped Rs, Ω.
     pub rs_ohm: f64,
-    /// Line-corrected C, pF (0: not available).
+    /// Line-corrected C, pF (0 or NaN: no value).
     pub c_pf: f64,
-    /// Line-corrected R (both electrodes), Ω.
+    /// Line-corrected R (both electrodes), Ω (0 or NaN: no value).
     pub r_ohm: f64,
     /// Stretch from the firmware's calibration, mm.
     pub stretch_mm: f64,
@@ -123,18 +130,24 @@ impl LoggedRecord {
     /// model check ([`Flags::MODEL`]: the block's two tones disagree on
     /// the line) still carries a good lumped reading, which is what
     /// `identify` looks at to find what the line lacks: it keeps its
-    /// validity, and the line the check could not vouch for is left out
-    /// (C and R 0, "not available"). Any other record is as it was.
+    /// flags, and the line the check could not vouch for has no value
+    /// (C and R NaN, written as empty fields). Any other record is as it
+    /// was.
     pub fn as_row(&self) -> Self {
         if !self.flags.has(Flags::MODEL) {
             return *self;
         }
         Self {
-            c_pf: 0.0,
-            r_ohm: 0.0,
-            flags: Flags(self.flags.0 & !Flags::MODEL),
+            c_pf: f64::NAN,
+            r_ohm: f64::NAN,
             ..*self
         }
+    }
+
+    /// True if its lumped reading (Cs, Rs) can be trusted: valid, or
+    /// flagged only by the model check, which judges the line.
+    pub fn lumped_valid(&self) -> bool {
+        Flags(self.flags.0 & !Flags::MODEL).valid()
     }
 
     /// The stretch the rig saw (truth) or else the firmware's, mm.
@@ -171,7 +184,8 @@ impl LoggedToneRecord {
     /// capacitor) and the joint line, flags and truth of the record.
     ///
     /// A record that failed the model check ([`Flags::MODEL`]) keeps its
-    /// two lumped readings valid without a line ([`LoggedRecord::as_row`]).
+    /// flags and its two lumped readings, without a line
+    /// ([`LoggedRecord::as_row`]).
     pub fn per_tone(&self) -> [LoggedRecord; 2] {
         let r = &self.rec;
         core::array::from_fn(|k| {
@@ -230,8 +244,10 @@ mod tests {
         assert!((recs[1].cs_pf - cs).abs() < 1e-3 * cs && recs[1].rs_ohm == 200000.0);
         assert!(recs[0].truth.is_some() && recs[2].truth.is_none());
         assert!((recs[0].c_pf - 205.1).abs() < 1e-3 && recs[0].valid());
-        // The flagged record keeps its lumped readings, valid, without a line.
-        assert!(recs[2].valid() && recs[2].c_pf == 0.0 && recs[2].cs_pf > 0.0);
+        // The flagged record keeps its flag and its lumped readings,
+        // without a line.
+        assert!(!recs[2].valid() && recs[2].lumped_valid());
+        assert!(recs[2].c_pf.is_nan() && recs[2].cs_pf > 0.0);
         // A `rec` line among them says what is wrong, with its line.
         std::fs::write(
             &log,
@@ -316,7 +332,7 @@ mod tests {
         assert!(w.traces.is_empty() && w.rows == 0);
         assert_eq!(names, ["fragment_ch1_586hz.csv", "fragment_ch1_1953hz.csv"]);
         let text = std::fs::read_to_string(&w.fragments[0]).unwrap();
-        let row: Vec<&str> = text.lines().nth(2).unwrap().split(',').collect();
+        let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
         assert_eq!(
             (row[0], row[4], row[5], row[7]),
             ("0.008320", "585.9375", "213.3000", "214.2100")
@@ -376,10 +392,13 @@ mod tests {
         assert_eq!((w.calibration_points, w.traces.len()), (2, 1));
         assert_eq!(w.left_out.len(), 1, "{:?}", w.left_out);
         assert!(w.left_out[0].starts_with("sensor 3,"), "{:?}", w.left_out);
-        let cal = std::fs::read_to_string(dir.path().join("calibration.csv")).unwrap();
+        let about: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(DATASET_JSON)).unwrap()).unwrap();
         assert!(
-            cal.contains("# sensor 3, held still, has no calibration point"),
-            "{cal}"
+            about["left_out"][0]
+                .as_str()
+                .is_some_and(|w| w.starts_with("sensor 3, held still, has no calibration point")),
+            "{about}"
         );
         let ds = crate::dataset::read_dir(dir.path()).unwrap();
         assert_eq!(ds.calibration.rows.len(), 2);

@@ -38,9 +38,15 @@ pub const INCOMPLETE: &str = "INCOMPLETE";
 /// without one is incomplete.
 pub const MANIFEST: &str = "session.json";
 
+/// What a data set written here says of itself: what its columns hold,
+/// its files, and what was left out and why (JSON; the CSV files hold
+/// no comments, so that any CSV reader takes them as they are).
+pub const DATASET_JSON: &str = "dataset.json";
+
 /// Whether `name` is a file a data set written here consists of.
 pub fn is_dataset_file(name: &str) -> bool {
     name == "calibration.csv"
+        || name == DATASET_JSON
         || name == "faults.csv"
         || ((name.starts_with("trace_") || name.starts_with("fragment_")) && name.ends_with("hz.csv"))
 }
@@ -113,6 +119,11 @@ pub(super) fn is_static_spread(spread: f64) -> bool {
     spread < STATIC_SPREAD_MM
 }
 
+/// Whether the line's C or R `x` has no value (0, or NaN).
+fn no_value(x: f64) -> bool {
+    x.is_nan() || x <= 0.0
+}
+
 /// Why a record cannot be a trace row, if it cannot (it is listed in
 /// `faults.csv` instead): no lumped reading, a value no sensor or
 /// instrument gives, or, without the rig's resistances (`truth`: a
@@ -125,8 +136,9 @@ pub fn unusable(r: &LoggedRecord, truth: bool) -> Option<&'static str> {
         && within_bounds("freq_hz", r.freq_hz)
         && within_bounds("cs_pf", r.cs_pf)
         && within_bounds("rs_ohm", r.rs_ohm)
-        && (truth || r.r_ohm <= 0.0 || within_bounds("r_line_ohm", r.r_ohm))
-        && (r.c_pf <= 0.0 || within_bounds("cs_pf", r.c_pf))
+        // The line's C and R may have no value (0 or NaN).
+        && (truth || no_value(r.r_ohm) || within_bounds("r_line_ohm", r.r_ohm))
+        && (no_value(r.c_pf) || within_bounds("cs_pf", r.c_pf))
         && r.truth.is_none_or(|t| {
             within_bounds("r_top_ohm", t.r_top_ohm) && within_bounds("r_bottom_ohm", t.r_bottom_ohm)
         });

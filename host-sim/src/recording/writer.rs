@@ -4,7 +4,7 @@
 //! set with it while the session runs; [`super::write_dataset`] writes a
 //! whole recording's with it.
 
-use super::write::{is_static_spread, unusable, Written};
+use super::write::{is_static_spread, unusable, Written, DATASET_JSON};
 use super::{BlockTruth, LoggedRecord, Roles};
 use crate::model::prepared::MIN_TRACE_ROWS;
 use anyhow::{bail, Context, Result};
@@ -182,16 +182,21 @@ impl DatasetWriter {
         // reading without a line; faults.csv lists the record's flags.
         let row = r.as_row();
         let why = unusable(&row, self.truth);
-        let reason = match (row.valid(), why) {
+        let reason = match (row.lumped_valid(), why) {
             (false, _) => Some(row.flags.names().collect::<Vec<_>>().join(" ")),
             (true, Some(why)) => Some(why.to_string()),
             (true, None) => None,
         };
         if let Some(reason) = reason {
+            // The reason quoted (RFC 4180): it may hold commas.
             writeln!(
                 self.faults.pending,
-                "{:.6},{},{},{},{reason}",
-                row.t_s, row.sensor, row.freq_hz, r.flags.0
+                "{:.6},{},{},{},\"{}\"",
+                row.t_s,
+                row.sensor,
+                row.freq_hz,
+                r.flags.0,
+                reason.replace('"', "\"\"")
             )?;
             self.n_faults += 1;
         }
@@ -211,7 +216,7 @@ impl DatasetWriter {
             ..Sensor::default()
         });
         s.records += 1;
-        if !row.valid() {
+        if !row.lumped_valid() {
             return;
         }
         s.lo = s.lo.min(row.stretch());
@@ -272,19 +277,13 @@ impl DatasetWriter {
             true => format!("{hz:.3}"),
         };
         let head = match self.truth {
-            true => format!(
-                "# firmware channel {ch} at {f} Hz; stretch and electrode resistances from the rig (simulated truth)\n\
-                 time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,r_line_ohm,flags,c_true_pf,r_true_ohm,stretch_true_mm\n"
-            ),
-            false => format!(
-                "# firmware channel {ch} at {f} Hz; stretch from the firmware's calibration, resistance its line estimate\n\
-                 time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,flags\n"
-            ),
+            true => "time_s,stretch_mm,r_top_ohm,r_bottom_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,r_line_ohm,flags,c_true_pf,r_true_ohm,stretch_true_mm\n",
+            false => "time_s,stretch_mm,r_line_ohm,freq_hz,cs_pf,rs_ohm,c_line_pf,flags\n",
         };
         let mut text = vec![];
         crate::numfmt::shortest(&mut text, hz);
         Ok(Trace {
-            file: LineFile::create(self.dir.join(file_name("fragment", seg, ch, &f)), &head)?,
+            file: LineFile::create(self.dir.join(file_name("fragment", seg, ch, &f)), head)?,
             rows: 0,
             hz: text,
         })
@@ -359,14 +358,11 @@ impl DatasetWriter {
     /// is left out, with a comment that says so. How many points, and
     /// what was left out.
     fn write_calibration(&self) -> Result<(usize, Vec<String>)> {
-        let mut text = String::from(
-            "# firmware recording: each static channel's valid records at its most used frequency, averaged\n",
-        );
         let rcols = match self.truth {
             true => "r_top_ohm,r_bottom_ohm",
             false => "r_line_ohm",
         };
-        text += &format!("stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}\n");
+        let mut text = format!("stretch_mm,freq_hz,cs_pf,rs_ohm,{rcols}\n");
         let mut left_out = vec![];
         let statics: Vec<u8> = self
             .sensors
@@ -383,21 +379,61 @@ impl DatasetWriter {
                         "sensor {ch}, held still, has no calibration point: none of its {} records is valid and usable (they are in faults.csv)",
                         s.records
                     );
-                    text += &format!("# {why}\n");
                     left_out.push(why);
                 }
             }
         }
-        let mut tmp = tempfile::Builder::new()
-            .prefix(".calibration-")
-            .tempfile_in(&self.dir)
-            .with_context(|| format!("a new calibration.csv in {}", self.dir.display()))?;
-        tmp.write_all(text.as_bytes())?;
-        let path = self.dir.join("calibration.csv");
-        tmp.persist(&path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        replace(&self.dir, "calibration.csv", text.as_bytes())?;
+        self.write_description(&left_out)?;
         Ok((statics.len() - left_out.len(), left_out))
     }
+}
+
+impl DatasetWriter {
+    /// [`DATASET_JSON`]: what the columns hold, each trace file's sensor,
+    /// frequency, segment and rows, and what was left out.
+    fn write_description(&self, left_out: &[String]) -> Result<()> {
+        let traces: Vec<serde_json::Value> = self
+            .traces
+            .iter()
+            .map(|(&(segment, sensor, bits), t)| {
+                serde_json::json!({
+                    "file": t.file.path.file_name().map(|n| n.to_string_lossy().into_owned()),
+                    "sensor": sensor,
+                    "freq_hz": f64::from_bits(bits),
+                    "segment": segment,
+                    "rows": t.rows,
+                })
+            })
+            .collect();
+        let source = match self.truth {
+            true => "a firmware recording in QEMU: stretch and electrode resistances (r_top_ohm, r_bottom_ohm) from the rig, the simulated truth in the *_true columns",
+            false => "a firmware recording: stretch from the firmware's calibration, resistance its line estimate r_line_ohm",
+        };
+        let text = serde_json::to_string_pretty(&serde_json::json!({
+            "format": "docs/data-format.md",
+            "source": source,
+            "calibration": "each sensor held still: its valid records at its most used frequency, averaged",
+            "no_value": "an empty field: c_line_pf and r_line_ohm of a record whose line was not vouched for (flags MODEL, or a fault)",
+            "traces": traces,
+            "left_out": left_out,
+        }))?;
+        replace(&self.dir, DATASET_JSON, text.as_bytes())
+    }
+}
+
+/// Replace `dir`'s file `name` with `bytes` whole (a reader sees the old
+/// or the new), through a temporary file of its own.
+fn replace(dir: &Path, name: &str, bytes: &[u8]) -> Result<()> {
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".new-")
+        .tempfile_in(dir)
+        .with_context(|| format!("a new {name} in {}", dir.display()))?;
+    tmp.write_all(bytes)?;
+    let path = dir.join(name);
+    tmp.persist(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
 }
 
 /// A calibration point's line: the means of `a`, read at `f` Hz.
@@ -445,17 +481,26 @@ fn row_line(line: &mut Vec<u8>, row: &LoggedRecord, t: Option<BlockTruth>, hz: &
         }
         None => {
             field(line, row.stretch_mm, 4);
+            // A trace row without the rig's resistances has its line's
+            // (unusable rows, without one, are not written).
             field(line, row.r_ohm, 0);
         }
     }
     line.extend_from_slice(hz);
     line.push(b',');
+    // The line's C and R: empty where there is none (0 or NaN).
+    let line_field = |line: &mut Vec<u8>, x: f64, prec: usize| {
+        if x > 0.0 && x.is_finite() {
+            fixed(line, x, prec);
+        }
+        line.push(b',');
+    };
     field(line, row.cs_pf, 4);
     field(line, row.rs_ohm, 0);
-    field(line, row.c_pf, 4);
+    line_field(line, row.c_pf, 4);
     match t {
         Some(t) => {
-            field(line, row.r_ohm, 0);
+            line_field(line, row.r_ohm, 0);
             int(line, row.flags.0);
             line.push(b',');
             field(line, t.c_pf, 4);
