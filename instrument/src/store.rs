@@ -126,6 +126,71 @@ impl Header {
     }
 }
 
+impl Header {
+    /// Why header bytes `b` are not a valid header.
+    fn fault(b: &[u8; HEADER]) -> SlotState {
+        let word = |k: usize| u32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+        if b.iter().all(|&x| x == 0xFF) {
+            SlotState::Erased
+        } else if word(0) != MAGIC {
+            SlotState::NoMagic
+        } else if word(16) != link::CRC.checksum(&b[0..16]) {
+            SlotState::HeaderCrc
+        } else {
+            SlotState::TooLong
+        }
+    }
+}
+
+/// What a slot holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotState {
+    /// A whole valid set of this generation.
+    Valid(u32),
+    /// Nothing: its header is erased (never written, or an update cut
+    /// before its header, which is written last).
+    Erased,
+    /// Its header does not start with the magic number.
+    NoMagic,
+    /// Its header's CRC does not match.
+    HeaderCrc,
+    /// Its header gives a body longer than any set.
+    TooLong,
+    /// Its body's CRC does not match its header's.
+    BodyCrc,
+    /// Its body's CRC matches, but the bytes are no set of this layout,
+    /// or one that breaks the rules.
+    NotASet,
+    /// The flash reports its bytes corrupt (ECC).
+    Unreadable,
+}
+
+impl SlotState {
+    /// Whether it holds something that is not a set: spoiled (a flipped
+    /// bit, a bad write), not merely empty.
+    pub fn spoiled(self) -> bool {
+        !matches!(self, SlotState::Valid(_) | SlotState::Erased)
+    }
+
+    /// What it holds, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SlotState::Valid(_) => "a valid set",
+            SlotState::Erased => "nothing (erased)",
+            SlotState::NoMagic => "a header without the magic number (not a settings slot, or spoiled)",
+            SlotState::HeaderCrc => "a header whose CRC does not match (a flipped bit, or a spoiled write)",
+            SlotState::TooLong => "a header that gives a body longer than any set",
+            SlotState::BodyCrc => {
+                "a body whose CRC does not match its header's (a flipped bit, or a spoiled write)"
+            }
+            SlotState::NotASet => {
+                "a body with a matching CRC that is no set of this layout, or breaks its rules"
+            }
+            SlotState::Unreadable => "bytes the flash reports corrupt (ECC)",
+        }
+    }
+}
+
 /// `a` is a later generation than `b` (wrapping).
 fn newer(a: u32, b: u32) -> bool {
     (a.wrapping_sub(b) as i32) > 0
@@ -190,25 +255,47 @@ where
     /// Slot `slot`'s header, if the slot holds a whole valid set: the set
     /// then in `out` (otherwise `out` is anything).
     fn read_slot(&mut self, slot: usize, out: &mut Stored) -> Result<Option<Header>, F::Error> {
+        Ok(self.examine(slot, out)?.ok())
+    }
+
+    /// Slot `slot`'s header where it holds a whole valid set (the set
+    /// then in `out`), else what it holds instead.
+    fn examine(&mut self, slot: usize, out: &mut Stored) -> Result<Result<Header, SlotState>, F::Error> {
         let at = self.slot_at(slot);
         let mut h = [0u8; HEADER];
         match self.flash.read(at, &mut h) {
-            Err(e) if e.corrupt() => return Ok(None),
+            Err(e) if e.corrupt() => return Ok(Err(SlotState::Unreadable)),
             other => other?,
         }
         let Some(header) = Header::from_bytes(&h) else {
-            return Ok(None);
+            return Ok(Err(Header::fault(&h)));
         };
         let mut body = [0u8; MAX_BYTES];
         let body = &mut body[..header.len as usize];
         match self.flash.read(at + HEADER as u32, body) {
-            Err(e) if e.corrupt() => return Ok(None),
+            Err(e) if e.corrupt() => return Ok(Err(SlotState::Unreadable)),
             other => other?,
         }
         if link::CRC.checksum(body) != header.body_crc {
-            return Ok(None);
+            return Ok(Err(SlotState::BodyCrc));
         }
-        Ok(out.read_from(body).then_some(header))
+        match out.read_from(body) {
+            true => Ok(Ok(header)),
+            false => Ok(Err(SlotState::NotASet)),
+        }
+    }
+
+    /// What each slot holds (the host's report of a flash image: which
+    /// slot is spoiled, and how).
+    pub fn inspect(&mut self) -> Result<[SlotState; 2], F::Error> {
+        let mut scratch = Stored::uncalibrated();
+        let mut state = |slot| -> Result<SlotState, F::Error> {
+            Ok(match self.examine(slot, &mut scratch)? {
+                Ok(h) => SlotState::Valid(h.generation),
+                Err(s) => s,
+            })
+        };
+        Ok([state(0)?, state(1)?])
     }
 
     /// Slot `slot`'s header, if the slot holds a whole valid set. Its own

@@ -7,7 +7,7 @@
 //! then renamed), one writer at a time ([`update_image`]).
 
 use anyhow::{anyhow, bail, Context, Result};
-use instrument::store::{RamFlash, Store, REGION_BYTES, SLOT_BYTES};
+use instrument::store::{RamFlash, SlotState, Store, REGION_BYTES, SLOT_BYTES};
 use instrument::stored::{SensorSettings, Stored, SENSORS_MAX};
 use std::path::Path;
 
@@ -206,10 +206,49 @@ pub fn read_image(path: &Path) -> Result<Option<(Stored, u32)>> {
 }
 
 fn unreadable_message(path: &Path) -> String {
+    let why = slot_report(path).map_or_else(|e| format!("{e:#}"), |r| r.join("; "));
     format!(
-        "{}: the image holds data but no set that reads back (a spoiled slot?)",
+        "{}: the image holds data but no set that reads back: {why}",
         path.display()
     )
+}
+
+/// Each spoiled slot of the flash image at `path`, named with what is
+/// wrong with it (slot A, then B), and which slot is in force if one is:
+/// empty where no slot is spoiled.
+pub fn spoiled_slots(path: &Path) -> Result<Vec<String>> {
+    let states = slot_states(path)?;
+    if !states.iter().any(|s| s.spoiled()) {
+        return Ok(vec![]);
+    }
+    slot_report(path)
+}
+
+/// Every slot of the image at `path`, in words.
+fn slot_report(path: &Path) -> Result<Vec<String>> {
+    let states = slot_states(path)?;
+    let name = |k: usize| if k == 0 { "A" } else { "B" };
+    Ok(states
+        .iter()
+        .enumerate()
+        .map(|(k, s)| match s {
+            SlotState::Valid(g) => format!("slot {} holds a valid set (generation {g})", name(k)),
+            s if s.spoiled() => format!("slot {} is spoiled: it holds {}", name(k), s.describe()),
+            s => format!("slot {} holds {}", name(k), s.describe()),
+        })
+        .collect())
+}
+
+/// What each slot of the image at `path` holds.
+fn slot_states(path: &Path) -> Result<[SlotState; 2]> {
+    let mut image = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    if image.len() != REGION_BYTES {
+        bail!("{}: not a settings flash image", path.display());
+    }
+    Store::new(RamFlash::new(&mut image), 0, SLOT_BYTES)
+        .map_err(|e| anyhow!("{e:?}"))?
+        .inspect()
+        .map_err(|e| anyhow!("{}: {e:?}", path.display()))
 }
 
 /// The set `image` (the flash image at `path`) holds and its
@@ -568,6 +607,34 @@ mod tests {
     }
 
     #[test]
+    fn a_spoiled_slot_is_named_while_the_other_stays_in_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        let mut set = Stored::uncalibrated();
+        mark(&mut set, 5);
+        write_image(&path, &set).unwrap();
+        mark(&mut set, 6);
+        write_image(&path, &set).unwrap();
+        assert!(spoiled_slots(&path).unwrap().is_empty());
+        // The newer set (slot B) gets a bit flipped in its header.
+        let mut image = std::fs::read(&path).unwrap();
+        image[SLOT_BYTES as usize + 5] ^= 0x01;
+        std::fs::write(&path, &image).unwrap();
+        // The older set in force: sensor 5 marked, sensor 6 not.
+        let (older, generation) = read_image(&path).unwrap().unwrap();
+        assert_eq!(older.sensors[5].parasitic_farad, 5e-12);
+        assert_ne!(older.sensors[6].parasitic_farad, 6e-12);
+        let report = spoiled_slots(&path).unwrap();
+        assert_eq!(
+            report,
+            [
+                format!("slot A holds a valid set (generation {generation})").as_str(),
+                "slot B is spoiled: it holds a header whose CRC does not match (a flipped bit, or a spoiled write)"
+            ]
+        );
+    }
+
+    #[test]
     fn a_spoiled_image_is_named_and_not_replaced_by_defaults_unasked() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("flash.bin");
@@ -581,6 +648,12 @@ mod tests {
         std::fs::write(&path, &image).unwrap();
         let err = read_image(&path).unwrap_err().to_string();
         assert!(err.contains("no set that reads back"), "{err}");
+        // Which slot, and which check failed.
+        assert!(
+            err.contains("slot A is spoiled: it holds a body whose CRC does not match"),
+            "{err}"
+        );
+        assert!(err.contains("slot B holds nothing (erased)"), "{err}");
         let err = update_image(&path, Unreadable::Refuse, |s| {
             Ok(s.unwrap_or_else(Stored::uncalibrated))
         })

@@ -137,10 +137,17 @@ fn with_target(
     let mut dev = match (&target.flash, &target.tcp, &target.serial) {
         (Some(flash), _, _) => {
             return match change {
-                None => Ok(read_image(flash)?.map_or(
-                    (instrument::stored::Stored::uncalibrated(), 0, false),
-                    |(s, g)| (s, g, true),
-                )),
+                None => {
+                    let read = read_image(flash)?;
+                    // A spoiled slot beside the one in force: said.
+                    for line in live::config::spoiled_slots(flash)? {
+                        eprintln!("{}: {line}", flash.display());
+                    }
+                    Ok(read.map_or(
+                        (instrument::stored::Stored::uncalibrated(), 0, false),
+                        |(s, g)| (s, g, true),
+                    ))
+                }
                 Some(f) => {
                     let (set, g) = update_image(flash, unreadable, f)?;
                     Ok((set, g, true))
