@@ -64,7 +64,12 @@ pub fn all(root: &Path, pass: Pass, packages: JoinHandle<Result<()>>) -> Result<
     packages
         .join()
         .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
-    host_tests(root, pass)
+    host_tests(root, pass)?;
+    if pass == Pass::Fast {
+        // A minute of `cargo xtask soak`.
+        print!("{}", crate::soak::run(root, &crate::soak::Soak::minute())?);
+    }
+    Ok(())
 }
 
 /// The host's checks beside the workspace's tests, and those tests

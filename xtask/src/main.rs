@@ -14,6 +14,10 @@
 //! * `example-data`: the example data set (`data/example`) from rig-sim.
 //! * `survey`: `identify` over the physical ranges on both generators,
 //!   many seeds.
+//! * `soak` ([`soak`]): `live` streaming a day of a skin's records over
+//!   TCP with the dashboard open, killed at random moments and
+//!   restarted; resident memory and records lost reported (the test
+//!   command runs a minute of it).
 //! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each, the
 //!   record link's corrupted streams as many, the device's fuzzed command
 //!   streams a hundredth as many (each a whole stream); the test command
@@ -28,6 +32,7 @@ mod checks;
 mod docs;
 mod main_job;
 mod setup;
+mod soak;
 
 #[derive(Parser)]
 #[command(name = "xtask")]
@@ -80,6 +85,26 @@ enum Cmd {
         #[arg(long, default_value = "data/example")]
         out: std::path::PathBuf,
     },
+    /// `live` streaming a skin's records over TCP (16 × 1,000 a second)
+    /// with the dashboard open in headless Chromium, killed at random
+    /// moments and restarted: every killed session checked (nothing lost
+    /// before its last flush), the last by its manifest, resident memory
+    /// held within 256 MiB; the report in out/soak/report.md.
+    Soak {
+        /// Hours of records the device sends.
+        #[arg(long, default_value_t = 24.0)]
+        hours: f64,
+        /// How fast, as a multiple of real time (0: as fast as live
+        /// takes them).
+        #[arg(long, default_value_t = 0.0)]
+        speed: f64,
+        /// Kill live after a random time between this and twice this, s.
+        #[arg(long, default_value_t = 30.0)]
+        kill_every: f64,
+        /// The draw of the kills.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+    },
     /// The fuzz targets (dsp-core's API, the channel logic, the wire
     /// format, the readers) with many cases (tens of minutes).
     Fuzz {
@@ -114,6 +139,23 @@ fn main() -> Result<()> {
         Cmd::Run => {
             setup::run()?;
             main_job::all(&root)
+        }
+        Cmd::Soak {
+            hours,
+            speed,
+            kill_every,
+            seed,
+        } => {
+            setup::run()?;
+            let soak = soak::Soak {
+                seconds: (hours * 3600.0).round() as u64,
+                speed: (speed > 0.0).then_some(speed),
+                kill_after_s: (kill_every, 2.0 * kill_every),
+                seed,
+                dashboard: true,
+            };
+            print!("{}", soak::run(&root, &soak)?);
+            Ok(())
         }
         Cmd::Docs => {
             setup::run()?;
