@@ -486,6 +486,14 @@ fn verify_device(
 }
 
 fn main() -> ExitCode {
+    // A file that reaches the size limit (`ulimit -f`) fails its write,
+    // which the session reports with every file cut back to whole lines,
+    // instead of the process being killed in the middle of a line.
+    // SAFETY: setting a signal's disposition to SIG_IGN, before any
+    // thread is started.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     let mut cli = Cli::parse();
     let done = match cli.command.take() {
         Some(Command::Config { action }) => Some(config(action)),

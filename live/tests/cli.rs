@@ -252,3 +252,39 @@ fn a_refused_frame_is_named_with_its_place() {
     assert!(err.contains("a frame ending at byte"), "{err}");
     assert!(out.contains("9 records") && out.contains("1 refused"), "{out}");
 }
+
+/// A session that reaches the file size limit (`ulimit -f`) stops with
+/// an error that says so, its files in whole lines, marked incomplete,
+/// without a manifest or a temporary file left.
+#[test]
+fn a_file_size_limit_stops_the_session_with_whole_lines() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("in.bin");
+    std::fs::write(&file, stream(20_000, true, VERSION)).unwrap();
+    let ds = tmp.path().join("ds");
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 256; exec \"$0\" --replay \"$1\" --dataset \"$2\"")
+        .arg(env!("CARGO_BIN_EXE_live"))
+        .arg(&file)
+        .arg(&ds)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.to_lowercase().contains("file too large"), "{err}");
+    assert!(ds.join(live::INCOMPLETE).is_file());
+    assert!(!ds.join(live::MANIFEST).exists());
+    for entry in std::fs::read_dir(&ds).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(!name.starts_with('.'), "{name} left");
+        if name.ends_with(".csv") {
+            let bytes = std::fs::read(&path).unwrap();
+            assert!(
+                bytes.is_empty() || bytes.ends_with(b"\n"),
+                "{name}: a line cut short"
+            );
+        }
+    }
+}

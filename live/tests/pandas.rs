@@ -1,4 +1,5 @@
-//! Every CSV file the tools write reads as a lab reads it: with
+//! Every CSV file the tools write (a session's, a decoded recording's,
+//! the paper's experiments') reads as a lab reads it: with
 //! `pandas.read_csv`'s defaults and with Python's `csv` module (RFC 4180),
 //! each column numeric but `reason`, a value the record lacks an empty
 //! field (never `NaN` text, never a 0 that reads as a measurement), and a
@@ -211,4 +212,30 @@ fn every_csv_of_a_recording_with_truth_reads_with_pandas_and_csv() {
         .all(|l| l.split(',').nth(7) == Some("") && l.split(',').nth(8) == Some("")));
     let ds = host_sim::dataset::read_dir(tmp.path()).unwrap();
     assert_eq!((ds.traces[0].rows.len(), ds.traces[0].flagged), (40, 0));
+}
+
+#[test]
+fn the_experiments_traces_read_with_pandas_and_csv() {
+    use host_sim::chain::Reading;
+    let tmp = tempfile::tempdir().unwrap();
+    // The second reading's ADC clipped: no lumped reading, no line.
+    let rs: Vec<Reading> = (0..3)
+        .map(|k| Reading {
+            t: 0.01 * k as f64,
+            stretch_mm: k as f64,
+            c_true: 205e-12,
+            r_line: 7e5,
+            r_top: 3.5e5,
+            r_bottom: 3.6e5,
+            freq_hz: 2000.0,
+            cs: if k == 1 { f64::NAN } else { 200e-12 },
+            rs: if k == 1 { f64::NAN } else { 9e4 },
+            c_corr: if k == 1 { f64::NAN } else { 205e-12 },
+            r_corr: if k == 1 { f64::NAN } else { 7e5 },
+            clipped: k == 1,
+        })
+        .collect();
+    let path = tmp.path().join("adc_20mmps_2000hz.csv");
+    host_sim::experiments::write_trace(&path, &rs, true).unwrap();
+    python_reads(&[path]);
 }

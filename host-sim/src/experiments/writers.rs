@@ -23,6 +23,8 @@ pub fn write_trace_to(out: impl std::io::Write, rs: &[Reading], truth: bool) -> 
         ]);
     }
     w.write_record(&head)?;
+    // No value (a reading the ADC's clipping spoiled): an empty field.
+    let opt = |v: f64, s: String| if v.is_finite() { s } else { String::new() };
     for r in rs {
         let mut row = vec![
             format!("{:.5}", r.t),
@@ -30,11 +32,10 @@ pub fn write_trace_to(out: impl std::io::Write, rs: &[Reading], truth: bool) -> 
             format!("{:.0}", r.r_top),
             format!("{:.0}", r.r_bottom),
             format!("{}", r.freq_hz),
-            format!("{:.4}", pf(r.cs)),
-            format!("{:.0}", r.rs),
+            opt(r.cs, format!("{:.4}", pf(r.cs))),
+            opt(r.rs, format!("{:.0}", r.rs)),
         ];
         if truth {
-            let opt = |v: f64, s: String| if v.is_finite() { s } else { String::new() };
             row.extend([
                 format!("{:.4}", pf(r.c_true)),
                 opt(r.c_corr, format!("{:.4}", pf(r.c_corr))),
