@@ -8,6 +8,7 @@
 //! period zero" on stderr).
 
 pub mod calibration;
+pub mod cycles;
 pub mod records;
 pub mod summary;
 pub mod tables;
@@ -134,6 +135,11 @@ pub fn run_qemu(elf: &Path, watchdog: Duration) -> Result<Run> {
 /// The QEMU command for `elf` with semihosting arguments `args` and
 /// UART0 on `serial` (a `-serial` device: `file:PATH`, `tcp:…`).
 fn qemu(elf: &Path, args: &[&str], serial: &str) -> Command {
+    qemu_with(elf, args, serial, &[])
+}
+
+/// [`qemu`] with QEMU's own options `extra` too (its logs: `-d`, `-D`).
+fn qemu_with(elf: &Path, args: &[&str], serial: &str, extra: &[&str]) -> Command {
     let mut sh = String::from("enable=on,target=native");
     for a in args {
         sh.push_str(",arg=");
@@ -152,6 +158,7 @@ fn qemu(elf: &Path, args: &[&str], serial: &str) -> Command {
     .args(["-semihosting-config", &sh])
     .args(["-icount", "shift=7,align=off,sleep=off"])
     .args(["-serial", serial])
+    .args(extra)
     .arg("-kernel")
     .arg(elf);
     cmd
@@ -160,9 +167,14 @@ fn qemu(elf: &Path, args: &[&str], serial: &str) -> Command {
 /// Run `elf` in QEMU with semihosting arguments `args`; kill it after
 /// `watchdog`.
 pub fn run_qemu_args(elf: &Path, args: &[&str], watchdog: Duration) -> Result<Run> {
+    run_qemu_with(elf, args, &[], watchdog)
+}
+
+/// [`run_qemu_args`] with QEMU's own options `extra` too.
+pub fn run_qemu_with(elf: &Path, args: &[&str], extra: &[&str], watchdog: Duration) -> Result<Run> {
     // UART0 to a file: the record link's byte stream.
     let serial = tempfile::NamedTempFile::new().context("a file for UART0")?;
-    let mut child = qemu(elf, args, &format!("file:{}", serial.path().display()))
+    let mut child = qemu_with(elf, args, &format!("file:{}", serial.path().display()), extra)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -283,6 +295,13 @@ pub fn dsp_bench() -> Result<(Run, Vec<Bench>)> {
     let run = run_qemu(&elf, Duration::from_secs(120))?.ok()?;
     let b = parse_bench(&run.stdout);
     Ok((run, b))
+}
+
+/// The dsp-core benchmark's figures in cycles as well
+/// ([`cycles::bench`]).
+pub fn dsp_bench_cycles(measured: &[Bench]) -> Result<Vec<cycles::CycleBench>> {
+    let elf = build_firmware("dsp-bench", &["bench"])?;
+    cycles::bench(&elf, measured)
 }
 
 /// The instruction budgets: (bench name, max instructions). The

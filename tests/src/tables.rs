@@ -175,6 +175,37 @@ pub fn bench_table(benches: &[Bench]) -> String {
     md
 }
 
+/// The benchmarks in cycles: each figure's instructions, and its cycles
+/// with the code in CCM SRAM and in flash (low–high).
+pub fn cycle_table(rows: &[crate::cycles::CycleBench]) -> String {
+    let mut md = String::from(
+        "| benchmark | instructions | cycles, code in CCM SRAM | cycles, code in flash (ART) | unit |\n|---|---:|---:|---:|---|\n",
+    );
+    for r in rows {
+        // Per pair to the hundredth, as the benchmark prints it.
+        let fmt = |x: f64| match r.unit.ends_with("pair") {
+            true => format!("{x:.2}"),
+            false => format!("{x:.0}"),
+        };
+        let unit = match r.unit.as_str() {
+            "permille" => "‰ of a 170 MHz core".to_string(),
+            "us" => "µs at 170 MHz".to_string(),
+            u => u.replace("insn/", "per "),
+        };
+        let _ = writeln!(
+            md,
+            "| `{}` | {} | {}–{} | {}–{} | {unit} |",
+            r.name,
+            fmt(r.insns),
+            fmt(r.ccm.0),
+            fmt(r.ccm.1),
+            fmt(r.flash.0),
+            fmt(r.flash.1)
+        );
+    }
+    md
+}
+
 /// A firmware image: (binary, features (comma-separated: the first the
 /// target's, any further named beside the binary), what it is, budget of
 /// flash and static RAM in bytes where it has one).
@@ -254,29 +285,39 @@ pub fn image_table() -> Result<String> {
 
 /// The headline figures on speed, from a `dsp-bench` run (a table of
 /// `figures`).
-pub fn speed_headline(benches: &[Bench]) -> String {
+pub fn speed_headline(benches: &[Bench], cycles: &[crate::cycles::CycleBench]) -> String {
     let get = |n: &str| benches.iter().find(|b| b.name == n).map_or(f64::NAN, |b| b.value);
+    let cyc = |n: &str| cycles.iter().find(|b| b.name == n);
+    // A share in cycles (the high bound) from flash / CCM SRAM, and by
+    // instructions, in %.
+    let share = |n: &str| {
+        cyc(n).map_or("–".to_string(), |c| {
+            format!(
+                "{:.1} % / {:.1} % ({:.1} %)",
+                c.flash.1 / 10.0,
+                c.ccm.1 / 10.0,
+                c.insns / 10.0
+            )
+        })
+    };
+    let latency = |n: &str| {
+        cyc(n).map_or("–".to_string(), |c| {
+            format!("{:.0} / {:.0} µs ({:.0})", c.flash.1, c.ccm.1, c.insns)
+        })
+    };
     figures::table(&[
         (
-            "Cortex-M4 at 170 MHz: the array's 16 sensors × 250 records/s (QEMU instruction counts)"
+            "Cortex-M4 at 170 MHz, share of the CPU in cycles (the cycle model's high bound), code in flash / in CCM SRAM (by instructions): the array's 16 sensors × 250 records/s, each record framed for the link"
                 .to_string(),
-            format!(
-                "{:.1} % of the CPU, {:.1} % with each record framed for the link",
-                get("array_load_permille") / 10.0,
-                get("array_share_16x250_permille") / 10.0
-            ),
+            share("array_share_16x250_permille"),
         ),
         (
-            "the same at 1000 records/s (1 ms blocks, each record framed for the link)".to_string(),
-            format!(
-                "{:.1} % of the CPU, {} µs from a block's end to its last frame",
-                get("array_load_1000_permille") / 10.0,
-                get("array_latency_1000_us")
-            ),
+            "the same at 1000 records/s (1 ms blocks); from a block's end to its last frame".to_string(),
+            format!("{}; {}", share("array_load_1000_permille"), latency("array_latency_1000_us")),
         ),
         (
-            "Cortex-M4 at 170 MHz: one multiplexed block".to_string(),
-            format!("{:.1} % of the CPU", get("block_load_permille") / 10.0),
+            "one multiplexed block".to_string(),
+            share("block_load_permille"),
         ),
         (
             "the multiplexed channel's lock-ins (window; the policy's tone with two guard bins, then the second tone), instructions per sample pair"

@@ -1,6 +1,6 @@
-//! `cargo xtask bench`: the Cortex-M4 instruction counts and the image
-//! sizes (the tables of `docs/benchmarks.md`), and with `--host` the
-//! criterion benchmarks.
+//! `cargo xtask bench`: the Cortex-M4 instruction counts, the same in
+//! cycles from the cycle model, and the image sizes (the tables of
+//! `docs/benchmarks.md`), and with `--host` the criterion benchmarks.
 
 use crate::cargo;
 use anyhow::{bail, Result};
@@ -19,6 +19,9 @@ pub fn cortex_m4() -> Result<()> {
     let (_, benches) = qemu_tests::dsp_bench()?;
     println!("\nCortex-M4 instruction counts (QEMU lm3s6965evb, -icount shift=7,align=off,sleep=off)\n");
     print!("{}", qemu_tests::tables::bench_table(&benches));
+    let cycles = qemu_tests::dsp_bench_cycles(&benches)?;
+    println!("\nThe same in cycles (the cycle model: low–high bounds, code in CCM SRAM and in flash behind the ART)\n");
+    print!("{}", qemu_tests::tables::cycle_table(&cycles));
     println!("\nImage sizes (release):\n");
     print!("{}", qemu_tests::tables::image_table()?);
     for (name, max) in qemu_tests::DSP_BUDGETS {

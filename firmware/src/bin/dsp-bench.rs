@@ -23,13 +23,92 @@ use semihosting::println;
 
 const PAIRS: usize = 2048;
 
-/// SysTick ticks spent in `f` (reload 2^24 − 1, counting down).
-fn ticks(syst: &mut SYST, f: impl FnOnce()) -> u32 {
-    syst.clear_current();
+/// The most regions (calls of [`ticks`]) a cycle table holds.
+const REGIONS_MAX: usize = 384;
+
+/// What the benches read their spans with: SysTick, or, in a second run,
+/// each span's cycles as the host's cycle model of the Cortex-M4 counted
+/// them in the first (`cycles=PATH`: one little-endian u32 per span, in
+/// order), so that every figure below comes out in cycles.
+struct Clock {
+    syst: SYST,
+    /// The table, and how many spans it holds.
+    table: Option<([u32; REGIONS_MAX], usize)>,
+    next: usize,
+}
+
+impl Clock {
+    /// SysTick from the core clock, and the cycle table the command line
+    /// names, if it does.
+    fn new(mut syst: SYST) -> Self {
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(0x00ff_ffff);
+        syst.enable_counter();
+        Self {
+            syst,
+            table: cycle_table(),
+            next: 0,
+        }
+    }
+
+    /// Whether the spans are the cycle model's.
+    fn cycles(&self) -> bool {
+        self.table.is_some()
+    }
+}
+
+/// The cycle table of `cycles=PATH` on the command line, if given.
+fn cycle_table() -> Option<([u32; REGIONS_MAX], usize)> {
+    let args = semihosting::experimental::env::args::<256>().unwrap_or_else(|_| qemu::exit(2));
+    let arg = (&args)
+        .filter_map(Result::ok)
+        .find_map(|a| a.strip_prefix("cycles="))?;
+    let mut path = [0u8; 256];
+    if arg.len() >= path.len() {
+        qemu::exit(2);
+    }
+    path[..arg.len()].copy_from_slice(arg.as_bytes());
+    let path = core::ffi::CStr::from_bytes_until_nul(&path).unwrap_or_else(|_| qemu::exit(2));
+    let mut file = semihosting::fs::File::open(path).unwrap_or_else(|_| qemu::exit(2));
+    let mut table = [0u32; REGIONS_MAX];
+    let mut n = 0;
+    let mut word = [0u8; 4];
+    while n < REGIONS_MAX {
+        match semihosting::io::Read::read_exact(&mut file, &mut word) {
+            Ok(()) => table[n] = u32::from_le_bytes(word),
+            Err(_) => break,
+        }
+        n += 1;
+    }
+    Some((table, n))
+}
+
+/// A span the host's cycle model measures: two calls of this function
+/// bound it (its own instructions not counted).
+#[inline(never)]
+#[no_mangle]
+extern "C" fn bench_region() {
+    // SAFETY: no instruction: a call the compiler keeps.
+    unsafe { core::arch::asm!("", options(nomem, nostack, preserves_flags)) };
+}
+
+/// SysTick ticks spent in `f` (reload 2^24 − 1, counting down), or, with
+/// a cycle table, the span's cycles.
+fn ticks(clock: &mut Clock, f: impl FnOnce()) -> u32 {
+    clock.syst.clear_current();
+    bench_region();
     let a = SYST::get_current();
     f();
     let b = SYST::get_current();
-    a.wrapping_sub(b) & 0x00ff_ffff
+    bench_region();
+    let k = clock.next;
+    clock.next += 1;
+    match &clock.table {
+        // More spans than the host counted: the runs differ.
+        Some((t, n)) if k < *n => t[k],
+        Some(_) => qemu::exit(5),
+        None => a.wrapping_sub(b) & 0x00ff_ffff,
+    }
 }
 
 /// 2·n instructions.
@@ -43,7 +122,7 @@ fn spin(n: u32) {
 
 /// Demodulation of one block of sample pairs, with its peers; its
 /// assembly inner loop checked against the portable one.
-fn demod(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn demod(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     let osc = Oscillator::coherent(6000.0, 200e3, 11).unwrap_or_else(|_| qemu::exit(4));
     let mut st = OscillatorState::default();
     let mut buf = [[0i16; 2]; PAIRS];
@@ -78,7 +157,7 @@ fn demod(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 }
 
 /// Model evaluations and inversions, averaged over a few x.
-fn models(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn models(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
     for (name, model) in [
         ("ladder30", LineModel::Ladder(30)),
@@ -125,15 +204,16 @@ fn vsqrt_equals_libm() {
 
 #[entry]
 fn main() -> ! {
-    let mut cp = cortex_m::Peripherals::take().unwrap_or_else(|| qemu::exit(3));
-    let syst = &mut cp.SYST;
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(0x00ff_ffff);
-    syst.enable_counter();
+    let cp = cortex_m::Peripherals::take().unwrap_or_else(|| qemu::exit(3));
+    let syst = &mut Clock::new(cp.SYST);
 
     // Ticks per instruction from two spin lengths (overhead cancels).
     let (t1, t2) = (ticks(syst, || spin(20_000)), ticks(syst, || spin(60_000)));
-    let per_insn = (t2 - t1) as f32 / 80_000.0;
+    // With a cycle table, every span is in cycles already.
+    let per_insn = match syst.cycles() {
+        true => 1.0,
+        false => (t2 - t1) as f32 / 80_000.0,
+    };
     let empty = ticks(syst, || black_box(()));
     let insns = move |t: u32| ((t.saturating_sub(empty)) as f32 / per_insn) as u32;
     println!("calib ticks_per_insn={}", per_insn);
@@ -160,7 +240,7 @@ fn main() -> ! {
 /// slowly, higher ones pass the 2f ripple); its output at the block's
 /// last pair is the lock-in's reading.
 fn lockin_peer(
-    syst: &mut SYST,
+    syst: &mut Clock,
     insns: &dyn Fn(u32) -> u32,
     buf: &[[i16; 2]; PAIRS],
     ours: &dsp_core::demod::Phasors,
@@ -218,7 +298,7 @@ fn lockin_peer(
 /// oscillator). Instructions per pair for both channels, and the error of
 /// V/I against the exact 2j.
 #[inline(never)]
-fn idsp_block_peer(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, buf: &[[i16; 2]; PAIRS], ftw: u32) {
+fn idsp_block_peer(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, buf: &[[i16; 2]; PAIRS], ftw: u32) {
     use core::num::Wrapping;
     use dsp_fixedpoint::Q32;
     use dsp_process::SplitProcess;
@@ -267,7 +347,7 @@ fn idsp_block_peer(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, buf: &[[i16; 2];
 /// products alone. Its sums must equal the portable demodulator's.
 #[inline(never)]
 fn m4_floor(
-    syst: &mut SYST,
+    syst: &mut Clock,
     insns: &dyn Fn(u32) -> u32,
     buf: &[[i16; 2]; PAIRS],
     reference: &[u32; PAIRS],
@@ -354,7 +434,7 @@ fn floor_pass(x: &[u32], r: &[u32]) -> (i64, i64) {
 /// most e. On the same impedances as `invert_continuous` (6 kHz, 200 pF,
 /// x = 0.02–6): instructions, the largest C error, and the lines it
 /// missed (no convergence to 10⁻³). Ours, for comparison, on the same.
-fn newton_peer(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn newton_peer(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     let xs = [0.02f32, 0.1, 0.3, 1.0, 2.0, 3.5, 5.0, 6.0];
     let (w, c) = (core::f32::consts::TAU * 6000.0, 200e-12f32);
     let inv = Inverter::new(LineModel::Continuous);
@@ -434,7 +514,7 @@ fn newton_coth(z: Complex32, w: f32) -> Option<f32> {
 
 /// micromath and libm, instructions per call of each f32 function on the
 /// device path, averaged over inputs across its range.
-fn math(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn math(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     use micromath::F32;
     let xs = [1e-9f32, 3e-4, 0.02, 0.7, 1.3, 45.0, 7e3, 2e6];
     let ex = [-25.0f32, -7.0, -1.5, -0.2, 0.3, 2.0, 9.0, 22.0];
@@ -463,7 +543,7 @@ fn math(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// single-tone inversions, averaged over the higher tone at x = 0.3–5;
 /// tracked from a line 2 % off in R and C, on a lossless film and, as
 /// the channels solve it, on silicone with its loss fitted.
-fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn two_tones(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     use dsp_core::dielectric::Dielectric;
     use dsp_core::twotone::{solve, solve_from, Tone};
     let inv = Inverter::new(LineModel::Continuous);
@@ -523,7 +603,7 @@ fn two_tones(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 
 /// The record link: a record converted and encoded into its frame
 /// (postcard, CRC-32, COBS), and the frame's length on the wire.
-fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn link_frame(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     let rec = instrument::tones::ToneRecord {
         t_us: 12_345_678,
         sensor: 11,
@@ -552,7 +632,7 @@ fn link_frame(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
 /// (the policy's with its guards, the second tone alone), then fault
 /// checks, the two tones' line, policy and calibration
 /// (`Channel::process`); and each lock-in alone, per pair.
-fn block_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn block_budget(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     use instrument::calib::REFERENCE;
     use instrument::channel::{Channel, Settings};
     use instrument::config::{ftw, BLOCK_PAIRS};
@@ -644,7 +724,7 @@ struct ArrayCost {
 /// the first. Every record must be valid, and the assembly of the comb
 /// and of the offset-binary pass must equal the portable code bit for
 /// bit on every input of the last block.
-fn array_run(syst: &mut SYST, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
+fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
     use instrument::array::{Frame, BLOCK_INSTANTS, SENSORS};
     use instrument::reader::ArrayReader;
     use instrument::tones::ToneSettings;
@@ -737,7 +817,7 @@ struct BlockCost {
 /// two's complement in place noting the inputs on a rail, the comb on
 /// every input, then every channel; its records into `recs`.
 fn array_block<const N: usize>(
-    syst: &mut SYST,
+    syst: &mut Clock,
     insns: &dyn Fn(u32) -> u32,
     reader: &mut instrument::reader::ArrayReader,
     settings: &instrument::tones::ToneSettings<'_, N>,
@@ -878,7 +958,7 @@ fn comb_shape<const B: usize>(rng: &mut skin_sim::rng::Rng, periods: [u32; 3]) -
 /// blocks, its sixteen records framed for the link too).
 /// `array_channel` includes the sensor's share of the inputs' levels
 /// (amplitudes and residual).
-fn array_budget(syst: &mut SYST, insns: &dyn Fn(u32) -> u32) {
+fn array_budget(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     use instrument::array::Layout;
     let long = array_run(syst, insns, Layout::BLOCK_4MS);
     let short = array_run(syst, insns, Layout::BLOCK_1MS);
