@@ -92,7 +92,7 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
         "docs/benchmarks.md",
         "bench-m4-cycles",
         &qemu_tests::tables::cycle_table(&cycles),
-        qemu_tests::BUILD_SPREAD,
+        qemu_tests::CYCLE_SPREAD,
     )
     .unwrap();
     // The headline's shares, in cycles with instructions beside.
@@ -100,7 +100,7 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
         "docs/figures.md",
         "headline-speed",
         &qemu_tests::tables::speed_headline(&benches, &cycles),
-        qemu_tests::BUILD_SPREAD,
+        qemu_tests::CYCLE_SPREAD,
     )
     .unwrap();
 }

@@ -4,8 +4,9 @@
 //! waits on the instruction before; and where the code runs from: CCM
 //! SRAM on the instruction bus (no wait state), or the STM32G474's flash
 //! at 4 wait states (170 MHz, RM0440 §3.3.3) behind its ART accelerator
-//! (a 1 KiB instruction cache, a 256 B data cache, and the prefetch of
-//! the next sequential 64-bit word). A low and a high bound where the
+//! (a 1 KiB instruction cache, a 256 B data cache, both taken as fully
+//! associative with the least recently used word out, and the prefetch
+//! of the next sequential 64-bit word). A low and a high bound where the
 //! documents leave a range.
 
 use super::insn::{Class, Insn};
@@ -49,12 +50,11 @@ pub enum Memory {
     Flash,
 }
 
-/// A cache of 64-bit words: fully associative, least recently used
-/// first out (the low bound), or direct mapped (the high bound).
+/// A cache of 64-bit words, fully associative, the least recently used
+/// out first.
 struct WordCache {
     words: VecDeque<u32>,
     capacity: usize,
-    direct: Vec<Option<u32>>,
 }
 
 impl WordCache {
@@ -62,13 +62,12 @@ impl WordCache {
         Self {
             words: VecDeque::with_capacity(capacity),
             capacity,
-            direct: vec![None; capacity],
         }
     }
 
-    /// Look `word` up in both: whether each holds it (it does after).
-    fn touch(&mut self, word: u32) -> (bool, bool) {
-        let lru = match self.words.iter().position(|&w| w == word) {
+    /// Look `word` up: whether it was there (it is after).
+    fn touch(&mut self, word: u32) -> bool {
+        let hit = match self.words.iter().position(|&w| w == word) {
             Some(k) => {
                 self.words.remove(k);
                 true
@@ -81,10 +80,7 @@ impl WordCache {
             }
         };
         self.words.push_front(word);
-        let slot = &mut self.direct[word as usize % self.capacity];
-        let direct = *slot == Some(word);
-        *slot = Some(word);
-        (lru, direct)
+        hit
     }
 }
 
@@ -125,9 +121,9 @@ impl Core {
         hi += chi;
         if self.memory == Memory::Flash && i.literal {
             let at = ((i.addr + 4) & !3) >> 3;
-            let (l, d) = self.dcache.touch(at);
-            lo += if l { 0 } else { WAIT_STATES };
-            hi += if d && l { 0 } else { WAIT_STATES };
+            let wait = if self.dcache.touch(at) { 0 } else { WAIT_STATES };
+            lo += wait;
+            hi += wait;
         }
         self.in_word.0 += lo;
         self.in_word.1 += hi;
@@ -140,7 +136,8 @@ impl Core {
     /// The fetch of `i`'s first 64-bit word where it starts one: no wait
     /// in CCM SRAM or on a cache hit; a miss waits for the flash: in the
     /// low bound, a sequential one only for what the prefetch did not
-    /// cover while the word before ran, in the high bound fully.
+    /// cover while the word before ran; in the high bound (no prefetch)
+    /// every one fully.
     fn fetch(&mut self, i: &Insn) -> (u64, u64) {
         let word = i.addr >> 3;
         if self.word == Some(word) {
@@ -153,17 +150,14 @@ impl Core {
         if self.memory == Memory::Ccm {
             return (0, 0);
         }
-        let (lru, direct) = self.icache.touch(word);
-        let lo = match (lru, sequential) {
-            (true, _) => 0,
-            (false, true) => (WAIT_STATES + 1).saturating_sub(spent.0),
-            (false, false) => WAIT_STATES,
-        };
-        let hi = match direct && lru {
-            true => 0,
+        if self.icache.touch(word) {
+            return (0, 0);
+        }
+        let lo = match sequential {
+            true => (WAIT_STATES + 1).saturating_sub(spent.0),
             false => WAIT_STATES,
         };
-        (lo, hi)
+        (lo, WAIT_STATES)
     }
 
     /// `i`'s own cycles, low and high, at no wait state.
