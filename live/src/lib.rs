@@ -25,10 +25,11 @@ mod manifest;
 mod records_csv;
 mod session;
 mod summary;
+pub mod synthetic;
 
 pub use follow::{follow, replay, replay_from, Sink, Stopped};
 pub use manifest::MANIFEST;
-pub use records_csv::{logged, RECORDS_CSV};
+pub use records_csv::RECORDS_CSV;
 pub use session::{Earlier, Finished, Outcome, Segment, Session, BEFORE_START_MAX, REFUSED_SHOWN};
 pub use summary::{SetAside, Summary};
 

@@ -1,5 +1,5 @@
-//! `records.csv`: every record as it arrived, one line each, and the
-//! link's records as the data set's writer takes them.
+//! `records.csv`: every record as it arrived, one line each, and a
+//! link record as the data set's writer takes it.
 
 use dsp_core::lumped::SeriesRc;
 use dsp_core::Complex32;
@@ -51,17 +51,8 @@ pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record) {
     line.push(b'\n');
 }
 
-/// The link's records as the data set writer takes them: an array record
-/// (two tones) as a record per tone, a multiplexed one as it is.
-pub fn logged(records: &[Record]) -> Vec<LoggedRecord> {
-    let mut out = Vec::with_capacity(2 * records.len());
-    for r in records {
-        out.extend_from_slice(&rows(r));
-    }
-    out
-}
-
-/// Record `r` as the data set's writer takes it: one or two records.
+/// Record `r` as the data set's writer takes it: an array record (two
+/// tones) as a record per tone, a multiplexed one as it is.
 pub(crate) fn rows(r: &Record) -> heapless::Vec<LoggedRecord, 2> {
     let mut out = heapless::Vec::new();
     if r.measured().count() == 2 {

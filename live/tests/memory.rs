@@ -3,8 +3,7 @@
 //! records, every one written as it arrives) peaks within 256 MiB
 //! resident, and its files hold every record.
 
-use link::{Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
-use std::io::{BufRead, Write};
+use std::io::BufRead;
 use std::process::Command;
 
 const SENSORS: u32 = 16;
@@ -13,51 +12,12 @@ const SECONDS: u32 = 100;
 /// The bound: resident memory at any length of session.
 const RESIDENT_MAX_KIB: i64 = 256 * 1024;
 
-/// The array's stream of a skin stretching, written to `path`: every
-/// sensor's line moving, one record in 97 flagged.
+/// The synthetic skin's stream ([`live::synthetic`]), written to
+/// `path`; its records.
 fn write_stream(path: &std::path::Path) -> u32 {
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut enc = Encoder::new();
-    let mut out = [0u8; MAX_FRAME];
-    let start = Start {
-        version: VERSION,
-        firmware: Start::firmware_field("skin-array 0.1.0"),
-        sensors: SENSORS as u8,
-        sample_rate_hz: 25_000,
-        ..Start::default()
-    };
-    w.write_all(enc.start(&start, &mut out).unwrap()).unwrap();
     let n = SENSORS * RATE * SECONDS;
-    for k in 0..n {
-        let (block, sensor) = (k / SENSORS, k % SENSORS);
-        let phase = (block as f32 * 1e-3 + sensor as f32 * 0.6).sin();
-        let c = 205e-12 * (1.0 + 0.3 * phase);
-        let r = 7.1e5 * (1.0 + 0.5 * phase);
-        let tone = |f_hz: f32, share: f32| Tone {
-            f_hz,
-            z_re_ohm: share * r,
-            z_im_ohm: -1.0 / (std::f32::consts::TAU * f_hz * c),
-        };
-        let rec = Record {
-            t_us: 500 + 1000 * u64::from(block),
-            sensor: sensor as u8,
-            tones: [tone(1000.0, 0.33), tone(4000.0, 0.3)],
-            c_farad: c,
-            r_ohm: r,
-            stretch_mm: 100.0 * (c / 205e-12 - 1.0),
-            chosen_hz: 4000.0,
-            chi2: 3.9,
-            sigma_ln_c: 4e-4,
-            flags: if k % 97 == 0 { 128 } else { 0 },
-        };
-        w.write_all(enc.record(&rec, &mut out).unwrap()).unwrap();
-    }
-    let end = End {
-        records: n,
-        dropped: 0,
-    };
-    w.write_all(enc.end(&end, &mut out).unwrap()).unwrap();
-    w.flush().unwrap();
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    live::synthetic::write_skin_stream(&mut w, SENSORS as u8, n).unwrap();
     n
 }
 

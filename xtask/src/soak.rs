@@ -1,7 +1,8 @@
 //! `cargo xtask soak`: `live` as a lab runs it for a day, and killed.
 //!
-//! A simulated device on a TCP socket streams a skin's records (16
-//! sensors × 1,000 records/s, the array's two tones each) to `live
+//! A simulated device on a TCP socket streams a skin's records
+//! ([`live::synthetic`]: 16 sensors × 1,000 records/s, the array's two
+//! tones each) to `live
 //! --tcp`, with the dashboard open in headless Chromium. At random
 //! moments `live` is killed (SIGKILL: a crash, the power) and started
 //! again into a new folder; the device starts its stream over on each
@@ -15,7 +16,7 @@
 //! records would fill a disk); the report is `out/soak/report.md`.
 
 use anyhow::{ensure, Context, Result};
-use link::{Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
+use link::{Encoder, End, MAX_FRAME};
 use rand::{Rng, SeedableRng};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
@@ -374,15 +375,8 @@ impl Device {
         let mut enc = Encoder::new();
         let mut buf = [0u8; MAX_FRAME];
         self.on_connection.store(0, Ordering::Relaxed);
-        let start = Start {
-            version: VERSION,
-            firmware: Start::firmware_field("soak device"),
-            sensors: SENSORS as u8,
-            sample_rate_hz: 25_000,
-            ..Start::default()
-        };
         let frame = enc
-            .start(&start, &mut buf)
+            .start(&live::synthetic::skin_start(SENSORS as u8), &mut buf)
             .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         if w.write_all(frame).is_err() {
             return Ok(false);
@@ -391,7 +385,7 @@ impl Device {
         while self.sent.load(Ordering::Relaxed) < self.total {
             let k = self.sent.load(Ordering::Relaxed);
             let frame = enc
-                .record(&record(k), &mut buf)
+                .record(&live::synthetic::skin_record(k, SENSORS), &mut buf)
                 .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             if w.write_all(frame).is_err() {
                 return Ok(false);
@@ -424,32 +418,6 @@ impl Device {
                 std::thread::sleep(wait);
             }
         }
-    }
-}
-
-/// The device's record `k`: sensor k mod 16 of block k / 16 (1 ms each),
-/// its line moving slowly.
-fn record(k: u64) -> Record {
-    let (block, sensor) = (k / SENSORS, (k % SENSORS) as u8);
-    let phase = (block as f32 * 1e-3 + f32::from(sensor) * 0.6).sin();
-    let c = 205e-12 * (1.0 + 0.3 * phase);
-    let r = 7.1e5 * (1.0 + 0.5 * phase);
-    let tone = |f_hz: f32, share: f32| Tone {
-        f_hz,
-        z_re_ohm: share * r,
-        z_im_ohm: -1.0 / (std::f32::consts::TAU * f_hz * c),
-    };
-    Record {
-        t_us: 500 + 1000 * block,
-        sensor,
-        tones: [tone(1000.0, 0.33), tone(4000.0, 0.3)],
-        c_farad: c,
-        r_ohm: r,
-        stretch_mm: 100.0 * (c / 205e-12 - 1.0),
-        chosen_hz: 4000.0,
-        chi2: 3.9,
-        sigma_ln_c: 4e-4,
-        flags: 0,
     }
 }
 
