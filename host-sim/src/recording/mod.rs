@@ -373,6 +373,16 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let w = write_dataset(dir.path(), &recs, &Roles::default()).unwrap();
         assert_eq!((w.calibration_points, w.traces.len(), w.rows), (3, 1, 40));
+        // dataset.json names the trace that stays, not the held sensors'.
+        let about: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(DATASET_JSON)).unwrap()).unwrap();
+        let named: Vec<&str> = about["traces"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| t["file"].as_str().unwrap())
+            .collect();
+        assert_eq!(named, ["trace_ch0_1953hz.csv"], "{about}");
         let ds = crate::dataset::read_dir(dir.path()).unwrap();
         use crate::dataset::Resistance;
         assert_eq!(ds.calibration.resistance, Resistance::InstrumentLine);

@@ -293,6 +293,13 @@ impl DatasetWriter {
     /// fragment that is long enough renamed a trace, and
     /// `calibration.csv` rewritten with the points so far.
     pub fn flush(&mut self) -> Result<()> {
+        self.write_pending()?;
+        self.write_calibration().map(|_| ())
+    }
+
+    /// Every record pushed so far written to its files (whole lines), a
+    /// fragment that is long enough renamed a trace.
+    fn write_pending(&mut self) -> Result<()> {
         self.faults.flush(true)?;
         let keep = self.traces.len() <= OPEN_MAX;
         for t in self.traces.values_mut() {
@@ -304,14 +311,27 @@ impl DatasetWriter {
             }
             t.file.flush(keep)?;
         }
-        self.write_calibration().map(|_| ())
+        Ok(())
     }
 
     /// The data set finished: every file written, a sensor held still
     /// taken out of the traces (its records are its calibration point),
+    /// `calibration.csv` and `dataset.json` written once of what stays,
     /// and what is where.
     pub fn finish(mut self) -> Result<Written> {
-        self.flush()?;
+        self.write_pending()?;
+        let held: Vec<(u32, u8, u64)> = self
+            .traces
+            .keys()
+            .copied()
+            .filter(|&(_, ch, _)| !self.is_trace(ch))
+            .collect();
+        for key in held {
+            if let Some(t) = self.traces.remove(&key) {
+                std::fs::remove_file(&t.file.path)
+                    .with_context(|| format!("removing {}", t.file.path.display()))?;
+            }
+        }
         let (points, left_out) = self.write_calibration()?;
         let mut out = Written {
             calibration_points: points,
@@ -319,11 +339,8 @@ impl DatasetWriter {
             faults: self.n_faults,
             ..Written::default()
         };
-        for ((_, ch, _), t) in std::mem::take(&mut self.traces) {
-            if !self.is_trace(ch) {
-                std::fs::remove_file(&t.file.path)
-                    .with_context(|| format!("removing {}", t.file.path.display()))?;
-            } else if t.rows >= MIN_TRACE_ROWS {
+        for t in std::mem::take(&mut self.traces).into_values() {
+            if t.rows >= MIN_TRACE_ROWS {
                 out.rows += t.rows;
                 out.traces.push(t.file.path);
             } else {
