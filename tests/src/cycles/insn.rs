@@ -68,10 +68,9 @@ pub struct Insn {
 }
 
 /// The condition codes a mnemonic may end with.
-const CONDITIONS: [&str; 14] = [
-    "eq", "ne", "hs", "cs", "lo", "cc", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt",
+const CONDITIONS: [&str; 16] = [
+    "eq", "ne", "hs", "cs", "lo", "cc", "mi", "pl", "vs", "vc", "hi", "ls", "ge", "lt", "gt", "le",
 ];
-const CONDITIONS_2: [&str; 2] = ["gt", "le"];
 
 impl Insn {
     /// An instruction of the log's line `line`
@@ -121,7 +120,7 @@ impl Insn {
 /// merely ends in a condition's letters (`vmls`, `mls`, `teq`, `bics`)
 /// is not cut: what is left of it is no instruction's name.
 fn strip_condition(m: &str) -> (&str, bool) {
-    for c in CONDITIONS.iter().chain(CONDITIONS_2.iter()) {
+    for c in CONDITIONS {
         if let Some(stem) = m.strip_suffix(c) {
             if known_stem(stem) {
                 return (stem, true);
