@@ -9,6 +9,7 @@
 //! | `array_skin` | (feature `qemu`) the simulated skin of the array's QEMU runs: sixteen sensors, the comb front end |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //! | `qemu_flash` | (QEMU target) the settings' flash in a host file through semihosting: settings survive a restart |
+//! | `hot_ram` | (target) the per-block code's load into zero-wait RAM (the CCM SRAM) at reset |
 //! | `link_out` | the record link's sending end on the board: frames into a byte queue a DMA channel drains (`bbqueue`); never waits, counts drops |
 //! | `settings_log` | (target) what a device says of its stored settings at start |
 //! | `records` | the array's record queue between acquisition and logger (`heapless`): never waits, counts drops |
@@ -24,6 +25,8 @@ extern crate std;
 pub mod array_skin;
 #[cfg(feature = "board")]
 pub mod board;
+#[cfg(target_os = "none")]
+pub mod hot_ram;
 pub mod link_out;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;

@@ -67,7 +67,11 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
         self.producer.grant_exact(link::MAX_FRAME).is_ok()
     }
 
-    /// Queue one record; false (and counted) if there was no room.
+    /// Queue one record; false (and counted) if there was no room. With
+    /// the per-block code in CCM SRAM (`hot-ram.x`).
+    #[allow(unsafe_code)]
+    #[cfg_attr(target_os = "none", link_section = ".hot_ram")]
+    #[inline(never)]
     pub fn record(&mut self, rec: link::Record) -> bool {
         let sent = self.queue(|e, out| e.record(&rec, out));
         match sent {

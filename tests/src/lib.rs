@@ -380,8 +380,9 @@ pub fn host_sim<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> String {
 }
 
 /// Flash and static RAM of a firmware image, bytes: flash holds every
-/// allocated section below the RAM origin plus the initial values of
-/// `.data`; RAM holds `.data`, `.bss` and `.uninit`.
+/// allocated section below the RAM origin plus the images of `.data`
+/// and of a `.hot_ram` that runs from RAM; RAM holds `.data`, `.bss`,
+/// `.uninit` and such a `.hot_ram`.
 pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
     use object::{Object, ObjectSection, SectionFlags};
     let data = std::fs::read(elf)?;
@@ -395,7 +396,9 @@ pub fn image_size(elf: &Path) -> Result<(u64, u64)> {
         let name = sec.name().unwrap_or("");
         if sec.address() >= 0x2000_0000 {
             ram += sec.size();
-            if name == ".data" {
+            // Loaded from flash at reset: the statics' initial values, and
+            // code run from RAM (`skin-qemu`'s per-block section).
+            if name == ".data" || name == ".hot_ram" {
                 flash += sec.size();
             }
         } else {

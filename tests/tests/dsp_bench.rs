@@ -76,17 +76,23 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
     let (_, benches) = qemu_tests::dsp_bench().unwrap();
     let cycles = qemu_tests::dsp_bench_cycles(&benches).unwrap();
     assert!(cycles.len() >= 40, "{cycles:?}");
+    let off: Vec<String> = cycles
+        .iter()
+        .filter(|c| (c.model_insns - c.insns).abs() > (c.insns * 2e-3).max(1.0))
+        .map(|c| format!("{}: model {} vs QEMU {}", c.name, c.model_insns, c.insns))
+        .collect();
+    assert!(off.is_empty(), "{off:#?}");
     for c in &cycles {
-        let tol = (c.insns * 2e-3).max(1.0);
-        assert!(
-            (c.model_insns - c.insns).abs() <= tol,
-            "{}: model {} vs QEMU {}",
-            c.name,
-            c.model_insns,
-            c.insns
-        );
         assert!(c.ccm.0 <= c.ccm.1 && c.flash.0 <= c.flash.1, "{c:?}");
-        assert!(c.ccm.0 <= c.flash.0 && c.ccm.1 <= c.flash.1, "{c:?}");
+        assert!(c.placed.0 <= c.placed.1, "{c:?}");
+        // Code placed in CCM SRAM costs as much as all in CCM SRAM, the
+        // rest as in flash: within 3 % and a few cycles where a figure is
+        // a difference of spans (a worst case, a net of a baseline), or
+        // where the flash code's prefetch has less time to run ahead
+        // behind it (a call from CCM SRAM into flash waits in full).
+        let le = |a: f64, b: f64| a <= b * 1.03 + 4.0;
+        assert!(le(c.ccm.0, c.placed.0) && le(c.placed.0, c.flash.0), "{c:?}");
+        assert!(le(c.ccm.1, c.placed.1) && le(c.placed.1, c.flash.1), "{c:?}");
     }
     figures::check_within(
         "docs/benchmarks.md",

@@ -20,7 +20,7 @@ pub fn cortex_m4() -> Result<()> {
     println!("\nCortex-M4 instruction counts (QEMU lm3s6965evb, -icount shift=7,align=off,sleep=off)\n");
     print!("{}", qemu_tests::tables::bench_table(&benches));
     let cycles = qemu_tests::dsp_bench_cycles(&benches)?;
-    println!("\nThe same in cycles (the cycle model: low–high bounds, code in CCM SRAM and in flash behind the ART)\n");
+    println!("\nThe same in cycles (the cycle model: low–high bounds; the code as the firmware places it, its per-block section in CCM SRAM; all in CCM SRAM; all in flash behind the ART)\n");
     print!("{}", qemu_tests::tables::cycle_table(&cycles));
     println!("\nImage sizes (release):\n");
     print!("{}", qemu_tests::tables::image_table()?);

@@ -312,33 +312,44 @@ mod app {
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let bufs = cx.local.bufs.0;
         // SAFETY: the DMA finished this half of every buffer and writes
-        // the other ones for the next block (4 ms: this task takes 0.7
-        // ms; 1 ms: 0.6 ms).
+        // the other ones for the next block, which this task finishes
+        // before (`array_latency_us` in docs/benchmarks.md; an overrun is
+        // reported).
         #[allow(unsafe_code)]
-        let mut rows: [&mut [[i16; SCAN]]; ADCS] =
+        let rows: [&mut [[i16; SCAN]]; ADCS] =
             core::array::from_fn(|a| unsafe { array_half(&mut (*bufs)[a], &LAYOUT, half) });
-        // To two's complement in place, noting the inputs on a rail.
-        let rails = to_signed_all(&mut rows);
-        let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
-        let reader = &mut *cx.local.reader;
-        // Demodulated in place (1.7 KiB: returned, it would be copied).
-        let mut demodulated = Demodulated::EMPTY;
-        let block = &mut demodulated;
-        reader.demodulate_into(|a| rows[a], block);
         let sink = &mut *cx.local.records;
         let before = sink.drops();
         let t_us = k * BLOCK_US + BLOCK_US / 2;
-        reader.solve(
-            &*cx.local.settings,
-            t_us,
-            block,
-            |input| rails[input],
-            |rec| sink.push(rec),
-        );
+        read_block(&mut *cx.local.reader, &*cx.local.settings, rows, t_us, sink);
         if sink.drops() != before {
             defmt::println!("drops {=u32}", sink.drops());
         }
         // A block went all the way through: the chain is alive.
         cx.local.watchdog.feed();
     }
+}
+
+/// A block's records from the ADCs' rows of it (the half the DMA
+/// finished), whose middle is at `t_us`: the rows to two's complement in
+/// place, noting the inputs on a rail; the comb on every input
+/// (demodulated in place: 1.7 KiB, returned it would be copied); each
+/// sensor's two-tone line, its record to `sink`. The per-block code, in
+/// CCM SRAM with what it calls (`firmware/hot-ram.x`).
+#[inline(never)]
+#[allow(unsafe_code)]
+#[link_section = ".hot_ram"]
+fn read_block(
+    reader: &mut ArrayReader,
+    settings: &ToneSettings<'static, POINTS>,
+    mut rows: [&mut [[i16; SCAN]]; ADCS],
+    t_us: u64,
+    sink: &mut RecordSink<'static>,
+) {
+    let rails = to_signed_all(&mut rows);
+    let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
+    let mut demodulated = Demodulated::EMPTY;
+    let block = &mut demodulated;
+    reader.demodulate_into(|a| rows[a], block);
+    reader.solve(settings, t_us, block, |input| rails[input], |rec| sink.push(rec));
 }

@@ -14,30 +14,39 @@ use model::{Core, Cycles, Memory};
 use std::collections::HashMap;
 use std::io::BufRead;
 
-/// What one region cost: with the code in CCM SRAM, and in flash.
+/// What one region cost: with all the code in CCM SRAM, all in flash,
+/// and as the image places it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Region {
     /// In CCM SRAM.
     pub ccm: Cycles,
     /// In flash, behind the ART.
     pub flash: Cycles,
+    /// As placed ([`Memory::Placed`]).
+    pub placed: Cycles,
 }
 
 /// The regions of a QEMU log read from `log`: the spans between
 /// successive executions of the function `marker` (its own instructions
-/// not counted), in order; and the whole run's counts.
+/// not counted), in order; and the whole run's counts. `hot` is the
+/// span of the image's hot section ([`Memory::Placed`]).
 ///
 /// A block's `Trace` line says it is about to run; it is counted once
 /// the next line shows it did: a `Stopped execution of TB chain` line
 /// after it says it did not, and `cpu_io_recompile: rewound execution of
 /// TB to ADDR` that it ran only up to ADDR (an I/O access under
 /// `-icount`: the rest runs again as a block of its own).
-pub fn regions(log: impl BufRead, marker: &str) -> Result<(Vec<Region>, Region)> {
+pub fn regions(log: impl BufRead, marker: &str, hot: (u32, u32)) -> Result<(Vec<Region>, Region)> {
     let mut walk = Walk {
         blocks: HashMap::new(),
-        cores: [Core::new(Memory::Ccm), Core::new(Memory::Flash)],
+        cores: [
+            Core::new(Memory::Ccm),
+            Core::new(Memory::Flash),
+            Core::new(Memory::Placed { hot }),
+        ],
         regions: vec![],
         open: None,
+        in_marker: false,
     };
     let mut translated: Vec<Insn> = vec![];
     let mut translating = false;
@@ -87,6 +96,7 @@ pub fn regions(log: impl BufRead, marker: &str) -> Result<(Vec<Region>, Region)>
     let whole = Region {
         ccm: walk.cores[0].total,
         flash: walk.cores[1].total,
+        placed: walk.cores[2].total,
     };
     Ok((walk.regions, whole))
 }
@@ -94,10 +104,13 @@ pub fn regions(log: impl BufRead, marker: &str) -> Result<(Vec<Region>, Region)>
 /// The blocks known, the two cores, and the regions so far.
 struct Walk {
     blocks: HashMap<u64, (Vec<Insn>, bool)>,
-    cores: [Core; 2],
+    cores: [Core; 3],
     regions: Vec<Region>,
     /// The counts where the open region began.
-    open: Option<[Cycles; 2]>,
+    open: Option<[Cycles; 3]>,
+    /// Whether the block before was the marker's: a call of it may run
+    /// as several blocks (one cut at an I/O access), but counts once.
+    in_marker: bool,
 }
 
 impl Walk {
@@ -105,20 +118,29 @@ impl Walk {
     /// the address run after it: the marker opens or closes a region,
     /// any other block runs on both cores.
     fn run(&mut self, host: u64, next: Option<u32>, until: Option<u32>) {
-        let Some((insns, is_marker)) = self.blocks.get(&host) else {
+        let Some(&(_, is_marker)) = self.blocks.get(&host) else {
             return;
         };
-        if *is_marker {
-            let now = [self.cores[0].total, self.cores[1].total];
+        let entered = is_marker && !self.in_marker;
+        self.in_marker = is_marker;
+        if is_marker && !entered {
+            return;
+        }
+        if entered {
+            let now = self.cores.each_ref().map(|c| c.total);
             match self.open.take() {
                 None => self.open = Some(now),
                 Some(start) => self.regions.push(Region {
                     ccm: now[0] - start[0],
                     flash: now[1] - start[1],
+                    placed: now[2] - start[2],
                 }),
             }
             return;
         }
+        let Some((insns, _)) = self.blocks.get(&host) else {
+            return;
+        };
         let ran = insns.iter().take_while(|i| until.is_none_or(|u| i.addr < u));
         let ran: Vec<&Insn> = ran.collect();
         for (k, i) in ran.iter().enumerate() {
@@ -131,7 +153,8 @@ impl Walk {
 }
 
 /// A benchmark's figure in instructions and in cycles: low and high
-/// bounds with the code in CCM SRAM and in flash.
+/// bounds with all the code in CCM SRAM, all in flash, and as the image
+/// places it (its hot section in CCM SRAM, the rest in flash).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CycleBench {
     /// Its name.
@@ -146,6 +169,23 @@ pub struct CycleBench {
     pub ccm: (f64, f64),
     /// Cycles, code in flash behind the ART: low, high.
     pub flash: (f64, f64),
+    /// Cycles, code as placed: low, high.
+    pub placed: (f64, f64),
+}
+
+/// The span of `elf`'s hot section (`__shot_ram` … `__ehot_ram`,
+/// `firmware/hot-ram.x`) as linked.
+pub fn hot_span(elf: &std::path::Path) -> Result<(u32, u32)> {
+    use object::{Object, ObjectSymbol};
+    let data = std::fs::read(elf).with_context(|| format!("reading {}", elf.display()))?;
+    let file = object::File::parse(&*data)?;
+    let at = |name: &str| {
+        file.symbols()
+            .find(|s| s.name() == Ok(name))
+            .map(|s| s.address() as u32)
+            .with_context(|| format!("{}: no symbol {name}", elf.display()))
+    };
+    Ok((at("__shot_ram")?, at("__ehot_ram")?))
 }
 
 /// The benchmark image `elf` run once under QEMU's execution log, its
@@ -161,14 +201,16 @@ pub fn bench(elf: &std::path::Path, measured: &[crate::Bench]) -> Result<Vec<Cyc
     let watchdog = std::time::Duration::from_secs(300);
     crate::run_qemu_with(elf, &[], &["-d", "in_asm,exec,nochain", "-D", &log_arg], watchdog)?.ok()?;
     let file = std::fs::File::open(&log).context("the execution log")?;
-    let (regions, _) = regions(std::io::BufReader::new(file), "bench_region")?;
+    let (regions, _) = regions(std::io::BufReader::new(file), "bench_region", hot_span(elf)?)?;
     std::fs::remove_file(&log)?;
-    let picks: [fn(&Region) -> u64; 5] = [
+    let picks: [fn(&Region) -> u64; 7] = [
         |r| r.ccm.insns,
         |r| r.ccm.lo,
         |r| r.ccm.hi,
         |r| r.flash.lo,
         |r| r.flash.hi,
+        |r| r.placed.lo,
+        |r| r.placed.hi,
     ];
     let mut runs = vec![];
     for (k, pick) in picks.iter().enumerate() {
@@ -194,6 +236,7 @@ pub fn bench(elf: &std::path::Path, measured: &[crate::Bench]) -> Result<Vec<Cyc
                 model_insns: value(0, &b.name)?,
                 ccm: (value(1, &b.name)?, value(2, &b.name)?),
                 flash: (value(3, &b.name)?, value(4, &b.name)?),
+                placed: (value(5, &b.name)?, value(6, &b.name)?),
             })
         })
         .collect())
@@ -246,7 +289,7 @@ IN: main
 Trace 0: 0x7f0000000400 [00800408/0000010a/00000110/ff020200] main
 Trace 0: 0x7f0000000200 [00800408/00000124/00000110/ff020200] mark
 ";
-        let (regions, whole) = regions(log.as_bytes(), "mark").unwrap();
+        let (regions, whole) = regions(log.as_bytes(), "mark", (0, 0)).unwrap();
         assert_eq!(regions.len(), 1);
         let r = regions[0];
         // Two turns of three instructions (the first branch taken, 1 + P

@@ -48,6 +48,25 @@ pub enum Memory {
     Ccm,
     /// Flash behind the ART accelerator.
     Flash,
+    /// As the image places it: the span `hot` (the section the firmware
+    /// links for CCM SRAM, `firmware/hot-ram.x`) and any address from
+    /// 0x1000_0000 up (CCM SRAM, or QEMU's SRAM standing in for it) at
+    /// no wait state, the rest in flash.
+    Placed {
+        /// The hot section's addresses, start and end.
+        hot: (u32, u32),
+    },
+}
+
+impl Memory {
+    /// Whether code at `addr` is fetched at no wait state.
+    fn zero_wait(&self, addr: u32) -> bool {
+        match *self {
+            Memory::Ccm => true,
+            Memory::Flash => false,
+            Memory::Placed { hot: (start, end) } => addr >= 0x1000_0000 || (start..end).contains(&addr),
+        }
+    }
 }
 
 /// A cache of 64-bit words, fully associative, the least recently used
@@ -119,7 +138,7 @@ impl Core {
         let (clo, chi) = self.cost(i, next);
         lo += clo;
         hi += chi;
-        if self.memory == Memory::Flash && i.literal {
+        if i.literal && !self.memory.zero_wait(i.addr) {
             let at = ((i.addr + 4) & !3) >> 3;
             let wait = if self.dcache.touch(at) { 0 } else { WAIT_STATES };
             lo += wait;
@@ -147,7 +166,7 @@ impl Core {
         let spent = self.in_word;
         self.word = Some(word);
         self.in_word = (0, 0);
-        if self.memory == Memory::Ccm {
+        if self.memory.zero_wait(i.addr) {
             return (0, 0);
         }
         if self.icache.touch(word) {
@@ -289,5 +308,22 @@ mod tests {
         assert_eq!((c.lo - once.lo, c.hi - once.hi), (3 + 1, 3 + 3));
         let ccm = run(Memory::Ccm, &twice);
         assert_eq!(c.lo - ccm.lo, 4);
+    }
+
+    /// As placed: code in the hot span or above 0x1000_0000 as in CCM
+    /// SRAM, the rest as in flash.
+    #[test]
+    fn placed_code_waits_only_outside_the_hot_span() {
+        let body = [
+            "0x00000100:  3001       adds     r0, #1",
+            "0x00000102:  3901       subs     r1, #1",
+            "0x00000104:  d1fc       bne      #0x100",
+        ];
+        let hot = Memory::Placed { hot: (0x100, 0x108) };
+        assert_eq!(run(hot, &body), run(Memory::Ccm, &body));
+        let cold = Memory::Placed { hot: (0x200, 0x208) };
+        assert_eq!(run(cold, &body), run(Memory::Flash, &body));
+        let sram = ["0x20000100:  3001       adds     r0, #1"];
+        assert_eq!(run(cold, &sram), run(Memory::Ccm, &sram));
     }
 }
