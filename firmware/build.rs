@@ -1,9 +1,8 @@
-//! Picks each binary's memory layout: the STM32G474 boards' (`../memory.x`);
-//! QEMU's lm3s6965evb, the per-block code in its SRAM (`memory-qemu.x`,
-//! `skin-qemu`) or left in flash (`memory-qemu-flash.x`, `skin-array`
-//! and `dsp-bench`). Links with cortex-m-rt's `link.x` and the per-block
-//! code's section (`hot-ram.x`) for binaries only, so host builds stay
-//! clean.
+//! Picks each binary's memory layout: the STM32G474 boards' (`../memory.x`,
+//! the per-block code in CCM SRAM) or QEMU's lm3s6965evb's
+//! (`memory-qemu.x`, the per-block code left in flash). Links with
+//! cortex-m-rt's `link.x` and the per-block code's section (`hot-ram.x`)
+//! for binaries only, so host builds stay clean.
 
 use std::{env, fs, path::PathBuf};
 
@@ -12,8 +11,8 @@ const LAYOUTS: [(&str, &str); 5] = [
     ("skin-board", "../memory.x"),
     ("skin-array-board", "../memory.x"),
     ("skin-qemu", "memory-qemu.x"),
-    ("skin-array", "memory-qemu-flash.x"),
-    ("dsp-bench", "memory-qemu-flash.x"),
+    ("skin-array", "memory-qemu.x"),
+    ("dsp-bench", "memory-qemu.x"),
 ];
 
 fn main() {

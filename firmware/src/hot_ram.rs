@@ -1,6 +1,7 @@
 //! The per-block code's load into zero-wait RAM (`hot-ram.x`): the
 //! section `.hot_ram` is linked at the RAM it runs from (the G474's CCM
-//! SRAM; a part of QEMU's SRAM), its image kept in flash; `__pre_init`,
+//! SRAM; the QEMU images leave it in flash), its image kept in flash;
+//! `__pre_init`,
 //! which cortex-m-rt's reset handler calls before it initialises the
 //! statics, copies it word by word. In assembly, as cortex-m-rt asks of
 //! code that runs before Rust's statics exist; every image links it
@@ -36,16 +37,4 @@ mod load {
         "    bx lr",
         ".ltorg",
     );
-}
-
-/// The section as linked: its address and length in bytes (for the
-/// start-up log and the tests).
-pub fn span() -> (usize, usize) {
-    extern "C" {
-        static __shot_ram: u32;
-        static __ehot_ram: u32;
-    }
-    let start = core::ptr::addr_of!(__shot_ram) as usize;
-    let end = core::ptr::addr_of!(__ehot_ram) as usize;
-    (start, end - start)
 }

@@ -81,6 +81,12 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
         sent
     }
 
+    /// Queue a status (how the CPU keeps up); false if there was no room
+    /// (the next one counts on from it: nothing is lost but a report).
+    pub fn status(&mut self, status: &link::Status) -> bool {
+        self.queue(|e, out| e.status(status, out))
+    }
+
     /// Queue a reply to a request; false if there was no room (the host
     /// asks again after its timeout).
     pub fn reply(&mut self, reply: link::Reply) -> bool {

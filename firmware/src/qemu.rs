@@ -121,6 +121,11 @@ impl LinkSender {
         }
     }
 
+    /// Send a status (how the CPU keeps up).
+    pub fn status(&mut self, status: &link::Status) {
+        self.send(|e, out| e.status(status, out));
+    }
+
     /// Send a reply to a request.
     pub fn reply(&mut self, reply: link::Reply) {
         self.send(|e, out| e.reply(&reply, out));
@@ -149,6 +154,36 @@ impl LinkSender {
             dropped,
         };
         self.send(|e, out| e.end(&end, out));
+    }
+}
+
+/// QEMU's clock for [`instrument::busy::Busy`]: SysTick, free-running
+/// on the core clock, read as instructions. Under the tests' `-icount
+/// shift=7` each instruction takes 128 ns of QEMU's virtual time, and the
+/// lm3s6965evb's SysTick ticks at 12.5 MHz: 1.6 ticks an instruction
+/// (`dsp-bench` measures the same ratio at its start; the array's test
+/// checks a run's figures against the benchmark's).
+pub struct Instructions;
+
+impl Instructions {
+    /// SysTick started, free-running over its 24 bits.
+    pub fn start(mut syst: cortex_m::peripheral::SYST) -> Self {
+        syst.set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+        syst.set_reload(0x00ff_ffff);
+        syst.clear_current();
+        syst.enable_counter();
+        Self
+    }
+
+    /// The counter now (it counts down).
+    pub fn now() -> u32 {
+        cortex_m::peripheral::SYST::get_current()
+    }
+
+    /// Instructions since `then` (a reading of [`Instructions::now`],
+    /// less than 2²⁴ ticks ago).
+    pub fn since(then: u32) -> u32 {
+        (then.wrapping_sub(Self::now()) & 0x00ff_ffff) * 5 / 8
     }
 }
 

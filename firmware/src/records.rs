@@ -28,6 +28,18 @@ impl<'a> RecordSink<'a> {
         }
     }
 
+    /// Queue a block's records, each flagged
+    /// [`LATE`](instrument::faults::Flags::LATE) if the block was late.
+    pub fn push_block(&mut self, recs: &[ToneRecord], late: bool) {
+        for &rec in recs {
+            let mut rec = rec;
+            if late {
+                rec.flags.set(instrument::faults::Flags::LATE);
+            }
+            self.push(rec);
+        }
+    }
+
     /// Records dropped since start.
     pub fn drops(&self) -> u32 {
         self.drops
@@ -38,6 +50,7 @@ impl<'a> RecordSink<'a> {
 mod tests {
     use super::*;
     use heapless::spsc::Queue;
+    use std::vec::Vec;
 
     #[test]
     fn a_full_queue_drops_and_counts() {
@@ -54,5 +67,20 @@ mod tests {
         assert_eq!(c.dequeue().map(|r| r.sensor), Some(0), "oldest first");
         sink.push(ToneRecord::default());
         assert_eq!(sink.drops(), 3, "room again");
+    }
+
+    #[test]
+    fn a_late_blocks_records_are_flagged_late() {
+        use instrument::faults::Flags;
+        let mut q: Queue<ToneRecord, QUEUE> = Queue::new();
+        let (p, mut c) = q.split();
+        let mut sink = RecordSink::new(p);
+        let recs = [ToneRecord::default(); 2];
+        sink.push_block(&recs, false);
+        sink.push_block(&recs, true);
+        let flags: Vec<bool> = core::iter::from_fn(|| c.dequeue())
+            .map(|r| r.flags.has(Flags::LATE) && !r.flags.valid())
+            .collect();
+        assert_eq!(flags, [false, false, true, true]);
     }
 }

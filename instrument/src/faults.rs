@@ -49,10 +49,15 @@ impl Flags {
     /// at rest, the sensor is not the one the table was measured on (a
     /// swapped sensor, or a table of another). C and R stand.
     pub const OFF_TABLE: u16 = 1 << 10;
+    /// The block took longer than its period, from the end of its
+    /// acquisition to its last record (the CPU fell behind): the next
+    /// block's samples may have overwritten its own, so nothing of it is
+    /// vouched for. Counted in the link's status frames.
+    pub const LATE: u16 = 1 << 11;
 
     /// Every flag and its name, in bit order (as
     /// `docs/data-format.md` names them).
-    pub const NAMES: [(u16, &'static str); 11] = [
+    pub const NAMES: [(u16, &'static str); 12] = [
         (Self::CLIPPED, "CLIPPED"),
         (Self::OPEN, "OPEN"),
         (Self::SHORTED, "SHORTED"),
@@ -64,6 +69,7 @@ impl Flags {
         (Self::MODEL, "MODEL"),
         (Self::UNCALIBRATED, "UNCALIBRATED"),
         (Self::OFF_TABLE, "OFF_TABLE"),
+        (Self::LATE, "LATE"),
     ];
 
     /// The names of the flags set, in bit order (bits without a name are
@@ -101,7 +107,8 @@ impl Flags {
             | Self::DISTURBED
             | Self::UNCERTAIN
             | Self::HELD
-            | Self::MODEL;
+            | Self::MODEL
+            | Self::LATE;
         self.0 & bad == 0
     }
 }

@@ -47,6 +47,13 @@ pub struct Plan {
     pub range: u8,
 }
 
+/// A slot's period, µs.
+pub const SLOT_US: u32 = pairs_us(SLOT_PAIRS) as u32;
+
+/// Slots a second, rounded: how many a status of the CPU's time counts
+/// ([`crate::busy`]).
+pub const SLOTS_PER_S: u32 = (1_000_000 + SLOT_US / 2) / SLOT_US;
+
 impl Slot {
     /// Middle of the slot's block since start, µs: the time of its record.
     pub const fn block_mid_us(&self) -> u64 {

@@ -1,7 +1,8 @@
 //! The record link: what leaves the device, defined once for the
 //! firmware and the host.
 //!
-//! A stream is a start frame, record frames and an end frame. Each frame
+//! A stream is a start frame, record frames (with a status frame once a
+//! second) and an end frame. Each frame
 //! is its [`Body`] with a sequence number, encoded with postcard, followed
 //! by the CRC-32 (ISO-HDLC) of those bytes, little-endian; the whole is
 //! COBS-encoded and ends with a zero byte, so that a receiver that joins
@@ -19,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 /// The version of this wire format, sent in every [`Start`] frame. A
 /// receiver refuses a stream of another version.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 
 /// The board link's baud rate: LPUART1 of the STM32G474 into the
 /// Nucleo-G474RE's STLINK-V3E, whose virtual COM port carries it to the
@@ -186,6 +187,44 @@ pub struct End {
     /// Records dropped before they were sent (the device's queue was
     /// full).
     pub dropped: u32,
+}
+
+/// What a [`Status`] frame's times count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Clock {
+    /// The core's clock cycles (the board's DWT cycle counter).
+    #[default]
+    Cycles,
+    /// Instructions retired (QEMU, whose `-icount` clock counts them).
+    Instructions,
+}
+
+/// How the device's CPU keeps up with its blocks, sent about once a
+/// second: the time from the end of a block's acquisition to its last
+/// record queued for the link, in units of `clock` at `clock_hz`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Status {
+    /// The device's time at the last block counted, µs (as a record's).
+    pub t_us: u64,
+    /// What the times count.
+    pub clock: Clock,
+    /// Their rate, Hz (the board's core: 170 MHz).
+    pub clock_hz: u32,
+    /// A block's period.
+    pub period: u32,
+    /// Blocks processed since the last status.
+    pub blocks: u32,
+    /// Their mean time.
+    pub mean: u32,
+    /// The longest.
+    pub max: u32,
+    /// Of those, blocks that took longer than their period: their samples
+    /// may have been overwritten by the next block's, their records are
+    /// flagged `LATE`.
+    pub late: u32,
+    /// Blocks never processed: the next had arrived while the processing
+    /// of one was still due (no records).
+    pub missed: u32,
 }
 
 /// Bytes of a stored set in one frame.
@@ -356,6 +395,8 @@ pub enum Body {
     Request(Request),
     /// The device's reply.
     Reply(Reply),
+    /// How the device's CPU keeps up.
+    Status(Status),
 }
 
 /// One frame: a body and its sequence number (0 for the start frame,
@@ -765,6 +806,11 @@ impl Encoder {
     /// [`Encoder::frame`] of a [`Body::Reply`].
     pub fn reply<'a>(&mut self, reply: &Reply, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
         self.part(4, reply, out)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::Status`].
+    pub fn status<'a>(&mut self, status: &Status, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(5, status, out)
     }
 
     /// Number `body` and encode it into `out`.

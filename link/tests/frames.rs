@@ -451,8 +451,26 @@ fn the_devices_encoders_write_the_same_bytes_as_the_generic_one() {
         to: 40_000,
         reason: Reason::Setting { sensor: 3, rule: 9 },
     };
+    let status = link::Status {
+        t_us: u64::MAX,
+        clock: link::Clock::Instructions,
+        clock_hz: 170_000_000,
+        period: 680_000,
+        blocks: 250,
+        mean: 150_000,
+        max: u32::MAX,
+        late: 1,
+        missed: 2,
+    };
     let (mut a, mut b) = (Encoder::new(), Encoder::new());
     for _ in 0..200 {
+        let (mut x, mut y) = ([0u8; MAX_FRAME], [0u8; MAX_FRAME]);
+        let bytes = a.status(&status, &mut x).unwrap();
+        assert_eq!(bytes, b.frame(Body::Status(status), &mut y).unwrap());
+        assert_eq!(
+            decode(&bytes[..bytes.len() - 1]).map(|f| f.body),
+            Ok(Body::Status(status))
+        );
         let (mut x, mut y) = ([0u8; MAX_FRAME], [0u8; MAX_FRAME]);
         assert_eq!(
             a.start(&start, &mut x).unwrap(),
@@ -471,5 +489,5 @@ fn the_devices_encoders_write_the_same_bytes_as_the_generic_one() {
             b.frame(Body::Reply(reply), &mut y).unwrap()
         );
     }
-    assert_eq!(a.next_seq(), 800);
+    assert_eq!(a.next_seq(), 1000);
 }

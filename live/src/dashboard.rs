@@ -63,6 +63,8 @@ fn batch_json(records: &[Record]) -> String {
 enum Message {
     /// New records, as JSON.
     Batch(Arc<String>),
+    /// The device's latest status (how its CPU keeps up), as JSON.
+    Cpu(Arc<String>),
     /// The stream is over: nothing more will come.
     End,
 }
@@ -84,6 +86,8 @@ struct Held {
     tail: VecDeque<(u64, Record)>,
     next: u64,
     ended: bool,
+    /// The device's latest status, as JSON.
+    cpu: Option<Arc<String>>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -190,6 +194,34 @@ impl Dashboard {
         state.on_disk = on_disk;
     }
 
+    /// The device's status (how its CPU keeps up): sent to the open
+    /// pages, and kept for those that open later.
+    pub fn status(&self, s: &link::Status) {
+        let share = |t: f64| 100.0 * t / f64::from(s.period.max(1));
+        let json = Arc::new(
+            serde_json::json!({
+                "t_us": s.t_us,
+                "clock": match s.clock {
+                    link::Clock::Cycles => "cycles",
+                    link::Clock::Instructions => "instructions",
+                },
+                "clock_hz": s.clock_hz,
+                "period": s.period,
+                "blocks": s.blocks,
+                "mean": s.mean,
+                "max": s.max,
+                "mean_share_percent": share(f64::from(s.mean)),
+                "max_share_percent": share(f64::from(s.max)),
+                "late": s.late,
+                "missed": s.missed,
+            })
+            .to_string(),
+        );
+        let mut state = self.state();
+        state.cpu = Some(json.clone());
+        let _ = self.shared.messages.send(Message::Cpu(json));
+    }
+
     /// The stream is over: the pages are told, and their event streams
     /// close (a page that opens later gets the latest records and the
     /// end).
@@ -235,6 +267,8 @@ enum Out {
     /// The page fell behind by this many batches (event `gap`): the
     /// stream ends, and the page reconnects for the backlog.
     Gap(u64),
+    /// The device's status (event `cpu`), as JSON.
+    Cpu(Arc<String>),
     /// The stream is over (event `end`).
     End,
 }
@@ -257,9 +291,11 @@ fn page_stream(
     pages: impl Stream<Item = String> + Send + 'static,
     tail: Vec<Record>,
     ended: bool,
+    cpu: Option<Arc<String>>,
     rx: broadcast::Receiver<Message>,
 ) -> impl Stream<Item = Out> + Send {
     let first = stream::once(async move { Out::Backlog(before) })
+        .chain(stream::iter(cpu.map(Out::Cpu)))
         .chain(pages.map(|p| Out::Batch(Arc::new(p))))
         .chain(stream::iter(
             (!tail.is_empty()).then(|| Out::Batch(Arc::new(batch_json(&tail)))),
@@ -267,6 +303,7 @@ fn page_stream(
     let live = tokio_stream::wrappers::BroadcastStream::new(rx)
         .map(|m| match m {
             Ok(Message::Batch(b)) => Out::Batch(b),
+            Ok(Message::Cpu(c)) => Out::Cpu(c),
             Ok(Message::End) => Out::End,
             Err(BroadcastStreamRecvError::Lagged(n)) => Out::Gap(n),
         })
@@ -288,10 +325,11 @@ fn page_stream(
 /// `/events`: [`page_stream`] as server-sent events, its backlog the
 /// latest [`BACKLOG_BYTES`] of `records.csv`.
 async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let (on_disk, tail, ended, rx) = {
+    let (on_disk, tail, ended, cpu, rx) = {
         let state = shared.state.lock().unwrap_or_else(|p| p.into_inner());
         let tail: Vec<Record> = state.tail.iter().map(|(_, r)| *r).collect();
-        (state.on_disk, tail, state.ended, shared.messages.subscribe())
+        let cpu = state.cpu.clone();
+        (state.on_disk, tail, state.ended, cpu, shared.messages.subscribe())
     };
     let backlog = Backlog::open(&shared.records_csv, on_disk).unwrap_or_default();
     let before = on_disk.records.saturating_sub(backlog.records);
@@ -299,11 +337,12 @@ async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<E
         let page = b.page()?;
         Some((page, b))
     });
-    let events = page_stream(before, pages, tail, ended, rx).map(|out| {
+    let events = page_stream(before, pages, tail, ended, cpu, rx).map(|out| {
         Ok(match out {
             Out::Backlog(n) => Event::default().event("backlog").data(n.to_string()),
             Out::Batch(b) => Event::default().data(b.as_str()),
             Out::Gap(n) => Event::default().event("gap").data(n.to_string()),
+            Out::Cpu(c) => Event::default().event("cpu").data(c.as_str()),
             Out::End => Event::default().event("end").data("end"),
         })
     });
@@ -411,7 +450,7 @@ mod tests {
             tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
         }
         tx.send(Message::End).unwrap();
-        let got = collect(page_stream(0, stream::empty(), vec![], false, rx));
+        let got = collect(page_stream(0, stream::empty(), vec![], false, None, rx));
         assert_eq!(got, [Out::Backlog(0), Out::Gap(4)]);
     }
 
@@ -421,20 +460,24 @@ mod tests {
         for k in 0..3 {
             tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
         }
+        tx.send(Message::Cpu(Arc::new("{}".into()))).unwrap();
         tx.send(Message::End).unwrap();
         tx.send(Message::Batch(Arc::new("[9]".into()))).unwrap();
         let pages = stream::iter(["[7]".to_string(), "[8]".to_string()]);
-        let got = collect(page_stream(5, pages, vec![], false, rx));
+        let cpu = Arc::new("{\"late\":0}".to_string());
+        let got = collect(page_stream(5, pages, vec![], false, Some(cpu.clone()), rx));
         let batch = |k: u32| Out::Batch(Arc::new(format!("[{k}]")));
         assert_eq!(
             got,
             [
                 Out::Backlog(5),
+                Out::Cpu(cpu),
                 batch(7),
                 batch(8),
                 batch(0),
                 batch(1),
                 batch(2),
+                Out::Cpu(Arc::new("{}".into())),
                 Out::End
             ]
         );
@@ -446,6 +489,7 @@ mod tests {
                 stream::iter(["[1]".to_string()]),
                 vec![],
                 true,
+                None,
                 rx
             )),
             [Out::Backlog(0), batch(1), Out::End]

@@ -59,6 +59,9 @@ impl Sink<'_> {
         self.session.push(bytes)?;
         if let Some(d) = self.dashboard {
             d.push(self.session.fresh());
+            if let Some(status) = self.session.fresh_status() {
+                d.status(&status);
+            }
             d.written(self.session.on_disk());
         }
         Ok(())

@@ -2,7 +2,7 @@
 //! they arrive.
 
 use crate::records_csv::{self, RECORDS_CSV};
-use crate::summary::{Counts, Summary};
+use crate::summary::{Counts, Cpu, Summary};
 use crate::{INCOMPLETE, STREAM_BIN};
 use anyhow::{bail, Context, Result};
 use host_sim::recording::{self, DatasetWriter, LineFile, Roles};
@@ -62,6 +62,8 @@ pub struct Segment {
     pub records: u64,
     /// Its end frame, if it came.
     pub end: Option<link::End>,
+    /// How the device's CPU kept up (its status frames), if it said.
+    pub cpu: Option<Cpu>,
 }
 
 impl Segment {
@@ -75,6 +77,7 @@ impl Segment {
             arrived: 0,
             records: 0,
             end: None,
+            cpu: None,
         }
     }
 
@@ -134,6 +137,8 @@ pub struct Session {
     before_start: Vec<u8>,
     /// The records the last [`Session::push`] completed.
     fresh: Vec<Record>,
+    /// The latest status frame of the last push.
+    fresh_status: Option<link::Status>,
     counts: Counts,
     /// Frames after the end frame, or before the start frame.
     pub(crate) stray: u64,
@@ -170,6 +175,7 @@ impl Session {
             opened: None,
             before_start: vec![],
             fresh: vec![],
+            fresh_status: None,
             counts: Counts::default(),
             stray: 0,
             refused: vec![],
@@ -222,6 +228,7 @@ impl Session {
     /// ([`Session::fresh`]).
     pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
         self.fresh.clear();
+        self.fresh_status = None;
         let had_files = self.files.is_some();
         self.decode(bytes)?;
         match &mut self.files {
@@ -277,6 +284,13 @@ impl Session {
             match frame.body {
                 Body::Record(r) if seg.end.is_none() => self.record(frame.seq, r)?,
                 Body::End(e) if seg.end.is_none() => seg.end = Some(e),
+                Body::Status(s) if seg.end.is_none() => {
+                    match &mut seg.cpu {
+                        Some(c) => c.add(&s),
+                        None => seg.cpu = Some(Cpu::new(&s)),
+                    }
+                    self.fresh_status = Some(s);
+                }
                 _ => self.stray += 1,
             }
         }
@@ -376,6 +390,12 @@ impl Session {
         &self.fresh
     }
 
+    /// The latest status frame the last [`Session::push`] completed, if
+    /// one.
+    pub fn fresh_status(&self) -> Option<link::Status> {
+        self.fresh_status
+    }
+
     /// The link's counts so far, as the session judges them: lost and
     /// repeated frames by the sequence numbers of each segment.
     pub fn stats(&self) -> link::Stats {
@@ -440,6 +460,7 @@ impl Session {
             end_mismatch: self.segments.last().and_then(Segment::end_mismatch),
             sensors: self.counts.sensors(),
             rate: self.counts.rate(),
+            cpu: self.segments.iter().fold(None, |a, g| Cpu::merge(a, g.cpu)),
         }
     }
 

@@ -83,6 +83,103 @@ impl Counts {
     }
 }
 
+/// How the device's CPU kept up, from its status frames
+/// ([`link::Status`]): summed over a segment or a session.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cpu {
+    /// The latest status.
+    pub last: link::Status,
+    /// Status frames received.
+    pub reports: u64,
+    /// Blocks they counted.
+    pub blocks: u64,
+    /// The blocks' mean time, in the clock's units.
+    pub mean: f64,
+    /// The longest a block took.
+    pub max: u32,
+    /// Blocks that took longer than their period (records flagged `LATE`).
+    pub late: u64,
+    /// Blocks never processed.
+    pub missed: u64,
+}
+
+impl Cpu {
+    /// From a first status.
+    pub fn new(s: &link::Status) -> Self {
+        Self {
+            last: *s,
+            reports: 1,
+            blocks: u64::from(s.blocks),
+            mean: f64::from(s.mean),
+            max: s.max,
+            late: u64::from(s.late),
+            missed: u64::from(s.missed),
+        }
+    }
+
+    /// Another status counted in.
+    pub fn add(&mut self, s: &link::Status) {
+        let n = self.blocks + u64::from(s.blocks);
+        if n > 0 {
+            self.mean = (self.mean * self.blocks as f64 + f64::from(s.mean) * f64::from(s.blocks)) / n as f64;
+        }
+        self.blocks = n;
+        self.max = self.max.max(s.max);
+        self.late += u64::from(s.late);
+        self.missed += u64::from(s.missed);
+        self.reports += 1;
+        self.last = *s;
+    }
+
+    /// Two sums counted as one (two segments of a session).
+    pub fn merge(a: Option<Self>, b: Option<Self>) -> Option<Self> {
+        match (a, b) {
+            (Some(mut a), Some(b)) => {
+                let n = a.blocks + b.blocks;
+                if n > 0 {
+                    a.mean = (a.mean * a.blocks as f64 + b.mean * b.blocks as f64) / n as f64;
+                }
+                a.blocks = n;
+                a.max = a.max.max(b.max);
+                a.late += b.late;
+                a.missed += b.missed;
+                a.reports += b.reports;
+                a.last = b.last;
+                Some(a)
+            }
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// A time as a share of a block's period, %.
+    pub fn share(&self, t: f64) -> f64 {
+        100.0 * t / f64::from(self.last.period.max(1))
+    }
+
+    /// What the clock counts, in words.
+    pub fn unit(&self) -> &'static str {
+        match self.last.clock {
+            link::Clock::Cycles => "cycles",
+            link::Clock::Instructions => "instructions (QEMU)",
+        }
+    }
+
+    /// One clause for a terminal.
+    pub fn line(&self) -> String {
+        format!(
+            "device CPU: a block takes {:.1} % of its period on average, {:.1} % at most ({:.0} / {} of {} {}); {} late, {} missed",
+            self.share(self.mean),
+            self.share(f64::from(self.max)),
+            self.mean,
+            self.max,
+            self.last.period,
+            self.unit(),
+            self.late,
+            self.missed
+        )
+    }
+}
+
 /// What a session received, in numbers.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
@@ -112,6 +209,8 @@ pub struct Summary {
     /// Where the end frame's count of records sent disagrees with what
     /// arrived: how.
     pub end_mismatch: Option<String>,
+    /// How the device's CPU kept up (its status frames), if it said.
+    pub cpu: Option<Cpu>,
 }
 
 impl Summary {
@@ -162,6 +261,9 @@ impl Summary {
         }
         if let Some(m) = &self.end_mismatch {
             out += &format!("; {m}");
+        }
+        if let Some(c) = &self.cpu {
+            out += &format!("; {}", c.line());
         }
         out
     }

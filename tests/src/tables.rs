@@ -180,7 +180,7 @@ pub fn bench_table(benches: &[Bench]) -> String {
 /// in CCM SRAM), all in CCM SRAM, and all in flash.
 pub fn cycle_table(rows: &[crate::cycles::CycleBench]) -> String {
     let mut md = String::from(
-        "| benchmark | instructions | cycles, code as placed | all in CCM SRAM | all in flash (ART) | unit |\n|---|---:|---:|---:|---:|---|\n",
+        "| benchmark | instructions | cycles, code as placed | all in CCM SRAM | all in flash (ART) | unit | budget (goal) |\n|---|---:|---:|---:|---:|---|---:|\n",
     );
     for r in rows {
         // Per pair to the hundredth, as the benchmark prints it.
@@ -188,6 +188,16 @@ pub fn cycle_table(rows: &[crate::cycles::CycleBench]) -> String {
             true => format!("{x:.2}"),
             false => format!("{x:.0}"),
         };
+        let budget = crate::CYCLE_BUDGETS
+            .iter()
+            .find(|(n, _, _)| *n == r.name)
+            .map_or_else(
+                || "–".to_string(),
+                |&(_, b, g)| match b == g {
+                    true => format!("{b}"),
+                    false => format!("{b} ({g})"),
+                },
+            );
         let unit = match r.unit.as_str() {
             "permille" => "‰ of a 170 MHz core".to_string(),
             "us" => "µs at 170 MHz".to_string(),
@@ -195,7 +205,7 @@ pub fn cycle_table(rows: &[crate::cycles::CycleBench]) -> String {
         };
         let _ = writeln!(
             md,
-            "| `{}` | {} | {}–{} | {}–{} | {}–{} | {unit} |",
+            "| `{}` | {} | {}–{} | {}–{} | {}–{} | {unit} | {budget} |",
             r.name,
             fmt(r.insns),
             fmt(r.placed.0),

@@ -427,3 +427,57 @@ fn a_skin_of_other_sensors_read_on_the_papers_description_is_flagged_not_wrong()
     }
     assert!(flagged_sensors >= 12, "{flagged_sensors} sensors mostly flagged");
 }
+
+/// The device counts its own CPU time: a status frame each second of
+/// blocks (250 at 4 ms), none late or missed, and a block's mean time in
+/// instructions (QEMU's clock) that of the benchmark's per-block figure
+/// (`array_load_permille`, the same code on the same core) within 15 %.
+/// A late block's records are flagged `LATE` (none here).
+#[test]
+fn the_device_reports_how_its_cpu_keeps_up() {
+    let (run, recs) = paper_2s();
+    let mut d = link::Decoder::new();
+    let statuses: Vec<link::Status> = run
+        .serial
+        .iter()
+        .filter_map(|&b| d.push(b))
+        .filter_map(|f| match f.ok()?.body {
+            link::Body::Status(s) => Some(s),
+            _ => None,
+        })
+        .collect();
+    println!("{statuses:#?}");
+    assert_eq!(statuses.len(), 2, "a status a second of a 2 s run");
+    let (_, benches) = qemu_tests::dsp_bench().unwrap();
+    let load = benches
+        .iter()
+        .find(|b| b.name == "array_load_permille")
+        .expect("the benchmark's per-block load")
+        .value;
+    for s in &statuses {
+        assert_eq!(s.clock, link::Clock::Instructions);
+        assert_eq!((s.clock_hz, s.period), (170_000_000, 680_000));
+        assert_eq!((s.blocks, s.late, s.missed), (250, 0, 0));
+        let bench = load / 1000.0 * f64::from(s.period);
+        let mean = f64::from(s.mean);
+        assert!(
+            (mean / bench - 1.0).abs() <= 0.15,
+            "mean {mean} vs the benchmark's {bench}"
+        );
+        assert!(s.max >= s.mean && s.max < s.period, "{s:?}");
+    }
+    assert!(recs.iter().all(|r| !r.rec.flags.has(Flags::LATE)));
+    // `live` says so.
+    let tmp = tempfile::tempdir().unwrap();
+    let done = live::replay(&run.serial, tmp.path(), live::Earlier::Refuse).unwrap();
+    let cpu = done.summary.cpu.expect("the summary's CPU");
+    assert_eq!((cpu.reports, cpu.blocks, cpu.late, cpu.missed), (2, 500, 0, 0));
+    assert!(
+        done.summary.line().contains("device CPU"),
+        "{}",
+        done.summary.line()
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("session.json")).unwrap()).unwrap();
+    assert_eq!(manifest["segments"][0]["cpu"]["blocks"], 500);
+}

@@ -77,3 +77,72 @@ fn every_image_is_tabulated() {
     );
     figures::check_within("docs/benchmarks.md", "images", &table, qemu_tests::BUILD_SPREAD).unwrap();
 }
+
+/// A board image's per-block code (`firmware/hot-ram.x`): its section
+/// linked in the CCM SRAM on the instruction bus (0x1000_0000, 32 KiB)
+/// with its image in flash and a load segment that says so, the reset
+/// handler's copy (`__pre_init`) ours and not cortex-m-rt's empty one,
+/// and the functions named in `hot` inside it.
+fn hot_code_in_ccm(bin: &str, features: &[&str], hot: &[&str]) {
+    use object::{Object, ObjectSegment, ObjectSymbol};
+    let elf = qemu_tests::build_firmware(bin, features).unwrap();
+    let data = std::fs::read(&elf).unwrap();
+    let file = object::File::parse(&*data).unwrap();
+    let symbol = |name: &str| {
+        file.symbols()
+            .find(|s| s.name() == Ok(name))
+            .map(|s| s.address())
+            .unwrap_or_else(|| panic!("{bin}: no symbol {name}"))
+    };
+    let (start, end, load) = (symbol("__shot_ram"), symbol("__ehot_ram"), symbol("__sihot_ram"));
+    println!(
+        "{bin}: hot code {} B at {start:#x}, loaded from {load:#x}",
+        end - start
+    );
+    assert_eq!(start, 0x1000_0000);
+    assert!(end > start + 8 * 1024 && end <= start + 32 * 1024, "{end:#x}");
+    assert!((0x0800_0000..0x0807_e000).contains(&load), "{load:#x}");
+    // The ELF's load segment for it: at CCM SRAM, from flash.
+    let ccm = file
+        .segments()
+        .find(|s| s.address() == start)
+        .expect("a segment at the CCM SRAM");
+    assert_eq!(ccm.size(), end - start);
+    let raw = ccm.data().unwrap();
+    assert_eq!(raw.len() as u64, end - start, "its bytes are in the image");
+    // Reset calls ours: not cortex-m-rt's default.
+    let pre_init = symbol("__pre_init");
+    if let Some(default) = file.symbols().find(|s| s.name() == Ok("DefaultPreInit")) {
+        assert_ne!(default.address(), pre_init);
+    }
+    for name in hot {
+        let f = file
+            .symbols()
+            .find(|s| s.name().is_ok_and(|n| n.contains(name)) && s.size() > 0)
+            .unwrap_or_else(|| panic!("{bin}: no function like {name}"));
+        assert!(
+            (start..end).contains(&(f.address() & !1)),
+            "{name} at {:#x}",
+            f.address()
+        );
+    }
+}
+
+#[test]
+fn the_boards_run_their_per_block_code_from_ccm_sram() {
+    hot_code_in_ccm(
+        "skin-array-board",
+        &["board"],
+        &[
+            "read_block",
+            "twotone6refine",
+            "checksum_and_stuff",
+            "tones5Input2of",
+        ],
+    );
+    hot_code_in_ccm(
+        "skin-board",
+        &["board", "store"],
+        &["lock_ins", "read_slot", "checksum_and_stuff", "twotone6refine"],
+    );
+}

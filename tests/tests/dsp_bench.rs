@@ -94,6 +94,18 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
         assert!(le(c.ccm.0, c.placed.0) && le(c.placed.0, c.flash.0), "{c:?}");
         assert!(le(c.ccm.1, c.placed.1) && le(c.placed.1, c.flash.1), "{c:?}");
     }
+    // The budgets in cycles: the high bound, the code as placed.
+    for (name, budget, goal) in qemu_tests::CYCLE_BUDGETS {
+        let c = cycles
+            .iter()
+            .find(|c| c.name == name)
+            .unwrap_or_else(|| panic!("no cycle figure {name}"));
+        println!(
+            "{name}: {} as placed, high bound (budget {budget}, goal {goal})",
+            c.placed.1
+        );
+        assert!(c.placed.1 <= budget, "{name}: {} > {budget}", c.placed.1);
+    }
     figures::check_within(
         "docs/benchmarks.md",
         "bench-m4-cycles",

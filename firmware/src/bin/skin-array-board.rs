@@ -51,6 +51,7 @@
 
 use core::mem::MaybeUninit;
 
+use cortex_m::peripheral::DWT;
 use dsp_core::demod::FrontEnd;
 use firmware::board::dma::{self, Completion};
 use firmware::board::flash::SettingsFlash;
@@ -63,9 +64,11 @@ use firmware::board::{clocks, dac, pac, watchdog};
 use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
+use heapless::Vec;
 use instrument::array::{
     to_signed_all, Layout, ADCS, BLOCK_INSTANTS, DAC_TABLE, RATE_HZ, SCAN, SENSORS, SENSOR_TIA_OHM,
 };
+use instrument::busy::Busy;
 use instrument::calib::POINTS;
 use instrument::commands::{Action, Commands};
 use instrument::frames;
@@ -105,14 +108,19 @@ mod app {
 
     #[shared]
     struct Shared {
-        /// The block just completed: its DMA half and its index.
-        finished: Option<(usize, u64)>,
+        /// The block just completed: its DMA half, its index, and the
+        /// cycle counter at its completion.
+        finished: Option<(usize, u64, u32)>,
         /// The link's port: its transmit task, and `idle` for the receive
         /// position.
         tx: Transmitter<'static, LINK_BYTES>,
         /// A calibration step's sweep of the tone pairs, if one is under
         /// way.
         sweep: Sweep,
+        /// How the CPU keeps up: blocks' cycles, late and missed ones.
+        busy: Busy,
+        /// The status due on the link, if one is.
+        status: Option<::link::Status>,
     }
 
     #[local]
@@ -143,6 +151,10 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
+        // The cycle counter, for each block's time (`busy`).
+        let mut core = cx.core;
+        core.DCB.enable_trace();
+        core.DWT.enable_cycle_counter();
         setup::begin(&dp);
         clocks::array_peripherals(&dp.RCC);
         let (records, logger) = cx.local.queue.split();
@@ -199,6 +211,13 @@ mod app {
                 finished: None,
                 tx,
                 sweep: Sweep::new(),
+                busy: Busy::new(
+                    ::link::Clock::Cycles,
+                    instrument::design::SYSCLK_HZ,
+                    BLOCK_US as u32,
+                    LAYOUT.records_per_s(),
+                ),
+                status: None,
             },
             Local {
                 dma: owned.dma,
@@ -223,7 +242,7 @@ mod app {
     /// ([`instrument::commands`]: the stored settings, start, stop, a
     /// calibration step's sweep); then
     /// the transmitter woken.
-    #[idle(shared = [tx, sweep], local = [logger, writer, requests, sending])]
+    #[idle(shared = [tx, sweep, status], local = [logger, writer, requests, sending])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let l = &mut cx.local;
@@ -231,6 +250,11 @@ mod app {
             while let Some(rec) = l.logger.dequeue() {
                 if *l.sending {
                     queued |= l.writer.record(frames::from_tone_record(&rec));
+                }
+            }
+            if let Some(status) = cx.shared.status.lock(Option::take) {
+                if *l.sending {
+                    queued |= l.writer.status(&status);
                 }
             }
             let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
@@ -267,8 +291,9 @@ mod app {
     }
 
     /// DMA1 channel 5, half or full: block `k` is in every ADC's buffer.
-    #[task(binds = DMA1_CH5, priority = 2, shared = [finished], local = [dma, dac1, adcs, block])]
+    #[task(binds = DMA1_CH5, priority = 2, shared = [finished, busy], local = [dma, dac1, adcs, block])]
     fn dma_done(mut cx: dma_done::Context) {
+        let completed = DWT::cycle_count();
         let event = dma::take_event_of(cx.local.dma, ARRAY_PACER);
         // An ADC out of step, or the comb stopped (its DAC's DMA
         // underran or failed): either way no block is whole.
@@ -289,24 +314,26 @@ mod app {
         };
         if lost {
             defmt::println!("lost {=u64}", *cx.local.block * BLOCK_US + BLOCK_US / 2);
+            cx.shared.busy.lock(Busy::missed);
             *cx.local.block += 1;
         }
         let k = *cx.local.block;
         *cx.local.block += 1;
-        cx.shared.finished.lock(|f| *f = Some((half, k)));
+        cx.shared.finished.lock(|f| *f = Some((half, k, completed)));
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", k);
+            cx.shared.busy.lock(Busy::missed);
         }
     }
 
     /// The block's records, straight from the DMA buffers.
     #[task(
         priority = 1,
-        shared = [finished, sweep],
+        shared = [finished, sweep, busy, status],
         local = [bufs, reader, settings, records, watchdog]
     )]
     async fn process(mut cx: process::Context) {
-        let Some((half, k)) = cx.shared.finished.lock(|f| f.take()) else {
+        let Some((half, k, completed)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
         };
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
@@ -318,10 +345,18 @@ mod app {
         #[allow(unsafe_code)]
         let rows: [&mut [[i16; SCAN]]; ADCS] =
             core::array::from_fn(|a| unsafe { array_half(&mut (*bufs)[a], &LAYOUT, half) });
+        let t_us = k * BLOCK_US + BLOCK_US / 2;
+        let recs = read_block(&mut *cx.local.reader, &*cx.local.settings, rows, t_us);
+        // From the block's completion: a block that took longer than its
+        // period may have had its half overwritten by the DMA.
+        let spent = DWT::cycle_count().wrapping_sub(completed);
+        let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
+        if let Some(s) = status {
+            cx.shared.status.lock(|x| *x = Some(s));
+        }
         let sink = &mut *cx.local.records;
         let before = sink.drops();
-        let t_us = k * BLOCK_US + BLOCK_US / 2;
-        read_block(&mut *cx.local.reader, &*cx.local.settings, rows, t_us, sink);
+        sink.push_block(&recs, late);
         if sink.drops() != before {
             defmt::println!("drops {=u32}", sink.drops());
         }
@@ -334,8 +369,8 @@ mod app {
 /// finished), whose middle is at `t_us`: the rows to two's complement in
 /// place, noting the inputs on a rail; the comb on every input
 /// (demodulated in place: 1.7 KiB, returned it would be copied); each
-/// sensor's two-tone line, its record to `sink`. The per-block code, in
-/// CCM SRAM with what it calls (`firmware/hot-ram.x`).
+/// sensor's two-tone line and record. The per-block code, in CCM SRAM
+/// with what it calls (`firmware/hot-ram.x`).
 #[inline(never)]
 #[allow(unsafe_code)]
 #[link_section = ".hot_ram"]
@@ -344,12 +379,22 @@ fn read_block(
     settings: &ToneSettings<'static, POINTS>,
     mut rows: [&mut [[i16; SCAN]]; ADCS],
     t_us: u64,
-    sink: &mut RecordSink<'static>,
-) {
+) -> Vec<ToneRecord, SENSORS> {
     let rails = to_signed_all(&mut rows);
     let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
     let mut demodulated = Demodulated::EMPTY;
     let block = &mut demodulated;
     reader.demodulate_into(|a| rows[a], block);
-    reader.solve(settings, t_us, block, |input| rails[input], |rec| sink.push(rec));
+    let mut recs = Vec::new();
+    reader.solve(
+        settings,
+        t_us,
+        block,
+        |input| rails[input],
+        |rec| {
+            // One a sensor: never more than it holds.
+            let _ = recs.push(rec);
+        },
+    );
+    recs
 }

@@ -40,7 +40,9 @@ use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
+use heapless::Vec;
 use instrument::array::{Frame, Layout, ADCS, BLOCK_INSTANTS, INPUTS, RATE_HZ, SCAN, SENSORS};
+use instrument::busy::Busy;
 use instrument::calib::POINTS;
 use instrument::commands::Commands;
 use instrument::frames;
@@ -126,6 +128,10 @@ mod app {
         /// A calibration step's sweep of the tone pairs, if one is under
         /// way.
         sweep: Sweep,
+        /// How the CPU keeps up: blocks' times, late and missed ones.
+        busy: Busy,
+        /// The status due on the link, if one is.
+        status: Option<link::Status>,
     }
 
     #[local]
@@ -156,6 +162,7 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         firmware::stack::paint();
+        qemu::Instructions::start(cx.core.SYST);
         let (records, logger) = cx.local.queue.split();
         let Arguments {
             scenario,
@@ -200,6 +207,13 @@ mod app {
                 done: false,
                 dropped: 0,
                 sweep: Sweep::new(),
+                busy: Busy::new(
+                    link::Clock::Instructions,
+                    instrument::design::SYSCLK_HZ,
+                    layout.block_us() as u32,
+                    layout.records_per_s(),
+                ),
+                status: None,
             },
             Local {
                 skin,
@@ -220,12 +234,15 @@ mod app {
     /// The logger: each record to defmt and to the link (UART0); the
     /// host's requests down the link answered (the stored settings, stop);
     /// the link's end frame when the run is done or the host stops it.
-    #[idle(shared = [done, dropped, sweep], local = [logger, link, store, commands])]
+    #[idle(shared = [done, dropped, sweep, status], local = [logger, link, store, commands])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             while let Some(rec) = cx.local.logger.dequeue() {
                 defmt::println!("{}", rec);
                 cx.local.link.record(frames::from_tone_record(&rec));
+            }
+            if let Some(status) = cx.shared.status.lock(Option::take) {
+                cx.local.link.status(&status);
             }
             let asked = qemu_flash::answer(cx.local.link, cx.local.commands, cx.local.store.as_mut());
             if let Some(n) = asked.sweep {
@@ -244,7 +261,7 @@ mod app {
     }
 
     /// DMA complete: the simulated ADCs filled the block that ends now.
-    #[task(binds = GPIOA, priority = 2, shared = [frame], local = [skin, block, block_us])]
+    #[task(binds = GPIOA, priority = 2, shared = [frame, busy], local = [skin, block, block_us])]
     fn dma_done(mut cx: dma_done::Context) {
         let block_us = *cx.local.block_us;
         let t_us = *cx.local.block * block_us + block_us / 2;
@@ -260,16 +277,18 @@ mod app {
         }
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", t_us);
+            cx.shared.busy.lock(Busy::missed);
         }
     }
 
     /// Demodulate every input, solve every sensor, log the records.
     #[task(
         priority = 1,
-        shared = [frame, done, dropped, sweep],
+        shared = [frame, done, dropped, sweep, busy, status],
         local = [reader, settings, end_block, records]
     )]
     async fn process(mut cx: process::Context) {
+        let started = qemu::Instructions::now();
         cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
         // Demodulated in place (1.7 KiB: returned, it would be copied).
@@ -280,15 +299,24 @@ mod app {
             reader.demodulate_into(|a| layout.rows(&frame[a]), block);
             (*clipped, *t)
         });
-        let sink = &mut *cx.local.records;
-        let before = sink.drops();
+        let mut recs = Vec::<ToneRecord, SENSORS>::new();
         reader.solve(
             &*cx.local.settings,
             t_us,
             block,
             |input| clipped[input],
-            |rec| sink.push(rec),
+            |rec| {
+                let _ = recs.push(rec);
+            },
         );
+        let spent = qemu::Instructions::since(started);
+        let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
+        if let Some(s) = status {
+            cx.shared.status.lock(|x| *x = Some(s));
+        }
+        let sink = &mut *cx.local.records;
+        let before = sink.drops();
+        sink.push_block(&recs, late);
         if sink.drops() != before {
             defmt::println!("drops {=u32}", sink.drops());
             cx.shared.dropped.lock(|d| *d = sink.drops());

@@ -50,6 +50,7 @@
 
 use core::mem::MaybeUninit;
 
+use cortex_m::peripheral::DWT;
 use firmware::board::dma::{self, Completion, DAC_CHANNEL};
 use firmware::board::excitation::{DacRing, Feed, QUARTER};
 use firmware::board::front_end::{self, AdcSlots, SLOTS};
@@ -58,18 +59,19 @@ use firmware::board::pins::{self, AnyPin};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, dac, pac, timer, watchdog};
 use firmware::link_out::{FrameWriter, LinkQueue};
+use instrument::busy::Busy;
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::commands::Action;
 use instrument::config::{
-    BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
+    Readings, BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
 };
 use instrument::design;
 use instrument::frames;
 use instrument::mux::Mux;
 use instrument::reader::{MuxReader, Read};
 use instrument::sensor::Sensors;
-use instrument::sequencer::{Sequencer, Slot};
+use instrument::sequencer::{Sequencer, Slot, SLOTS_PER_S, SLOT_US};
 
 /// The multiplexer on PB0..PB2.
 pub type BoardMux = Mux<AnyPin, MUX_ADDRESS_LINES>;
@@ -94,11 +96,13 @@ use firmware::board::settings::{self, Requests, RING, SENSORS};
 mod app {
     use super::*;
 
-    /// A finished slot and the DMA half that holds it.
+    /// A finished slot, the DMA half that holds it, and the cycle
+    /// counter at its completion.
     #[derive(Clone, Copy)]
     pub struct Finished {
         pub half: usize,
         pub slot: Slot,
+        pub completed: u32,
     }
 
     #[shared]
@@ -117,6 +121,8 @@ mod app {
         writer: FrameWriter<'static, LINK_BYTES>,
         /// Records are sent (until the host asks to stop).
         sending: bool,
+        /// How the CPU keeps up: slots' cycles, late and missed ones.
+        busy: Busy,
     }
 
     #[local]
@@ -143,6 +149,10 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
+        // The cycle counter, for each slot's time (`busy`).
+        let mut core = cx.core;
+        core.DCB.enable_trace();
+        core.DWT.enable_cycle_counter();
         setup::begin(&dp);
         clocks::peripherals(&dp.RCC);
         // Slots 0 and 1 play their channels' start frequencies, which no
@@ -195,6 +205,7 @@ mod app {
                 tx,
                 writer,
                 sending: true,
+                busy: Busy::new(::link::Clock::Cycles, design::SYSCLK_HZ, SLOT_US, SLOTS_PER_S),
             },
             Local {
                 dac1: owned.dac,
@@ -241,8 +252,9 @@ mod app {
     }
 
     /// DMA half/full transfer: slot `k` is complete and slot `k + 1` begins.
-    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, reader, dma, feed], local = [dac1, mux, ranges, seq])]
+    #[task(binds = DMA1_CH1, priority = 2, shared = [slot, reader, dma, feed, busy], local = [dac1, mux, ranges, seq])]
     fn dma_done(mut cx: dma_done::Context) {
+        let completed = DWT::cycle_count();
         let stopped = cx
             .shared
             .dma
@@ -290,11 +302,15 @@ mod app {
             defmt::println!("skip {=u64} {=u8}", st.done.block_mid_us(), st.done.channel);
             return;
         }
-        cx.shared
-            .slot
-            .lock(|s| *s = Some(Finished { half, slot: st.done }));
+        let finished = Finished {
+            half,
+            slot: st.done,
+            completed,
+        };
+        cx.shared.slot.lock(|s| *s = Some(finished));
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", st.done.index);
+            cx.shared.busy.lock(Busy::missed);
         }
     }
 
@@ -328,15 +344,21 @@ mod app {
 
     /// Demodulate, correct and queue one block's record, straight from
     /// the DMA buffer.
-    #[task(priority = 1, shared = [slot, reader, writer, sending], local = [adc_buf, settings, watchdog])]
+    #[task(priority = 1, shared = [slot, reader, writer, sending, busy], local = [adc_buf, settings, watchdog])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
-        let Some(Finished { half, slot }) = cx.shared.slot.lock(|s| s.take()) else {
+        let Some(Finished {
+            half,
+            slot,
+            completed,
+        }) = cx.shared.slot.lock(|s| s.take())
+        else {
             return;
         };
         // SAFETY: the DMA finished this half and writes the other one for
-        // the next slot; processing takes a tenth of that at most
-        // (`block_process` in docs/benchmarks.md).
+        // the next slot; processing takes a seventh of that
+        // (`block_load_permille` in docs/benchmarks.md), and a slot that
+        // takes longer is counted and its record flagged `LATE`.
         #[allow(unsafe_code)]
         let words: &[u32] = unsafe {
             core::slice::from_raw_parts(local.adc_buf.0.add(half * SLOT_PAIRS + SETTLE_PAIRS), BLOCK_PAIRS)
@@ -348,17 +370,29 @@ mod app {
             Ok(p) => p,
             Err(_) => return,
         };
-        let clipped = pairs
-            .iter()
-            .any(|&[v, i]| design::on_rail(v as u16) || design::on_rail(i as u16));
-        let readings = instrument::config::read(slot.fidx, pairs);
+        let (readings, clipped) = lock_ins(slot.fidx, pairs);
         let settings = &*local.settings;
-        match cx
+        let read = cx
             .shared
             .reader
-            .lock(|r| r.read(settings, &slot, &readings, clipped))
-        {
-            Read::Report(rec) => {
+            .lock(|r| read_slot(r, settings, &slot, &readings, clipped));
+        // From the slot's completion: a slot that took longer than its
+        // period may have had its half overwritten by the DMA.
+        let spent = DWT::cycle_count().wrapping_sub(completed);
+        let (late, status) = cx
+            .shared
+            .busy
+            .lock(|b| (b.block(spent), b.due(slot.block_mid_us())));
+        if let Some(s) = status {
+            if cx.shared.sending.lock(|s| *s) && cx.shared.writer.lock(|w| w.status(&s)) {
+                rtic::pend(pac::Interrupt::DMA2_CH1);
+            }
+        }
+        match read {
+            Read::Report(mut rec) => {
+                if late {
+                    rec.flags.set(instrument::faults::Flags::LATE);
+                }
                 let sent = cx.shared.sending.lock(|s| *s)
                     && cx.shared.writer.lock(|w| w.record(frames::from_record(&rec)));
                 if sent {
@@ -371,4 +405,32 @@ mod app {
         // A block went all the way through: the chain is alive.
         local.watchdog.feed();
     }
+}
+
+/// A slot's two tones from its block of sample pairs (the lock-ins of
+/// frequency `fidx`), and whether a sample hit a rail. The per-block
+/// code, in CCM SRAM with what it calls (`firmware/hot-ram.x`).
+#[inline(never)]
+#[allow(unsafe_code)]
+#[link_section = ".hot_ram"]
+fn lock_ins(fidx: usize, pairs: &[[i16; 2]; BLOCK_PAIRS]) -> (Readings, bool) {
+    let clipped = pairs
+        .iter()
+        .any(|&[v, i]| design::on_rail(v as u16) || design::on_rail(i as u16));
+    (instrument::config::read(fidx, pairs), clipped)
+}
+
+/// The slot's record from its tones ([`MuxReader::read`]): its channel's
+/// line, checks and policy. In CCM SRAM as [`lock_ins`].
+#[inline(never)]
+#[allow(unsafe_code)]
+#[link_section = ".hot_ram"]
+fn read_slot(
+    reader: &mut MuxReader,
+    settings: &Settings<'static, POINTS, SENSORS>,
+    slot: &Slot,
+    readings: &Readings,
+    clipped: bool,
+) -> Read {
+    reader.read(settings, slot, readings, clipped)
 }

@@ -34,6 +34,7 @@ use dsp_core::fixture::Fixture;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
+use instrument::busy::Busy;
 use instrument::calib::POINTS;
 use instrument::channel::{Channel, Settings};
 use instrument::commands::Commands;
@@ -45,7 +46,7 @@ use instrument::mux::Mux;
 use instrument::policy::Policy;
 use instrument::reader::{MuxReader, Read};
 use instrument::sensor::{Sensor, Sensors};
-use instrument::sequencer::{pairs_us, Sequencer, Slot};
+use instrument::sequencer::{pairs_us, Sequencer, Slot, SLOTS_PER_S, SLOT_US};
 use instrument::store::Store;
 use instrument::stored::Stored;
 
@@ -153,6 +154,8 @@ mod app {
         block: Block,
         reader: MuxReader,
         done: bool,
+        /// How the CPU keeps up: slots' times, late and missed ones.
+        busy: Busy,
     }
 
     #[local]
@@ -175,6 +178,7 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         firmware::stack::paint();
+        qemu::Instructions::start(cx.core.SYST);
         let Args {
             scenario,
             fixture,
@@ -220,6 +224,12 @@ mod app {
                 },
                 reader,
                 done: false,
+                busy: Busy::new(
+                    link::Clock::Instructions,
+                    instrument::design::SYSCLK_HZ,
+                    SLOT_US,
+                    SLOTS_PER_S,
+                ),
             },
             Local {
                 skin,
@@ -258,7 +268,7 @@ mod app {
     /// DMA complete: the simulated front end filled the slot that ends now
     /// (the channel the multiplexer selects, at the frequency the sequencer
     /// prepared for it), as the board's DMA half-transfer would.
-    #[task(binds = GPIOA, priority = 2, shared = [block, reader], local = [skin, mux, ranges, scenario, seq])]
+    #[task(binds = GPIOA, priority = 2, shared = [block, reader, busy], local = [skin, mux, ranges, scenario, seq])]
     fn dma_done(mut cx: dma_done::Context) {
         let step = {
             let seq = &mut *cx.local.seq;
@@ -289,13 +299,15 @@ mod app {
         defmt::println!("{}", truth);
         if process::spawn().is_err() {
             defmt::println!("overrun {=u64}", done.index);
+            cx.shared.busy.lock(Busy::missed);
         }
     }
 
     /// Demodulate, correct and log one block; then the requests the host
     /// sent down the link, answered there.
-    #[task(priority = 1, shared = [block, reader, done], local = [settings, end_slot, link, store, commands])]
+    #[task(priority = 1, shared = [block, reader, done, busy], local = [settings, end_slot, link, store, commands])]
     async fn process(mut cx: process::Context) {
+        let started = qemu::Instructions::now();
         let local = cx.local;
         // Stopped (by request, or at the scenario's end): the end frame
         // is sent, nothing more is.
@@ -307,8 +319,18 @@ mod app {
             .block
             .lock(|b| (instrument::config::read(b.slot.fidx, &b.pairs), b.clipped, b.slot));
         let settings = &*local.settings;
-        match cx.shared.reader.lock(|r| r.read(settings, &slot, &ph, clipped)) {
-            Read::Report(rec) => {
+        let read = cx.shared.reader.lock(|r| r.read(settings, &slot, &ph, clipped));
+        let spent = qemu::Instructions::since(started);
+        let t_us = slot.block_mid_us();
+        let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
+        if let Some(s) = status {
+            local.link.status(&s);
+        }
+        match read {
+            Read::Report(mut rec) => {
+                if late {
+                    rec.flags.set(instrument::faults::Flags::LATE);
+                }
                 defmt::println!("{}", rec);
                 local.link.record(frames::from_record(&rec));
             }

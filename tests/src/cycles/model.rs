@@ -50,7 +50,7 @@ pub enum Memory {
     Flash,
     /// As the image places it: the span `hot` (the section the firmware
     /// links for CCM SRAM, `firmware/hot-ram.x`) and any address from
-    /// 0x1000_0000 up (CCM SRAM, or QEMU's SRAM standing in for it) at
+    /// 0x1000_0000 up (CCM SRAM, or SRAM) at
     /// no wait state, the rest in flash.
     Placed {
         /// The hot section's addresses, start and end.
