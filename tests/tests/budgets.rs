@@ -146,3 +146,14 @@ fn the_boards_run_their_per_block_code_from_ccm_sram() {
         &["lock_ins", "read_slot", "checksum_and_stuff", "twotone6refine"],
     );
 }
+
+/// The tests and xtask build the firmware for the CPU that
+/// `.cargo/config.toml` names for `cargo build-board` and its kin (their
+/// flags replace the file's).
+#[test]
+fn the_tests_build_for_the_cpu_the_cargo_config_names() {
+    let config = std::fs::read_to_string(qemu_tests::root().join(".cargo/config.toml")).unwrap();
+    let flag = format!("\"target-cpu={}\"", qemu_tests::FIRMWARE_CPU);
+    assert!(config.contains(&flag), "{flag} not in .cargo/config.toml");
+    assert!(qemu_tests::firmware_rustflags().contains(&format!("-Ctarget-cpu={}", qemu_tests::FIRMWARE_CPU)));
+}
