@@ -85,14 +85,22 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
     for c in &cycles {
         assert!(c.ccm.0 <= c.ccm.1 && c.flash.0 <= c.flash.1, "{c:?}");
         assert!(c.placed.0 <= c.placed.1, "{c:?}");
-        // Code placed in CCM SRAM costs as much as all in CCM SRAM, the
-        // rest as in flash: within 3 % and a few cycles where a figure is
-        // a difference of spans (a worst case, a net of a baseline), or
-        // where the flash code's prefetch has less time to run ahead
-        // behind it (a call from CCM SRAM into flash waits in full).
+        // Code placed in CCM SRAM costs at least as much as all of it
+        // there, and about as much as all in flash at most: within 3 %
+        // where a figure is a difference of spans (a worst case, a net of
+        // a baseline); above all-in-flash by up to 10 % on a short span
+        // that calls into flash (from CCM SRAM every such call misses the
+        // ART's prefetch, and its layout moves the flash figures, 5 %).
         let le = |a: f64, b: f64| a <= b * 1.03 + 4.0;
-        assert!(le(c.ccm.0, c.placed.0) && le(c.placed.0, c.flash.0), "{c:?}");
-        assert!(le(c.ccm.1, c.placed.1) && le(c.placed.1, c.flash.1), "{c:?}");
+        let roughly_le = |a: f64, b: f64| a <= b * 1.10 + 8.0;
+        assert!(
+            le(c.ccm.0, c.placed.0) && roughly_le(c.placed.0, c.flash.0),
+            "{c:?}"
+        );
+        assert!(
+            le(c.ccm.1, c.placed.1) && roughly_le(c.placed.1, c.flash.1),
+            "{c:?}"
+        );
     }
     // The budgets in cycles: the high bound, the code as placed.
     for (name, budget, goal) in qemu_tests::CYCLE_BUDGETS {
