@@ -43,6 +43,12 @@ pub const BUILD_SPREAD: f64 = 0.005;
 /// the CCM SRAM figures the same).
 pub const CYCLE_SPREAD: f64 = 0.2;
 
+/// How far the headline's cycle figures (the code as placed: the array's
+/// per-block path all in CCM SRAM) may move between builds: they do not
+/// depend on the flash code's layout, so the check stays as tight as it
+/// was before the flash columns needed [`CYCLE_SPREAD`].
+pub const PLACED_SPREAD: f64 = 0.1;
+
 /// Target triple of the QEMU and board builds.
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 

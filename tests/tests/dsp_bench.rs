@@ -126,7 +126,7 @@ fn every_benchmark_in_cycles_from_the_cycle_model() {
         "docs/figures.md",
         "headline-speed",
         &qemu_tests::tables::speed_headline(&benches, &cycles),
-        qemu_tests::CYCLE_SPREAD,
+        qemu_tests::PLACED_SPREAD,
     )
     .unwrap();
 }
