@@ -119,36 +119,31 @@ impl Cpu {
 
     /// Another status counted in.
     pub fn add(&mut self, s: &link::Status) {
-        let n = self.blocks + u64::from(s.blocks);
-        if n > 0 {
-            self.mean = (self.mean * self.blocks as f64 + f64::from(s.mean) * f64::from(s.blocks)) / n as f64;
-        }
-        self.blocks = n;
-        self.max = self.max.max(s.max);
-        self.late += u64::from(s.late);
-        self.missed += u64::from(s.missed);
-        self.reports += 1;
-        self.last = *s;
+        *self = self.and(Self::new(s));
     }
 
     /// Two sums counted as one (two segments of a session).
     pub fn merge(a: Option<Self>, b: Option<Self>) -> Option<Self> {
         match (a, b) {
-            (Some(mut a), Some(b)) => {
-                let n = a.blocks + b.blocks;
-                if n > 0 {
-                    a.mean = (a.mean * a.blocks as f64 + b.mean * b.blocks as f64) / n as f64;
-                }
-                a.blocks = n;
-                a.max = a.max.max(b.max);
-                a.late += b.late;
-                a.missed += b.missed;
-                a.reports += b.reports;
-                a.last = b.last;
-                Some(a)
-            }
+            (Some(a), Some(b)) => Some(a.and(b)),
             (a, b) => a.or(b),
         }
+    }
+
+    /// `self` then `b`: counts summed, the mean weighted by blocks, `b`'s
+    /// status the latest.
+    fn and(mut self, b: Self) -> Self {
+        let n = self.blocks + b.blocks;
+        if n > 0 {
+            self.mean = (self.mean * self.blocks as f64 + b.mean * b.blocks as f64) / n as f64;
+        }
+        self.blocks = n;
+        self.max = self.max.max(b.max);
+        self.late += b.late;
+        self.missed += b.missed;
+        self.reports += b.reports;
+        self.last = b.last;
+        self
     }
 
     /// A time as a share of a block's period, %.
