@@ -2,9 +2,9 @@
 //! disturbance a skin meets, tried on both of the firmware's paths, on
 //! the host and with the firmware's own code (`instrument`'s channels,
 //! `dsp-core`'s demodulators), the sensors stretching on the paper's
-//! 20 mm/s trapezoid: the share of records flagged, how many records
-//! marked valid are more than 1 % off the true C, and the worst error
-//! among the valid ones.
+//! 20 mm/s trapezoid: the share of records valid and the faults that
+//! stood on the others, how many records marked valid are more than 1 %
+//! off the true C, and the worst error among the valid ones.
 //!
 //! * The multiplexed channel ([`instrument::channel`]): the reference
 //!   sensor, pinned in turn at the three lower frequencies of the set
@@ -22,10 +22,12 @@
 
 use dsp_core::fixture::Fixture;
 use instrument::array::{Frame, Layout, BLOCK_INSTANTS, RATE_HZ, SENSORS, TONES};
+use instrument::availability::Availability;
 use instrument::calib;
 use instrument::channel::{Channel, Settings};
 use instrument::config::{tones_hz, BLOCK_PAIRS, SLOT_S};
 use instrument::effects::Effect;
+use instrument::faults::Flags;
 use instrument::reader::ArrayReader;
 use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::tones::ToneSettings;
@@ -281,10 +283,8 @@ const fn near(hz: f32, counts: f32) -> Front {
 /// What one path made of one class.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Outcome {
-    /// Records.
-    pub records: usize,
-    /// Records flagged (not valid).
-    pub flagged: usize,
+    /// Records: how many, the share valid, and the faults on the others.
+    pub availability: Availability,
     /// Records valid and more than 1 % off the true C.
     pub valid_off: usize,
     /// The worst relative error of C among the valid records.
@@ -292,10 +292,28 @@ pub struct Outcome {
 }
 
 impl Outcome {
-    fn add(&mut self, valid: bool, c_farad: f32, truth: f64) {
-        self.records += 1;
-        if !valid {
-            self.flagged += 1;
+    /// Nothing counted.
+    fn new() -> Self {
+        Self {
+            availability: Availability::new(),
+            valid_off: 0,
+            worst_valid: 0.0,
+        }
+    }
+
+    /// Records.
+    pub fn records(&self) -> usize {
+        self.availability.records as usize
+    }
+
+    /// Records flagged (not valid).
+    pub fn flagged(&self) -> usize {
+        self.availability.invalid() as usize
+    }
+
+    fn add(&mut self, flags: Flags, c_farad: f32, truth: f64) {
+        self.availability.count(flags);
+        if !flags.valid() {
             return;
         }
         let e = (c_farad as f64 / truth - 1.0).abs();
@@ -374,12 +392,7 @@ pub fn multiplexed(class: &Class) -> Outcome {
         .expect("the reference calibration is valid");
     let sensors = Sensors::<{ calib::POINTS }, 1>::all(measured);
     let settings = Settings::new(ranging.front_ends(fe.v_gain as f32), ranging, &sensors);
-    let mut out = Outcome {
-        records: 0,
-        flagged: 0,
-        valid_off: 0,
-        worst_valid: 0.0,
-    };
+    let mut out = Outcome::new();
     let mut rng = Rng::new(0xd157);
     let mut buf = vec![[0i16; 2]; BLOCK_PAIRS];
     const BLOCKS: usize = 40;
@@ -420,7 +433,7 @@ pub fn multiplexed(class: &Class) -> Outcome {
             let ph = instrument::config::read(index, buf.as_slice().try_into().expect("a block's pairs"));
             let r = ch.process(&settings, 0, (t * 1e6) as u64, &ph, clipped, ch.range());
             if b > 0 {
-                out.add(r.flags.valid(), r.c_farad, truth);
+                out.add(r.flags, r.c_farad, truth);
             }
         }
     }
@@ -457,12 +470,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
     let duration = 0.4;
     let blocks = (duration / block_s) as u64;
     let hz = layout.tones_hz().map(|f| f as f64);
-    let mut out = Outcome {
-        records: 0,
-        flagged: 0,
-        valid_off: 0,
-        worst_valid: 0.0,
-    };
+    let mut out = Outcome::new();
     // The tone the policy uses most (the pair's lower one) is what a
     // tone-relative sinusoid aims at: 500 Hz (1 ms blocks: 1 kHz).
     let aim = layout.tone_hz(0);
@@ -494,7 +502,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
             |input| clipped[input],
             |rec| {
                 if b > 0 {
-                    out.add(rec.flags.valid(), rec.c_farad, truth[usize::from(rec.sensor)]);
+                    out.add(rec.flags, rec.c_farad, truth[usize::from(rec.sensor)]);
                 }
             },
         );
@@ -514,19 +522,21 @@ pub fn rows() -> Vec<Row> {
 /// The rows as a Markdown table.
 pub fn markdown(rows: &[Row]) -> String {
     let mut md = String::from(
-        "| class | added | multiplexed: flagged | valid > 1 % off | worst valid | array: flagged | valid > 1 % off | worst valid |\n|---|---|---:|---:|---:|---:|---:|---:|\n",
+        "| class | added | multiplexed: valid | not valid: faults | valid > 1 % off | worst valid | array: valid | not valid: faults | valid > 1 % off | worst valid |\n|---|---|---:|---|---:|---:|---:|---|---:|---:|\n",
     );
     let cell = |o: &Outcome| {
+        let a = &o.availability;
         format!(
-            "{:.1} % of {} | {} | {:.2} %",
-            100.0 * o.flagged as f64 / o.records.max(1) as f64,
-            o.records,
+            "{:.1} % of {} | {} | {} | {:.2} %",
+            100.0 * a.share().unwrap_or(0.0),
+            a.records,
+            a.why(),
             o.valid_off,
             100.0 * o.worst_valid
         )
     };
     for (class, m, a) in rows {
-        let a = a.as_ref().map_or_else(|| "– | – | –".to_string(), cell);
+        let a = a.as_ref().map_or_else(|| "– | – | – | –".to_string(), cell);
         md += &format!("| {} | {} | {} | {} |\n", class.name, class.what, cell(m), a);
     }
     md

@@ -27,16 +27,16 @@ fn the_array_in_1_ms_blocks_vouches_for_no_wrong_record_either() {
         println!(
             "{:40} {:5} records, {:5} flagged, worst valid {:.3} %",
             class.name,
-            a.records,
-            a.flagged,
+            a.records(),
+            a.flagged(),
             a.worst_valid * 100.0
         );
         assert!(a.worst_valid < tolerance, "{}: {a:?}", class.name);
         if ["open sensor", "shorted sensor", "clipping"].contains(&class.name) {
-            assert_eq!(a.flagged, a.records, "{}: {a:?}", class.name);
+            assert_eq!(a.flagged(), a.records(), "{}: {a:?}", class.name);
         }
         if class.name == CLASSES[0].name {
-            assert!(a.flagged * 2 <= a.records, "clean skin: {a:?}");
+            assert!(a.flagged() * 2 <= a.records(), "clean skin: {a:?}");
         }
     }
 }
@@ -61,7 +61,7 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         .contains(&class.name)
         {
             assert!(
-                m.flagged * 10 >= m.records * 9,
+                m.flagged() * 10 >= m.records() * 9,
                 "multiplexed, {}: {m:?}",
                 class.name
             );
@@ -78,9 +78,9 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         ]
         .contains(&class.name)
         {
-            assert_eq!(m.flagged, m.records, "multiplexed, {}: {m:?}", class.name);
+            assert_eq!(m.flagged(), m.records(), "multiplexed, {}: {m:?}", class.name);
             assert!(
-                a.as_ref().is_none_or(|a| a.flagged == a.records),
+                a.as_ref().is_none_or(|a| a.flagged() == a.records()),
                 "array, {}: {a:?}",
                 class.name
             );
@@ -93,7 +93,7 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         .iter()
         .find(|(c, _, _)| c.name == "interferer far from the tone")
         .expect("the far interferer's row");
-    assert!(far.flagged * 10 <= far.records, "{far:?}");
+    assert!(far.flagged() * 10 <= far.records(), "{far:?}");
     // A film that warms changes C itself: the records follow it, vouched
     // for, as on a clean skin.
     let (_, m, a) = rows
@@ -102,13 +102,13 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         .expect("the drift of C's row");
     let a = a.as_ref().expect("the array runs the drift");
     assert!(
-        m.flagged * 100 <= m.records && a.flagged * 100 <= a.records,
+        m.flagged() * 100 <= m.records() && a.flagged() * 100 <= a.records(),
         "{m:?} {a:?}"
     );
     // The clean skin: ≥ 99 % of the records vouched for on both paths.
     let (_, m, a) = &rows[0];
     let a = a.as_ref().expect("the array runs the clean skin");
-    assert!(m.flagged * 100 <= m.records, "{m:?}");
-    assert!(a.flagged * 100 <= a.records, "{a:?}");
+    assert!(m.flagged() * 100 <= m.records(), "{m:?}");
+    assert!(a.flagged() * 100 <= a.records(), "{a:?}");
     figures::check("docs/disturbances.md", "disturbances", &markdown(&rows)).unwrap();
 }

@@ -97,19 +97,22 @@ impl Flags {
         self.valid() && self.0 & (Self::UNCALIBRATED | Self::OFF_TABLE) == 0
     }
 
-    /// True if the capacitance of the record can be trusted.
+    /// The faults: every flag but the two statuses
+    /// ([`Flags::UNCALIBRATED`], [`Flags::OFF_TABLE`]).
+    pub const FAULTS: u16 = Self::CLIPPED
+        | Self::OPEN
+        | Self::SHORTED
+        | Self::RANGE
+        | Self::SETTLING
+        | Self::DISTURBED
+        | Self::UNCERTAIN
+        | Self::HELD
+        | Self::MODEL
+        | Self::LATE;
+
+    /// True if the capacitance of the record can be trusted: no fault.
     pub fn valid(self) -> bool {
-        let bad = Self::CLIPPED
-            | Self::OPEN
-            | Self::SHORTED
-            | Self::RANGE
-            | Self::SETTLING
-            | Self::DISTURBED
-            | Self::UNCERTAIN
-            | Self::HELD
-            | Self::MODEL
-            | Self::LATE;
-        self.0 & bad == 0
+        self.0 & Self::FAULTS == 0
     }
 }
 

@@ -11,6 +11,7 @@
 //! | [`ranging`] | auto-ranging of the transimpedance stage from the current of the last block (`skin-spec`) |
 //! | [`calib`] | stretch from capacitance through a calibration table in flash (`skin-spec`) |
 //! | [`faults`] | fault flags: clipping, open, short, out of range, settling, held |
+//! | [`availability`] | a sensor's records: the share valid, and the faults that stood on the others |
 //! | [`busy`] | how the CPU keeps up: each block's time from acquisition to last record, late and missed blocks, a status frame a second |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
@@ -44,6 +45,7 @@ extern crate std;
 // `skin-spec`; it is part of the instrument's API under the same names.
 pub use skin_spec::{array, calib, config, design, effects, ranging};
 
+pub mod availability;
 pub mod busy;
 pub mod channel;
 pub mod commands;

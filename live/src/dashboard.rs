@@ -23,8 +23,9 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
 use futures_util::stream::{self, Stream, StreamExt};
+use instrument::availability::Availability;
 use link::Record;
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::convert::Infallible;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
@@ -63,8 +64,9 @@ fn batch_json(records: &[Record]) -> String {
 enum Message {
     /// New records, as JSON.
     Batch(Arc<String>),
-    /// The device's latest status (how its CPU keeps up), as JSON.
-    Cpu(Arc<String>),
+    /// A named event's latest value, as JSON: `cpu` (how the device's
+    /// CPU keeps up), `valid` (each sensor's share of records valid).
+    Named(&'static str, Arc<String>),
     /// The stream is over: nothing more will come.
     End,
 }
@@ -86,8 +88,10 @@ struct Held {
     tail: VecDeque<(u64, Record)>,
     next: u64,
     ended: bool,
-    /// The device's latest status, as JSON.
-    cpu: Option<Arc<String>>,
+    /// Each named event's latest value, as JSON.
+    latest: Vec<(&'static str, Arc<String>)>,
+    /// When `valid` was last sent to the pages.
+    valid_sent: Option<std::time::Instant>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -217,9 +221,51 @@ impl Dashboard {
             })
             .to_string(),
         );
+        self.named("cpu", json, true);
+    }
+
+    /// Each sensor's share of records valid so far, and the faults that
+    /// stood on the others: kept for the pages that open later, and sent
+    /// to the open ones at most once a second (and at the end).
+    pub fn availability(&self, per_sensor: &BTreeMap<u8, Availability>) {
+        let rows: Vec<serde_json::Value> = per_sensor
+            .iter()
+            .map(|(s, a)| {
+                serde_json::json!({
+                    "sensor": s,
+                    "records": a.records,
+                    "valid": a.valid,
+                    "share_percent": a.share().map(|x| 100.0 * x),
+                    "why": a.why().to_string(),
+                })
+            })
+            .collect();
+        let json = Arc::new(serde_json::Value::Array(rows).to_string());
+        let now = std::time::Instant::now();
+        let due = {
+            let mut state = self.state();
+            let due = state
+                .valid_sent
+                .is_none_or(|t| now.duration_since(t) >= std::time::Duration::from_secs(1));
+            if due {
+                state.valid_sent = Some(now);
+            }
+            due
+        };
+        self.named("valid", json, due);
+    }
+
+    /// Keep `json` as event `name`'s latest value, and send it to the
+    /// open pages where asked.
+    fn named(&self, name: &'static str, json: Arc<String>, send: bool) {
         let mut state = self.state();
-        state.cpu = Some(json.clone());
-        let _ = self.shared.messages.send(Message::Cpu(json));
+        match state.latest.iter_mut().find(|(n, _)| *n == name) {
+            Some(slot) => slot.1 = json.clone(),
+            None => state.latest.push((name, json.clone())),
+        }
+        if send {
+            let _ = self.shared.messages.send(Message::Named(name, json));
+        }
     }
 
     /// The stream is over: the pages are told, and their event streams
@@ -228,6 +274,11 @@ impl Dashboard {
     pub fn end(&self) {
         let mut state = self.state();
         state.ended = true;
+        // Each named event's last value (one held back by its pace
+        // included), then the end.
+        for (name, json) in &state.latest {
+            let _ = self.shared.messages.send(Message::Named(name, json.clone()));
+        }
         let _ = self.shared.messages.send(Message::End);
     }
 }
@@ -267,8 +318,8 @@ enum Out {
     /// The page fell behind by this many batches (event `gap`): the
     /// stream ends, and the page reconnects for the backlog.
     Gap(u64),
-    /// The device's status (event `cpu`), as JSON.
-    Cpu(Arc<String>),
+    /// A named event (`cpu`, `valid`) and its JSON.
+    Named(&'static str, Arc<String>),
     /// The stream is over (event `end`).
     End,
 }
@@ -291,11 +342,11 @@ fn page_stream(
     pages: impl Stream<Item = String> + Send + 'static,
     tail: Vec<Record>,
     ended: bool,
-    cpu: Option<Arc<String>>,
+    latest: Vec<(&'static str, Arc<String>)>,
     rx: broadcast::Receiver<Message>,
 ) -> impl Stream<Item = Out> + Send {
     let first = stream::once(async move { Out::Backlog(before) })
-        .chain(stream::iter(cpu.map(Out::Cpu)))
+        .chain(stream::iter(latest.into_iter().map(|(n, j)| Out::Named(n, j))))
         .chain(pages.map(|p| Out::Batch(Arc::new(p))))
         .chain(stream::iter(
             (!tail.is_empty()).then(|| Out::Batch(Arc::new(batch_json(&tail)))),
@@ -303,7 +354,7 @@ fn page_stream(
     let live = tokio_stream::wrappers::BroadcastStream::new(rx)
         .map(|m| match m {
             Ok(Message::Batch(b)) => Out::Batch(b),
-            Ok(Message::Cpu(c)) => Out::Cpu(c),
+            Ok(Message::Named(n, j)) => Out::Named(n, j),
             Ok(Message::End) => Out::End,
             Err(BroadcastStreamRecvError::Lagged(n)) => Out::Gap(n),
         })
@@ -325,11 +376,17 @@ fn page_stream(
 /// `/events`: [`page_stream`] as server-sent events, its backlog the
 /// latest [`BACKLOG_BYTES`] of `records.csv`.
 async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let (on_disk, tail, ended, cpu, rx) = {
+    let (on_disk, tail, ended, latest, rx) = {
         let state = shared.state.lock().unwrap_or_else(|p| p.into_inner());
         let tail: Vec<Record> = state.tail.iter().map(|(_, r)| *r).collect();
-        let cpu = state.cpu.clone();
-        (state.on_disk, tail, state.ended, cpu, shared.messages.subscribe())
+        let latest = state.latest.clone();
+        (
+            state.on_disk,
+            tail,
+            state.ended,
+            latest,
+            shared.messages.subscribe(),
+        )
     };
     let backlog = Backlog::open(&shared.records_csv, on_disk).unwrap_or_default();
     let before = on_disk.records.saturating_sub(backlog.records);
@@ -337,12 +394,12 @@ async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<E
         let page = b.page()?;
         Some((page, b))
     });
-    let events = page_stream(before, pages, tail, ended, cpu, rx).map(|out| {
+    let events = page_stream(before, pages, tail, ended, latest, rx).map(|out| {
         Ok(match out {
             Out::Backlog(n) => Event::default().event("backlog").data(n.to_string()),
             Out::Batch(b) => Event::default().data(b.as_str()),
             Out::Gap(n) => Event::default().event("gap").data(n.to_string()),
-            Out::Cpu(c) => Event::default().event("cpu").data(c.as_str()),
+            Out::Named(n, j) => Event::default().event(n).data(j.as_str()),
             Out::End => Event::default().event("end").data("end"),
         })
     });
@@ -450,7 +507,7 @@ mod tests {
             tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
         }
         tx.send(Message::End).unwrap();
-        let got = collect(page_stream(0, stream::empty(), vec![], false, None, rx));
+        let got = collect(page_stream(0, stream::empty(), vec![], false, vec![], rx));
         assert_eq!(got, [Out::Backlog(0), Out::Gap(4)]);
     }
 
@@ -460,24 +517,31 @@ mod tests {
         for k in 0..3 {
             tx.send(Message::Batch(Arc::new(format!("[{k}]")))).unwrap();
         }
-        tx.send(Message::Cpu(Arc::new("{}".into()))).unwrap();
+        tx.send(Message::Named("cpu", Arc::new("{}".into()))).unwrap();
         tx.send(Message::End).unwrap();
         tx.send(Message::Batch(Arc::new("[9]".into()))).unwrap();
         let pages = stream::iter(["[7]".to_string(), "[8]".to_string()]);
         let cpu = Arc::new("{\"late\":0}".to_string());
-        let got = collect(page_stream(5, pages, vec![], false, Some(cpu.clone()), rx));
+        let got = collect(page_stream(
+            5,
+            pages,
+            vec![],
+            false,
+            vec![("cpu", cpu.clone())],
+            rx,
+        ));
         let batch = |k: u32| Out::Batch(Arc::new(format!("[{k}]")));
         assert_eq!(
             got,
             [
                 Out::Backlog(5),
-                Out::Cpu(cpu),
+                Out::Named("cpu", cpu),
                 batch(7),
                 batch(8),
                 batch(0),
                 batch(1),
                 batch(2),
-                Out::Cpu(Arc::new("{}".into())),
+                Out::Named("cpu", Arc::new("{}".into())),
                 Out::End
             ]
         );
@@ -489,7 +553,7 @@ mod tests {
                 stream::iter(["[1]".to_string()]),
                 vec![],
                 true,
-                None,
+                vec![],
                 rx
             )),
             [Out::Backlog(0), batch(1), Out::End]

@@ -62,6 +62,7 @@ impl Sink<'_> {
             if let Some(status) = self.session.fresh_status() {
                 d.status(&status);
             }
+            d.availability(self.session.availability());
             d.written(self.session.on_disk());
         }
         Ok(())

@@ -576,6 +576,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
     }
     if let Some(d) = &dashboard {
+        d.availability(session.availability());
         d.end();
     }
     if dashboard.is_some() && cli.linger > 0 {
@@ -586,6 +587,9 @@ fn run(cli: Cli) -> Result<Outcome> {
     let started = session.start().is_some();
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
+    for line in finished.summary.availability_lines() {
+        println!("  {line}");
+    }
     if started {
         println!(
             "wrote {}: records.csv, stream.bin, {} trace files, {} fragments, calibration.csv, faults.csv",

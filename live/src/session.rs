@@ -444,6 +444,12 @@ impl Session {
             })
     }
 
+    /// Per sensor so far: the share of its records valid, and the faults
+    /// that stood on the others.
+    pub fn availability(&self) -> &std::collections::BTreeMap<u8, instrument::availability::Availability> {
+        &self.counts.availability
+    }
+
     /// What the session has received so far.
     pub fn summary(&self) -> Summary {
         let stats = self.stats();
@@ -461,6 +467,7 @@ impl Session {
             sensors: self.counts.sensors(),
             rate: self.counts.rate(),
             cpu: self.segments.iter().fold(None, |a, g| Cpu::merge(a, g.cpu)),
+            availability: self.counts.availability.clone(),
         }
     }
 

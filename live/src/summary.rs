@@ -1,6 +1,7 @@
 //! What a session received, in numbers: counted as records arrive (a
 //! few numbers per sensor, whatever the session's length).
 
+use instrument::availability::Availability;
 use std::collections::BTreeMap;
 
 /// Records that decoded but that the stream's own terms rule out: set
@@ -38,15 +39,19 @@ pub(crate) struct Counts {
     /// Per segment and sensor.
     pub spans: BTreeMap<(u32, u8), Span>,
     pub set_aside: SetAside,
+    /// Per sensor, over the session.
+    pub availability: BTreeMap<u8, Availability>,
 }
 
 impl Counts {
     /// Count record `r` of `segment`, kept.
     pub fn record(&mut self, segment: u32, r: &link::Record) {
         self.records += 1;
-        if !instrument::faults::Flags(r.flags).valid() {
+        let flags = instrument::faults::Flags(r.flags);
+        if !flags.valid() {
             self.flagged += 1;
         }
+        self.availability.entry(r.sensor).or_default().count(flags);
         self.spans
             .entry((segment, r.sensor))
             .and_modify(|s| {
@@ -206,6 +211,9 @@ pub struct Summary {
     pub end_mismatch: Option<String>,
     /// How the device's CPU kept up (its status frames), if it said.
     pub cpu: Option<Cpu>,
+    /// Per sensor: the share of its records valid, and the faults that
+    /// stood on the others.
+    pub availability: BTreeMap<u8, Availability>,
 }
 
 impl Summary {
@@ -217,18 +225,53 @@ impl Summary {
     /// One line for a terminal.
     pub fn line(&self) -> String {
         format!(
-            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
+            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged{}; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
             self.records,
             self.sensors,
             self.rate.0,
             self.rate.1,
             self.flagged,
+            self.least_valid().map_or(String::new(), |(s, a)| format!(
+                " (the least valid: sensor {s}, {:.1} %)",
+                100.0 * a.share().unwrap_or(0.0)
+            )),
             self.bytes_per_record(),
             self.link.bad,
             self.link.lost,
             self.link.repeated,
             self.dropped.map_or(String::new(), |d| format!("; {d} dropped on the device"))
         ) + &self.remarks()
+    }
+
+    /// The sensor with the least share of its records valid, and that
+    /// share.
+    pub fn least_valid(&self) -> Option<(u8, &Availability)> {
+        self.availability
+            .iter()
+            .filter(|(_, a)| a.share().is_some())
+            .min_by(|a, b| {
+                a.1.share()
+                    .partial_cmp(&b.1.share())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .map(|(&s, a)| (s, a))
+    }
+
+    /// A line per sensor: the share of its records valid, and why the
+    /// others were not (`sensor 3: 88.1 % valid (1980 of 2250); not:
+    /// MODEL 200, UNCERTAIN 70`).
+    pub fn availability_lines(&self) -> Vec<String> {
+        self.availability
+            .iter()
+            .map(|(s, a)| {
+                let why = if a.invalid() > 0 {
+                    format!("; not: {}", a.why())
+                } else {
+                    String::new()
+                };
+                format!("sensor {s}: {a}{why}")
+            })
+            .collect()
     }
 
     /// What the line adds where the stream broke its own terms.

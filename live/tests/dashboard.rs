@@ -133,6 +133,18 @@ fn the_page_shows_every_record_it_was_sent() {
         .find(|r| r.contains("<td>1</td><td>401</td>"))
         .unwrap_or_else(|| panic!("no row of sensor 1: {dom}"));
     assert_eq!(row.matches("<td>–</td>").count(), 4, "{row}");
+    // The tool's count of the whole session: sensor 1's 401 records, 8
+    // DISTURBED and its last flagged MODEL.
+    assert!(
+        row.contains("<td>97.8 %</td>") && row.contains("DISTURBED 8, MODEL 1"),
+        "{row}"
+    );
+    let least = dom
+        .split("id=\"least\"")
+        .nth(1)
+        .and_then(|t| t.split_once('>'))
+        .and_then(|(_, t)| t.split('<').next());
+    assert_eq!(least, Some("97.8 % (sensor 1)"), "{dom}");
     assert!(
         shot.is_file() && std::fs::metadata(&shot).unwrap().len() > 10_000,
         "no screenshot"

@@ -265,3 +265,38 @@ fn a_killed_session_leaves_its_marker_no_manifest_and_whole_lines() {
     let trace = std::fs::read_to_string(dir.join("trace_ch0_2000hz.csv")).unwrap();
     assert_eq!(trace.lines().count(), 51);
 }
+
+mod common;
+
+#[test]
+fn each_sensors_share_of_valid_records_and_why_the_others_are_not() {
+    // Record 3 (sensor 1's second) is flagged SETTLING: sensor 1 keeps 4
+    // of its 5 valid, sensor 0 all 5.
+    let tmp = tempfile::tempdir().unwrap();
+    let ds = tmp.path().join("ds");
+    let done = live::replay(&common::stream(10, true, VERSION), &ds, live::Earlier::Refuse).unwrap();
+    let s = &done.summary;
+    let a = |sensor: u8| s.availability.get(&sensor).copied().unwrap();
+    assert_eq!((a(0).records, a(0).valid), (5, 5));
+    assert_eq!((a(1).records, a(1).valid), (5, 4));
+    assert_eq!(s.least_valid().map(|(k, _)| k), Some(1));
+    assert!(
+        s.line().contains("(the least valid: sensor 1, 80.0 %)"),
+        "{}",
+        s.line()
+    );
+    assert_eq!(
+        s.availability_lines(),
+        [
+            "sensor 0: 100.0 % valid (5 of 5)",
+            "sensor 1: 80.0 % valid (4 of 5); not: SETTLING 1"
+        ]
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(ds.join("session.json")).unwrap()).unwrap();
+    let per = &manifest["records"]["per_sensor"];
+    assert_eq!(per[1]["valid"], 4);
+    assert_eq!(per[1]["share_valid"], 0.8);
+    assert_eq!(per[1]["not_valid_by_fault"]["SETTLING"], 1);
+    assert_eq!(per[0]["not_valid_by_fault"], serde_json::json!({}));
+}

@@ -21,6 +21,7 @@
 use anyhow::{bail, Result};
 use host_sim::numerics::rms_max;
 use host_sim::recording::LoggedToneRecord;
+use instrument::availability::Availability;
 use instrument::digest::Digest;
 use instrument::stored::Stored;
 use live::calibrate::{self as cal, Hold, Outcome};
@@ -56,6 +57,10 @@ pub struct SensorFigures {
     pub after_valid: (usize, usize),
     /// Records marked valid more than 1 % off in C, before and after.
     pub c_off: (usize, usize),
+    /// After: the availability of C over the records while the skin
+    /// moved (the truth's stretch changed since the sensor's record
+    /// before), and why the others were not valid.
+    pub moving: Availability,
 }
 
 /// What the workflow measured.
@@ -235,9 +240,13 @@ fn sensor_figures(s: u8, before: &[LoggedToneRecord], after: &[LoggedToneRecord]
         .map(err)
         .collect();
     let (mut still, mut moving) = (vec![], vec![]);
+    let mut availability = Availability::new();
     for p in a.windows(2) {
+        let held = p[1].truth.map(|t| t.stretch_mm) == p[0].truth.map(|t| t.stretch_mm);
+        if !held {
+            availability.count(p[1].rec.flags);
+        }
         if p[1].rec.flags.stretch_valid() {
-            let held = p[1].truth.map(|t| t.stretch_mm) == p[0].truth.map(|t| t.stretch_mm);
             if held { &mut still } else { &mut moving }.push(err(&p[1]));
         }
     }
@@ -261,6 +270,7 @@ fn sensor_figures(s: u8, before: &[LoggedToneRecord], after: &[LoggedToneRecord]
             b.iter().filter(|r| c_off(r)).count(),
             a.iter().filter(|r| c_off(r)).count(),
         ),
+        moving: availability,
     }
 }
 
@@ -268,12 +278,12 @@ impl Workflow {
     /// The before/after table, Markdown.
     pub fn table(&self) -> String {
         let mut md = String::from(
-            "| sensor | before: stretch RMS (all records) | before: stretch valid | after: stretch RMS (valid) | held still / moving | max | error / stated σ (RMS) | after: stretch valid | valid > 1 % off in C, before / after |\n|---|---|---|---|---|---|---|---|---|\n",
+            "| sensor | before: stretch RMS (all records) | before: stretch valid | after: stretch RMS (valid) | held still / moving | max | error / stated σ (RMS) | after: stretch valid | after, moving: C valid | not valid: faults | valid > 1 % off in C, before / after |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         for s in &self.sensors {
             let _ = writeln!(
                 md,
-                "| {} | {:.2} mm | {} of {} | {:.3} mm | {:.3} / {:.3} mm | {:.3} mm | {:.2} | {} of {} | {} / {} |",
+                "| {} | {:.2} mm | {} of {} | {:.3} mm | {:.3} / {:.3} mm | {:.3} mm | {:.2} | {} of {} | {} | {} | {} / {} |",
                 s.sensor,
                 s.before_all_mm,
                 s.before_valid.0,
@@ -285,6 +295,8 @@ impl Workflow {
                 s.after_z_rms,
                 s.after_valid.0,
                 s.after_valid.1,
+                crate::summary::percent(&s.moving),
+                s.moving.why(),
                 s.c_off.0,
                 s.c_off.1
             );

@@ -6,7 +6,7 @@
 use crate::records::{LoggedRecord, LoggedToneRecord};
 use anyhow::{bail, Result};
 use host_sim::numerics::rms_max;
-use instrument::faults::Flags;
+use instrument::availability::Availability;
 use std::fmt::Write as _;
 
 /// The fixed frequency of the series meter the firmware is compared with,
@@ -81,10 +81,9 @@ pub struct ChannelFigures {
     pub channel: u8,
     /// How its sensor was stretched.
     pub motion: Motion,
-    /// Records logged.
-    pub records: usize,
-    /// Records flagged valid.
-    pub valid: usize,
+    /// Its records: how many, the share valid, and why the others were
+    /// not.
+    pub availability: Availability,
     /// Line-corrected C against the truth over the valid records: RMS and
     /// max, pF.
     pub c_pf: (f64, f64),
@@ -122,8 +121,7 @@ pub fn channels(recs: &[LoggedRecord]) -> Vec<ChannelFigures> {
             ChannelFigures {
                 channel: ch,
                 motion: Motion::of(&rs),
-                records: rs.len(),
-                valid: valid.len(),
+                availability: availability(rs.iter().map(|r| r.flags)),
                 c_pf: (rms, mx),
                 c_pct: (rrms, rmx),
                 stretch_rms_mm: srms,
@@ -136,17 +134,18 @@ pub fn channels(recs: &[LoggedRecord]) -> Vec<ChannelFigures> {
 /// The table of [`channels`], a row per channel.
 pub fn channel_table(rows: &[ChannelFigures]) -> String {
     let mut md = String::from(
-        "| channel | stretching | valid records | C RMS | C max | stretch RMS | fixed 6 kHz series meter, RMS |\n\
-         |---:|---|---:|---:|---:|---:|---:|\n",
+        "| channel | stretching | records | valid | not valid: faults | C RMS | C max | stretch RMS | fixed 6 kHz series meter, RMS |\n\
+         |---:|---|---:|---:|---|---:|---:|---:|---:|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} of {} | {:.2} pF ({:.3} %) | {:.2} pF ({:.3} %) | {:.3} mm | {:.1} pF |",
+            "| {} | {} | {} | {} | {} | {:.2} pF ({:.3} %) | {:.2} pF ({:.3} %) | {:.3} mm | {:.1} pF |",
             r.channel,
             r.motion,
-            r.valid,
-            r.records,
+            r.availability.records,
+            percent(&r.availability),
+            r.availability.why(),
             r.c_pf.0,
             r.c_pct.0,
             r.c_pf.1,
@@ -163,17 +162,14 @@ pub fn channel_table(rows: &[ChannelFigures]) -> String {
 pub struct SensorFigures {
     /// Sensor.
     pub sensor: u8,
-    /// Records logged.
-    pub records: usize,
+    /// Its records: how many, the share valid, and why the others were
+    /// not.
+    pub availability: Availability,
     /// Records per second.
     pub rate: f64,
-    /// Records flagged valid.
-    pub valid: usize,
     /// Line-corrected C against the truth over the valid records: RMS and
     /// max, %.
     pub c_pct: (f64, f64),
-    /// Records flagged by the model check.
-    pub model_flags: usize,
     /// The tones its records used, Hz.
     pub tones: Vec<u32>,
 }
@@ -199,11 +195,9 @@ pub fn sensors(recs: &[LoggedToneRecord]) -> Result<Vec<SensorFigures>> {
             tones.dedup();
             Ok(SensorFigures {
                 sensor: s,
-                records: rs.len(),
+                availability: availability(rs.iter().map(|r| r.rec.flags)),
                 rate: (rs.len() - 1) as f64 / (last.t_s() - first.t_s()),
-                valid: valid.len(),
                 c_pct: (rms, mx),
-                model_flags: rs.iter().filter(|r| r.rec.flags.has(Flags::MODEL)).count(),
                 tones,
             })
         })
@@ -213,17 +207,43 @@ pub fn sensors(recs: &[LoggedToneRecord]) -> Result<Vec<SensorFigures>> {
 /// The table of [`sensors`], a row per sensor.
 pub fn sensor_table(rows: &[SensorFigures]) -> String {
     let mut md = String::from(
-        "| sensor | records | per second | valid | C RMS | C max | model flags | tones used [Hz] |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---|\n",
+        "| sensor | records | per second | valid | not valid: faults | C RMS | C max | tones used [Hz] |\n\
+         |---:|---:|---:|---:|---|---:|---:|---|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {:.1} | {} | {:.3} % | {:.3} % | {} | {:?} |",
-            r.sensor, r.records, r.rate, r.valid, r.c_pct.0, r.c_pct.1, r.model_flags, r.tones
+            "| {} | {} | {:.1} | {} | {} | {:.3} % | {:.3} % | {:?} |",
+            r.sensor,
+            r.availability.records,
+            r.rate,
+            percent(&r.availability),
+            r.availability.why(),
+            r.c_pct.0,
+            r.c_pct.1,
+            r.tones
         );
     }
     md
+}
+
+/// The availability of records with these flags.
+pub fn availability(flags: impl IntoIterator<Item = instrument::faults::Flags>) -> Availability {
+    let mut a = Availability::new();
+    for f in flags {
+        a.count(f);
+    }
+    a
+}
+
+/// A table cell: the share valid with its counts, `97.2 % (2187 of 2250)`.
+pub fn percent(a: &Availability) -> String {
+    format!(
+        "{:.1} % ({} of {})",
+        100.0 * a.share().unwrap_or(0.0),
+        a.valid,
+        a.records
+    )
 }
 
 /// Least and largest of `v` as "a–b" (or "a" when they agree) with
@@ -259,7 +279,7 @@ pub fn channel_headline(channels: &[ChannelFigures]) -> String {
             ),
             format!(
                 "{:.3} % RMS, {:.3} % max ({} of {} records valid)",
-                c.c_pct.0, c.c_pct.1, c.valid, c.records
+                c.c_pct.0, c.c_pct.1, c.availability.valid, c.availability.records
             ),
         ));
     }
@@ -277,8 +297,10 @@ pub fn channel_headline(channels: &[ChannelFigures]) -> String {
 
 /// The headline figures of an array run (a table of `figures`).
 pub fn sensor_headline(sensors: &[SensorFigures]) -> String {
-    let records: usize = sensors.iter().map(|s| s.records).sum();
-    let valid: usize = sensors.iter().map(|s| s.valid).sum();
+    let mut all = Availability::new();
+    for s in sensors {
+        all.add(&s.availability);
+    }
     figures::table(&[(
         format!(
             "C error, array firmware in QEMU, {} sensors at once, {} records/s each",
@@ -286,11 +308,17 @@ pub fn sensor_headline(sensors: &[SensorFigures]) -> String {
             span(sensors.iter().map(|s| s.rate), 1)
         ),
         format!(
-            "{} % RMS, {} % max per sensor ({} of {} records valid)",
+            "{} % RMS, {} % max per sensor ({} of {} records valid, {} % per sensor)",
             span(sensors.iter().map(|s| s.c_pct.0), 3),
             span(sensors.iter().map(|s| s.c_pct.1), 2),
-            valid,
-            records
+            all.valid,
+            all.records,
+            span(
+                sensors
+                    .iter()
+                    .filter_map(|s| Some(100.0 * s.availability.share()?)),
+                1
+            )
         ),
     )])
 }
