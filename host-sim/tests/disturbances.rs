@@ -105,6 +105,28 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         m.flagged() * 100 <= m.records() && a.flagged() * 100 <= a.records(),
         "{m:?} {a:?}"
     );
+    // One tone's error alone (in its bin, a mains harmonic on it): the
+    // array reads a record from the other two (TONE_LEFT_OUT), some 46-48 %
+    // of them where the model check alone kept 6 %; a misfit spread over
+    // the tones (undeclared wiring, a film's loss or dispersion) is never
+    // read so.
+    let array_of = |name: &str| {
+        let (_, _, a) = rows.iter().find(|(c, _, _)| c.name == name).expect(name);
+        a.clone().expect(name)
+    };
+    for name in ["mains harmonic at the tone", "interferer in the tone's bin"] {
+        let a = array_of(name);
+        assert!(a.flagged() * 10 <= a.records() * 6, "{name}: {a:?}");
+    }
+    for name in [
+        "contact resistance",
+        "parasitic capacitance",
+        "dielectric loss",
+        "dispersion of C",
+    ] {
+        let a = array_of(name);
+        assert!(a.flagged() * 100 >= a.records() * 99, "{name}: {a:?}");
+    }
     // The clean skin: ≥ 99 % of the records vouched for on both paths.
     let (_, m, a) = &rows[0];
     let a = a.as_ref().expect("the array runs the clean skin");

@@ -249,6 +249,8 @@ impl Channel {
             dielectric: &s.dielectric,
             thresholds: th,
             chi2_flag: twotone::CHI2_FLAG,
+            // Two tones: no pair to rescue a record from.
+            chi2_pair_flag: f32::NAN,
             policy: &s.policy,
             set_hz: &FREQS_HZ,
         };

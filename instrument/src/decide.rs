@@ -12,7 +12,9 @@
 //!    tones) or RANGE (no line inverts), and out of range a free channel
 //!    falls back to its lowest frequency.
 //! 3. The stretch from the sensor's calibration, and its status.
-//! 4. χ² above the flag: MODEL, and the line is not tracked.
+//! 4. χ² above the flag: of three tones, the line of the two that agree
+//!    where the third alone disagrees ([`crate::joint::rescue`]:
+//!    [`Flags::TONE_LEFT_OUT`]); else MODEL, and the line is not tracked.
 //! 5. The error bound: five σ of the block's noise, what a disturbance
 //!    the reader sees could have moved C by, and what an error at one
 //!    tone nothing sees could hide behind χ² ([`crate::joint::hidden`]).
@@ -23,7 +25,7 @@
 //!    moves on it.
 
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{hidden, Joint, Unsolved};
+use crate::joint::{hidden, rescue, Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
@@ -41,6 +43,9 @@ pub struct Rules<'a, const N: usize> {
     pub thresholds: &'a Thresholds,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
+    /// χ² above which a pair of three tones is flagged, for a record
+    /// rescued from two of them ([`crate::joint::rescue`]); NaN: none.
+    pub chi2_pair_flag: f32,
     /// Frequency policy.
     pub policy: &'a Policy,
     /// The frequencies the policy moves on, Hz, ascending.
@@ -120,7 +125,7 @@ impl Course {
         let solved =
             self.joint
                 .solve_behind(sensor, rules.dielectric, tones, self.prior_farad, rules.chi2_flag);
-        let sol = match solved {
+        let mut sol = match solved {
             Ok(sol) => sol,
             Err(why) => {
                 if why == Unsolved::Range {
@@ -130,14 +135,22 @@ impl Course {
                 return None;
             }
         };
+        let mut chi2_flag = rules.chi2_flag;
+        if sol.chi2 > chi2_flag {
+            if let Some((pair, _)) = rescue(sensor, rules.dielectric, &tones, &sol, rules.chi2_pair_flag) {
+                sol = pair;
+                chi2_flag = rules.chi2_pair_flag;
+                flags.set(Flags::TONE_LEFT_OUT);
+            }
+        }
         let line = sol.line;
         let (stretch_mm, status) = sensor.read(line.c_farad, th.c_tolerance);
         flags.set(status);
-        let consistent = sol.chi2 <= rules.chi2_flag;
+        let consistent = sol.chi2 <= chi2_flag;
         if !consistent {
             flags.set(Flags::MODEL);
         }
-        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(&sol, rules.chi2_flag);
+        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(&sol, chi2_flag);
         if bound.is_nan() || bound > th.c_tolerance {
             flags.set(Flags::UNCERTAIN);
         }

@@ -256,6 +256,7 @@ impl<const N: usize> Digestible for ToneSettings<'_, N> {
             self.front_end,
             self.sensors,
             self.chi2_flag,
+            self.chi2_pair_flag,
             self.record_every,
         );
     }

@@ -54,10 +54,15 @@ impl Flags {
     /// block's samples may have overwritten its own, so nothing of it is
     /// vouched for. Counted in the link's status frames.
     pub const LATE: u16 = 1 << 11;
+    /// Status, not a fault: of the record's three tones, one disagreed
+    /// with the line and the other two agree on it (an interferer in its
+    /// bin, a mains harmonic or an alias on it): C and R are the line of
+    /// those two, vouched for by their own check and bound.
+    pub const TONE_LEFT_OUT: u16 = 1 << 12;
 
     /// Every flag and its name, in bit order (as
     /// `docs/data-format.md` names them).
-    pub const NAMES: [(u16, &'static str); 12] = [
+    pub const NAMES: [(u16, &'static str); 13] = [
         (Self::CLIPPED, "CLIPPED"),
         (Self::OPEN, "OPEN"),
         (Self::SHORTED, "SHORTED"),
@@ -70,6 +75,7 @@ impl Flags {
         (Self::UNCALIBRATED, "UNCALIBRATED"),
         (Self::OFF_TABLE, "OFF_TABLE"),
         (Self::LATE, "LATE"),
+        (Self::TONE_LEFT_OUT, "TONE_LEFT_OUT"),
     ];
 
     /// The names of the flags set, in bit order (bits without a name are
@@ -97,8 +103,8 @@ impl Flags {
         self.valid() && self.0 & (Self::UNCALIBRATED | Self::OFF_TABLE) == 0
     }
 
-    /// The faults: every flag but the two statuses
-    /// ([`Flags::UNCALIBRATED`], [`Flags::OFF_TABLE`]).
+    /// The faults: every flag but the statuses ([`Flags::UNCALIBRATED`],
+    /// [`Flags::OFF_TABLE`], [`Flags::TONE_LEFT_OUT`]).
     pub const FAULTS: u16 = Self::CLIPPED
         | Self::OPEN
         | Self::SHORTED

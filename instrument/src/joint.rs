@@ -112,6 +112,64 @@ impl Joint {
     }
 }
 
+/// How far past its flag each pair that keeps the tone left out must
+/// fail, for a rescue ([`rescue`]): one tone's error shows in both pairs
+/// that hold it alike, where a misfit spread over the tones (a wiring or
+/// a film the line lacks) leaves pairs near their flag.
+const CLEAR: f32 = 10.0;
+
+/// A record of three tones whose line fails the model check, rescued from
+/// two of them: where leaving out exactly one tone leaves a pair that one
+/// uniform line explains within the pair's own flag `pair_flag` (χ² of 2
+/// degrees of freedom), and the two pairs that keep that tone both fail,
+/// the misfit is that tone's alone (an interferer in its bin, a mains
+/// harmonic or an alias on it): the pair's line, and the index of the
+/// tone left out. None where no pair passes, or more than one (the
+/// misfit is spread over the tones: a wiring or a film the line lacks,
+/// and nothing says which tone is wrong), or with fewer than three
+/// tones. `tones` as measured (the sensor's wiring is taken out here),
+/// `from` the three tones' line, where each pair's fit starts. Run only
+/// on a record that failed the check: out of line, with the code that
+/// runs once a record at most.
+#[inline(never)]
+pub fn rescue<const N: usize, const K: usize>(
+    sensor: &Sensor<N>,
+    d: &Dielectric,
+    tones: &[Tone; K],
+    from: &Solution,
+    pair_flag: f32,
+) -> Option<(Solution, usize)> {
+    if K != 3 || pair_flag.is_nan() || pair_flag <= 0.0 {
+        return None;
+    }
+    let mut behind = *tones;
+    for t in behind.iter_mut() {
+        t.z = sensor.fixture.remove(t.z, t.f_hz).ok()?;
+    }
+    let (r, c, t) = (from.line.r_ohm, from.line.c_farad, from.loss_tangent);
+    let inv = sensor.tracker.inverter();
+    let mut passed: Option<(Solution, usize)> = None;
+    for out in 0..K {
+        let (a, b) = match out {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let Ok(sol) = twotone::solve_from(inv, d, &[behind[a], behind[b]], r, c, t) else {
+            continue;
+        };
+        if sol.chi2 <= pair_flag {
+            if passed.is_some() {
+                return None;
+            }
+            passed = Some((sol, out));
+        } else if sol.chi2 <= CLEAR * pair_flag {
+            return None;
+        }
+    }
+    passed
+}
+
 /// What an error at one tone that nothing else sees (an interferer at
 /// its frequency, an alias of it) could hide behind the χ² of `sol`,
 /// relative to C: `hidden_ln_c` per unit of that error's share of the

@@ -58,6 +58,10 @@ pub struct ToneSettings<'a, const N: usize> {
     pub dielectric: Dielectric,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
+    /// χ² above which a pair of a record's three tones is flagged, for a
+    /// record rescued from two of them ([`crate::joint::rescue`]); NaN:
+    /// no rescue (the 1 ms layout's default).
+    pub chi2_pair_flag: f32,
     /// One block's records reported in every this many
     /// ([`crate::reader::ArrayReader::solve`]).
     pub record_every: u8,
@@ -83,6 +87,14 @@ impl<'a, const N: usize> ToneSettings<'a, N> {
             sensors,
             dielectric: Dielectric::SILICONE,
             chi2_flag: twotone::chi2_flag_of(1e-4, 3, layout.residual_dof()),
+            // A record that fails the check takes three more solves to be
+            // rescued: 4 ms blocks have room for them, 1 ms blocks not
+            // (docs/benchmarks.md: 80 % of the core already).
+            chi2_pair_flag: if layout.block_us() >= 4000 {
+                twotone::chi2_flag_of(1e-4, 2, layout.residual_dof())
+            } else {
+                f32::NAN
+            },
             record_every: 1,
             sweep: None,
         }
@@ -226,6 +238,7 @@ impl ToneChannel {
             dielectric: &s.dielectric,
             thresholds: th,
             chi2_flag: s.chi2_flag,
+            chi2_pair_flag: s.chi2_pair_flag,
             policy: &s.policy,
             set_hz: &set_hz,
         };
