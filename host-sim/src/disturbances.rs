@@ -293,7 +293,7 @@ pub struct Outcome {
 
 impl Outcome {
     /// Nothing counted.
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             availability: Availability::new(),
             valid_off: 0,
@@ -311,7 +311,8 @@ impl Outcome {
         self.availability.invalid() as usize
     }
 
-    fn add(&mut self, flags: Flags, c_farad: f32, truth: f64) {
+    /// Count a record with `flags` and its C against the truth.
+    pub(crate) fn add(&mut self, flags: Flags, c_farad: f32, truth: f64) {
         self.availability.count(flags);
         if !flags.valid() {
             return;

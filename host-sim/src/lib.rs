@@ -7,6 +7,7 @@
 //!   demodulator, or an ideal LCR meter).
 //! * [`dataset`]: reading measured data sets, with the format's checks.
 //! * [`disturbances`]: the disturbance table: each class on both firmware paths.
+//! * [`availability`]: the share of a clean skin's records the array keeps valid, across the documented sensors.
 //! * [`model`]: the forward model with the candidate effects (f64).
 //! * [`numerics`]: the shared numerical helpers (solve, fits, interpolation, statistics).
 //! * [`identify`]: trace a residual to an effect by model selection.
@@ -16,6 +17,7 @@
 //! * [`recording`]: firmware recordings (the wire format) → data sets.
 //! * [`si`]: SI-prefixed numbers for the command line.
 
+pub mod availability;
 pub mod baseline;
 pub mod chain;
 pub mod dataset;
