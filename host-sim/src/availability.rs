@@ -8,11 +8,9 @@
 //! none of the valid ones is 1 % off.
 
 use crate::disturbances::Outcome;
-use dsp_core::fixture::Fixture;
 use instrument::array::{Frame, Layout, BLOCK_INSTANTS, SENSORS, TONES};
 use instrument::availability::Availability;
 use instrument::reader::ArrayReader;
-use instrument::sensor::{Sensor as Measured, Sensors};
 use instrument::tones::ToneSettings;
 use skin_sim::array::ArrayFrontEnd;
 use skin_sim::frontend::Disturbance;
@@ -58,11 +56,7 @@ pub fn run(case: Case) -> Kept {
     let mut params = SensorParams::PAPER;
     params.top.r_rest_ohm *= case.r_scale;
     params.bottom.r_rest_ohm *= case.r_scale;
-    let lead = params.effects.lead_ratio();
-    let each = Sensors::from_fn(|_| {
-        Measured::calibrated(skin_sim::sensor::PAPER_CALIBRATION, lead, Fixture::NONE)
-            .expect("the paper's calibration is valid")
-    });
+    let each = crate::disturbances::paper_sensors();
     let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
     let mut reader = ArrayReader::new(layout, &each).expect("the array's comb lays out");
     let profile = if case.rate_mm_s > 0.0 {

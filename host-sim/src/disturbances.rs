@@ -458,11 +458,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
     }
     let fe = ArrayFrontEnd::reference(layout);
     let paper = SensorParams::PAPER;
-    let lead = paper.effects.lead_ratio();
-    let each = Sensors::from_fn(|_| {
-        Measured::calibrated(skin_sim::sensor::PAPER_CALIBRATION, lead, Fixture::NONE)
-            .expect("the paper's calibration is valid")
-    });
+    let each = paper_sensors();
     let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
     let mut reader = ArrayReader::new(layout, &each).expect("the array's comb lays out");
     let mut rng = Rng::new(0xa77a);
@@ -509,6 +505,16 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
         );
     }
     Some(out)
+}
+
+/// Every sensor of the array as the firmware reads a paper's sensor: its
+/// calibration and its tab leads, no wiring.
+pub(crate) fn paper_sensors() -> Sensors<{ calib::POINTS }, SENSORS> {
+    let lead = SensorParams::PAPER.effects.lead_ratio();
+    Sensors::from_fn(|_| {
+        Measured::calibrated(skin_sim::sensor::PAPER_CALIBRATION, lead, Fixture::NONE)
+            .expect("the paper's calibration is valid")
+    })
 }
 
 /// One row of the table: a class, what the multiplexed channel made of
