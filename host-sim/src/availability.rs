@@ -29,6 +29,11 @@ pub struct Case {
     pub r_scale: f64,
     /// Stretch rate, mm/s; 0 holds the sensors at half the stroke.
     pub rate_mm_s: f64,
+    /// Seconds into the cycle the first sensor starts (the others 0.4 s
+    /// later each).
+    pub phase_s: f64,
+    /// The front end's noise.
+    pub seed: u64,
 }
 
 /// What the array made of a case: over every sensor, and its least
@@ -64,7 +69,7 @@ pub fn run(case: Case) -> Kept {
     } else {
         Profile::Constant(15.0)
     };
-    let offset = |s: usize| 0.4 * s as f64;
+    let offset = |s: usize| case.phase_s + 0.4 * s as f64;
     let mut sensors: Vec<Sensor> = (0..SENSORS)
         .map(|s| {
             let mut sensor = Sensor::settled(params);
@@ -72,7 +77,7 @@ pub fn run(case: Case) -> Kept {
             sensor
         })
         .collect();
-    let mut rng = Rng::new(0xa5a1 ^ case.r_scale.to_bits() ^ case.rate_mm_s.to_bits().rotate_left(17));
+    let mut rng = Rng::new(case.seed);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
     let block_s = layout.block_us() as f64 * 1e-6;
     let blocks = ((SETTLE_S + SECONDS) / block_s) as u64;
@@ -126,6 +131,8 @@ pub fn cases() -> Vec<Case> {
                     layout,
                     r_scale,
                     rate_mm_s,
+                    phase_s: 0.0,
+                    seed: 0xa5a1 ^ r_scale.to_bits() ^ rate_mm_s.to_bits().rotate_left(17),
                 });
             }
         }

@@ -153,3 +153,50 @@ fn a_clean_skin_keeps_its_records_across_the_documented_sensors() {
     }
     figures::check("docs/accuracy.md", "array-availability", &markdown(&rows)).unwrap();
 }
+
+/// Cases of [`availability_fuzz`]: `FUZZ_CASES` / 500, at least 8 (each
+/// case is sixteen sensors for 2.2 s).
+fn availability_cases() -> u32 {
+    let all: u32 = std::env::var("FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100_000);
+    (all / 500).max(8)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig {
+        cases: availability_cases(),
+        failure_persistence: None,
+        ..proptest::prelude::ProptestConfig::default()
+    })]
+
+    /// A clean skin anywhere in the documented range (electrodes 0.5–2
+    /// times the paper's, held or stretching at up to 50 mm/s, any phase
+    /// of its cycle, either layout): no valid record 1 % off; and where
+    /// the availability goal holds today (electrodes up to the paper's,
+    /// held, 250 records/s), every sensor keeps ≥ 99 % of its records
+    /// valid. (Moving, it does not yet: electrodes 0.91 times the paper's
+    /// at 5 mm/s left a sensor 98 %, UNCERTAIN.)
+    #[test]
+    fn availability_fuzz(
+        r_scale in 0.5f64..2.0,
+        rate in proptest::prop_oneof![proptest::strategy::Just(0.0f64), 5.0f64..50.0],
+        phase_s in 0.0f64..10.0,
+        short in proptest::bool::weighted(0.25),
+        seed in proptest::prelude::any::<u64>(),
+    ) {
+        let case = host_sim::availability::Case {
+            layout: if short { Layout::BLOCK_1MS } else { Layout::BLOCK_4MS },
+            r_scale,
+            rate_mm_s: rate,
+            phase_s,
+            seed,
+        };
+        let k = host_sim::availability::run(case);
+        proptest::prop_assert_eq!(k.all.valid_off, 0, "{:?}", k);
+        if !short && r_scale <= 1.0 && rate == 0.0 {
+            proptest::prop_assert!(k.least >= 0.99, "{:?}", k);
+        }
+    }
+}
