@@ -118,6 +118,12 @@ impl Joint {
 /// a film the line lacks) leaves pairs near their flag.
 const CLEAR: f32 = 10.0;
 
+/// The σ, Ω, that takes a tone out of a fit: its residual and its
+/// derivatives scale by 1/σ, and their squares (below 10⁻²⁶ of a
+/// measured tone's) vanish in every sum, while the fit's checks, which
+/// want a finite σ, pass.
+const UNWEIGHTED_SIGMA_OHM: f32 = 1e20;
+
 /// A record of three tones whose line fails the model check, rescued from
 /// two of them: where leaving out exactly one tone leaves a pair that one
 /// uniform line explains within the pair's own flag `pair_flag` (χ² of 2
@@ -150,14 +156,15 @@ pub fn rescue<const N: usize, const K: usize>(
     let inv = sensor.tracker.inverter();
     let mut passed: Option<(Solution, usize)> = None;
     for out in 0..K {
-        let (a, b) = match out {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        };
-        let Ok(sol) = twotone::solve_from(inv, d, &[behind[a], behind[b]], r, c, t) else {
+        // The pair: the third tone kept in the fit with no weight (so
+        // that the three tones' code fits it, not a second copy of it
+        // for two), its degrees of freedom the pair's.
+        let mut pair = behind;
+        pair[out].sigma_ohm = UNWEIGHTED_SIGMA_OHM;
+        let Ok(mut sol) = twotone::solve_from(inv, d, &pair, r, c, t) else {
             continue;
         };
+        sol.dof = (2 * (K - 1) - 2) as f32;
         if sol.chi2 <= pair_flag {
             if passed.is_some() {
                 return None;
