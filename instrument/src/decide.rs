@@ -125,7 +125,7 @@ impl Course {
         let solved =
             self.joint
                 .solve_behind(sensor, rules.dielectric, tones, self.prior_farad, rules.chi2_flag);
-        let mut sol = match solved {
+        let sol = match solved {
             Ok(sol) => sol,
             Err(why) => {
                 if why == Unsolved::Range {
@@ -135,14 +135,21 @@ impl Course {
                 return None;
             }
         };
-        let mut chi2_flag = rules.chi2_flag;
-        if sol.chi2 > chi2_flag {
-            if let Some((pair, _)) = rescue(sensor, rules.dielectric, &tones, &sol, rules.chi2_pair_flag) {
-                sol = pair;
-                chi2_flag = rules.chi2_pair_flag;
-                flags.set(Flags::TONE_LEFT_OUT);
-            }
+        // (The rescue reads the line's three numbers, not the solution:
+        // its address kept from calls, the channels' own path copies
+        // nothing.)
+        let mut pair = None;
+        if sol.chi2 > rules.chi2_flag {
+            let start = (sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent);
+            pair = rescue(sensor, rules.dielectric, &tones, start, rules.chi2_pair_flag);
         }
+        let (sol, chi2_flag) = match &pair {
+            Some(p) => {
+                flags.set(Flags::TONE_LEFT_OUT);
+                (p, rules.chi2_pair_flag)
+            }
+            None => (&sol, rules.chi2_flag),
+        };
         let line = sol.line;
         let (stretch_mm, status) = sensor.read(line.c_farad, th.c_tolerance);
         flags.set(status);
@@ -150,7 +157,7 @@ impl Course {
         if !consistent {
             flags.set(Flags::MODEL);
         }
-        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(&sol, chi2_flag);
+        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(sol, chi2_flag);
         if bound.is_nan() || bound > th.c_tolerance {
             flags.set(Flags::UNCERTAIN);
         }
@@ -170,7 +177,7 @@ impl Course {
             return Some(reading);
         }
         if consistent {
-            self.joint.keep(&sol);
+            self.joint.keep(sol);
         }
         if !self.pinned {
             rules

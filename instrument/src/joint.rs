@@ -129,32 +129,36 @@ const UNWEIGHTED_SIGMA_OHM: f32 = 1e20;
 /// uniform line explains within the pair's own flag `pair_flag` (χ² of 2
 /// degrees of freedom), and the two pairs that keep that tone both fail,
 /// the misfit is that tone's alone (an interferer in its bin, a mains
-/// harmonic or an alias on it): the pair's line, and the index of the
-/// tone left out. None where no pair passes, or more than one (the
+/// harmonic or an alias on it): the pair's line. None where no pair
+/// passes, or more than one (the
 /// misfit is spread over the tones: a wiring or a film the line lacks,
 /// and nothing says which tone is wrong), or with fewer than three
 /// tones. `tones` as measured (the sensor's wiring is taken out here),
-/// `from` the three tones' line, where each pair's fit starts. Run only
-/// on a record that failed the check: out of line, with the code that
-/// runs once a record at most.
+/// `start` the three tones' line (R Ω, C F, tan δ), where each pair's
+/// fit starts. Run only on a record that failed the check: out of line,
+/// with the code that runs once a record at most.
+#[cold]
 #[inline(never)]
 pub fn rescue<const N: usize, const K: usize>(
     sensor: &Sensor<N>,
     d: &Dielectric,
     tones: &[Tone; K],
-    from: &Solution,
+    start: (f32, f32, f32),
     pair_flag: f32,
-) -> Option<(Solution, usize)> {
+) -> Option<Solution> {
     if K != 3 || pair_flag.is_nan() || pair_flag <= 0.0 {
         return None;
     }
     let mut behind = *tones;
     for t in behind.iter_mut() {
-        t.z = sensor.fixture.remove(t.z, t.f_hz).ok()?;
+        match sensor.fixture.remove(t.z, t.f_hz) {
+            Ok(z) => t.z = z,
+            Err(_) => return None,
+        }
     }
-    let (r, c, t) = (from.line.r_ohm, from.line.c_farad, from.loss_tangent);
+    let (r, c, t) = start;
     let inv = sensor.tracker.inverter();
-    let mut passed: Option<(Solution, usize)> = None;
+    let mut passed: Option<Solution> = None;
     for out in 0..K {
         // The pair: the third tone kept in the fit with no weight (so
         // that the three tones' code fits it, not a second copy of it
@@ -169,7 +173,7 @@ pub fn rescue<const N: usize, const K: usize>(
             if passed.is_some() {
                 return None;
             }
-            passed = Some((sol, out));
+            passed = Some(sol);
         } else if sol.chi2 <= CLEAR * pair_flag {
             return None;
         }
