@@ -289,6 +289,9 @@ pub struct Outcome {
     pub valid_off: usize,
     /// The worst relative error of C among the valid records.
     pub worst_valid: f64,
+    /// Records read at tones moved off one an interferer occupies
+    /// ([`Flags::TONE_MOVED`]).
+    pub moved: usize,
 }
 
 impl Outcome {
@@ -298,6 +301,7 @@ impl Outcome {
             availability: Availability::new(),
             valid_off: 0,
             worst_valid: 0.0,
+            moved: 0,
         }
     }
 
@@ -314,6 +318,7 @@ impl Outcome {
     /// Count a record with `flags` and its C against the truth.
     pub(crate) fn add(&mut self, flags: Flags, c_farad: f32, truth: f64) {
         self.availability.count(flags);
+        self.moved += usize::from(flags.has(Flags::TONE_MOVED));
         if !flags.valid() {
             return;
         }
@@ -450,6 +455,21 @@ pub fn array(class: &Class) -> Option<Outcome> {
 /// The array under `class` in blocks of `layout` (0.4 s of them), or
 /// `None` where its front end does not simulate the class.
 pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
+    array_for(layout, class, &Profile::paper(20.0), 0.4, 1e-9)
+}
+
+/// The array under `class` in blocks of `layout`, its sensors stretched
+/// by `profile` (sensor s a 0.4·s s later in it), for `duration_s`,
+/// counting the records of the blocks that start `from_s` or later, or
+/// `None` where its front end does not simulate the class. The class
+/// starts with the run.
+pub fn array_for(
+    layout: Layout,
+    class: &Class,
+    profile: &Profile,
+    duration_s: f64,
+    from_s: f64,
+) -> Option<Outcome> {
     if matches!(
         class.front,
         Front::Step(_) | Front::Offset(_) | Front::Burst(..) | Front::Stuck(_)
@@ -464,7 +484,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
     let mut rng = Rng::new(0xa77a);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
     let block_s = layout.block_us() as f64 * 1e-6;
-    let duration = 0.4;
+    let duration = duration_s;
     let blocks = (duration / block_s) as u64;
     let hz = layout.tones_hz().map(|f| f as f64);
     let mut out = Outcome::new();
@@ -479,7 +499,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
         let mut truth = [0.0; SENSORS];
         for s in 0..SENSORS {
             let mut sensor = Sensor::settled(sensor_params(paper, &class.sensor, t, duration));
-            sensor.advance(&Profile::paper(20.0), 0.4 * s as f64 + t);
+            sensor.advance(profile, 0.4 * s as f64 + t);
             z[s] = hz.map(|f| seen(&sensor, &class.sensor, f));
             truth[s] = sensor.truth().c_farad;
         }
@@ -498,7 +518,7 @@ pub fn array_in(layout: Layout, class: &Class) -> Option<Outcome> {
             |a| layout.rows(&frame[a]),
             |input| clipped[input],
             |rec| {
-                if b > 0 {
+                if t >= from_s {
                     out.add(rec.flags, rec.c_farad, truth[usize::from(rec.sensor)]);
                 }
             },

@@ -76,7 +76,13 @@ pub struct Course {
     prior_farad: f32,
     last_t_us: Option<u64>,
     pinned: bool,
+    /// The tone of the last block's three that alone disagreed with the
+    /// line ([`crate::joint::rescue`]'s `suspect`); [`NO_SUSPECT`]: none.
+    suspect: u8,
 }
+
+/// [`Course::suspect`]'s "none".
+const NO_SUSPECT: u8 = u8::MAX;
 
 impl Course {
     /// A channel whose sensor rests at `prior_farad` (F); `pinned`: its
@@ -87,7 +93,17 @@ impl Course {
             prior_farad,
             last_t_us: None,
             pinned,
+            suspect: NO_SUSPECT,
         }
+    }
+
+    /// Of the last block's tones (their index in `decide`'s `tones`),
+    /// the one that alone disagreed with the line, where its two
+    /// companions agree within their own check: where an interferer may
+    /// sit. Evidence, not a verdict: the record is flagged as `decide`
+    /// says.
+    pub fn suspect(&self) -> Option<usize> {
+        (self.suspect != NO_SUSPECT).then_some(usize::from(self.suspect))
     }
 
     /// Seconds since the previous block (0 for the first), block time
@@ -117,6 +133,7 @@ impl Course {
         flags: &mut Flags,
     ) -> Option<Reading> {
         const BIASED: u16 = Flags::OPEN | Flags::SHORTED | Flags::CLIPPED | Flags::DISTURBED;
+        self.suspect = NO_SUSPECT;
         if flags.0 & BIASED != 0 {
             return None;
         }
@@ -141,7 +158,14 @@ impl Course {
         let mut pair = None;
         if sol.chi2 > rules.chi2_flag {
             let start = (sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent);
-            pair = rescue(sensor, rules.dielectric, &tones, start, rules.chi2_pair_flag);
+            pair = rescue(
+                sensor,
+                rules.dielectric,
+                &tones,
+                start,
+                rules.chi2_pair_flag,
+                &mut self.suspect,
+            );
         }
         let (sol, chi2_flag) = match &pair {
             Some(p) => {

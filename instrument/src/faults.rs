@@ -59,10 +59,15 @@ impl Flags {
     /// bin, a mains harmonic or an alias on it): C and R are the line of
     /// those two, vouched for by their own check and bound.
     pub const TONE_LEFT_OUT: u16 = 1 << 12;
+    /// Status, not a fault: the channel moved its tones off one that an
+    /// interferer occupies (the tone its checks kept singling out): the
+    /// record is read at three others, with the same checks as any
+    /// (the array's; `crate::tones::Avoidance`).
+    pub const TONE_MOVED: u16 = 1 << 13;
 
     /// Every flag and its name, in bit order (as
     /// `docs/data-format.md` names them).
-    pub const NAMES: [(u16, &'static str); 13] = [
+    pub const NAMES: [(u16, &'static str); 14] = [
         (Self::CLIPPED, "CLIPPED"),
         (Self::OPEN, "OPEN"),
         (Self::SHORTED, "SHORTED"),
@@ -76,6 +81,7 @@ impl Flags {
         (Self::OFF_TABLE, "OFF_TABLE"),
         (Self::LATE, "LATE"),
         (Self::TONE_LEFT_OUT, "TONE_LEFT_OUT"),
+        (Self::TONE_MOVED, "TONE_MOVED"),
     ];
 
     /// The names of the flags set, in bit order (bits without a name are
@@ -104,7 +110,7 @@ impl Flags {
     }
 
     /// The faults: every flag but the statuses ([`Flags::UNCALIBRATED`],
-    /// [`Flags::OFF_TABLE`], [`Flags::TONE_LEFT_OUT`]).
+    /// [`Flags::OFF_TABLE`], [`Flags::TONE_LEFT_OUT`], [`Flags::TONE_MOVED`]).
     pub const FAULTS: u16 = Self::CLIPPED
         | Self::OPEN
         | Self::SHORTED

@@ -130,13 +130,20 @@ const UNWEIGHTED_SIGMA_OHM: f32 = 1e20;
 /// degrees of freedom), and the two pairs that keep that tone both fail,
 /// the misfit is that tone's alone (an interferer in its bin, a mains
 /// harmonic or an alias on it): the pair's line. None where no pair
-/// passes, or more than one (the
-/// misfit is spread over the tones: a wiring or a film the line lacks,
-/// and nothing says which tone is wrong), or with fewer than three
-/// tones. `tones` as measured (the sensor's wiring is taken out here),
-/// `start` the three tones' line (R Ω, C F, tan δ), where each pair's
-/// fit starts. Run only on a record that failed the check: out of line,
-/// with the code that runs once a record at most.
+/// passes, or more than one (the misfit is spread over the tones: a
+/// wiring or a film the line lacks, and nothing says which tone is
+/// wrong), or with fewer than three tones. `tones` as measured (the
+/// sensor's wiring is taken out here), `start` the three tones' line (R
+/// Ω, C F, tan δ), where each pair's fit starts.
+///
+/// `suspect` is set to the index (into `tones`) of the tone a rescued
+/// record leaves out: the evidence a channel moves its tones on
+/// ([`crate::avoid`]); left as it was otherwise. (Pairs that fail by
+/// less than [`CLEAR`] times their flag are no evidence either: taken
+/// as such, a film's dispersion moved channels off one tone, and the
+/// three others passed the check 1.07 % off the film's C at rest.) Run only on a record
+/// that failed the check: out of line, with the code that runs once a
+/// record at most.
 #[cold]
 #[inline(never)]
 pub fn rescue<const N: usize, const K: usize>(
@@ -145,6 +152,7 @@ pub fn rescue<const N: usize, const K: usize>(
     tones: &[Tone; K],
     start: (f32, f32, f32),
     pair_flag: f32,
+    suspect: &mut u8,
 ) -> Option<Solution> {
     if K != 3 || pair_flag.is_nan() || pair_flag <= 0.0 {
         return None;
@@ -158,7 +166,10 @@ pub fn rescue<const N: usize, const K: usize>(
     }
     let (r, c, t) = start;
     let inv = sensor.tracker.inverter();
-    let mut passed: Option<Solution> = None;
+    let mut passed: Option<(usize, Solution)> = None;
+    // The least χ² of the pairs that fail (a pair with no line fails
+    // without bound).
+    let mut least_failed = f32::INFINITY;
     for out in 0..K {
         // The pair: the third tone kept in the fit with no weight (so
         // that the three tones' code fits it, not a second copy of it
@@ -173,12 +184,17 @@ pub fn rescue<const N: usize, const K: usize>(
             if passed.is_some() {
                 return None;
             }
-            passed = Some(sol);
-        } else if sol.chi2 <= CLEAR * pair_flag {
-            return None;
+            passed = Some((out, sol));
+        } else {
+            least_failed = least_failed.min(sol.chi2);
         }
     }
-    passed
+    let (out, sol) = passed?;
+    if least_failed <= CLEAR * pair_flag {
+        return None;
+    }
+    *suspect = out as u8;
+    Some(sol)
 }
 
 /// What an error at one tone that nothing else sees (an interferer at

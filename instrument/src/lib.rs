@@ -26,6 +26,7 @@
 //! | [`frames`] | records as frames of the record link (`link`), and the digests of a start frame |
 //! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs (`skin-spec`) |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
+//! | [`avoid`] | an array channel moving its tones off one an interferer occupies, and back |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
 //!
@@ -46,6 +47,7 @@ extern crate std;
 pub use skin_spec::{array, calib, config, design, effects, ranging};
 
 pub mod availability;
+pub mod avoid;
 pub mod busy;
 pub mod channel;
 pub mod commands;

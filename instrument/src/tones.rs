@@ -22,10 +22,13 @@
 //! what such an error can move C by per unit of √χ² falls about five-fold
 //! ([`dsp_core::twotone::Solution::hidden_ln_c`]), and the record's bound
 //! ([`crate::joint::hidden`]) with it. Switching tones needs no settling:
-//! the excitation never changes.
+//! the excitation never changes. A tone an interferer occupies (records
+//! rescued from the other two, again and again) is left out of the next
+//! records' three ([`crate::avoid`]).
 
 use crate::array::SENSORS;
 use crate::array::{Layout, TONES};
+use crate::avoid::Avoidance;
 use crate::decide::{Course, Rules};
 use crate::faults::{Flags, Thresholds};
 use crate::policy::{Policy, PolicyState};
@@ -155,6 +158,8 @@ pub struct ToneChannel {
     pub policy: PolicyState,
     /// The line from block to block.
     course: Course,
+    /// The tone an interferer occupies, kept out of the fit.
+    pub avoidance: Avoidance,
 }
 
 impl ToneChannel {
@@ -163,6 +168,7 @@ impl ToneChannel {
         Self {
             policy: PolicyState::new(),
             course: Course::new(prior_farad, false),
+            avoidance: Avoidance::new(),
         }
     }
 
@@ -206,7 +212,13 @@ impl ToneChannel {
         rotation: &[Complex32; TONES],
     ) -> ToneRecord {
         let dt = self.course.elapsed(t_us);
-        let pair = s.sweep.map_or_else(|| self.pair(), Self::pair_of);
+        let hi = s.sweep.unwrap_or(self.policy.fidx as u8);
+        let (pair, fitted, moved) = if s.sweep.is_none() && self.avoidance.tone().is_some() {
+            self.avoidance.read_at(hi)
+        } else {
+            let pair = Self::pair_of(hi);
+            (pair, Self::fitted_of(pair), false)
+        };
         let mut rec = ToneRecord {
             t_us,
             sensor: channel,
@@ -217,11 +229,13 @@ impl ToneChannel {
         if !sensor.calibrated {
             rec.flags.set(Flags::UNCALIBRATED);
         }
+        if moved {
+            rec.flags.set(Flags::TONE_MOVED);
+        }
         let th = &s.thresholds;
         if clipped {
             rec.flags.set(Flags::CLIPPED);
         }
-        let fitted = Self::fitted_of(pair);
         let n = v.tones.n.min(i.tones.n);
         let Some(tones) = read_tones(s, v, i, rotation, pair, fitted, &mut rec) else {
             return rec;
@@ -247,6 +261,10 @@ impl ToneChannel {
         let decided = self
             .course
             .decide(&rules, &mut self.policy, tones, disturbance, dt, &mut rec.flags);
+        let suspect = self.course.suspect();
+        if s.sweep.is_none() && (suspect.is_some() || !self.avoidance.idle()) {
+            self.avoidance.update(suspect, &fitted, dt);
+        }
         if let Some(line) = decided {
             rec.c_farad = line.c_farad;
             rec.r_ohm = line.r_ohm;
