@@ -139,7 +139,7 @@ const UNWEIGHTED_SIGMA_OHM: f32 = 1e20;
 /// `suspect` is set to the index (into `tones`) of the tone a rescued
 /// record leaves out: the evidence a channel moves its tones on
 /// ([`crate::avoid`]); left as it was otherwise. (Pairs that fail by
-/// less than [`CLEAR`] times their flag are no evidence either: taken
+/// less than ten times their flag are no evidence either: taken
 /// as such, a film's dispersion moved channels off one tone, and the
 /// three others passed the check 1.07 % off the film's C at rest.) Run only on a record
 /// that failed the check: out of line, with the code that runs once a
