@@ -8,6 +8,7 @@
 //! none of the valid ones is 1 % off.
 
 use crate::disturbances::Outcome;
+use crate::interpolate::{Anchor, Interpolator};
 use instrument::array::{Frame, Layout, BLOCK_INSTANTS, SENSORS, TONES};
 use instrument::availability::Availability;
 use instrument::reader::ArrayReader;
@@ -46,6 +47,10 @@ pub struct Kept {
     pub all: Outcome,
     /// The least share of records valid among the sensors.
     pub least: f64,
+    /// The records not valid given a value from their valid neighbours
+    /// ([`crate::interpolate`]), and those values' relative error of C
+    /// against the truth: rms and worst (0 with none).
+    pub interpolated: (usize, f64, f64),
 }
 
 /// Seconds each case runs (after [`SETTLE_S`]): with the sensors 0.4 s
@@ -84,6 +89,9 @@ pub fn run(case: Case) -> Kept {
     let hz = layout.tones_hz().map(|f| f as f64);
     let mut all = Outcome::new();
     let mut each_sensor = [Availability::new(); SENSORS];
+    // The interpolated values: each keyed by its record's true C.
+    let mut gaps = Interpolator::default();
+    let mut filled: Vec<f64> = vec![];
     for b in 0..blocks {
         let t = b as f64 * block_s;
         let t_us = (t * 1e6) as u64 + (block_s * 5e5) as u64;
@@ -109,6 +117,10 @@ pub fn run(case: Case) -> Kept {
                     let s = usize::from(rec.sensor);
                     all.add(rec.flags, rec.c_farad, truth[s]);
                     each_sensor[s].count(rec.flags);
+                    let line = Anchor::of(rec.t_us, rec.flags, rec.c_farad, rec.r_ohm, rec.stretch_mm);
+                    gaps.take(rec.sensor, rec.t_us, line, truth[s], |f| {
+                        filled.push(f.c_farad / f.key - 1.0);
+                    });
                 }
             },
         );
@@ -117,7 +129,14 @@ pub fn run(case: Case) -> Kept {
         .iter()
         .filter_map(Availability::share)
         .fold(1.0, f64::min);
-    Kept { case, all, least }
+    let rms = (filled.iter().map(|e| e * e).sum::<f64>() / filled.len().max(1) as f64).sqrt();
+    let worst = filled.iter().fold(0.0, |m: f64, e| m.max(e.abs()));
+    Kept {
+        case,
+        all,
+        least,
+        interpolated: (filled.len(), rms, worst),
+    }
 }
 
 /// The documented range: electrodes 0.5, 1 and 2 times the paper's,
@@ -143,14 +162,14 @@ pub fn cases() -> Vec<Case> {
 /// The cases run, as a Markdown table.
 pub fn markdown(rows: &[Kept]) -> String {
     let mut md = String::from(
-        "| records/s | electrodes | stretching | valid | least sensor | not valid: faults | valid > 1 % off | worst valid |\n\
-         |---:|---:|---|---:|---:|---|---:|---:|\n",
+        "| records/s | electrodes | stretching | valid | least sensor | not valid: faults | valid > 1 % off | worst valid | not valid, interpolated | their error: rms, worst |\n\
+         |---:|---:|---|---:|---:|---|---:|---:|---:|---:|\n",
     );
     for k in rows {
         let c = k.case;
         let a = &k.all.availability;
         md += &format!(
-            "| {} | {}× the paper's | {} | {:.1} % of {} | {:.1} % | {} | {} | {:.2} % |\n",
+            "| {} | {}× the paper's | {} | {:.1} % of {} | {:.1} % | {} | {} | {:.2} % | {} | {} |\n",
             1_000_000 / c.layout.block_us(),
             c.r_scale,
             if c.rate_mm_s > 0.0 {
@@ -163,8 +182,28 @@ pub fn markdown(rows: &[Kept]) -> String {
             100.0 * k.least,
             a.why(),
             k.all.valid_off,
-            100.0 * k.all.worst_valid
+            100.0 * k.all.worst_valid,
+            interpolated_cell(a.invalid(), k.interpolated.0),
+            error_cell(k.interpolated),
         );
     }
     md
+}
+
+/// How many of the `invalid` records were given a value.
+fn interpolated_cell(invalid: u64, given: usize) -> String {
+    if invalid == 0 {
+        "–".to_string()
+    } else {
+        format!("{given} of {invalid}")
+    }
+}
+
+/// The interpolated values' rms and worst error.
+fn error_cell((given, rms, worst): (usize, f64, f64)) -> String {
+    if given == 0 {
+        "–".to_string()
+    } else {
+        format!("{:.2} %, {:.2} %", 100.0 * rms, 100.0 * worst)
+    }
 }

@@ -24,6 +24,7 @@ pub mod dataset;
 pub mod disturbances;
 pub mod experiments;
 pub mod identify;
+pub mod interpolate;
 pub mod lsq;
 pub mod meter;
 pub mod model;

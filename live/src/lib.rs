@@ -21,6 +21,7 @@ pub mod calibrate;
 pub mod config;
 pub mod dashboard;
 mod follow;
+mod interpolated;
 mod manifest;
 mod records_csv;
 mod session;
@@ -28,6 +29,7 @@ mod summary;
 pub mod synthetic;
 
 pub use follow::{follow, replay, replay_from, Sink, Stopped};
+pub use interpolated::INTERPOLATED_CSV;
 pub use manifest::MANIFEST;
 pub use records_csv::RECORDS_CSV;
 pub use session::{Earlier, Finished, Outcome, Segment, Session, BEFORE_START_MAX, REFUSED_SHOWN};

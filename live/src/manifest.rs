@@ -68,6 +68,7 @@ fn manifest(session: &Session, done: &Finished) -> Value {
                 "valid": a.valid,
                 "share_valid": a.share(),
                 "not_valid_by_fault": a.reasons().map(|(n, k)| (n.to_string(), json!(k))).collect::<serde_json::Map<_, _>>(),
+                "interpolated": s.interpolated.get(sensor).copied().unwrap_or(0),
             })).collect::<Vec<_>>(),
         },
         "dataset": {

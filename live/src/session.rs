@@ -1,6 +1,7 @@
 //! A link session: bytes in; records, counts and files out, written as
 //! they arrive.
 
+use crate::interpolated::{self, Gaps, INTERPOLATED_CSV};
 use crate::records_csv::{self, RECORDS_CSV};
 use crate::summary::{Counts, Cpu, Summary};
 use crate::{INCOMPLETE, STREAM_BIN};
@@ -122,6 +123,8 @@ struct Files {
     csv_written: u64,
     raw: std::io::BufWriter<std::fs::File>,
     data: DatasetWriter,
+    /// Values for the records not vouched for, from their neighbours.
+    interpolated: LineFile,
 }
 
 /// A link session: bytes in; records, counts and files out.
@@ -149,6 +152,8 @@ pub struct Session {
     last_t_us: std::collections::BTreeMap<u8, u64>,
     /// Why the session took no more frames, where it stopped early.
     stopped: Option<String>,
+    /// Each sensor's gap since its last valid record.
+    gaps: Gaps,
 }
 
 impl Session {
@@ -181,6 +186,7 @@ impl Session {
             refused: vec![],
             last_t_us: Default::default(),
             stopped: None,
+            gaps: Gaps::default(),
         })
     }
 
@@ -214,6 +220,7 @@ impl Session {
             .open(dir.join(STREAM_BIN))
             .with_context(|| format!("creating {}", dir.join(STREAM_BIN).display()))?;
         let data = DatasetWriter::create(dir, false, Roles::default())?;
+        let interpolated = LineFile::create(dir.join(INTERPOLATED_CSV), interpolated::HEADER)?;
         self.opened = Some(chrono::Utc::now());
         Ok(Files {
             csv,
@@ -221,6 +228,7 @@ impl Session {
             csv_written: 0,
             raw: std::io::BufWriter::new(raw),
             data,
+            interpolated,
         })
     }
 
@@ -322,6 +330,7 @@ impl Session {
             Some(files) => {
                 files.data.restart();
                 self.last_t_us.clear();
+                self.gaps.restart();
             }
         }
         self.segments.push(Segment::new(s, seq));
@@ -347,6 +356,7 @@ impl Session {
             for row in records_csv::rows(&r) {
                 files.data.push(&row)?;
             }
+            self.gaps.record(segment, seq, &r, files.interpolated.pending());
         }
         self.fresh.push(r);
         Ok(())
@@ -431,6 +441,7 @@ impl Session {
         files.raw.flush().context("keeping the raw stream")?;
         files.csv.flush(true)?;
         files.csv_written += std::mem::take(&mut files.csv_pending);
+        files.interpolated.flush(true)?;
         files.data.flush()
     }
 
@@ -468,6 +479,7 @@ impl Session {
             rate: self.counts.rate(),
             cpu: self.segments.iter().fold(None, |a, g| Cpu::merge(a, g.cpu)),
             availability: self.counts.availability.clone(),
+            interpolated: self.gaps.given().clone(),
         }
     }
 
@@ -497,6 +509,7 @@ impl Session {
         };
         files.raw.flush().context("keeping the raw stream")?;
         files.csv.flush(false)?;
+        files.interpolated.flush(false)?;
         let written = files.data.finish()?;
         let finished = Finished {
             outcome,
@@ -541,6 +554,7 @@ fn held_files(dir: &Path) -> Result<Vec<String>> {
 /// its marker, its manifest, its data set's files.
 fn session_file(name: &str) -> bool {
     name == RECORDS_CSV
+        || name == INTERPOLATED_CSV
         || name == STREAM_BIN
         || name == INCOMPLETE
         || name == crate::MANIFEST

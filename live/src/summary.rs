@@ -214,6 +214,9 @@ pub struct Summary {
     /// Per sensor: the share of its records valid, and the faults that
     /// stood on the others.
     pub availability: BTreeMap<u8, Availability>,
+    /// Per sensor: its records not valid given a value from their valid
+    /// neighbours (`interpolated.csv`).
+    pub interpolated: BTreeMap<u8, u64>,
 }
 
 impl Summary {
@@ -265,7 +268,8 @@ impl Summary {
             .iter()
             .map(|(s, a)| {
                 let why = if a.invalid() > 0 {
-                    format!("; not: {}", a.why())
+                    let filled = self.interpolated.get(s).copied().unwrap_or(0);
+                    format!("; not: {}; {filled} of them interpolated", a.why())
                 } else {
                     String::new()
                 };

@@ -289,9 +289,24 @@ fn each_sensors_share_of_valid_records_and_why_the_others_are_not() {
         s.availability_lines(),
         [
             "sensor 0: 100.0 % valid (5 of 5)",
-            "sensor 1: 80.0 % valid (4 of 5); not: SETTLING 1"
+            "sensor 1: 80.0 % valid (4 of 5); not: SETTLING 1; 1 of them interpolated"
         ]
     );
+    // Sensor 1's second record, between two valid ones 21.8 ms apart, is
+    // given their line at its time in interpolated.csv, with its flags;
+    // records.csv keeps it as measured.
+    let rows = std::fs::read_to_string(ds.join(live::INTERPOLATED_CSV)).unwrap();
+    let rows: Vec<&str> = rows.lines().collect();
+    assert_eq!(rows.len(), 2, "{rows:?}");
+    assert_eq!(
+        rows[0],
+        "segment,seq,t_us,sensor,c_pf,r_ohm,stretch_mm,gap_us,flags"
+    );
+    assert_eq!(
+        rows[1],
+        format!("1,4,{},1,205.0000,700000,0.3000,21760,16", 2560 + 5440 * 3)
+    );
+    assert_eq!(s.interpolated.get(&1), Some(&1));
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(ds.join("session.json")).unwrap()).unwrap();
     let per = &manifest["records"]["per_sensor"];
@@ -299,4 +314,6 @@ fn each_sensors_share_of_valid_records_and_why_the_others_are_not() {
     assert_eq!(per[1]["share_valid"], 0.8);
     assert_eq!(per[1]["not_valid_by_fault"]["SETTLING"], 1);
     assert_eq!(per[0]["not_valid_by_fault"], serde_json::json!({}));
+    assert_eq!(per[1]["interpolated"], 1);
+    assert_eq!(per[0]["interpolated"], 0);
 }
