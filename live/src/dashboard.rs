@@ -225,34 +225,37 @@ impl Dashboard {
     }
 
     /// Each sensor's share of records valid so far, and the faults that
-    /// stood on the others: kept for the pages that open later, and sent
-    /// to the open ones at most once a second (and at the end).
-    pub fn availability(&self, per_sensor: &BTreeMap<u8, Availability>) {
+    /// stood on the others: at most once a second, or whenever `last`
+    /// (the stream's end) says so, sent to the open pages and kept for
+    /// those that open later (built only then: a session calls this for
+    /// every chunk it reads).
+    pub fn availability(
+        &self,
+        per_sensor: &BTreeMap<u8, Availability>,
+        interpolated: &BTreeMap<u8, u64>,
+        last: bool,
+    ) {
+        let now = std::time::Instant::now();
+        {
+            let mut state = self.state();
+            let due = last
+                || state
+                    .valid_sent
+                    .is_none_or(|t| now.duration_since(t) >= std::time::Duration::from_secs(1));
+            if !due {
+                return;
+            }
+            state.valid_sent = Some(now);
+        }
         let rows: Vec<serde_json::Value> = per_sensor
             .iter()
-            .map(|(s, a)| {
-                serde_json::json!({
-                    "sensor": s,
-                    "records": a.records,
-                    "valid": a.valid,
-                    "share_percent": a.share().map(|x| 100.0 * x),
-                    "why": a.why().to_string(),
-                })
+            .map(|(&s, a)| {
+                let filled = interpolated.get(&s).copied().unwrap_or(0);
+                crate::summary::availability_json(s, a, filled)
             })
             .collect();
         let json = Arc::new(serde_json::Value::Array(rows).to_string());
-        let now = std::time::Instant::now();
-        let due = {
-            let mut state = self.state();
-            let due = state
-                .valid_sent
-                .is_none_or(|t| now.duration_since(t) >= std::time::Duration::from_secs(1));
-            if due {
-                state.valid_sent = Some(now);
-            }
-            due
-        };
-        self.named("valid", json, due);
+        self.named("valid", json, true);
     }
 
     /// Keep `json` as event `name`'s latest value, and send it to the
@@ -568,6 +571,32 @@ mod tests {
         let mut text = String::new();
         sock.read_to_string(&mut text).unwrap();
         text.lines().next().unwrap_or_default().to_string()
+    }
+
+    /// The share valid is built and kept at most once a second, and
+    /// always at the stream's end: the last page sees the final counts.
+    #[test]
+    fn the_share_valid_is_throttled_but_its_last_value_always_kept() {
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
+        let counts = |valid: u64| {
+            let mut a = Availability::new();
+            for k in 0..10 {
+                a.count(instrument::faults::Flags(if k < valid { 0 } else { 256 }));
+            }
+            BTreeMap::from([(0u8, a)])
+        };
+        let kept = |d: &Dashboard| {
+            let state = d.state();
+            let (_, json) = state.latest.iter().find(|(n, _)| *n == "valid").cloned().unwrap();
+            serde_json::from_str::<serde_json::Value>(&json).unwrap()[0]["valid"].clone()
+        };
+        let none = BTreeMap::new();
+        d.availability(&counts(3), &none, false);
+        assert_eq!(kept(&d), 3);
+        d.availability(&counts(4), &none, false);
+        assert_eq!(kept(&d), 3, "within the second: not built again");
+        d.availability(&counts(5), &none, true);
+        assert_eq!(kept(&d), 5, "the end: always");
     }
 
     #[test]

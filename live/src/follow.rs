@@ -62,7 +62,7 @@ impl Sink<'_> {
             if let Some(status) = self.session.fresh_status() {
                 d.status(&status);
             }
-            d.availability(self.session.availability());
+            d.availability(self.session.availability(), self.session.interpolated(), false);
             d.written(self.session.on_disk());
         }
         Ok(())

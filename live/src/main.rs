@@ -576,7 +576,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
     }
     if let Some(d) = &dashboard {
-        d.availability(session.availability());
+        d.availability(session.availability(), session.interpolated(), true);
         d.end();
     }
     if dashboard.is_some() && cli.linger > 0 {

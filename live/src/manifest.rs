@@ -62,14 +62,10 @@ fn manifest(session: &Session, done: &Finished) -> Value {
             "flagged": s.flagged,
             "set_aside_beyond_sensors": s.set_aside.beyond_sensors,
             "set_aside_not_later": s.set_aside.not_later,
-            "per_sensor": s.availability.iter().map(|(sensor, a)| json!({
-                "sensor": sensor,
-                "records": a.records,
-                "valid": a.valid,
-                "share_valid": a.share(),
-                "not_valid_by_fault": a.reasons().map(|(n, k)| (n.to_string(), json!(k))).collect::<serde_json::Map<_, _>>(),
-                "interpolated": s.interpolated.get(sensor).copied().unwrap_or(0),
-            })).collect::<Vec<_>>(),
+            "per_sensor": s.availability.iter().map(|(&sensor, a)| {
+                let interpolated = s.interpolated.get(&sensor).copied().unwrap_or(0);
+                crate::summary::availability_json(sensor, a, interpolated)
+            }).collect::<Vec<_>>(),
         },
         "dataset": {
             "traces": w.traces.iter().filter_map(name).collect::<Vec<_>>(),

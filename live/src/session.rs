@@ -461,6 +461,12 @@ impl Session {
         &self.counts.availability
     }
 
+    /// Per sensor so far: its records not valid given a value in
+    /// `interpolated.csv`.
+    pub fn interpolated(&self) -> &std::collections::BTreeMap<u8, u64> {
+        self.gaps.given()
+    }
+
     /// What the session has received so far.
     pub fn summary(&self) -> Summary {
         let stats = self.stats();

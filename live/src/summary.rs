@@ -310,3 +310,23 @@ impl Summary {
         out
     }
 }
+
+/// A sensor's availability as the manifest (`records.per_sensor`) and
+/// the dashboard (event `valid`) give it: its records, how many valid,
+/// the share valid, the count of each fault flag among the others (and
+/// the same in words, most frequent first: `MODEL 40, DISTURBED 23`, `–`
+/// for none), and how many of those `interpolated.csv` gives a value.
+pub(crate) fn availability_json(sensor: u8, a: &Availability, interpolated: u64) -> serde_json::Value {
+    serde_json::json!({
+        "sensor": sensor,
+        "records": a.records,
+        "valid": a.valid,
+        "share_valid": a.share(),
+        "not_valid_by_fault": a
+            .reasons()
+            .map(|(n, k)| (n.to_string(), serde_json::json!(k)))
+            .collect::<serde_json::Map<_, _>>(),
+        "why": a.why().to_string(),
+        "interpolated": interpolated,
+    })
+}
