@@ -108,7 +108,7 @@ pub enum SensorChange {
 }
 
 /// The classes tried.
-pub const CLASSES: [Class; 21] = [
+pub const CLASSES: [Class; 22] = [
     Class {
         name: "clean",
         what: "nothing added",
@@ -119,6 +119,12 @@ pub const CLASSES: [Class; 21] = [
         name: "mains hum",
         what: "50 Hz, 200 counts",
         front: sine(50.0, 200.0),
+        sensor: SensorChange::None,
+    },
+    Class {
+        name: "weak mains hum",
+        what: "50 Hz, 2 counts (0.05 % of full scale)",
+        front: sine(50.0, 2.0),
         sensor: SensorChange::None,
     },
     Class {
