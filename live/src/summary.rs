@@ -228,12 +228,13 @@ impl Summary {
     /// One line for a terminal.
     pub fn line(&self) -> String {
         format!(
-            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged{}; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
+            "{} records from {} sensors ({:.1}–{:.1} records/s each), {} flagged ({} interpolated){}; {:.1} bytes per record; frames: {} refused, {} lost, {} repeated{}",
             self.records,
             self.sensors,
             self.rate.0,
             self.rate.1,
             self.flagged,
+            self.interpolated.values().sum::<u64>(),
             self.least_valid().map_or(String::new(), |(s, a)| format!(
                 " (the least valid: sensor {s}, {:.1} %)",
                 100.0 * a.share().unwrap_or(0.0)

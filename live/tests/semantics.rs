@@ -307,6 +307,7 @@ fn each_sensors_share_of_valid_records_and_why_the_others_are_not() {
         format!("1,4,{},1,205.0000,700000,0.3000,21760,16", 2560 + 5440 * 3)
     );
     assert_eq!(s.interpolated.get(&1), Some(&1));
+    assert!(s.line().contains(", 1 flagged (1 interpolated)"), "{}", s.line());
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(ds.join("session.json")).unwrap()).unwrap();
     let per = &manifest["records"]["per_sensor"];
