@@ -633,7 +633,7 @@ proptest::proptest! {
         r_scale in 0.5f64..1.5,
         seed in proptest::prelude::any::<u64>(),
     ) {
-        if let Err(e) = interfered(hz, log_counts, phase, start, r_scale, seed) {
+        if let Err(e) = interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.06) {
             proptest::prop_assert!(false, "{e}");
         }
     }
@@ -687,23 +687,13 @@ fn an_alias_next_to_the_lower_tone_is_not_vouched_for() {
         1.480042810892388f64,
         10068520996498014150u64,
     );
-    interfered(hz, log_counts, phase, start, r_scale, seed).unwrap();
+    interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.06).unwrap();
 }
 
-/// One case of [`interferers_never_leave_a_wrong_valid_record`]: every
-/// valid record within 1 % of its truth, or the first that is not.
-fn interfered(
-    hz: f32,
-    log_counts: f32,
-    phase: f32,
-    start: f64,
-    r_scale: f64,
-    seed: u64,
-) -> Result<(), String> {
-    interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.06)
-}
-
-/// [`interfered`] over `duration_s`.
+/// One case of [`interferers_never_leave_a_wrong_valid_record`] (0.06 s)
+/// or of [`moved_channels_never_leave_a_wrong_valid_record`], over
+/// `duration_s`: every valid record within 1 % of its truth, or the first
+/// that is not.
 fn interfered_for(
     hz: f32,
     log_counts: f32,
