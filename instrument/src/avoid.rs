@@ -137,8 +137,8 @@ impl Avoidance {
     }
 
     /// One record's evidence, `dt_s` after the previous: `suspect`, the
-    /// tone of the record's `fitted` (its index there) that its check
-    /// singled out (None: none). True when the channel moved (onto other
+    /// tone of the record's `fitted` (its index there) it was rescued
+    /// without (None: none). True when the channel moved (onto other
     /// tones, or back to its own). (Out of line, in flash, as
     /// [`Avoidance::read_at`].)
     #[inline(never)]

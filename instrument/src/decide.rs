@@ -76,8 +76,8 @@ pub struct Course {
     prior_farad: f32,
     last_t_us: Option<u64>,
     pinned: bool,
-    /// The tone of the last block's three that alone disagreed with the
-    /// line ([`crate::joint::rescue`]'s `suspect`); [`NO_SUSPECT`]: none.
+    /// The tone the last block's rescued record left out
+    /// ([`crate::joint::rescue`]'s `suspect`); [`NO_SUSPECT`]: none.
     suspect: u8,
 }
 
@@ -98,10 +98,10 @@ impl Course {
     }
 
     /// Of the last block's tones (their index in `decide`'s `tones`),
-    /// the one that alone disagreed with the line, where its two
-    /// companions agree within their own check: where an interferer may
-    /// sit. Evidence, not a verdict: the record is flagged as `decide`
-    /// says.
+    /// the one its record was rescued without (the other two agree, both
+    /// pairs that keep it fail tenfold): where an interferer may sit.
+    /// Evidence for [`crate::avoid`], not a verdict: the record is
+    /// flagged as `decide` says.
     pub fn suspect(&self) -> Option<usize> {
         (self.suspect != NO_SUSPECT).then_some(usize::from(self.suspect))
     }
