@@ -787,3 +787,41 @@ fn rows_short_of_a_block_read_as_no_excitation() {
     assert_eq!(whole.i.map(|t| t.x), again.i.map(|t| t.x));
     assert_eq!(whole.v.n, 25);
 }
+
+/// Where a clean skin loses records while it stretches (the paper's
+/// electrodes at 50 mm/s, twice them at 20 mm/s), the policy is already
+/// at the comb's lowest pair (500 Hz and 1 kHz) on every one of them:
+/// what would keep them is a lower tone, not an earlier step down.
+#[test]
+fn records_lost_while_stretching_are_read_at_the_lowest_pair() {
+    let lowest = Layout::BLOCK_4MS.tone_hz(0);
+    for (rate, r_scale) in [(50.0, 1.0), (20.0, 2.0)] {
+        let params = |_| {
+            let mut p = SensorParams::PAPER;
+            p.top.r_rest_ohm *= r_scale;
+            p.bottom.r_rest_ohm *= r_scale;
+            p
+        };
+        let profile = |_| Profile::paper(rate);
+        let out = run_with(
+            Layout::BLOCK_4MS,
+            &[*paper_cal(); SENSORS],
+            params,
+            profile,
+            4.0,
+            7,
+            &Disturbance::NONE,
+        );
+        let lost: Vec<&ToneRecord> = out
+            .iter()
+            .flatten()
+            .map(|(r, _)| r)
+            .filter(|r| !r.flags.valid())
+            .collect();
+        assert!(!lost.is_empty(), "{rate} mm/s, {r_scale}×: none lost");
+        for r in lost {
+            assert_eq!(r.f_hz[0], lowest, "{rate} mm/s, {r_scale}×: {r:?}");
+            assert!(r.f_hz[1] <= 2.0 * lowest, "{rate} mm/s, {r_scale}×: {r:?}");
+        }
+    }
+}
