@@ -29,7 +29,7 @@ use crate::joint::{hidden, rescue, Joint, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
-use dsp_core::twotone::Tone;
+use dsp_core::twotone::{Solution, Tone};
 
 /// What a channel's decisions read: its sensor and the settings every
 /// channel of its front end shares.
@@ -175,16 +175,7 @@ impl Course {
             None => (&sol, rules.chi2_flag),
         };
         let line = sol.line;
-        let (stretch_mm, status) = sensor.read(line.c_farad, th.c_tolerance);
-        flags.set(status);
-        let consistent = sol.chi2 <= chi2_flag;
-        if !consistent {
-            flags.set(Flags::MODEL);
-        }
-        let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(sol, chi2_flag);
-        if bound.is_nan() || bound > th.c_tolerance {
-            flags.set(Flags::UNCERTAIN);
-        }
+        let (stretch_mm, consistent) = check(sensor, th, sol, chi2_flag, disturbance, flags);
         let reading = Reading {
             c_farad: line.c_farad,
             r_ohm: line.r_ohm,
@@ -217,4 +208,32 @@ impl Course {
             rules.fallback(policy);
         }
     }
+}
+
+/// Steps 3–5 of the module's docs on the line `sol` reports (rescued,
+/// where it was): its stretch (the calibration's status into `flags`),
+/// MODEL where its χ² exceeds `chi2_flag`, UNCERTAIN where its error
+/// bound exceeds the tolerance. Returns the stretch and whether χ²
+/// passed. (Inlined: the record's path is one function in the boards'
+/// fast RAM.)
+#[inline(always)]
+fn check<const N: usize>(
+    sensor: &Sensor<N>,
+    th: &Thresholds,
+    sol: &Solution,
+    chi2_flag: f32,
+    disturbance: impl FnOnce(f32) -> f32,
+    flags: &mut Flags,
+) -> (f32, bool) {
+    let (stretch_mm, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
+    flags.set(status);
+    let consistent = sol.chi2 <= chi2_flag;
+    if !consistent {
+        flags.set(Flags::MODEL);
+    }
+    let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(sol, chi2_flag);
+    if bound.is_nan() || bound > th.c_tolerance {
+        flags.set(Flags::UNCERTAIN);
+    }
+    (stretch_mm, consistent)
 }

@@ -172,11 +172,6 @@ impl ToneChannel {
         }
     }
 
-    /// The comb tones the next block is read at, lower first.
-    pub fn pair(&self) -> [usize; 2] {
-        Self::pair_of(self.policy.fidx as u8)
-    }
-
     /// The pair whose upper tone index is `hi` (clamped to 1 … TONES −
     /// 1): it and the tone two below (or the lowest).
     pub fn pair_of(hi: u8) -> [usize; 2] {
