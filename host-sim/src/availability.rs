@@ -49,7 +49,7 @@ pub struct Kept {
     pub least: f64,
     /// The records not valid given a value from their valid neighbours
     /// ([`crate::interpolate`]), and those values' relative error of C
-    /// against the truth: rms and worst (0 with none).
+    /// against the truth: rms and worst (NaN and 0 with none).
     pub interpolated: (usize, f64, f64),
 }
 
@@ -129,8 +129,7 @@ pub fn run(case: Case) -> Kept {
         .iter()
         .filter_map(Availability::share)
         .fold(1.0, f64::min);
-    let rms = (filled.iter().map(|e| e * e).sum::<f64>() / filled.len().max(1) as f64).sqrt();
-    let worst = filled.iter().fold(0.0, |m: f64, e| m.max(e.abs()));
+    let (rms, worst, _) = crate::numerics::rms_max(filled.iter().copied());
     Kept {
         case,
         all,
