@@ -176,7 +176,7 @@ pub fn rescue<const N: usize, const K: usize>(
         // for two), its degrees of freedom the pair's.
         let mut pair = behind;
         pair[out].sigma_ohm = UNWEIGHTED_SIGMA_OHM;
-        let Ok(mut sol) = twotone::solve_from(inv, d, &pair, r, c, t) else {
+        let Some(mut sol) = pair_line(inv, d, &pair, (r, c, t), pair_flag) else {
             continue;
         };
         sol.dof = (2 * (K - 1) - 2) as f32;
@@ -195,6 +195,30 @@ pub fn rescue<const N: usize, const K: usize>(
     }
     *suspect = out as u8;
     Some(sol)
+}
+
+/// The line a pair of [`rescue`] fits (`pair`: three tones, one of them
+/// unweighted): from the three's line `start`, or, where the pair's χ²
+/// does not pass `pair_flag` from there, also from the pair's own
+/// single-tone inversions, the better of the two. The tone left out can
+/// throw the three's line outside the pair's basin (a mains harmonic on
+/// one sensor's 500 Hz tone left its clean pair failing by 10⁴ from
+/// there).
+fn pair_line<const K: usize>(
+    inv: &Inverter,
+    d: &Dielectric,
+    pair: &[Tone; K],
+    (r, c, t): (f32, f32, f32),
+    pair_flag: f32,
+) -> Option<Solution> {
+    let near = twotone::solve_from(inv, d, pair, r, c, t).ok();
+    if near.as_ref().is_some_and(|s| s.chi2 <= pair_flag) {
+        return near;
+    }
+    match (near, twotone::solve(inv, d, pair, c).ok()) {
+        (Some(a), Some(b)) => Some(if b.chi2 < a.chi2 { b } else { a }),
+        (a, b) => a.or(b),
+    }
 }
 
 /// What an error at one tone that nothing else sees (an interferer at
