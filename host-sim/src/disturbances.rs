@@ -494,9 +494,10 @@ pub fn array_for(
     let blocks = (duration / block_s) as u64;
     let hz = layout.tones_hz().map(|f| f as f64);
     let mut out = Outcome::new();
-    // The tone the policy uses most (the pair's lower one) is what a
-    // tone-relative sinusoid aims at: 500 Hz (1 ms blocks: 1 kHz).
-    let aim = layout.tone_hz(0);
+    // The tone the paper's sensors read most (their three's lowest) is
+    // what a tone-relative sinusoid aims at: 500 Hz (1 ms blocks: 1 kHz;
+    // the 4 ms comb's 250 Hz is for electrodes of higher resistance).
+    let aim = layout.tone_hz(usize::from(layout.tone_hz(0) < 500.0));
     let sample_rate = RATE_HZ as f32;
     for b in 0..blocks {
         let t = b as f64 * block_s;
@@ -535,7 +536,7 @@ pub fn array_for(
 
 /// Every sensor of the array as the firmware reads a paper's sensor: its
 /// calibration and its tab leads, no wiring.
-pub(crate) fn paper_sensors() -> Sensors<{ calib::POINTS }, SENSORS> {
+pub fn paper_sensors() -> Sensors<{ calib::POINTS }, SENSORS> {
     let lead = SensorParams::PAPER.effects.lead_ratio();
     Sensors::from_fn(|_| {
         Measured::calibrated(skin_sim::sensor::PAPER_CALIBRATION, lead, Fixture::NONE)

@@ -7,7 +7,7 @@
 
 use host_sim::disturbances::{array_for, array_in, markdown, rows, CLASSES};
 use instrument::array::Layout;
-use instrument::faults::Thresholds;
+use instrument::faults::{Flags, Thresholds};
 use skin_sim::profile::Profile;
 
 /// The array in 1 ms blocks (twice the noise, 14 residual degrees of
@@ -126,7 +126,13 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         "dispersion of C",
     ] {
         let a = array_of(name);
-        assert!(a.flagged() * 100 >= a.records() * 99, "{name}: {a:?}");
+        let rescued = a.availability.flagged[flag_index(Flags::TONE_LEFT_OUT)];
+        assert!(rescued == 0 && a.moved == 0, "{name}: {a:?}");
+        // Two tabs' 60 kΩ are small beside the line's 3 MΩ at the 250 Hz
+        // tone: the records a stretching sensor reads there are right
+        // (valid_off is 0 above), 9 % of them.
+        let share = if name == "contact resistance" { 90 } else { 99 };
+        assert!(a.flagged() * 100 >= a.records() * share, "{name}: {a:?}");
     }
     // The clean skin: ≥ 99 % of the records vouched for on both paths.
     let (_, m, a) = &rows[0];
@@ -205,17 +211,19 @@ proptest::proptest! {
     }
 }
 
-/// A persistent interferer on a tone (the lowest, 500 Hz, the one the
-/// paper's sensors read at most): within a second every channel has
-/// moved its three tones off it and says so on every record from then
-/// on (`TONE_MOVED`), and none is 1 % off. On a mains harmonic exactly
-/// in the tone's bin, a held skin keeps every record (as the rescue did)
-/// and a stretching one 76 % where it kept 46 % (the rest UNCERTAIN:
-/// without the 500 Hz tone the lowest three reach 4 kHz, past the line's
-/// sensitive range while the electrodes' resistance peaks). An
+/// A persistent interferer on a tone (500 Hz, the lowest of the three
+/// the paper's sensors read): within a second every channel has moved
+/// its three tones off it and says so on every record from then on
+/// (`TONE_MOVED`), and none is 1 % off. On a mains harmonic exactly in
+/// the tone's bin, a skin held or stretching keeps every record: the
+/// three it moves to (250 Hz, 1 and 2 kHz) stay in the line's sensitive
+/// range while the electrodes' resistance peaks. (With 500 Hz the
+/// lowest tone a stretching skin kept 76 %, and 46 % unmoved.) An
 /// interferer 5 Hz off the tone leaks into the residual, whose excess the
-/// disturbance bound takes as if it sat on the tones read: moved or not,
-/// a held skin's records stay UNCERTAIN. A clean skin never moves.
+/// disturbance bound takes as if it sat on the tones read, and into the
+/// neighbouring tones' bins, 250 Hz and 1 kHz, which the three moved to
+/// read: a stretching skin keeps half its records, the rest UNCERTAIN or
+/// MODEL. A clean skin never moves.
 #[test]
 fn the_array_moves_off_a_tone_an_interferer_occupies() {
     let class = |name: &str| *CLASSES.iter().find(|c| c.name == name).expect(name);
@@ -226,8 +234,8 @@ fn the_array_moves_off_a_tone_an_interferer_occupies() {
     };
     let cases = [
         ("mains harmonic at the tone", &held, 99, true),
-        ("mains harmonic at the tone", &moving, 70, true),
-        ("interferer in the tone's bin", &moving, 55, true),
+        ("mains harmonic at the tone", &moving, 99, true),
+        ("interferer in the tone's bin", &moving, 45, true),
         ("clean", &moving, 99, false),
     ];
     for (name, p, share, moves) in cases {
@@ -242,4 +250,12 @@ fn the_array_moves_off_a_tone_an_interferer_occupies() {
         let moved = if moves { o.records() } else { 0 };
         assert_eq!(o.moved, moved, "{name}, {p:?}: {o:?}");
     }
+}
+
+/// The position of `flag` in an availability's counts (bit order).
+fn flag_index(flag: u16) -> usize {
+    Flags::NAMES
+        .iter()
+        .position(|&(f, _)| f == flag)
+        .expect("every flag has a name")
 }
