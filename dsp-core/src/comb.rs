@@ -31,11 +31,15 @@
 //! ```
 //!
 //! The reference is laid out to repeat wherever every tone's periods
-//! share a factor with N, and to mirror (instant L − n of a period L is
-//! instant n conjugated), to the bit; so an input's repeats are summed
-//! and each instant is paired with its mirror before any product
-//! ([`folded`]): half the products of the plain sums, a quarter where
-//! the comb repeats twice, and the same exact integers.
+//! share a factor with N, or to repeat negated over the halves of an
+//! even block (a tone of odd periods: instant n + N/2 is instant n
+//! negated), and to mirror (instant L − n of a period L is instant n
+//! conjugated, or for a tone of odd periods over halves its conjugate
+//! negated), to the bit; so an input's repeats are summed (and, over
+//! halves, differenced) and each instant is paired with its mirror
+//! before any product ([`folded`]): half the products of the plain
+//! sums, a quarter over halves or repeats, and the same exact
+//! integers.
 //!
 //! Overflow: each product is at most 2¹⁵·2³¹ = 2⁴⁶ and a sum holds N of
 //! them, so the i64 sums cannot overflow for N < 2¹⁷ ([`Comb::new`]
@@ -74,12 +78,15 @@ pub struct Comb<const N: usize, const K: usize> {
     periods: [u32; K],
     /// How many times the comb repeats in a block (every tone's periods
     /// a multiple of it, N too): a divisor of their greatest common
-    /// one, at most [`REPEAT_MAX`].
+    /// one, at most [`REPEAT_MAX`]; or 2 where it does not repeat and N
+    /// is even: the halves, each tone of odd periods negated in the
+    /// second ([`repeat_of`]).
     repeat: usize,
     /// Instant n of tone k: [cos θₖ,ₙ, sin θₖ,ₙ], Q31 (saturated: ±1 is
     /// ±i32::MAX). With L = N/`repeat`, instant n + L holds instant n's
-    /// words and instant L − n their conjugate, exactly, as the fold
-    /// ([`folded`]) needs.
+    /// words (negated for a tone of odd periods) and instant L − n their
+    /// conjugate (negated likewise), exactly, as the fold ([`folded`])
+    /// needs.
     reference: [[[i32; 2]; N]; K],
 }
 
@@ -115,11 +122,15 @@ impl<const N: usize, const K: usize> Comb<N, K> {
         let l = N / repeat;
         let mut reference = [[[0i32; 2]; N]; K];
         for (row, &p) in reference.iter_mut().zip(&periods) {
+            // The sign a repeat takes: −1 for odd periods over halves
+            // (θ_{n+L} = θₙ + π).
+            let sign = if p as usize % repeat == 0 { 1 } else { -1 };
             for n in 0..N {
-                // The comb repeats every L = N/repeat instants, and
-                // instant L − j is instant j conjugated (θ_{L−j} = −θⱼ):
-                // both laid out to the bit, as the fold needs.
-                let j = n % l;
+                // The comb repeats every L = N/repeat instants (signed),
+                // and instant L − j is instant j conjugated (θ_{L−j} =
+                // −θⱼ, or π − θⱼ over halves: signed too): laid out to
+                // the bit, as the fold needs.
+                let (q, j) = (n / l, n % l);
                 row[n] = if n <= l / 2 {
                     // The exact phase as a fraction of a turn, 2³² per turn.
                     let m = (p as u64 * n as u64) % N as u64;
@@ -127,11 +138,15 @@ impl<const N: usize, const K: usize> Comb<N, K> {
                     let (c, s) = cossin(phase);
                     // Symmetric Q31: −1 as −i32::MAX, so that it negates.
                     [c.max(-i32::MAX), s.max(-i32::MAX)]
-                } else if j <= l / 2 {
-                    row[j]
                 } else {
-                    let [c, s] = row[l - j];
-                    [c, -s]
+                    let [c, s] = if j <= l / 2 {
+                        row[j]
+                    } else {
+                        let [c, s] = row[l - j];
+                        [sign * c, -sign * s]
+                    };
+                    let t = if q % 2 == 1 { sign } else { 1 };
+                    [t * c, t * s]
                 };
             }
         }
@@ -186,13 +201,19 @@ pub const REPEAT_MAX: usize = 8;
 
 /// How many times a comb of `periods` repeats in `n` instants: the
 /// largest divisor of n and of every count that is at most
-/// [`REPEAT_MAX`] (the 4 ms block's 2, 4, 8, 16, 24 periods in 100
-/// instants repeat twice; the 1 ms block's 1, 2, 3, 4, 6 in 25 do not).
+/// [`REPEAT_MAX`]; where that is 1 and n is even, 2: the halves, a tone
+/// of odd periods negated in the second (the 4 ms block's 1, 2, 4, 8,
+/// 16 periods in 100 instants; the 1 ms block's 1, 2, 3, 4, 6 in 25
+/// neither repeat nor halve).
 fn repeat_of(n: usize, periods: &[u32]) -> usize {
-    (1..=REPEAT_MAX)
+    match (1..=REPEAT_MAX)
         .rev()
         .find(|&g| n % g == 0 && periods.iter().all(|&p| p as usize % g == 0))
-        .unwrap_or(1)
+    {
+        Some(1) | None if n % 2 == 0 => 2,
+        Some(g) => g,
+        None => 1,
+    }
 }
 
 /// Instants a fold keeps of a period of `l`: 0 to l/2, each with its
@@ -212,10 +233,15 @@ const fn kept(l: usize) -> usize {
 /// uⱼ = yⱼ + y_{L−j},  wⱼ = yⱼ − y_{L−j}   (uⱼ = wⱼ = yⱼ where j = L − j mod L: j = 0, L/2)
 /// ```
 ///
-/// 1/(2g) of the plain sums' products. Σx = Σuⱼ; Σx² of the samples
-/// themselves. Every partial sum is a sum of some of the plain sums'
-/// terms, so no more can overflow than there (module docs): the same
-/// exact integers as [`portable`] and [`portable_moments`].
+/// Over halves (g = 2 where a tone makes odd periods) such a tone is
+/// negated in the second half and its mirror conjugated and negated, so
+/// it takes dⱼ = xⱼ − x_{j+L} instead, uⱼ = dⱼ − d_{L−j}, wⱼ = dⱼ + d_{L−j}
+/// (dⱼ alone at j = 0 and L/2).
+///
+/// 1/(2g) of the plain sums' products. Σx = Σuⱼ of the y; Σx² of the
+/// samples themselves. Every partial sum is a sum of some of the plain
+/// sums' terms, so no more can overflow than there (module docs): the
+/// same exact integers as [`portable`] and [`portable_moments`].
 pub fn folded<const N: usize, const S: usize, const K: usize>(
     comb: &Comb<N, K>,
     rows: &[[i16; S]; N],
@@ -228,21 +254,25 @@ pub fn folded<const N: usize, const S: usize, const K: usize>(
     }
     let l = N / comb.repeat;
     let y = |j: usize| -> i32 { rows[j..].iter().step_by(l).map(|r| r[col] as i32).sum() };
+    // The halves' difference (used only where a tone negates over them).
+    let d = |j: usize| -> i32 { rows[j][col] as i32 - rows[(j + l) % N][col] as i32 };
     let mut uw = [[0i32; 2]; N];
+    let mut odd = [[0i32; 2]; N];
     let mut sum = 0i64;
-    for (j, e) in uw.iter_mut().enumerate().take(kept(l)) {
-        let a = y(j);
-        *e = if j == 0 || 2 * j == l {
-            [a, a]
+    for (j, (e, o)) in uw.iter_mut().zip(odd.iter_mut()).enumerate().take(kept(l)) {
+        let (a, p) = (y(j), d(j));
+        (*e, *o) = if j == 0 || 2 * j == l {
+            ([a, a], [p, p])
         } else {
-            let b = y(l - j);
-            [a + b, a - b]
+            let (b, q) = (y(l - j), d(l - j));
+            ([a + b, a - b], [p - q, p + q])
         };
         sum += e[0] as i64;
     }
-    for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
+    for ((x, reference), &p) in out.x.iter_mut().zip(&comb.reference).zip(&comb.periods) {
+        let folded = if p as usize % comb.repeat == 0 { &uw } else { &odd };
         let (mut c, mut s) = (0i64, 0i64);
-        for (&[u, w], &[rc, rs]) in uw.iter().zip(reference).take(kept(l)) {
+        for (&[u, w], &[rc, rs]) in folded.iter().zip(reference).take(kept(l)) {
             c += u as i64 * rc as i64;
             s += w as i64 * rs as i64;
         }
@@ -287,11 +317,11 @@ pub fn portable<const N: usize, const S: usize>(
 /// assembly. The fold, four pairs of kept instants a turn: where the
 /// comb does not repeat, 8 instructions a pair (two post-indexed `LDRSH`,
 /// forward and back, two `SMLAL` for Σx², the sum and difference, Σx,
-/// one `STRD`); where it repeats twice (the 4 ms block), 14 for a pair's
-/// four samples. Then each tone at 4 instructions a kept instant (two
-/// `LDRD`, two `SMLAL`), several a turn. A 25-instant input takes 13
-/// products a tone's cosine where the plain sums took 25, a 100-instant
-/// one 26 where they took 100.
+/// one `STRD`); over halves (the 4 ms block), 19 for a pair's four
+/// samples (their sums and differences, two `STRD`). Then each tone at
+/// 4 instructions a kept instant (two `LDRD`, two `SMLAL`), several a
+/// turn. A 25-instant input takes 13 products a tone's cosine where the
+/// plain sums took 25, a 100-instant one 26 where they took 100.
 #[cfg(arm_dsp)]
 #[allow(unsafe_code)]
 pub mod arm {
@@ -305,7 +335,7 @@ pub mod arm {
     /// Kept instants a turn of a tone's loop: the one of 4 to 7 that
     /// costs fewest instructions (four per instant, two per turn, the
     /// last turn padded with zeros): 7 for the 13 of a 25-instant
-    /// block, and for the 26 of a 100-instant one that repeats twice.
+    /// block, and for the 26 of a 100-instant one over halves.
     const fn tone_turn(m: usize) -> usize {
         let (mut best, mut cost, mut u) = (4, usize::MAX, 4);
         while u <= 7 {
@@ -333,26 +363,32 @@ pub mod arm {
         };
     }
 
-    /// One pair of the fold of a comb that repeats twice (L = N/2): y_j =
-    /// x_j + x_{j+L} forward, y_{L−j} = x_{L−j} + x_{N−j} back (the
-    /// second of each `off` bytes on), the four squares, [u, w] stored,
-    /// Σx.
+    /// One pair of the fold over halves (L = N/2): x_j and x_{j+L}
+    /// forward, x_{L−j} and x_{N−j} back (each second sample `off` bytes
+    /// on), the four squares; y = x_j + x_{j+L} and d = x_j − x_{j+L}
+    /// each way (d first, y = d + 2·x_{j+L}); [u, w] of the y stored and
+    /// of the d `odd` bytes on ([`super::folded`]), Σx.
     macro_rules! fold2_step {
         () => {
-            "ldrsh {a}, [{pa}, {off}]\n\
+            "ldrsh {a}, [{pa}, #{off}]\n\
              ldrsh {u}, [{pa}], {stride}\n\
              smlal {ql}, {qh}, {a}, {a}\n\
              smlal {ql}, {qh}, {u}, {u}\n\
-             add {a}, {u}\n\
-             ldrsh {b}, [{pb}, {off}]\n\
-             ldrsh {u}, [{pb}], #-{stride}\n\
+             sub {u}, {u}, {a}\n\
+             add {a}, {u}, {a}, lsl #1\n\
+             ldrsh {b}, [{pb}, #{off}]\n\
+             ldrsh {v}, [{pb}], #-{stride}\n\
              smlal {ql}, {qh}, {b}, {b}\n\
-             smlal {ql}, {qh}, {u}, {u}\n\
-             add {b}, {u}\n\
-             add {u}, {a}, {b}\n\
-             sub {b}, {a}, {b}\n\
-             add {sum}, {u}\n\
-             strd {u}, {b}, [{po}], #8"
+             smlal {ql}, {qh}, {v}, {v}\n\
+             sub {v}, {v}, {b}\n\
+             add {b}, {v}, {b}, lsl #1\n\
+             sub {a}, {a}, {b}\n\
+             add {b}, {a}, {b}, lsl #1\n\
+             add {sum}, {b}\n\
+             sub {u}, {u}, {v}\n\
+             add {v}, {u}, {v}, lsl #1\n\
+             strd {u}, {v}, [{po}, #{odd}]\n\
+             strd {b}, {a}, [{po}], #8"
         };
     }
 
@@ -371,7 +407,8 @@ pub mod arm {
     /// (the QEMU benchmark checks it against [`portable`](super::portable)
     /// on the target); blocks it was not laid out for (rows of over 127
     /// inputs, periods of fewer than 14 or blocks of more than 2¹⁶
-    /// instants, combs repeating more than twice) take the plain sums.
+    /// instants, halves of more than 127 instants, combs repeating more
+    /// than twice) take the plain sums.
     #[inline(always)]
     pub fn column_into<const N: usize, const S: usize, const K: usize>(
         comb: &Comb<N, K>,
@@ -422,51 +459,81 @@ pub mod arm {
         // Pairs: kept instants 1..=pairs with l−1 down to l−pairs.
         let pairs = (l - 1) / 2;
         let whole = pairs - pairs % FOLD_TURN;
-        if col >= S || S * 2 > 255 || l < 14 || N > 1 << 16 || padded > N || whole == 0 || comb.repeat != R {
+        // Over halves the odd periods' entries lie l on (the `odd`
+        // offset of a STRD, at most 1020 bytes), and each second sample
+        // l rows on (the `off` of an LDRSH, at most 4095).
+        let shape = R == 1 || (N == 2 * l && l * 8 <= 1020 && l * S * 2 <= 4095);
+        if col >= S
+            || S * 2 > 255
+            || l < 14
+            || N > 1 << 16
+            || padded > l
+            || whole == 0
+            || comb.repeat != R
+            || !shape
+        {
             return plain(comb, rows, col, out);
         }
         let mut uw = MaybeUninit::<[[i32; 2]; N]>::uninit();
         let base = uw.as_mut_ptr().cast::<[i32; 2]>();
         // SAFETY: col < S, S·2 ≤ 255, whole a non-zero multiple of
-        // FOLD_TURN below l/2, and R·l ≤ N (checked above); `base` is
-        // `uw`'s, N entries.
+        // FOLD_TURN below l/2, and R·l = N with l·8 ≤ 1020 where R = 2
+        // (checked above); `base` is `uw`'s, N entries.
         let (sum, ql, qh) = unsafe { fold_turns::<N, S, R>(rows, col, l, whole, base) };
         let mut sum = sum as i64;
         let mut sq = ((qh as u64) << 32 | ql as u64) as i64;
         // The rest in Rust: the pairs the turns left, instant 0, and l/2
-        // where l is even; each y_j with its repeat's sample and squares.
-        let mut y = |j: usize| {
-            let mut a = 0i32;
+        // where l is even; each y_j (and over halves d_j) with its
+        // repeat's sample and squares.
+        let mut yd = |j: usize| {
+            let (mut a, mut d) = (0i32, 0i32);
             for q in 0..R {
                 let x = rows[j + q * l][col] as i32;
                 sq += (x * x) as i64;
                 a += x;
+                d = if q == 0 { x } else { d - x };
             }
-            a
+            (a, d)
         };
-        let mut put = |j: usize, a: i32, b: Option<i32>| {
-            let e = b.map_or([a, a], |b| [a + b, a - b]);
+        let mut put = |j: usize, (a, d): (i32, i32), b: Option<(i32, i32)>| {
+            let (e, o) = match b {
+                Some((b, q)) => ([a + b, a - b], [d - q, d + q]),
+                None => ([a, a], [d, d]),
+            };
             sum += e[0] as i64;
-            // SAFETY: j < m ≤ padded ≤ N, inside `uw`.
-            unsafe { base.add(j).write(e) };
+            // SAFETY: j < m ≤ padded ≤ l, inside `uw` (N entries) at j
+            // and, over halves, at l + j < 2·l = N.
+            unsafe {
+                base.add(j).write(e);
+                if R == 2 {
+                    base.add(l + j).write(o);
+                }
+            }
         };
         for j in whole + 1..=pairs {
-            let (a, b) = (y(j), y(l - j));
+            let (a, b) = (yd(j), yd(l - j));
             put(j, a, Some(b));
         }
-        put(0, y(0), None);
+        put(0, yd(0), None);
         if l % 2 == 0 {
-            put(l / 2, y(l / 2), None);
+            put(l / 2, yd(l / 2), None);
         }
         // Zeros to fill the last turn (adding nothing to any sum).
         for j in m..padded {
-            // SAFETY: j < padded ≤ N.
-            unsafe { base.add(j).write([0, 0]) };
+            // SAFETY: j < padded ≤ l, and l + j < N over halves.
+            unsafe {
+                base.add(j).write([0, 0]);
+                if R == 2 {
+                    base.add(l + j).write([0, 0]);
+                }
+            }
         }
-        for (x, reference) in out.x.iter_mut().zip(&comb.reference) {
-            // SAFETY: entries 0..padded of `uw` are written above;
-            // padded ≤ N, a non-zero multiple of turn (4 to 7).
-            *x = unsafe { tone_sums(base, padded, turn, reference) };
+        for ((x, reference), &p) in out.x.iter_mut().zip(&comb.reference).zip(&comb.periods) {
+            // A tone that negates over halves reads the d's entries.
+            let at = if R == 2 && p % 2 == 1 { l } else { 0 };
+            // SAFETY: entries at..at + padded of `uw` are written above;
+            // padded ≤ l, a non-zero multiple of turn (4 to 7).
+            *x = unsafe { tone_sums(base.add(at), padded, turn, reference) };
         }
         out.n = N as u32;
         out.sum = sum;
@@ -476,13 +543,15 @@ pub mod arm {
     /// [`repeating`]'s fold in assembly: entries 1..=`whole` of the
     /// block at `base`, each pair of kept instants (j, l − j) of input
     /// `col` as [y_j + y_(l−j), y_j − y_(l−j)], y_j the sum of the `R`
-    /// repeats' samples; the sum of those and the squares' sum (low and
-    /// high words), FOLD_TURN pairs a turn.
+    /// repeats' samples, and over halves (R = 2) entries l + 1..=l +
+    /// `whole` as [d_j − d_(l−j), d_j + d_(l−j)], d_j their difference;
+    /// the sum of the y and the squares' sum (low and high words),
+    /// FOLD_TURN pairs a turn.
     ///
     /// # Safety
     /// `col` < S, S·2 ≤ 255, `whole` a non-zero multiple of FOLD_TURN
-    /// with `whole` < l/2, R·l ≤ N, and `base` valid for writes of N
-    /// entries.
+    /// with `whole` < l/2, R·l = N with l·8 ≤ 1020 where R = 2, and
+    /// `base` valid for writes of N entries.
     #[inline(always)]
     unsafe fn fold_turns<const N: usize, const S: usize, const R: usize>(
         rows: &[[i16; S]; N],
@@ -494,10 +563,11 @@ pub mod arm {
         let (mut sum, mut ql, mut qh) = (0i32, 0u32, 0u32);
         // SAFETY: `pa` walks input `col` (< S) of rows 1..=whole forward
         // and `pb` of rows l−1 down to l−whole back, S·2 bytes a step (an
-        // immediate of at most 255), and with a repeat each also reads
-        // the row l on (`off` bytes: rows up to N − 1); `po` writes
-        // entries 1..=whole at `base` (N entries, whole < l/2), 8 bytes a
-        // step; the loop takes FOLD_TURN pairs a turn (`whole` a
+        // immediate of at most 255), and over halves each also reads
+        // the row l on (`off` bytes, at most 4095: rows up to N − 1);
+        // `po` writes entries 1..=whole at `base` (N entries, whole <
+        // l/2), and over halves l + 1..=l + whole (`odd` bytes on, at
+        // most 1020; l + whole < N), 8 bytes a step; the loop takes FOLD_TURN pairs a turn (`whole` a
         // non-zero multiple) and stops when `po` reaches `end`. Only
         // registers, the rows' memory (read) and `base`'s (written) are
         // touched.
@@ -537,7 +607,8 @@ pub mod arm {
             if R == 1 {
                 fold_loop!(fold_step;);
             } else {
-                fold_loop!(fold2_step; off = in(reg) l * S * 2,);
+                // (R = 2: l = N/2, checked by the caller.)
+                fold_loop!(fold2_step; off = const N / 2 * S * 2, odd = const N / 2 * 8, v = out(reg) _,);
             }
         }
         (sum, ql, qh)

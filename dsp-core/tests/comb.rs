@@ -290,16 +290,22 @@ fn folded_is_plain<const B: usize>(rng: &mut ChaCha8Rng, periods: [u32; 3]) {
     let comb = Comb::<B, 3>::new(periods).unwrap();
     // The layout the fold needs: instant B − n is instant n conjugated,
     // and the comb repeats every L instants (L = B/g, g the largest
-    // common divisor of B and the periods up to 8).
+    // common divisor of B and the periods up to 8), or where that is 1
+    // and B is even, over halves: a tone of odd periods negated.
     let g = (1..=8usize)
         .rev()
         .find(|&g| B % g == 0 && periods.iter().all(|&p| p as usize % g == 0))
         .unwrap();
-    for k in 0..3 {
+    let g = if g == 1 && B % 2 == 0 { 2 } else { g };
+    for (k, &p) in periods.iter().enumerate() {
         let r = comb.reference(k).unwrap();
+        let sign = if p as usize % g == 0 { 1 } else { -1 };
         for n in 1..B {
             assert_eq!(r[B - n], [r[n][0], -r[n][1]], "tone {k}, instant {n} of {B}");
-            assert_eq!(r[n], r[n % (B / g)], "tone {k}, instant {n} of {B}, {g} repeats");
+            let (l, q) = (B / g, n / (B / g));
+            let t = if q % 2 == 1 { sign } else { 1 };
+            let [c, s] = r[n % l];
+            assert_eq!(r[n], [t * c, t * s], "tone {k}, instant {n} of {B}, {g} repeats");
         }
     }
     let mut rows = Box::new([[0i16; S]; B]);
@@ -339,7 +345,11 @@ fn the_folded_sums_are_the_plain_sums() {
     folded_is_plain::<100>(&mut rng, [3, 25, 49]);
     folded_is_plain::<101>(&mut rng, [1, 2, 50]);
     folded_is_plain::<200>(&mut rng, [2, 24, 99]);
-    // Combs that repeat: the 4 ms block's (twice), and 4, 6, 8 times.
+    // Over halves: the 4 ms block's (1, 8, 16 of its periods), and an
+    // odd half (29 instants).
+    folded_is_plain::<100>(&mut rng, [1, 8, 16]);
+    folded_is_plain::<58>(&mut rng, [1, 6, 28]);
+    // Combs that repeat: twice, and 4, 6, 8 times.
     folded_is_plain::<100>(&mut rng, [2, 8, 24]);
     folded_is_plain::<200>(&mut rng, [4, 8, 24]);
     folded_is_plain::<96>(&mut rng, [6, 12, 42]);

@@ -50,7 +50,7 @@ fn the_tones_read_instead_leave_the_avoided_one_out_and_stay_low() {
             }
         }
     }
-    // The paper's sensor reads 500 Hz, 1 and 2 kHz: off 500 Hz, 1, 2, 4 kHz.
+    // Tones 0, 1, 2 (250 Hz, 500 Hz, 1 kHz) off tone 0: 500 Hz, 1 and 2 kHz.
     assert_eq!(avoiding(0).fitted([0, 1, 2]), [1, 2, 3]);
     assert_eq!(Avoidance::new().fitted([0, 1, 2]), [0, 1, 2]);
 }

@@ -974,14 +974,15 @@ fn array_budget(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
     let long = array_run(syst, insns, Layout::BLOCK_4MS);
     let short = array_run(syst, insns, Layout::BLOCK_1MS);
     // And on shapes the layouts leave out: pairs the assembly's turns
-    // leave to Rust, odd periods, a comb that repeats twice in an odd
-    // period, a block too short for the assembly (the plain sums); each
+    // leave to Rust, odd periods, a comb that repeats twice, odd periods
+    // over halves of an odd length, a block too short for the assembly
+    // (the plain sums); each
     // shape is some 7 KiB of this image, and the host tests more (Rust's
     // fold of combs that repeat more often among them).
     let mut rng = skin_sim::rng::Rng::new(30);
     if !(comb_shape::<28>(&mut rng, [2, 4, 6])
         && comb_shape::<101>(&mut rng, [1, 7, 50])
-        && comb_shape::<58>(&mut rng, [2, 6, 28])
+        && comb_shape::<58>(&mut rng, [1, 6, 28])
         && comb_shape::<12>(&mut rng, [1, 2, 5]))
     {
         println!("FAIL comb assembly differs from portable");

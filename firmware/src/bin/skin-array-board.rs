@@ -3,8 +3,8 @@
 //! `skin-array` in QEMU ([`instrument::reader`]) on the real converters.
 //!
 //! Analog front end it expects (README, "Every sensor at once"):
-//! * PA4 (DAC1_OUT1): the comb around 1.65 V, five tones from 0.69 V at
-//!   500 Hz falling as 1/√f to 0.20 V at 6 kHz (1.11 V peak), through a 2-pole reconstruction filter and a buffer of gain 1
+//! * PA4 (DAC1_OUT1): the comb around 1.65 V, five tones from 0.83 V at
+//!   250 Hz falling as 1/√f to 0.21 V at 4 kHz (1.32 V peak), through a 2-pole reconstruction filter and a buffer of gain 1
 //!   to every sensor's top tab, and to PA0 (the excitation as applied);
 //! * each sensor's bottom tab on an inverting transimpedance stage of
 //!   330 kΩ biased at 1.65 V, its output on the pin of
