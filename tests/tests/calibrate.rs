@@ -73,16 +73,18 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
             "sensor {}: valid records > 1 % off in C after",
             s.sensor
         );
-        // Records beyond the instrument's range are flagged, not read:
-        // the slowest electrodes (3.3 MΩ, sensors 5 and 11) leave its
-        // range while they peak, 29 % of their records; the rest keep
-        // more than 99 %.
+        // Every sensor keeps its records while the skin moves (the goal:
+        // 95 %), the slowest electrodes (3.3 MΩ at rest, sensors 5 and
+        // 11) too: at 98.4 % and 98.8 % (14.6–16.8 % while the
+        // electrodes' range ended at 5 MΩ, which they pass as they peak).
+        let moving = &s.moving;
         assert!(
-            s.after_valid.0 * 20 >= s.after_valid.1 * 13,
-            "sensor {}: {} of {} valid",
+            moving.valid * 100 >= moving.records * 95 && s.after_valid.0 * 100 >= s.after_valid.1 * 95,
+            "sensor {}: {} of {} valid, moving {moving} ({})",
             s.sensor,
             s.after_valid.0,
-            s.after_valid.1
+            s.after_valid.1,
+            moving.why()
         );
     }
     // Before, the reference sensor's constants read these sensors wrong.
