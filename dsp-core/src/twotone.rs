@@ -343,6 +343,24 @@ fn refine<const K: usize>(
     })
 }
 
+/// Each tone's misfit to `sol`'s line, in units of its noise: |Z − Z(line)|/σ
+/// (the tone's share of χ², square-rooted), for `tones` as [`solve`] takes
+/// them and `sol` a line of the film `d` (its fitted tan δ); an error where a
+/// tone lies outside the model's range on that line. A fit that left a
+/// tone out ([`Tone::sigma_ohm`] unbounded) says here how far that tone
+/// is from the line of the others, once it is given its own σ.
+pub fn misfits<const K: usize>(
+    inv: &Inverter,
+    d: &Dielectric,
+    tones: &[Tone; K],
+    sol: &Solution,
+) -> Result<[f32; K], InvertError> {
+    check(tones)?;
+    let p = [sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent];
+    let fit = evaluate(inv, d, tones, p)?;
+    Ok(fit.res.map(|r| fmath::sqrt(r.norm_sqr())))
+}
+
 /// Largest second-order term (in units of the noise, over all tones) of
 /// a step taken without evaluating the model again: the point it reaches
 /// is then within this many σ (in the parameters' joint, Mahalanobis,

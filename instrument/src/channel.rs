@@ -15,6 +15,7 @@ use crate::config::{freq_hz, tones, tones_hz, Readings, FREQS_HZ};
 use crate::decide::{Course, Rules};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
+use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
 use crate::sensor::Sensors;
@@ -250,15 +251,15 @@ impl Channel {
             thresholds: th,
             chi2_flag: twotone::CHI2_FLAG,
             // Two tones: no pair to rescue a record from.
-            chi2_pair_flag: f32::NAN,
+            rescue: Rescue::NONE,
             policy: &s.policy,
             set_hz: &FREQS_HZ,
         };
-        // What the energy near the policy's tone could have moved ln C
-        // by: its V/I's shift in units of its noise, through the fit's
-        // sensitivity (a weighted least-squares fit moves ln C by at most
-        // σ_lnC times that).
-        let near = |sigma_ln_c: f32| sigma_ln_c * th.near_shift(&ph.tone) / noise;
+        // What the energy near the policy's tone could have shifted its
+        // V/I by, in units of its noise (`decide` bounds ln C by σ_lnC
+        // times that: a weighted least-squares fit's sensitivity); the
+        // second tone's share is the model check's.
+        let near = |_: Option<usize>| th.near_shift(&ph.tone) / noise;
         let decided = self
             .course
             .decide(&rules, &mut self.policy, pair, near, dt, &mut rec.flags);

@@ -25,7 +25,7 @@
 //!    moves on it.
 
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{hidden, rescue, Joint, Unsolved};
+use crate::joint::{hidden, rescue, Joint, Rescue, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
@@ -43,9 +43,9 @@ pub struct Rules<'a, const N: usize> {
     pub thresholds: &'a Thresholds,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
-    /// χ² above which a pair of three tones is flagged, for a record
-    /// rescued from two of them ([`crate::joint::rescue`]); NaN: none.
-    pub chi2_pair_flag: f32,
+    /// What a record of three tones that fails the check may be rescued
+    /// from two of them by ([`crate::joint::rescue`]).
+    pub rescue: Rescue,
     /// Frequency policy.
     pub policy: &'a Policy,
     /// The frequencies the policy moves on, Hz, ascending.
@@ -121,14 +121,15 @@ impl Course {
     /// The decisions of the module's docs on a block's `tones` (as
     /// measured, Ω, each with its noise), `dt_s` seconds after the
     /// previous block: the line with `flags` set, or None where there is
-    /// none (`flags` says why). `disturbance` gives, from the line's σ of
-    /// ln C, what a disturbance the reader sees could have moved ln C by.
+    /// none (`flags` says why). `disturbance` gives what a disturbance
+    /// the reader sees could have shifted tone `k` of `tones` by (None:
+    /// the worst of them), in units of the tone's noise σ.
     pub fn decide<const N: usize, const K: usize>(
         &mut self,
         rules: &Rules<'_, N>,
         policy: &mut PolicyState,
         tones: [Tone; K],
-        disturbance: impl FnOnce(f32) -> f32,
+        disturbance: impl Fn(Option<usize>) -> f32,
         dt_s: f32,
         flags: &mut Flags,
     ) -> Option<Reading> {
@@ -163,14 +164,15 @@ impl Course {
                 rules.dielectric,
                 &tones,
                 start,
-                rules.chi2_pair_flag,
+                rules.rescue,
+                &disturbance,
                 &mut self.suspect,
             );
         }
         let (sol, chi2_flag) = match &pair {
             Some(p) => {
                 flags.set(Flags::TONE_LEFT_OUT);
-                (p, rules.chi2_pair_flag)
+                (p, rules.rescue.pair_flag)
             }
             None => (&sol, rules.chi2_flag),
         };
@@ -222,7 +224,7 @@ fn check<const N: usize>(
     th: &Thresholds,
     sol: &Solution,
     chi2_flag: f32,
-    disturbance: impl FnOnce(f32) -> f32,
+    disturbance: impl Fn(Option<usize>) -> f32,
     flags: &mut Flags,
 ) -> (f32, bool) {
     let (stretch_mm, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
@@ -231,7 +233,7 @@ fn check<const N: usize>(
     if !consistent {
         flags.set(Flags::MODEL);
     }
-    let bound = 5.0 * sol.sigma_ln_c + disturbance(sol.sigma_ln_c) + hidden(sol, chi2_flag);
+    let bound = 5.0 * sol.sigma_ln_c + sol.sigma_ln_c * disturbance(None) + hidden(sol, chi2_flag);
     if bound.is_nan() || bound > th.c_tolerance {
         flags.set(Flags::UNCERTAIN);
     }

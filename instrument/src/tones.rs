@@ -31,6 +31,7 @@ use crate::array::{Layout, TONES};
 use crate::avoid::Avoidance;
 use crate::decide::{Course, Rules};
 use crate::faults::{Flags, Thresholds};
+use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensors;
 use dsp_core::comb::{Levels, Tones};
@@ -247,12 +248,24 @@ impl ToneChannel {
             dielectric: &s.dielectric,
             thresholds: th,
             chi2_flag: s.chi2_flag,
-            chi2_pair_flag: s.chi2_pair_flag,
+            rescue: Rescue {
+                pair_flag: s.chi2_pair_flag,
+                leak_ratio: s.layout.leak_ratio(),
+            },
             policy: &s.policy,
             set_hz: &set_hz,
         };
-        let disturbance =
-            |sigma_ln_c: f32| disturbance_bound(th, &v.levels, &i.levels, &fitted, n, sigma_ln_c);
+        // What the MODEL check does not see of a disturbance: the shift
+        // it could give a tone (of `tones`, or the worst of them), in
+        // units of the tone's noise (`decide` bounds ln C by σ_lnC times
+        // that: the fit's sensitivity).
+        let disturbance = |j: Option<usize>| {
+            let shift = |k: usize| disturbance_shift(th, &v.levels, &i.levels, k, n);
+            match j {
+                Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
+                None => fitted.iter().fold(0.0, |w, &k| fmath::max(w, shift(k))),
+            }
+        };
         let decided = self
             .course
             .decide(&rules, &mut self.policy, tones, disturbance, dt, &mut rec.flags);
@@ -328,24 +341,22 @@ fn read_tones<const N: usize>(
     (!biased).then_some(tones)
 }
 
-/// What a disturbance could have moved C by, relative: the block's
-/// residual r beyond the ADC's white noise σ ([`Thresholds::noise_counts`])
-/// is a disturbance of rms δ = √(r² − σ²). White noise averages over the
-/// block's N instants (each tone's σ of phase r·√(2/N)/A, which `sigma_ln_c`
-/// carries); a disturbance need not: an interferer near a tone (or at an
-/// alias of one) leaks into its bin up to its whole amplitude √2·δ. So
-/// each tone's phasor may be off by √2·(δ_v/A_v + δ_i/A_i), and C by
-/// `sigma_ln_c` times that over the tone's noise σ (the fit's
-/// sensitivity, linear), the worse tone of the pair. 0 without a
-/// disturbance; the MODEL check sees what of it the two tones disagree
-/// on, this bounds the rest.
-fn disturbance_bound(
+/// What a disturbance could have moved tone `k`'s phasor by, in units of
+/// its noise σ: the block's residual r beyond the ADC's white noise σ
+/// ([`Thresholds::noise_counts`]) is a disturbance of rms δ = √(r² − σ²).
+/// White noise averages over the block's N instants (each tone's σ of
+/// phase r·√(2/N)/A, which `sigma_ln_c` carries); a disturbance need not:
+/// an interferer near a tone (or at an alias of one) leaks into its bin up
+/// to its whole amplitude √2·δ. So the tone's phasor may be off by
+/// √2·(δ_v/A_v + δ_i/A_i), relative, against its noise's
+/// √(2/N)·√((r_v/A_v)² + (r_i/A_i)²). 0 without a disturbance, unbounded
+/// without a tone.
+fn disturbance_shift(
     th: &Thresholds,
     v: &dsp_core::comb::Levels<TONES>,
     i: &dsp_core::comb::Levels<TONES>,
-    fitted: &[usize],
+    k: usize,
     n: u32,
-    sigma_ln_c: f32,
 ) -> f32 {
     let sigma = th.noise_counts;
     let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
@@ -354,20 +365,15 @@ fn disturbance_bound(
         return 0.0;
     }
     let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
-    let mut worst = 0.0f32;
-    for &k in fitted {
-        let (av, ai) = (v.amplitude[k], i.amplitude[k]);
-        // Relative phasor error from the disturbance, and the noise's σ.
-        let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai);
-        let (ev, ei) = (v.residual / av, i.residual / ai);
-        let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
-        worst = fmath::max(worst, shift / noise);
-    }
+    let (av, ai) = (v.amplitude[k], i.amplitude[k]);
+    let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai);
+    let (ev, ei) = (v.residual / av, i.residual / ai);
+    let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
+    let s = shift / noise;
     // NaN (no tone) is no bound.
-    let e = sigma_ln_c * worst;
-    if e.is_nan() {
+    if s.is_nan() {
         f32::INFINITY
     } else {
-        e
+        s
     }
 }
