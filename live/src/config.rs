@@ -418,10 +418,45 @@ impl<S: std::io::Read + std::io::Write> Device<S> {
         Ok(seq)
     }
 
+    /// Read what the device has sent into the buffer (nothing where the
+    /// port's read times out).
+    fn fill(&mut self) -> Result<()> {
+        let mut chunk = [0u8; 4096];
+        match self.port.read(&mut chunk) {
+            Ok(0) => bail!("the device closed the link"),
+            Ok(n) => self.buf.extend(&chunk[..n]),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) => {}
+            Err(e) => return Err(e).context("reading from the device"),
+        }
+        Ok(())
+    }
+
+    /// Wait until the device speaks (any whole frame: its start frame,
+    /// a record): a request sent to a device still starting (a board
+    /// just reset, an emulator just launched) can be lost before its
+    /// UART listens. Frames after the first are kept for the replies.
+    pub fn ready(&mut self) -> Result<()> {
+        let start = std::time::Instant::now();
+        loop {
+            while let Some(b) = self.buf.pop_front() {
+                if let Some(Ok(_)) = self.decoder.push(b) {
+                    return Ok(());
+                }
+            }
+            if start.elapsed() > self.timeout {
+                bail!("the device sent nothing whole in {:?}", self.timeout);
+            }
+            self.fill()?;
+        }
+    }
+
     /// The next reply to request `seq`.
     fn reply(&mut self, seq: u32) -> Result<link::Reply> {
         let start = std::time::Instant::now();
-        let mut chunk = [0u8; 4096];
         loop {
             while let Some(b) = self.buf.pop_front() {
                 if let Some(Ok(link::Frame {
@@ -442,16 +477,7 @@ impl<S: std::io::Read + std::io::Write> Device<S> {
             if start.elapsed() > self.timeout {
                 bail!("no reply from the device in {:?}", self.timeout);
             }
-            match self.port.read(&mut chunk) {
-                Ok(0) => bail!("the device closed the link"),
-                Ok(n) => self.buf.extend(&chunk[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                    ) => {}
-                Err(e) => return Err(e).context("reading from the device"),
-            }
+            self.fill()?;
         }
     }
 

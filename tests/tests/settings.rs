@@ -225,6 +225,8 @@ fn live_config_reads_and_writes_a_running_device() {
     let flash = format!("flash={}", tmp.path().join("settings.bin").display());
     let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash, "until-stop"]).unwrap();
     let mut dev = Device::new(sock, Duration::from_secs(60));
+    // Requests only once it runs: one sent while it boots can be lost.
+    dev.ready().unwrap();
     assert_eq!(dev.read().unwrap(), None, "a new device");
     let mut set = instrument::stored::Stored::uncalibrated();
     set.sensors[6].contact_ohm = 1500.0;
