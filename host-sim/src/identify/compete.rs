@@ -12,6 +12,10 @@
 //! stretches: the frequency and stretch where they differ most, against
 //! the noise floor. Meter kernels alone differ only in time: a recording
 //! whose rows are finer than the kernels would separate them.
+//!
+//! A model named with a remainder has competitors too: the others, under
+//! the same rules, that take as much of the misfit
+//! ([`super::Options::named_share`]) instead of explaining it.
 
 use super::{Fit, Report};
 use crate::model::{Effect, Prepared};
@@ -36,12 +40,23 @@ const SWEEP_HZ: [f64; 13] = [
 /// A difference a sweep resolves: this many times the noise floor.
 const RESOLVED: f64 = 3.0;
 
-/// The competitors of `report`'s accepted model on `prep`'s data.
+/// The competitors of `report`'s accepted (or named) model on `prep`'s
+/// data.
 pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
-    let Some(acc) = &report.accepted else {
+    let Some(acc) = report.named_fit() else {
         return vec![];
     };
     let opts = &report.options;
+    let base = report.baseline();
+    // As good a description: one that explains, or, beside a model named
+    // with a remainder, one that takes as much.
+    let as_good = |f: &Fit| {
+        if report.accepted.is_some() {
+            opts.explains(f)
+        } else {
+            super::Options::share_taken(f, base) >= opts.named_share
+        }
+    };
     // A part or an extension of it. The same effects with a shape
     // parameter and without (a response's order) are another shape,
     // which competes where the parameter is resolved from the value that
@@ -68,9 +83,7 @@ pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
         .singles
         .iter()
         .chain(&report.pairs)
-        .filter(|f| {
-            !nested(f) && f.unresolved.is_none() && opts.explains(f) && f.bic - acc.bic < opts.bic_margin
-        })
+        .filter(|f| !nested(f) && f.unresolved.is_none() && as_good(f) && f.bic - acc.bic < opts.bic_margin)
         .map(|f| Competitor {
             fit: f.clone(),
             delta_bic: f.bic - acc.bic,

@@ -17,8 +17,14 @@
 //!    the smaller model) *and* when the model with it explains the data
 //!    (RMS ≤ [`Options::explained`] × the noise floor seen through that
 //!    model, [`Fit::noise_pf`]: the recorded resistances' noise enters
-//!    every prediction, more through some models than others). Otherwise the data set
-//!    is reported as unexplained, with the best attempt kept apart.
+//!    every prediction, more through some models than others).
+//! 5. Otherwise the best model the data vouch for (strong evidence,
+//!    every effect resolved) that takes most of the misfit
+//!    ([`Options::named_share`] of RMS² − floor²) is *named with a
+//!    remainder*: its parameters stand, and what it leaves is located
+//!    per file and traced to the kind of effect that could leave it
+//!    ([`remainder`]). Only where none takes that much is the data set
+//!    *unexplained*, with the best attempt kept apart.
 
 //!
 //! | module | what |
@@ -27,10 +33,12 @@
 //! | `report` | the verdict, the markdown and JSON reports |
 //! | `plot` | the residual figure ([`plot()`]) |
 //! | [`compete`] | the other models the data allow as well, and what would separate them |
+//! | [`remainder`] | what a named model leaves, where, and what could leave it |
 
 pub mod compete;
 mod fit;
 mod plot;
+pub mod remainder;
 mod report;
 
 pub use plot::plot;
@@ -61,6 +69,12 @@ pub struct Options {
     /// 0.2 % beside a stretch bump, taking the first's 1.54× of the noise
     /// to 1.49×: it bends the model to a shape it lacks).
     pub second_share: f64,
+    /// A model that does not explain the data is still named (with a
+    /// remainder) where it takes at least this share of the baseline's
+    /// misfit beyond the noise (RMS² − floor²): a meter averaging 8.95
+    /// readings that takes 3.89 pF to 0.033 pF is the cause, whatever
+    /// the kernel's exact shape leaves.
+    pub named_share: f64,
 }
 
 impl Default for Options {
@@ -71,6 +85,7 @@ impl Default for Options {
             bic_margin: 10.0,
             max_effects: 2,
             second_share: 0.5,
+            named_share: 0.9,
         }
     }
 }
@@ -273,7 +288,13 @@ pub struct Report {
     /// margin, neither part nor extension of the accepted one), with what
     /// would separate each from it: the data cannot name one of them.
     pub competing: Vec<compete::Competitor>,
-    /// The residual is above the noise and no candidate explains it.
+    /// A model that takes most of the misfit without explaining it
+    /// (None: clean, explained, or unexplained).
+    pub named: Option<Fit>,
+    /// What the named model leaves (with `named`).
+    pub remainder: Option<remainder::Remainder>,
+    /// The residual is above the noise and no candidate explains it or
+    /// takes most of it.
     pub unexplained: bool,
     /// Rows modelled.
     pub rows: usize,
@@ -300,9 +321,28 @@ impl Report {
         &self.baselines[0]
     }
 
-    /// The final model: the accepted one, or the baseline.
+    /// The final model: the accepted one, the named one, or the
+    /// baseline.
     pub fn final_fit(&self) -> &Fit {
-        self.accepted.as_ref().unwrap_or(&self.baselines[0])
+        self.accepted
+            .as_ref()
+            .or(self.named.as_ref())
+            .unwrap_or(&self.baselines[0])
+    }
+
+    /// The model whose effects the report names: accepted or named.
+    pub fn named_fit(&self) -> Option<&Fit> {
+        self.accepted.as_ref().or(self.named.as_ref())
+    }
+
+    /// Which verdict.
+    pub fn kind(&self) -> Verdict {
+        match (&self.accepted, &self.named, self.unexplained) {
+            (Some(_), _, _) => Verdict::Explained,
+            (None, Some(_), _) => Verdict::Named,
+            (None, None, true) => Verdict::Unexplained,
+            (None, None, false) => Verdict::Clean,
+        }
     }
 
     /// The best attempt when unexplained.
@@ -315,6 +355,33 @@ impl Report {
                 .partial_cmp(&(b.unresolved.is_some(), b.bic))
                 .unwrap_or(std::cmp::Ordering::Equal)
         })
+    }
+}
+
+/// The verdicts of `identify`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The baseline is within the noise: nothing to name.
+    Clean,
+    /// The named effects bring every file within its noise.
+    Explained,
+    /// An effect (or a pair) takes most of the misfit
+    /// ([`Options::named_share`]) and leaves a remainder.
+    Named,
+    /// Nothing the data vouch for takes most of the misfit.
+    Unexplained,
+}
+
+impl Verdict {
+    /// Its name in the reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Clean => "clean",
+            Verdict::Explained => "explained",
+            Verdict::Named => "named with a remainder",
+            Verdict::Unexplained => "unexplained",
+        }
     }
 }
 
@@ -662,6 +729,8 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         pairs: vec![],
         accepted: None,
         competing: vec![],
+        named: None,
+        remainder: None,
         unexplained: false,
         rows,
         decimated: decimated(&prep),
@@ -693,6 +762,14 @@ pub fn identify_with(ds: &DataSet, options: Options, progress: &ProgressBar) -> 
         progress,
     };
     selection.select(&base, &mut report);
+    if report.accepted.is_none() {
+        report.named = options.named(&report, &base);
+        report.unexplained = report.named.is_none();
+        report.remainder = report
+            .named
+            .as_ref()
+            .map(|f| remainder::of(&prep, f, &report, Options::share_taken(f, &base)));
+    }
     report.competing = compete::competitors(&prep, &report);
     Ok(report)
 }
@@ -718,6 +795,25 @@ impl Options {
             1.0
         } else {
             1.0 - excess(big) / before
+        }
+    }
+
+    /// The model named with a remainder: of the singles and pairs the
+    /// data vouch for (resolved, strong against the baseline `base`),
+    /// those taking [`Options::named_share`] of its misfit; the best
+    /// single by BIC, or the best pair where it beats that single by the
+    /// margin (a pair names two causes: the second must earn its place).
+    fn named(&self, report: &Report, base: &Fit) -> Option<Fit> {
+        let ok = |f: &&Fit| {
+            f.unresolved.is_none() && self.strong(f, base) && Self::share_taken(f, base) >= self.named_share
+        };
+        let by_bic = |a: &&Fit, b: &&Fit| a.bic.total_cmp(&b.bic);
+        let single = report.singles.iter().filter(ok).min_by(by_bic);
+        let pair = report.pairs.iter().filter(ok).min_by(by_bic);
+        match (single, pair) {
+            (Some(s), Some(p)) if self.strong(p, s) => Some(p.clone()),
+            (Some(s), _) => Some(s.clone()),
+            (None, p) => p.cloned(),
         }
     }
 
@@ -1047,6 +1143,69 @@ mod tests {
             },
             residual: vec![],
         }
+    }
+
+    /// A report of `singles` and `pairs` against a baseline at 4× the
+    /// noise.
+    fn report_of(singles: Vec<Fit>, pairs: Vec<Fit>) -> Report {
+        Report {
+            baselines: vec![with_bic(fit(&[], 4.0, 1.0), 0.0)],
+            noise_pf: vec![],
+            noise_floor_pf: 1.0,
+            singles,
+            pairs,
+            accepted: None,
+            competing: vec![],
+            named: None,
+            remainder: None,
+            unexplained: true,
+            rows: 1000,
+            decimated: vec![],
+            resistance: String::new(),
+            flagged: vec![],
+            search: Search {
+                reach_s: 1.0,
+                row_s: 0.02,
+            },
+            left_out: vec![],
+            options: Options::default(),
+        }
+    }
+
+    fn with_bic(mut f: Fit, bic: f64) -> Fit {
+        f.bic = bic;
+        f
+    }
+
+    /// Named with a remainder: the best single by BIC of those the data
+    /// vouch for that take 90 % of the baseline's misfit (4² − 1 = 15:
+    /// at most 1.5 left, RMS ≤ 1.58); a pair only where it beats that
+    /// single by the margin; nothing where none takes 90 %.
+    #[test]
+    fn a_model_taking_most_of_the_misfit_is_named() {
+        let o = Options::default();
+        let mean = with_bic(fit(&[Effect::MeterMean], 1.55, 1.0), -900.0);
+        let ewma = with_bic(fit(&[Effect::MeterEwma], 1.57, 1.0), -905.0);
+        let weak = with_bic(fit(&[Effect::MeterLag], 1.7, 1.0), -950.0);
+        let mut short = with_bic(fit(&[Effect::MeterResponse], 1.2, 1.0), -990.0);
+        short.unresolved = Some("shorter than the rows".into());
+        let r = report_of(vec![weak.clone(), short, mean.clone(), ewma.clone()], vec![]);
+        let named = o.named(&r, r.baseline()).expect("named");
+        assert_eq!(
+            named.effects,
+            vec![Effect::MeterEwma],
+            "the best BIC of those taking 90 %"
+        );
+        assert!(Options::share_taken(&weak, r.baseline()) < 0.9);
+        // A pair 5 below the single is no better; 15 below is.
+        let pair = |bic| with_bic(fit(&[Effect::MeterEwma, Effect::TimeOffset], 1.3, 1.0), bic);
+        let r = report_of(vec![ewma.clone()], vec![pair(-910.0)]);
+        assert_eq!(o.named(&r, r.baseline()).unwrap().effects.len(), 1);
+        let r = report_of(vec![ewma.clone()], vec![pair(-920.0)]);
+        assert_eq!(o.named(&r, r.baseline()).unwrap().effects.len(), 2);
+        // Nothing strong, or nothing taking 90 %: none named.
+        let r = report_of(vec![weak, with_bic(mean, -5.0)], vec![]);
+        assert!(o.named(&r, r.baseline()).is_none());
     }
 
     /// A second effect taking 1.54× the noise to 1.49× (11 % of the

@@ -23,7 +23,7 @@ pub fn plot(report: &Report, ds: &DataSet, path: &std::path::Path) -> Result<()>
             };
             let pts = |r: &[f64]| x.iter().copied().zip(r.iter().copied()).collect::<Vec<_>>();
             let mut series = vec![Series::new(format!("before: {}", b.label()), pts(&b.residual[i]))];
-            if report.accepted.is_some() {
+            if report.named_fit().is_some() {
                 series.push(Series::new(format!("after: {}", f.label()), pts(&f.residual[i])));
             }
             Panel {

@@ -1,7 +1,7 @@
 //! The verdict and the reports of `identify`: markdown for people, JSON
 //! for tools, parameters in each effect's display unit.
 
-use super::{Fit, Report};
+use super::{Fit, Report, Verdict};
 use crate::model::{Effect, Search};
 
 fn param_value(e: Effect, v: f64) -> String {
@@ -20,6 +20,15 @@ pub fn at_limit(search: &Search, e: Effect, v: f64) -> bool {
     let (lo, hi) = search.range(e);
     let tol = 1e-3 * (hi - lo);
     (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
+}
+
+/// A value for a table: whole numbers from 100, else two decimals.
+fn num(v: f64) -> String {
+    if v.abs() >= 100.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.2}")
+    }
 }
 
 /// Where the floor seen through a model differs from the baseline's by
@@ -142,7 +151,9 @@ impl Report {
             "final": stats(fin),
             "noise_floor_pf": self.noise_floor_pf,
             "noise_pf": self.noise_pf.iter().map(|(f, s)| json!({"file": f, "sigma_pf": s})).collect::<Vec<_>>(),
+            "verdict": self.kind(),
             "unexplained": self.unexplained,
+            "remainder": self.remainder,
             "competing": self.competing.iter().map(|c| serde_json::json!({
                 "label": c.fit.label(),
                 "effects": c.fit.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
@@ -151,7 +162,7 @@ impl Report {
                 "delta_bic": c.delta_bic,
                 "separation": c.separation,
             })).collect::<Vec<_>>(),
-            "identifiability": self.accepted.as_ref().map_or(vec![], Fit::identifiability),
+            "identifiability": self.named_fit().map_or(vec![], Fit::identifiability),
             "best_attempt": self.best_attempt().map(stats),
             "candidates": candidates,
             "rows": self.rows,
@@ -171,17 +182,18 @@ impl Report {
                 "bic": "n·ln(S/n) + k·ln(n)",
                 "explained_within_noise": self.options.explained,
                 "second_effect_share": self.options.second_share,
+                "named_share": self.options.named_share,
                 "bic_margin": self.options.bic_margin,
             },
         })
     }
 
-    /// Each accepted effect with its parameters and their 1σ, for the
-    /// JSON report.
+    /// Each named effect (explained, or with a remainder) with its
+    /// parameters and their 1σ, for the JSON report.
     fn effects_json(&self) -> Vec<serde_json::Value> {
         use serde_json::json;
-        self.accepted
-            .iter()
+        self.named_fit()
+            .into_iter()
             .flat_map(|f| {
                 let (params, sigma) = fit_json(f);
                 f.effects.iter().map(move |&e| {
@@ -228,25 +240,28 @@ impl Report {
             .collect()
     }
 
-    /// The noise floor seen through the accepted model, or through the
+    /// The noise floor seen through the named model, or through the
     /// baseline.
     pub fn final_noise_pf(&self) -> f64 {
-        self.accepted.as_ref().map_or(self.noise_floor_pf, |f| f.noise_pf)
+        self.named_fit().map_or(self.noise_floor_pf, |f| f.noise_pf)
     }
 
-    /// The outcome in a word: "unexplained", "clean", or the accepted
-    /// model's label.
+    /// The outcome in a word: "unexplained", "clean", the accepted
+    /// model's label, or the named one's with "+ remainder".
     pub fn outcome(&self) -> String {
-        match (&self.accepted, self.unexplained) {
-            (_, true) => "unexplained".to_string(),
-            (None, false) => "clean".to_string(),
-            (Some(f), false) => f.label(),
+        match (self.kind(), self.named_fit()) {
+            (Verdict::Explained, Some(f)) => f.label(),
+            (Verdict::Named, Some(f)) => format!("{} + remainder", f.label()),
+            (k, _) => k.name().to_string(),
         }
     }
 
     /// A short verdict line.
     pub fn verdict(&self) -> String {
         let nf = self.noise_floor_pf;
+        if let (Some(f), Some(rem)) = (&self.named, &self.remainder) {
+            return self.named_text(f, rem);
+        }
         match (&self.accepted, self.unexplained) {
             (Some(f), _) => format!(
                 "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}{}",
@@ -275,6 +290,91 @@ impl Report {
                 self.best_attempt().map_or(f64::NAN, |f| f.rms_pf / f.noise_pf)
             ),
         }
+    }
+
+    /// The verdict of a model named with a remainder.
+    fn named_text(&self, f: &Fit, rem: &crate::identify::remainder::Remainder) -> String {
+        let beyond = rem
+            .files
+            .iter()
+            .filter(|x| x.beyond(self.options.explained))
+            .count();
+        format!(
+            "named with a remainder: {} ({}) takes {:.1} % of the misfit beyond the noise, RMS {:.3} → {:.3} pF ({:.2}× the noise floor of {:.3} pF{}); {beyond} of {} files stay beyond {}× their noise{}",
+            f.label(),
+            params_text(f),
+            100.0 * rem.taken,
+            self.baseline().rms_pf,
+            f.rms_pf,
+            f.rms_pf / f.noise_pf,
+            f.noise_pf,
+            through(f.noise_pf, self.noise_floor_pf),
+            rem.files.len(),
+            self.options.explained,
+            self.competing_text()
+        )
+    }
+
+    /// The remainder's section: per file, where it lies; what could
+    /// leave it.
+    fn remainder_md(&self, md: &mut String) {
+        use std::fmt::Write as _;
+        let Some(rem) = &self.remainder else {
+            return;
+        };
+        let _ = writeln!(
+            md,
+            "## What is left
+
+{} takes {:.1} % of the baseline's misfit beyond the noise (RMS² − floor²). What it leaves, per file: its RMS against the file's noise, its share of the remainder, and where it gathers (the tenth of the time, the fifth of the stretch range, of a sweep the fifth of its log-frequency range holding the most of it, with the share an even spread would put there), and how it grows with the stretch rate (mean square in the fastest third of the motion over the slowest).
+",
+            self.final_fit().label(),
+            100.0 * rem.taken
+        );
+        let _ = writeln!(
+            md,
+            "| file | f | RMS | noise | RMS / noise | mean | share | time | stretch | fast / slow |\n|---|---|---:|---:|---:|---:|---:|---|---|---:|"
+        );
+        let span = |s: &Option<super::remainder::Span>, unit: &str| {
+            s.map_or("–".to_string(), |s| {
+                format!(
+                    "{}–{} {unit}: {:.0} % (even {:.0} %)",
+                    num(s.from),
+                    num(s.to),
+                    100.0 * s.share,
+                    100.0 * s.even
+                )
+            })
+        };
+        for x in &rem.files {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.3} pF | {:.3} pF | {:.2} | {:+.3} pF | {:.0} % | {} | {} | {} |",
+                x.file,
+                match &x.frequency_span_hz {
+                    Some(_) => span(&x.frequency_span_hz, "Hz"),
+                    None => format!("{:.0} Hz", x.frequency_hz),
+                },
+                x.rms_pf,
+                x.noise_pf,
+                x.rms_pf / x.noise_pf,
+                x.mean_pf,
+                100.0 * x.share,
+                span(&x.time_s, "s"),
+                span(&x.stretch_mm, "mm"),
+                x.rate_ratio.map_or("–".to_string(), |q| format!("{q:.1}"))
+            );
+        }
+        let _ = writeln!(
+            md,
+            "
+What could leave it:
+"
+        );
+        for h in &rem.hints {
+            let _ = writeln!(md, "- {h}");
+        }
+        md.push('\n');
     }
 
     /// The competitors in a clause ("" when there are none).
@@ -419,7 +519,7 @@ impl Report {
         use std::fmt::Write as _;
         let mut md = format!("# identify: {data}\n\n**{}**\n\n", self.verdict());
         // What the data cannot pin down, of the model found (or tried).
-        if let Some(x) = self.accepted.as_ref().or(self.best_attempt()) {
+        if let Some(x) = self.named_fit().or(self.best_attempt()) {
             let notes = x.identifiability();
             if !notes.is_empty() {
                 let _ = writeln!(md, "Identifiability ({}):\n", x.label());
@@ -430,6 +530,7 @@ impl Report {
             }
         }
         self.errors_md(&mut md);
+        self.remainder_md(&mut md);
         if let Some(p) = plot {
             let _ = writeln!(md, "![residual before and after]({p})\n");
         }
