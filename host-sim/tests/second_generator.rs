@@ -180,6 +180,46 @@ fn clean_sets_are_clean() {
     }
 }
 
+/// A blocking contact (a contact with a capacitance in series, outside
+/// the library; the survey's seed 14): a contact resistance with a
+/// resistance profile takes > 99 % of the misfit (20.98 pF to 0.10 pF)
+/// and is named, never called explained; the remainder is stated per
+/// file and gathers at the sweep's lowest frequencies, where a series
+/// capacitance tells, and the report says a dependence on frequency is
+/// missing.
+#[test]
+fn a_cause_taking_most_of_the_misfit_is_named_with_its_remainder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(5014);
+    let (fx, meter, _) = Family::BlockingContact.draw(&mut rng);
+    let r = run(tmp.path(), &Bench::new(fx, meter, 14));
+    println!("{}", r.verdict());
+    assert_eq!(r.kind(), Verdict::Named, "{}", r.verdict());
+    assert!(r.accepted.is_none() && !r.unexplained);
+    assert!(named(&r).contains(&"contact_resistance"), "{:?}", named(&r));
+    let rem = r.remainder.as_ref().expect("a remainder");
+    assert!(rem.taken >= Options::default().named_share, "{}", rem.taken);
+    assert!(rem.files.iter().any(|x| x.beyond(Options::default().explained)));
+    let sweep = rem
+        .files
+        .iter()
+        .find(|x| x.file == "sweep.csv")
+        .expect("the sweep");
+    let at = sweep.frequency_span_hz.expect("where in the sweep");
+    assert!(at.gathers() && at.from < 300.0, "{at:?}");
+    assert!(
+        rem.hints.iter().any(|h| h.contains("frequency")),
+        "{:?}",
+        rem.hints
+    );
+    let j = r.json();
+    assert_eq!(j["verdict"], "named_with_remainder");
+    assert_eq!(j["unexplained"], false);
+    assert_eq!(j["effects"].as_array().unwrap().len(), named(&r).len());
+    assert_eq!(j["remainder"]["files"].as_array().unwrap().len(), rem.files.len());
+    assert!(r.markdown("s14", None).contains("## What is left"));
+}
+
 /// Outside the library, nothing is called explained: a library effect
 /// may take most of the misfit (named with a remainder, which the
 /// report locates and traces), or none does (unexplained).

@@ -368,6 +368,7 @@ pub enum Verdict {
     Explained,
     /// An effect (or a pair) takes most of the misfit
     /// ([`Options::named_share`]) and leaves a remainder.
+    #[serde(rename = "named_with_remainder")]
     Named,
     /// Nothing the data vouch for takes most of the misfit.
     Unexplained,

@@ -22,6 +22,15 @@ pub fn at_limit(search: &Search, e: Effect, v: f64) -> bool {
     (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
 }
 
+/// A share as a percentage, never rounded up to all of it.
+fn percent(share: f64) -> String {
+    if share < 1.0 && share >= 0.999 {
+        "more than 99.9 %".to_string()
+    } else {
+        format!("{:.1} %", 100.0 * share)
+    }
+}
+
 /// A value for a table: whole numbers from 100, else two decimals.
 fn num(v: f64) -> String {
     if v.abs() >= 100.0 {
@@ -300,10 +309,10 @@ impl Report {
             .filter(|x| x.beyond(self.options.explained))
             .count();
         format!(
-            "named with a remainder: {} ({}) takes {:.1} % of the misfit beyond the noise, RMS {:.3} → {:.3} pF ({:.2}× the noise floor of {:.3} pF{}); {beyond} of {} files stay beyond {}× their noise{}",
+            "named with a remainder: {} ({}) takes {} of the misfit beyond the noise, RMS {:.3} → {:.3} pF ({:.2}× the noise floor of {:.3} pF{}); {beyond} of {} files stay beyond {}× their noise{}",
             f.label(),
             params_text(f),
-            100.0 * rem.taken,
+            percent(rem.taken),
             self.baseline().rms_pf,
             f.rms_pf,
             f.rms_pf / f.noise_pf,
@@ -329,7 +338,7 @@ impl Report {
 {} takes {:.1} % of the baseline's misfit beyond the noise (RMS² − floor²). What it leaves, per file: its RMS against the file's noise, its share of the remainder, and where it gathers (the tenth of the time, the fifth of the stretch range, of a sweep the fifth of its log-frequency range holding the most of it, with the share an even spread would put there), and how it grows with the stretch rate (mean square in the fastest third of the motion over the slowest).
 ",
             self.final_fit().label(),
-            100.0 * rem.taken
+            percent(rem.taken)
         );
         let _ = writeln!(
             md,
