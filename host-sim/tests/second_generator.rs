@@ -220,6 +220,28 @@ fn a_cause_taking_most_of_the_misfit_is_named_with_its_remainder() {
     assert!(r.markdown("s14", None).contains("## What is left"));
 }
 
+/// A sine-shaped stretch bulge (the survey's seed 11) is explained by
+/// a stretch bump centred on the sensor and as wide as it: the report
+/// says it is the bulge by another name (its family), in the verdict and
+/// in report.json.
+#[test]
+fn a_bump_as_wide_as_the_sensor_is_named_a_bulge_by_another_name() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(5011);
+    let family = Family::IN_LIBRARY[rng.gen_range(0..Family::IN_LIBRARY.len())];
+    assert_eq!(family, Family::StretchBulge, "the survey's draw");
+    let (fx, meter, _) = family.draw(&mut rng);
+    let r = run(tmp.path(), &Bench::new(fx, meter, 11));
+    println!("{}", r.verdict());
+    assert!(Family::StretchBulge.named_right(&named(&r)), "{}", r.verdict());
+    let f = r.named_fit().expect("named");
+    let family = host_sim::identify::family::note(f).unwrap_or_default();
+    assert!(f.effects.contains(&Effect::StretchBump), "{}", r.verdict());
+    assert!(family.contains("stretch_bulge) by another name"), "{family}");
+    assert!(r.verdict().contains(&family));
+    assert_eq!(r.json()["family"], family.as_str());
+}
+
 /// Outside the library, nothing is called explained: a library effect
 /// may take most of the misfit (named with a remainder, which the
 /// report locates and traces), or none does (unexplained).

@@ -30,6 +30,10 @@ pub struct Competitor {
     pub delta_bic: f64,
     /// What measurement would separate it from the accepted model.
     pub separation: String,
+    /// One thing in another member's terms ([`super::family`]): a mean
+    /// of N readings beside a window, a bulge beside a bump as wide as
+    /// the sensor.
+    pub same_family: bool,
 }
 
 /// The frequencies a separating sweep is sought at, Hz.
@@ -84,10 +88,19 @@ pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
         .iter()
         .chain(&report.pairs)
         .filter(|f| !nested(f) && f.unresolved.is_none() && as_good(f) && f.bic - acc.bic < opts.bic_margin)
-        .map(|f| Competitor {
-            fit: f.clone(),
-            delta_bic: f.bic - acc.bic,
-            separation: separation(prep, acc, f, report.noise_floor_pf),
+        .map(|f| {
+            let same_family = super::family::same_family(acc, f);
+            let mut separation = separation(prep, acc, f, report.noise_floor_pf);
+            if same_family {
+                let note = super::family::note(f).unwrap_or_default();
+                separation = format!("the same thing in other terms ({note}); {separation}");
+            }
+            Competitor {
+                fit: f.clone(),
+                delta_bic: f.bic - acc.bic,
+                separation,
+                same_family,
+            }
         })
         .collect()
 }

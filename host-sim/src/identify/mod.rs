@@ -33,9 +33,11 @@
 //! | `report` | the verdict, the markdown and JSON reports |
 //! | `plot` | the residual figure ([`plot()`]) |
 //! | [`compete`] | the other models the data allow as well, and what would separate them |
+//! | [`family`] | equivalent descriptions: a mean of N readings and a window, a bump as wide as the sensor and a bulge |
 //! | [`remainder`] | what a named model leaves, where, and what could leave it |
 
 pub mod compete;
+pub mod family;
 mod fit;
 mod plot;
 pub mod remainder;

@@ -22,6 +22,11 @@ pub fn at_limit(search: &Search, e: Effect, v: f64) -> bool {
     (hi != 0.0 && v >= hi - tol) || (lo != 0.0 && v <= lo + tol)
 }
 
+/// The family of a model, in a clause ("" for none).
+fn family_text(f: &Fit) -> String {
+    super::family::note(f).map_or(String::new(), |n| format!(" [{n}]"))
+}
+
 /// A share as a percentage, never rounded up to all of it.
 fn percent(share: f64) -> String {
     if share < 1.0 && share >= 0.999 {
@@ -161,6 +166,7 @@ impl Report {
             "noise_floor_pf": self.noise_floor_pf,
             "noise_pf": self.noise_pf.iter().map(|(f, s)| json!({"file": f, "sigma_pf": s})).collect::<Vec<_>>(),
             "verdict": self.kind(),
+            "family": self.named_fit().and_then(super::family::note),
             "unexplained": self.unexplained,
             "remainder": self.remainder,
             "competing": self.competing.iter().map(|c| serde_json::json!({
@@ -170,6 +176,7 @@ impl Report {
                 "rms_pf": c.fit.rms_pf,
                 "delta_bic": c.delta_bic,
                 "separation": c.separation,
+                "same_family": c.same_family,
             })).collect::<Vec<_>>(),
             "identifiability": self.named_fit().map_or(vec![], Fit::identifiability),
             "best_attempt": self.best_attempt().map(stats),
@@ -273,9 +280,10 @@ impl Report {
         }
         match (&self.accepted, self.unexplained) {
             (Some(f), _) => format!(
-                "explained by {} ({}): RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}{}",
+                "explained by {} ({}){}: RMS {:.3} → {:.3} pF, noise floor {:.3} pF{}{}",
                 f.label(),
                 params_text(f),
+                family_text(f),
                 self.baseline().rms_pf,
                 f.rms_pf,
                 f.noise_pf,
@@ -309,9 +317,10 @@ impl Report {
             .filter(|x| x.beyond(self.options.explained))
             .count();
         format!(
-            "named with a remainder: {} ({}) takes {} of the misfit beyond the noise, RMS {:.3} → {:.3} pF ({:.2}× the noise floor of {:.3} pF{}); {beyond} of {} files stay beyond {}× their noise{}",
+            "named with a remainder: {} ({}){} takes {} of the misfit beyond the noise, RMS {:.3} → {:.3} pF ({:.2}× the noise floor of {:.3} pF{}); {beyond} of {} files stay beyond {}× their noise{}",
             f.label(),
             params_text(f),
+            family_text(f),
             percent(rem.taken),
             self.baseline().rms_pf,
             f.rms_pf,
