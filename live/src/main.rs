@@ -510,7 +510,7 @@ fn main() -> ExitCode {
         };
     }
     match run(cli) {
-        Ok(Outcome::Complete) => ExitCode::SUCCESS,
+        Ok(Outcome::Complete | Outcome::Stopped) => ExitCode::SUCCESS,
         Ok(Outcome::Incomplete(why)) => {
             eprintln!("incomplete: {why}");
             ExitCode::from(3)
@@ -527,15 +527,16 @@ fn report(what: &str, stopped: Stopped) {
     match stopped {
         Stopped::End => {}
         Stopped::Source(why) => eprintln!("{what} stopped: {why}"),
-        Stopped::Asked => eprintln!("stopped by Ctrl-C"),
+        Stopped::Asked => eprintln!("stopped by Ctrl-C: the data set holds every record that arrived"),
     }
 }
 
 fn run(cli: Cli) -> Result<Outcome> {
     let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
     let dashboard = serve(cli.serve, &dataset)?;
-    // Ctrl-C ends a live stream (a board's never ends by itself): the
-    // data set is written with what arrived, marked incomplete.
+    // Ctrl-C ends a live stream (a board's never ends by itself), the
+    // normal way to stop a recording: the data set is written with what
+    // arrived, complete.
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
@@ -546,6 +547,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         live::Earlier::Refuse
     };
     let mut session = Session::new(&dataset, earlier)?;
+    let mut asked = false;
     let mut sink = Sink {
         session: &mut session,
         dashboard: dashboard.as_ref(),
@@ -561,15 +563,16 @@ fn run(cli: Cli) -> Result<Outcome> {
                 .timeout(Duration::from_millis(200))
                 .open()
                 .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
-            report(
-                &format!("the serial port {name}"),
-                follow(port, &mut sink, &stop)?,
-            );
+            let stopped = follow(port, &mut sink, &stop)?;
+            asked = stopped == Stopped::Asked;
+            report(&format!("the serial port {name}"), stopped);
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            report(&format!("the socket {addr}"), follow(sock, &mut sink, &stop)?);
+            let stopped = follow(sock, &mut sink, &stop)?;
+            asked = stopped == Stopped::Asked;
+            report(&format!("the socket {addr}"), stopped);
         }
         (None, None, None) => {
             anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")
@@ -582,6 +585,9 @@ fn run(cli: Cli) -> Result<Outcome> {
     if dashboard.is_some() && cli.linger > 0 {
         eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
         std::thread::sleep(Duration::from_secs(cli.linger));
+    }
+    if asked {
+        session.ask_stop();
     }
     print_refused(&session);
     let started = session.start().is_some();

@@ -43,9 +43,13 @@ fn manifest(session: &Session, done: &Finished) -> Value {
         "tool": concat!("live ", env!("CARGO_PKG_VERSION")),
         "opened_utc": session.opened.map(|t| t.to_rfc3339()),
         "ended_utc": chrono::Utc::now().to_rfc3339(),
-        "complete": done.outcome == Outcome::Complete,
+        "complete": done.outcome.is_complete(),
         "outcome": match &done.outcome {
             Outcome::Complete => "the stream ended with its end frame".to_string(),
+            Outcome::Stopped => format!(
+                "stopped by the user after {} records, the device running on: every record that arrived until then",
+                s.records
+            ),
             Outcome::Incomplete(why) => why.clone(),
         },
         "segments": session.segments().iter().map(segment).collect::<Vec<_>>(),

@@ -26,8 +26,20 @@ pub enum Outcome {
     /// With its end frame: every record the device sent, less those lost
     /// on the way (counted).
     Complete,
-    /// Without its end frame; the reason.
+    /// Stopped by the user (Ctrl-C, a stop command) while the device
+    /// ran on: every record that arrived until then, a set as complete
+    /// as one that ended with its end frame.
+    Stopped,
+    /// Without its end frame, and not asked to stop (a lost source, a
+    /// crash, a hang); the reason.
     Incomplete(String),
+}
+
+impl Outcome {
+    /// A complete set: ended with its end frame, or stopped when asked.
+    pub fn is_complete(&self) -> bool {
+        !matches!(self, Outcome::Incomplete(_))
+    }
 }
 
 /// What a session does with a folder that holds files already.
@@ -152,6 +164,8 @@ pub struct Session {
     last_t_us: std::collections::BTreeMap<u8, u64>,
     /// Why the session took no more frames, where it stopped early.
     stopped: Option<String>,
+    /// The user asked the session to stop ([`Session::ask_stop`]).
+    asked: bool,
     /// Each sensor's gap since its last valid record.
     gaps: Gaps,
 }
@@ -186,6 +200,7 @@ impl Session {
             refused: vec![],
             last_t_us: Default::default(),
             stopped: None,
+            asked: false,
             gaps: Gaps::default(),
         })
     }
@@ -385,6 +400,12 @@ impl Session {
         self.stopped.as_deref()
     }
 
+    /// The user asked to stop (Ctrl-C): the set ends with what arrived,
+    /// complete ([`Outcome::Stopped`]), not cut short.
+    pub fn ask_stop(&mut self) {
+        self.asked = true;
+    }
+
     /// The start frame of the segment running, once received.
     pub fn start(&self) -> Option<&Start> {
         self.segments.last().map(|s| &s.start)
@@ -501,6 +522,7 @@ impl Session {
             ),
             (Some(why), _) => Outcome::Incomplete(why.clone()),
             (None, Some(_)) => Outcome::Complete,
+            (None, None) if self.asked => Outcome::Stopped,
             (None, None) => Outcome::Incomplete(format!(
                 "the stream stopped after {} records without its end frame (a crash, a hang, the link was cut, or it was stopped)",
                 summary.records
@@ -526,7 +548,7 @@ impl Session {
         let marker = self.dir.join(INCOMPLETE);
         match &finished.outcome {
             Outcome::Incomplete(why) => std::fs::write(&marker, format!("{why}\n")),
-            Outcome::Complete => std::fs::remove_file(&marker),
+            Outcome::Complete | Outcome::Stopped => std::fs::remove_file(&marker),
         }
         .with_context(|| format!("writing {}", marker.display()))?;
         Ok(finished)

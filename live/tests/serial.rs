@@ -91,7 +91,9 @@ fn a_stream_read_from_a_serial_port_ends_with_its_end_frame() {
 }
 
 #[test]
-fn ctrl_c_ends_an_endless_stream_with_its_data_set_marked_incomplete() {
+/// Ctrl-C is the normal stop of a board's endless stream: the set is
+/// complete (no marker, `complete` in the manifest), exit status 0.
+fn ctrl_c_ends_an_endless_stream_with_its_data_set_complete() {
     let (mut master, slave) = pair();
     master.set_timeout(Duration::from_secs(1)).unwrap();
     let tmp = tempfile::tempdir().unwrap();
@@ -112,11 +114,18 @@ fn ctrl_c_ends_an_endless_stream_with_its_data_set_marked_incomplete() {
         .unwrap();
     assert!(st.success());
     let (code, stdout, stderr) = wait(child, 20);
-    assert_eq!(code, Some(3), "{stdout}\n{stderr}");
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     assert!(stderr.contains("stopped by Ctrl-C"), "{stderr}");
     assert_eq!(rows(tmp.path()), 25);
-    let marker = std::fs::read_to_string(tmp.path().join("INCOMPLETE")).unwrap();
-    assert!(marker.contains("25 records without its end frame"), "{marker}");
+    assert!(!tmp.path().join("INCOMPLETE").exists(), "a stop is no cut");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("session.json")).unwrap()).unwrap();
+    assert_eq!(manifest["complete"], true);
+    let outcome = manifest["outcome"].as_str().unwrap();
+    assert!(
+        outcome.contains("stopped by the user after 25 records"),
+        "{outcome}"
+    );
     drop(slave);
 }
 

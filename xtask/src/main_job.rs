@@ -215,6 +215,7 @@ pub fn run_array(out: &Path, live_dir: &Path) -> Result<String> {
         live_dir.display(),
         match &link.outcome {
             live::Outcome::Complete => "complete".to_string(),
+            live::Outcome::Stopped => "stopped when asked (complete)".to_string(),
             live::Outcome::Incomplete(why) => format!("INCOMPLETE: {why}"),
         },
         link.summary.line()
