@@ -629,6 +629,24 @@ fn identify(dir: &Path, out: &Path, no_sweep: bool, predict_paper: bool) -> Resu
         md += "\n";
         md += &section;
         j["predictions"] = outcomes.iter().map(prediction_json).collect();
+        let (table, rows) = host_sim::experiments::consistency(&ds, &report)?;
+        md += "\n";
+        md += &table;
+        j["consistency"] = rows
+            .iter()
+            .map(|m| {
+                serde_json::json!({
+                    "mechanism": m.label,
+                    "parameters": m.params,
+                    "unresolved": m.unresolved,
+                    "static_points": m.static_points,
+                    "static_points_off": m.statics_off.iter().map(|(p, e, t)| serde_json::json!({"point": p, "residual_pf": e, "tolerance_pf": t})).collect::<Vec<_>>(),
+                    "predictions": m.dynamics.iter().map(prediction_json).collect::<Vec<_>>(),
+                    "excluded_by": m.excluded_by(),
+                    "consistent": m.consistent(),
+                })
+            })
+            .collect();
     }
     let json = serde_json::to_string_pretty(&j)? + "\n";
     let temp = || {

@@ -5,6 +5,7 @@
 mod accuracy;
 mod capacitance;
 mod claims;
+mod consistency;
 mod dataset;
 mod elements;
 mod resistance;
@@ -17,6 +18,7 @@ pub use claims::{
     compare, fig13_order, misses, parse_claims, predict_paper, provenance, provenance_table, table, Claim,
     Known, Outcome, CLAIMS_CSV,
 };
+pub use consistency::{consistency, Mechanism};
 pub use dataset::{dataset, dense_trace};
 pub use elements::{calibration, elements};
 pub use resistance::resistance;

@@ -106,7 +106,7 @@ pub fn competitors(prep: &Prepared, report: &Report) -> Vec<Competitor> {
 }
 
 /// What would separate `a` from `b`, both of which explain these data.
-fn separation(prep: &Prepared, a: &Fit, b: &Fit, noise_pf: f64) -> String {
+pub fn separation(prep: &Prepared, a: &Fit, b: &Fit, noise_pf: f64) -> String {
     let sensor = |f: &Fit| f.effects.iter().any(|e| e.is_static());
     if !sensor(a) && !sensor(b) {
         return "both are the meter's averaging in time, equal on these rows: a recording with rows finer \
