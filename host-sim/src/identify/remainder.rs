@@ -148,7 +148,9 @@ fn densest(rows: &[usize], x: impl Fn(usize) -> f64, r: &[f64], bins: usize) -> 
             (a.min(v), b.max(v))
         });
     let total: f64 = rows.iter().map(|&i| r[i] * r[i]).sum();
-    if !(hi > lo) || !(total > 0.0) {
+    // No spread (or NaN), or nothing to place.
+    let spread = hi > lo;
+    if !spread || total.is_nan() || total <= 0.0 {
         return None;
     }
     let width = (hi - lo) / bins as f64;

@@ -29,7 +29,7 @@ fn family_text(f: &Fit) -> String {
 
 /// A share as a percentage, never rounded up to all of it.
 fn percent(share: f64) -> String {
-    if share < 1.0 && share >= 0.999 {
+    if (0.999..1.0).contains(&share) {
         "more than 99.9 %".to_string()
     } else {
         format!("{:.1} %", 100.0 * share)
