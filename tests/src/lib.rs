@@ -470,3 +470,24 @@ pub fn assert_stack_margin<'a>(what: &str, lines: impl Iterator<Item = &'a str>)
         "{what}: {free} bytes of stack never touched, less than {STACK_MARGIN}"
     );
 }
+
+/// A Python that imports `modules` (comma separated): `python3` on PATH,
+/// else the system's (where PATH leads to another, such as pyenv's,
+/// without them); `python3` where neither does (the caller's command
+/// then fails, naming what is missing).
+pub fn python_with(modules: &str) -> &'static str {
+    ["python3", "/usr/bin/python3"]
+        .into_iter()
+        .find(|py| {
+            Command::new(py)
+                .args(["-c", &format!("import {modules}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .unwrap_or("python3")
+}
+
+/// The repository's Python package (`python/`), for `PYTHONPATH`.
+pub fn python_package() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../python")
+}

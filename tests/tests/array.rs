@@ -270,6 +270,30 @@ fn the_link_carries_every_record_of_two_seconds_and_survives_corruption() {
     link_carries(run, recs);
 }
 
+/// The Python reader (`python/skinread`, its frame decoder written from
+/// docs/data-format.md alone) decodes the array's stream to the records
+/// `live` writes, record for record and field by field.
+#[test]
+fn the_python_reader_agrees_with_live_record_for_record() {
+    let (run, recs) = paper_2s();
+    let tmp = tempfile::tempdir().unwrap();
+    let done = live::replay(&run.serial, tmp.path(), live::Earlier::Refuse).unwrap();
+    assert_eq!(done.summary.records, recs.len());
+    let out = std::process::Command::new(qemu_tests::python_with("numpy, pandas"))
+        .args(["-m", "skinread.check"])
+        .arg(tmp.path())
+        .env("PYTHONPATH", qemu_tests::python_package())
+        .output()
+        .expect("python3 with numpy and pandas (`cargo xtask setup` installs them)");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains(&format!("agree: {} records", recs.len())), "{text}");
+}
+
 /// The frames on UART0 carry every record the log does, value for value;
 /// `LINK_CASES` corrupted copies of its first 200 frames yield only
 /// frames that were sent.

@@ -39,6 +39,26 @@ pub fn run_env(dir: &Path, args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
     Ok(())
 }
 
+/// `program ARGS` in `dir` with `envs`, printed and timed; an error if
+/// it fails.
+pub fn system(dir: &Path, program: &str, args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
+    let shown: Vec<String> = envs.iter().map(|(k, v)| format!("{k}={v} ")).collect();
+    let line = format!("{}{program} {}", shown.concat(), args.join(" "));
+    eprintln!("$ (cd {}) {line}", dir.display());
+    let started = Instant::now();
+    let st = Command::new(program)
+        .current_dir(dir)
+        .args(args)
+        .envs(envs.iter().copied())
+        .status()
+        .with_context(|| format!("running {program}"))?;
+    eprintln!("$ {line}: {:.1} s", started.elapsed().as_secs_f64());
+    if !st.success() {
+        bail!("{line} failed");
+    }
+    Ok(())
+}
+
 /// `cargo ARGS` in `dir`; an error if it fails.
 pub fn run(dir: &Path, args: &[&str]) -> Result<()> {
     run_env(dir, args, &[])

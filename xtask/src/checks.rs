@@ -117,7 +117,22 @@ fn host_tests(root: &Path, pass: Pass) -> Result<()> {
         // The long tests too; the surveys are `cargo xtask survey`'s.
         Pass::Full => args.extend(["--", "--include-ignored", "--exact", "--skip", "survey"]),
     }
-    cargo::run_env(root, &args, &env)
+    cargo::run_env(root, &args, &env)?;
+    python_tests(root)
+}
+
+/// The Python reader's own tests (`python/`, pytest), on the Python that
+/// has numpy, pandas and pytest (the system's, where PATH leads to
+/// pyenv's without them); its agreement with `live` on a firmware stream
+/// is a QEMU test (`the_python_reader_agrees_with_live_record_for_record`).
+fn python_tests(root: &Path) -> Result<()> {
+    let py = qemu_tests::python_with("numpy, pandas, pytest");
+    cargo::system(
+        root,
+        py,
+        &["-m", "pytest", "-q", "-p", "no:cacheprovider", "python/tests"],
+        &[("PYTHONPATH", "python"), ("PYTHONDONTWRITEBYTECODE", "1")],
+    )
 }
 
 /// The variables that set a fuzz target's count of cases (each test's

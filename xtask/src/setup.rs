@@ -1,7 +1,8 @@
 //! What a fresh Debian machine lacks (apt-get, as root or through sudo):
 //! QEMU, ngspice, Chromium (the dashboard's test), npm (the
-//! dashboard's chart library) and Python's pandas (the CSV files read as
-//! a lab reads them); and the Rust targets of
+//! dashboard's chart library), Python's pandas (the CSV files read as
+//! a lab reads them) and pytest (the Python reader's tests); and the
+//! Rust targets of
 //! `rust-toolchain.toml`.
 
 use anyhow::{bail, Context, Result};
@@ -11,13 +12,15 @@ use std::time::Instant;
 
 /// The system packages the tests need: (what shows it is there, its
 /// package).
-const PACKAGES: [(Present, &str); 5] = [
+const PACKAGES: [(Present, &str); 6] = [
     (Present::Program("qemu-system-arm"), "qemu-system-arm"),
     (Present::Program("ngspice"), "ngspice"),
     (Present::Program("chromium"), "chromium"),
     (Present::Program("npm"), "npm"),
     // The CSV files the tools write, read as a lab reads them.
     (Present::PythonModule("pandas"), "python3-pandas"),
+    // The Python reader's tests (`python/`).
+    (Present::PythonModule("pytest"), "python3-pytest"),
 ];
 
 /// What shows a package is installed.
