@@ -292,6 +292,41 @@ fn the_python_reader_agrees_with_live_record_for_record() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(text.contains(&format!("agree: {} records", recs.len())), "{text}");
+    // The data set's traces, a file per sensor and tone, read as one
+    // frame of the whole skin: every sensor, each with its tones.
+    let out = std::process::Command::new(qemu_tests::python_with("numpy, pandas"))
+        .args([
+            "-c",
+            "import sys, skinread; d = skinread.by_sensor(skinread.read_dataset(sys.argv[1])); \
+             print(' '.join('%d:%d' % (s, f['freq_hz'].nunique()) for s, f in d.items()))",
+        ])
+        .arg(tmp.path())
+        .env("PYTHONPATH", qemu_tests::python_package())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let sensors: Vec<(u8, usize)> = text
+        .split_whitespace()
+        .filter_map(|w| w.split_once(':'))
+        .filter_map(|(s, n)| Some((s.parse().ok()?, n.parse().ok()?)))
+        .collect();
+    // The sensors with traces (one held still is a calibration point).
+    let mut want: Vec<u8> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.ok()?.file_name().into_string().ok()?;
+            name.strip_prefix("trace_ch")?.split('_').next()?.parse().ok()
+        })
+        .collect();
+    want.sort_unstable();
+    want.dedup();
+    assert!(want.len() >= 8, "{want:?}");
+    assert_eq!(sensors.iter().map(|s| s.0).collect::<Vec<_>>(), want, "{text}");
+    assert!(
+        sensors.iter().all(|s| s.1 >= 2),
+        "each sensor's tones in its one frame: {text}"
+    );
 }
 
 /// The frames on UART0 carry every record the log does, value for value;
