@@ -14,6 +14,7 @@
 //! A page that falls behind the records is told the gap and reconnects
 //! for the backlog, so it never shows fewer records without saying so.
 
+use crate::session::Arrived;
 use anyhow::{Context, Result};
 use axum::extract::{Request, State};
 use axum::http::{header, StatusCode};
@@ -24,7 +25,6 @@ use axum::routing::get;
 use axum::Router;
 use futures_util::stream::{self, Stream, StreamExt};
 use instrument::availability::Availability;
-use link::Record;
 use std::collections::{BTreeMap, VecDeque};
 use std::convert::Infallible;
 use std::fs::File;
@@ -40,19 +40,88 @@ const UPLOT_JS: &[u8] = include_bytes!(concat!(env!("UPLOT_DIST"), "/uPlot.iife.
 const UPLOT_CSS: &[u8] = include_bytes!(concat!(env!("UPLOT_DIST"), "/uPlot.min.css"));
 const UPLOT_LICENSE: &[u8] = include_bytes!(env!("UPLOT_LICENSE"));
 
-/// What the page is sent: a batch of records as JSON.
-fn batch_json(records: &[Record]) -> String {
+/// The live feed's version: what [`FIELDS`] and the events hold.
+pub const FEED_VERSION: u32 = 1;
+
+/// The fields of a record in the feed, in order: (name, unit). The first
+/// seven are those of the feed before it was versioned; a value the
+/// record lacks is null.
+pub const FIELDS: [(&str, &str); 17] = [
+    ("t_s", "s"),
+    ("sensor", ""),
+    ("c_pf", "pF"),
+    ("r_ohm", "Ω"),
+    ("stretch_mm", "mm"),
+    ("chosen_hz", "Hz"),
+    ("flag_bits", ""),
+    ("segment", ""),
+    ("seq", ""),
+    ("f1_hz", "Hz"),
+    ("z1_re_ohm", "Ω"),
+    ("z1_im_ohm", "Ω"),
+    ("f2_hz", "Hz"),
+    ("z2_re_ohm", "Ω"),
+    ("z2_im_ohm", "Ω"),
+    ("chi2", ""),
+    ("sigma_ln_c", ""),
+];
+
+/// The feed's `schema` event: its version, the record's fields with
+/// their units, and the flags' bits by name (which are faults).
+pub fn schema_json() -> String {
+    let flags: Vec<serde_json::Value> = (0..16u32)
+        .filter_map(|bit| {
+            let name = instrument::faults::Flags(1 << bit).names().next()?;
+            Some(serde_json::json!({
+                "bit": bit,
+                "name": name,
+                "fault": instrument::faults::Flags(1 << bit).0 & instrument::faults::Flags::FAULTS != 0,
+            }))
+        })
+        .collect();
+    serde_json::json!({
+        "version": FEED_VERSION,
+        "fields": FIELDS.iter().map(|(n, u)| serde_json::json!({"name": n, "unit": u})).collect::<Vec<_>>(),
+        "flags": flags,
+    })
+    .to_string()
+}
+
+/// A finite value, or null.
+fn value(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::Value::from(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// What the page is sent: a batch of records as JSON, each an array of
+/// [`FIELDS`].
+fn batch_json(records: &[Arrived]) -> String {
     let rows: Vec<serde_json::Value> = records
         .iter()
-        .map(|r| {
+        .map(|a| {
+            let r = &a.record;
+            let [t1, t2] = r.tones;
             serde_json::json!([
                 r.t_us as f64 * 1e-6,
                 r.sensor,
-                r.c_farad as f64 * 1e12,
-                r.r_ohm,
-                r.stretch_mm,
-                r.chosen_hz,
-                r.flags
+                value(r.c_farad as f64 * 1e12),
+                value(r.r_ohm.into()),
+                value(r.stretch_mm.into()),
+                value(r.chosen_hz.into()),
+                r.flags,
+                a.segment,
+                a.seq,
+                value(t1.f_hz.into()),
+                value(t1.z_re_ohm.into()),
+                value(t1.z_im_ohm.into()),
+                value(t2.f_hz.into()),
+                value(t2.z_re_ohm.into()),
+                value(t2.z_im_ohm.into()),
+                value(r.chi2.into()),
+                value(r.sigma_ln_c.into())
             ])
         })
         .collect();
@@ -85,7 +154,7 @@ struct Shared {
 #[derive(Default)]
 struct Held {
     on_disk: OnDisk,
-    tail: VecDeque<(u64, Record)>,
+    tail: VecDeque<(u64, Arrived)>,
     next: u64,
     ended: bool,
     /// Each named event's latest value, as JSON.
@@ -172,7 +241,7 @@ impl Dashboard {
 
     /// Records that arrived: held until they are written, and pushed to
     /// the open pages.
-    pub fn push(&self, records: &[Record]) {
+    pub fn push(&self, records: &[Arrived]) {
         if records.is_empty() {
             return;
         }
@@ -343,12 +412,13 @@ const PAGE_RECORDS: usize = 2000;
 fn page_stream(
     before: u64,
     pages: impl Stream<Item = String> + Send + 'static,
-    tail: Vec<Record>,
+    tail: Vec<Arrived>,
     ended: bool,
     latest: Vec<(&'static str, Arc<String>)>,
     rx: broadcast::Receiver<Message>,
 ) -> impl Stream<Item = Out> + Send {
-    let first = stream::once(async move { Out::Backlog(before) })
+    let schema = Out::Named("schema", Arc::new(schema_json()));
+    let first = stream::iter([schema, Out::Backlog(before)])
         .chain(stream::iter(latest.into_iter().map(|(n, j)| Out::Named(n, j))))
         .chain(pages.map(|p| Out::Batch(Arc::new(p))))
         .chain(stream::iter(
@@ -381,7 +451,7 @@ fn page_stream(
 async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
     let (on_disk, tail, ended, latest, rx) = {
         let state = shared.state.lock().unwrap_or_else(|p| p.into_inner());
-        let tail: Vec<Record> = state.tail.iter().map(|(_, r)| *r).collect();
+        let tail: Vec<Arrived> = state.tail.iter().map(|(_, r)| *r).collect();
         let latest = state.latest.clone();
         (
             state.on_disk,
@@ -487,7 +557,17 @@ fn row_of_line(line: &str) -> Option<serde_json::Value> {
         num(11),
         num(12),
         num(13),
-        f[16].parse::<u16>().ok()?
+        f[16].parse::<u16>().ok()?,
+        f[0].parse::<u32>().ok()?,
+        f[1].parse::<u32>().ok()?,
+        num(4),
+        num(5),
+        num(6),
+        num(7),
+        num(8),
+        num(9),
+        num(14),
+        num(15)
     ]))
 }
 
@@ -503,6 +583,64 @@ mod tests {
             .block_on(s.collect())
     }
 
+    /// The feed's first event on every connection.
+    fn schema() -> Out {
+        Out::Named("schema", Arc::new(schema_json()))
+    }
+
+    /// The schema names every field a batch row holds, in order, and
+    /// each flag with whether it is a fault; a row from the stream and
+    /// the same record's line of `records.csv` are the same row.
+    #[test]
+    fn the_feed_names_every_field_and_a_line_reads_as_its_record() {
+        let s: serde_json::Value = serde_json::from_str(&schema_json()).unwrap();
+        assert_eq!(s["version"], FEED_VERSION);
+        assert_eq!(s["fields"].as_array().unwrap().len(), FIELDS.len());
+        assert_eq!(s["flags"][8]["name"], "MODEL");
+        assert_eq!(s["flags"][9]["fault"], false);
+        let r = link::Record {
+            t_us: 1500,
+            sensor: 3,
+            tones: [
+                link::Tone {
+                    f_hz: 1000.0,
+                    z_re_ohm: 1.25e5,
+                    z_im_ohm: -7.5e5,
+                },
+                link::Tone {
+                    f_hz: 4000.0,
+                    z_re_ohm: 1.0e5,
+                    z_im_ohm: -2.0e5,
+                },
+            ],
+            c_farad: 2.05e-10,
+            r_ohm: 7.0e5,
+            stretch_mm: f32::NAN,
+            chosen_hz: 4000.0,
+            chi2: 3.5,
+            sigma_ln_c: 0.001,
+            flags: 512,
+        };
+        let a = Arrived {
+            segment: 2,
+            seq: 41,
+            record: r,
+        };
+        let row: serde_json::Value = serde_json::from_str(&batch_json(&[a])).unwrap();
+        let mut line = vec![];
+        crate::records_csv::line(&mut line, 2, 41, &r);
+        let from_csv = row_of_line(std::str::from_utf8(&line).unwrap()).unwrap();
+        assert_eq!(row[0].as_array().unwrap().len(), FIELDS.len());
+        assert_eq!(row[0][4], serde_json::Value::Null, "no stretch: null");
+        for (i, (name, _)) in FIELDS.iter().enumerate() {
+            let (x, y) = (&row[0][i], &from_csv[i]);
+            match (x.as_f64(), y.as_f64()) {
+                (Some(x), Some(y)) => assert!((x - y).abs() <= 1e-6 * x.abs().max(1.0), "{name}: {x} vs {y}"),
+                _ => assert_eq!(x, y, "{name}"),
+            }
+        }
+    }
+
     #[test]
     fn a_page_that_falls_behind_is_told_the_gap_and_its_stream_ends() {
         let (tx, rx) = broadcast::channel(2);
@@ -511,7 +649,7 @@ mod tests {
         }
         tx.send(Message::End).unwrap();
         let got = collect(page_stream(0, stream::empty(), vec![], false, vec![], rx));
-        assert_eq!(got, [Out::Backlog(0), Out::Gap(4)]);
+        assert_eq!(got, [schema(), Out::Backlog(0), Out::Gap(4)]);
     }
 
     #[test]
@@ -537,6 +675,7 @@ mod tests {
         assert_eq!(
             got,
             [
+                schema(),
                 Out::Backlog(5),
                 Out::Named("cpu", cpu),
                 batch(7),
@@ -559,7 +698,7 @@ mod tests {
                 vec![],
                 rx
             )),
-            [Out::Backlog(0), batch(1), Out::End]
+            [schema(), Out::Backlog(0), batch(1), Out::End]
         );
     }
 
@@ -602,7 +741,7 @@ mod tests {
     #[test]
     fn the_dashboard_holds_only_the_records_not_yet_written() {
         let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
-        d.push(&[Record::default(); 10]);
+        d.push(&[Arrived::default(); 10]);
         d.written(OnDisk {
             records: 7,
             bytes: 900,
@@ -611,7 +750,7 @@ mod tests {
             d.state().tail.iter().map(|(k, _)| *k).collect::<Vec<_>>(),
             [7, 8, 9]
         );
-        d.push(&[Record::default(); 2]);
+        d.push(&[Arrived::default(); 2]);
         d.written(OnDisk {
             records: 12,
             bytes: 1500,

@@ -32,7 +32,7 @@ pub use follow::{follow, replay, replay_from, Sink, Stopped};
 pub use interpolated::INTERPOLATED_CSV;
 pub use manifest::MANIFEST;
 pub use records_csv::RECORDS_CSV;
-pub use session::{Earlier, Finished, Outcome, Segment, Session, BEFORE_START_MAX, REFUSED_SHOWN};
+pub use session::{Arrived, Earlier, Finished, Outcome, Segment, Session, BEFORE_START_MAX, REFUSED_SHOWN};
 pub use summary::{Cpu, SetAside, Summary};
 
 /// The raw stream, every byte as it arrived from the start frame's on.

@@ -20,6 +20,19 @@ const PENDING_MAX: usize = 4 << 20;
 /// How many refused frames a session describes (the rest are counted).
 pub const REFUSED_SHOWN: usize = 20;
 
+/// A record kept, with where it came: its segment (1, then one more
+/// after each restart of the device) and its frame's sequence number, as
+/// `records.csv` holds them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Arrived {
+    /// The segment.
+    pub segment: u32,
+    /// The frame's sequence number.
+    pub seq: u32,
+    /// The record.
+    pub record: Record,
+}
+
 /// How a stream ended.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outcome {
@@ -151,7 +164,7 @@ pub struct Session {
     /// The bytes before the start frame's end, while it has not arrived.
     before_start: Vec<u8>,
     /// The records the last [`Session::push`] completed.
-    fresh: Vec<Record>,
+    fresh: Vec<Arrived>,
     /// The latest status frame of the last push.
     fresh_status: Option<link::Status>,
     counts: Counts,
@@ -373,7 +386,11 @@ impl Session {
             }
             self.gaps.record(segment, seq, &r, files.interpolated.pending());
         }
-        self.fresh.push(r);
+        self.fresh.push(Arrived {
+            segment,
+            seq,
+            record: r,
+        });
         Ok(())
     }
 
@@ -417,7 +434,7 @@ impl Session {
     }
 
     /// The records the last [`Session::push`] completed (those kept).
-    pub fn fresh(&self) -> &[Record] {
+    pub fn fresh(&self) -> &[Arrived] {
         &self.fresh
     }
 

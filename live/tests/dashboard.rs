@@ -160,3 +160,70 @@ fn the_dashboard_serves_this_machine_only() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("serves this machine only"));
 }
+
+/// The live feed as an interface: the Python client
+/// (`skinread.feed.records`) reads every record with all its fields
+/// and its flags by name, as `live` was sent them.
+#[test]
+fn the_feed_gives_a_client_every_record_with_every_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("stream.bin");
+    std::fs::write(&file, stream(100)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
+        .arg("--replay")
+        .arg(&file)
+        .arg("--dataset")
+        .arg(tmp.path().join("ds"))
+        .args(["--serve", "127.0.0.1:0", "--linger", "60"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let url = first
+        .trim()
+        .strip_prefix("dashboard: ")
+        .expect("the dashboard's address")
+        .to_string();
+    let client = r#"
+import sys
+from skinread import feed
+recs = [r for r in feed.records(sys.argv[1] + "events") if "event" not in r]
+disturbed = sum("DISTURBED" in r["flags"] for r in recs)
+last = recs[-1]
+print(len(recs), disturbed, sorted({r["sensor"] for r in recs}), recs[0]["f2_hz"], recs[0]["z1_im_ohm"], last["c_pf"], last["valid"], recs[0]["seq"])
+"#;
+    let py = ["python3", "/usr/bin/python3"]
+        .into_iter()
+        .find(|py| {
+            Command::new(py)
+                .args(["-c", "import numpy, pandas"])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .unwrap_or("python3");
+    let out = Command::new(py)
+        .args(["-c", client])
+        .arg(&url)
+        .env(
+            "PYTHONPATH",
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../python"),
+        )
+        .output()
+        .unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // 201 records; every 50th block's two flagged DISTURBED; the last
+    // has no values (null) and its MODEL flag; the first frame after the
+    // start is number 1.
+    assert_eq!(
+        text.trim(),
+        "201 4 [0, 1] 2000.0 -1600000.0 None False 1",
+        "{text}"
+    );
+}

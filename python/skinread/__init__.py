@@ -2,12 +2,13 @@
 record link frame by frame (docs/data-format.md)."""
 
 from .dataset import by_sensor, read_dataset, read_records, read_traces
+from . import feed
 from .flags import FLAGS, names, valid
 from .stream import COLUMNS, read_stream, records, serial_frames, tcp_frames
 from .wire import Decoder, Frame, FrameError, Record, Start, decode
 
 __all__ = [
-    "by_sensor", "read_dataset", "read_records", "read_traces",
+    "feed", "by_sensor", "read_dataset", "read_records", "read_traces",
     "FLAGS", "names", "valid",
     "COLUMNS", "read_stream", "records", "serial_frames", "tcp_frames",
     "Decoder", "Frame", "FrameError", "Record", "Start", "decode",
