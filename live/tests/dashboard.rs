@@ -69,6 +69,35 @@ fn stream(n: u32) -> Vec<u8> {
     bytes
 }
 
+/// `live --replay` of [`stream`]`(n)` serving the dashboard for
+/// `linger` s after the stream: its folder, the process and the
+/// dashboard's address (printed first).
+fn serve_replay(n: u32, linger: u32) -> (tempfile::TempDir, std::process::Child, String) {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("stream.bin");
+    std::fs::write(&file, stream(n)).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
+        .arg("--replay")
+        .arg(&file)
+        .arg("--dataset")
+        .arg(tmp.path().join("ds"))
+        .args(["--serve", "127.0.0.1:0", "--linger", &linger.to_string()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let url = first
+        .trim()
+        .strip_prefix("dashboard: ")
+        .expect("the dashboard's address")
+        .to_string();
+    (tmp, child, url)
+}
+
 /// Headless Chromium on `url` with `args`; its stdout.
 fn chromium(url: &str, args: &[&str]) -> String {
     let out = Command::new("chromium")
@@ -84,28 +113,7 @@ fn chromium(url: &str, args: &[&str]) -> String {
 
 #[test]
 fn the_page_shows_every_record_it_was_sent() {
-    let tmp = tempfile::tempdir().unwrap();
-    let file = tmp.path().join("stream.bin");
-    std::fs::write(&file, stream(400)).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
-        .arg("--replay")
-        .arg(&file)
-        .arg("--dataset")
-        .arg(tmp.path().join("ds"))
-        .args(["--serve", "127.0.0.1:0", "--linger", "120"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let url = first
-        .trim()
-        .strip_prefix("dashboard: ")
-        .expect("the dashboard's address")
-        .to_string();
+    let (_tmp, mut child, url) = serve_replay(400, 120);
     let dom = chromium(&url, &["--dump-dom"]);
     let shot = Path::new(env!("CARGO_MANIFEST_DIR")).join("../out/dashboard.png");
     std::fs::create_dir_all(shot.parent().unwrap()).unwrap();
@@ -166,28 +174,7 @@ fn the_dashboard_serves_this_machine_only() {
 /// and its flags by name, as `live` was sent them.
 #[test]
 fn the_feed_gives_a_client_every_record_with_every_field() {
-    let tmp = tempfile::tempdir().unwrap();
-    let file = tmp.path().join("stream.bin");
-    std::fs::write(&file, stream(100)).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
-        .arg("--replay")
-        .arg(&file)
-        .arg("--dataset")
-        .arg(tmp.path().join("ds"))
-        .args(["--serve", "127.0.0.1:0", "--linger", "60"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut first)
-        .unwrap();
-    let url = first
-        .trim()
-        .strip_prefix("dashboard: ")
-        .expect("the dashboard's address")
-        .to_string();
+    let (_tmp, mut child, url) = serve_replay(100, 60);
     let client = r#"
 import sys
 from skinread import feed
