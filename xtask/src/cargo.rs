@@ -10,33 +10,11 @@ pub fn bin() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
 }
 
-/// `cargo ARGS` in `dir`, with `envs`; an error if it fails.
+/// `cargo ARGS` in `dir`, with `envs`; an error if it fails. How long
+/// each step took (build and run) is printed, so that a CI log shows
+/// where its time goes.
 pub fn run_env(dir: &Path, args: &[&str], envs: &[(&str, &str)]) -> Result<()> {
-    let shown: Vec<String> = envs.iter().map(|(k, v)| format!("{k}={v} ")).collect();
-    eprintln!(
-        "$ (cd {}) {}cargo {}",
-        dir.display(),
-        shown.concat(),
-        args.join(" ")
-    );
-    let started = Instant::now();
-    let st = Command::new(bin())
-        .current_dir(dir)
-        .args(args)
-        .envs(envs.iter().copied())
-        .status()
-        .context("running cargo")?;
-    // How long each step took (build and run), so that a CI log shows
-    // where its time goes.
-    eprintln!(
-        "$ cargo {}: {:.1} s",
-        args.join(" "),
-        started.elapsed().as_secs_f64()
-    );
-    if !st.success() {
-        bail!("cargo {} failed", args.join(" "));
-    }
-    Ok(())
+    system(dir, &bin(), args, envs)
 }
 
 /// `program ARGS` in `dir` with `envs`, printed and timed; an error if

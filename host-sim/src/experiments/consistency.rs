@@ -133,6 +133,13 @@ fn markdown(prep: &Prepared, fits: &[&Fit], rows: &[Mechanism], noise_pf: f64) -
             }
         );
     }
+    survivors_md(&mut md, prep, fits, rows, noise_pf);
+    md
+}
+
+/// The survivors (or the least excluded) and what would separate them,
+/// appended to `md`.
+fn survivors_md(md: &mut String, prep: &Prepared, fits: &[&Fit], rows: &[Mechanism], noise_pf: f64) {
     let survivors: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].consistent()).collect();
     match survivors.as_slice() {
         [] => {
@@ -184,5 +191,4 @@ fn markdown(prep: &Prepared, fits: &[&Fit], rows: &[Mechanism], noise_pf: f64) -
             }
         }
     }
-    md
 }
