@@ -3,6 +3,8 @@
 //! page shows every record it was sent, and a screenshot of its charts is
 //! written to `out/dashboard.png`.
 
+mod common;
+
 use link::{Body, Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
@@ -183,15 +185,7 @@ disturbed = sum("DISTURBED" in r["flags"] for r in recs)
 last = recs[-1]
 print(len(recs), disturbed, sorted({r["sensor"] for r in recs}), recs[0]["f2_hz"], recs[0]["z1_im_ohm"], last["c_pf"], last["valid"], recs[0]["seq"])
 "#;
-    let py = ["python3", "/usr/bin/python3"]
-        .into_iter()
-        .find(|py| {
-            Command::new(py)
-                .args(["-c", "import numpy, pandas"])
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
-        .unwrap_or("python3");
+    let py = common::python_with("numpy, pandas");
     let out = Command::new(py)
         .args(["-c", client])
         .arg(&url)

@@ -5,6 +5,8 @@
 //! field (never `NaN` text, never a 0 that reads as a measurement), and a
 //! flagged record's flag in every row it gives.
 
+mod common;
+
 use host_sim::recording::{self, BlockTruth, LoggedRecord, Roles};
 use instrument::faults::Flags;
 use link::{Body, Encoder, End, Record, Start, Tone, MAX_FRAME, VERSION};
@@ -129,22 +131,8 @@ fn csv_files(dir: &Path) -> Vec<PathBuf> {
     files
 }
 
-/// A Python that has pandas: `python3` on PATH, else the system's
-/// (where PATH leads to another, such as pyenv's, without it).
-fn python() -> &'static str {
-    ["python3", "/usr/bin/python3"]
-        .into_iter()
-        .find(|py| {
-            std::process::Command::new(py)
-                .args(["-c", "import pandas"])
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
-        .unwrap_or("python3")
-}
-
 fn python_reads(files: &[PathBuf]) {
-    let out = std::process::Command::new(python())
+    let out = std::process::Command::new(common::python_with("pandas"))
         .arg("-c")
         .arg(CHECK)
         .args(files)

@@ -66,3 +66,19 @@ pub fn live(args: &[&str]) -> (Option<i32>, String, String) {
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
+
+/// A Python that imports `modules` (comma separated): `python3` on PATH,
+/// else the system's (where PATH leads to another, such as pyenv's,
+/// without them).
+#[allow(dead_code)]
+pub fn python_with(modules: &str) -> &'static str {
+    ["python3", "/usr/bin/python3"]
+        .into_iter()
+        .find(|py| {
+            std::process::Command::new(py)
+                .args(["-c", &format!("import {modules}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .unwrap_or("python3")
+}
