@@ -14,6 +14,7 @@
 //! A page that falls behind the records is told the gap and reconnects
 //! for the backlog, so it never shows fewer records without saying so.
 
+use crate::markers::{Mark, Marker};
 use crate::session::Arrived;
 use anyhow::{Context, Result};
 use axum::extract::{Request, State};
@@ -21,7 +22,7 @@ use axum::http::{header, StatusCode};
 use axum::middleware::{self, Next};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::Router;
 use futures_util::stream::{self, Stream, StreamExt};
 use instrument::availability::Availability;
@@ -41,12 +42,13 @@ const UPLOT_CSS: &[u8] = include_bytes!(concat!(env!("UPLOT_DIST"), "/uPlot.min.
 const UPLOT_LICENSE: &[u8] = include_bytes!(env!("UPLOT_LICENSE"));
 
 /// The live feed's version: what [`FIELDS`] and the events hold.
-pub const FEED_VERSION: u32 = 1;
+pub const FEED_VERSION: u32 = 2;
 
 /// The fields of a record in the feed, in order: (name, unit). The first
-/// seven are those of the feed before it was versioned; a value the
-/// record lacks is null.
-pub const FIELDS: [(&str, &str); 17] = [
+/// seven are those of the feed before it was versioned, the next ten
+/// version 1's, `host_utc_s` version 2's (a version only adds fields at
+/// the end); a value the record lacks is null.
+pub const FIELDS: [(&str, &str); 18] = [
     ("t_s", "s"),
     ("sensor", ""),
     ("c_pf", "pF"),
@@ -64,6 +66,7 @@ pub const FIELDS: [(&str, &str); 17] = [
     ("z2_im_ohm", "Ω"),
     ("chi2", ""),
     ("sigma_ln_c", ""),
+    ("host_utc_s", "s"),
 ];
 
 /// The feed's `schema` event: its version, the record's fields with
@@ -121,7 +124,9 @@ fn batch_json(records: &[Arrived]) -> String {
                 value(t2.z_re_ohm.into()),
                 value(t2.z_im_ohm.into()),
                 value(r.chi2.into()),
-                value(r.sigma_ln_c.into())
+                value(r.sigma_ln_c.into()),
+                a.host_utc_us
+                    .map_or(serde_json::Value::Null, |us| value(us as f64 * 1e-6))
             ])
         })
         .collect();
@@ -133,8 +138,9 @@ fn batch_json(records: &[Arrived]) -> String {
 enum Message {
     /// New records, as JSON.
     Batch(Arc<String>),
-    /// A named event's latest value, as JSON: `cpu` (how the device's
-    /// CPU keeps up), `valid` (each sensor's share of records valid).
+    /// A named event's value, as JSON: `cpu` (how the device's CPU
+    /// keeps up), `valid` (each sensor's share of records valid),
+    /// `device` (its run and clock fit), `marker` (a marker written).
     Named(&'static str, Arc<String>),
     /// The stream is over: nothing more will come.
     End,
@@ -148,6 +154,8 @@ struct Shared {
     state: Arc<Mutex<Held>>,
     messages: broadcast::Sender<Message>,
     records_csv: Arc<PathBuf>,
+    /// Where the page's markers go: the session's loop.
+    marks: Option<std::sync::mpsc::Sender<Mark>>,
 }
 
 /// What the dashboard holds.
@@ -161,6 +169,8 @@ struct Held {
     latest: Vec<(&'static str, Arc<String>)>,
     /// When `valid` was last sent to the pages.
     valid_sent: Option<std::time::Instant>,
+    /// When `device` was last sent to the pages, and of which segment.
+    device_sent: Option<(u32, std::time::Instant)>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -183,8 +193,13 @@ pub struct Dashboard {
 
 impl Dashboard {
     /// Serve on `addr` (127.0.0.1 and a port; port 0 picks a free one)
-    /// the session whose records go to `records_csv`.
-    pub fn serve(addr: SocketAddr, records_csv: &Path) -> Result<Self> {
+    /// the session whose records go to `records_csv`; the page's markers
+    /// are sent to `marks` (none: the page's marker is refused).
+    pub fn serve(
+        addr: SocketAddr,
+        records_csv: &Path,
+        marks: Option<std::sync::mpsc::Sender<Mark>>,
+    ) -> Result<Self> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .enable_all()
@@ -195,6 +210,7 @@ impl Dashboard {
             state: Arc::new(Mutex::new(Held::default())),
             messages,
             records_csv: Arc::new(records_csv.to_path_buf()),
+            marks,
         };
         let listener = runtime
             .block_on(tokio::net::TcpListener::bind(addr))
@@ -218,6 +234,7 @@ impl Dashboard {
                 get(|| async { ([(header::CONTENT_TYPE, "text/plain")], UPLOT_LICENSE) }),
             )
             .route("/events", get(events))
+            .route("/marker", post(marker))
             .with_state(shared.clone())
             .layer(middleware::from_fn_with_state(hosts(addr), this_host_only));
         runtime.spawn(async move {
@@ -325,6 +342,42 @@ impl Dashboard {
             .collect();
         let json = Arc::new(serde_json::Value::Array(rows).to_string());
         self.named("valid", json, true);
+    }
+
+    /// A marker written: sent to the open pages (event `marker`).
+    pub fn marker(&self, m: &Marker) {
+        if let Ok(json) = serde_json::to_string(m) {
+            let _ = self
+                .shared
+                .messages
+                .send(Message::Named("marker", Arc::new(json)));
+        }
+    }
+
+    /// The device's run (`segment` of the session, its start frame) and
+    /// its clock fitted to the host's so far: at once for a new run,
+    /// else at most once a second, sent to the open pages (event
+    /// `device`) and kept for those that open later.
+    pub fn device(&self, segment: u32, start: &link::Start, clock: Option<crate::clock::Line>) {
+        {
+            let mut state = self.state();
+            let t = std::time::Instant::now();
+            let recent = state.device_sent.is_some_and(|(g, s)| {
+                g == segment && t.duration_since(s) < std::time::Duration::from_secs(1)
+            });
+            if recent {
+                return;
+            }
+            state.device_sent = Some((segment, t));
+        }
+        let json = serde_json::json!({
+            "segment": segment,
+            "firmware": start.firmware_str(),
+            "sensors": start.sensors,
+            "sample_rate_hz": start.sample_rate_hz,
+            "clock": clock.map(|l| l.json()),
+        });
+        self.named("device", Arc::new(json.to_string()), true);
     }
 
     /// Keep `json` as event `name`'s latest value, and send it to the
@@ -479,6 +532,35 @@ async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<E
     Sse::new(events).keep_alive(KeepAlive::default())
 }
 
+/// What the page sends as a marker.
+#[derive(serde::Deserialize)]
+struct MarkerBody {
+    text: String,
+}
+
+/// `POST /marker` (JSON `{"text": …}`; a form of another site cannot
+/// send JSON without the preflight this server never grants): the marker
+/// written, as JSON, or why not.
+async fn marker(State(shared): State<Shared>, body: axum::Json<MarkerBody>) -> Response {
+    let Some(marks) = &shared.marks else {
+        return (StatusCode::CONFLICT, "this session takes no markers (a replay)\n").into_response();
+    };
+    let mut m = Mark::now("dashboard", &body.text);
+    if m.text.is_empty() {
+        return (StatusCode::UNPROCESSABLE_ENTITY, "a marker needs a text\n").into_response();
+    }
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    m.reply = Some(tx);
+    if marks.send(m).is_err() {
+        return (StatusCode::CONFLICT, "the session has ended\n").into_response();
+    }
+    match tokio::time::timeout(std::time::Duration::from_secs(5), rx).await {
+        Ok(Ok(Ok(w))) => axum::Json(w).into_response(),
+        Ok(Ok(Err(why))) => (StatusCode::CONFLICT, format!("{why}\n")).into_response(),
+        _ => (StatusCode::SERVICE_UNAVAILABLE, "the session did not answer\n").into_response(),
+    }
+}
+
 /// The latest records of `records.csv`, read a page at a time.
 #[derive(Default)]
 struct Backlog {
@@ -540,7 +622,7 @@ impl Backlog {
 /// a field with no value (empty, or not finite) is null.
 fn row_of_line(line: &str) -> Option<serde_json::Value> {
     let f: Vec<&str> = line.trim_end().split(',').collect();
-    if f.len() != 17 {
+    if f.len() != 18 {
         return None;
     }
     let num = |i: usize| -> serde_json::Value {
@@ -567,7 +649,10 @@ fn row_of_line(line: &str) -> Option<serde_json::Value> {
         num(8),
         num(9),
         num(14),
-        num(15)
+        num(15),
+        f[17]
+            .parse::<f64>()
+            .map_or(serde_json::Value::Null, |us| value(us * 1e-6))
     ]))
 }
 
@@ -624,14 +709,16 @@ mod tests {
         let a = Arrived {
             segment: 2,
             seq: 41,
+            host_utc_us: Some(1_796_300_000_123_456),
             record: r,
         };
         let row: serde_json::Value = serde_json::from_str(&batch_json(&[a])).unwrap();
         let mut line = vec![];
-        crate::records_csv::line(&mut line, 2, 41, &r);
+        crate::records_csv::line(&mut line, 2, 41, &r, a.host_utc_us);
         let from_csv = row_of_line(std::str::from_utf8(&line).unwrap()).unwrap();
         assert_eq!(row[0].as_array().unwrap().len(), FIELDS.len());
         assert_eq!(row[0][4], serde_json::Value::Null, "no stretch: null");
+        assert_eq!(row[0][17], from_csv[17], "the arrival, to the µs");
         for (i, (name, _)) in FIELDS.iter().enumerate() {
             let (x, y) = (&row[0][i], &from_csv[i]);
             match (x.as_f64(), y.as_f64()) {
@@ -716,7 +803,7 @@ mod tests {
     /// always at the stream's end: the last page sees the final counts.
     #[test]
     fn the_share_valid_is_throttled_but_its_last_value_always_kept() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
         let counts = |valid: u64| {
             let mut a = Availability::new();
             for k in 0..10 {
@@ -740,7 +827,7 @@ mod tests {
 
     #[test]
     fn the_dashboard_holds_only_the_records_not_yet_written() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
         d.push(&[Arrived::default(); 10]);
         d.written(OnDisk {
             records: 7,
@@ -766,7 +853,7 @@ mod tests {
         let n = 30_000u64;
         for k in 0..n {
             text += &format!(
-                "1,{k},{},{},2000,1,-1,0,0,0,205.5,700000,NaN,2000,,0.001,0\n",
+                "1,{k},{},{},2000,1,-1,0,0,0,205.5,700000,NaN,2000,,0.001,0,1796300000123456\n",
                 1000 * k,
                 k % 16
             );
@@ -805,7 +892,7 @@ mod tests {
 
     #[test]
     fn a_request_for_another_host_is_refused() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv")).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
         let (addr, port) = (d.addr(), d.addr().port());
         for host in [
             addr.to_string(),

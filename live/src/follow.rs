@@ -2,6 +2,7 @@
 //! one replayed.
 
 use crate::dashboard::Dashboard;
+use crate::markers::Mark;
 use crate::session::{Earlier, Finished, Session};
 use anyhow::{Context, Result};
 use std::io::Read;
@@ -24,10 +25,18 @@ pub fn replay(bytes: &[u8], dir: &Path, earlier: Earlier) -> Result<Finished> {
 }
 
 /// Replay a recorded stream read from `source` (a file) into `sink`,
-/// to its end, writing what arrived at least once a second.
-pub fn replay_from(mut source: impl Read, sink: &mut Sink) -> Result<()> {
+/// to its end, writing what arrived at least once a second. With the
+/// session's `arrivals` (its `arrivals.csv`), each record gets the time
+/// it arrived at first, and the clock fit is the session's again.
+pub fn replay_from(mut source: impl Read, sink: &mut Sink, arrivals: Option<Arrivals>) -> Result<()> {
     let mut buf = vec![0u8; CHUNK];
     let mut last = Instant::now();
+    let mut arrivals = arrivals;
+    let mut next = arrivals.as_mut().map(Arrivals::next).transpose()?.flatten();
+    // The bytes of the read being rebuilt (up to its end's arrival),
+    // pushed whole as the session took them.
+    let mut read: Vec<u8> = vec![];
+    let mut at = 0u64;
     loop {
         let n = match source.read(&mut buf) {
             Ok(0) => break,
@@ -35,13 +44,97 @@ pub fn replay_from(mut source: impl Read, sink: &mut Sink) -> Result<()> {
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(e).context("reading the recorded stream"),
         };
-        sink.push(&buf[..n])?;
+        let mut part = &buf[..n];
+        while !part.is_empty() {
+            let Some((end, time)) = next else {
+                sink.push_at(part, None)?;
+                at += part.len() as u64;
+                break;
+            };
+            let len = (end - at).min(part.len() as u64) as usize;
+            read.extend_from_slice(&part[..len]);
+            at += len as u64;
+            part = &part[len..];
+            if at == end || read.len() > READ_MAX {
+                sink.push_at(&std::mem::take(&mut read), Some(time))?;
+            }
+            if at == end {
+                next = arrivals.as_mut().map(Arrivals::next).transpose()?.flatten();
+            }
+        }
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
             sink.flush()?;
         }
     }
+    if let Some((_, time)) = next.filter(|_| !read.is_empty()) {
+        sink.push_at(&read, Some(time))?;
+    }
     sink.flush()
+}
+
+/// The most bytes of one read a replay holds before it pushes them (a
+/// read that long completed no records but at its end).
+const READ_MAX: usize = 4 << 20;
+
+/// A session's `arrivals.csv`, read a line at a time: (the stream's
+/// length in bytes at a read's end, the host's UTC then in µs).
+pub struct Arrivals {
+    lines: std::io::Lines<std::io::BufReader<std::fs::File>>,
+    path: std::path::PathBuf,
+    line: usize,
+    last: u64,
+}
+
+impl Arrivals {
+    /// `path`, its header checked.
+    pub fn open(path: &Path) -> Result<Self> {
+        use std::io::BufRead;
+        let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+        let mut lines = std::io::BufReader::new(file).lines();
+        let head = lines.next().transpose()?.unwrap_or_default();
+        if head.trim() != "stream_bytes,host_utc_us" {
+            anyhow::bail!(
+                "{}:1:1: the header must be 'stream_bytes,host_utc_us'",
+                path.display()
+            );
+        }
+        Ok(Self {
+            lines,
+            path: path.to_path_buf(),
+            line: 1,
+            last: 0,
+        })
+    }
+
+    /// The next arrival; an error names the file, line and column.
+    fn next(&mut self) -> Result<Option<(u64, i64)>> {
+        let Some(text) = self.lines.next().transpose()? else {
+            return Ok(None);
+        };
+        self.line += 1;
+        let (n, p) = (self.line, self.path.display());
+        let (bytes, utc) = text
+            .split_once(',')
+            .with_context(|| format!("{p}:{n}:1: two fields, stream_bytes,host_utc_us"))?;
+        let end: u64 = bytes
+            .trim()
+            .parse()
+            .with_context(|| format!("{p}:{n}:1: '{bytes}' is not a byte count"))?;
+        let col = bytes.len() + 2;
+        let t: i64 = utc
+            .trim()
+            .parse()
+            .with_context(|| format!("{p}:{n}:{col}: '{utc}' is not a time in µs"))?;
+        if end <= self.last {
+            anyhow::bail!(
+                "{p}:{n}:1: {end} bytes is not after the line before's {}",
+                self.last
+            );
+        }
+        self.last = end;
+        Ok(Some((end, t)))
+    }
 }
 
 /// Where bytes go: the session, and the records they complete to the
@@ -51,12 +144,15 @@ pub struct Sink<'a> {
     pub session: &'a mut Session,
     /// The dashboard, if one is served.
     pub dashboard: Option<&'a Dashboard>,
+    /// Markers asked for (from `live`'s standard input, the dashboard).
+    pub marks: Option<&'a std::sync::mpsc::Receiver<Mark>>,
 }
 
 impl Sink<'_> {
-    /// Take `bytes` as they arrived.
-    pub fn push(&mut self, bytes: &[u8]) -> Result<()> {
-        self.session.push(bytes)?;
+    /// Take `bytes` as they arrived, at host UTC `host_utc_us` where
+    /// known.
+    pub fn push_at(&mut self, bytes: &[u8], host_utc_us: Option<i64>) -> Result<()> {
+        self.session.push_at(bytes, host_utc_us)?;
         if let Some(d) = self.dashboard {
             d.push(self.session.fresh());
             if let Some(status) = self.session.fresh_status() {
@@ -64,8 +160,35 @@ impl Sink<'_> {
             }
             d.availability(self.session.availability(), self.session.interpolated(), false);
             d.written(self.session.on_disk());
+            if let Some(seg) = self.session.segments().last() {
+                let segment = self.session.segments().len() as u32;
+                d.device(segment, &seg.start, seg.clock.line());
+            }
         }
         Ok(())
+    }
+
+    /// The markers asked for since the last call, written; each asker
+    /// told the marker or why it was refused.
+    pub fn take_marks(&mut self) {
+        let Some(marks) = self.marks else {
+            return;
+        };
+        while let Ok(m) = marks.try_recv() {
+            let done = self.session.mark(m.host_utc_us, m.source, &m.text);
+            match &done {
+                Ok(w) => {
+                    eprintln!("marker {} from {}: {}", self.session.markers(), w.source, w.text);
+                    if let Some(d) = self.dashboard {
+                        d.marker(w);
+                    }
+                }
+                Err(e) => eprintln!("marker refused: {e}"),
+            }
+            if let Some(reply) = m.reply {
+                let _ = reply.send(done.map_err(|e| e.to_string()));
+            }
+        }
     }
 
     /// Write what arrived so far (see [`Session::flush`]).
@@ -115,7 +238,8 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, stop: &AtomicBool) -> Resu
             }
             Err(e) => break Stopped::Source(e.to_string()),
         };
-        sink.push(&buf[..n])?;
+        sink.push_at(&buf[..n], Some(chrono::Utc::now().timestamp_micros()))?;
+        sink.take_marks();
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
             sink.flush()?;

@@ -18,21 +18,26 @@
 //! every record up to its last flush.
 
 pub mod calibrate;
+pub mod clock;
 pub mod config;
 pub mod dashboard;
 mod follow;
 mod interpolated;
 mod manifest;
+pub mod markers;
 mod records_csv;
 mod session;
 mod summary;
 pub mod synthetic;
 
-pub use follow::{follow, replay, replay_from, Sink, Stopped};
+pub use follow::{follow, replay, replay_from, Arrivals, Sink, Stopped};
 pub use interpolated::INTERPOLATED_CSV;
 pub use manifest::MANIFEST;
+pub use markers::MARKERS_CSV;
 pub use records_csv::RECORDS_CSV;
-pub use session::{Arrived, Earlier, Finished, Outcome, Segment, Session, BEFORE_START_MAX, REFUSED_SHOWN};
+pub use session::{
+    Arrived, Earlier, Finished, Outcome, Segment, Session, ARRIVALS_CSV, BEFORE_START_MAX, REFUSED_SHOWN,
+};
 pub use summary::{Cpu, SetAside, Summary};
 
 /// The raw stream, every byte as it arrived from the start frame's on.

@@ -25,6 +25,11 @@ struct Cli {
     /// Replay a recorded stream (the raw bytes a session kept).
     #[arg(long, conflicts_with_all = ["serial", "tcp"])]
     replay: Option<PathBuf>,
+    /// With --replay: when its records arrived (the session's
+    /// arrivals.csv; default: the one beside the stream, where there is
+    /// one), so that they keep their host times.
+    #[arg(long, requires = "replay")]
+    arrivals: Option<PathBuf>,
     /// Read a serial port (the Nucleo's ST-LINK virtual COM port, e.g. /dev/ttyACM0).
     #[arg(long, conflicts_with = "tcp")]
     serial: Option<String>,
@@ -527,20 +532,28 @@ fn report(what: &str, stopped: Stopped) {
     match stopped {
         Stopped::End => {}
         Stopped::Source(why) => eprintln!("{what} stopped: {why}"),
-        Stopped::Asked => eprintln!("stopped by Ctrl-C: the data set holds every record that arrived"),
+        Stopped::Asked => {
+            eprintln!("stopped (Ctrl-C or `stop`): the data set holds every record that arrived")
+        }
     }
 }
 
 fn run(cli: Cli) -> Result<Outcome> {
     let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
-    let dashboard = serve(cli.serve, &dataset)?;
+    let following = cli.replay.is_none();
+    // Markers from the page and from standard input, to the session.
+    let (marks_tx, marks) = std::sync::mpsc::channel();
+    let dashboard = serve(cli.serve, &dataset, following.then(|| marks_tx.clone()))?;
     // Ctrl-C ends a live stream (a board's never ends by itself), the
     // normal way to stop a recording: the data set is written with what
-    // arrived, complete.
+    // arrived, complete. `stop` on standard input does the same.
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("installing the Ctrl-C handler")?;
+    if following {
+        read_stdin(Arc::clone(&stop), marks_tx);
+    }
     let earlier = if cli.overwrite {
         live::Earlier::Overwrite
     } else {
@@ -551,12 +564,19 @@ fn run(cli: Cli) -> Result<Outcome> {
     let mut sink = Sink {
         session: &mut session,
         dashboard: dashboard.as_ref(),
+        marks: Some(&marks),
     };
     match (&cli.replay, &cli.serial, &cli.tcp) {
         (Some(path), _, _) => {
             // Read in pieces: a recording of a day does not fit in memory.
             let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
-            live::replay_from(file, &mut sink)?;
+            let beside = path.with_file_name(live::ARRIVALS_CSV);
+            let arrivals = match &cli.arrivals {
+                Some(a) => Some(live::Arrivals::open(a)?),
+                None if beside.is_file() => Some(live::Arrivals::open(&beside)?),
+                None => None,
+            };
+            live::replay_from(file, &mut sink, arrivals)?;
         }
         (None, Some(name), _) => {
             let port = serialport::new(name, cli.baud)
@@ -590,11 +610,15 @@ fn run(cli: Cli) -> Result<Outcome> {
         session.ask_stop();
     }
     print_refused(&session);
+    let session_clock: Vec<_> = session.segments().iter().map(|g| g.clock.line()).collect();
     let started = session.start().is_some();
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
     for line in finished.summary.availability_lines() {
         println!("  {line}");
+    }
+    for line in clock_lines(&session_clock) {
+        println!("{line}");
     }
     if started {
         println!(
@@ -614,17 +638,66 @@ fn run(cli: Cli) -> Result<Outcome> {
 
 /// The dashboard on `addr`, where asked (this machine's addresses only);
 /// its address printed first.
-fn serve(addr: Option<std::net::SocketAddr>, dataset: &std::path::Path) -> Result<Option<Dashboard>> {
+fn serve(
+    addr: Option<std::net::SocketAddr>,
+    dataset: &std::path::Path,
+    marks: Option<std::sync::mpsc::Sender<live::markers::Mark>>,
+) -> Result<Option<Dashboard>> {
     let Some(addr) = addr else {
         return Ok(None);
     };
     if !addr.ip().is_loopback() {
         anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
     }
-    let d = Dashboard::serve(addr, &dataset.join(live::RECORDS_CSV))?;
+    let d = Dashboard::serve(addr, &dataset.join(live::RECORDS_CSV), marks)?;
     println!("dashboard: http://{}/", d.addr());
     std::io::stdout().flush()?;
     Ok(Some(d))
+}
+
+/// Each segment's clock fit, a line each (where there is one).
+fn clock_lines(fits: &[Option<live::clock::Line>]) -> Vec<String> {
+    fits.iter()
+        .enumerate()
+        .filter_map(|(k, l)| {
+            let l = l.as_ref()?;
+            Some(format!(
+                "device clock, segment {}: started {} UTC (±{:.2} ms), drift {:+.1} ± {:.1} ppm, arrivals scatter {:.2} ms RMS ({} reads)",
+                k + 1,
+                live::clock::utc(l.offset_s).unwrap_or_default(),
+                l.sigma_offset_s * 1e3,
+                (l.rate - 1.0) * 1e6,
+                l.sigma_rate * 1e6,
+                l.rms_s * 1e3,
+                l.points
+            ))
+        })
+        .collect()
+}
+
+/// Standard input while a stream is followed: `stop` ends the recording
+/// as Ctrl-C does; any other line is a marker with its text (a thread of
+/// its own; it ends with standard input).
+fn read_stdin(stop: Arc<AtomicBool>, marks: std::sync::mpsc::Sender<live::markers::Mark>) {
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        loop {
+            line.clear();
+            match std::io::stdin().read_line(&mut line) {
+                Ok(0) | Err(_) => return,
+                Ok(_) => {}
+            }
+            match line.trim() {
+                "" => {}
+                "stop" => stop.store(true, Ordering::Relaxed),
+                text => {
+                    if marks.send(live::markers::Mark::now("stdin", text)).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
 }
 
 /// The frames the session refused: the first named with their place,

@@ -3,7 +3,8 @@
 //! end (killed, crashed, out of disk). It says how the stream ended, the
 //! device's runs (segments: each start frame's firmware, digests and
 //! sensors, and what arrived), the link's counts, the end frame's counts
-//! checked against what arrived, and the data set's files.
+//! checked against what arrived, each segment's clock fitted to the
+//! host's UTC, the markers' count, and the data set's files.
 
 use crate::session::{Finished, Outcome, Segment, Session};
 use anyhow::{Context, Result};
@@ -14,7 +15,7 @@ use std::io::Write;
 pub use host_sim::recording::MANIFEST;
 
 /// The manifest's layout version.
-const LAYOUT: u32 = 1;
+const LAYOUT: u32 = 2;
 
 /// Write `session`'s manifest (replacing none: created once, whole).
 pub(crate) fn write(session: &Session, done: &Finished) -> Result<()> {
@@ -53,6 +54,7 @@ fn manifest(session: &Session, done: &Finished) -> Value {
             Outcome::Incomplete(why) => why.clone(),
         },
         "segments": session.segments().iter().map(segment).collect::<Vec<_>>(),
+        "markers": session.markers(),
         "bytes": s.bytes,
         "frames": {
             "decoded": s.link.frames,
@@ -98,6 +100,10 @@ fn segment(g: &Segment) -> Value {
         "records_kept": g.records,
         "frames_lost": g.lost(),
         "frames_duplicate": g.duplicates,
+        // The device's clock against the host's UTC (the arrival line:
+        // its offset holds the link's mean delay); null without arrival
+        // times (a replay without them) or before two reads of records.
+        "clock": g.clock.line().map(|l| l.json()),
         "cpu": g.cpu.map(|c| json!({
             "clock": c.unit(),
             "clock_hz": c.last.clock_hz,

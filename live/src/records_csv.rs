@@ -12,12 +12,13 @@ pub const RECORDS_CSV: &str = "records.csv";
 /// The header of [`RECORDS_CSV`]: the segment (1, then one more after
 /// each restart of the device), the frame's sequence number, then the
 /// record's fields (a value the record lacks, NaN on the device, is an
-/// empty field).
-pub(crate) const HEADER: &str = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags\n";
+/// empty field), then the host's UTC at its arrival (µs since the Unix
+/// epoch; empty in a replay without its arrivals).
+pub(crate) const HEADER: &str = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags,host_utc_us\n";
 
-/// Record `r`'s line (segment `segment`, frame `seq`), appended to
-/// `line`.
-pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record) {
+/// Record `r`'s line (segment `segment`, frame `seq`, arrived at
+/// `host_utc_us`), appended to `line`.
+pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record, host_utc_us: Option<i64>) {
     // Through `numfmt`: `{}` on eleven floats was most of a replay.
     use host_sim::numfmt::{fixed, int, shortest_f32};
     int(line, segment);
@@ -48,6 +49,10 @@ pub(crate) fn line(line: &mut Vec<u8>, segment: u32, seq: u32, r: &Record) {
     }
     line.push(b',');
     int(line, r.flags);
+    line.push(b',');
+    if let Some(us) = host_utc_us {
+        int(line, us);
+    }
     line.push(b'\n');
 }
 

@@ -1,7 +1,9 @@
 //! A link session: bytes in; records, counts and files out, written as
 //! they arrive.
 
+use crate::clock::ClockFit;
 use crate::interpolated::{self, Gaps, INTERPOLATED_CSV};
+use crate::markers::{self, MARKERS_CSV};
 use crate::records_csv::{self, RECORDS_CSV};
 use crate::summary::{Counts, Cpu, Summary};
 use crate::{INCOMPLETE, STREAM_BIN};
@@ -20,15 +22,24 @@ const PENDING_MAX: usize = 4 << 20;
 /// How many refused frames a session describes (the rest are counted).
 pub const REFUSED_SHOWN: usize = 20;
 
+/// The host's times of arrival: each read that completed records, as the
+/// stream's length in bytes at its end and the host's UTC then.
+pub const ARRIVALS_CSV: &str = "arrivals.csv";
+/// The header of [`ARRIVALS_CSV`].
+const ARRIVALS_HEADER: &str = "stream_bytes,host_utc_us\n";
+
 /// A record kept, with where it came: its segment (1, then one more
-/// after each restart of the device) and its frame's sequence number, as
-/// `records.csv` holds them.
+/// after each restart of the device), its frame's sequence number and
+/// the host's UTC when it arrived (µs since the Unix epoch; none in a
+/// replay without its arrivals), as `records.csv` holds them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Arrived {
     /// The segment.
     pub segment: u32,
     /// The frame's sequence number.
     pub seq: u32,
+    /// The host's UTC at its arrival, µs since the Unix epoch.
+    pub host_utc_us: Option<i64>,
     /// The record.
     pub record: Record,
 }
@@ -90,6 +101,8 @@ pub struct Segment {
     pub end: Option<link::End>,
     /// How the device's CPU kept up (its status frames), if it said.
     pub cpu: Option<Cpu>,
+    /// Its clock fitted to the host's, from the records' arrivals.
+    pub clock: ClockFit,
 }
 
 impl Segment {
@@ -104,6 +117,7 @@ impl Segment {
             records: 0,
             end: None,
             cpu: None,
+            clock: ClockFit::default(),
         }
     }
 
@@ -150,6 +164,10 @@ struct Files {
     data: DatasetWriter,
     /// Values for the records not vouched for, from their neighbours.
     interpolated: LineFile,
+    /// When records arrived ([`ARRIVALS_CSV`]).
+    arrivals: LineFile,
+    /// The user's markers ([`MARKERS_CSV`]).
+    markers: LineFile,
 }
 
 /// A link session: bytes in; records, counts and files out.
@@ -181,6 +199,12 @@ pub struct Session {
     asked: bool,
     /// Each sensor's gap since its last valid record.
     gaps: Gaps,
+    /// Bytes taken so far: the stream's length.
+    bytes_in: u64,
+    /// The host's UTC of the bytes being taken, µs, if known.
+    arrival: Option<i64>,
+    /// Markers written.
+    markers: u64,
 }
 
 impl Session {
@@ -215,6 +239,9 @@ impl Session {
             stopped: None,
             asked: false,
             gaps: Gaps::default(),
+            bytes_in: 0,
+            arrival: None,
+            markers: 0,
         })
     }
 
@@ -249,6 +276,8 @@ impl Session {
             .with_context(|| format!("creating {}", dir.join(STREAM_BIN).display()))?;
         let data = DatasetWriter::create(dir, false, Roles::default())?;
         let interpolated = LineFile::create(dir.join(INTERPOLATED_CSV), interpolated::HEADER)?;
+        let arrivals = LineFile::create(dir.join(ARRIVALS_CSV), ARRIVALS_HEADER)?;
+        let markers = LineFile::create(dir.join(MARKERS_CSV), markers::HEADER)?;
         self.opened = Some(chrono::Utc::now());
         Ok(Files {
             csv,
@@ -257,16 +286,30 @@ impl Session {
             raw: std::io::BufWriter::new(raw),
             data,
             interpolated,
+            arrivals,
+            markers,
         })
     }
 
-    /// Take `bytes` as they arrived; the records they completed
-    /// ([`Session::fresh`]).
+    /// Take `bytes` as they arrived, at a time not known (a recorded
+    /// stream); the records they completed ([`Session::fresh`]).
     pub fn push(&mut self, bytes: &[u8]) -> Result<usize> {
+        self.push_at(bytes, None)
+    }
+
+    /// Take `bytes` as they arrived at host UTC `host_utc_us` (µs since
+    /// the Unix epoch, where known): the records they complete carry it,
+    /// the segment's clock fit takes the latest of them, and the arrival
+    /// is kept in [`ARRIVALS_CSV`]. The records they completed
+    /// ([`Session::fresh`]).
+    pub fn push_at(&mut self, bytes: &[u8], host_utc_us: Option<i64>) -> Result<usize> {
         self.fresh.clear();
         self.fresh_status = None;
+        self.arrival = host_utc_us;
         let had_files = self.files.is_some();
         self.decode(bytes)?;
+        self.bytes_in += bytes.len() as u64;
+        self.arrived()?;
         match &mut self.files {
             Some(files) => {
                 if !had_files {
@@ -288,6 +331,61 @@ impl Session {
             }
         }
         Ok(self.fresh.len())
+    }
+
+    /// The records of this push arrived: the arrival kept, and the
+    /// latest record of the running segment given to its clock fit.
+    fn arrived(&mut self) -> Result<()> {
+        let (Some(at), Some(files), false) = (self.arrival, &mut self.files, self.fresh.is_empty()) else {
+            return Ok(());
+        };
+        let line = files.arrivals.pending();
+        host_sim::numfmt::int(line, self.bytes_in);
+        line.push(b',');
+        host_sim::numfmt::int(line, at);
+        line.push(b'\n');
+        let segment = self.segments.len() as u32;
+        let latest = self
+            .fresh
+            .iter()
+            .filter(|a| a.segment == segment)
+            .map(|a| a.record.t_us)
+            .max();
+        if let (Some(t_us), Some(seg)) = (latest, self.segments.last_mut()) {
+            seg.clock.add(t_us as f64 * 1e-6, at as f64 * 1e-6);
+        }
+        Ok(())
+    }
+
+    /// A marker from the user (`source`: `stdin`, `dashboard`…) at host
+    /// UTC `host_utc_us`: written to [`MARKERS_CSV`] with the device's
+    /// time the running segment's clock fit gives it. Refused before the
+    /// start frame (no data set yet).
+    pub fn mark(&mut self, host_utc_us: i64, source: &str, text: &str) -> Result<markers::Marker> {
+        let Some(files) = &mut self.files else {
+            bail!("no start frame yet: nothing is recorded, so the marker has no data set to go in");
+        };
+        let segment = self.segments.len() as u32;
+        let device_t_us = self
+            .segments
+            .last()
+            .and_then(|s| s.clock.line())
+            .map(|l| (l.device_of(host_utc_us as f64 * 1e-6) * 1e6).round() as i64);
+        let m = markers::Marker {
+            host_utc_us,
+            segment,
+            device_t_us,
+            source: source.to_string(),
+            text: text.to_string(),
+        };
+        m.line(files.markers.pending())?;
+        self.markers += 1;
+        Ok(m)
+    }
+
+    /// Markers written so far.
+    pub fn markers(&self) -> u64 {
+        self.markers
     }
 
     /// The frames `bytes` complete, taken in.
@@ -379,7 +477,7 @@ impl Session {
         }
         self.counts.record(segment, &r);
         if let Some(files) = &mut self.files {
-            records_csv::line(files.csv.pending(), segment, seq, &r);
+            records_csv::line(files.csv.pending(), segment, seq, &r, self.arrival);
             files.csv_pending += 1;
             for row in records_csv::rows(&r) {
                 files.data.push(&row)?;
@@ -389,6 +487,7 @@ impl Session {
         self.fresh.push(Arrived {
             segment,
             seq,
+            host_utc_us: self.arrival,
             record: r,
         });
         Ok(())
@@ -480,6 +579,8 @@ impl Session {
         files.csv.flush(true)?;
         files.csv_written += std::mem::take(&mut files.csv_pending);
         files.interpolated.flush(true)?;
+        files.arrivals.flush(true)?;
+        files.markers.flush(true)?;
         files.data.flush()
     }
 
@@ -555,6 +656,8 @@ impl Session {
         files.raw.flush().context("keeping the raw stream")?;
         files.csv.flush(false)?;
         files.interpolated.flush(false)?;
+        files.arrivals.flush(false)?;
+        files.markers.flush(false)?;
         let written = files.data.finish()?;
         let finished = Finished {
             outcome,
@@ -600,6 +703,8 @@ fn held_files(dir: &Path) -> Result<Vec<String>> {
 fn session_file(name: &str) -> bool {
     name == RECORDS_CSV
         || name == INTERPOLATED_CSV
+        || name == ARRIVALS_CSV
+        || name == MARKERS_CSV
         || name == STREAM_BIN
         || name == INCOMPLETE
         || name == crate::MANIFEST

@@ -115,7 +115,7 @@ fn ctrl_c_ends_an_endless_stream_with_its_data_set_complete() {
     assert!(st.success());
     let (code, stdout, stderr) = wait(child, 20);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
-    assert!(stderr.contains("stopped by Ctrl-C"), "{stderr}");
+    assert!(stderr.contains("stopped (Ctrl-C"), "{stderr}");
     assert_eq!(rows(tmp.path()), 25);
     assert!(!tmp.path().join("INCOMPLETE").exists(), "a stop is no cut");
     let manifest: serde_json::Value =

@@ -34,6 +34,12 @@ def agree(folder: str) -> int:
         assert bad.size == 0, "row %d: %s %s != %s" % (bad[0], c, ours[c].iat[bad[0]], theirs[c].iat[bad[0]])
     bad = np.flatnonzero(ours["flag_bits"].to_numpy() != theirs["flags"].to_numpy())
     assert bad.size == 0, "row %d: flags" % bad[0]
+    # The arrival times, to the µs (none on either side where the
+    # session kept no arrivals).
+    a = ours["host_utc_us"].to_numpy(dtype=np.float64)
+    b = theirs.get("host_utc_us", pd.Series(np.nan, index=theirs.index)).to_numpy(dtype=np.float64)
+    bad = np.flatnonzero(~((a == b) | (np.isnan(a) & np.isnan(b))))
+    assert bad.size == 0, "row %d: host_utc_us %r != %r" % (bad[0], a[bad[0]], b[bad[0]])
     for c in F32:
         a = ours[c].to_numpy(dtype=np.float32)
         b = theirs[c].to_numpy(dtype=np.float64).astype(np.float32)

@@ -9,6 +9,7 @@ import os
 import re
 from typing import Dict
 
+import numpy as np
 import pandas as pd
 
 from .stream import with_flag_names
@@ -23,10 +24,53 @@ def _read(path: str) -> pd.DataFrame:
     return df
 
 
+def clocks(folder: str) -> Dict[int, dict]:
+    """Each segment's clock fit from a `live` session's manifest
+    (`session.json`): {segment: its `clock` (offset_unix_s, rate,
+    sigma_offset_ms, drift_ppm, ...)}, for the segments that have one."""
+    path = os.path.join(folder, "session.json")
+    if not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        segments = json.load(f).get("segments", [])
+    return {k + 1: g["clock"] for k, g in enumerate(segments) if g.get("clock")}
+
+
+def _utc_of_us(us: pd.Series) -> pd.Series:
+    """µs since the epoch (float, NaN for none) as UTC times, to the µs."""
+    return pd.to_datetime(us.round().astype("Int64") * 1000, unit="ns", utc=True)
+
+
+def with_utc(df: pd.DataFrame, folder: str, time_s: pd.Series) -> pd.DataFrame:
+    """`t_utc`: each row's device time (`time_s`, s) on the host's UTC
+    by its segment's clock fit (NaT where its segment has none)."""
+    fits = clocks(folder)
+    seg = df["segment"] if "segment" in df.columns else pd.Series(1, index=df.index)
+    offset = seg.map(lambda g: fits.get(int(g), {}).get("offset_unix_s", np.nan))
+    rate = seg.map(lambda g: fits.get(int(g), {}).get("rate", np.nan))
+    df["t_utc"] = _utc_of_us((offset + rate * time_s) * 1e6)
+    return df
+
+
 def read_records(folder: str) -> pd.DataFrame:
     """`records.csv` of a `live` session: every record as it arrived,
-    `flag_bits`, `valid` and a boolean column per flag."""
-    return _read(os.path.join(folder, "records.csv"))
+    `flag_bits`, `valid` and a boolean column per flag; `arrived_utc`,
+    the host's UTC when it arrived, and `t_utc`, its own time stamp on
+    the host's UTC by its segment's clock fit (the manifest's)."""
+    df = _read(os.path.join(folder, "records.csv"))
+    if "host_utc_us" in df.columns:
+        df["arrived_utc"] = _utc_of_us(df["host_utc_us"].astype("float64"))
+    return with_utc(df, folder, df["t_us"] * 1e-6)
+
+
+def read_markers(folder: str) -> pd.DataFrame:
+    """`markers.csv` of a `live` session: each marker's text and source,
+    `host_utc` (when it was made) and `device_t_us` (the device's time
+    there, by the clock fit when it was made)."""
+    df = pd.read_csv(os.path.join(folder, "markers.csv"), dtype={"text": str, "source": str}, keep_default_na=False,
+                     na_values={"device_t_us": [""]})
+    df["host_utc"] = _utc_of_us(df["host_utc_us"].astype("float64"))
+    return df
 
 
 def read_traces(folder: str) -> Dict[str, pd.DataFrame]:
@@ -63,7 +107,10 @@ def read_dataset(folder: str) -> pd.DataFrame:
         return pd.DataFrame()
     out = pd.concat(frames, ignore_index=True)
     keys = [c for c in ("segment", "sensor", "time_s") if c in out.columns]
-    return out.sort_values(keys, kind="stable").reset_index(drop=True)
+    out = out.sort_values(keys, kind="stable").reset_index(drop=True)
+    if "time_s" in out.columns and clocks(folder):
+        out = with_utc(out, folder, out["time_s"])
+    return out
 
 
 def by_sensor(df: pd.DataFrame) -> Dict[int, pd.DataFrame]:

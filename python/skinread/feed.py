@@ -1,10 +1,14 @@
 """The dashboard's live feed (docs/live.md, "The live feed"): server-sent
-events at `http://HOST:PORT/events` while `live --serve` runs. Version 1:
+events at `http://HOST:PORT/events` while `live --serve` runs. Version 2:
 a `schema` event (the fields of a record and the flags by name), then
 `backlog` (how many records came before those sent next), batches of
 records (default events: a JSON array of rows, each the schema's fields
 in order), `cpu` and `valid` (the device's CPU and each sensor's share
-valid, as JSON), `gap` (the client fell behind: reconnect) and `end`.
+valid, as JSON), `device` (the device's run: sensors, firmware, and its
+clock fitted to the host's UTC), `marker` (a marker written), `gap` (the
+client fell behind: reconnect) and `end`. A version only adds fields at
+the end of a record and new events: this client reads any version from
+its own on, by the fields' names.
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ from typing import Iterator, Optional, Tuple
 from .flags import names
 
 #: The feed version this client reads.
-FEED_VERSION = 1
+FEED_VERSION = 2
 
 
 def events(url: str, timeout: Optional[float] = 30.0) -> Iterator[Tuple[str, str]]:
@@ -46,8 +50,8 @@ def records(url: str, timeout: Optional[float] = 30.0) -> Iterator[dict]:
     for name, data in events(url, timeout):
         if name == "schema":
             schema = json.loads(data)
-            if schema["version"] != FEED_VERSION:
-                raise ValueError("feed version %s, this client reads %d" % (schema["version"], FEED_VERSION))
+            if schema["version"] < FEED_VERSION:
+                raise ValueError("feed version %s, this client reads %d on" % (schema["version"], FEED_VERSION))
             fields = [f["name"] for f in schema["fields"]]
             faults = sum(1 << f["bit"] for f in schema["flags"] if f["fault"])
         elif name == "message":

@@ -8,6 +8,7 @@ or not later than its sensor's last, is set aside.
 
 from __future__ import annotations
 
+import os
 import socket
 from dataclasses import dataclass, field
 from typing import Dict, Iterable, Iterator, List, Optional, Tuple
@@ -19,12 +20,13 @@ from . import flags as _flags
 from .wire import VERSION, Decoder, End, Frame, Record, Start, Status
 
 #: The columns of a records frame: `live`'s records.csv, with the flags'
-#: bits as `flag_bits` (a column `flags` would shadow DataFrame.flags)
-#: and C in pF.
+#: bits as `flag_bits` (a column `flags` would shadow DataFrame.flags),
+#: C in pF and the host's UTC at arrival in µs (NaN where not known).
 COLUMNS = [
     "segment", "seq", "t_us", "sensor",
     "f1_hz", "z1_re_ohm", "z1_im_ohm", "f2_hz", "z2_re_ohm", "z2_im_ohm",
     "c_pf", "r_ohm", "stretch_mm", "chosen_hz", "chi2", "sigma_ln_c", "flag_bits",
+    "host_utc_us",
 ]
 
 
@@ -51,8 +53,9 @@ class Taker:
         self._ended = False
         self._last_t: Dict[int, int] = {}
 
-    def take(self, frame: Frame) -> Optional[tuple]:
-        """Take `frame`; the row of a record kept, else None."""
+    def take(self, frame: Frame, host_utc_us: Optional[int] = None) -> Optional[tuple]:
+        """Take `frame`, arrived at `host_utc_us` where known; the row of
+        a record kept, else None."""
         t, body = self.taken, frame.body
         if t.stopped:
             return None
@@ -76,7 +79,7 @@ class Taker:
         if self._ended:
             t.stray += 1
         elif isinstance(body, Record):
-            return self._record(frame.seq, body)
+            return self._record(frame.seq, body, host_utc_us)
         elif isinstance(body, End):
             t.ends.append(body)
             self._ended = True
@@ -86,7 +89,7 @@ class Taker:
             t.stray += 1
         return None
 
-    def _record(self, seq: int, r: Record) -> Optional[tuple]:
+    def _record(self, seq: int, r: Record, host_utc_us: Optional[int]) -> Optional[tuple]:
         t = self.taken
         last = self._last_t.get(r.sensor)
         if r.sensor >= t.starts[-1].sensors or (last is not None and r.t_us <= last):
@@ -99,6 +102,7 @@ class Taker:
             a.f_hz, a.z_re_ohm, a.z_im_ohm, b.f_hz, b.z_re_ohm, b.z_im_ohm,
             np.float64(np.float32(r.c_farad)) * 1e12, r.r_ohm, r.stretch_mm,
             r.chosen_hz, r.chi2, r.sigma_ln_c, r.flags,
+            np.nan if host_utc_us is None else host_utc_us,
         )
         t.rows.append(row)
         return row
@@ -122,18 +126,41 @@ def with_flag_names(df: pd.DataFrame) -> pd.DataFrame:
     return df
 
 
-def read_stream(path: str) -> Tuple[pd.DataFrame, Taken]:
+def read_arrivals(path: str) -> List[Tuple[int, int]]:
+    """A session's `arrivals.csv`: (the stream's length in bytes at the
+    end of a read that completed records, the host's UTC then in µs)."""
+    df = pd.read_csv(path, dtype="int64")
+    if list(df.columns) != ["stream_bytes", "host_utc_us"]:
+        raise ValueError("%s:1:1: the header must be 'stream_bytes,host_utc_us'" % path)
+    return list(zip(df["stream_bytes"].tolist(), df["host_utc_us"].tolist()))
+
+
+def read_stream(path: str, arrivals: Optional[str] = "beside") -> Tuple[pd.DataFrame, Taken]:
     """Every record of a recorded stream (`stream.bin`), as `live` keeps
-    them, and what else the stream held."""
+    them, and what else the stream held. Each record's `host_utc_us` is
+    the end of the read that brought it, from `arrivals` (a session's
+    `arrivals.csv`; "beside": the one next to `path`, where there is
+    one; None: not read)."""
+    if arrivals == "beside":
+        near = os.path.join(os.path.dirname(path), "arrivals.csv")
+        arrivals = near if os.path.exists(near) else None
+    ends = read_arrivals(arrivals) if arrivals else []
     taker = Taker()
     dec = Decoder()
+    at, k = 0, 0
     with open(path, "rb") as f:
         while True:
-            chunk = f.read(1 << 16)
+            # Up to the next read's end, so that its frames get its time.
+            want = ends[k][0] - at if k < len(ends) else 1 << 16
+            chunk = f.read(max(1, min(want, 1 << 16)))
             if not chunk:
                 break
+            at += len(chunk)
+            time = ends[k][1] if k < len(ends) else None
             for fr in dec.feed(chunk):
-                taker.take(fr)
+                taker.take(fr, time)
+            if k < len(ends) and at >= ends[k][0]:
+                k += 1
     return frame(taker.taken.rows), taker.taken
 
 

@@ -111,10 +111,19 @@ def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
     # A duplicate (seq 1 again) is dropped, as live drops it.
     stream += sealed(record_body(seq=1)) + b"\0"
     (tmp_path / "stream.bin").write_bytes(stream)
-    head = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags\n"
-    row = "1,1,1234567,3,1000,120000,-776000,4000,110000,-194000,205.0000,710000,12.5,4000,3.9,0.0004,256\n"
+    head = "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags,host_utc_us\n"
+    row = "1,1,1234567,3,1000,120000,-776000,4000,110000,-194000,205.0000,710000,12.5,4000,3.9,0.0004,256,\n"
     (tmp_path / "records.csv").write_text(head + row)
     assert check.agree(str(tmp_path)) == 1
     (tmp_path / "records.csv").write_text(head + row.replace(",12.5,", ",12.6,"))
     with pytest.raises(AssertionError, match="stretch_mm"):
+        check.agree(str(tmp_path))
+    # With the session's arrivals, the record's host time is the end of
+    # the read that completed it.
+    at = len(sealed(start) + b"\0" + sealed(record_body(seq=1)) + b"\0")
+    (tmp_path / "arrivals.csv").write_text("stream_bytes,host_utc_us\n%d,1796292001003000\n" % at)
+    (tmp_path / "records.csv").write_text(head + row.replace(",256,", ",256,1796292001003000"))
+    assert check.agree(str(tmp_path)) == 1
+    (tmp_path / "records.csv").write_text(head + row.replace(",256,", ",256,1796292001003001"))
+    with pytest.raises(AssertionError, match="host_utc_us"):
         check.agree(str(tmp_path))

@@ -252,6 +252,7 @@ fn live_follows_a_running_qemu_over_its_socket() {
     let mut sink = live::Sink {
         session: &mut session,
         dashboard: None,
+        marks: None,
     };
     let stopped = live::follow(sock, &mut sink, &Default::default()).unwrap();
     assert_eq!(stopped, live::Stopped::End);
