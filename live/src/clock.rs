@@ -12,7 +12,14 @@
 //! port), which is what lines records up with other streams stamped on
 //! arrival (LSL's convention). Its 1σ are the least-squares ones; the
 //! scatter of arrivals about the line (`rms_s`) is the jitter a single
-//! record's arrival time carries.
+//! record's arrival time carries. Until the points span
+//! [`DRIFT_SPAN_S`] of the device's time, the rate is not fitted (a
+//! burst of reads a few ms apart would give any slope): the line is
+//! the mean offset at rate 1, and says so.
+
+/// The device time the points must span before the rate is fitted, s
+/// (a crystal's 100 ppm is 1 ms over it).
+pub const DRIFT_SPAN_S: f64 = 10.0;
 
 use serde_json::{json, Value};
 
@@ -37,8 +44,10 @@ pub struct ClockFit {
 pub struct Line {
     /// The host's UTC at the device's time 0, s since the Unix epoch.
     pub offset_s: f64,
-    /// Host seconds per device second (1 + drift).
+    /// Host seconds per device second (1 + drift); 1 where not fitted.
     pub rate: f64,
+    /// Whether the rate is fitted (the points span [`DRIFT_SPAN_S`]).
+    pub rate_fitted: bool,
     /// 1σ of `offset_s`, s.
     pub sigma_offset_s: f64,
     /// 1σ of `rate`.
@@ -76,19 +85,29 @@ impl ClockFit {
         if self.n < 2 || vxx <= 0.0 {
             return None;
         }
-        let slope = (self.sxy - n * mx * my) / vxx;
+        let fitted = self.hi - self.lo >= DRIFT_SPAN_S;
+        let slope = if fitted {
+            (self.sxy - n * mx * my) / vxx
+        } else {
+            0.0
+        };
         let at_origin = my - slope * mx;
         // The residuals' sum of squares, from the sums.
         let ss = (self.syy - n * my * my - slope * (self.sxy - n * mx * my)).max(0.0);
-        let s2 = if self.n > 2 { ss / (n - 2.0) } else { 0.0 };
+        let dof = if fitted { 2.0 } else { 1.0 };
+        let s2 = if n > dof { ss / (n - dof) } else { 0.0 };
         // The offset at device time 0: the line carried back from x0.
         let a0 = at_origin - slope * x0;
-        let var_a0 = s2 * (1.0 / n + (x0 + mx).powi(2) / vxx);
+        let var_a0 = match fitted {
+            true => s2 * (1.0 / n + (x0 + mx).powi(2) / vxx),
+            false => s2 / n,
+        };
         Some(Line {
             offset_s: y0 - x0 + a0,
             rate: 1.0 + slope,
+            rate_fitted: fitted,
             sigma_offset_s: var_a0.sqrt(),
-            sigma_rate: (s2 / vxx).sqrt(),
+            sigma_rate: if fitted { (s2 / vxx).sqrt() } else { f64::NAN },
             rms_s: (ss / n).sqrt(),
             points: self.n,
             span_s: self.hi - self.lo,
@@ -114,8 +133,8 @@ impl Line {
             "offset_unix_s": self.offset_s,
             "sigma_offset_ms": self.sigma_offset_s * 1e3,
             "rate": self.rate,
-            "drift_ppm": (self.rate - 1.0) * 1e6,
-            "sigma_drift_ppm": self.sigma_rate * 1e6,
+            "drift_ppm": self.rate_fitted.then_some((self.rate - 1.0) * 1e6),
+            "sigma_drift_ppm": self.rate_fitted.then_some(self.sigma_rate * 1e6),
             "arrival_rms_ms": self.rms_s * 1e3,
             "points": self.points,
         })
@@ -192,10 +211,30 @@ mod tests {
     }
 
     #[test]
+    fn a_burst_of_reads_gives_an_offset_not_a_slope() {
+        // Two reads a few ms of device time apart that arrived together
+        // (a buffer emptied at once): the rate stays 1, not ~0.
+        let mut fit = ClockFit::default();
+        fit.add(0.002, 1e9 + 0.010);
+        fit.add(0.006, 1e9 + 0.010);
+        let line = fit.line().unwrap();
+        assert!(!line.rate_fitted && line.rate == 1.0);
+        assert!(
+            (line.offset_s - (1e9 + 0.006)).abs() < 1e-6,
+            "{}",
+            line.offset_s - 1e9
+        );
+        assert!(line.json()["drift_ppm"].is_null());
+        // Past DRIFT_SPAN_S the slope is fitted.
+        fit.add(20.0, 1e9 + 20.004);
+        assert!(fit.line().unwrap().rate_fitted);
+    }
+
+    #[test]
     fn an_exact_line_has_zero_scatter_and_utc_reads_back() {
         let mut fit = ClockFit::default();
         for k in 0..10 {
-            fit.add(k as f64, 1_700_000_000.5 + 2.0 * k as f64);
+            fit.add(2.0 * k as f64, 1_700_000_000.5 + 4.0 * k as f64);
         }
         let line = fit.line().unwrap();
         assert!((line.rate - 2.0).abs() < 1e-12);

@@ -532,10 +532,30 @@ async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<E
     Sse::new(events).keep_alive(KeepAlive::default())
 }
 
-/// What the page sends as a marker.
+/// What a client sends as a marker: its text, and where a program
+/// other than the page sends it, its name (letters, digits, `-`, `_`)
+/// and the host's UTC it was made at (µs; default: when it arrives).
 #[derive(serde::Deserialize)]
 struct MarkerBody {
     text: String,
+    source: Option<String>,
+    host_utc_us: Option<i64>,
+}
+
+/// A client's name for itself as a marker's source: at most 16 of its
+/// letters, digits, `-` and `_` (else `dashboard`).
+fn source_name(s: Option<&str>) -> String {
+    let name: String = s
+        .unwrap_or("")
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric() || *c == '-' || *c == '_')
+        .take(16)
+        .collect();
+    if name.is_empty() {
+        "dashboard".into()
+    } else {
+        name
+    }
 }
 
 /// `POST /marker` (JSON `{"text": …}`; a form of another site cannot
@@ -545,7 +565,10 @@ async fn marker(State(shared): State<Shared>, body: axum::Json<MarkerBody>) -> R
     let Some(marks) = &shared.marks else {
         return (StatusCode::CONFLICT, "this session takes no markers (a replay)\n").into_response();
     };
-    let mut m = Mark::now("dashboard", &body.text);
+    let mut m = Mark::now(&source_name(body.source.as_deref()), &body.text);
+    if let Some(t) = body.host_utc_us {
+        m.host_utc_us = t;
+    }
     if m.text.is_empty() {
         return (StatusCode::UNPROCESSABLE_ENTITY, "a marker needs a text\n").into_response();
     }

@@ -175,7 +175,7 @@ impl Sink<'_> {
             return;
         };
         while let Ok(m) = marks.try_recv() {
-            let done = self.session.mark(m.host_utc_us, m.source, &m.text);
+            let done = self.session.mark(m.host_utc_us, &m.source, &m.text);
             match &done {
                 Ok(w) => {
                     eprintln!("marker {} from {}: {}", self.session.markers(), w.source, w.text);

@@ -661,13 +661,19 @@ fn clock_lines(fits: &[Option<live::clock::Line>]) -> Vec<String> {
         .enumerate()
         .filter_map(|(k, l)| {
             let l = l.as_ref()?;
+            let drift = match l.rate_fitted {
+                true => format!(
+                    "drift {:+.1} ± {:.1} ppm",
+                    (l.rate - 1.0) * 1e6,
+                    l.sigma_rate * 1e6
+                ),
+                false => format!("drift not fitted (under {} s)", live::clock::DRIFT_SPAN_S),
+            };
             Some(format!(
-                "device clock, segment {}: started {} UTC (±{:.2} ms), drift {:+.1} ± {:.1} ppm, arrivals scatter {:.2} ms RMS ({} reads)",
+                "device clock, segment {}: started {} UTC (±{:.2} ms), {drift}, arrivals scatter {:.2} ms RMS ({} reads)",
                 k + 1,
                 live::clock::utc(l.offset_s).unwrap_or_default(),
                 l.sigma_offset_s * 1e3,
-                (l.rate - 1.0) * 1e6,
-                l.sigma_rate * 1e6,
                 l.rms_s * 1e3,
                 l.points
             ))

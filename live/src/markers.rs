@@ -47,8 +47,8 @@ impl Marker {
 pub struct Mark {
     /// The host's UTC when it was asked, µs since the Unix epoch.
     pub host_utc_us: i64,
-    /// Where: `stdin`, `dashboard`.
-    pub source: &'static str,
+    /// Where: `stdin`, `dashboard`, a client's name.
+    pub source: String,
     /// The text, [`clean`]ed.
     pub text: String,
     /// Told the marker written, or why not.
@@ -57,10 +57,10 @@ pub struct Mark {
 
 impl Mark {
     /// A marker of `text` from `source`, asked now.
-    pub fn now(source: &'static str, text: &str) -> Self {
+    pub fn now(source: &str, text: &str) -> Self {
         Self {
             host_utc_us: chrono::Utc::now().timestamp_micros(),
-            source,
+            source: source.to_string(),
             text: clean(text),
             reply: None,
         }

@@ -101,7 +101,8 @@ fn records_carry_their_arrival_and_the_device_clock_is_fitted_to_the_hosts() {
     let offset = clock["offset_unix_s"].as_f64().unwrap();
     let started = sent_us as f64 * 1e-6 - 2560e-6;
     assert!((offset - started).abs() < 0.25, "{clock}");
-    assert!(clock["drift_ppm"].as_f64().unwrap().abs() < 3e4, "{clock}");
+    // A second and a half: too short to fit the drift, and said so.
+    assert!(clock["drift_ppm"].is_null(), "{clock}");
     assert!(clock["sigma_offset_ms"].as_f64().unwrap() > 0.0, "{clock}");
     assert!(clock["points"].as_u64().unwrap() > 20, "{clock}");
     assert!(clock["offset_utc"].as_str().unwrap().ends_with('Z'), "{clock}");

@@ -1,9 +1,9 @@
 //! What a fresh Debian machine lacks (apt-get, as root or through sudo):
 //! QEMU, ngspice, Chromium (the dashboard's test), npm (the
 //! dashboard's chart library), Python's pandas (the CSV files read as
-//! a lab reads them) and pytest (the Python reader's tests); and the
-//! Rust targets of
-//! `rust-toolchain.toml`.
+//! a lab reads them) and pytest (the Python reader's tests); the Rust
+//! targets of `rust-toolchain.toml`; and a Python environment with
+//! pylsl for the LSL outlet's test ([`PYENV`]).
 
 use anyhow::{bail, Context, Result};
 use std::process::Command;
@@ -68,8 +68,57 @@ pub fn packages_in_background() -> Result<JoinHandle<Result<()>>> {
     Ok(std::thread::spawn(packages))
 }
 
-/// The system packages of [`PACKAGES`] that are missing, installed.
+/// Where the Python with pylsl is made: a venv over the system's Python
+/// (its numpy and pandas), which `live/tests/lsl.rs` runs.
+pub const PYENV: &str = "target/pyenv";
+/// The LSL binding, from PyPI (its wheels bundle liblsl), pinned.
+const PYLSL: &str = "pylsl==1.18.6";
+
+/// [`PYENV`] with [`PYLSL`], where it is not there yet (Debian's venv
+/// module is `python3-venv`, installed where missing).
+fn python_env() -> Result<()> {
+    let python = format!("{PYENV}/bin/python");
+    let has = |module: &str| {
+        Command::new(&python)
+            .args(["-c", &format!("import {module}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if has("pylsl") {
+        return Ok(());
+    }
+    let make = || {
+        Command::new("/usr/bin/python3")
+            .args(["-m", "venv", "--system-site-packages", "--clear", PYENV])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if !make() {
+        apt(&["update"])?;
+        apt(&["install", "-y", "--no-install-recommends", "python3-venv"])?;
+        if !make() {
+            bail!("python3 -m venv {PYENV} failed (python3-venv installed)");
+        }
+    }
+    let st = Command::new(format!("{PYENV}/bin/pip"))
+        .args(["install", "-q", "--disable-pip-version-check", PYLSL])
+        .status()
+        .context("running pip")?;
+    if !st.success() || !has("pylsl") {
+        bail!("pip install {PYLSL} into {PYENV} failed");
+    }
+    Ok(())
+}
+
+/// The system packages of [`PACKAGES`] that are missing, installed; then
+/// the Python environment of [`PYENV`].
 fn packages() -> Result<()> {
+    system_packages()?;
+    python_env()
+}
+
+/// The system packages of [`PACKAGES`] that are missing, installed.
+fn system_packages() -> Result<()> {
     let need: Vec<&str> = PACKAGES
         .into_iter()
         .filter(|(present, _)| !present.here())
