@@ -15,6 +15,7 @@
 //! for the backlog, so it never shows fewer records without saying so.
 
 use crate::markers::{Mark, Marker};
+use crate::recorder::Command;
 use crate::session::Arrived;
 use anyhow::{Context, Result};
 use axum::extract::{Request, State};
@@ -153,9 +154,10 @@ enum Message {
 struct Shared {
     state: Arc<Mutex<Held>>,
     messages: broadcast::Sender<Message>,
-    records_csv: Arc<PathBuf>,
     /// Where the page's markers go: the session's loop.
     marks: Option<std::sync::mpsc::Sender<Mark>>,
+    /// Where the page's start and stop go: the session's loop.
+    commands: Option<std::sync::mpsc::Sender<Command>>,
 }
 
 /// What the dashboard holds.
@@ -171,6 +173,8 @@ struct Held {
     valid_sent: Option<std::time::Instant>,
     /// When `device` was last sent to the pages, and of which segment.
     device_sent: Option<(u32, std::time::Instant)>,
+    /// The running recording's `records.csv` (none: not recording).
+    records_csv: Option<PathBuf>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -192,13 +196,14 @@ pub struct Dashboard {
 }
 
 impl Dashboard {
-    /// Serve on `addr` (127.0.0.1 and a port; port 0 picks a free one)
-    /// the session whose records go to `records_csv`; the page's markers
-    /// are sent to `marks` (none: the page's marker is refused).
+    /// Serve on `addr` (127.0.0.1 and a port; port 0 picks a free one);
+    /// the page's markers are sent to `marks`, its start and stop to
+    /// `commands` (none: refused). What records where is said by
+    /// [`Dashboard::recording`].
     pub fn serve(
         addr: SocketAddr,
-        records_csv: &Path,
         marks: Option<std::sync::mpsc::Sender<Mark>>,
+        commands: Option<std::sync::mpsc::Sender<Command>>,
     ) -> Result<Self> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -209,8 +214,8 @@ impl Dashboard {
         let shared = Shared {
             state: Arc::new(Mutex::new(Held::default())),
             messages,
-            records_csv: Arc::new(records_csv.to_path_buf()),
             marks,
+            commands,
         };
         let listener = runtime
             .block_on(tokio::net::TcpListener::bind(addr))
@@ -235,6 +240,7 @@ impl Dashboard {
             )
             .route("/events", get(events))
             .route("/marker", post(marker))
+            .route("/recording", post(recording))
             .with_state(shared.clone())
             .layer(middleware::from_fn_with_state(hosts(addr), this_host_only));
         runtime.spawn(async move {
@@ -342,6 +348,35 @@ impl Dashboard {
             .collect();
         let json = Arc::new(serde_json::Value::Array(rows).to_string());
         self.named("valid", json, true);
+    }
+
+    /// A recording starts (its folder) or stops (none): records are held
+    /// and counted from its start, a page's backlog read from its
+    /// `records.csv`; the pages are told (event `recording`, kept).
+    pub fn recording(&self, dir: Option<&Path>) {
+        {
+            let mut state = self.state();
+            state.records_csv = dir.map(|d| d.join(crate::RECORDS_CSV));
+            state.tail.clear();
+            state.next = 0;
+            state.on_disk = OnDisk::default();
+        }
+        let json = serde_json::json!({
+            "recording": dir.is_some(),
+            "folder": dir.map(|d| d.display().to_string()),
+        });
+        self.named("recording", Arc::new(json.to_string()), true);
+    }
+
+    /// Records that arrived while nothing records: sent to the open
+    /// pages, not held (a page that opens later starts from then).
+    pub fn passing(&self, records: &[Arrived]) {
+        if !records.is_empty() {
+            let _ = self
+                .shared
+                .messages
+                .send(Message::Batch(Arc::new(batch_json(records))));
+        }
     }
 
     /// A marker written: sent to the open pages (event `marker`).
@@ -502,7 +537,7 @@ fn page_stream(
 /// `/events`: [`page_stream`] as server-sent events, its backlog the
 /// latest [`BACKLOG_BYTES`] of `records.csv`.
 async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let (on_disk, tail, ended, latest, rx) = {
+    let (on_disk, tail, ended, latest, rx, records_csv) = {
         let state = shared.state.lock().unwrap_or_else(|p| p.into_inner());
         let tail: Vec<Arrived> = state.tail.iter().map(|(_, r)| *r).collect();
         let latest = state.latest.clone();
@@ -512,9 +547,12 @@ async fn events(State(shared): State<Shared>) -> Sse<impl Stream<Item = Result<E
             state.ended,
             latest,
             shared.messages.subscribe(),
+            state.records_csv.clone(),
         )
     };
-    let backlog = Backlog::open(&shared.records_csv, on_disk).unwrap_or_default();
+    let backlog = records_csv
+        .and_then(|p| Backlog::open(&p, on_disk).ok())
+        .unwrap_or_default();
     let before = on_disk.records.saturating_sub(backlog.records);
     let pages = stream::unfold(backlog, |mut b| async move {
         let page = b.page()?;
@@ -579,6 +617,45 @@ async fn marker(State(shared): State<Shared>, body: axum::Json<MarkerBody>) -> R
     }
     match tokio::time::timeout(std::time::Duration::from_secs(5), rx).await {
         Ok(Ok(Ok(w))) => axum::Json(w).into_response(),
+        Ok(Ok(Err(why))) => (StatusCode::CONFLICT, format!("{why}\n")).into_response(),
+        _ => (StatusCode::SERVICE_UNAVAILABLE, "the session did not answer\n").into_response(),
+    }
+}
+
+/// What a client sends to start or stop a recording: `start` (into
+/// `folder` where it says, else the next of the run's folders) or
+/// `stop`.
+#[derive(serde::Deserialize)]
+struct RecordingBody {
+    action: String,
+    folder: Option<PathBuf>,
+}
+
+/// `POST /recording` (JSON, as [`marker`]): the recording's folder as
+/// JSON once started or stopped, or why not.
+async fn recording(State(shared): State<Shared>, body: axum::Json<RecordingBody>) -> Response {
+    let Some(commands) = &shared.commands else {
+        return (StatusCode::CONFLICT, "this run takes no recordings (a replay)\n").into_response();
+    };
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let command = match body.action.as_str() {
+        "start" => Command::Start(body.0.folder, Some(tx)),
+        "stop" => Command::Stop(Some(tx)),
+        other => {
+            return (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                format!("'{other}': start or stop\n"),
+            )
+                .into_response();
+        }
+    };
+    if commands.send(command).is_err() {
+        return (StatusCode::CONFLICT, "the session has ended\n").into_response();
+    }
+    match tokio::time::timeout(std::time::Duration::from_secs(10), rx).await {
+        Ok(Ok(Ok(dir))) => {
+            axum::Json(serde_json::json!({ "folder": dir.display().to_string() })).into_response()
+        }
         Ok(Ok(Err(why))) => (StatusCode::CONFLICT, format!("{why}\n")).into_response(),
         _ => (StatusCode::SERVICE_UNAVAILABLE, "the session did not answer\n").into_response(),
     }
@@ -826,7 +903,7 @@ mod tests {
     /// always at the stream's end: the last page sees the final counts.
     #[test]
     fn the_share_valid_is_throttled_but_its_last_value_always_kept() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), None, None).unwrap();
         let counts = |valid: u64| {
             let mut a = Availability::new();
             for k in 0..10 {
@@ -850,7 +927,7 @@ mod tests {
 
     #[test]
     fn the_dashboard_holds_only_the_records_not_yet_written() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), None, None).unwrap();
         d.push(&[Arrived::default(); 10]);
         d.written(OnDisk {
             records: 7,
@@ -915,7 +992,7 @@ mod tests {
 
     #[test]
     fn a_request_for_another_host_is_refused() {
-        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), Path::new("records.csv"), None).unwrap();
+        let d = Dashboard::serve("127.0.0.1:0".parse().unwrap(), None, None).unwrap();
         let (addr, port) = (d.addr(), d.addr().port());
         for host in [
             addr.to_string(),

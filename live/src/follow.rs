@@ -1,8 +1,7 @@
 //! Sources to sessions: a stream followed as it arrives, or a recorded
 //! one replayed.
 
-use crate::dashboard::Dashboard;
-use crate::markers::Mark;
+use crate::recorder::Sink;
 use crate::session::{Earlier, Finished, Session};
 use anyhow::{Context, Result};
 use std::io::Read;
@@ -137,70 +136,6 @@ impl Arrivals {
     }
 }
 
-/// Where bytes go: the session, and the records they complete to the
-/// dashboard when there is one.
-pub struct Sink<'a> {
-    /// The session.
-    pub session: &'a mut Session,
-    /// The dashboard, if one is served.
-    pub dashboard: Option<&'a Dashboard>,
-    /// Markers asked for (from `live`'s standard input, the dashboard).
-    pub marks: Option<&'a std::sync::mpsc::Receiver<Mark>>,
-}
-
-impl Sink<'_> {
-    /// Take `bytes` as they arrived, at host UTC `host_utc_us` where
-    /// known.
-    pub fn push_at(&mut self, bytes: &[u8], host_utc_us: Option<i64>) -> Result<()> {
-        self.session.push_at(bytes, host_utc_us)?;
-        if let Some(d) = self.dashboard {
-            d.push(self.session.fresh());
-            if let Some(status) = self.session.fresh_status() {
-                d.status(&status);
-            }
-            d.availability(self.session.availability(), self.session.interpolated(), false);
-            d.written(self.session.on_disk());
-            if let Some(seg) = self.session.segments().last() {
-                let segment = self.session.segments().len() as u32;
-                d.device(segment, &seg.start, seg.clock.line());
-            }
-        }
-        Ok(())
-    }
-
-    /// The markers asked for since the last call, written; each asker
-    /// told the marker or why it was refused.
-    pub fn take_marks(&mut self) {
-        let Some(marks) = self.marks else {
-            return;
-        };
-        while let Ok(m) = marks.try_recv() {
-            let done = self.session.mark(m.host_utc_us, &m.source, &m.text);
-            match &done {
-                Ok(w) => {
-                    eprintln!("marker {} from {}: {}", self.session.markers(), w.source, w.text);
-                    if let Some(d) = self.dashboard {
-                        d.marker(w);
-                    }
-                }
-                Err(e) => eprintln!("marker refused: {e}"),
-            }
-            if let Some(reply) = m.reply {
-                let _ = reply.send(done.map_err(|e| e.to_string()));
-            }
-        }
-    }
-
-    /// Write what arrived so far (see [`Session::flush`]).
-    pub fn flush(&mut self) -> Result<()> {
-        self.session.flush()?;
-        if let Some(d) = self.dashboard {
-            d.written(self.session.on_disk());
-        }
-        Ok(())
-    }
-}
-
 /// Why [`follow`] stopped reading.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Stopped {
@@ -240,15 +175,16 @@ pub fn follow(mut source: impl Read, sink: &mut Sink, stop: &AtomicBool) -> Resu
         };
         sink.push_at(&buf[..n], Some(chrono::Utc::now().timestamp_micros()))?;
         sink.take_marks();
+        sink.take_commands()?;
         if last.elapsed() >= Duration::from_secs(1) {
             last = Instant::now();
             sink.flush()?;
-            eprintln!("{}", sink.session.summary().line());
+            eprintln!("{}", sink.line());
         }
-        if sink.session.end().is_some() {
+        if sink.ended() {
             break Stopped::End;
         }
-        if let Some(why) = sink.session.stopped() {
+        if let Some(why) = sink.session.as_ref().and_then(|s| s.stopped()) {
             break Stopped::Source(why.to_string());
         }
     };

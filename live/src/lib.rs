@@ -25,15 +25,17 @@ mod follow;
 mod interpolated;
 mod manifest;
 pub mod markers;
+mod recorder;
 mod records_csv;
 mod session;
 mod summary;
 pub mod synthetic;
 
-pub use follow::{follow, replay, replay_from, Arrivals, Sink, Stopped};
+pub use follow::{follow, replay, replay_from, Arrivals, Stopped};
 pub use interpolated::INTERPOLATED_CSV;
 pub use manifest::MANIFEST;
 pub use markers::MARKERS_CSV;
+pub use recorder::{Command, Folders, Sink};
 pub use records_csv::RECORDS_CSV;
 pub use session::{
     Arrived, Earlier, Finished, Outcome, Segment, Session, ARRIVALS_CSV, BEFORE_START_MAX, REFUSED_SHOWN,

@@ -59,6 +59,11 @@ struct Cli {
     /// ends (a replay ends at once).
     #[arg(long, default_value_t = 0)]
     linger: u64,
+    /// Follow the link without recording until asked (`start` on
+    /// standard input, or the dashboard's Record); --dataset is then the
+    /// first recording's folder.
+    #[arg(long, conflicts_with = "replay")]
+    idle: bool,
 }
 
 #[derive(Subcommand)]
@@ -533,7 +538,7 @@ fn report(what: &str, stopped: Stopped) {
         Stopped::End => {}
         Stopped::Source(why) => eprintln!("{what} stopped: {why}"),
         Stopped::Asked => {
-            eprintln!("stopped (Ctrl-C or `stop`): the data set holds every record that arrived")
+            eprintln!("stopped (Ctrl-C or `quit`): the recording holds every record that arrived")
         }
     }
 }
@@ -541,31 +546,45 @@ fn report(what: &str, stopped: Stopped) {
 fn run(cli: Cli) -> Result<Outcome> {
     let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
     let following = cli.replay.is_none();
-    // Markers from the page and from standard input, to the session.
+    // Markers, and recordings started and stopped, from the page and
+    // from standard input, to the loop that reads the link.
     let (marks_tx, marks) = std::sync::mpsc::channel();
-    let dashboard = serve(cli.serve, &dataset, following.then(|| marks_tx.clone()))?;
+    let (commands_tx, commands) = std::sync::mpsc::channel();
+    let dashboard = serve(
+        cli.serve,
+        following.then(|| marks_tx.clone()),
+        following.then(|| commands_tx.clone()),
+    )?;
     // Ctrl-C ends a live stream (a board's never ends by itself), the
-    // normal way to stop a recording: the data set is written with what
-    // arrived, complete. `stop` on standard input does the same.
+    // normal way to end a run: the recording running is written with
+    // what arrived, complete. `quit` on standard input does the same.
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("installing the Ctrl-C handler")?;
     if following {
-        read_stdin(Arc::clone(&stop), marks_tx);
+        read_stdin(Arc::clone(&stop), marks_tx, commands_tx);
     }
     let earlier = if cli.overwrite {
         live::Earlier::Overwrite
     } else {
         live::Earlier::Refuse
     };
-    let mut session = Session::new(&dataset, earlier)?;
-    let mut asked = false;
-    let mut sink = Sink {
-        session: &mut session,
-        dashboard: dashboard.as_ref(),
-        marks: Some(&marks),
+    let mut folders = live::Folders::new(dataset.clone(), earlier);
+    // The first recording from the start, unless --idle (checked now:
+    // a folder that holds files is refused before the source opens).
+    let first = match cli.idle {
+        true => None,
+        false => Some(Session::new(&folders.take_next(), earlier)?),
     };
+    let mut sink = Sink::new(first, dashboard.as_ref());
+    sink.marks = Some(&marks);
+    if following {
+        sink.commands = Some(&commands);
+        sink.folders = Some(folders);
+    }
+    let mut lost = None;
+    let mut asked = false;
     match (&cli.replay, &cli.serial, &cli.tcp) {
         (Some(path), _, _) => {
             // Read in pieces: a recording of a day does not fit in memory.
@@ -584,14 +603,14 @@ fn run(cli: Cli) -> Result<Outcome> {
                 .open()
                 .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
             let stopped = follow(port, &mut sink, &stop)?;
-            asked = stopped == Stopped::Asked;
+            (asked, lost) = (stopped == Stopped::Asked, source_lost(&stopped));
             report(&format!("the serial port {name}"), stopped);
         }
         (None, None, Some(addr)) => {
             let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
             sock.set_read_timeout(Some(Duration::from_millis(200)))?;
             let stopped = follow(sock, &mut sink, &stop)?;
-            asked = stopped == Stopped::Asked;
+            (asked, lost) = (stopped == Stopped::Asked, source_lost(&stopped));
             report(&format!("the socket {addr}"), stopped);
         }
         (None, None, None) => {
@@ -599,19 +618,52 @@ fn run(cli: Cli) -> Result<Outcome> {
         }
     }
     if let Some(d) = &dashboard {
-        d.availability(session.availability(), session.interpolated(), true);
+        if let Some(s) = &sink.session {
+            d.availability(s.availability(), s.interpolated(), true);
+        }
         d.end();
     }
     if dashboard.is_some() && cli.linger > 0 {
         eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
         std::thread::sleep(Duration::from_secs(cli.linger));
     }
+    let earlier_ones = std::mem::take(&mut sink.finished);
+    let several = !earlier_ones.is_empty();
+    for (dir, done) in &earlier_ones {
+        println!("recording {}: {}", dir.display(), done.summary.line());
+    }
+    let Some(mut session) = sink.session.take() else {
+        return Ok(match lost {
+            Some(why) if !several => {
+                Outcome::Incomplete(format!("the source was lost ({why}) before any recording"))
+            }
+            _ => Outcome::Stopped,
+        });
+    };
     if asked {
         session.ask_stop();
     }
+    if several {
+        println!("recording {}:", session.dir().display());
+    }
+    print_finished(session)
+}
+
+/// Why the source was lost, where it was.
+fn source_lost(stopped: &Stopped) -> Option<String> {
+    match stopped {
+        Stopped::Source(why) => Some(why.clone()),
+        _ => None,
+    }
+}
+
+/// The recording `session` finished: its summary, availability, clock
+/// and files printed; how it ended.
+fn print_finished(session: Session) -> Result<Outcome> {
     print_refused(&session);
     let session_clock: Vec<_> = session.segments().iter().map(|g| g.clock.line()).collect();
     let started = session.start().is_some();
+    let dataset = session.dir().to_path_buf();
     let finished = session.finish()?;
     println!("{}", finished.summary.line());
     for line in finished.summary.availability_lines() {
@@ -640,8 +692,8 @@ fn run(cli: Cli) -> Result<Outcome> {
 /// its address printed first.
 fn serve(
     addr: Option<std::net::SocketAddr>,
-    dataset: &std::path::Path,
     marks: Option<std::sync::mpsc::Sender<live::markers::Mark>>,
+    commands: Option<std::sync::mpsc::Sender<live::Command>>,
 ) -> Result<Option<Dashboard>> {
     let Some(addr) = addr else {
         return Ok(None);
@@ -649,7 +701,7 @@ fn serve(
     if !addr.ip().is_loopback() {
         anyhow::bail!("--serve {addr}: the dashboard serves this machine only (127.0.0.1 or [::1])")
     }
-    let d = Dashboard::serve(addr, &dataset.join(live::RECORDS_CSV), marks)?;
+    let d = Dashboard::serve(addr, marks, commands)?;
     println!("dashboard: http://{}/", d.addr());
     std::io::stdout().flush()?;
     Ok(Some(d))
@@ -681,10 +733,16 @@ fn clock_lines(fits: &[Option<live::clock::Line>]) -> Vec<String> {
         .collect()
 }
 
-/// Standard input while a stream is followed: `stop` ends the recording
-/// as Ctrl-C does; any other line is a marker with its text (a thread of
-/// its own; it ends with standard input).
-fn read_stdin(stop: Arc<AtomicBool>, marks: std::sync::mpsc::Sender<live::markers::Mark>) {
+/// Standard input while a stream is followed, a line a request:
+/// `start [FOLDER]` starts a recording, `stop` stops it (its set written,
+/// complete; `live` reads on), `quit` ends the run as Ctrl-C does; any
+/// other line is a marker with its text (a thread of its own; it ends
+/// with standard input).
+fn read_stdin(
+    stop: Arc<AtomicBool>,
+    marks: std::sync::mpsc::Sender<live::markers::Mark>,
+    commands: std::sync::mpsc::Sender<live::Command>,
+) {
     std::thread::spawn(move || {
         let mut line = String::new();
         loop {
@@ -693,14 +751,23 @@ fn read_stdin(stop: Arc<AtomicBool>, marks: std::sync::mpsc::Sender<live::marker
                 Ok(0) | Err(_) => return,
                 Ok(_) => {}
             }
-            match line.trim() {
-                "" => {}
-                "stop" => stop.store(true, Ordering::Relaxed),
-                text => {
-                    if marks.send(live::markers::Mark::now("stdin", text)).is_err() {
-                        return;
-                    }
+            let sent = match line.trim() {
+                "" => Ok(()),
+                "quit" => {
+                    stop.store(true, Ordering::Relaxed);
+                    Ok(())
                 }
+                "stop" => commands.send(live::Command::Stop(None)).map_err(drop),
+                "start" => commands.send(live::Command::Start(None, None)).map_err(drop),
+                text => match text.strip_prefix("start ") {
+                    Some(dir) => commands
+                        .send(live::Command::Start(Some(PathBuf::from(dir.trim())), None))
+                        .map_err(drop),
+                    None => marks.send(live::markers::Mark::now("stdin", text)).map_err(drop),
+                },
+            };
+            if sent.is_err() {
+                return;
             }
         }
     });

@@ -95,6 +95,9 @@ fn segment(g: &Segment) -> Value {
         "sensors": g.start.sensors,
         "sample_rate_hz": g.start.sample_rate_hz,
         "first_seq": g.first_seq,
+        // The recording started while the device ran (its start frame
+        // written again by `live`, numbered first_seq).
+        "joined": g.joined(),
         "last_seq": g.high_seq,
         "records_arrived": g.arrived,
         "records_kept": g.records,

@@ -121,6 +121,14 @@ impl Segment {
         }
     }
 
+    /// Whether the recording joined the device's run after its start:
+    /// its start frame is numbered past 0 (a device numbers its start
+    /// frame 0; `live` writes it again, numbered just before the first
+    /// frame a recording started mid-run holds).
+    pub fn joined(&self) -> bool {
+        self.first_seq != 0
+    }
+
     /// Frames whose sequence numbers never arrived.
     pub fn lost(&self) -> u64 {
         u64::from(self.high_seq.wrapping_sub(self.first_seq)) + 1 - self.distinct
@@ -141,7 +149,12 @@ impl Segment {
     /// Where its end frame's count of records sent cannot be what
     /// arrived (fewer than arrived, or more than arrived and the frames
     /// lost could hold): how.
+    /// A recording that joined the run mid-way ([`Segment::joined`])
+    /// cannot check the count: it covers the device's whole run.
     pub fn end_mismatch(&self) -> Option<String> {
+        if self.joined() {
+            return None;
+        }
         let sent = u64::from(self.end?.records);
         let lost = self.lost();
         (sent < self.arrived || sent > self.arrived + lost).then(|| {
@@ -243,6 +256,30 @@ impl Session {
             arrival: None,
             markers: 0,
         })
+    }
+
+    /// A recording that joins a device's run: `start` is the run's start
+    /// frame, and `seq` the number of the last frame before the bytes
+    /// this session will be given (which begin at a frame's start). The
+    /// start frame is written again, numbered `seq`, so that the set's
+    /// stream reads alone: no frame before it counts as lost.
+    pub fn join(
+        dir: &Path,
+        earlier: Earlier,
+        start: &Start,
+        seq: u32,
+        host_utc_us: Option<i64>,
+    ) -> Result<Self> {
+        let mut s = Self::new(dir, earlier)?;
+        let mut out = [0u8; link::MAX_FRAME];
+        let frame = link::Frame {
+            seq,
+            body: Body::Start(*start),
+        };
+        let bytes =
+            link::encode(&frame, &mut out).map_err(|e| anyhow::anyhow!("the start frame again: {e}"))?;
+        s.push_at(bytes, host_utc_us)?;
+        Ok(s)
     }
 
     /// The first start frame has arrived: the folder made ready (an

@@ -63,13 +63,13 @@ fn records_carry_their_arrival_and_the_device_clock_is_fitted_to_the_hosts() {
     }
     // Let the last records arrive and be taken, then stop.
     std::thread::sleep(Duration::from_millis(400));
-    writeln!(stdin, "stop").unwrap();
+    writeln!(stdin, "quit").unwrap();
     stdin.flush().unwrap();
     let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     let said = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{said}\n{err}");
-    assert!(err.contains("stopped (Ctrl-C or `stop`)"), "{err}");
+    assert!(err.contains("stopped (Ctrl-C or `quit`)"), "{err}");
     assert!(said.contains("device clock, segment 1"), "{said}");
 
     // Every record has its arrival, in order, after it was sent.

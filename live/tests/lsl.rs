@@ -50,7 +50,7 @@ fn record(k: u32, sensor: u8) -> Record {
         r_ohm: 7e5,
         stretch_mm: k as f32 / 10.0,
         chosen_hz: 1000.0,
-        flags: u16::from(k % 10 == 0) * 64,
+        flags: u16::from(k.is_multiple_of(10)) * 64,
         ..Record::default()
     }
 }
@@ -68,7 +68,7 @@ fn now_s() -> f64 {
 fn block(enc: &mut Encoder, k: u32) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
     let mut bytes = enc.frame(Body::Record(record(k, 0)), &mut out).unwrap().to_vec();
-    if k % 2 == 0 {
+    if k.is_multiple_of(2) {
         bytes.extend_from_slice(enc.frame(Body::Record(record(k, 1)), &mut out).unwrap());
     }
     bytes
@@ -225,7 +225,7 @@ fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
         );
         assert_eq!(
             s[3].as_f64().unwrap() as u16,
-            u16::from(k % 10 == 0) * 64,
+            u16::from(k.is_multiple_of(10)) * 64,
             "block {k}: {s}"
         );
         match k % 2 {

@@ -248,13 +248,10 @@ fn live_follows_a_running_qemu_over_its_socket() {
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["slow"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
-    let mut session = live::Session::new(tmp.path(), live::Earlier::Refuse).unwrap();
-    let mut sink = live::Sink {
-        session: &mut session,
-        dashboard: None,
-        marks: None,
-    };
+    let session = live::Session::new(tmp.path(), live::Earlier::Refuse).unwrap();
+    let mut sink = live::Sink::new(Some(session), None);
     let stopped = live::follow(sock, &mut sink, &Default::default()).unwrap();
+    let session = sink.session.take().unwrap();
     assert_eq!(stopped, live::Stopped::End);
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");
