@@ -161,6 +161,11 @@ impl<'a> Sink<'a> {
         let Some(session) = &mut self.session else {
             if let Some(d) = self.dashboard {
                 d.passing(&passing);
+                // The device as the watch sees it (no clock fit: that is
+                // a recording's).
+                if let Some(start) = &self.watch.start {
+                    d.device(self.watch.segment, start, None);
+                }
             }
             return Ok(());
         };
