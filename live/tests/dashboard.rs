@@ -208,3 +208,194 @@ print(len(recs), disturbed, sorted({r["sensor"] for r in recs}), recs[0]["f2_hz"
         "{text}"
     );
 }
+
+/// Chromium driven through its DevTools protocol: JavaScript evaluated
+/// in the page, its value returned.
+struct Page {
+    ws: tungstenite::WebSocket<std::net::TcpStream>,
+    id: u64,
+}
+
+impl Page {
+    /// Chromium's first page, on DevTools port `port`.
+    fn attach(port: u16) -> Self {
+        let t0 = std::time::Instant::now();
+        let url = loop {
+            let list = std::net::TcpStream::connect(("127.0.0.1", port))
+                .ok()
+                .and_then(|mut s| {
+                    use std::io::{Read, Write};
+                    write!(s, "GET /json/list HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n").ok()?;
+                    // The connection stays open: the body is Content-Length long.
+                    let mut r = BufReader::new(s);
+                    let mut len = 0;
+                    loop {
+                        let mut line = String::new();
+                        r.read_line(&mut line).ok()?;
+                        match line.trim_end() {
+                            "" => break,
+                            h => {
+                                if let Some((k, v)) = h.split_once(':') {
+                                    if k.eq_ignore_ascii_case("content-length") {
+                                        len = v.trim().parse().ok()?;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let mut body = vec![0; len];
+                    r.read_exact(&mut body).ok()?;
+                    let pages: serde_json::Value = serde_json::from_slice(&body).ok()?;
+                    pages.as_array()?.iter().find(|p| p["type"] == "page")?["webSocketDebuggerUrl"]
+                        .as_str()
+                        .map(str::to_string)
+                });
+            if let Some(url) = list {
+                break url;
+            }
+            assert!(t0.elapsed().as_secs() < 30, "no DevTools page on port {port}");
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        };
+        let (ws, _) = tungstenite::connect(url.as_str()).unwrap();
+        let ws = ws_plain(ws);
+        Self { ws, id: 0 }
+    }
+
+    /// `expression`'s value in the page.
+    fn eval(&mut self, expression: &str) -> serde_json::Value {
+        self.id += 1;
+        let msg = serde_json::json!({
+            "id": self.id,
+            "method": "Runtime.evaluate",
+            "params": {"expression": expression, "returnByValue": true, "awaitPromise": true},
+        });
+        self.ws.send(tungstenite::Message::text(msg.to_string())).unwrap();
+        loop {
+            let m = self.ws.read().unwrap();
+            let Ok(text) = m.to_text() else { continue };
+            let v: serde_json::Value = serde_json::from_str(text).unwrap_or_default();
+            if v["id"] == self.id {
+                return v["result"]["result"]["value"].clone();
+            }
+        }
+    }
+
+    /// Wait until `expression` is true in the page (at most 20 s).
+    fn until(&mut self, expression: &str) {
+        let t0 = std::time::Instant::now();
+        while self.eval(expression) != serde_json::Value::Bool(true) {
+            assert!(t0.elapsed().as_secs() < 20, "never: {expression}");
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+    }
+}
+
+/// The socket under a client WebSocket that connected in plain TCP.
+fn ws_plain(
+    ws: tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
+) -> tungstenite::WebSocket<std::net::TcpStream> {
+    let config = *ws.get_config();
+    let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.into_inner() else {
+        panic!("DevTools over TLS?")
+    };
+    tungstenite::WebSocket::from_raw_socket(s, tungstenite::protocol::Role::Client, Some(config))
+}
+
+/// A free TCP port of this machine.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// The page's Record button and Mark field in a real browser, against a
+/// running device: a recording started, a marker made, the recording
+/// stopped, each as the page says and as the files hold.
+#[test]
+fn the_page_records_and_marks_what_it_is_asked_to() {
+    use std::io::Write;
+    let tmp = tempfile::tempdir().unwrap();
+    let folder = tmp.path().join("trial");
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let mut live = Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(["--tcp", &addr, "--idle", "--serve", "127.0.0.1:0", "--dataset"])
+        .arg(&folder)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut said = BufReader::new(live.stdout.take().unwrap());
+    let mut first = String::new();
+    said.read_line(&mut first).unwrap();
+    let url = first.trim().strip_prefix("dashboard: ").unwrap().to_string();
+    let (mut sock, _) = listener.accept().unwrap();
+    let bytes = stream(300);
+    let frames: Vec<&[u8]> = bytes.split_inclusive(|&b| b == 0).collect();
+    // The device runs: its start and records, more as the page acts.
+    for f in &frames[..100] {
+        sock.write_all(f).unwrap();
+    }
+    let port = free_port();
+    let mut browser = Command::new("chromium")
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"])
+        .args([
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+        ])
+        .arg(format!("--remote-debugging-port={port}"))
+        .arg(format!(
+            "--user-data-dir={}",
+            tmp.path().join("chromium").display()
+        ))
+        .arg(&url)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("chromium (Debian's package; `cargo xtask setup` installs it)");
+    let mut page = Page::attach(port);
+    page.until("document.getElementById('state').textContent === 'open'");
+    // Not recording, yet the records pass.
+    page.until("document.getElementById('recording').textContent === '–' || document.getElementById('recording').textContent === 'no'");
+    // Record: a recording into --dataset's folder, as the page says.
+    page.eval("document.getElementById('record').click()");
+    page.until("document.getElementById('recording').textContent.endsWith('trial')");
+    for f in &frames[100..200] {
+        sock.write_all(f).unwrap();
+    }
+    // A marker, from the field: the page shows it written.
+    page.eval("document.getElementById('mark-text').value = 'grasp, firm'; document.getElementById('mark').requestSubmit()");
+    page.until("document.getElementById('marked').textContent.startsWith('grasp, firm at ')");
+    // Stop: the set written, and the page back to not recording.
+    page.eval("document.getElementById('record').click()");
+    page.until("document.getElementById('recording').textContent === 'no'");
+    let _ = browser.kill();
+    let _ = browser.wait();
+    for f in &frames[200..] {
+        sock.write_all(f).unwrap();
+    }
+    drop(sock);
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut said, &mut rest).unwrap();
+    let status = live.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut live.stderr.take().unwrap(), &mut err).unwrap();
+    assert!(status.success(), "{status}: {err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(folder.join("session.json")).unwrap()).unwrap();
+    assert_eq!(m["complete"], true, "{m}");
+    assert_eq!(m["markers"], 1, "{m}");
+    let markers = std::fs::read_to_string(folder.join("markers.csv")).unwrap();
+    assert!(
+        markers
+            .lines()
+            .nth(1)
+            .is_some_and(|l| l.ends_with(",dashboard,\"grasp, firm\"")),
+        "{markers}"
+    );
+    assert!(m["records"]["kept"].as_u64().unwrap() > 0, "{m}");
+}
