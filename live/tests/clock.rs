@@ -166,61 +166,26 @@ fn a_malformed_arrivals_file_is_named_with_its_line_and_column() {
     assert!(err.contains("a.csv:3:4: '12:00' is not a time in µs"), "{err}");
 }
 
-/// An HTTP request to `addr` (the dashboard): its status code and body.
-fn post(addr: &str, content_type: &str, body: &str) -> (u16, String) {
-    use std::io::Read;
-    let mut s = std::net::TcpStream::connect(addr).unwrap();
-    write!(
-        s,
-        "POST /marker HTTP/1.1\r\nHost: {addr}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
-        body.len()
-    )
-    .unwrap();
-    let mut answer = String::new();
-    s.read_to_string(&mut answer).unwrap();
-    let code = answer.split(' ').nth(1).unwrap().parse().unwrap();
-    let body = answer.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string();
-    (code, body)
-}
-
 #[test]
 fn a_marker_from_the_dashboard_is_written_and_a_form_is_refused() {
-    use std::io::{BufRead, BufReader};
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("live");
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap().to_string();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args(["--tcp", &addr, "--serve", "127.0.0.1:0", "--dataset"])
-        .arg(&dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stdout = BufReader::new(child.stdout.take().unwrap());
-    let mut first = String::new();
-    stdout.read_line(&mut first).unwrap();
-    let page = first
-        .trim()
-        .strip_prefix("dashboard: http://")
-        .unwrap()
-        .trim_end_matches('/')
-        .to_string();
-    let (mut sock, _) = listener.accept().unwrap();
+    let mut live = common::serve_tcp(&["--dataset", dir.to_str().unwrap()], Stdio::null());
+    let page = live.page.clone();
+    let post = |content_type: &str, body: &str| common::post(&page, "/marker", content_type, body);
     let bytes = stream(40, true, link::VERSION);
     let frames = frames(&bytes);
     // Before the start frame: nothing to mark yet, and said so.
-    let (code, body) = post(&page, "application/json", r#"{"text": "too early"}"#);
+    let (code, body) = post("application/json", r#"{"text": "too early"}"#);
     assert_eq!(code, 409, "{body}");
     assert!(body.contains("no start frame yet"), "{body}");
     for f in &frames[..20] {
-        sock.write_all(f).unwrap();
+        live.sock.write_all(f).unwrap();
     }
-    sock.flush().unwrap();
+    live.sock.flush().unwrap();
     std::thread::sleep(Duration::from_millis(500));
     let before = now_us();
-    let (code, body) = post(&page, "application/json", r#"{"text": "grasp, \"firm\""}"#);
+    let (code, body) = post("application/json", r#"{"text": "grasp, \"firm\""}"#);
     assert_eq!(code, 200, "{body}");
     let m: serde_json::Value = serde_json::from_str(&body).unwrap();
     assert_eq!(
@@ -230,14 +195,13 @@ fn a_marker_from_the_dashboard_is_written_and_a_form_is_refused() {
     assert!(m["host_utc_us"].as_i64().unwrap() >= before);
     // A form (which another site's page could send without asking) is
     // not taken.
-    let (code, _) = post(&page, "application/x-www-form-urlencoded", "text=spoof");
+    let (code, _) = post("application/x-www-form-urlencoded", "text=spoof");
     assert_eq!(code, 415);
     for f in &frames[20..] {
-        sock.write_all(f).unwrap();
+        live.sock.write_all(f).unwrap();
     }
-    drop(sock);
-    let status = child.wait().unwrap();
-    assert!(status.success(), "{status}");
+    let (status, _, err) = live.wait();
+    assert!(status.success(), "{status}: {err}");
     let markers = std::fs::read_to_string(dir.join("markers.csv")).unwrap();
     let lines: Vec<&str> = markers.lines().collect();
     assert_eq!(lines.len(), 2, "{markers}");

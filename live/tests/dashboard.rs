@@ -318,21 +318,9 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     use std::io::Write;
     let tmp = tempfile::tempdir().unwrap();
     let folder = tmp.path().join("trial");
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap().to_string();
-    let mut live = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args(["--tcp", &addr, "--idle", "--serve", "127.0.0.1:0", "--dataset"])
-        .arg(&folder)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut said = BufReader::new(live.stdout.take().unwrap());
-    let mut first = String::new();
-    said.read_line(&mut first).unwrap();
-    let url = first.trim().strip_prefix("dashboard: ").unwrap().to_string();
-    let (mut sock, _) = listener.accept().unwrap();
+    let live = common::serve_tcp(&["--idle", "--dataset", folder.to_str().unwrap()], Stdio::null());
+    let url = live.url();
+    let mut sock = live.sock.try_clone().unwrap();
     let bytes = stream(300);
     let frames: Vec<&[u8]> = bytes.split_inclusive(|&b| b == 0).collect();
     // The device runs: its start and records, more as the page acts.
@@ -379,11 +367,7 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
         sock.write_all(f).unwrap();
     }
     drop(sock);
-    let mut rest = String::new();
-    std::io::Read::read_to_string(&mut said, &mut rest).unwrap();
-    let status = live.wait().unwrap();
-    let mut err = String::new();
-    std::io::Read::read_to_string(&mut live.stderr.take().unwrap(), &mut err).unwrap();
+    let (status, _, err) = live.wait();
     assert!(status.success(), "{status}: {err}");
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(folder.join("session.json")).unwrap()).unwrap();

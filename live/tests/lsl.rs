@@ -74,48 +74,16 @@ fn block(enc: &mut Encoder, k: u32) -> Vec<u8> {
     bytes
 }
 
-/// POST a marker to the dashboard at `page` (HOST:PORT); its answer.
-fn post_marker(page: &str, text: &str) -> String {
-    let mut http = std::net::TcpStream::connect(page).unwrap();
-    let body = format!(r#"{{"text": "{text}"}}"#);
-    write!(
-        http,
-        "POST /marker HTTP/1.1\r\nHost: {page}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
-        body.len()
-    )
-    .unwrap();
-    let mut answer = String::new();
-    std::io::Read::read_to_string(&mut http, &mut answer).unwrap();
-    answer
-}
-
 #[test]
 fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("live");
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap().to_string();
-    let mut live = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args([
-            "--tcp",
-            &addr,
-            "--serve",
-            "127.0.0.1:0",
-            "--linger",
-            "3",
-            "--dataset",
-        ])
-        .arg(&dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut said = BufReader::new(live.stdout.take().unwrap());
-    let mut first = String::new();
-    said.read_line(&mut first).unwrap();
-    let url = first.trim().strip_prefix("dashboard: ").unwrap().to_string();
-    let (mut sock, _) = listener.accept().unwrap();
+    let live = common::serve_tcp(
+        &["--linger", "3", "--dataset", dir.to_str().unwrap()],
+        Stdio::null(),
+    );
+    let url = live.url();
+    let mut sock = live.sock.try_clone().unwrap();
     let mut enc = Encoder::new();
     let mut out = [0u8; MAX_FRAME];
     let start = Start {
@@ -174,13 +142,14 @@ fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
     let k_ready = sent.load(Ordering::Acquire);
     stop.store(k_ready + 400, Ordering::Release);
     writeln!(rx.stdin.as_mut().unwrap(), "go").unwrap();
-    let page = url
-        .trim_start_matches("http://")
-        .trim_end_matches('/')
-        .to_string();
     let marked = now_s();
-    let answer = post_marker(&page, "from the page");
-    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let (code, answer) = common::post(
+        &live.page,
+        "/marker",
+        "application/json",
+        r#"{"text": "from the page"}"#,
+    );
+    assert_eq!(code, 200, "{answer}");
     let (mut sock, end, n) = sender.join().unwrap();
     // Time for the stimulus marker to come through before the end.
     std::thread::sleep(Duration::from_millis(2500));
@@ -189,7 +158,9 @@ fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
     rx_out.read_line(&mut json).unwrap();
     let got: serde_json::Value = serde_json::from_str(&json).unwrap_or_else(|e| panic!("{e}: {json}"));
     assert!(rx.wait().unwrap().success());
-    assert!(live.wait().unwrap().success());
+    drop(sock);
+    let (status, _, err) = live.wait();
+    assert!(status.success(), "{status}: {err}");
 
     // The description: 2 sensors × 4 quantities, named with units; the
     // flags by name, faults marked.

@@ -6,9 +6,9 @@
 mod common;
 
 use common::stream;
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 /// Wait until `path` exists (at most 20 s).
@@ -38,50 +38,15 @@ fn manifest(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("session.json")).unwrap()).unwrap()
 }
 
-/// POST `body` to the dashboard at `page` (HOST:PORT) `path`: status and
-/// body.
-fn post(page: &str, path: &str, body: &str) -> (u16, String) {
-    let mut s = std::net::TcpStream::connect(page).unwrap();
-    write!(
-        s,
-        "POST {path} HTTP/1.1\r\nHost: {page}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
-        body.len()
-    )
-    .unwrap();
-    let mut answer = String::new();
-    std::io::Read::read_to_string(&mut s, &mut answer).unwrap();
-    let code = answer.split(' ').nth(1).unwrap().parse().unwrap();
-    (
-        code,
-        answer.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string(),
-    )
-}
-
 #[test]
 fn recordings_start_and_stop_while_the_device_runs_on() {
     let tmp = tempfile::tempdir().unwrap();
     let first = tmp.path().join("trial");
-    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-    let addr = listener.local_addr().unwrap().to_string();
-    let mut live = Command::new(env!("CARGO_BIN_EXE_live"))
-        .args(["--tcp", &addr, "--idle", "--serve", "127.0.0.1:0", "--dataset"])
-        .arg(&first)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut said = BufReader::new(live.stdout.take().unwrap());
-    let mut line = String::new();
-    said.read_line(&mut line).unwrap();
-    let page = line
-        .trim()
-        .strip_prefix("dashboard: http://")
-        .unwrap()
-        .trim_end_matches('/')
-        .to_string();
-    let (mut sock, _) = listener.accept().unwrap();
-    let mut stdin = live.stdin.take().unwrap();
+    let mut live = common::serve_tcp(&["--idle", "--dataset", first.to_str().unwrap()], Stdio::piped());
+    let page = live.page.clone();
+    let post = |path: &str, body: &str| common::post(&page, path, "application/json", body);
+    let mut sock = live.sock.try_clone().unwrap();
+    let mut stdin = live.child.stdin.take().unwrap();
     // A run of 140 records: the start frame (seq 0), then record k as
     // frame k + 1.
     let bytes = stream(140, true, link::VERSION);
@@ -97,7 +62,7 @@ fn recordings_start_and_stop_while_the_device_runs_on() {
     std::thread::sleep(Duration::from_millis(500));
     assert!(!first.exists(), "idle, yet a folder");
     // A marker while nothing records is refused, and said so.
-    let (code, why) = post(&page, "/marker", r#"{"text": "too soon"}"#);
+    let (code, why) = post("/marker", r#"{"text": "too soon"}"#);
     assert_eq!(code, 409, "{why}");
     assert!(why.contains("no recording runs"), "{why}");
     // `start` on standard input: the next 40 records are the first
@@ -112,18 +77,17 @@ fn recordings_start_and_stop_while_the_device_runs_on() {
     send(&mut sock, 71..91);
     std::thread::sleep(Duration::from_millis(500));
     // The dashboard's Record: the second recording, beside the first.
-    let (code, body) = post(&page, "/recording", r#"{"action": "start"}"#);
+    let (code, body) = post("/recording", r#"{"action": "start"}"#);
     assert_eq!(code, 200, "{body}");
     let second = tmp.path().join("trial-2");
     assert!(body.contains("trial-2"), "{body}");
-    let (code, why) = post(&page, "/recording", r#"{"action": "start"}"#);
+    let (code, why) = post("/recording", r#"{"action": "start"}"#);
     assert_eq!(code, 409, "{why}");
     assert!(why.contains("runs already"), "{why}");
     // The rest, and the device's end frame: the run is over.
     send(&mut sock, 91..frames.len());
-    let status = live.wait().unwrap();
-    let mut err = String::new();
-    std::io::Read::read_to_string(&mut live.stderr.take().unwrap(), &mut err).unwrap();
+    drop(sock);
+    let (status, _, err) = live.wait();
     assert!(status.success(), "{status}\n{err}");
 
     // The first: records 31 to 70 (frames 31…70), stopped when asked,

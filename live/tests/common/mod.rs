@@ -82,3 +82,95 @@ pub fn python_with(modules: &str) -> &'static str {
         })
         .unwrap_or("python3")
 }
+
+/// `live --tcp` reading a device the test plays, its dashboard served:
+/// the process, its stdout past the dashboard's address, the
+/// dashboard's `HOST:PORT`, and the device's end of the socket.
+#[allow(dead_code)]
+pub struct Served {
+    /// The `live` process.
+    pub child: std::process::Child,
+    /// Its stdout, after the first line.
+    pub said: std::io::BufReader<std::process::ChildStdout>,
+    /// The dashboard's address, `HOST:PORT`.
+    pub page: String,
+    /// The device's end of the link.
+    pub sock: std::net::TcpStream,
+}
+
+#[allow(dead_code)]
+impl Served {
+    /// The dashboard's URL.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.page)
+    }
+
+    /// Wait for `live` to end: its exit status, the rest of its stdout
+    /// and its stderr.
+    pub fn wait(mut self) -> (std::process::ExitStatus, String, String) {
+        use std::io::Read;
+        drop(self.sock);
+        let mut out = String::new();
+        self.said.read_to_string(&mut out).unwrap();
+        let mut err = String::new();
+        if let Some(mut e) = self.child.stderr.take() {
+            e.read_to_string(&mut err).unwrap();
+        }
+        (self.child.wait().unwrap(), out, err)
+    }
+}
+
+/// `live --tcp ADDR --serve 127.0.0.1:0 ARGS…` on a socket this test
+/// plays the device on, with `stdin`.
+#[allow(dead_code)]
+pub fn serve_tcp(args: &[&str], stdin: std::process::Stdio) -> Served {
+    use std::io::BufRead;
+    use std::process::Stdio;
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = listener.local_addr().unwrap().to_string();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_live"))
+        .args(["--tcp", &addr, "--serve", "127.0.0.1:0"])
+        .args(args)
+        .stdin(stdin)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut said = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut first = String::new();
+    said.read_line(&mut first).unwrap();
+    let page = first
+        .trim()
+        .strip_prefix("dashboard: http://")
+        .unwrap_or_else(|| panic!("no dashboard address: {first:?}"))
+        .trim_end_matches('/')
+        .to_string();
+    let (sock, _) = listener.accept().unwrap();
+    Served {
+        child,
+        said,
+        page,
+        sock,
+    }
+}
+
+/// POST `body` (of `content_type`) to `path` of the dashboard at `page`
+/// (`HOST:PORT`): the status code and the body of the answer.
+#[allow(dead_code)]
+pub fn post(page: &str, path: &str, content_type: &str, body: &str) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(page).unwrap();
+    write!(
+        s,
+        "POST {path} HTTP/1.1\r\nHost: {page}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    let mut answer = String::new();
+    s.read_to_string(&mut answer).unwrap();
+    let code = answer.split(' ').nth(1).and_then(|c| c.parse().ok()).unwrap_or(0);
+    (
+        code,
+        answer.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string(),
+    )
+}
