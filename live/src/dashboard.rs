@@ -175,6 +175,8 @@ struct Held {
     device_sent: Option<(u32, std::time::Instant)>,
     /// The running recording's `records.csv` (none: not recording).
     records_csv: Option<PathBuf>,
+    /// The skin's sensors on this board, where described.
+    skin: Option<Arc<crate::skin::Board>>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -379,6 +381,12 @@ impl Dashboard {
         }
     }
 
+    /// The skin whose sensors the board's are: their names, groups and
+    /// places go with the `device` event.
+    pub fn set_skin(&self, skin: Arc<crate::skin::Board>) {
+        self.state().skin = Some(skin);
+    }
+
     /// A marker written: sent to the open pages (event `marker`).
     pub fn marker(&self, m: &Marker) {
         if let Ok(json) = serde_json::to_string(m) {
@@ -394,7 +402,7 @@ impl Dashboard {
     /// else at most once a second, sent to the open pages (event
     /// `device`) and kept for those that open later.
     pub fn device(&self, segment: u32, start: &link::Start, clock: Option<crate::clock::Line>) {
-        {
+        let skin = {
             let mut state = self.state();
             let t = std::time::Instant::now();
             let recent = state.device_sent.is_some_and(|(g, s)| {
@@ -404,13 +412,31 @@ impl Dashboard {
                 return;
             }
             state.device_sent = Some((segment, t));
-        }
+            state.skin.clone()
+        };
+        // Each input's sensor as the skin names it (null: not named).
+        let named = |f: &dyn Fn(&crate::skin::Sensor) -> serde_json::Value| {
+            skin.as_ref().map(|b| {
+                (0..start.sensors)
+                    .map(|i| {
+                        b.sensors
+                            .iter()
+                            .find(|s| s.index == i)
+                            .map_or(serde_json::Value::Null, f)
+                    })
+                    .collect::<Vec<_>>()
+            })
+        };
         let json = serde_json::json!({
             "segment": segment,
             "firmware": start.firmware_str(),
             "sensors": start.sensors,
             "sample_rate_hz": start.sample_rate_hz,
             "clock": clock.map(|l| l.json()),
+            "skin": skin.as_ref().map(|b| b.skin.clone()),
+            "names": named(&|s| serde_json::json!(s.name)),
+            "groups": named(&|s| serde_json::json!(s.group)),
+            "places": named(&|s| serde_json::json!(s.place)),
         });
         self.named("device", Arc::new(json.to_string()), true);
     }

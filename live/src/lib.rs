@@ -28,6 +28,7 @@ pub mod markers;
 mod recorder;
 mod records_csv;
 mod session;
+pub mod skin;
 mod summary;
 pub mod synthetic;
 

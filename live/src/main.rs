@@ -64,6 +64,14 @@ struct Cli {
     /// first recording's folder.
     #[arg(long, conflicts_with = "replay")]
     idle: bool,
+    /// The skin's description (TOML: each sensor's name, board, index,
+    /// group and place; docs/live.md): its names in the manifest and the
+    /// feed, and the sensors the device lacks or adds said.
+    #[arg(long)]
+    skin: Option<PathBuf>,
+    /// With --skin: which of the skin's boards this device is.
+    #[arg(long, requires = "skin")]
+    board: Option<String>,
 }
 
 #[derive(Subcommand)]
@@ -546,6 +554,11 @@ fn report(what: &str, stopped: Stopped) {
 fn run(cli: Cli) -> Result<Outcome> {
     let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
     let following = cli.replay.is_none();
+    // The skin, checked whole before anything starts.
+    let skin = match &cli.skin {
+        Some(path) => Some(Arc::new(live::skin::read(path)?.on_board(cli.board.as_deref())?)),
+        None => None,
+    };
     // Markers, and recordings started and stopped, from the page and
     // from standard input, to the loop that reads the link.
     let (marks_tx, marks) = std::sync::mpsc::channel();
@@ -577,7 +590,17 @@ fn run(cli: Cli) -> Result<Outcome> {
         true => None,
         false => Some(Session::new(&folders.take_next(), earlier)?),
     };
+    let first = first.map(|mut s| {
+        if let Some(skin) = &skin {
+            s.set_skin(skin.clone());
+        }
+        s
+    });
+    if let (Some(d), Some(skin)) = (&dashboard, &skin) {
+        d.set_skin(skin.clone());
+    }
     let mut sink = Sink::new(first, dashboard.as_ref());
+    sink.skin = skin;
     sink.marks = Some(&marks);
     if following {
         sink.commands = Some(&commands);

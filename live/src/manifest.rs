@@ -53,7 +53,12 @@ fn manifest(session: &Session, done: &Finished) -> Value {
             ),
             Outcome::Incomplete(why) => why.clone(),
         },
-        "segments": session.segments().iter().map(segment).collect::<Vec<_>>(),
+        "segments": session.segments().iter().map(|g| segment(g, session.skin())).collect::<Vec<_>>(),
+        "skin": session.skin().map(|b| json!({
+            "name": b.skin,
+            "board": b.board,
+            "sensors": b.sensors,
+        })),
         "markers": session.markers(),
         "bytes": s.bytes,
         "frames": {
@@ -70,7 +75,11 @@ fn manifest(session: &Session, done: &Finished) -> Value {
             "set_aside_not_later": s.set_aside.not_later,
             "per_sensor": s.availability.iter().map(|(&sensor, a)| {
                 let interpolated = s.interpolated.get(&sensor).copied().unwrap_or(0);
-                crate::summary::availability_json(sensor, a, interpolated)
+                let mut row = crate::summary::availability_json(sensor, a, interpolated);
+                if let Some(name) = session.skin().and_then(|b| b.name_of(sensor)) {
+                    row["name"] = json!(name);
+                }
+                row
             }).collect::<Vec<_>>(),
         },
         "dataset": {
@@ -85,8 +94,9 @@ fn manifest(session: &Session, done: &Finished) -> Value {
 }
 
 /// One segment's entry: its start frame, what arrived, its end frame's
-/// counts and whether they agree.
-fn segment(g: &Segment) -> Value {
+/// counts and whether they agree, and (with a skin) the sensors the
+/// skin and the device do not share.
+fn segment(g: &Segment, skin: Option<&crate::skin::Board>) -> Value {
     json!({
         "firmware": g.start.firmware_str(),
         "wire_version": g.start.version,
@@ -94,6 +104,7 @@ fn segment(g: &Segment) -> Value {
         "calibration_digest": format!("{:08x}", g.start.calibration_digest),
         "sensors": g.start.sensors,
         "sample_rate_hz": g.start.sample_rate_hz,
+        "skin_mismatch": skin.map(|b| b.mismatch(g.start.sensors)),
         "first_seq": g.first_seq,
         // The recording started while the device ran (its start frame
         // written again by `live`, numbered first_seq).

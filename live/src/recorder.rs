@@ -126,6 +126,8 @@ pub struct Sink<'a> {
     pub folders: Option<Folders>,
     /// The recordings that ended, each with its folder.
     pub finished: Vec<(PathBuf, Finished)>,
+    /// The skin's sensors on this board, given to each recording.
+    pub skin: Option<std::sync::Arc<crate::skin::Board>>,
     watch: Watch,
     /// A start asked for: it begins at the next frame.
     starting: Option<(PathBuf, Option<Reply>)>,
@@ -145,6 +147,7 @@ impl<'a> Sink<'a> {
             commands: None,
             folders: None,
             finished: vec![],
+            skin: None,
             watch: Watch::default(),
             starting: None,
         }
@@ -208,7 +211,10 @@ impl<'a> Sink<'a> {
             None => Session::new(&dir, earlier),
         };
         let answer = match made {
-            Ok(s) => {
+            Ok(mut s) => {
+                if let Some(skin) = &self.skin {
+                    s.set_skin(skin.clone());
+                }
                 eprintln!("recording into {}", dir.display());
                 if let Some(d) = self.dashboard {
                     d.recording(Some(&dir));

@@ -218,6 +218,8 @@ pub struct Session {
     arrival: Option<i64>,
     /// Markers written.
     markers: u64,
+    /// The skin's sensors on this board, where a skin is described.
+    skin: Option<std::sync::Arc<crate::skin::Board>>,
 }
 
 impl Session {
@@ -255,6 +257,7 @@ impl Session {
             bytes_in: 0,
             arrival: None,
             markers: 0,
+            skin: None,
         })
     }
 
@@ -425,6 +428,17 @@ impl Session {
         self.markers
     }
 
+    /// The skin whose sensors this board's are: their names in the
+    /// manifest, and the sensors the device lacks or adds said.
+    pub fn set_skin(&mut self, skin: std::sync::Arc<crate::skin::Board>) {
+        self.skin = Some(skin);
+    }
+
+    /// The skin's sensors on this board, if described.
+    pub fn skin(&self) -> Option<&crate::skin::Board> {
+        self.skin.as_deref()
+    }
+
     /// The frames `bytes` complete, taken in.
     fn decode(&mut self, bytes: &[u8]) -> Result<()> {
         let mut rest = bytes;
@@ -494,6 +508,13 @@ impl Session {
                 files.data.restart();
                 self.last_t_us.clear();
                 self.gaps.restart();
+            }
+        }
+        // A sensor the skin names that the device lacks, or one it
+        // reports that the skin does not name: said at once.
+        if let Some(skin) = &self.skin {
+            for line in skin.mismatch(s.sensors) {
+                eprintln!("{line}");
             }
         }
         self.segments.push(Segment::new(s, seq));

@@ -288,3 +288,57 @@ fn a_file_size_limit_stops_the_session_with_whole_lines() {
         }
     }
 }
+
+/// A skin's description: its names in the manifest, the sensors the
+/// device lacks or adds said; a bad file refused by line and column
+/// before anything is written.
+#[test]
+fn a_skin_names_the_sensors_and_what_the_device_lacks() {
+    let tmp = tempfile::tempdir().unwrap();
+    let skin = tmp.path().join("hand.toml");
+    std::fs::write(
+        &skin,
+        "[skin]\nname = \"left hand\"\n\n[[sensor]]\nname = \"index-1\"\nindex = 0\ngroup = \"index finger\"\nplace = [12, 40]\n\n[[sensor]]\nname = \"palm\"\nindex = 3\nplace = [30, 10]\n",
+    )
+    .unwrap();
+    let (code, _, err) = live_with(
+        &stream(6, true, VERSION),
+        tmp.path(),
+        &["--skin", skin.to_str().unwrap()],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.contains("skin 'left hand': 'palm' (index 3) beyond the 2 sensors the device reports"),
+        "{err}"
+    );
+    assert!(
+        err.contains("the device's sensors 1 are not in the skin"),
+        "{err}"
+    );
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tmp.path().join("ds/session.json")).unwrap()).unwrap();
+    assert_eq!(m["skin"]["name"], "left hand");
+    assert_eq!(m["skin"]["sensors"][0]["group"], "index finger");
+    let per = m["records"]["per_sensor"].as_array().unwrap();
+    assert_eq!(per[0]["name"], "index-1");
+    assert!(per[1].get("name").is_none(), "{}", per[1]);
+    assert_eq!(m["segments"][0]["skin_mismatch"].as_array().unwrap().len(), 2);
+    // A file with an error: refused, by line and column, nothing written.
+    std::fs::write(
+        &skin,
+        "[skin]\nname = \"left hand\"\n\n[[sensor]]\nname = \"palm\"\nindex = 3\nplace = [30]\n",
+    )
+    .unwrap();
+    let again = tempfile::tempdir().unwrap();
+    let (code, _, err) = live_with(
+        &stream(6, true, VERSION),
+        again.path(),
+        &["--skin", skin.to_str().unwrap()],
+    );
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("hand.toml:7:9: place: [x, y], two finite numbers"),
+        "{err}"
+    );
+    assert!(!again.path().join("ds").exists());
+}

@@ -78,8 +78,18 @@ fn block(enc: &mut Encoder, k: u32) -> Vec<u8> {
 fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("live");
+    // The skin names sensor 0; sensor 1 keeps its index.
+    let skin = tmp.path().join("skin.toml");
+    std::fs::write(&skin, "[skin]\nname = \"test skin\"\n[[sensor]]\nname = \"index-1\"\nindex = 0\ngroup = \"index finger\"\nplace = [1, 2]\n").unwrap();
     let live = common::serve_tcp(
-        &["--linger", "3", "--dataset", dir.to_str().unwrap()],
+        &[
+            "--linger",
+            "3",
+            "--skin",
+            skin.to_str().unwrap(),
+            "--dataset",
+            dir.to_str().unwrap(),
+        ],
         Stdio::null(),
     );
     let url = live.url();
@@ -162,11 +172,12 @@ fn an_lsl_inlet_gets_every_record_at_its_time_and_the_markers_both_ways() {
     let (status, _, err) = live.wait();
     assert!(status.success(), "{status}: {err}");
 
-    // The description: 2 sensors × 4 quantities, named with units; the
+    // The description: 2 sensors × 4 quantities, labelled with units; the
     // flags by name, faults marked.
     assert_eq!(got["type"], "DESkin");
     assert_eq!(got["channels"], 8);
-    assert_eq!(got["labels"][0], serde_json::json!(["s0.c_pf", "pF"]));
+    // Sensor 0 by its name in the skin, sensor 1 by its index.
+    assert_eq!(got["labels"][0], serde_json::json!(["index-1.c_pf", "pF"]));
     assert_eq!(got["labels"][7], serde_json::json!(["s1.flag_bits", ""]));
     assert!(
         got["flags"]

@@ -7,7 +7,8 @@ tensile stage on one clock.
 
 One outlet per skin (type `DESkin`, irregular rate, double64): one channel
 per sensor and quantity (`s3.c_pf`, `s3.r_ohm`, `s3.stretch_mm`,
-`s3.flag_bits` by default), a sample per device time stamp holding every
+`s3.flag_bits` by default; the sensor's name in place of `s3` where
+`live --skin` names it, e.g. `index-1.c_pf`), a sample per device time stamp holding every
 sensor measured then (NaN for the others). Its time stamps are the
 records' own: the device's time mapped to the host's UTC by `live`'s
 clock fit (the feed's `device` event; the arrival time before the fit
@@ -48,10 +49,17 @@ QUANTITIES: Dict[str, Tuple[str, str]] = {
 DEFAULT = ("c_pf", "r_ohm", "stretch_mm", "flag_bits")
 
 
-def channel_labels(sensors: int, quantities: Sequence[str]) -> List[str]:
-    """The outlet's channels in order: every quantity of sensor 0, then
-    sensor 1, …"""
-    return ["s%d.%s" % (s, q) for s in range(sensors) for q in quantities]
+def sensor_labels(device: dict) -> List[str]:
+    """Each input's label: its name in the skin (`live --skin`), else
+    `s` and its index."""
+    names = device.get("names") or []
+    return [names[s] if s < len(names) and names[s] else "s%d" % s for s in range(int(device["sensors"]))]
+
+
+def channel_labels(sensors: Sequence[str], quantities: Sequence[str]) -> List[str]:
+    """The outlet's channels in order: every quantity of the first
+    sensor, then the next, …"""
+    return ["%s.%s" % (s, q) for s in sensors for q in quantities]
 
 
 class Clock:
@@ -100,7 +108,9 @@ class Bridge:
         """The outlets, once the device's run is known."""
         pylsl = self.pylsl
         self.sensors = int(device["sensors"])
-        labels = channel_labels(self.sensors, self.quantities)
+        names = sensor_labels(device)
+        groups = device.get("groups") or [None] * self.sensors
+        labels = channel_labels(names, self.quantities)
         info = pylsl.StreamInfo(self.name, "DESkin", len(labels), pylsl.IRREGULAR_RATE,
                                 pylsl.cf_double64, self.source)
         desc = info.desc()
@@ -108,15 +118,20 @@ class Bridge:
         acq.append_child_value("manufacturer", "de-skin")
         acq.append_child_value("model", str(device.get("firmware", "")))
         acq.append_child_value("sensors", str(self.sensors))
+        if device.get("skin"):
+            acq.append_child_value("skin", str(device["skin"]))
         chans = desc.append_child("channels")
         for s in range(self.sensors):
             for q in self.quantities:
                 unit, kind = QUANTITIES[q]
                 ch = chans.append_child("channel")
-                ch.append_child_value("label", "s%d.%s" % (s, q))
+                ch.append_child_value("label", "%s.%s" % (names[s], q))
                 ch.append_child_value("unit", unit)
                 ch.append_child_value("type", kind)
                 ch.append_child_value("sensor", str(s))
+                ch.append_child_value("name", names[s])
+                if s < len(groups) and groups[s]:
+                    ch.append_child_value("group", str(groups[s]))
                 ch.append_child_value("quantity", q)
         flags = desc.append_child("flags")
         for f in (self.schema or {}).get("flags", []):
