@@ -265,9 +265,18 @@ struct CalibrateArgs {
     target: Target,
     /// The holds: CSV `stretch_mm,from_s,to_s`, one line per stretch
     /// held (at least two), spans in the device's clock (s since its
-    /// start; leave out the settling after each move).
+    /// start; leave out the settling after each move); or
+    /// `sensor,stretch_mm,from_s,to_s`, each sensor its own stretches
+    /// (`sensor`: its index, or with --skin its name or its group's).
     #[arg(long, required_unless_present = "at", conflicts_with = "at")]
     holds: Option<PathBuf>,
+    /// The skin's description: the names and groups a holds file's
+    /// `sensor` may give.
+    #[arg(long, requires = "holds")]
+    skin: Option<PathBuf>,
+    /// With --skin: which of the skin's boards this device is.
+    #[arg(long, requires = "skin")]
+    board: Option<String>,
     /// Guided: the stretches to hold in turn, mm (e.g. 0,10,20,30);
     /// for each, hold the skin still and press Enter.
     #[arg(long, value_delimiter = ',')]
@@ -337,6 +346,8 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
     let CalibrateArgs {
         target,
         holds,
+        skin,
+        board,
         at,
         open,
         open_at,
@@ -357,7 +368,13 @@ fn calibrate(a: CalibrateArgs) -> Result<()> {
         sweep: true,
     });
     let holds = match (&holds, &guide) {
-        (Some(path), _) => cal::read_holds(path)?,
+        (Some(path), _) => {
+            let skin = match &skin {
+                Some(p) => Some(live::skin::read(p)?.on_board(board.as_deref())?),
+                None => None,
+            };
+            cal::read_holds(path, skin.as_ref())?
+        }
         (None, Some(_)) if replay.is_some() => {
             anyhow::bail!("--at guides a live device: a recording needs --holds")
         }

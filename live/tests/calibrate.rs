@@ -56,6 +56,12 @@ fn record(t: f64, sensor: usize, tones: [(f32, Complex64); 2], flags: u16) -> li
 }
 
 fn stream() -> Vec<u8> {
+    stream_with([1.0, 1.0])
+}
+
+/// [`stream`] with each sensor stretched `gain` times the stretch held
+/// (a skin on a curved body, a glove: sensors stretch differently).
+fn stream_with(gain: [f64; 2]) -> Vec<u8> {
     let mut enc = link::Encoder::new();
     let mut out = [0u8; link::MAX_FRAME];
     let mut bytes = vec![];
@@ -72,6 +78,7 @@ fn stream() -> Vec<u8> {
             for (sensor, &(r0, c0, lead, rs, cp)) in SENSORS.iter().enumerate() {
                 // C grows with stretch; R falls a little, and recovers
                 // from the move during the hold.
+                let s = s * gain[sensor];
                 let c = c0 * (1.0 + s / 100.0);
                 let r = r0 * (1.0 - 0.003 * s) * (1.0 + 0.04 * (-(t - k as f64) / 0.3).exp());
                 let tones = TONES_HZ.map(|f| {
@@ -341,4 +348,77 @@ fn an_open_fixture_measures_the_cables() {
     let (code, _, err) = run(&["--open-at", "3,1"]);
     assert_eq!(code, Some(1));
     assert!(err.contains("--open-at"), "{err}");
+}
+
+/// Each sensor held at its own stretches (named through the skin's
+/// groups): each gets the table of its own stretches, not the other's.
+#[test]
+fn each_sensor_is_calibrated_at_its_own_stretches() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |n: &str| tmp.path().join(n).to_str().unwrap().to_string();
+    // Sensor 1 stretches half as much as sensor 0.
+    std::fs::write(p("stream.bin"), stream_with([1.0, 0.5])).unwrap();
+    std::fs::write(
+        p("skin.toml"),
+        "[skin]\nname = \"arm\"\n[[sensor]]\nname = \"elbow\"\nindex = 0\ngroup = \"outer\"\nplace = [0, 0]\n\
+         [[sensor]]\nname = \"forearm\"\nindex = 1\ngroup = \"inner\"\nplace = [0, 10]\n",
+    )
+    .unwrap();
+    let mut holds = String::from("sensor,stretch_mm,from_s,to_s\n");
+    for (k, s) in HOLDS.iter().enumerate() {
+        let (a, b) = (k as f64 + 0.1, k as f64 + 0.6);
+        holds.push_str(&format!("outer,{s},{a},{b}\nforearm,{},{a},{b}\n", s * 0.5));
+    }
+    std::fs::write(p("holds.csv"), &holds).unwrap();
+    let (code, out, err) = live(&[
+        "calibrate",
+        "--replay",
+        &p("stream.bin"),
+        "--holds",
+        &p("holds.csv"),
+        "--skin",
+        &p("skin.toml"),
+        "--flash",
+        &p("flash.bin"),
+    ]);
+    assert_eq!(code, Some(0), "{err}\n{out}");
+    assert!(out.contains("each sensor at its own stretches"), "{out}");
+    let (code, got, _) = live(&["config", "get", "--flash", &p("flash.bin")]);
+    assert_eq!(code, Some(0));
+    // Each table's last point: the sensor's own largest stretch, at the
+    // C it had there.
+    for (s, top) in [(0usize, 30.0), (1, 15.0)] {
+        let line = got
+            .lines()
+            .find(|l| l.starts_with(&format!("sensor.{s}.table = ")))
+            .unwrap();
+        let last = line.rsplit(' ').next().unwrap();
+        let (c, mm) = last.split_once(':').unwrap();
+        let (c, mm): (f64, f64) = (c.parse().unwrap(), mm.parse().unwrap());
+        assert!((mm - top).abs() < 1e-3, "sensor {s}: {line}");
+        let c0 = SENSORS[s].1;
+        assert!(
+            (c / (c0 * (1.0 + top / 100.0)) - 1.0).abs() < 1e-3,
+            "sensor {s}: {line}"
+        );
+    }
+    // A name the holds give that the skin does not have: refused, where.
+    std::fs::write(p("bad.csv"), "sensor,stretch_mm,from_s,to_s\nwrist,0,0.1,0.6\n").unwrap();
+    let (code, _, err) = live(&[
+        "calibrate",
+        "--replay",
+        &p("stream.bin"),
+        "--holds",
+        &p("bad.csv"),
+        "--skin",
+        &p("skin.toml"),
+        "--flash",
+        &p("flash.bin"),
+        "--dry-run",
+    ]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("bad.csv:2:1: 'wrist' is no sensor's index, name or group in skin 'arm'"),
+        "{err}"
+    );
 }

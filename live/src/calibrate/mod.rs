@@ -66,6 +66,15 @@ pub fn calibrate(
             continue;
         }
         let mine: Vec<&link::Record> = records.iter().filter(|r| usize::from(r.sensor) == s).collect();
+        // Its own stretches where the holds give each sensor its own.
+        let holds = &for_sensor(holds, s as u8);
+        if holds.len() < 2 {
+            outcomes.push(Outcome::Refused(format!(
+                "{} holds for it in the holds file: a calibration needs two stretches at least",
+                holds.len()
+            )));
+            continue;
+        }
         let outcome = match fit_sensor(s as u8, &mine, holds, opts) {
             Ok(fit) => {
                 let mut trial = set;

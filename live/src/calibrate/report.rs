@@ -20,15 +20,17 @@ pub(crate) fn fmt_value(g: usize, v: f64) -> String {
 pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
     let mut md = String::new();
     let s = SensorFit::stretches(holds);
+    let held = match holds.iter().any(|h| h.sensor.is_some()) {
+        true => format!("{} holds, each sensor at its own stretches", holds.len()),
+        false => format!("{} holds ({s:?} mm)", holds.len()),
+    };
     let _ = writeln!(
         md,
-        "{} holds ({:?} mm). Per sensor: the fitted tab leads ℓ, contact and parasitic capacitance \
+        "{held}. Per sensor: the fitted tab leads ℓ, contact and parasitic capacitance \
          (±1σ), C and R at rest, χ²/dof, how far the uncalibrated reading's C is from the fitted \
          line's (RMS over the holds), and the stretch error the reference sensor's table would give \
          on the uncalibrated reading (RMS over the holds) against the new table's (its points are \
-         the fit's, so 0 at the holds: the measurement after the restart is the test).\n",
-        holds.len(),
-        s
+         the fit's, so 0 at the holds: the measurement after the restart is the test).\n"
     );
     let open = outcomes
         .iter()
@@ -58,6 +60,7 @@ pub fn report(holds: &[Hold], outcomes: &[Outcome]) -> String {
                 ));
             }
             Outcome::Fitted(f) => {
+                let s = SensorFit::stretches(&for_sensor(holds, i as u8));
                 fitted_row(&mut md, i, f, &s, open);
                 for u in f.unresolved() {
                     notes.push(format!("sensor {i}: {u}"));
@@ -144,7 +147,7 @@ pub fn verify(records: &[link::Record], holds: &[Hold]) -> Vec<Check> {
         .into_iter()
         .map(|s| {
             let mut all = (0, 0);
-            let holds = holds
+            let holds = for_sensor(holds, s)
                 .iter()
                 .map(|h| {
                     let (mut sum, mut n) = (0.0, 0usize);

@@ -383,6 +383,7 @@ pub(crate) fn gather<S: std::io::Read + std::io::Write>(
                 stretch_mm,
                 from_s,
                 to_s,
+                sensor: None,
             }),
         }
     }

@@ -90,6 +90,7 @@ fn stairs() -> Vec<Hold> {
             stretch_mm: 3.0 * k as f64,
             from_s: 1.0 * k as f64,
             to_s: 1.0 * k as f64 + 0.6,
+            sensor: None,
         })
         .collect()
 }
@@ -151,8 +152,8 @@ fn a_sensor_the_model_does_not_explain_is_refused_and_kept() {
 #[test]
 fn holds_files_say_where_they_are_wrong() {
     let ok = "stretch_mm,from_s,to_s\n0,0.2,1\n10,1.5,2\n";
-    assert_eq!(parse_holds(ok).unwrap().len(), 2);
-    let err = |t: &str| parse_holds(t).unwrap_err().to_string();
+    assert_eq!(parse_holds(ok, None).unwrap().len(), 2);
+    let err = |t: &str| parse_holds(t, None).unwrap_err().to_string();
     assert!(err("s,f,t\n").starts_with("1:1: the header"));
     assert!(err("stretch_mm,from_s,to_s\n0,0.2,x\n").starts_with("2:7: 'x' is not"));
     assert!(err("stretch_mm,from_s,to_s\n0,0.2,1\n5,0.5,1.5\n").contains("overlaps"));
@@ -164,7 +165,53 @@ fn holds_files_say_where_they_are_wrong() {
     let p = tmp.path().join("holds.csv");
     let holds = stairs();
     write_holds(&p, &holds).unwrap();
-    assert_eq!(read_holds(&p).unwrap(), holds);
+    assert_eq!(read_holds(&p, None).unwrap(), holds);
+}
+
+#[test]
+fn each_sensor_may_hold_its_own_stretch() {
+    let skin = crate::skin::parse(
+        "[skin]\nname = \"glove\"\n[[sensor]]\nname = \"thumb\"\nindex = 0\nplace = [0, 0]\n\
+         [[sensor]]\nname = \"index-1\"\nindex = 1\ngroup = \"index\"\nplace = [1, 0]\n\
+         [[sensor]]\nname = \"index-2\"\nindex = 2\ngroup = \"index\"\nplace = [2, 0]\n",
+        "glove.toml",
+    )
+    .unwrap()
+    .on_board(None)
+    .unwrap();
+    // The thumb bends less than the index finger over the same spans.
+    let text = "sensor,stretch_mm,from_s,to_s\nthumb,0,0,1\nthumb,4,2,3\nindex,0,0,1\nindex,10,2,3\n";
+    let holds = parse_holds(text, Some(&skin)).unwrap();
+    assert_eq!(holds.len(), 6, "a group's row is a hold of each of its sensors");
+    let stretches = |s| {
+        for_sensor(&holds, s)
+            .iter()
+            .map(|h| h.stretch_mm)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!((stretches(0), stretches(2)), (vec![0.0, 4.0], vec![0.0, 10.0]));
+    let err = |t: &str, skin| parse_holds(t, skin).unwrap_err().to_string();
+    assert!(
+        err(text, None).starts_with("2:1: 'thumb' is not a sensor's index"),
+        "{}",
+        err(text, None)
+    );
+    let lone = "sensor,stretch_mm,from_s,to_s\n0,0,0,1\n1,0,0,1\n1,5,2,3\n";
+    assert!(
+        err(lone, None).contains("sensor 0 has 1 hold"),
+        "{}",
+        err(lone, None)
+    );
+    let overlap = "sensor,stretch_mm,from_s,to_s\n0,0,0,1\n0,5,0.5,3\n";
+    assert!(
+        err(overlap, None).starts_with("3:1: its span overlaps the hold of sensor 0"),
+        "{}",
+        err(overlap, None)
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    let p = tmp.path().join("holds.csv");
+    write_holds(&p, &holds).unwrap();
+    assert_eq!(read_holds(&p, None).unwrap(), holds);
 }
 
 #[test]
