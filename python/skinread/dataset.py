@@ -24,15 +24,32 @@ def _read(path: str) -> pd.DataFrame:
     return df
 
 
-def clocks(folder: str) -> Dict[int, dict]:
-    """Each segment's clock fit from a `live` session's manifest
-    (`session.json`): {segment: its `clock` (offset_unix_s, rate,
-    sigma_offset_ms, drift_ppm, ...)}, for the segments that have one."""
+def _manifest(folder: str) -> dict:
     path = os.path.join(folder, "session.json")
     if not os.path.exists(path):
         return {}
     with open(path) as f:
-        segments = json.load(f).get("segments", [])
+        return json.load(f)
+
+
+def skin(folder: str) -> pd.DataFrame:
+    """The skin's sensors of a `live --skin` session (its manifest): a
+    row per sensor with its `sensor` index, `name`, `group` and place
+    (`x`, `y`, in the skin's units); empty without a skin."""
+    sensors = (_manifest(folder).get("skin") or {}).get("sensors", [])
+    rows = [
+        {"sensor": s["index"], "name": s["name"], "group": s.get("group"),
+         "x": s["place"][0], "y": s["place"][1]}
+        for s in sensors
+    ]
+    return pd.DataFrame(rows, columns=["sensor", "name", "group", "x", "y"])
+
+
+def clocks(folder: str) -> Dict[int, dict]:
+    """Each segment's clock fit from a `live` session's manifest
+    (`session.json`): {segment: its `clock` (offset_unix_s, rate,
+    sigma_offset_ms, drift_ppm, ...)}, for the segments that have one."""
+    segments = _manifest(folder).get("segments", [])
     return {k + 1: g["clock"] for k, g in enumerate(segments) if g.get("clock")}
 
 
@@ -56,10 +73,14 @@ def read_records(folder: str) -> pd.DataFrame:
     """`records.csv` of a `live` session: every record as it arrived,
     `flag_bits`, `valid` and a boolean column per flag; `arrived_utc`,
     the host's UTC when it arrived, and `t_utc`, its own time stamp on
-    the host's UTC by its segment's clock fit (the manifest's)."""
+    the host's UTC by its segment's clock fit (the manifest's); with a
+    skin (`live --skin`), each sensor's `name`."""
     df = _read(os.path.join(folder, "records.csv"))
     if "host_utc_us" in df.columns:
         df["arrived_utc"] = _utc_of_us(df["host_utc_us"].astype("float64"))
+    names = skin(folder)
+    if len(names):
+        df["name"] = df["sensor"].map(dict(zip(names["sensor"], names["name"])))
     return with_utc(df, folder, df["t_us"] * 1e-6)
 
 

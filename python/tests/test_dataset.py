@@ -42,7 +42,9 @@ def test_flags_are_decoded_by_name_and_do_not_shadow_pandas(tmp_path):
 def test_records_get_both_clocks_and_markers_read_back(tmp_path):
     # A device 100 ppm slow that started at 2026-12-03 10:00:00 UTC.
     (tmp_path / "session.json").write_text(
-        '{"segments": [{"clock": {"offset_unix_s": 1796292000.0, "rate": 1.0001}}, {"clock": null}]}'
+        '{"segments": [{"clock": {"offset_unix_s": 1796292000.0, "rate": 1.0001}}, {"clock": null}],'
+        ' "skin": {"name": "hand", "board": "", "sensors": [{"name": "palm", "board": "", "index": 0,'
+        ' "group": null, "place": [3.0, 4.0], "outline": []}]}}'
     )
     (tmp_path / "records.csv").write_text(
         "segment,seq,t_us,sensor,f1_hz,z1_re_ohm,z1_im_ohm,f2_hz,z2_re_ohm,z2_im_ohm,c_pf,r_ohm,stretch_mm,chosen_hz,chi2,sigma_ln_c,flags,host_utc_us\n"
@@ -55,6 +57,9 @@ def test_records_get_both_clocks_and_markers_read_back(tmp_path):
     # 1 s of the device is 1.0001 s of the host's.
     assert df["t_utc"].iat[0] == pd.Timestamp("2026-12-03T10:00:01.0001Z")
     assert pd.isna(df["t_utc"].iat[1])
+    # The skin's names by sensor.
+    assert list(df["name"]) == ["palm", "palm"]
+    assert skinread.skin(str(tmp_path)).loc[0, ["name", "x", "y"]].tolist() == ["palm", 3.0, 4.0]
     (tmp_path / "markers.csv").write_text(
         "host_utc_us,segment,device_t_us,source,text\n"
         '1796292002000000,1,999900,stdin,"grasp, ""firm"""\n'
