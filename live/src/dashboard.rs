@@ -437,6 +437,7 @@ impl Dashboard {
             "names": named(&|s| serde_json::json!(s.name)),
             "groups": named(&|s| serde_json::json!(s.group)),
             "places": named(&|s| serde_json::json!(s.place)),
+            "outlines": named(&|s| serde_json::json!(s.outline)),
         });
         self.named("device", Arc::new(json.to_string()), true);
     }

@@ -318,7 +318,24 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     use std::io::Write;
     let tmp = tempfile::tempdir().unwrap();
     let folder = tmp.path().join("trial");
-    let live = common::serve_tcp(&["--idle", "--dataset", folder.to_str().unwrap()], Stdio::null());
+    // The skin: sensor 0 drawn by its outline, sensor 1 at a point.
+    let skin = tmp.path().join("skin.toml");
+    std::fs::write(
+        &skin,
+        "[skin]\nname = \"hand\"\n[[sensor]]\nname = \"thumb\"\nindex = 0\nplace = [10, 10]\n\
+         outline = [[5, 5], [15, 5], [15, 15], [5, 15]]\n[[sensor]]\nname = \"palm\"\nindex = 1\nplace = [40, 30]\n",
+    )
+    .unwrap();
+    let live = common::serve_tcp(
+        &[
+            "--idle",
+            "--skin",
+            skin.to_str().unwrap(),
+            "--dataset",
+            folder.to_str().unwrap(),
+        ],
+        Stdio::null(),
+    );
     let url = live.url();
     let mut sock = live.sock.try_clone().unwrap();
     let bytes = stream(300);
@@ -349,10 +366,27 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     page.until("document.getElementById('state').textContent === 'open'");
     // Not recording, yet the records pass.
     page.until("document.getElementById('recording').textContent === '–' || document.getElementById('recording').textContent === 'no'");
+    // The skin drawn: each sensor at its place, named, coloured by its
+    // state; a click on one shows its charts.
+    page.until("document.querySelectorAll('#skin [data-sensor]').length === 2");
+    page.until("document.querySelector('#taxel-0 title').textContent === 'thumb (sensor 0)'");
+    page.until("document.querySelector('#taxel-0 polygon') !== null && document.querySelector('#taxel-1 circle') !== null");
+    // Nothing records, and the page opened after the first records: the
+    // next ones reach it as they pass.
+    page.until("document.getElementById('taxel-0').dataset.state === 'none'");
+    for f in &frames[100..140] {
+        sock.write_all(f).unwrap();
+    }
+    page.until("document.getElementById('taxel-0').dataset.state === 'valid'");
+    page.until("document.querySelector('#taxel-0 polygon').getAttribute('fill').startsWith('hsl(')");
+    page.eval(
+        "document.querySelector('#taxel-1 circle').dispatchEvent(new MouseEvent('click', {bubbles: true}))",
+    );
+    page.until("document.getElementById('sensor').value === '1' && document.querySelector('#charts').textContent.includes('sensor 1')");
     // Record: a recording into --dataset's folder, as the page says.
     page.eval("document.getElementById('record').click()");
     page.until("document.getElementById('recording').textContent.endsWith('trial')");
-    for f in &frames[100..200] {
+    for f in &frames[140..200] {
         sock.write_all(f).unwrap();
     }
     // A marker, from the field: the page shows it written.
