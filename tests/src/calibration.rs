@@ -97,6 +97,7 @@ pub fn stairs_holds() -> Vec<Hold> {
             stretch_mm: h.stretch_mm,
             from_s: h.from_s,
             to_s: h.to_s,
+            sensor: None,
         })
         .collect()
 }
