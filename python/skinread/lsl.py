@@ -103,6 +103,10 @@ class Bridge:
         # The latest time stamp's records, held until a later one comes
         # (a block's records may arrive in two batches).
         self.held: List[list] = []
+        # The last sample pushed, (segment, t_s): a backlog taken again
+        # after a gap is pushed from there on only.
+        self.last: Optional[Tuple[int, float]] = None
+        self.folder: Optional[str] = None
 
     def open(self, device: dict) -> None:
         """The outlets, once the device's run is known."""
@@ -173,6 +177,9 @@ class Bridge:
         for (segment, t_s), rs in groups.items():
             if segment != self.clock.segment:
                 continue  # another run's (the backlog's): its fit is not this one
+            if self.last is not None and (segment, t_s) <= self.last:
+                continue  # pushed before a gap
+            self.last = (segment, t_s)
             sample = [math.nan] * (self.sensors * width)
             for r in rs:
                 s = r[at["sensor"]]
@@ -186,6 +193,13 @@ class Bridge:
                 continue
             self.outlet.push_sample(sample, utc + offset)
             self.samples += 1
+
+    def recording(self, r: dict) -> None:
+        """A recording started or stopped: its records count their
+        segments anew."""
+        if r.get("folder") != self.folder:
+            self.folder = r.get("folder")
+            self.last = None
 
     def marker(self, m: dict) -> None:
         if self.markers is not None:
@@ -223,15 +237,9 @@ def forward_markers(pylsl, url: str, name: str, stop: threading.Event) -> None:
             print("marker not written: %s" % e, file=sys.stderr)
 
 
-def run(url: str, name: str, quantities: Sequence[str], markers_from: Optional[str] = None,
-        linger: float = 1.0) -> int:
-    import pylsl  # type: ignore
-
-    base = url.rstrip("/")
-    bridge = Bridge(pylsl, name, quantities, "de-skin:" + base)
-    stop = threading.Event()
-    if markers_from:
-        threading.Thread(target=forward_markers, args=(pylsl, base, markers_from, stop), daemon=True).start()
+def follow(bridge: "Bridge", base: str, quantities: Sequence[str]) -> str:
+    """One connection to the feed: its events into `bridge` until it
+    ends (`end`), falls behind (`gap`) or is lost (`lost`)."""
     fields: List[str] = []
     try:
         for event, data in feed.events(base + "/events", timeout=None):
@@ -246,15 +254,51 @@ def run(url: str, name: str, quantities: Sequence[str], markers_from: Optional[s
                     raise ValueError("the feed has no %s" % ", ".join(missing))
             elif event == "device":
                 bridge.device(json.loads(data))
+            elif event == "recording":
+                bridge.recording(json.loads(data))
             elif event == "message":
                 bridge.batch(json.loads(data), fields)
             elif event == "marker":
                 bridge.marker(json.loads(data))
-            elif event in ("end", "gap"):
+            elif event == "end":
                 bridge.batch([], fields, last=True)
-                if event == "gap":
-                    print("the bridge fell behind the feed: samples were lost", file=sys.stderr)
+                return "end"
+            elif event == "gap":
+                return "gap"
+    except OSError:
+        return "lost"
+    return "lost"
+
+
+def run(url: str, name: str, quantities: Sequence[str], markers_from: Optional[str] = None,
+        linger: float = 1.0, retry_s: float = 30.0) -> int:
+    """The bridge until the feed ends: after a gap (it fell behind) it
+    connects again and takes the backlog, pushing only what it had not;
+    a feed lost or not yet there is tried again each second for
+    `retry_s`."""
+    import pylsl  # type: ignore
+
+    base = url.rstrip("/")
+    bridge = Bridge(pylsl, name, quantities, "de-skin:" + base)
+    stop = threading.Event()
+    if markers_from:
+        threading.Thread(target=forward_markers, args=(pylsl, base, markers_from, stop), daemon=True).start()
+    lost_since = None
+    try:
+        while True:
+            how = follow(bridge, base, quantities)
+            if how == "end":
                 break
+            if how == "gap":
+                print("the bridge fell behind the feed: connecting again for the backlog", file=sys.stderr)
+                bridge.held = []
+                lost_since = None
+                continue
+            lost_since = lost_since or time.time()
+            if time.time() - lost_since > retry_s:
+                print("the feed at %s is gone" % base, file=sys.stderr)
+                return 1
+            time.sleep(1.0)
     finally:
         stop.set()
     print("%d samples pushed to LSL stream '%s'" % (bridge.samples, name), file=sys.stderr)
@@ -271,12 +315,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                    help="the channels per sensor, of: " + ", ".join(QUANTITIES))
     p.add_argument("--markers-from", metavar="NAME", help="write the markers of this LSL stream into the session")
     p.add_argument("--linger", type=float, default=1.0, help="seconds kept open after the feed ends")
+    p.add_argument("--retry", type=float, default=30.0, metavar="S",
+                   help="seconds to keep trying a feed that is lost or not there yet")
     a = p.parse_args(argv)
     qs = [q.strip() for q in a.quantities.split(",") if q.strip()]
     bad = [q for q in qs if q not in QUANTITIES]
     if bad:
         p.error("unknown quantity %s (known: %s)" % (", ".join(bad), ", ".join(QUANTITIES)))
-    return run(a.url, a.name, qs, a.markers_from, a.linger)
+    return run(a.url, a.name, qs, a.markers_from, a.linger, a.retry)
 
 
 if __name__ == "__main__":
