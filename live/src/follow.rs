@@ -2,7 +2,7 @@
 //! one replayed.
 
 use crate::recorder::Sink;
-use crate::session::{Earlier, Finished, Session};
+use crate::session::{Earlier, Finished, Session, ARRIVALS_COLUMNS};
 use anyhow::{Context, Result};
 use std::io::Read;
 use std::path::Path;
@@ -92,11 +92,8 @@ impl Arrivals {
         let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
         let mut lines = std::io::BufReader::new(file).lines();
         let head = lines.next().transpose()?.unwrap_or_default();
-        if head.trim() != "stream_bytes,host_utc_us" {
-            anyhow::bail!(
-                "{}:1:1: the header must be 'stream_bytes,host_utc_us'",
-                path.display()
-            );
+        if head.trim() != ARRIVALS_COLUMNS {
+            anyhow::bail!("{}:1:1: the header must be '{ARRIVALS_COLUMNS}'", path.display());
         }
         Ok(Self {
             lines,
@@ -115,7 +112,7 @@ impl Arrivals {
         let (n, p) = (self.line, self.path.display());
         let (bytes, utc) = text
             .split_once(',')
-            .with_context(|| format!("{p}:{n}:1: two fields, stream_bytes,host_utc_us"))?;
+            .with_context(|| format!("{p}:{n}:1: two fields, {ARRIVALS_COLUMNS}"))?;
         let end: u64 = bytes
             .trim()
             .parse()

@@ -623,40 +623,7 @@ fn run(cli: Cli) -> Result<Outcome> {
         sink.commands = Some(&commands);
         sink.folders = Some(folders);
     }
-    let mut lost = None;
-    let mut asked = false;
-    match (&cli.replay, &cli.serial, &cli.tcp) {
-        (Some(path), _, _) => {
-            // Read in pieces: a recording of a day does not fit in memory.
-            let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
-            let beside = path.with_file_name(live::ARRIVALS_CSV);
-            let arrivals = match &cli.arrivals {
-                Some(a) => Some(live::Arrivals::open(a)?),
-                None if beside.is_file() => Some(live::Arrivals::open(&beside)?),
-                None => None,
-            };
-            live::replay_from(file, &mut sink, arrivals)?;
-        }
-        (None, Some(name), _) => {
-            let port = serialport::new(name, cli.baud)
-                .timeout(Duration::from_millis(200))
-                .open()
-                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
-            let stopped = follow(port, &mut sink, &stop)?;
-            (asked, lost) = (stopped == Stopped::Asked, source_lost(&stopped));
-            report(&format!("the serial port {name}"), stopped);
-        }
-        (None, None, Some(addr)) => {
-            let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
-            sock.set_read_timeout(Some(Duration::from_millis(200)))?;
-            let stopped = follow(sock, &mut sink, &stop)?;
-            (asked, lost) = (stopped == Stopped::Asked, source_lost(&stopped));
-            report(&format!("the socket {addr}"), stopped);
-        }
-        (None, None, None) => {
-            anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")
-        }
-    }
+    let stopped = read_source(&cli, &mut sink, &stop)?;
     if let Some(d) = &dashboard {
         if let Some(s) = &sink.session {
             d.availability(s.availability(), s.interpolated(), true);
@@ -667,26 +634,70 @@ fn run(cli: Cli) -> Result<Outcome> {
         eprintln!("the stream ended; serving the dashboard {} s more", cli.linger);
         std::thread::sleep(Duration::from_secs(cli.linger));
     }
+    end_recordings(&mut sink, stopped)
+}
+
+/// The run is over (`stopped`: how a live source stopped): the
+/// recordings that ended before named, the one running finished and
+/// printed; how the run ended.
+fn end_recordings(sink: &mut Sink, stopped: Option<Stopped>) -> Result<Outcome> {
     let earlier_ones = std::mem::take(&mut sink.finished);
     let several = !earlier_ones.is_empty();
     for (dir, done) in &earlier_ones {
         println!("recording {}: {}", dir.display(), done.summary.line());
     }
     let Some(mut session) = sink.session.take() else {
-        return Ok(match lost {
+        return Ok(match stopped.as_ref().and_then(source_lost) {
             Some(why) if !several => {
                 Outcome::Incomplete(format!("the source was lost ({why}) before any recording"))
             }
             _ => Outcome::Stopped,
         });
     };
-    if asked {
+    if stopped == Some(Stopped::Asked) {
         session.ask_stop();
     }
     if several {
         println!("recording {}:", session.dir().display());
     }
     print_finished(session)
+}
+
+/// Read the source `cli` names into `sink` until it ends: a recorded
+/// stream to its end (None), a live one until `stop` or its end (why
+/// it stopped, said).
+fn read_source(cli: &Cli, sink: &mut Sink, stop: &AtomicBool) -> Result<Option<Stopped>> {
+    let (stopped, what) = match (&cli.replay, &cli.serial, &cli.tcp) {
+        (Some(path), _, _) => {
+            // Read in pieces: a recording of a day does not fit in memory.
+            let file = std::fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+            let beside = path.with_file_name(live::ARRIVALS_CSV);
+            let arrivals = match &cli.arrivals {
+                Some(a) => Some(live::Arrivals::open(a)?),
+                None if beside.is_file() => Some(live::Arrivals::open(&beside)?),
+                None => None,
+            };
+            live::replay_from(file, sink, arrivals)?;
+            return Ok(None);
+        }
+        (None, Some(name), _) => {
+            let port = serialport::new(name, cli.baud)
+                .timeout(Duration::from_millis(200))
+                .open()
+                .with_context(|| format!("opening the serial port {name} (in use, or not there?)"))?;
+            (follow(port, sink, stop)?, format!("the serial port {name}"))
+        }
+        (None, None, Some(addr)) => {
+            let sock = std::net::TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+            sock.set_read_timeout(Some(Duration::from_millis(200)))?;
+            (follow(sock, sink, stop)?, format!("the socket {addr}"))
+        }
+        (None, None, None) => {
+            anyhow::bail!("say where the records come from: --replay FILE, --serial PORT or --tcp HOST:PORT")
+        }
+    };
+    report(&what, stopped.clone());
+    Ok(Some(stopped))
 }
 
 /// Why the source was lost, where it was.

@@ -80,9 +80,9 @@ struct Watch {
 }
 
 impl Watch {
-    /// Take `bytes`; the records they complete (for the dashboard while
-    /// nothing records).
-    fn push(&mut self, bytes: &[u8], host_utc_us: Option<i64>) -> Vec<Arrived> {
+    /// Take `bytes`; the records they complete where `keep` asks (for
+    /// the dashboard while nothing records: a recording gives its own).
+    fn push(&mut self, bytes: &[u8], host_utc_us: Option<i64>, keep: bool) -> Vec<Arrived> {
         let mut out = vec![];
         let mut rest = bytes;
         while let Some(got) = self.decoder.next_frame(&mut rest) {
@@ -94,7 +94,7 @@ impl Watch {
                     self.ended = false;
                 }
                 Body::End(_) => self.ended = true,
-                Body::Record(record) => out.push(Arrived {
+                Body::Record(record) if keep => out.push(Arrived {
                     segment: self.segment,
                     seq: frame.seq,
                     host_utc_us,
@@ -160,7 +160,7 @@ impl<'a> Sink<'a> {
         if self.starting.is_some() {
             rest = self.begin(rest, host_utc_us)?;
         }
-        let passing = self.watch.push(rest, host_utc_us);
+        let passing = self.watch.push(rest, host_utc_us, self.session.is_none());
         let Some(session) = &mut self.session else {
             if let Some(d) = self.dashboard {
                 d.passing(&passing);
@@ -195,10 +195,10 @@ impl<'a> Sink<'a> {
         let mut rest = bytes;
         if !self.watch.boundary && self.watch.start.is_some() {
             let Some(end) = bytes.iter().position(|&b| b == 0) else {
-                self.watch.push(bytes, host_utc_us);
+                self.watch.push(bytes, host_utc_us, false);
                 return Ok(&[]);
             };
-            self.watch.push(&bytes[..=end], host_utc_us);
+            self.watch.push(&bytes[..=end], host_utc_us, false);
             rest = &bytes[end + 1..];
         }
         let Some((dir, reply)) = self.starting.take() else {

@@ -25,8 +25,9 @@ pub const REFUSED_SHOWN: usize = 20;
 /// The host's times of arrival: each read that completed records, as the
 /// stream's length in bytes at its end and the host's UTC then.
 pub const ARRIVALS_CSV: &str = "arrivals.csv";
-/// The header of [`ARRIVALS_CSV`].
-const ARRIVALS_HEADER: &str = "stream_bytes,host_utc_us\n";
+/// The columns of [`ARRIVALS_CSV`] (its header line, which the replay's
+/// reader checks).
+pub(crate) const ARRIVALS_COLUMNS: &str = "stream_bytes,host_utc_us";
 
 /// A record kept, with where it came: its segment (1, then one more
 /// after each restart of the device), its frame's sequence number and
@@ -316,7 +317,7 @@ impl Session {
             .with_context(|| format!("creating {}", dir.join(STREAM_BIN).display()))?;
         let data = DatasetWriter::create(dir, false, Roles::default())?;
         let interpolated = LineFile::create(dir.join(INTERPOLATED_CSV), interpolated::HEADER)?;
-        let arrivals = LineFile::create(dir.join(ARRIVALS_CSV), ARRIVALS_HEADER)?;
+        let arrivals = LineFile::create(dir.join(ARRIVALS_CSV), &format!("{ARRIVALS_COLUMNS}\n"))?;
         let markers = LineFile::create(dir.join(MARKERS_CSV), markers::HEADER)?;
         self.opened = Some(chrono::Utc::now());
         Ok(Files {
