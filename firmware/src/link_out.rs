@@ -23,6 +23,7 @@ pub struct FrameWriter<'a, const N: usize> {
     encoder: link::Encoder,
     records: u32,
     dropped: u32,
+    last_t_us: u64,
 }
 
 impl<'a, const N: usize> FrameWriter<'a, N> {
@@ -34,6 +35,7 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
             encoder: link::Encoder::new(),
             records: 0,
             dropped: 0,
+            last_t_us: 0,
         };
         w.queue(|e, out| e.start(&start, out));
         w
@@ -74,6 +76,7 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
     #[inline(never)]
     pub fn record(&mut self, rec: link::Record) -> bool {
         let sent = self.queue(|e, out| e.record(&rec, out));
+        self.last_t_us = rec.t_us;
         match sent {
             true => self.records = self.records.wrapping_add(1),
             false => self.dropped = self.dropped.saturating_add(1),
@@ -85,6 +88,19 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
     /// (the next one counts on from it: nothing is lost but a report).
     pub fn status(&mut self, status: &link::Status) -> bool {
         self.queue(|e, out| e.status(status, out))
+    }
+
+    /// Queue the frame of a set applied, waiting for room (each time
+    /// round calling `kick`, which pends the transmitter, at most `tries`
+    /// times): the host cannot ask for it again, and without it would take
+    /// the records after it for the old set's. False if it was dropped.
+    pub fn applied(&mut self, applied: &link::Applied, mut kick: impl FnMut(), tries: u32) -> bool {
+        let mut n = 0;
+        while n < tries && !self.has_room() {
+            kick();
+            n += 1;
+        }
+        self.queue(|e, out| e.applied(applied, out))
     }
 
     /// Queue a reply to a request; false if there was no room (the host
@@ -101,6 +117,12 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
             dropped: self.dropped.saturating_add(upstream),
         };
         self.queue(|e, out| e.end(&end, out))
+    }
+
+    /// The time of the last record given to the writer (queued or
+    /// dropped), µs; 0 before the first.
+    pub fn last_t_us(&self) -> u64 {
+        self.last_t_us
     }
 
     /// Records queued since the start.
@@ -127,6 +149,7 @@ mod tests {
             calibration_digest: 2,
             sensors: 16,
             sample_rate_hz: 25_000,
+            generation: 0,
         }
     }
 

@@ -81,6 +81,7 @@ pub struct LinkSender {
     uart: Uart0,
     encoder: link::Encoder,
     records: u32,
+    last_t_us: u64,
     requests: link::Decoder,
 }
 
@@ -91,6 +92,7 @@ impl LinkSender {
             uart,
             encoder: link::Encoder::new(),
             records: 0,
+            last_t_us: 0,
             requests: link::Decoder::new(),
         };
         link.send(|e, out| e.start(&start, out));
@@ -116,6 +118,7 @@ impl LinkSender {
 
     /// Send one record.
     pub fn record(&mut self, rec: link::Record) {
+        self.last_t_us = rec.t_us;
         if self.send(|e, out| e.record(&rec, out)) {
             self.records = self.records.wrapping_add(1);
         }
@@ -124,6 +127,16 @@ impl LinkSender {
     /// Send a status (how the CPU keeps up).
     pub fn status(&mut self, status: &link::Status) {
         self.send(|e, out| e.status(status, out));
+    }
+
+    /// The time of the last record sent, µs; 0 before the first.
+    pub fn last_t_us(&self) -> u64 {
+        self.last_t_us
+    }
+
+    /// Send the frame of a set applied.
+    pub fn applied(&mut self, applied: &link::Applied) {
+        self.send(|e, out| e.applied(applied, out));
     }
 
     /// Send a reply to a request.

@@ -152,11 +152,11 @@ impl NorFlash for FileFlash {
 /// The stored settings at start, in the flash file at `path`: say what is
 /// stored (`settings: none stored`, or its generation and digest); with
 /// `save`, store `save` as the new set and say so. Returns the store, for
-/// the requests that come down the link, and the set it now holds (None:
-/// nothing stored, or the flash unreadable). A file that cannot be opened
+/// the requests that come down the link, and the set it now holds with
+/// its generation (None: nothing stored, or the flash unreadable). A file that cannot be opened
 /// or a set refused ends the run with exit code 2, as a bad command line
 /// does.
-fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>) {
+fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<(u32, Stored)>) {
     let flash = FileFlash::open(path).unwrap_or_else(|e| {
         defmt::println!(
             "settings: the flash file cannot be used ({})",
@@ -170,7 +170,7 @@ fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>
     };
     let loaded = store.load();
     crate::settings_log::announce(&loaded);
-    let mut set = loaded.ok().flatten().map(|l| l.set);
+    let mut set = loaded.ok().flatten().map(|l| (l.generation, l.set));
     if let Some(new) = save {
         match store.save(new) {
             Ok(g) => {
@@ -179,7 +179,7 @@ fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<Stored>
                     g,
                     Digest::of(new)
                 );
-                set = Some(*new);
+                set = Some((g, *new));
             }
             Err(StoreError::Refused(r)) => {
                 defmt::println!("settings refused: {}", defmt::Display2Format(&r));
@@ -244,11 +244,12 @@ impl FlashArgs {
     /// (after `save`, `rig`, the test rig's description of its simulated
     /// skin), or with nothing stored, sensors nothing was measured on
     /// ([`Stored::uncalibrated`], and the log says so); without it,
-    /// `rig`. And the store, for the requests down the link.
+    /// `rig`; with its generation (0: none stored). And the store, for the
+    /// requests down the link.
     #[inline(never)]
-    pub fn set_in_force(&self, rig: &Stored) -> (Option<Store<FileFlash>>, Stored) {
+    pub fn set_in_force(&self, rig: &Stored) -> (Option<Store<FileFlash>>, (u32, Stored)) {
         let Some(path) = &self.path else {
-            return (None, *rig);
+            return (None, (0, *rig));
         };
         let Ok(path) = CStr::from_bytes_with_nul(path) else {
             defmt::println!("flash=: the path holds a NUL");
@@ -257,7 +258,7 @@ impl FlashArgs {
         let (store, set) = keep(path, self.save.then_some(rig));
         let set = set.unwrap_or_else(|| {
             defmt::println!("settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)");
-            Stored::uncalibrated()
+            (0, Stored::uncalibrated())
         });
         (Some(store), set)
     }
@@ -270,6 +271,8 @@ pub struct Asked {
     pub stop: bool,
     /// Sweep every tone pair, this many blocks each (a calibration step).
     pub sweep: Option<u16>,
+    /// A new set is stored: apply it.
+    pub apply: bool,
 }
 
 /// Answer the requests the host sent down the link: with the store,
@@ -297,7 +300,7 @@ pub fn answer(
         match action {
             Action::Stop => asked.stop = true,
             Action::Sweep(n) => asked.sweep = Some(n),
-            Action::Apply => defmt::println!("settings: a new set stored, in force from the next start"),
+            Action::Apply => asked.apply = true,
             Action::Start | Action::None => {}
         }
     }

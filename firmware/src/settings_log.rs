@@ -23,19 +23,35 @@ pub fn announce<E>(loaded: &Result<Option<Loaded>, StoreError<E>>) {
 
 /// The set in force at start: the one `store` holds, or with none (or a
 /// flash that cannot be read) the set of sensors nothing was measured on;
-/// either logged.
-pub fn in_force<F: NorFlash>(store: &mut Store<F>) -> Stored
+/// either logged; with its generation (0: none stored).
+pub fn in_force<F: NorFlash>(store: &mut Store<F>) -> (u32, Stored)
 where
     F::Error: Corruption,
 {
     let loaded = store.load();
     announce(&loaded);
     match loaded {
-        Ok(Some(l)) => l.set,
+        Ok(Some(l)) => (l.generation, l.set),
         _ => {
             defmt::println!("settings: measuring uncalibrated (no leads, no wiring, stretch not calibrated)");
-            Stored::uncalibrated()
+            (0, Stored::uncalibrated())
         }
+    }
+}
+
+/// Log a set applied while the device runs, or why it was not.
+pub fn applied(result: &Result<link::Applied, crate::in_force::NotApplied>) {
+    match result {
+        Ok(a) => defmt::println!(
+            "settings: generation {=u32} digest {=u32:#010x} in force from {=u64} us",
+            a.generation,
+            a.settings_digest,
+            a.t_us
+        ),
+        Err(e) => defmt::println!(
+            "settings: the new set not applied ({}), the one in force stays",
+            defmt::Debug2Format(e)
+        ),
     }
 }
 
@@ -48,8 +64,10 @@ where
 pub fn sensors_in<const S: usize>(
     slot: &'static mut core::mem::MaybeUninit<instrument::sensor::Sensors<{ instrument::calib::POINTS }, S>>,
     set: &instrument::stored::Stored,
-) -> Result<&'static instrument::sensor::Sensors<{ instrument::calib::POINTS }, S>, dsp_core::tline::ModelError>
-{
+) -> Result<
+    &'static mut instrument::sensor::Sensors<{ instrument::calib::POINTS }, S>,
+    dsp_core::tline::ModelError,
+> {
     use instrument::sensor::{Sensor, Sensors};
     let sensors = slot.write(Sensors::all(Sensor::uncalibrated(0.0)));
     sensors.load(set)?;

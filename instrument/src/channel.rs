@@ -66,6 +66,54 @@ impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
     }
 }
 
+impl<const N: usize, const S: usize> Settings<'_, N, S> {
+    /// All but the sensors.
+    pub fn common(&self) -> Common {
+        Common {
+            policy: self.policy,
+            thresholds: self.thresholds,
+            dielectric: self.dielectric,
+            front_ends: self.front_ends,
+            ranging: self.ranging,
+            record_every: self.record_every,
+        }
+    }
+}
+
+/// The settings but the sensors: what a device keeps beside sensors it
+/// rebuilds in place when a new set comes into force while it runs
+/// (fields as [`Settings`]').
+#[derive(Clone, Copy, Debug)]
+pub struct Common {
+    /// Frequency policy.
+    pub policy: Policy,
+    /// Fault thresholds.
+    pub thresholds: Thresholds,
+    /// The film between the electrodes.
+    pub dielectric: Dielectric,
+    /// Front end (transimpedance), one per range.
+    pub front_ends: [FrontEnd; RANGES],
+    /// Auto-ranging of the transimpedance stage.
+    pub ranging: Ranging,
+    /// One record reported in every this many blocks of a channel.
+    pub record_every: u8,
+}
+
+impl Common {
+    /// The settings of these and `sensors`.
+    pub fn with<const N: usize, const S: usize>(self, sensors: &Sensors<N, S>) -> Settings<'_, N, S> {
+        Settings {
+            policy: self.policy,
+            thresholds: self.thresholds,
+            dielectric: self.dielectric,
+            front_ends: self.front_ends,
+            ranging: self.ranging,
+            sensors,
+            record_every: self.record_every,
+        }
+    }
+}
+
 /// One record reported in every `every` blocks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Decimation {

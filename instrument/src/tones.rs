@@ -105,6 +105,66 @@ impl<'a, const N: usize> ToneSettings<'a, N> {
     }
 }
 
+impl<const N: usize> ToneSettings<'_, N> {
+    /// All but the sensors.
+    pub fn common(&self) -> ToneCommon {
+        ToneCommon {
+            layout: self.layout,
+            policy: self.policy,
+            thresholds: self.thresholds,
+            front_end: self.front_end,
+            dielectric: self.dielectric,
+            chi2_flag: self.chi2_flag,
+            chi2_pair_flag: self.chi2_pair_flag,
+            record_every: self.record_every,
+            sweep: self.sweep,
+        }
+    }
+}
+
+/// The array's settings but the sensors: what a device keeps beside
+/// sensors it rebuilds in place when a new set comes into force while it
+/// runs (fields as [`ToneSettings`]').
+#[derive(Clone, Copy, Debug)]
+pub struct ToneCommon {
+    /// The blocks' layout.
+    pub layout: Layout,
+    /// Tone policy.
+    pub policy: Policy,
+    /// Fault thresholds, in the array ADC's counts.
+    pub thresholds: Thresholds,
+    /// The transimpedance k in Z = k·V/I.
+    pub front_end: FrontEnd,
+    /// The film between the electrodes.
+    pub dielectric: Dielectric,
+    /// χ² above which a record is flagged [`Flags::MODEL`].
+    pub chi2_flag: f32,
+    /// χ² above which a pair of a record's three tones is flagged.
+    pub chi2_pair_flag: f32,
+    /// One block's records reported in every this many.
+    pub record_every: u8,
+    /// A calibration step's pair, or None: the policy's.
+    pub sweep: Option<u8>,
+}
+
+impl ToneCommon {
+    /// The settings of these and `sensors`.
+    pub fn with<const N: usize>(self, sensors: &Sensors<N, SENSORS>) -> ToneSettings<'_, N> {
+        ToneSettings {
+            layout: self.layout,
+            policy: self.policy,
+            thresholds: self.thresholds,
+            front_end: self.front_end,
+            sensors,
+            dielectric: self.dielectric,
+            chi2_flag: self.chi2_flag,
+            chi2_pair_flag: self.chi2_pair_flag,
+            record_every: self.record_every,
+            sweep: self.sweep,
+        }
+    }
+}
+
 /// One record of an array sensor.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ToneRecord {

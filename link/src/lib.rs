@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 /// The version of this wire format, sent in every [`Start`] frame. A
 /// receiver refuses a stream of another version.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 
 /// The board link's baud rate: LPUART1 of the STM32G474 into the
 /// Nucleo-G474RE's STLINK-V3E, whose virtual COM port carries it to the
@@ -156,6 +156,9 @@ pub struct Start {
     pub sensors: u8,
     /// The ADC's sample rate, Hz.
     pub sample_rate_hz: u32,
+    /// The generation of the stored set in force (0: none stored, the
+    /// firmware's own set).
+    pub generation: u32,
 }
 
 impl Start {
@@ -187,6 +190,23 @@ pub struct End {
     /// Records dropped before they were sent (the device's queue was
     /// full).
     pub dropped: u32,
+}
+
+/// A new set in force, sent when the device applies one while it runs
+/// (a set written down the link): every record after this frame was
+/// measured with it, every record before with the one in force before.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Applied {
+    /// The set's generation in the device's store.
+    pub generation: u32,
+    /// A digest of the settings now in force (as a [`Start`]'s).
+    pub settings_digest: u32,
+    /// A digest of the calibrations now in force (as a [`Start`]'s).
+    pub calibration_digest: u32,
+    /// A device time, µs (as a record's), between the records of the two
+    /// sets: every record before this frame is at or before it, every
+    /// record after it later.
+    pub t_us: u64,
 }
 
 /// What a [`Status`] frame's times count.
@@ -397,6 +417,8 @@ pub enum Body {
     Reply(Reply),
     /// How the device's CPU keeps up.
     Status(Status),
+    /// A new set in force from here on.
+    Applied(Applied),
 }
 
 /// One frame: a body and its sequence number (0 for the start frame,
@@ -811,6 +833,11 @@ impl Encoder {
     /// [`Encoder::frame`] of a [`Body::Status`].
     pub fn status<'a>(&mut self, status: &Status, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
         self.part(5, status, out)
+    }
+
+    /// [`Encoder::frame`] of a [`Body::Applied`].
+    pub fn applied<'a>(&mut self, applied: &Applied, out: &'a mut [u8]) -> Result<&'a [u8], Error> {
+        self.part(6, applied, out)
     }
 
     /// Number `body` and encode it into `out`.

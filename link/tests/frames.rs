@@ -3,7 +3,8 @@
 //! frames that were sent, and counts the rest.
 
 use link::{
-    decode, encode, Body, Decoder, Encoder, End, Error, Frame, Record, Start, Tone, MAX_FRAME, VERSION,
+    decode, encode, Applied, Body, Decoder, Encoder, End, Error, Frame, Record, Start, Tone, MAX_FRAME,
+    VERSION,
 };
 use proptest::prelude::*;
 
@@ -45,9 +46,10 @@ fn body() -> impl Strategy<Value = Body> {
             any::<u32>(),
             any::<u32>(),
             any::<u8>(),
+            any::<u32>(),
             any::<u32>()
         )
-            .prop_map(|(fw, s, c, n, r)| {
+            .prop_map(|(fw, s, c, n, r, g)| {
                 Body::Start(Start {
                     version: VERSION,
                     firmware: fw,
@@ -55,9 +57,18 @@ fn body() -> impl Strategy<Value = Body> {
                     calibration_digest: c,
                     sensors: n,
                     sample_rate_hz: r,
+                    generation: g,
                 })
             }),
         (any::<u32>(), any::<u32>()).prop_map(|(records, dropped)| Body::End(End { records, dropped })),
+        (any::<u32>(), any::<u32>(), any::<u32>(), any::<u64>()).prop_map(|(g, s, c, t)| {
+            Body::Applied(Applied {
+                generation: g,
+                settings_digest: s,
+                calibration_digest: c,
+                t_us: t,
+            })
+        }),
     ]
 }
 
@@ -117,6 +128,7 @@ fn stream(n: u32) -> (Vec<u8>, Vec<Frame>) {
             calibration_digest: 0x0BAD_F00D,
             sensors: 16,
             sample_rate_hz: 25_000,
+            generation: 3,
         }),
         &mut bytes,
         &mut frames,

@@ -84,7 +84,7 @@ enum Command {
     /// Calibrate each sensor from records taken while the skin is held at
     /// known stretches: its line, tab leads, contact and parasitic
     /// capacitance fitted, its stretch table built, the set stored on the
-    /// device (which measures with it from its next start).
+    /// device (which measures with it from its next block).
     #[command(after_help = CALIBRATE_HELP)]
     Calibrate(CalibrateArgs),
 }
@@ -311,8 +311,9 @@ struct CalibrateArgs {
     #[arg(long)]
     dry_run: bool,
     /// Measure again instead: each sensor's stretch at each hold as
-    /// the device reads it (restart it first, so that it measures
-    /// with the set stored), against the stretch held; nothing stored.
+    /// the device reads it (with the set stored, in force from the
+    /// block after it was stored), against the stretch held; nothing
+    /// stored.
     #[arg(long, conflicts_with = "dry_run")]
     verify: bool,
     /// Stop the device once the set is stored.
@@ -461,7 +462,7 @@ fn calibrate_device(
         eprintln!("hold {}: {said}", k + 1);
     }
     println!(
-        "stored: generation {} (in force from the device's next start)",
+        "stored: generation {} (in force from the device's next block)",
         done.generation
     );
     Ok(cal::report(&done.holds, &done.outcomes))
@@ -713,6 +714,15 @@ fn source_lost(stopped: &Stopped) -> Option<String> {
 fn print_finished(session: Session) -> Result<Outcome> {
     print_refused(&session);
     let session_clock: Vec<_> = session.segments().iter().map(|g| g.clock.line()).collect();
+    for (k, g) in session.segments().iter().enumerate() {
+        for (seq, a) in &g.applied {
+            println!(
+                "segment {k}: settings generation {} applied at {:.3} s (frame {seq}), in force for the records after it",
+                a.generation,
+                a.t_us as f64 * 1e-6
+            );
+        }
+    }
     let started = session.start().is_some();
     let dataset = session.dir().to_path_buf();
     let finished = session.finish()?;

@@ -15,7 +15,7 @@ use std::io::Write;
 pub use host_sim::recording::MANIFEST;
 
 /// The manifest's layout version.
-const LAYOUT: u32 = 2;
+const LAYOUT: u32 = 3;
 
 /// Write `session`'s manifest (replacing none: created once, whole).
 pub(crate) fn write(session: &Session, done: &Finished) -> Result<()> {
@@ -105,6 +105,18 @@ fn segment(g: &Segment, skin: Option<&crate::skin::Board>) -> Value {
         "sensors": g.start.sensors,
         "sample_rate_hz": g.start.sample_rate_hz,
         "skin_mismatch": skin.map(|b| b.mismatch(g.start.sensors)),
+        // The stored set's generation at the start (0: none stored), and
+        // every set in force during the segment: the first from its
+        // start, then each one the device applied while it ran, in force
+        // for the records numbered after from_seq.
+        "generation": g.start.generation,
+        "settings_in_force": g.in_force().iter().map(|(seq, a)| json!({
+            "generation": a.generation,
+            "from_seq": seq,
+            "t_us": a.t_us,
+            "settings_digest": format!("{:08x}", a.settings_digest),
+            "calibration_digest": format!("{:08x}", a.calibration_digest),
+        })).collect::<Vec<_>>(),
         "first_seq": g.first_seq,
         // The recording started while the device ran (its start frame
         // written again by `live`, numbered first_seq).

@@ -94,6 +94,15 @@ impl Watch {
                     self.ended = false;
                 }
                 Body::End(_) => self.ended = true,
+                // A recording started from here on starts with the set
+                // now in force.
+                Body::Applied(a) => {
+                    if let Some(s) = &mut self.start {
+                        s.generation = a.generation;
+                        s.settings_digest = a.settings_digest;
+                        s.calibration_digest = a.calibration_digest;
+                    }
+                }
                 Body::Record(record) if keep => out.push(Arrived {
                     segment: self.segment,
                     seq: frame.seq,

@@ -104,6 +104,9 @@ pub struct Segment {
     pub cpu: Option<Cpu>,
     /// Its clock fitted to the host's, from the records' arrivals.
     pub clock: ClockFit,
+    /// The sets the device applied while it ran, each with its frame's
+    /// sequence number: in force for the records numbered after it.
+    pub applied: Vec<(u32, link::Applied)>,
 }
 
 impl Segment {
@@ -119,7 +122,24 @@ impl Segment {
             end: None,
             cpu: None,
             clock: ClockFit::default(),
+            applied: vec![],
         }
+    }
+
+    /// Every set in force during the segment, with the sequence number
+    /// after which it holds: the start frame's (its digests, time 0),
+    /// then each one applied.
+    pub fn in_force(&self) -> Vec<(u32, link::Applied)> {
+        let s = &self.start;
+        let first = link::Applied {
+            generation: s.generation,
+            settings_digest: s.settings_digest,
+            calibration_digest: s.calibration_digest,
+            t_us: 0,
+        };
+        std::iter::once((self.first_seq, first))
+            .chain(self.applied.iter().copied())
+            .collect()
     }
 
     /// Whether the recording joined the device's run after its start:
@@ -470,6 +490,7 @@ impl Session {
             match frame.body {
                 Body::Record(r) if seg.end.is_none() => self.record(frame.seq, r)?,
                 Body::End(e) if seg.end.is_none() => seg.end = Some(e),
+                Body::Applied(a) if seg.end.is_none() => seg.applied.push((frame.seq, a)),
                 Body::Status(s) if seg.end.is_none() => {
                     match &mut seg.cpu {
                         Some(c) => c.add(&s),

@@ -46,6 +46,7 @@ pub fn skin_start(sensors: u8) -> Start {
         calibration_digest: 0x0BAD_F00D,
         sensors,
         sample_rate_hz: 25_000,
+        generation: 0,
     }
 }
 

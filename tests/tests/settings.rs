@@ -6,8 +6,10 @@
 //! refused with exit code 2. Down the link (UART0's socket): a read of a
 //! new device is refused as such, a set that breaks a rule is refused by
 //! sensor and rule, a good one is stored and acknowledged with its
-//! generation, a stop ends the stream with its end frame, and the next
-//! start runs with the set that came down the link.
+//! generation and in force from the next block (the applied frame
+//! between the old set's records and the new one's), a stop ends the
+//! stream with its end frame, and the next start runs with the set that
+//! came down the link.
 
 use instrument::digest::Digest;
 use instrument::store::{RamFlash, Store, REGION_BYTES, SLOT_BYTES};
@@ -141,7 +143,7 @@ fn reply(rx: &std::sync::mpsc::Receiver<link::Frame>) -> link::Reply {
 }
 
 #[test]
-fn a_set_written_down_the_link_is_stored_and_in_force_after_a_restart() {
+fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_restart() {
     use instrument::commands::upload;
     use std::io::Write;
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
@@ -186,19 +188,67 @@ fn a_set_written_down_the_link_is_stored_and_in_force_after_a_restart() {
         matches!(last, link::Reply::Refused { reason, .. } if reason == want),
         "{last:?}"
     );
-    // A good one is stored: generation 1.
+    // A good one is stored: generation 1, with each sensor's stretch
+    // table and a record every other block.
     let mut good = instrument::stored::Stored::uncalibrated();
     good.sensors[2].parasitic_farad = 7e-12;
     good.record_every = 2;
+    for s in good.sensors.iter_mut() {
+        s.table =
+            instrument::calib::CalTable::linear(200e-12, instrument::design::SENSOR_REST_LENGTH_MM).points;
+        s.calibrated = true;
+    }
     let mut reqs = vec![];
     upload(&good, |r| reqs.push(r));
     for r in &reqs {
         send(*r, &mut sock);
     }
-    for _ in 1..reqs.len() {
-        assert!(matches!(reply(&rx), link::Reply::Ack { generation: 0, .. }));
+    let mut before = vec![];
+    let mut acks = 0;
+    let mut replies = vec![];
+    // Until the frame that says the set is in force: the records
+    // measured with the set of the start.
+    let applied = loop {
+        let f = rx
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the applied frame");
+        match f.body {
+            link::Body::Record(r) => before.push(r),
+            link::Body::Reply(r) => {
+                acks += 1;
+                replies.push(r);
+            }
+            link::Body::Applied(a) => break a,
+            _ => {}
+        }
+    };
+    assert_eq!(acks, reqs.len(), "{replies:?}");
+    assert!(matches!(
+        replies.last(),
+        Some(link::Reply::Ack { generation: 1, .. })
+    ));
+    assert_eq!(applied.generation, 1);
+    let uncalibrated = instrument::faults::Flags::UNCALIBRATED;
+    assert!(!before.is_empty() && before.iter().all(|r| r.flags & uncalibrated != 0));
+    assert!(before.iter().all(|r| r.t_us <= applied.t_us));
+    // From the next block on: calibrated, every other block of each
+    // channel, later than the frame.
+    let mut after: Vec<link::Record> = vec![];
+    while after.len() < 24 {
+        let f = rx.recv_timeout(Duration::from_secs(120)).expect("records after");
+        if let link::Body::Record(r) = f.body {
+            after.push(r);
+        }
     }
-    assert!(matches!(reply(&rx), link::Reply::Ack { generation: 1, .. }));
+    assert!(after
+        .iter()
+        .all(|r| r.t_us > applied.t_us && r.flags & uncalibrated == 0));
+    let step = |recs: &[link::Record]| {
+        let ch = recs[0].sensor;
+        let t: Vec<u64> = recs.iter().filter(|r| r.sensor == ch).map(|r| r.t_us).collect();
+        t[1] - t[0]
+    };
+    assert_eq!(step(&after), 2 * step(&before), "a record every other block");
     // Stop: the stream ends with its end frame and the run with exit 0.
     send(link::Request::Stop, &mut sock);
     assert!(matches!(reply(&rx), link::Reply::Ack { .. }));

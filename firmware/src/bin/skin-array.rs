@@ -36,6 +36,7 @@ use core::mem::MaybeUninit;
 
 use dsp_core::comb::CombError;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
+use firmware::in_force::InForce;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::records::{RecordSink, QUEUE};
@@ -50,7 +51,7 @@ use instrument::reader::{ArrayReader, Demodulated};
 use instrument::sensor::Sensors;
 use instrument::store::Store;
 use instrument::sweep::Sweep;
-use instrument::tones::{ToneRecord, ToneSettings};
+use instrument::tones::{ToneCommon, ToneRecord, ToneSettings};
 use instrument::wire;
 
 /// What the command line asks for.
@@ -113,6 +114,14 @@ fn arguments() -> Arguments {
     })
 }
 
+/// Each record the queue holds, to defmt and to the link.
+fn log_records(logger: &mut Consumer<'static, ToneRecord, QUEUE>, link: &mut LinkSender) {
+    while let Some(rec) = logger.dequeue() {
+        defmt::println!("{}", rec);
+        link.record(frames::from_tone_record(&rec));
+    }
+}
+
 #[rtic::app(device = lm3s6965, dispatchers = [SSI0])]
 mod app {
     use super::*;
@@ -132,6 +141,9 @@ mod app {
         busy: Busy,
         /// The status due on the link, if one is.
         status: Option<link::Status>,
+        /// The settings and sensors measured with, replaced by `idle`
+        /// when the host stores a new set.
+        in_force: InForce<ToneCommon, SENSORS>,
     }
 
     #[local]
@@ -142,7 +154,6 @@ mod app {
         reader: &'static mut ArrayReader,
         /// The block period, µs.
         block_us: u64,
-        settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         link: LinkSender,
@@ -172,7 +183,7 @@ mod app {
         } = arguments();
         let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
-        let (store, set) = flash.set_in_force(&rig);
+        let (store, (generation, set)) = flash.set_in_force(&rig);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
@@ -180,17 +191,16 @@ mod app {
         let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::new(layout, sensors)) else {
             qemu::exit(3)
         };
-        let settings = ToneSettings {
+        let common = ToneCommon {
             policy: set.policy,
             record_every: set.record_every,
-            ..ToneSettings::new(layout, skin.front_end().dsp_front_end(), sensors)
+            ..ToneSettings::new(layout, skin.front_end().dsp_front_end(), &*sensors).common()
         };
+        let in_force = InForce::new(common, sensors, generation);
         let link = LinkSender::start(
             Uart0::take(),
-            frames::start(
+            in_force.start_frame(
                 concat!("skin-array ", env!("CARGO_PKG_VERSION")),
-                &settings,
-                &settings.sensors.calibration(),
                 SENSORS,
                 RATE_HZ,
             ),
@@ -214,6 +224,7 @@ mod app {
                     layout.records_per_s(),
                 ),
                 status: None,
+                in_force,
             },
             Local {
                 skin,
@@ -221,7 +232,6 @@ mod app {
                 block_us: layout.block_us(),
                 end_block: flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
                 reader,
-                settings,
                 records: RecordSink::new(records),
                 logger,
                 link,
@@ -234,17 +244,27 @@ mod app {
     /// The logger: each record to defmt and to the link (UART0); the
     /// host's requests down the link answered (the stored settings, stop);
     /// the link's end frame when the run is done or the host stops it.
-    #[idle(shared = [done, dropped, sweep, status], local = [logger, link, store, commands])]
+    #[idle(shared = [done, dropped, sweep, status, in_force], local = [logger, link, store, commands])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
-            while let Some(rec) = cx.local.logger.dequeue() {
-                defmt::println!("{}", rec);
-                cx.local.link.record(frames::from_tone_record(&rec));
-            }
+            log_records(cx.local.logger, cx.local.link);
             if let Some(status) = cx.shared.status.lock(Option::take) {
                 cx.local.link.status(&status);
             }
             let asked = qemu_flash::answer(cx.local.link, cx.local.commands, cx.local.store.as_mut());
+            if let (true, Some(store)) = (asked.apply, cx.local.store.as_mut()) {
+                let (logger, link) = (&mut *cx.local.logger, &mut *cx.local.link);
+                // With `process` held off: the records of the old set
+                // first, then the frame, then the new set's.
+                cx.shared.in_force.lock(|f| {
+                    log_records(logger, link);
+                    let applied = f.apply_stored(store, link.last_t_us());
+                    firmware::settings_log::applied(&applied);
+                    if let Ok(a) = applied {
+                        link.applied(&a);
+                    }
+                });
+            }
             if let Some(n) = asked.sweep {
                 cx.shared.sweep.lock(|s| s.start(n));
             }
@@ -284,12 +304,12 @@ mod app {
     /// Demodulate every input, solve every sensor, log the records.
     #[task(
         priority = 1,
-        shared = [frame, done, dropped, sweep, busy, status],
-        local = [reader, settings, end_block, records]
+        shared = [frame, done, dropped, sweep, busy, status, in_force],
+        local = [reader, end_block, records]
     )]
     async fn process(mut cx: process::Context) {
         let started = qemu::Instructions::now();
-        cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
+        let sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
         // Demodulated in place (1.7 KiB: returned, it would be copied).
         let mut demodulated = Demodulated::EMPTY;
@@ -300,15 +320,21 @@ mod app {
             (*clipped, *t)
         });
         let mut recs = Vec::<ToneRecord, SENSORS>::new();
-        reader.solve(
-            &*cx.local.settings,
-            t_us,
-            block,
-            |input| clipped[input],
-            |rec| {
-                let _ = recs.push(rec);
-            },
-        );
+        cx.shared.in_force.lock(|f| {
+            let settings = ToneSettings {
+                sweep,
+                ..f.settings()
+            };
+            reader.solve(
+                &settings,
+                t_us,
+                block,
+                |input| clipped[input],
+                |rec| {
+                    let _ = recs.push(rec);
+                },
+            );
+        });
         let spent = qemu::Instructions::since(started);
         let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
         if let Some(s) = status {

@@ -31,12 +31,13 @@
 use core::mem::MaybeUninit;
 
 use dsp_core::fixture::Fixture;
+use firmware::in_force::InForce;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::scenario::{mux_pins, range_pins, Scenario, SimPin, Skin};
 use instrument::busy::Busy;
 use instrument::calib::POINTS;
-use instrument::channel::{Channel, Settings};
+use instrument::channel::{Channel, Common, Settings};
 use instrument::commands::Commands;
 use instrument::config::{BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SLOT_PAIRS};
 use instrument::design::SENSOR_R_REST_OHM;
@@ -165,7 +166,7 @@ mod app {
         ranges: Mux<SimPin, RANGE_ADDRESS_LINES>,
         scenario: Scenario,
         seq: Sequencer,
-        settings: Settings<'static, POINTS, CHANNELS>,
+        in_force: InForce<Common, CHANNELS>,
         end_slot: u64,
         link: LinkSender,
         store: Option<Store<FileFlash>>,
@@ -186,22 +187,24 @@ mod app {
             flash,
         } = arguments();
         let skin = Skin::new(scenario);
-        let (store, set) = flash.set_in_force(&rig_set(&scenario, fixture, lead_ratio));
+        let (store, (generation, set)) = flash.set_in_force(&rig_set(&scenario, fixture, lead_ratio));
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let settings = Settings {
+        let common = Common {
             policy: set.policy,
             record_every: set.record_every,
             ..Settings::new(
                 skin.ranging().front_ends(skin.front_end().v_gain as f32),
                 skin.ranging(),
-                sensors,
+                &*sensors,
             )
+            .common()
         };
+        let in_force = InForce::new(common, sensors, generation);
         let reader = MuxReader::with(|c| {
-            let rest = settings.sensors.of(c).rest_farad;
+            let rest = in_force.sensors().of(c).rest_farad;
             match scenario.pinned(c as usize) {
                 Some(i) => Channel::pinned(rest, i),
                 None => Channel::new(rest),
@@ -214,7 +217,7 @@ mod app {
         let Ok(_) = mux.select(first[0].channel);
         let mut ranges = Mux::new(range_pins());
         let Ok(_) = ranges.select(first[0].range);
-        print_start(&scenario, &settings);
+        print_start(&scenario, &in_force.settings());
         (
             Shared {
                 block: Block {
@@ -241,15 +244,13 @@ mod app {
                 commands: Commands::new(),
                 link: LinkSender::start(
                     Uart0::take(),
-                    frames::start(
+                    in_force.start_frame(
                         concat!("skin-qemu ", env!("CARGO_PKG_VERSION")),
-                        &settings,
-                        &settings.sensors.calibration(),
                         CHANNELS,
                         instrument::design::SAMPLE_RATE,
                     ),
                 ),
-                settings,
+                in_force,
                 end_slot: flash.end_step((scenario.duration_s() * 1e6) as u64 / pairs_us(SLOT_PAIRS)),
             },
         )
@@ -305,7 +306,7 @@ mod app {
 
     /// Demodulate, correct and log one block; then the requests the host
     /// sent down the link, answered there.
-    #[task(priority = 1, shared = [block, reader, done, busy], local = [settings, end_slot, link, store, commands])]
+    #[task(priority = 1, shared = [block, reader, done, busy], local = [in_force, end_slot, link, store, commands])]
     async fn process(mut cx: process::Context) {
         let started = qemu::Instructions::now();
         let local = cx.local;
@@ -318,8 +319,8 @@ mod app {
             .shared
             .block
             .lock(|b| (instrument::config::read(b.slot.fidx, &b.pairs), b.clipped, b.slot));
-        let settings = &*local.settings;
-        let read = cx.shared.reader.lock(|r| r.read(settings, &slot, &ph, clipped));
+        let settings = local.in_force.settings();
+        let read = cx.shared.reader.lock(|r| r.read(&settings, &slot, &ph, clipped));
         let spent = qemu::Instructions::since(started);
         let t_us = slot.block_mid_us();
         let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
@@ -337,8 +338,17 @@ mod app {
             Read::Quiet => {}
             Read::Skipped => defmt::println!("skip {=u64} {=u8}", slot.block_mid_us(), slot.channel),
         }
-        let stop = qemu_flash::answer(local.link, local.commands, local.store.as_mut()).stop;
-        if stop || slot.index + 1 >= *local.end_slot {
+        let asked = qemu_flash::answer(local.link, local.commands, local.store.as_mut());
+        if let (true, Some(store)) = (asked.apply, local.store.as_mut()) {
+            // In force from the next block: the frame says so before its
+            // record.
+            let applied = local.in_force.apply_stored(store, t_us);
+            firmware::settings_log::applied(&applied);
+            if let Ok(a) = applied {
+                local.link.applied(&a);
+            }
+        }
+        if asked.stop || slot.index + 1 >= *local.end_slot {
             local.link.end(0);
             cx.shared.done.lock(|d| *d = true);
         }

@@ -51,6 +51,19 @@ where
         }
     }
 
+    /// Take the set the store holds into `in_force` (after
+    /// [`Action::Apply`]): [`crate::in_force::InForce::apply_stored`].
+    pub fn apply<C, const S: usize>(
+        &mut self,
+        in_force: &mut crate::in_force::InForce<C, S>,
+        t_us: u64,
+    ) -> Result<::link::Applied, crate::in_force::NotApplied>
+    where
+        C: crate::in_force::Shared<S>,
+    {
+        in_force.apply_stored(&mut self.store, t_us)
+    }
+
     /// The request the ring now holds whole, if one, answered through
     /// `writer`; then what the application must do. `remaining`: the
     /// receive channel's count
@@ -175,6 +188,7 @@ mod tests {
             calibration_digest: 0,
             sensors: 8,
             sample_rate_hz: 200_000,
+            generation: 0,
         }
     }
 

@@ -3,23 +3,25 @@
 //! sensors nothing was measured on and no requests (`skin-board`).
 
 use crate::board::pac;
+use crate::in_force::InForce;
 use core::mem::MaybeUninit;
 use instrument::calib::POINTS;
-use instrument::channel::Settings;
+use instrument::channel::{Common, Settings};
 use instrument::design;
 use instrument::ranging::Ranging;
 use instrument::sensor::Sensors;
 
 pub use stored::{load, Requests, RING, SENSORS};
 
-/// The board's settings for `sensors`: its front end's ranges, the
+/// The board's settings but the sensors: its front end's ranges, the
 /// default policy and thresholds.
-fn board_settings<const S: usize>(sensors: &'static Sensors<POINTS, S>) -> Settings<'static, POINTS, S> {
+fn board_common<const S: usize>(sensors: &Sensors<POINTS, S>) -> Common {
     Settings::new(
         Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
         Ranging::DEFAULT,
         sensors,
     )
+    .common()
 }
 
 /// The sensors' settings and the host's requests: the set stored in
@@ -52,24 +54,25 @@ mod stored {
         slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
         ring: &'static mut [u8; RING],
         port: &LinkPort,
-    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
+    ) -> Option<(InForce<Common, SENSORS>, Requests)> {
         let Ok(mut store) = Store::new(SettingsFlash::new(flash), 0, SLOT_BYTES) else {
             defmt::println!("settings: the slots do not fit the flash");
             return None;
         };
         // The stored set; with none, sensors nothing was measured on.
-        let set = crate::settings_log::in_force(&mut store);
+        let (generation, set) = crate::settings_log::in_force(&mut store);
         let Ok(sensors) = crate::settings_log::sensors_in(slot, &set) else {
             defmt::println!("settings: a tab-lead ratio beyond the line model");
             return None;
         };
-        let settings = Settings {
+        let common = Common {
             policy: set.policy,
             record_every: set.record_every,
-            ..board_settings(sensors)
+            ..board_common(sensors)
         };
         link::receive(&port.dma, port.rdr, ring.as_ptr() as u32);
-        Some((settings, Requests::new(ring, Commands::new(), store)))
+        let in_force = InForce::new(common, sensors, generation);
+        Some((in_force, Requests::new(ring, Commands::new(), store)))
     }
 }
 
@@ -93,6 +96,15 @@ mod stored {
     pub struct Requests;
 
     impl Requests {
+        /// No set is stored, none is applied.
+        pub fn apply<C, const S: usize>(
+            &mut self,
+            _: &mut InForce<C, S>,
+            _: u64,
+        ) -> Result<::link::Applied, crate::in_force::NotApplied> {
+            Err(crate::in_force::NotApplied::Unreadable)
+        }
+
         /// Never a request.
         pub fn answer<const N: usize>(
             &mut self,
@@ -110,10 +122,10 @@ mod stored {
         slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
         _: &'static mut [u8; RING],
         _: &LinkPort,
-    ) -> Option<(Settings<'static, POINTS, SENSORS>, Requests)> {
+    ) -> Option<(InForce<Common, SENSORS>, Requests)> {
         let sensors = slot.write(Sensors::all(Sensor::uncalibrated(
             design::SENSOR_C_REST_FARAD as f32,
         )));
-        Some((board_settings(sensors), Requests))
+        Some((InForce::new(board_common(sensors), sensors, 0), Requests))
     }
 }
