@@ -11,7 +11,7 @@ use instrument::calib::POINTS;
 use instrument::channel::{Common, Settings};
 use instrument::digest::Digestible;
 use instrument::frames;
-use instrument::sensor::{Calibration, Sensors};
+use instrument::sensor::Sensors;
 use instrument::store::{Corruption, Store};
 use instrument::stored::Stored;
 use instrument::tones::{ToneCommon, ToneSettings};
@@ -101,15 +101,16 @@ impl<C: Shared<S>, const S: usize> InForce<C, S> {
 
     /// The stream's start frame, with the set in force.
     pub fn start_frame(&self, firmware: &str, sensors: usize, sample_rate_hz: u32) -> link::Start {
-        frames::start(firmware, self.frames_set(), sensors, sample_rate_hz)
-    }
-
-    fn frames_set(&self) -> frames::InForce<C::Settings<'_>, Calibration<'_, POINTS, S>> {
-        frames::InForce {
-            generation: self.generation,
-            settings: self.common.with(self.sensors),
-            calibration: self.sensors.calibration(),
-        }
+        let settings = self.settings();
+        let calibration = self.sensors.calibration();
+        frames::start(
+            firmware,
+            self.generation,
+            &settings,
+            &calibration,
+            sensors,
+            sample_rate_hz,
+        )
     }
 
     /// Take stored set `set` of generation `generation`: its sensors
@@ -122,10 +123,18 @@ impl<C: Shared<S>, const S: usize> InForce<C, S> {
         self.sensors.load(set).map_err(|_| NotApplied::Refused)?;
         self.common.take(set);
         self.generation = generation;
-        Ok(frames::applied(self.frames_set(), t_us))
+        let settings = self.settings();
+        Ok(frames::applied(
+            generation,
+            &settings,
+            &self.sensors.calibration(),
+            t_us,
+        ))
     }
 
-    /// [`InForce::apply`] of the set `store` holds.
+    /// [`InForce::apply`] of the set `store` holds. Not inlined: a board
+    /// takes its set at start through it too, one copy of the code.
+    #[inline(never)]
     pub fn apply_stored<F: NorFlash>(
         &mut self,
         store: &mut Store<F>,

@@ -48,10 +48,12 @@ pub fn applied(result: &Result<link::Applied, crate::in_force::NotApplied>) {
             a.settings_digest,
             a.t_us
         ),
-        Err(e) => defmt::println!(
-            "settings: the new set not applied ({}), the one in force stays",
-            defmt::Debug2Format(e)
-        ),
+        Err(crate::in_force::NotApplied::Unreadable) => {
+            defmt::println!("settings: the new set cannot be read back, the one in force stays")
+        }
+        Err(crate::in_force::NotApplied::Refused) => {
+            defmt::println!("settings: the new set breaks a rule, the one in force stays")
+        }
     }
 }
 

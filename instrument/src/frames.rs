@@ -84,44 +84,40 @@ pub fn from_record(r: &Record) -> link::Record {
     }
 }
 
-/// The stored set in force: its generation (0: none stored), the
-/// settings and their calibrations.
-pub struct InForce<S: Digestible, C: Digestible> {
-    /// The stored set's generation.
-    pub generation: u32,
-    /// The settings.
-    pub settings: S,
-    /// Their calibrations.
-    pub calibration: C,
-}
-
-/// A stream's start frame: the firmware's name and version, the set in
-/// force (its generation, the digests of its settings and calibrations),
-/// the sensors and the sample rate.
+/// A stream's start frame: the firmware's name and version, the stored
+/// set in force (its `generation`, 0: none stored, and the digests of its
+/// settings and calibrations), the sensors and the sample rate.
 pub fn start(
     firmware: &str,
-    set: InForce<impl Digestible, impl Digestible>,
+    generation: u32,
+    settings: &impl Digestible,
+    calibration: &impl Digestible,
     sensors: usize,
     sample_rate_hz: u32,
 ) -> link::Start {
     link::Start {
         version: link::VERSION,
         firmware: link::Start::firmware_field(firmware),
-        settings_digest: Digest::of(&set.settings),
-        calibration_digest: Digest::of(&set.calibration),
+        settings_digest: Digest::of(settings),
+        calibration_digest: Digest::of(calibration),
         sensors: sensors as u8,
         sample_rate_hz,
-        generation: set.generation,
+        generation,
     }
 }
 
-/// The frame of a set applied while the device runs, in force from the
-/// block at `t_us`.
-pub fn applied(set: InForce<impl Digestible, impl Digestible>, t_us: u64) -> link::Applied {
+/// The frame of stored set `generation` applied while the device runs
+/// (its settings and calibrations), at device time `t_us`.
+pub fn applied(
+    generation: u32,
+    settings: &impl Digestible,
+    calibration: &impl Digestible,
+    t_us: u64,
+) -> link::Applied {
     link::Applied {
-        generation: set.generation,
-        settings_digest: Digest::of(&set.settings),
-        calibration_digest: Digest::of(&set.calibration),
+        generation,
+        settings_digest: Digest::of(settings),
+        calibration_digest: Digest::of(calibration),
         t_us,
     }
 }

@@ -14,6 +14,7 @@ from typing import List
 import numpy as np
 import pandas as pd
 
+from .dataset import read_records
 from .stream import read_stream
 
 #: The integer columns, equal exactly.
@@ -46,6 +47,12 @@ def agree(folder: str) -> int:
         same = (a == b) | (~np.isfinite(a) & np.isnan(b))
         bad = np.flatnonzero(~same)
         assert bad.size == 0, "row %d: %s %r != %r" % (bad[0], c, a[bad[0]], b[bad[0]])
+    # The stored set each record was measured with: from the stream's
+    # start and applied frames here, from the manifest there.
+    # (A records file without its manifest says -1: not compared.)
+    gen = read_records(folder)["generation"].to_numpy()
+    bad = np.flatnonzero((ours["generation"].to_numpy() != gen) & (gen >= 0))
+    assert bad.size == 0, "row %d: generation %r != %r" % (bad[0], ours["generation"].iat[bad[0]], gen[bad[0]])
     # C in pF, four decimals of the f32's value.
     a = ours["c_pf"].to_numpy()
     b = theirs["c_pf"].to_numpy(dtype=np.float64)

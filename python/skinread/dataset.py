@@ -7,12 +7,12 @@ import glob
 import json
 import os
 import re
-from typing import Dict
+from typing import Dict, List, Tuple
 
 import numpy as np
 import pandas as pd
 
-from .stream import with_flag_names
+from .stream import with_flag_names, with_generation
 
 
 def _read(path: str) -> pd.DataFrame:
@@ -53,6 +53,18 @@ def clocks(folder: str) -> Dict[int, dict]:
     return {k + 1: g["clock"] for k, g in enumerate(segments) if g.get("clock")}
 
 
+def in_force(folder: str) -> Dict[int, List[Tuple[int, int]]]:
+    """Each segment's stored sets in force from a `live` session's
+    manifest: {segment: [(sequence number after which it holds,
+    generation)]}, the start's first, then each set the device applied
+    while it ran."""
+    segments = _manifest(folder).get("segments", [])
+    return {
+        k + 1: [(c["from_seq"], c["generation"]) for c in g.get("settings_in_force", [])]
+        for k, g in enumerate(segments)
+    }
+
+
 def _utc_of_us(us: pd.Series) -> pd.Series:
     """µs since the epoch (float, NaN for none) as UTC times, to the µs."""
     return pd.to_datetime(us.round().astype("Int64") * 1000, unit="ns", utc=True)
@@ -73,9 +85,12 @@ def read_records(folder: str) -> pd.DataFrame:
     """`records.csv` of a `live` session: every record as it arrived,
     `flag_bits`, `valid` and a boolean column per flag; `arrived_utc`,
     the host's UTC when it arrived, and `t_utc`, its own time stamp on
-    the host's UTC by its segment's clock fit (the manifest's); with a
-    skin (`live --skin`), each sensor's `name`."""
+    the host's UTC by its segment's clock fit (the manifest's);
+    `generation`, the stored set it was measured with (the manifest's
+    sets in force; -1 where it does not say); with a skin (`live
+    --skin`), each sensor's `name`."""
     df = _read(os.path.join(folder, "records.csv"))
+    with_generation(df, in_force(folder))
     if "host_utc_us" in df.columns:
         df["arrived_utc"] = _utc_of_us(df["host_utc_us"].astype("float64"))
     names = skin(folder)

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from . import flags as _flags
-from .wire import VERSION, Decoder, End, Frame, Record, Start, Status
+from .wire import VERSION, Applied, Decoder, End, Frame, Record, Start, Status
 
 #: The columns of a records frame: `live`'s records.csv, with the flags'
 #: bits as `flag_bits` (a column `flags` would shadow DataFrame.flags),
@@ -38,6 +38,9 @@ class Taken:
     starts: List[Start] = field(default_factory=list)
     ends: List[End] = field(default_factory=list)
     statuses: List[Status] = field(default_factory=list)
+    #: Each segment's sets in force: [(sequence number after which it
+    #: holds, generation)], the start frame's first.
+    in_force: Dict[int, List[Tuple[int, int]]] = field(default_factory=dict)
     duplicates: int = 0
     set_aside: int = 0
     stray: int = 0
@@ -66,6 +69,7 @@ class Taker:
                     raise ValueError(t.stopped)
                 return None
             t.starts.append(body)
+            t.in_force[len(t.starts)] = [(frame.seq, body.generation)]
             self._high, self._ended, self._last_t = frame.seq, False, {}
             return None
         if self._high is None:
@@ -85,6 +89,8 @@ class Taker:
             self._ended = True
         elif isinstance(body, Status):
             t.statuses.append(body)
+        elif isinstance(body, Applied):
+            t.in_force[len(t.starts)].append((frame.seq, body.generation))
         else:
             t.stray += 1
         return None
@@ -115,6 +121,19 @@ def frame(rows: Iterable[tuple]) -> pd.DataFrame:
     for c in ("segment", "seq", "t_us", "sensor", "flag_bits"):
         df[c] = df[c].astype("int64")
     return with_flag_names(df)
+
+
+def with_generation(df: pd.DataFrame, in_force: Dict[int, List[Tuple[int, int]]]) -> pd.DataFrame:
+    """`generation`: the stored set each record was measured with, from
+    its segment's sets in force ([(sequence number after which it holds,
+    generation)]; 0: none stored, -1: a segment without them)."""
+    gen = np.full(len(df), -1, dtype=np.int64)
+    seg, seq = df["segment"].to_numpy(), df["seq"].to_numpy()
+    for g, changes in in_force.items():
+        for from_seq, generation in sorted(changes):
+            gen[(seg == g) & (seq > from_seq)] = generation
+    df["generation"] = gen
+    return df
 
 
 def with_flag_names(df: pd.DataFrame) -> pd.DataFrame:
@@ -161,7 +180,7 @@ def read_stream(path: str, arrivals: Optional[str] = "beside") -> Tuple[pd.DataF
                 taker.take(fr, time)
             if k < len(ends) and at >= ends[k][0]:
                 k += 1
-    return frame(taker.taken.rows), taker.taken
+    return with_generation(frame(taker.taken.rows), taker.taken.in_force), taker.taken
 
 
 def tcp_frames(host: str, port: int, timeout: Optional[float] = None) -> Iterator[Frame]:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Iterator, List, Optional, Tuple, Union
 
 #: The wire format's version this reader knows.
-VERSION = 3
+VERSION = 4
 #: The longest frame on the wire, its closing zero excluded (bytes).
 MAX_FRAME = 96
 
@@ -120,6 +120,8 @@ class Start:
     calibration_digest: int
     sensors: int
     sample_rate_hz: int
+    #: The stored set's generation in force at the start (0: none stored).
+    generation: int
 
 
 @dataclass(frozen=True)
@@ -170,7 +172,19 @@ class Reply:
     fields: dict = field(default_factory=dict)
 
 
-Body = Union[Start, Record, End, Request, Reply, Status]
+@dataclass(frozen=True)
+class Applied:
+    """A new set in force: every record after this frame was measured
+    with it, every record before with the one before."""
+
+    generation: int
+    settings_digest: int
+    calibration_digest: int
+    #: A device time between the two sets' records, µs.
+    t_us: int
+
+
+Body = Union[Start, Record, End, Request, Reply, Status, Applied]
 
 
 @dataclass(frozen=True)
@@ -188,11 +202,13 @@ _REASONS = ("OutOfOrder", "TooLong", "Mismatch", "Malformed", "Setting", "Flash"
 
 
 def _body(r: _Reader) -> Body:
-    kind = r.variant(("Start", "Record", "End", "Request", "Reply", "Status"))
+    kind = r.variant(("Start", "Record", "End", "Request", "Reply", "Status", "Applied"))
     if kind == "Start":
         version, firmware = r.u16(), r.raw(24)
         name = firmware.split(b"\0", 1)[0].decode("ascii", "replace")
-        return Start(version, name, r.u32(), r.u32(), r.u8(), r.u32())
+        return Start(version, name, r.u32(), r.u32(), r.u8(), r.u32(), r.u32())
+    if kind == "Applied":
+        return Applied(r.u32(), r.u32(), r.u32(), r.u64())
     if kind == "Record":
         t_us, sensor = r.u64(), r.u8()
         tones = tuple(Tone(r.f32(), r.f32(), r.f32()) for _ in range(2))

@@ -77,11 +77,11 @@ def test_a_record_built_from_the_spec_decodes_field_by_field():
 
 
 def test_start_end_and_status_frames():
-    start = varint(0) + varint(0) + varint(3) + b"skin-array 0.1.0".ljust(24, b"\0") \
-        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000)
+    start = varint(0) + varint(0) + varint(4) + b"skin-array 0.1.0".ljust(24, b"\0") \
+        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000) + varint(7)
     s = wire.decode(sealed(start)).body
-    assert (s.version, s.firmware, s.sensors, s.sample_rate_hz) == (3, "skin-array 0.1.0", 16, 25_000)
-    assert s.settings_digest == 0xDEADBEEF
+    assert (s.version, s.firmware, s.sensors, s.sample_rate_hz) == (4, "skin-array 0.1.0", 16, 25_000)
+    assert s.settings_digest == 0xDEADBEEF and s.generation == 7
     end = wire.decode(sealed(varint(9) + varint(2) + varint(1000) + varint(0))).body
     assert (end.records, end.dropped) == (1000, 0)
     status = varint(5) + varint(5) + varint(10**6) + varint(1) + b"".join(varint(v) for v in range(7))
@@ -106,7 +106,8 @@ def test_a_corrupted_or_padded_frame_is_refused_and_the_stream_goes_on():
 def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
     from skinread import check
 
-    start = varint(0) + varint(0) + varint(3) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) + varint(25_000)
+    start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
+        + varint(25_000) + varint(0)
     stream = sealed(start) + b"\0" + sealed(record_body(seq=1)) + b"\0"
     # A duplicate (seq 1 again) is dropped, as live drops it.
     stream += sealed(record_body(seq=1)) + b"\0"
@@ -127,3 +128,19 @@ def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
     (tmp_path / "records.csv").write_text(head + row.replace(",256,", ",256,1796292001003001"))
     with pytest.raises(AssertionError, match="host_utc_us"):
         check.agree(str(tmp_path))
+
+
+def test_records_after_an_applied_frame_are_of_its_generation(tmp_path):
+    from skinread.stream import read_stream
+
+    start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
+        + varint(25_000) + varint(2)
+    applied = varint(2) + varint(6) + varint(3) + varint(0xAB) + varint(0xCD) + varint(1234567)
+    a = wire.decode(sealed(applied)).body
+    assert a == wire.Applied(3, 0xAB, 0xCD, 1234567)
+    later = record_body(seq=3, t_us=1_238_567)
+    stream = b"".join(sealed(f) + b"\0" for f in (start, record_body(seq=1), applied, later))
+    (tmp_path / "stream.bin").write_bytes(stream)
+    df, taken = read_stream(str(tmp_path / "stream.bin"))
+    assert taken.in_force == {1: [(0, 2), (2, 3)]}
+    assert df["generation"].tolist() == [2, 3]

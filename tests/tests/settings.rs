@@ -364,7 +364,8 @@ fn a_new_device_reads_uncalibrated_and_a_stored_table_is_its_own_sensors() {
     let every_block = recs.len();
 
     // The host stores each sensor's own table, and a record every other
-    // block; the next start measures with them.
+    // block; the next start measures with them (as a running device
+    // would from its next block: `a_set_written_down_the_link…`).
     let mut set = Stored::uncalibrated();
     set.record_every = 2;
     for (ch, s) in set.sensors.iter_mut().enumerate() {

@@ -56,14 +56,12 @@ use firmware::board::excitation::{DacRing, Feed, QUARTER};
 use firmware::board::front_end::{self, AdcSlots, SLOTS};
 use firmware::board::link::Transmitter;
 use firmware::board::pins::{self, AnyPin};
-use firmware::board::requests::KICKS;
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, dac, pac, timer, watchdog};
-use firmware::in_force::InForce;
 use firmware::link_out::{FrameWriter, LinkQueue};
 use instrument::busy::Busy;
 use instrument::calib::POINTS;
-use instrument::channel::{Channel, Common, Settings};
+use instrument::channel::{Channel, Settings};
 use instrument::commands::Action;
 use instrument::config::{
     Readings, BLOCK_PAIRS, CHANNELS, MUX_ADDRESS_LINES, RANGE_ADDRESS_LINES, SETTLE_PAIRS, SLOT_PAIRS,
@@ -125,9 +123,6 @@ mod app {
         sending: bool,
         /// How the CPU keeps up: slots' cycles, late and missed ones.
         busy: Busy,
-        /// The settings and sensors measured with, replaced by `idle`
-        /// when the host stores a new set.
-        in_force: InForce<Common, SENSORS>,
     }
 
     #[local]
@@ -139,6 +134,7 @@ mod app {
         mux: BoardMux,
         ranges: RangeSwitch,
         seq: Sequencer,
+        settings: Settings<'static, POINTS, SENSORS>,
         requests: Requests,
     }
 
@@ -174,19 +170,22 @@ mod app {
         let dac_ring: &'static mut DacRing = cx.local.dac;
         front_end::multiplexed(&dp, adc_buf, dac_ring);
         let owned = setup::finish(dp);
-        let Some((in_force, requests)) =
+        let Some((settings, generation, requests)) =
             settings::load(owned.flash, cx.local.sensors, cx.local.rx_ring, &owned.link)
         else {
             // Nothing is fed: the watchdog restarts the board in 100 ms.
             defmt::println!("settings: none usable; watchdog reset follows");
             watchdog::await_reset()
         };
-        let reader = MuxReader::new(in_force.sensors());
+        let reader = MuxReader::new(settings.sensors);
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
-            in_force.start_frame(
+            frames::start(
                 concat!("skin-board ", env!("CARGO_PKG_VERSION")),
+                generation,
+                &settings,
+                &settings.sensors.calibration(),
                 CHANNELS,
                 design::SAMPLE_RATE,
             ),
@@ -208,7 +207,6 @@ mod app {
                 writer,
                 sending: true,
                 busy: Busy::new(::link::Clock::Cycles, design::SYSCLK_HZ, SLOT_US, SLOTS_PER_S),
-                in_force,
             },
             Local {
                 dac1: owned.dac,
@@ -218,6 +216,7 @@ mod app {
                 mux,
                 ranges,
                 seq,
+                settings,
                 requests,
             },
         )
@@ -225,7 +224,7 @@ mod app {
 
     /// The host's requests answered (with the settings store), then the
     /// transmitter woken.
-    #[idle(shared = [tx, writer, sending, in_force], local = [requests])]
+    #[idle(shared = [tx, writer, sending], local = [requests])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let remaining = cx.shared.tx.lock(|t| t.rx_remaining());
@@ -242,15 +241,7 @@ mod app {
                 Some(Action::Start) => cx.shared.sending.lock(|s| *s = true),
                 Some(Action::Stop) => cx.shared.sending.lock(|s| *s = false),
                 Some(Action::Apply) => {
-                    // `process` held off: the frame falls between the old
-                    // set's records and the new one's.
-                    (&mut cx.shared.in_force, &mut cx.shared.writer).lock(|f, w| {
-                        let applied = requests.apply(f, w.last_t_us());
-                        firmware::settings_log::applied(&applied);
-                        if let Ok(a) = applied {
-                            w.applied(&a, || rtic::pend(pac::Interrupt::DMA2_CH1), KICKS);
-                        }
-                    })
+                    defmt::println!("settings: a new set stored, in force from the next start")
                 }
                 Some(Action::Sweep(_) | Action::None) | None => {}
             }
@@ -354,7 +345,7 @@ mod app {
 
     /// Demodulate, correct and queue one block's record, straight from
     /// the DMA buffer.
-    #[task(priority = 1, shared = [slot, reader, writer, sending, busy, in_force], local = [adc_buf, watchdog])]
+    #[task(priority = 1, shared = [slot, reader, writer, sending, busy], local = [adc_buf, settings, watchdog])]
     async fn process(mut cx: process::Context) {
         let local = cx.local;
         let Some(Finished {
@@ -381,8 +372,11 @@ mod app {
             Err(_) => return,
         };
         let (readings, clipped) = lock_ins(slot.fidx, pairs);
-        let read = (&mut cx.shared.reader, &mut cx.shared.in_force)
-            .lock(|r, f| read_slot(r, &f.settings(), &slot, &readings, clipped));
+        let settings = &*local.settings;
+        let read = cx
+            .shared
+            .reader
+            .lock(|r| read_slot(r, settings, &slot, &readings, clipped));
         // From the slot's completion: a slot that took longer than its
         // period may have had its half overwritten by the DMA.
         let spent = DWT::cycle_count().wrapping_sub(completed);
@@ -434,7 +428,7 @@ fn lock_ins(fidx: usize, pairs: &[[i16; 2]; BLOCK_PAIRS]) -> (Readings, bool) {
 #[link_section = ".hot_ram"]
 fn read_slot(
     reader: &mut MuxReader,
-    settings: &Settings<'_, POINTS, SENSORS>,
+    settings: &Settings<'static, POINTS, SENSORS>,
     slot: &Slot,
     readings: &Readings,
     clipped: bool,

@@ -3,25 +3,23 @@
 //! sensors nothing was measured on and no requests (`skin-board`).
 
 use crate::board::pac;
-use crate::in_force::InForce;
 use core::mem::MaybeUninit;
 use instrument::calib::POINTS;
-use instrument::channel::{Common, Settings};
+use instrument::channel::Settings;
 use instrument::design;
 use instrument::ranging::Ranging;
 use instrument::sensor::Sensors;
 
 pub use stored::{load, Requests, RING, SENSORS};
 
-/// The board's settings but the sensors: its front end's ranges, the
+/// The board's settings for `sensors`: its front end's ranges, the
 /// default policy and thresholds.
-fn board_common<const S: usize>(sensors: &Sensors<POINTS, S>) -> Common {
+fn board_settings<const S: usize>(sensors: &'static Sensors<POINTS, S>) -> Settings<'static, POINTS, S> {
     Settings::new(
         Ranging::DEFAULT.front_ends(design::V_GAIN as f32),
         Ranging::DEFAULT,
         sensors,
     )
-    .common()
 }
 
 /// The sensors' settings and the host's requests: the set stored in
@@ -45,7 +43,7 @@ mod stored {
     pub type Requests = crate::board::requests::Requests<SettingsFlash>;
 
     /// The set stored in flash (with none, sensors nothing was measured
-    /// on), its sensors built into `slot`, and the request side over
+    /// on) and its generation, its sensors built into `slot`, and the request side over
     /// `ring`, which DMA2 channel 2 fills from now on; `None` if the
     /// flash's slots do not hold or a set's lead ratio is beyond the
     /// line model (logged).
@@ -54,7 +52,7 @@ mod stored {
         slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
         ring: &'static mut [u8; RING],
         port: &LinkPort,
-    ) -> Option<(InForce<Common, SENSORS>, Requests)> {
+    ) -> Option<(Settings<'static, POINTS, SENSORS>, u32, Requests)> {
         let Ok(mut store) = Store::new(SettingsFlash::new(flash), 0, SLOT_BYTES) else {
             defmt::println!("settings: the slots do not fit the flash");
             return None;
@@ -65,14 +63,13 @@ mod stored {
             defmt::println!("settings: a tab-lead ratio beyond the line model");
             return None;
         };
-        let common = Common {
+        let settings = Settings {
             policy: set.policy,
             record_every: set.record_every,
-            ..board_common(sensors)
+            ..board_settings(sensors)
         };
         link::receive(&port.dma, port.rdr, ring.as_ptr() as u32);
-        let in_force = InForce::new(common, sensors, generation);
-        Some((in_force, Requests::new(ring, Commands::new(), store)))
+        Some((settings, generation, Requests::new(ring, Commands::new(), store)))
     }
 }
 
@@ -96,15 +93,6 @@ mod stored {
     pub struct Requests;
 
     impl Requests {
-        /// No set is stored, none is applied.
-        pub fn apply<C, const S: usize>(
-            &mut self,
-            _: &mut InForce<C, S>,
-            _: u64,
-        ) -> Result<::link::Applied, crate::in_force::NotApplied> {
-            Err(crate::in_force::NotApplied::Unreadable)
-        }
-
         /// Never a request.
         pub fn answer<const N: usize>(
             &mut self,
@@ -122,10 +110,10 @@ mod stored {
         slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
         _: &'static mut [u8; RING],
         _: &LinkPort,
-    ) -> Option<(InForce<Common, SENSORS>, Requests)> {
+    ) -> Option<(Settings<'static, POINTS, SENSORS>, u32, Requests)> {
         let sensors = slot.write(Sensors::all(Sensor::uncalibrated(
             design::SENSOR_C_REST_FARAD as f32,
         )));
-        Some((InForce::new(board_common(sensors), sensors, 0), Requests))
+        Some((board_settings(sensors), 0, Requests))
     }
 }
