@@ -84,8 +84,8 @@ enum Command {
     /// Calibrate each sensor from records taken while the skin is held at
     /// known stretches: its line, tab leads, contact and parasitic
     /// capacitance fitted, its stretch table built, the set stored on the
-    /// device (which measures with it from its next block, a board image
-    /// from its next start).
+    /// device (which measures with it from its next block, the
+    /// multiplexed board from its next start).
     #[command(after_help = CALIBRATE_HELP)]
     Calibrate(CalibrateArgs),
 }
@@ -463,7 +463,7 @@ fn calibrate_device(
         eprintln!("hold {}: {said}", k + 1);
     }
     println!(
-        "stored: generation {} (in force from the device's next block, or next start on a board image: its applied frame says)",
+        "stored: generation {} (in force from the device's next block, or next start on the multiplexed board: its applied frame says)",
         done.generation
     );
     Ok(cal::report(&done.holds, &done.outcomes))

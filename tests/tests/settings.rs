@@ -150,7 +150,9 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("settings.bin");
     let flash = format!("flash={}", path.display());
-    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp(&elf, &["paper", &flash, "until-stop"]).unwrap();
+    let log = tmp.path().join("paper.log");
+    let (mut qemu, sock) =
+        qemu_tests::connect_qemu_tcp_logged(&elf, &["paper", &flash, "until-stop"], &log).unwrap();
     let rx = frames(sock.try_clone().unwrap());
     let mut sock = sock;
     let mut enc = link::Encoder::new();
@@ -261,6 +263,13 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     assert!(end.records > 0, "{end:?}");
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");
+    let raw = std::fs::read(&log).unwrap();
+    let lines: Vec<String> = host_sim::recording::decode_defmt(&elf, &raw)
+        .unwrap()
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect();
+    qemu_tests::assert_stack_margin("skin-qemu, a set applied", lines.iter().map(String::as_str));
     // The next start finds the set that came down the link.
     let (code, log) = run(&["faults", &flash]);
     assert_eq!(code, Some(0), "{log:?}");
@@ -459,4 +468,88 @@ fn the_array_measures_with_its_stored_set() {
     );
     assert!(tones(&log).iter().all(|r| !r.flags.has(Flags::UNCALIBRATED)));
     qemu_tests::assert_stack_margin("skin-array saving its settings", log.iter().map(String::as_str));
+}
+
+/// The array takes a set stored down the link while it runs: the applied
+/// frame falls between the records of the set it started with (every
+/// sensor uncalibrated) and those of the new one (sensor 5 an empty
+/// socket, sensor 2 on a table, a record every other block), and the
+/// stack keeps its margin through it.
+#[test]
+fn the_array_applies_a_set_stored_while_it_runs() {
+    use instrument::commands::upload;
+    use std::io::Write;
+    let uncalibrated = instrument::faults::Flags::UNCALIBRATED;
+    let elf = qemu_tests::build_firmware("skin-array", &["qemu"]).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let flash = format!("flash={}", tmp.path().join("array.bin").display());
+    let log = tmp.path().join("array.log");
+    let (mut qemu, sock) =
+        qemu_tests::connect_qemu_tcp_logged(&elf, &["check", &flash, "until-stop"], &log).unwrap();
+    let rx = frames(sock.try_clone().unwrap());
+    let mut sock = sock;
+    let mut enc = link::Encoder::new();
+    let mut out = [0u8; link::MAX_FRAME];
+    let mut send = |req: link::Request, sock: &mut std::net::TcpStream| {
+        let bytes = enc.frame(link::Body::Request(req), &mut out).unwrap();
+        sock.write_all(bytes).unwrap();
+    };
+    let mut set = instrument::stored::Stored::uncalibrated();
+    set.sensors[5].in_use = false;
+    set.sensors[2].table = instrument::calib::REFERENCE.points;
+    set.sensors[2].calibrated = true;
+    set.record_every = 2;
+    let mut reqs = vec![];
+    upload(&set, |r| reqs.push(r));
+    for r in &reqs {
+        send(*r, &mut sock);
+    }
+    let mut before = vec![];
+    let applied = loop {
+        let f = rx
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the applied frame");
+        match f.body {
+            link::Body::Record(r) => before.push(r),
+            link::Body::Applied(a) => break a,
+            _ => {}
+        }
+    };
+    assert_eq!(applied.generation, 1);
+    assert!(before.iter().any(|r| r.sensor == 5));
+    assert!(before
+        .iter()
+        .all(|r| r.flags & uncalibrated != 0 && r.t_us <= applied.t_us));
+    let mut after: Vec<link::Record> = vec![];
+    while after.len() < 15 * 6 {
+        let f = rx.recv_timeout(Duration::from_secs(120)).expect("records after");
+        if let link::Body::Record(r) = f.body {
+            after.push(r);
+        }
+    }
+    assert!(after.iter().all(|r| r.t_us > applied.t_us && r.sensor != 5));
+    assert!(after
+        .iter()
+        .all(|r| (r.flags & uncalibrated == 0) == (r.sensor == 2)));
+    let step = |recs: &[link::Record]| {
+        let t: Vec<u64> = recs.iter().filter(|r| r.sensor == 0).map(|r| r.t_us).collect();
+        t[t.len() - 1] - t[t.len() - 2]
+    };
+    assert_eq!(step(&after), 2 * step(&before), "a record every other block");
+    send(link::Request::Stop, &mut sock);
+    let status = qemu.wait().unwrap();
+    assert!(status.success(), "{status}");
+    let raw = std::fs::read(&log).unwrap();
+    let lines: Vec<String> = host_sim::recording::decode_defmt(&elf, &raw)
+        .unwrap()
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect();
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.starts_with("settings: generation 1 digest")),
+        "{lines:?}"
+    );
+    qemu_tests::assert_stack_margin("skin-array, a set applied", lines.iter().map(String::as_str));
 }

@@ -57,10 +57,11 @@ use firmware::board::dma::{self, Completion};
 use firmware::board::flash::SettingsFlash;
 use firmware::board::front_end::{self, array_half, AdcBlocks, ARRAY_PACER};
 use firmware::board::link::{self, RxRing, Transmitter, RX_BYTES};
-use firmware::board::requests::Requests;
+use firmware::board::requests::{Requests, KICKS};
 use firmware::board::scan::{self, Adcs};
 use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, dac, pac, watchdog};
+use firmware::in_force::InForce;
 use firmware::link_out::{FrameWriter, LinkQueue};
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
@@ -76,7 +77,7 @@ use instrument::reader::{ArrayReader, Demodulated};
 use instrument::sensor::Sensors;
 use instrument::store::{Store, SLOT_BYTES};
 use instrument::sweep::Sweep;
-use instrument::tones::{ToneRecord, ToneSettings};
+use instrument::tones::{ToneCommon, ToneRecord, ToneSettings};
 
 /// The link's byte queue: two blocks of frames.
 const LINK_BYTES: usize = 2048;
@@ -102,6 +103,42 @@ pub struct DmaBufs(*mut AdcBlocks);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBufs {}
 
+/// The set the host stored, applied (after the records of the old one),
+/// its frame queued. Not inlined: once per set stored.
+#[inline(never)]
+fn apply_new_set(
+    in_force: &mut InForce<ToneCommon, SENSORS>,
+    logger: &mut Consumer<'static, ToneRecord, QUEUE>,
+    writer: &mut FrameWriter<'static, LINK_BYTES>,
+    requests: &mut Requests<SettingsFlash>,
+    sending: bool,
+) {
+    send_records(logger, writer, sending);
+    let applied = requests.apply(in_force, writer.last_t_us());
+    firmware::settings_log::applied(&applied);
+    if let Ok(a) = applied {
+        writer.applied(&a, || rtic::pend(pac::Interrupt::DMA2_CH1), KICKS);
+    }
+}
+
+/// Each record the queue holds into frames (dropped while the host has
+/// asked not to send); whether any was queued. Not inlined: `idle` calls
+/// it twice.
+#[inline(never)]
+fn send_records(
+    logger: &mut Consumer<'static, ToneRecord, QUEUE>,
+    writer: &mut FrameWriter<'static, LINK_BYTES>,
+    sending: bool,
+) -> bool {
+    let mut queued = false;
+    while let Some(rec) = logger.dequeue() {
+        if sending {
+            queued |= writer.record(frames::from_tone_record(&rec));
+        }
+    }
+    queued
+}
+
 #[rtic::app(device = stm32g4::stm32g474, dispatchers = [SPI1])]
 mod app {
     use super::*;
@@ -121,6 +158,9 @@ mod app {
         busy: Busy,
         /// The status due on the link, if one is.
         status: Option<::link::Status>,
+        /// The settings and sensors measured with, replaced by `idle`
+        /// when the host stores a new set.
+        in_force: InForce<ToneCommon, SENSORS>,
     }
 
     #[local]
@@ -132,7 +172,6 @@ mod app {
         bufs: DmaBufs,
         block: u64,
         reader: ArrayReader,
-        settings: ToneSettings<'static, POINTS>,
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         writer: FrameWriter<'static, LINK_BYTES>,
@@ -177,23 +216,22 @@ mod app {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             watchdog::await_reset()
         };
-        let settings = ToneSettings {
+        let common = ToneCommon {
             policy: set.policy,
             record_every: set.record_every,
             ..ToneSettings::new(
                 LAYOUT,
                 FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
-                sensors,
+                &*sensors,
             )
+            .common()
         };
+        let in_force = InForce::new(common, sensors, generation);
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,
-            frames::start(
+            in_force.start_frame(
                 concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
-                generation,
-                &settings,
-                &settings.sensors.calibration(),
                 SENSORS,
                 RATE_HZ,
             ),
@@ -219,6 +257,7 @@ mod app {
                     LAYOUT.records_per_s(),
                 ),
                 status: None,
+                in_force,
             },
             Local {
                 dma: owned.dma,
@@ -228,7 +267,6 @@ mod app {
                 bufs: DmaBufs(adc),
                 block: 0,
                 reader,
-                settings,
                 records: RecordSink::new(records),
                 logger,
                 writer,
@@ -243,16 +281,11 @@ mod app {
     /// ([`instrument::commands`]: the stored settings, start, stop, a
     /// calibration step's sweep); then
     /// the transmitter woken.
-    #[idle(shared = [tx, sweep, status], local = [logger, writer, requests, sending])]
+    #[idle(shared = [tx, sweep, status, in_force], local = [logger, writer, requests, sending])]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let l = &mut cx.local;
-            let mut queued = false;
-            while let Some(rec) = l.logger.dequeue() {
-                if *l.sending {
-                    queued |= l.writer.record(frames::from_tone_record(&rec));
-                }
-            }
+            let mut queued = send_records(l.logger, l.writer, *l.sending);
             if let Some(status) = cx.shared.status.lock(Option::take) {
                 if *l.sending {
                     queued |= l.writer.status(&status);
@@ -270,7 +303,12 @@ mod app {
                         writer.end(0);
                     }
                     Action::Apply => {
-                        defmt::println!("settings: a new set stored, in force from the next start")
+                        let (logger, requests, sending) = (&mut *l.logger, &mut *l.requests, *l.sending);
+                        // With `process` held off: the records of the old
+                        // set first, then the frame, then the new set's.
+                        cx.shared
+                            .in_force
+                            .lock(|f| apply_new_set(f, logger, writer, requests, sending));
                     }
                     Action::Sweep(n) => cx.shared.sweep.lock(|s| s.start(n)),
                     Action::None => {}
@@ -330,14 +368,14 @@ mod app {
     /// The block's records, straight from the DMA buffers.
     #[task(
         priority = 1,
-        shared = [finished, sweep, busy, status],
-        local = [bufs, reader, settings, records, watchdog]
+        shared = [finished, sweep, busy, status, in_force],
+        local = [bufs, reader, records, watchdog]
     )]
     async fn process(mut cx: process::Context) {
         let Some((half, k, completed)) = cx.shared.finished.lock(|f| f.take()) else {
             return;
         };
-        cx.local.settings.sweep = cx.shared.sweep.lock(|s| s.next_block());
+        let sweep = cx.shared.sweep.lock(|s| s.next_block());
         let bufs = cx.local.bufs.0;
         // SAFETY: the DMA finished this half of every buffer and writes
         // the other ones for the next block, which this task finishes
@@ -347,7 +385,14 @@ mod app {
         let rows: [&mut [[i16; SCAN]]; ADCS] =
             core::array::from_fn(|a| unsafe { array_half(&mut (*bufs)[a], &LAYOUT, half) });
         let t_us = k * BLOCK_US + BLOCK_US / 2;
-        let recs = read_block(&mut *cx.local.reader, &*cx.local.settings, rows, t_us);
+        let reader = &mut *cx.local.reader;
+        let recs = cx.shared.in_force.lock(|f| {
+            let settings = ToneSettings {
+                sweep,
+                ..f.settings()
+            };
+            read_block(reader, &settings, rows, t_us)
+        });
         // From the block's completion: a block that took longer than its
         // period may have had its half overwritten by the DMA.
         let spent = DWT::cycle_count().wrapping_sub(completed);
@@ -377,7 +422,7 @@ mod app {
 #[link_section = ".hot_ram"]
 fn read_block(
     reader: &mut ArrayReader,
-    settings: &ToneSettings<'static, POINTS>,
+    settings: &ToneSettings<'_, POINTS>,
     mut rows: [&mut [[i16; SCAN]]; ADCS],
     t_us: u64,
 ) -> Vec<ToneRecord, SENSORS> {

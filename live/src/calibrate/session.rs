@@ -202,8 +202,8 @@ pub(crate) fn finish<S: std::io::Read + std::io::Write>(
 /// Calibrate the device at the other end of `port` while it runs through
 /// `holds` (spans of its clock): its records until the last hold ends,
 /// each sensor fitted, the set written down the link (the device checks
-/// it and stores it; it measures with it from its next block, a board
-/// image from its next start), and, with
+/// it and stores it; it measures with it from its next block, the
+/// multiplexed board from its next start), and, with
 /// `stop`, the device stopped.
 pub fn on_device<S: std::io::Read + std::io::Write>(
     port: S,
