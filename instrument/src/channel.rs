@@ -54,15 +54,7 @@ impl<'a, const N: usize, const S: usize> Settings<'a, N, S> {
     /// ([`Dielectric::SILICONE`]); the front end's ranges and the sensors
     /// are the application's.
     pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging, sensors: &'a Sensors<N, S>) -> Self {
-        Self {
-            policy: Policy::DEFAULT,
-            thresholds: Thresholds::DEFAULT,
-            dielectric: Dielectric::SILICONE,
-            front_ends,
-            ranging,
-            sensors,
-            record_every: 1,
-        }
+        Common::new(front_ends, ranging).with(sensors)
     }
 }
 
@@ -100,6 +92,19 @@ pub struct Common {
 }
 
 impl Common {
+    /// What every multiplexed application starts from
+    /// ([`Settings::new`]).
+    pub fn new(front_ends: [FrontEnd; RANGES], ranging: Ranging) -> Self {
+        Self {
+            policy: Policy::DEFAULT,
+            thresholds: Thresholds::DEFAULT,
+            dielectric: Dielectric::SILICONE,
+            front_ends,
+            ranging,
+            record_every: 1,
+        }
+    }
+
     /// The settings of these and `sensors`.
     pub fn with<const N: usize, const S: usize>(self, sensors: &Sensors<N, S>) -> Settings<'_, N, S> {
         Settings {
