@@ -99,12 +99,20 @@ impl<C: Shared<S>, const S: usize> InForce<C, S> {
         self.generation
     }
 
-    /// The stream's start frame, with the set in force.
-    pub fn start_frame(&self, firmware: &str, sensors: usize, sample_rate_hz: u32) -> link::Start {
+    /// The stream's start frame of device `device_id`, with the set in
+    /// force.
+    pub fn start_frame(
+        &self,
+        firmware: &str,
+        device_id: u32,
+        sensors: usize,
+        sample_rate_hz: u32,
+    ) -> link::Start {
         let settings = self.settings();
         let calibration = self.sensors.calibration();
         frames::start(
             firmware,
+            device_id,
             self.generation,
             &settings,
             &calibration,
@@ -193,8 +201,8 @@ mod tests {
             Digest::of(&settings.sensors.calibration())
         );
         // The start frame of a device started with it says the same.
-        let start = f.start_frame("test", 8, 1000);
-        assert_eq!(start.generation, 1);
+        let start = f.start_frame("test", 7, 8, 1000);
+        assert_eq!((start.generation, start.device_id), (1, 7));
         assert_eq!(start.settings_digest, applied.settings_digest);
     }
 

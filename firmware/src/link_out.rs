@@ -150,6 +150,7 @@ mod tests {
             sensors: 16,
             sample_rate_hz: 25_000,
             generation: 0,
+            device_id: 0,
         }
     }
 

@@ -192,10 +192,10 @@ fn keep(path: &CStr, save: Option<&Stored>) -> (Store<FileFlash>, Option<(u32, S
 }
 
 /// The command line's settings options: `flash=PATH` (the settings'
-/// flash in a host file), `save` (store the run's own set there) and
+/// flash in a host file), `save` (store the run's own set there),
 /// `until-stop` (measure past the scenario's end, until the host's stop
 /// request: a host that talks to the device is never raced by the
-/// scenario's clock).
+/// scenario's clock) and `device=N` (the id its start frame reports).
 #[derive(Default)]
 pub struct FlashArgs {
     /// `flash=PATH`, NUL-terminated for the host's open.
@@ -204,6 +204,9 @@ pub struct FlashArgs {
     save: bool,
     /// `until-stop`.
     until_stop: bool,
+    /// `device=N`: the device id the start frame reports (0 without),
+    /// as a board reports its chip's (`board::device_id`).
+    pub device: u32,
 }
 
 impl FlashArgs {
@@ -225,6 +228,18 @@ impl FlashArgs {
         }
         if arg == "until-stop" {
             self.until_stop = true;
+            return true;
+        }
+        if let Some(id) = arg.strip_prefix("device=") {
+            let parsed = match id.strip_prefix("0x") {
+                Some(hex) => u32::from_str_radix(hex, 16),
+                None => id.parse(),
+            };
+            let Ok(id) = parsed else {
+                defmt::println!("device=: not a 32-bit number (decimal, or hex after 0x)");
+                crate::qemu::exit(2)
+            };
+            self.device = id;
             return true;
         }
         false

@@ -84,11 +84,13 @@ pub fn from_record(r: &Record) -> link::Record {
     }
 }
 
-/// A stream's start frame: the firmware's name and version, the stored
-/// set in force (its `generation`, 0: none stored, and the digests of its
-/// settings and calibrations), the sensors and the sample rate.
+/// A stream's start frame: the firmware's name and version, the device's
+/// id, the stored set in force (its `generation`, 0: none stored, and the
+/// digests of its settings and calibrations), the sensors and the sample
+/// rate.
 pub fn start(
     firmware: &str,
+    device_id: u32,
     generation: u32,
     settings: &impl Digestible,
     calibration: &impl Digestible,
@@ -103,6 +105,7 @@ pub fn start(
         sensors: sensors as u8,
         sample_rate_hz,
         generation,
+        device_id,
     }
 }
 

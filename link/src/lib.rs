@@ -159,6 +159,10 @@ pub struct Start {
     /// The generation of the stored set in force (0: none stored, the
     /// firmware's own set).
     pub generation: u32,
+    /// The device's id (a board's: the CRC-32 of its chip's unique ID;
+    /// QEMU's: its `device=` argument, 0 without), which tells the boards
+    /// of a skin apart.
+    pub device_id: u32,
 }
 
 impl Start {

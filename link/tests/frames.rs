@@ -47,9 +47,10 @@ fn body() -> impl Strategy<Value = Body> {
             any::<u32>(),
             any::<u8>(),
             any::<u32>(),
+            any::<u32>(),
             any::<u32>()
         )
-            .prop_map(|(fw, s, c, n, r, g)| {
+            .prop_map(|(fw, s, c, n, r, g, d)| {
                 Body::Start(Start {
                     version: VERSION,
                     firmware: fw,
@@ -58,6 +59,7 @@ fn body() -> impl Strategy<Value = Body> {
                     sensors: n,
                     sample_rate_hz: r,
                     generation: g,
+                    device_id: d,
                 })
             }),
         (any::<u32>(), any::<u32>()).prop_map(|(records, dropped)| Body::End(End { records, dropped })),
@@ -129,6 +131,7 @@ fn stream(n: u32) -> (Vec<u8>, Vec<Frame>) {
             sensors: 16,
             sample_rate_hz: 25_000,
             generation: 3,
+            device_id: 0xA1B2_C3D4,
         }),
         &mut bytes,
         &mut frames,

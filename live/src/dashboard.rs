@@ -430,6 +430,8 @@ impl Dashboard {
         let json = serde_json::json!({
             "segment": segment,
             "firmware": start.firmware_str(),
+            "device_id": format!("{:08x}", start.device_id),
+            "generation": start.generation,
             "sensors": start.sensors,
             "sample_rate_hz": start.sample_rate_hz,
             "clock": clock.map(|l| l.json()),

@@ -716,6 +716,12 @@ fn print_finished(session: Session) -> Result<Outcome> {
     print_refused(&session);
     let session_clock: Vec<_> = session.segments().iter().map(|g| g.clock.line()).collect();
     for (k, g) in session.segments().iter().enumerate() {
+        println!(
+            "segment {k}: {}, device {:#010x}, stored settings generation {}",
+            g.start.firmware_str(),
+            g.start.device_id,
+            g.start.generation
+        );
         for (seq, a) in &g.applied {
             println!(
                 "segment {k}: settings generation {} applied at {:.3} s (frame {seq}), in force for the records after it",

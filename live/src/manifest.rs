@@ -104,7 +104,10 @@ fn segment(g: &Segment, skin: Option<&crate::skin::Board>) -> Value {
         "calibration_digest": format!("{:08x}", g.start.calibration_digest),
         "sensors": g.start.sensors,
         "sample_rate_hz": g.start.sample_rate_hz,
-        "skin_mismatch": skin.map(|b| b.mismatch(g.start.sensors)),
+        "skin_mismatch": skin.map(|b| b.mismatch(g.start.sensors, g.start.device_id)),
+        // The id the device reports (a board's: from its chip's unique
+        // ID), which names it among a skin's boards.
+        "device_id": format!("{:08x}", g.start.device_id),
         // The stored set's generation at the start (0: none stored), and
         // every set in force during the segment: the first from its
         // start, then each one the device applied while it ran, in force

@@ -535,7 +535,7 @@ impl Session {
         // A sensor the skin names that the device lacks, or one it
         // reports that the skin does not name: said at once.
         if let Some(skin) = &self.skin {
-            for line in skin.mismatch(s.sensors) {
+            for line in skin.mismatch(s.sensors, s.device_id) {
                 eprintln!("{line}");
             }
         }

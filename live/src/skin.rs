@@ -19,6 +19,10 @@
 //! group = "index finger"  # optional
 //! place = [12.0, 40.0]    # its centre on the layout
 //! outline = [[10, 35], [14, 35], [14, 45], [10, 45]]   # optional
+//!
+//! [[board]]                # optional: the device id a board reports
+//! name = "A"               # (its start frame); left out for one board
+//! device = 0x1A2B3C4D
 //! ```
 
 use anyhow::{bail, Context, Result};
@@ -40,6 +44,9 @@ pub struct Skin {
     pub picture: Option<String>,
     /// Its sensors, in the file's order.
     pub sensors: Vec<Sensor>,
+    /// The device id each board reports, where the file gives it: (the
+    /// board's name, "" for a skin of one board; the id).
+    pub devices: Vec<(String, u32)>,
 }
 
 /// One sensor of a skin.
@@ -65,6 +72,16 @@ struct FileIn {
     skin: HeadIn,
     #[serde(default, rename = "sensor")]
     sensors: Vec<SensorIn>,
+    #[serde(default, rename = "board")]
+    boards: Vec<BoardIn>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BoardIn {
+    #[serde(default)]
+    name: Option<Spanned<String>>,
+    device: Spanned<i64>,
 }
 
 #[derive(Deserialize)]
@@ -149,12 +166,52 @@ pub fn parse(text: &str, file: &str) -> Result<Skin> {
     if boards.contains(&"") && boards.iter().any(|b| !b.is_empty()) {
         bail!("{file}: some sensors name their board and some do not: name every sensor's board, or none (one board)");
     }
+    let devices = devices(&raw.boards, &boards, &at)?;
     Ok(Skin {
         name: raw.skin.name.into_inner(),
         units: raw.skin.units.unwrap_or_else(|| "mm".into()),
         picture: raw.skin.picture,
         sensors: out,
+        devices,
     })
+}
+
+/// The `[[board]]` entries, checked: each a board the sensors name (no
+/// name: the skin's only board), once; its device id a u32 no other
+/// board has.
+fn devices(
+    raw: &[BoardIn],
+    named: &[&str],
+    at: &dyn Fn(std::ops::Range<usize>, String) -> anyhow::Error,
+) -> Result<Vec<(String, u32)>> {
+    let mut out: Vec<(String, u32)> = vec![];
+    for b in raw {
+        let (name, span) = match &b.name {
+            Some(n) => (n.get_ref().trim().to_string(), n.span()),
+            None => (String::new(), b.device.span()),
+        };
+        if !named.contains(&name.as_str()) {
+            let why = match name.is_empty() {
+                true => "a [[board]] without a name, in a skin of several boards: name it".to_string(),
+                false => format!("board '{name}' has no sensor"),
+            };
+            return Err(at(span, why));
+        }
+        let Ok(device) = u32::try_from(*b.device.get_ref()) else {
+            return Err(at(
+                b.device.span(),
+                "device: a device id is 0 to 0xFFFFFFFF".into(),
+            ));
+        };
+        if let Some((o, _)) = out.iter().find(|(o, d)| *o == name || *d == device) {
+            return Err(at(
+                span,
+                format!("board {name:?}: board {o:?} has this entry or this device id already"),
+            ));
+        }
+        out.push((name, device));
+    }
+    Ok(out)
 }
 
 /// One sensor of the file, checked.
@@ -242,6 +299,7 @@ impl Skin {
             ),
         };
         Ok(Board {
+            device: self.devices.iter().find(|(b, _)| *b == chosen).map(|&(_, d)| d),
             skin: self.name.clone(),
             sensors: self
                 .sensors
@@ -261,6 +319,8 @@ pub struct Board {
     pub skin: String,
     /// The board's name ("" for a skin of one board).
     pub board: String,
+    /// The device id it reports, where the skin gives it.
+    pub device: Option<u32>,
     /// Its sensors.
     pub sensors: Vec<Sensor>,
 }
@@ -288,10 +348,17 @@ impl Board {
         (missing, unnamed)
     }
 
-    /// What to say of a device reporting `count` sensors, a line each.
-    pub fn mismatch(&self, count: u8) -> Vec<String> {
+    /// What to say of device `device_id` reporting `count` sensors, a
+    /// line each.
+    pub fn mismatch(&self, count: u8, device_id: u32) -> Vec<String> {
         let (missing, unnamed) = self.check(count);
         let mut out = vec![];
+        if let Some(want) = self.device.filter(|&d| d != device_id) {
+            out.push(format!(
+                "skin '{}': board {:?} is device {want:#010x}, this device is {device_id:#010x}",
+                self.skin, self.board
+            ));
+        }
         if !missing.is_empty() {
             out.push(format!(
                 "skin '{}': {} beyond the {count} sensors the device reports",
@@ -343,9 +410,42 @@ place = [30, 10]
         assert_eq!(b.check(2), (vec!["'palm' (index 3)".to_string()], vec![1]));
         assert_eq!(b.check(4), (vec![], vec![1, 2]));
         assert_eq!(
-            b.mismatch(4),
+            b.mismatch(4, 0),
             vec!["skin 'left hand': the device's sensors 1, 2 are not in the skin"]
         );
+    }
+
+    #[test]
+    fn each_board_is_named_by_the_device_id_it_reports() {
+        let two = format!(
+            "{}\n[[board]]\nname = \"A\"\ndevice = 0x1A2B3C4D\n\n[[board]]\nname = \"B\"\ndevice = 7\n",
+            HAND.replace("index = 0\n", "index = 0\nboard = \"A\"\n")
+                .replace("index = 3\n", "index = 3\nboard = \"B\"\n")
+        );
+        let skin = parse(&two, "two.toml").unwrap();
+        assert_eq!(
+            skin.devices,
+            vec![("A".to_string(), 0x1A2B_3C4D), ("B".to_string(), 7)]
+        );
+        let a = skin.on_board(Some("A")).unwrap();
+        assert_eq!(a.device, Some(0x1A2B_3C4D));
+        assert!(a.mismatch(1, 0x1A2B_3C4D).is_empty());
+        assert_eq!(
+            a.mismatch(1, 7),
+            vec!["skin 'left hand': board \"A\" is device 0x1a2b3c4d, this device is 0x00000007"]
+        );
+        let e = |t: &str| format!("{:#}", parse(t, "s.toml").unwrap_err());
+        let unknown = two.replace("name = \"B\"\ndevice", "name = \"C\"\ndevice");
+        assert!(e(&unknown).contains("board 'C' has no sensor"), "{}", e(&unknown));
+        let again = two.replace("device = 7", "device = 0x1A2B3C4D");
+        assert!(e(&again).contains("this device id already"), "{}", e(&again));
+        let big = two.replace("device = 7", "device = 0x100000000");
+        assert!(e(&big).contains("0 to 0xFFFFFFFF"), "{}", e(&big));
+        let nameless = two.replace("name = \"B\"\ndevice", "device");
+        assert!(e(&nameless).contains("without a name"), "{}", e(&nameless));
+        // One board: its entry needs no name.
+        let one = parse(&format!("{HAND}\n[[board]]\ndevice = 5\n"), "one.toml").unwrap();
+        assert_eq!(one.on_board(None).unwrap().device, Some(5));
     }
 
     /// `text`'s error, as a user reads it.

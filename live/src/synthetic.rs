@@ -47,6 +47,7 @@ pub fn skin_start(sensors: u8) -> Start {
         sensors,
         sample_rate_hz: 25_000,
         generation: 0,
+        device_id: 0,
     }
 }
 

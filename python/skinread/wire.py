@@ -122,6 +122,8 @@ class Start:
     sample_rate_hz: int
     #: The stored set's generation in force at the start (0: none stored).
     generation: int
+    #: The device's id (a board's: the CRC-32 of its chip's unique ID).
+    device_id: int
 
 
 @dataclass(frozen=True)
@@ -206,7 +208,7 @@ def _body(r: _Reader) -> Body:
     if kind == "Start":
         version, firmware = r.u16(), r.raw(24)
         name = firmware.split(b"\0", 1)[0].decode("ascii", "replace")
-        return Start(version, name, r.u32(), r.u32(), r.u8(), r.u32(), r.u32())
+        return Start(version, name, r.u32(), r.u32(), r.u8(), r.u32(), r.u32(), r.u32())
     if kind == "Applied":
         return Applied(r.u32(), r.u32(), r.u32(), r.u64())
     if kind == "Record":

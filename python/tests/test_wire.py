@@ -78,10 +78,10 @@ def test_a_record_built_from_the_spec_decodes_field_by_field():
 
 def test_start_end_and_status_frames():
     start = varint(0) + varint(0) + varint(4) + b"skin-array 0.1.0".ljust(24, b"\0") \
-        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000) + varint(7)
+        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000) + varint(7) + varint(0xA1B2C3D4)
     s = wire.decode(sealed(start)).body
     assert (s.version, s.firmware, s.sensors, s.sample_rate_hz) == (4, "skin-array 0.1.0", 16, 25_000)
-    assert s.settings_digest == 0xDEADBEEF and s.generation == 7
+    assert s.settings_digest == 0xDEADBEEF and s.generation == 7 and s.device_id == 0xA1B2C3D4
     end = wire.decode(sealed(varint(9) + varint(2) + varint(1000) + varint(0))).body
     assert (end.records, end.dropped) == (1000, 0)
     status = varint(5) + varint(5) + varint(10**6) + varint(1) + b"".join(varint(v) for v in range(7))
@@ -107,7 +107,7 @@ def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
     from skinread import check
 
     start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
-        + varint(25_000) + varint(0)
+        + varint(25_000) + varint(0) + varint(0)
     stream = sealed(start) + b"\0" + sealed(record_body(seq=1)) + b"\0"
     # A duplicate (seq 1 again) is dropped, as live drops it.
     stream += sealed(record_body(seq=1)) + b"\0"
@@ -134,7 +134,7 @@ def test_records_after_an_applied_frame_are_of_its_generation(tmp_path):
     from skinread.stream import read_stream
 
     start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
-        + varint(25_000) + varint(2)
+        + varint(25_000) + varint(2) + varint(0)
     applied = varint(2) + varint(6) + varint(3) + varint(0xAB) + varint(0xCD) + varint(1234567)
     a = wire.decode(sealed(applied)).body
     assert a == wire.Applied(3, 0xAB, 0xCD, 1234567)

@@ -484,8 +484,12 @@ fn the_array_applies_a_set_stored_while_it_runs() {
     let tmp = tempfile::tempdir().unwrap();
     let flash = format!("flash={}", tmp.path().join("array.bin").display());
     let log = tmp.path().join("array.log");
-    let (mut qemu, sock) =
-        qemu_tests::connect_qemu_tcp_logged(&elf, &["check", &flash, "until-stop"], &log).unwrap();
+    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp_logged(
+        &elf,
+        &["check", &flash, "until-stop", "device=0x1A2B3C4D"],
+        &log,
+    )
+    .unwrap();
     let rx = frames(sock.try_clone().unwrap());
     let mut sock = sock;
     let mut enc = link::Encoder::new();
@@ -505,16 +509,21 @@ fn the_array_applies_a_set_stored_while_it_runs() {
         send(*r, &mut sock);
     }
     let mut before = vec![];
+    let mut start = None;
     let applied = loop {
         let f = rx
             .recv_timeout(Duration::from_secs(120))
             .expect("the applied frame");
         match f.body {
+            link::Body::Start(s) => start = Some(s),
             link::Body::Record(r) => before.push(r),
             link::Body::Applied(a) => break a,
             _ => {}
         }
     };
+    // The start frame: the device's id, nothing stored.
+    let start = start.expect("the start frame");
+    assert_eq!((start.device_id, start.generation), (0x1A2B_3C4D, 0));
     assert_eq!(applied.generation, 1);
     assert!(before.iter().any(|r| r.sensor == 5));
     assert!(before

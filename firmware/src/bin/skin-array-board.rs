@@ -232,6 +232,7 @@ mod app {
             queue,
             in_force.start_frame(
                 concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
+                firmware::board::device_id::read(),
                 SENSORS,
                 RATE_HZ,
             ),

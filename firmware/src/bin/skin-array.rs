@@ -201,6 +201,7 @@ mod app {
             Uart0::take(),
             in_force.start_frame(
                 concat!("skin-array ", env!("CARGO_PKG_VERSION")),
+                flash.device,
                 SENSORS,
                 RATE_HZ,
             ),

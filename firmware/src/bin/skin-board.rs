@@ -183,6 +183,7 @@ mod app {
             queue,
             frames::start(
                 concat!("skin-board ", env!("CARGO_PKG_VERSION")),
+                firmware::board::device_id::read(),
                 generation,
                 &settings,
                 &settings.sensors.calibration(),

@@ -246,6 +246,7 @@ mod app {
                     Uart0::take(),
                     in_force.start_frame(
                         concat!("skin-qemu ", env!("CARGO_PKG_VERSION")),
+                        flash.device,
                         CHANNELS,
                         instrument::design::SAMPLE_RATE,
                     ),

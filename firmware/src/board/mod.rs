@@ -22,6 +22,7 @@
 //! | [`flash`] | the settings' 8 KiB of flash as an `embedded-storage` `NorFlash`: unlock, page erase, double-word programming, error flags |
 //! | [`front_end`] | each front end started in RM0440's order; the DAC's slot waveforms; the DMA buffers' shapes |
 //! | [`timer`] | TIM6 at the sample rate |
+//! | [`device_id`] | the board's id in its start frame: the CRC-32 of the G474's unique device ID |
 //! | [`watchdog`] | IWDG (100 ms), the cause of the last reset |
 //! | `settings` | (target) the multiplexed board's sensors at start: the set stored in flash, or uncalibrated; the request side |
 //! | [`setup`] | the start and end of both board apps' `init`: reset cause, watchdog, clocks, the peripherals the tasks own |
@@ -34,6 +35,7 @@ pub use stm32g4::stm32g474 as pac;
 pub mod adc;
 pub mod clocks;
 pub mod dac;
+pub mod device_id;
 pub mod dma;
 pub mod excitation;
 pub mod flash;

@@ -189,6 +189,7 @@ mod tests {
             sensors: 8,
             sample_rate_hz: 200_000,
             generation: 0,
+            device_id: 0,
         }
     }
 
