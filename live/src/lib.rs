@@ -21,6 +21,7 @@ pub mod calibrate;
 pub mod clock;
 pub mod config;
 pub mod dashboard;
+pub mod devtools;
 mod follow;
 mod interpolated;
 mod manifest;

@@ -209,105 +209,24 @@ print(len(recs), disturbed, sorted({r["sensor"] for r in recs}), recs[0]["f2_hz"
     );
 }
 
-/// Chromium driven through its DevTools protocol: JavaScript evaluated
-/// in the page, its value returned.
-struct Page {
-    ws: tungstenite::WebSocket<std::net::TcpStream>,
-    id: u64,
-}
+/// Chromium's page through DevTools ([`live::devtools`]), a test's
+/// failure where it fails.
+struct Page(live::devtools::Page);
 
 impl Page {
-    /// Chromium's first page, on DevTools port `port`.
     fn attach(port: u16) -> Self {
-        let t0 = std::time::Instant::now();
-        let url = loop {
-            let list = std::net::TcpStream::connect(("127.0.0.1", port))
-                .ok()
-                .and_then(|mut s| {
-                    use std::io::{Read, Write};
-                    write!(s, "GET /json/list HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n").ok()?;
-                    // The connection stays open: the body is Content-Length long.
-                    let mut r = BufReader::new(s);
-                    let mut len = 0;
-                    loop {
-                        let mut line = String::new();
-                        r.read_line(&mut line).ok()?;
-                        match line.trim_end() {
-                            "" => break,
-                            h => {
-                                if let Some((k, v)) = h.split_once(':') {
-                                    if k.eq_ignore_ascii_case("content-length") {
-                                        len = v.trim().parse().ok()?;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                    let mut body = vec![0; len];
-                    r.read_exact(&mut body).ok()?;
-                    let pages: serde_json::Value = serde_json::from_slice(&body).ok()?;
-                    pages.as_array()?.iter().find(|p| p["type"] == "page")?["webSocketDebuggerUrl"]
-                        .as_str()
-                        .map(str::to_string)
-                });
-            if let Some(url) = list {
-                break url;
-            }
-            assert!(t0.elapsed().as_secs() < 30, "no DevTools page on port {port}");
-            std::thread::sleep(std::time::Duration::from_millis(100));
-        };
-        let (ws, _) = tungstenite::connect(url.as_str()).unwrap();
-        let ws = ws_plain(ws);
-        Self { ws, id: 0 }
+        Self(live::devtools::Page::attach(port).unwrap())
     }
 
-    /// `expression`'s value in the page.
     fn eval(&mut self, expression: &str) -> serde_json::Value {
-        self.id += 1;
-        let msg = serde_json::json!({
-            "id": self.id,
-            "method": "Runtime.evaluate",
-            "params": {"expression": expression, "returnByValue": true, "awaitPromise": true},
-        });
-        self.ws.send(tungstenite::Message::text(msg.to_string())).unwrap();
-        loop {
-            let m = self.ws.read().unwrap();
-            let Ok(text) = m.to_text() else { continue };
-            let v: serde_json::Value = serde_json::from_str(text).unwrap_or_default();
-            if v["id"] == self.id {
-                return v["result"]["result"]["value"].clone();
-            }
-        }
+        self.0.eval(expression).unwrap()
     }
 
-    /// Wait until `expression` is true in the page (at most 20 s).
     fn until(&mut self, expression: &str) {
-        let t0 = std::time::Instant::now();
-        while self.eval(expression) != serde_json::Value::Bool(true) {
-            assert!(t0.elapsed().as_secs() < 20, "never: {expression}");
-            std::thread::sleep(std::time::Duration::from_millis(100));
-        }
+        self.0
+            .until(expression, std::time::Duration::from_secs(20))
+            .unwrap()
     }
-}
-
-/// The socket under a client WebSocket that connected in plain TCP.
-fn ws_plain(
-    ws: tungstenite::WebSocket<tungstenite::stream::MaybeTlsStream<std::net::TcpStream>>,
-) -> tungstenite::WebSocket<std::net::TcpStream> {
-    let config = *ws.get_config();
-    let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.into_inner() else {
-        panic!("DevTools over TLS?")
-    };
-    tungstenite::WebSocket::from_raw_socket(s, tungstenite::protocol::Role::Client, Some(config))
-}
-
-/// A free TCP port of this machine.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// The page's Record button and Mark field in a real browser, against a
@@ -344,7 +263,7 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     for f in &frames[..100] {
         sock.write_all(f).unwrap();
     }
-    let port = free_port();
+    let port = live::devtools::free_port().unwrap();
     let mut browser = Command::new("chromium")
         .args(["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"])
         .args([

@@ -1,0 +1,116 @@
+//! Headless Chromium driven through its DevTools protocol (a WebSocket
+//! per page): the dashboard's tests click its buttons with it, and the
+//! soak measures the page's frame rate and memory.
+
+use anyhow::{bail, Context, Result};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::time::{Duration, Instant};
+
+/// A page of Chromium, JavaScript evaluated in it.
+pub struct Page {
+    ws: tungstenite::WebSocket<std::net::TcpStream>,
+    id: u64,
+}
+
+impl Page {
+    /// Chromium's first page, on DevTools port `port` (Chromium started
+    /// with `--remote-debugging-port=PORT`), waiting up to 30 s for it.
+    pub fn attach(port: u16) -> Result<Self> {
+        let t0 = Instant::now();
+        let url = loop {
+            if let Some(url) = first_page(port) {
+                break url;
+            }
+            if t0.elapsed() > Duration::from_secs(30) {
+                bail!("no DevTools page on port {port} within 30 s");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        let (ws, _) = tungstenite::connect(url.as_str()).context("connecting to the page's DevTools")?;
+        let config = *ws.get_config();
+        let tungstenite::stream::MaybeTlsStream::Plain(s) = ws.into_inner() else {
+            bail!("DevTools over TLS");
+        };
+        let ws =
+            tungstenite::WebSocket::from_raw_socket(s, tungstenite::protocol::Role::Client, Some(config));
+        Ok(Self { ws, id: 0 })
+    }
+
+    /// `expression`'s value in the page (a promise awaited); an error for
+    /// an exception it throws.
+    pub fn eval(&mut self, expression: &str) -> Result<serde_json::Value> {
+        self.evaluate(expression)?
+            .map_err(|e| anyhow::anyhow!("{expression}: {e}"))
+    }
+
+    /// Wait until `expression` is true in the page (at most `limit`): an
+    /// exception (the page not there yet) is not true.
+    pub fn until(&mut self, expression: &str, limit: Duration) -> Result<()> {
+        let t0 = Instant::now();
+        while !matches!(self.evaluate(expression)?, Ok(serde_json::Value::Bool(true))) {
+            if t0.elapsed() > limit {
+                bail!("never within {limit:?}: {expression}");
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        Ok(())
+    }
+
+    /// `expression`'s value, or the exception it threw.
+    fn evaluate(&mut self, expression: &str) -> Result<Result<serde_json::Value, serde_json::Value>> {
+        self.id += 1;
+        let msg = serde_json::json!({
+            "id": self.id,
+            "method": "Runtime.evaluate",
+            "params": {"expression": expression, "returnByValue": true, "awaitPromise": true},
+        });
+        self.ws.send(tungstenite::Message::text(msg.to_string()))?;
+        loop {
+            let m = self.ws.read()?;
+            let Ok(text) = m.to_text() else { continue };
+            let v: serde_json::Value = serde_json::from_str(text).unwrap_or_default();
+            if v["id"] == self.id {
+                let exception = &v["result"]["exceptionDetails"];
+                return Ok(match exception.is_object() {
+                    true => Err(exception.clone()),
+                    false => Ok(v["result"]["result"]["value"].clone()),
+                });
+            }
+        }
+    }
+}
+
+/// The WebSocket address of the first page Chromium's DevTools on `port`
+/// lists, if it answers yet. The connection stays open (HTTP/1.1): the
+/// body is read to its Content-Length.
+fn first_page(port: u16) -> Option<String> {
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).ok()?;
+    write!(s, "GET /json/list HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n").ok()?;
+    let mut r = BufReader::new(s);
+    let mut len = 0;
+    loop {
+        let mut line = String::new();
+        r.read_line(&mut line).ok()?;
+        match line.trim_end() {
+            "" => break,
+            h => {
+                if let Some((k, v)) = h.split_once(':') {
+                    if k.eq_ignore_ascii_case("content-length") {
+                        len = v.trim().parse().ok()?;
+                    }
+                }
+            }
+        }
+    }
+    let mut body = vec![0; len];
+    r.read_exact(&mut body).ok()?;
+    let pages: serde_json::Value = serde_json::from_slice(&body).ok()?;
+    pages.as_array()?.iter().find(|p| p["type"] == "page")?["webSocketDebuggerUrl"]
+        .as_str()
+        .map(str::to_string)
+}
+
+/// A free TCP port of this machine (for Chromium's DevTools).
+pub fn free_port() -> Result<u16> {
+    Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
+}
