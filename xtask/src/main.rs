@@ -104,6 +104,9 @@ enum Cmd {
         /// The draw of the kills.
         #[arg(long, default_value_t = 1)]
         seed: u64,
+        /// Sensors the device reads (16: a board; 64: a skin of four).
+        #[arg(long, default_value_t = 16)]
+        sensors: u64,
     },
     /// The fuzz targets (dsp-core's API, the channel logic, the wire
     /// format, the readers) with many cases (tens of minutes).
@@ -145,6 +148,7 @@ fn main() -> Result<()> {
             speed,
             kill_every,
             seed,
+            sensors,
         } => {
             setup::run()?;
             let soak = soak::Soak {
@@ -153,6 +157,7 @@ fn main() -> Result<()> {
                 kill_after_s: (kill_every, 2.0 * kill_every),
                 seed,
                 dashboard: true,
+                sensors,
             };
             print!("{}", soak::run(&root, &soak)?);
             Ok(())

@@ -12,8 +12,12 @@
 //! count its last health line gave) in `records.csv`, numbered without a
 //! gap; the last session, ended cleanly, by its manifest's counts against
 //! what the device sent. Resident memory is sampled throughout, and must
-//! stay within 256 MiB. A checked session's folder is deleted (a day's
-//! records would fill a disk); the report is `out/soak/report.md`.
+//! stay within 256 MiB. The dashboard's page is sampled every 5 s
+//! through Chromium's DevTools: the frames it draws a second (at least
+//! 20) and its JavaScript heap (at most 256 MiB). `--sensors 64` streams
+//! a four-board skin's 64 × 1,000 records/s. A checked session's folder is
+//! deleted (a day's records would fill a disk); the report is
+//! `out/soak/report.md`.
 
 use anyhow::{ensure, Context, Result};
 use link::{Encoder, End, MAX_FRAME};
@@ -26,9 +30,16 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-/// Sensors the device reads, and records per second each.
-const SENSORS: u64 = 16;
+/// Records per second each sensor.
 const RATE: u64 = 1000;
+/// The dashboard's frame rate every sample keeps to, frames/s (a page
+/// below it stutters visibly).
+const FPS_MIN: f64 = 20.0;
+/// Seconds between samples of the page.
+const PAGE_EVERY_S: f64 = 5.0;
+/// The bound on the page's JavaScript heap, MiB (as on `live`'s own
+/// memory: a day's records must not pile up in the page).
+const HEAP_MAX_MIB: f64 = 256.0;
 /// The bound on `live`'s resident memory, KiB.
 const RESIDENT_MAX_KIB: u64 = 256 * 1024;
 
@@ -44,8 +55,10 @@ pub struct Soak {
     pub kill_after_s: (f64, f64),
     /// The draw of the kills.
     pub seed: u64,
-    /// Open the dashboard in headless Chromium.
+    /// Open the dashboard in headless Chromium, and measure it there.
     pub dashboard: bool,
+    /// Sensors the device reads (16 a board; 64: a skin of four).
+    pub sensors: u64,
 }
 
 impl Soak {
@@ -58,8 +71,23 @@ impl Soak {
             kill_after_s: (8.0, 20.0),
             seed: 1,
             dashboard: true,
+            sensors: 16,
         }
     }
+}
+
+/// One sample of the dashboard's page in headless Chromium.
+#[derive(Clone, Copy, Debug)]
+struct PageSample {
+    /// s since the soak began.
+    t: f64,
+    /// Frames the page drew a second since the last sample (its
+    /// `requestAnimationFrame` callbacks).
+    fps: f64,
+    /// Its JavaScript heap in use, MiB.
+    heap_mib: f64,
+    /// Elements in its document.
+    nodes: u64,
 }
 
 /// One session of the soak, as checked.
@@ -85,8 +113,8 @@ pub fn run(root: &Path, soak: &Soak) -> Result<String> {
     std::fs::create_dir_all(&out)?;
     let listener = TcpListener::bind("127.0.0.1:0")?;
     let addr = listener.local_addr()?;
-    let total = soak.seconds * SENSORS * RATE;
-    let device = Device::new(total, soak.speed);
+    let total = soak.seconds * soak.sensors * RATE;
+    let device = Device::new(total, soak.speed, soak.sensors);
     let dev = device.clone();
     // Serves as long as the soak runs (a session killed as the end frame
     // left is followed by one that gets a stream of none).
@@ -95,6 +123,7 @@ pub fn run(root: &Path, soak: &Soak) -> Result<String> {
     let start = Instant::now();
     let mut sessions = vec![];
     let mut rss = vec![];
+    let mut page = vec![];
     loop {
         let dir = out.join(format!("session-{}", sessions.len() + 1));
         let kill_after = Duration::from_secs_f64(rng.gen_range(soak.kill_after_s.0..soak.kill_after_s.1));
@@ -106,7 +135,7 @@ pub fn run(root: &Path, soak: &Soak) -> Result<String> {
             kill_after,
             &device,
             start,
-            &mut rss,
+            (&mut rss, &mut page),
         )?;
         let killed = s.killed;
         sessions.push(s);
@@ -115,13 +144,29 @@ pub fn run(root: &Path, soak: &Soak) -> Result<String> {
         }
         std::fs::remove_dir_all(&dir)?;
     }
-    let report = report(soak, &sessions, &rss, start.elapsed());
+    let mut report = report(soak, &sessions, &rss, start.elapsed());
+    if soak.dashboard {
+        report += &page_report(&page);
+    }
     std::fs::write(out.join("report.md"), &report)?;
     let peak = sessions.iter().map(|s| s.peak_kib).max().unwrap_or(0);
     ensure!(
         peak <= RESIDENT_MAX_KIB,
         "live's resident memory peaked at {peak} KiB:\n{report}"
     );
+    if soak.dashboard {
+        ensure!(!page.is_empty(), "the dashboard was never sampled:\n{report}");
+        let slow = page.iter().find(|p| p.fps < FPS_MIN);
+        ensure!(
+            slow.is_none(),
+            "the dashboard drew {slow:?}, below {FPS_MIN} frames/s:\n{report}"
+        );
+        let big = page.iter().find(|p| p.heap_mib > HEAP_MAX_MIB);
+        ensure!(
+            big.is_none(),
+            "the dashboard's heap reached {big:?}, over {HEAP_MAX_MIB} MiB:\n{report}"
+        );
+    }
     Ok(report)
 }
 
@@ -137,7 +182,7 @@ fn one_session(
     kill_after: Duration,
     device: &Device,
     start: Instant,
-    rss: &mut Vec<(f64, u64)>,
+    (rss, page): (&mut Vec<(f64, u64)>, &mut Vec<PageSample>),
 ) -> Result<Session> {
     let mut cmd = Command::new(live);
     cmd.arg("--tcp").arg(addr.to_string()).arg("--dataset").arg(dir);
@@ -150,9 +195,12 @@ fn one_session(
         .spawn()
         .context("starting live")?;
     let flushed = health(&mut child);
-    let browser = match dashboard {
-        true => Some(open_dashboard(&mut child)?),
-        false => None,
+    let (browser, mut meter) = match dashboard {
+        true => {
+            let (b, m) = open_dashboard(&mut child)?;
+            (Some(b), Some(m))
+        }
+        false => (None, None),
     };
     let begun = Instant::now();
     let mut peak = 0;
@@ -163,6 +211,11 @@ fn one_session(
         if let Some(kib) = resident_kib(child.id()) {
             peak = peak.max(kib);
             rss.push((start.elapsed().as_secs_f64(), kib));
+        }
+        if let Some(m) = &mut meter {
+            if let Some(s) = m.sample(start)? {
+                page.push(s);
+            }
         }
         if begun.elapsed() >= kill_after && !device.done() {
             child.kill()?;
@@ -211,8 +264,9 @@ fn health(child: &mut Child) -> Arc<Mutex<u64>> {
     count
 }
 
-/// Headless Chromium on the dashboard `live` prints first.
-fn open_dashboard(child: &mut Child) -> Result<Child> {
+/// Headless Chromium on the dashboard `live` prints first, and what
+/// measures its page.
+fn open_dashboard(child: &mut Child) -> Result<(Child, Meter)> {
     let mut first = String::new();
     let out = child.stdout.take().context("live's stdout")?;
     let mut rd = BufReader::new(out);
@@ -224,18 +278,65 @@ fn open_dashboard(child: &mut Child) -> Result<Child> {
         .strip_prefix("dashboard: ")
         .with_context(|| format!("no dashboard address from live: {first:?}"))?
         .to_string();
-    Command::new("chromium")
+    let port = live::devtools::free_port()?;
+    let browser = Command::new("chromium")
         .args([
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
-            "--remote-debugging-port=0",
+            "--enable-precise-memory-info",
         ])
+        .arg(format!("--remote-debugging-port={port}"))
         .arg(&url)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
-        .context("chromium (Debian's package; `cargo xtask setup` installs it)")
+        .context("chromium (Debian's package; `cargo xtask setup` installs it)")?;
+    let mut page = live::devtools::Page::attach(port)?;
+    page.until("document.readyState === 'complete'", Duration::from_secs(30))?;
+    // Each frame the page draws counted.
+    page.eval(
+        "window.soakFrames = 0; (function f() { window.soakFrames++; requestAnimationFrame(f); })(); true",
+    )?;
+    Ok((browser, Meter::new(page)?))
+}
+
+/// The dashboard's page, sampled every [`PAGE_EVERY_S`]: its frames
+/// drawn since the last sample, its heap and its document's size.
+struct Meter {
+    page: live::devtools::Page,
+    last: (Instant, f64),
+}
+
+impl Meter {
+    fn new(mut page: live::devtools::Page) -> Result<Self> {
+        let frames = page.eval("window.soakFrames")?.as_f64().unwrap_or(0.0);
+        Ok(Self {
+            page,
+            last: (Instant::now(), frames),
+        })
+    }
+
+    /// A sample, where one is due.
+    fn sample(&mut self, start: Instant) -> Result<Option<PageSample>> {
+        let dt = self.last.0.elapsed().as_secs_f64();
+        if dt < PAGE_EVERY_S {
+            return Ok(None);
+        }
+        let v = self.page.eval(
+            "[window.soakFrames, performance.memory.usedJSHeapSize, document.getElementsByTagName('*').length]",
+        )?;
+        let num = |k: usize| v[k].as_f64().unwrap_or(f64::NAN);
+        let frames = num(0);
+        let s = PageSample {
+            t: start.elapsed().as_secs_f64(),
+            fps: (frames - self.last.1) / dt,
+            heap_mib: num(1) / (1024.0 * 1024.0),
+            nodes: num(2) as u64,
+        };
+        self.last = (Instant::now(), frames);
+        Ok(Some(s))
+    }
 }
 
 /// Resident memory of process `pid`, KiB.
@@ -334,16 +435,18 @@ fn check_clean(dir: &Path, sent: u64) -> Result<u64> {
 struct Device {
     total: u64,
     speed: Option<f64>,
+    sensors: u64,
     /// Records sent in all, and on the connection now.
     sent: Arc<AtomicU64>,
     on_connection: Arc<AtomicU64>,
 }
 
 impl Device {
-    fn new(total: u64, speed: Option<f64>) -> Self {
+    fn new(total: u64, speed: Option<f64>, sensors: u64) -> Self {
         Self {
             total,
             speed,
+            sensors,
             sent: Arc::new(AtomicU64::new(0)),
             on_connection: Arc::new(AtomicU64::new(0)),
         }
@@ -376,7 +479,7 @@ impl Device {
         let mut buf = [0u8; MAX_FRAME];
         self.on_connection.store(0, Ordering::Relaxed);
         let frame = enc
-            .start(&live::synthetic::skin_start(SENSORS as u8), &mut buf)
+            .start(&live::synthetic::skin_start(self.sensors as u8), &mut buf)
             .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         if w.write_all(frame).is_err() {
             return Ok(false);
@@ -385,7 +488,7 @@ impl Device {
         while self.sent.load(Ordering::Relaxed) < self.total {
             let k = self.sent.load(Ordering::Relaxed);
             let frame = enc
-                .record(&live::synthetic::skin_record(k, SENSORS), &mut buf)
+                .record(&live::synthetic::skin_record(k, self.sensors), &mut buf)
                 .map_err(|e| anyhow::anyhow!("{e:?}"))?;
             if w.write_all(frame).is_err() {
                 return Ok(false);
@@ -413,7 +516,7 @@ impl Device {
     /// Wait until record `k` is due (at `speed` × real time).
     fn pace(&self, k: u64, begun: Instant) {
         if let Some(speed) = self.speed {
-            let due = Duration::from_secs_f64(k as f64 / (SENSORS * RATE) as f64 / speed);
+            let due = Duration::from_secs_f64(k as f64 / (self.sensors * RATE) as f64 / speed);
             if let Some(wait) = due.checked_sub(begun.elapsed()) {
                 std::thread::sleep(wait);
             }
@@ -427,8 +530,9 @@ fn report(soak: &Soak, sessions: &[Session], rss: &[(f64, u64)], took: Duration)
         format!("{s}× real time")
     });
     let mut md = format!(
-        "# Soak: {} s of 16 × 1,000 records/s through `live --tcp`{}, {speed}, killed every {}–{} s\n\n",
+        "# Soak: {} s of {} × 1,000 records/s through `live --tcp`{}, {speed}, killed every {}–{} s\n\n",
         soak.seconds,
+        soak.sensors,
         if soak.dashboard {
             " with the dashboard open in headless Chromium"
         } else {
@@ -466,5 +570,27 @@ fn report(soak: &Soak, sessions: &[Session], rss: &[(f64, u64)], took: Duration)
         sessions.iter().filter(|s| s.killed).count(),
         took.as_secs_f64()
     );
+    md
+}
+
+/// The dashboard's page over the soak: its frame rate and memory.
+fn page_report(page: &[PageSample]) -> String {
+    let mut md = "\nThe dashboard's page in headless Chromium (a sample every 5 s, each session's page new):\n\n| s | frames/s | JS heap | elements |\n|---:|---:|---:|---:|\n".to_string();
+    let step = (page.len() / 20).max(1);
+    for p in page.iter().step_by(step) {
+        md += &format!(
+            "| {:.0} | {:.1} | {:.1} MiB | {} |\n",
+            p.t, p.fps, p.heap_mib, p.nodes
+        );
+    }
+    let mut fps: Vec<f64> = page.iter().map(|p| p.fps).collect();
+    fps.sort_by(f64::total_cmp);
+    let heap = page.iter().map(|p| p.heap_mib).fold(0.0, f64::max);
+    if let (Some(lo), Some(mid)) = (fps.first(), fps.get(fps.len() / 2)) {
+        md += &format!(
+            "\nFrames/s: median {mid:.1}, lowest {lo:.1} (bound {FPS_MIN}); JS heap at most {heap:.1} MiB (bound {HEAP_MAX_MIB}); {} samples.\n",
+            page.len()
+        );
+    }
     md
 }
