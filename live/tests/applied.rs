@@ -6,7 +6,7 @@
 
 mod common;
 
-use link::{Applied, Body, Encoder, End, Record, Start, Tone, MAX_FRAME};
+use link::{Applied, Body, Encoder, End, Start, MAX_FRAME};
 
 /// A device started with stored generation 1 that applies generation 2
 /// after its fourth record, eight records in all.
@@ -24,22 +24,7 @@ fn stream() -> Vec<u8> {
         generation: 1,
         ..Start::default()
     }));
-    let record = |k: u32| Record {
-        t_us: 4000 * u64::from(k / 2 + 1),
-        sensor: (k % 2) as u8,
-        tones: [
-            Tone {
-                f_hz: 1953.125,
-                z_re_ohm: 2.3e5,
-                z_im_ohm: -4.0e5,
-            },
-            Tone::default(),
-        ],
-        c_farad: 205e-12,
-        r_ohm: 7e5,
-        chosen_hz: 1953.125,
-        ..Record::default()
-    };
+    let record = |k: u32| common::single_tone(4000 * u64::from(k / 2 + 1), (k % 2) as u8);
     for k in 0..4 {
         push(Body::Record(record(k)));
     }

@@ -142,29 +142,106 @@ fn reply(rx: &std::sync::mpsc::Receiver<link::Frame>) -> link::Reply {
     }
 }
 
+/// The host's end of a device's link over QEMU's UART0 socket: its
+/// frames as they arrive, requests sent down.
+struct Host {
+    rx: std::sync::mpsc::Receiver<link::Frame>,
+    sock: std::net::TcpStream,
+    enc: link::Encoder,
+}
+
+impl Host {
+    /// Image `elf` started with `args`, its defmt log into `log`.
+    fn start(elf: &std::path::Path, args: &[&str], log: &std::path::Path) -> (std::process::Child, Self) {
+        let (qemu, sock) = qemu_tests::connect_qemu_tcp_logged(elf, args, log).unwrap();
+        let rx = frames(sock.try_clone().unwrap());
+        let enc = link::Encoder::new();
+        (qemu, Self { rx, sock, enc })
+    }
+
+    fn send(&mut self, req: link::Request) {
+        use std::io::Write;
+        let mut out = [0u8; link::MAX_FRAME];
+        let bytes = self.enc.frame(link::Body::Request(req), &mut out).unwrap();
+        self.sock.write_all(bytes).unwrap();
+    }
+
+    /// `set` down the link, in its requests; how many.
+    fn upload(&mut self, set: &instrument::stored::Stored) -> usize {
+        let mut reqs = vec![];
+        instrument::commands::upload(set, |r| reqs.push(r));
+        for r in &reqs {
+            self.send(*r);
+        }
+        reqs.len()
+    }
+}
+
+/// The frames up to the applied frame: the records and the replies
+/// before it, and it.
+fn until_applied(
+    rx: &std::sync::mpsc::Receiver<link::Frame>,
+) -> (
+    Vec<link::Record>,
+    Vec<link::Reply>,
+    link::Applied,
+    Option<link::Start>,
+) {
+    let (mut records, mut replies, mut start) = (vec![], vec![], None);
+    loop {
+        let f = rx
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the applied frame");
+        match f.body {
+            link::Body::Start(s) => start = Some(s),
+            link::Body::Record(r) => records.push(r),
+            link::Body::Reply(r) => replies.push(r),
+            link::Body::Applied(a) => return (records, replies, a, start),
+            _ => {}
+        }
+    }
+}
+
+/// The next `n` records.
+fn records(rx: &std::sync::mpsc::Receiver<link::Frame>, n: usize) -> Vec<link::Record> {
+    let mut out = vec![];
+    while out.len() < n {
+        let f = rx.recv_timeout(Duration::from_secs(120)).expect("records");
+        if let link::Body::Record(r) = f.body {
+            out.push(r);
+        }
+    }
+    out
+}
+
+/// The time between the last two of `recs` of sensor `s`, µs.
+fn step(recs: &[link::Record], s: u8) -> u64 {
+    let t: Vec<u64> = recs.iter().filter(|r| r.sensor == s).map(|r| r.t_us).collect();
+    t[t.len() - 1] - t[t.len() - 2]
+}
+
+/// The lines of image `elf`'s defmt log in file `log`.
+fn log_lines(elf: &std::path::Path, log: &std::path::Path) -> Vec<String> {
+    let raw = std::fs::read(log).unwrap();
+    host_sim::recording::decode_defmt(elf, &raw)
+        .unwrap()
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect()
+}
+
 #[test]
 fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_restart() {
-    use instrument::commands::upload;
-    use std::io::Write;
     let elf = qemu_tests::build_firmware("skin-qemu", &["qemu"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("settings.bin");
     let flash = format!("flash={}", path.display());
     let log = tmp.path().join("paper.log");
-    let (mut qemu, sock) =
-        qemu_tests::connect_qemu_tcp_logged(&elf, &["paper", &flash, "until-stop"], &log).unwrap();
-    let rx = frames(sock.try_clone().unwrap());
-    let mut sock = sock;
-    let mut enc = link::Encoder::new();
-    let mut out = [0u8; link::MAX_FRAME];
-    let mut send = |req: link::Request, sock: &mut std::net::TcpStream| {
-        let bytes = enc.frame(link::Body::Request(req), &mut out).unwrap();
-        sock.write_all(bytes).unwrap();
-    };
+    let (mut qemu, mut host) = Host::start(&elf, &["paper", &flash, "until-stop"], &log);
     // A new device: nothing to read.
-    send(link::Request::ReadSettings, &mut sock);
+    host.send(link::Request::ReadSettings);
     assert!(matches!(
-        reply(&rx),
+        reply(&host.rx),
         link::Reply::Refused {
             reason: link::Reason::NothingStored,
             ..
@@ -173,15 +250,8 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     // A set that breaks a rule is refused by name and code.
     let mut bad = instrument::stored::Stored::uncalibrated();
     bad.sensors[4].lead_ratio = 80.0;
-    let mut reqs = vec![];
-    upload(&bad, |r| reqs.push(r));
-    for r in &reqs {
-        send(*r, &mut sock);
-    }
-    let mut last = reply(&rx);
-    for _ in 1..reqs.len() {
-        last = reply(&rx);
-    }
+    let n = host.upload(&bad);
+    let last = (0..n).map(|_| reply(&host.rx)).last().unwrap();
     let want = link::Reason::Setting {
         sensor: 4,
         rule: instrument::stored::Rule::LeadRatio.code(),
@@ -200,31 +270,9 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
             instrument::calib::CalTable::linear(200e-12, instrument::design::SENSOR_REST_LENGTH_MM).points;
         s.calibrated = true;
     }
-    let mut reqs = vec![];
-    upload(&good, |r| reqs.push(r));
-    for r in &reqs {
-        send(*r, &mut sock);
-    }
-    let mut before = vec![];
-    let mut acks = 0;
-    let mut replies = vec![];
-    // Until the frame that says the set is in force: the records
-    // measured with the set of the start.
-    let applied = loop {
-        let f = rx
-            .recv_timeout(Duration::from_secs(120))
-            .expect("the applied frame");
-        match f.body {
-            link::Body::Record(r) => before.push(r),
-            link::Body::Reply(r) => {
-                acks += 1;
-                replies.push(r);
-            }
-            link::Body::Applied(a) => break a,
-            _ => {}
-        }
-    };
-    assert_eq!(acks, reqs.len(), "{replies:?}");
+    let n = host.upload(&good);
+    let (before, replies, applied, _) = until_applied(&host.rx);
+    assert_eq!(replies.len(), n, "{replies:?}");
     assert!(matches!(
         replies.last(),
         Some(link::Reply::Ack { generation: 1, .. })
@@ -235,27 +283,23 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     assert!(before.iter().all(|r| r.t_us <= applied.t_us));
     // From the next block on: calibrated, every other block of each
     // channel, later than the frame.
-    let mut after: Vec<link::Record> = vec![];
-    while after.len() < 24 {
-        let f = rx.recv_timeout(Duration::from_secs(120)).expect("records after");
-        if let link::Body::Record(r) = f.body {
-            after.push(r);
-        }
-    }
+    let after = records(&host.rx, 24);
     assert!(after
         .iter()
         .all(|r| r.t_us > applied.t_us && r.flags & uncalibrated == 0));
-    let step = |recs: &[link::Record]| {
-        let ch = recs[0].sensor;
-        let t: Vec<u64> = recs.iter().filter(|r| r.sensor == ch).map(|r| r.t_us).collect();
-        t[1] - t[0]
-    };
-    assert_eq!(step(&after), 2 * step(&before), "a record every other block");
+    assert_eq!(
+        step(&after, after[0].sensor),
+        2 * step(&before, after[0].sensor),
+        "a record every other block"
+    );
     // Stop: the stream ends with its end frame and the run with exit 0.
-    send(link::Request::Stop, &mut sock);
-    assert!(matches!(reply(&rx), link::Reply::Ack { .. }));
+    host.send(link::Request::Stop);
+    assert!(matches!(reply(&host.rx), link::Reply::Ack { .. }));
     let end = loop {
-        let f = rx.recv_timeout(Duration::from_secs(120)).expect("the end frame");
+        let f = host
+            .rx
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the end frame");
         if let link::Body::End(e) = f.body {
             break e;
         }
@@ -263,12 +307,7 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     assert!(end.records > 0, "{end:?}");
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");
-    let raw = std::fs::read(&log).unwrap();
-    let lines: Vec<String> = host_sim::recording::decode_defmt(&elf, &raw)
-        .unwrap()
-        .into_iter()
-        .map(|(_, l)| l)
-        .collect();
+    let lines = log_lines(&elf, &log);
     qemu_tests::assert_stack_margin("skin-qemu, a set applied", lines.iter().map(String::as_str));
     // The next start finds the set that came down the link.
     let (code, log) = run(&["faults", &flash]);
@@ -477,50 +516,20 @@ fn the_array_measures_with_its_stored_set() {
 /// stack keeps its margin through it.
 #[test]
 fn the_array_applies_a_set_stored_while_it_runs() {
-    use instrument::commands::upload;
-    use std::io::Write;
     let uncalibrated = instrument::faults::Flags::UNCALIBRATED;
     let elf = qemu_tests::build_firmware("skin-array", &["qemu"]).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let flash = format!("flash={}", tmp.path().join("array.bin").display());
     let log = tmp.path().join("array.log");
-    let (mut qemu, sock) = qemu_tests::connect_qemu_tcp_logged(
-        &elf,
-        &["check", &flash, "until-stop", "device=0x1A2B3C4D"],
-        &log,
-    )
-    .unwrap();
-    let rx = frames(sock.try_clone().unwrap());
-    let mut sock = sock;
-    let mut enc = link::Encoder::new();
-    let mut out = [0u8; link::MAX_FRAME];
-    let mut send = |req: link::Request, sock: &mut std::net::TcpStream| {
-        let bytes = enc.frame(link::Body::Request(req), &mut out).unwrap();
-        sock.write_all(bytes).unwrap();
-    };
+    let args = ["check", &flash, "until-stop", "device=0x1A2B3C4D"];
+    let (mut qemu, mut host) = Host::start(&elf, &args, &log);
     let mut set = instrument::stored::Stored::uncalibrated();
     set.sensors[5].in_use = false;
     set.sensors[2].table = instrument::calib::REFERENCE.points;
     set.sensors[2].calibrated = true;
     set.record_every = 2;
-    let mut reqs = vec![];
-    upload(&set, |r| reqs.push(r));
-    for r in &reqs {
-        send(*r, &mut sock);
-    }
-    let mut before = vec![];
-    let mut start = None;
-    let applied = loop {
-        let f = rx
-            .recv_timeout(Duration::from_secs(120))
-            .expect("the applied frame");
-        match f.body {
-            link::Body::Start(s) => start = Some(s),
-            link::Body::Record(r) => before.push(r),
-            link::Body::Applied(a) => break a,
-            _ => {}
-        }
-    };
+    host.upload(&set);
+    let (before, _, applied, start) = until_applied(&host.rx);
     // The start frame: the device's id, nothing stored.
     let start = start.expect("the start frame");
     assert_eq!((start.device_id, start.generation), (0x1A2B_3C4D, 0));
@@ -529,31 +538,20 @@ fn the_array_applies_a_set_stored_while_it_runs() {
     assert!(before
         .iter()
         .all(|r| r.flags & uncalibrated != 0 && r.t_us <= applied.t_us));
-    let mut after: Vec<link::Record> = vec![];
-    while after.len() < 15 * 6 {
-        let f = rx.recv_timeout(Duration::from_secs(120)).expect("records after");
-        if let link::Body::Record(r) = f.body {
-            after.push(r);
-        }
-    }
+    let after = records(&host.rx, 15 * 6);
     assert!(after.iter().all(|r| r.t_us > applied.t_us && r.sensor != 5));
     assert!(after
         .iter()
         .all(|r| (r.flags & uncalibrated == 0) == (r.sensor == 2)));
-    let step = |recs: &[link::Record]| {
-        let t: Vec<u64> = recs.iter().filter(|r| r.sensor == 0).map(|r| r.t_us).collect();
-        t[t.len() - 1] - t[t.len() - 2]
-    };
-    assert_eq!(step(&after), 2 * step(&before), "a record every other block");
-    send(link::Request::Stop, &mut sock);
+    assert_eq!(
+        step(&after, 0),
+        2 * step(&before, 0),
+        "a record every other block"
+    );
+    host.send(link::Request::Stop);
     let status = qemu.wait().unwrap();
     assert!(status.success(), "{status}");
-    let raw = std::fs::read(&log).unwrap();
-    let lines: Vec<String> = host_sim::recording::decode_defmt(&elf, &raw)
-        .unwrap()
-        .into_iter()
-        .map(|(_, l)| l)
-        .collect();
+    let lines = log_lines(&elf, &log);
     assert!(
         lines
             .iter()

@@ -24,22 +24,9 @@ pub fn stream(n: u32, end: bool, version: u16) -> Vec<u8> {
         .to_vec();
     for k in 0..n {
         let rec = Record {
-            t_us: 2560 + 5440 * u64::from(k),
-            sensor: (k % 2) as u8,
-            tones: [
-                Tone {
-                    f_hz: 1953.125,
-                    z_re_ohm: 2.3e5,
-                    z_im_ohm: -4.0e5,
-                },
-                Tone::default(),
-            ],
-            c_farad: 205e-12,
-            r_ohm: 7e5,
             stretch_mm: 0.1 * k as f32,
-            chosen_hz: 1953.125,
             flags: u16::from(k == 3) * 16,
-            ..Record::default()
+            ..single_tone(2560 + 5440 * u64::from(k), (k % 2) as u8)
         };
         bytes.extend_from_slice(enc.frame(Body::Record(rec), &mut out).unwrap());
     }
@@ -51,6 +38,28 @@ pub fn stream(n: u32, end: bool, version: u16) -> Vec<u8> {
         bytes.extend_from_slice(enc.frame(Body::End(e), &mut out).unwrap());
     }
     bytes
+}
+
+/// A multiplexed device's record of `sensor` at `t_us`: one tone, C and
+/// R, no flags.
+#[allow(dead_code)]
+pub fn single_tone(t_us: u64, sensor: u8) -> Record {
+    Record {
+        t_us,
+        sensor,
+        tones: [
+            Tone {
+                f_hz: 1953.125,
+                z_re_ohm: 2.3e5,
+                z_im_ohm: -4.0e5,
+            },
+            Tone::default(),
+        ],
+        c_farad: 205e-12,
+        r_ohm: 7e5,
+        chosen_hz: 1953.125,
+        ..Record::default()
+    }
 }
 
 /// Run the `live` binary with `args`: its exit code, stdout and stderr.
