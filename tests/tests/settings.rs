@@ -251,7 +251,8 @@ fn a_set_written_down_the_link_is_in_force_from_the_next_block_and_after_a_resta
     let mut bad = instrument::stored::Stored::uncalibrated();
     bad.sensors[4].lead_ratio = 80.0;
     let n = host.upload(&bad);
-    let last = (0..n).map(|_| reply(&host.rx)).last().unwrap();
+    // Every piece answered; the last answer is the commit's.
+    let last = (0..n).fold(None, |_, _| Some(reply(&host.rx))).unwrap();
     let want = link::Reason::Setting {
         sensor: 4,
         rule: instrument::stored::Rule::LeadRatio.code(),
