@@ -279,6 +279,22 @@ impl FlashArgs {
     }
 }
 
+/// The set `store` holds taken into `in_force` after the host stored
+/// it, at device time `t_us` ([`crate::in_force::InForce::apply_stored`]),
+/// logged, and its frame sent on `link`.
+pub fn apply<C: crate::in_force::Shared<S>, const S: usize>(
+    in_force: &mut crate::in_force::InForce<C, S>,
+    store: &mut Store<FileFlash>,
+    link: &mut crate::qemu::LinkSender,
+    t_us: u64,
+) {
+    let applied = in_force.apply_stored(store, t_us);
+    crate::settings_log::applied(&applied);
+    if let Ok(a) = applied {
+        link.applied(&a);
+    }
+}
+
 /// What the host's requests asked of the application.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Asked {

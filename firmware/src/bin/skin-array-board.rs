@@ -103,6 +103,31 @@ pub struct DmaBufs(*mut AdcBlocks);
 #[allow(unsafe_code)]
 unsafe impl Send for DmaBufs {}
 
+/// The set in force at start: the one `store` holds (with none, sensors
+/// nothing was measured on), its sensors built into `slot`; a set whose
+/// lead ratio is beyond the line model waits for the watchdog's reset.
+fn in_force_at_start(
+    store: &mut Store<SettingsFlash>,
+    slot: &'static mut MaybeUninit<Sensors<POINTS, SENSORS>>,
+) -> InForce<ToneCommon, SENSORS> {
+    let (generation, set) = firmware::settings_log::in_force(store);
+    let Ok(sensors) = firmware::settings_log::sensors_in(slot, &set) else {
+        defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
+        watchdog::await_reset()
+    };
+    let common = ToneCommon {
+        policy: set.policy,
+        record_every: set.record_every,
+        ..ToneSettings::new(
+            LAYOUT,
+            FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
+            &*sensors,
+        )
+        .common()
+    };
+    InForce::new(common, sensors, generation)
+}
+
 /// The set the host stored, applied (after the records of the old one),
 /// its frame queued. Not inlined: once per set stored.
 #[inline(never)]
@@ -206,27 +231,11 @@ mod app {
             defmt::println!("settings: the slots do not fit the flash; watchdog reset follows");
             watchdog::await_reset()
         };
-        // The stored set; with none, sensors nothing was measured on.
-        let (generation, set) = firmware::settings_log::in_force(&mut store);
-        let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
-            defmt::println!("settings: a tab-lead ratio beyond the line model; watchdog reset follows");
-            watchdog::await_reset()
-        };
-        let Ok(reader) = ArrayReader::new(LAYOUT, sensors) else {
+        let in_force = in_force_at_start(&mut store, cx.local.sensors);
+        let Ok(reader) = ArrayReader::new(LAYOUT, in_force.sensors()) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             watchdog::await_reset()
         };
-        let common = ToneCommon {
-            policy: set.policy,
-            record_every: set.record_every,
-            ..ToneSettings::new(
-                LAYOUT,
-                FrontEnd::transimpedance(SENSOR_TIA_OHM as f32, true),
-                &*sensors,
-            )
-            .common()
-        };
-        let in_force = InForce::new(common, sensors, generation);
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
         let writer = FrameWriter::start(
             queue,

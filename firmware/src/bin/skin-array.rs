@@ -259,11 +259,8 @@ mod app {
                 // first, then the frame, then the new set's.
                 cx.shared.in_force.lock(|f| {
                     log_records(logger, link);
-                    let applied = f.apply_stored(store, link.last_t_us());
-                    firmware::settings_log::applied(&applied);
-                    if let Ok(a) = applied {
-                        link.applied(&a);
-                    }
+                    let t_us = link.last_t_us();
+                    qemu_flash::apply(f, store, link, t_us);
                 });
             }
             if let Some(n) = asked.sweep {

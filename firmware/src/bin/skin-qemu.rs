@@ -343,11 +343,7 @@ mod app {
         if let (true, Some(store)) = (asked.apply, local.store.as_mut()) {
             // In force from the next block: the frame says so before its
             // record.
-            let applied = local.in_force.apply_stored(store, t_us);
-            firmware::settings_log::applied(&applied);
-            if let Ok(a) = applied {
-                local.link.applied(&a);
-            }
+            qemu_flash::apply(local.in_force, store, local.link, t_us);
         }
         if asked.stop || slot.index + 1 >= *local.end_slot {
             local.link.end(0);
