@@ -9,6 +9,7 @@
 //! | `array_skin` | (feature `qemu`) the simulated skin of the array's QEMU runs: sixteen sensors, the comb front end |
 //! | `qemu` | (QEMU target) the one place that owns logging, panic, faults and exit |
 //! | `qemu_flash` | (QEMU target) the settings' flash in a host file through semihosting: settings survive a restart |
+//! | `device_clock` | a device clock offset and drifting from true time: the QEMU images' `offset_us=`, `drift_ppm=` |
 //! | `in_force` | the set a device measures with, replaced while it runs when the host stores another (`Applied` frame) |
 //! | `hot_ram` | (target) the per-block code's load into zero-wait RAM (the CCM SRAM) at reset |
 //! | `link_out` | the record link's sending end on the board: frames into a byte queue a DMA channel drains (`bbqueue`); never waits, counts drops |
@@ -26,6 +27,7 @@ extern crate std;
 pub mod array_skin;
 #[cfg(feature = "board")]
 pub mod board;
+pub mod device_clock;
 #[cfg(target_os = "none")]
 pub mod hot_ram;
 pub mod in_force;

@@ -17,6 +17,7 @@
 //! session was killed, crashed, or its disk filled, and its files hold
 //! every record up to its last flush.
 
+pub mod boards;
 pub mod calibrate;
 pub mod clock;
 pub mod config;
@@ -30,6 +31,7 @@ mod recorder;
 mod records_csv;
 mod session;
 pub mod skin;
+mod skin_records;
 mod summary;
 pub mod synthetic;
 

@@ -72,6 +72,19 @@ struct Cli {
     /// With --skin: which of the skin's boards this device is.
     #[arg(long, requires = "skin")]
     board: Option<String>,
+    /// With --skin, once per board: read several boards in one session,
+    /// NAME=tcp:HOST:PORT, NAME=serial:PORT[@BAUD] or NAME=replay:PATH
+    /// (NAME a board of the skin). Each board's recording goes to
+    /// <dataset>/NAME/; the skin's records, keyed by board and sensor on
+    /// the host's UTC through each board's clock fit, to
+    /// <dataset>/records.csv, its manifest to skin.json.
+    #[arg(
+        long = "source",
+        value_name = "NAME=SOURCE",
+        requires = "skin",
+        conflicts_with_all = ["replay", "serial", "tcp", "board", "idle", "serve"]
+    )]
+    sources: Vec<live::boards::BoardSource>,
 }
 
 #[derive(Subcommand)]
@@ -572,6 +585,9 @@ fn report(what: &str, stopped: Stopped) {
 
 fn run(cli: Cli) -> Result<Outcome> {
     let dataset = cli.dataset.clone().unwrap_or_else(new_session_folder);
+    if !cli.sources.is_empty() {
+        return run_skin(&cli, &dataset);
+    }
     let following = cli.replay.is_none();
     // The skin, checked whole before anything starts.
     let skin = match &cli.skin {
@@ -637,6 +653,48 @@ fn run(cli: Cli) -> Result<Outcome> {
         std::thread::sleep(Duration::from_secs(cli.linger));
     }
     end_recordings(&mut sink, stopped)
+}
+
+/// Several boards in one session (`--source`, once per board): each
+/// read until it ends or Ctrl-C, the skin's records and manifest
+/// written; each board's ending printed.
+fn run_skin(cli: &Cli, dataset: &Path) -> Result<Outcome> {
+    let Some(path) = &cli.skin else {
+        anyhow::bail!("--source needs the skin's description: --skin FILE");
+    };
+    let skin = live::skin::read(path)?;
+    for said in live::boards::check(&skin, &cli.sources)? {
+        eprintln!("{said}");
+    }
+    let earlier = match cli.overwrite {
+        true => live::Earlier::Overwrite,
+        false => live::Earlier::Refuse,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("installing the Ctrl-C handler")?;
+    let done = live::boards::read_all(dataset, earlier, &skin, &cli.sources, &stop)?;
+    let mut outcome = Outcome::Complete;
+    for b in &done {
+        println!("board {}: {}", b.board, b.summary);
+        for (k, line) in clock_lines(&b.clocks).into_iter().enumerate() {
+            let device = b
+                .devices
+                .get(k)
+                .map_or(String::new(), |d| format!(" (device {d:#010x})"));
+            println!("board {}{device}: {line}", b.board);
+        }
+        if let Outcome::Incomplete(why) = &b.outcome {
+            outcome = Outcome::Incomplete(format!("board {}: {why}", b.board));
+        }
+    }
+    println!(
+        "wrote {}: records.csv (every board's, on the host's UTC), {}, a folder per board",
+        dataset.display(),
+        live::boards::SKIN_JSON
+    );
+    Ok(outcome)
 }
 
 /// The run is over (`stopped`: how a live source stopped): the

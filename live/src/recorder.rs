@@ -137,6 +137,9 @@ pub struct Sink<'a> {
     pub finished: Vec<(PathBuf, Finished)>,
     /// The skin's sensors on this board, given to each recording.
     pub skin: Option<std::sync::Arc<crate::skin::Board>>,
+    /// The board's name where a session reads several: its health
+    /// lines carry it.
+    pub label: Option<String>,
     watch: Watch,
     /// A start asked for: it begins at the next frame.
     starting: Option<(PathBuf, Option<Reply>)>,
@@ -157,6 +160,7 @@ impl<'a> Sink<'a> {
             folders: None,
             finished: vec![],
             skin: None,
+            label: None,
             watch: Watch::default(),
             starting: None,
         }
@@ -351,8 +355,17 @@ impl<'a> Sink<'a> {
         Ok(())
     }
 
-    /// The link's health line: the recording's, or the watch's.
+    /// The link's health line: the recording's, or the watch's (after
+    /// the board's name, where it has one).
     pub fn line(&self) -> String {
+        let line = self.health();
+        match &self.label {
+            Some(board) => format!("board {board}: {line}"),
+            None => line,
+        }
+    }
+
+    fn health(&self) -> String {
         match &self.session {
             Some(s) => s.summary().line(),
             None => format!(

@@ -10,6 +10,7 @@
 pub mod calibration;
 pub mod cycles;
 pub mod records;
+pub mod skin_run;
 pub mod summary;
 pub mod tables;
 

@@ -92,7 +92,7 @@ fn a_run_shorter_than_its_scenario_is_asked_for_in_seconds() {
     for bad in [
         "seconds=0",
         "seconds=-1",
-        "seconds=11",
+        "seconds=61",
         "seconds=1.5",
         "seconds=two",
     ] {

@@ -20,8 +20,10 @@
 //! `hum`, `identify`, `skin`, `stairs`). Without further arguments the firmware
 //! measures with the test rig's description of its skin
 //! ([`ArrayScenario::rig`]) in 4 ms blocks (250 records/s; `records=1000`:
-//! 1 ms blocks, [`Layout::BLOCK_1MS`]; `seconds=S`: the first S whole
-//! seconds of the scenario, not all of it); `flash=PATH` keeps the settings' flash in a
+//! 1 ms blocks, [`Layout::BLOCK_1MS`]; `seconds=S`: S whole seconds
+//! of the scenario, less than all of it or it repeated; `offset_us=N`, `drift_ppm=N`:
+//! the records stamped by a clock that is off true time, as another
+//! board's would be, [`DeviceClock`]); `flash=PATH` keeps the settings' flash in a
 //! host file ([`firmware::qemu_flash`]) and measures with the set stored
 //! there (uncalibrated with none; `save` stores the rig's first;
 //! `until-stop` measures past the scenario's end until the host stops
@@ -36,6 +38,7 @@ use core::mem::MaybeUninit;
 
 use dsp_core::comb::CombError;
 use firmware::array_skin::{ArrayScenario, ArraySkin};
+use firmware::device_clock::DeviceClock;
 use firmware::in_force::InForce;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
@@ -54,6 +57,11 @@ use instrument::sweep::Sweep;
 use instrument::tones::{ToneCommon, ToneRecord, ToneSettings};
 use instrument::wire;
 
+/// How many times over a run may go through its scenario (`seconds=`):
+/// past its length a scenario's motion repeats (its profiles are
+/// periodic or held).
+const REPEATS: f32 = 6.0;
+
 /// What the command line asks for.
 struct Arguments {
     /// The scenario named by the first semihosting argument.
@@ -61,11 +69,15 @@ struct Arguments {
     /// The blocks' layout: `records=250` (the default) or `records=1000`.
     layout: Layout,
     /// How long to simulate, s: `seconds=S` (whole seconds, more than 0,
-    /// at most the scenario's duration, which is the default; an integer
+    /// at most [`REPEATS`] times the scenario's duration, which is the
+    /// default; an integer
     /// keeps core's float parser out of the image).
     duration_s: f32,
     /// The settings' options (`flash=PATH`, `save`, `until-stop`).
     flash: FlashArgs,
+    /// The device's clock (`offset_us=N`, `drift_ppm=N`): what it
+    /// stamps its records with.
+    clock: DeviceClock,
 }
 
 /// The command line: the scenario first, then its options; a run with
@@ -78,6 +90,7 @@ fn arguments() -> Arguments {
             qemu::exit(2)
         });
         let mut flash = FlashArgs::default();
+        let mut clock = DeviceClock::default();
         let mut layout = Layout::BLOCK_4MS;
         let mut duration_s = scenario.duration_s();
         for arg in args {
@@ -91,14 +104,19 @@ fn arguments() -> Arguments {
                 }
             } else if let Some(s) = arg.strip_prefix("seconds=") {
                 match s.parse::<u16>() {
-                    Ok(v) if v > 0 && v as f32 <= scenario.duration_s() => duration_s = v as f32,
+                    Ok(v) if v > 0 && v as f32 <= REPEATS * scenario.duration_s() => duration_s = v as f32,
                     _ => {
                         defmt::println!(
-                            "seconds=: whole seconds, more than 0, at most the scenario's, not '{=str}'",
+                            "seconds=: whole seconds, more than 0, at most six times the scenario's, not '{=str}'",
                             s
                         );
                         qemu::exit(2)
                     }
+                }
+            } else if let Some(taken) = clock.take(arg) {
+                if let Err(why) = taken {
+                    defmt::println!("{=str}, not '{=str}'", why, arg);
+                    qemu::exit(2)
                 }
             } else if !flash.take(arg) {
                 defmt::println!("unknown argument '{=str}'", arg);
@@ -110,6 +128,7 @@ fn arguments() -> Arguments {
             layout,
             duration_s,
             flash,
+            clock,
         }
     })
 }
@@ -155,6 +174,8 @@ mod app {
         /// The block period, µs.
         block_us: u64,
         records: RecordSink<'static>,
+        /// The device's clock, which its records' times are read on.
+        clock: DeviceClock,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         link: LinkSender,
         store: Option<Store<FileFlash>>,
@@ -180,6 +201,7 @@ mod app {
             layout,
             duration_s,
             flash,
+            clock,
         } = arguments();
         let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
@@ -234,6 +256,7 @@ mod app {
                 end_block: flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
                 reader,
                 records: RecordSink::new(records),
+                clock,
                 logger,
                 link,
                 store,
@@ -303,7 +326,7 @@ mod app {
     #[task(
         priority = 1,
         shared = [frame, done, dropped, sweep, busy, status, in_force],
-        local = [reader, end_block, records]
+        local = [reader, end_block, records, clock]
     )]
     async fn process(mut cx: process::Context) {
         let started = qemu::Instructions::now();
@@ -317,6 +340,9 @@ mod app {
             reader.demodulate_into(|a| layout.rows(&frame[a]), block);
             (*clipped, *t)
         });
+        // The records' time on the device's clock; the block's end on
+        // true time.
+        let stamp = cx.local.clock.stamp(t_us);
         let mut recs = Vec::<ToneRecord, SENSORS>::new();
         cx.shared.in_force.lock(|f| {
             let settings = ToneSettings {
@@ -325,7 +351,7 @@ mod app {
             };
             reader.solve(
                 &settings,
-                t_us,
+                stamp,
                 block,
                 |input| clipped[input],
                 |rec| {
@@ -334,7 +360,7 @@ mod app {
             );
         });
         let spent = qemu::Instructions::since(started);
-        let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(t_us)));
+        let (late, status) = cx.shared.busy.lock(|b| (b.block(spent), b.due(stamp)));
         if let Some(s) = status {
             cx.shared.status.lock(|x| *x = Some(s));
         }
