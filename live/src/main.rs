@@ -678,12 +678,16 @@ fn run_skin(cli: &Cli, dataset: &Path) -> Result<Outcome> {
     let mut outcome = Outcome::Complete;
     for b in &done {
         println!("board {}: {}", b.board, b.summary);
-        for (k, line) in clock_lines(&b.clocks).into_iter().enumerate() {
-            let device = b
-                .devices
-                .get(k)
-                .map_or(String::new(), |d| format!(" (device {d:#010x})"));
-            println!("board {}{device}: {line}", b.board);
+        let devices: Vec<String> = b.devices.iter().map(|d| format!("{d:#010x}")).collect();
+        println!(
+            "board {}: device {} ({} segments, opened again {} times)",
+            b.board,
+            devices.join(", "),
+            b.devices.len(),
+            b.reconnects
+        );
+        for line in clock_lines(&b.clocks) {
+            println!("board {}: {line}", b.board);
         }
         if let Outcome::Incomplete(why) = &b.outcome {
             outcome = Outcome::Incomplete(format!("board {}: {why}", b.board));
