@@ -141,6 +141,35 @@ fn two_boards_one_lost_and_back_are_read_in_one_session_on_one_axis() {
         serde_json::from_str(&std::fs::read_to_string(dir.join("skin.json")).unwrap()).unwrap();
     assert_eq!(manifest["boards"][1]["reconnects"], 1);
     assert_eq!(manifest["boards"][1]["devices"][0], "0x0000000b");
+    python_reads_the_skin(&dir);
+}
+
+/// The Python reader takes the skin's records and its boards.
+fn python_reads_the_skin(dir: &std::path::Path) {
+    let python = format!("{}/../python", env!("CARGO_MANIFEST_DIR"));
+    let run = Command::new(common::python_with("pandas"))
+        .env("PYTHONPATH", &python)
+        .arg("-c")
+        .arg(
+            "import sys, skinread\n\
+             df = skinread.read_skin(sys.argv[1]); b = skinread.boards(sys.argv[1])\n\
+             assert df['t_utc'].is_monotonic_increasing and df['t_utc'].notna().all()\n\
+             print(len(df), sorted(set(df['board'])), sorted(set(df['name'])), b['reconnects'].tolist(), \
+             b['device'].tolist(), int(df['valid'].sum()))",
+        )
+        .arg(dir)
+        .output()
+        .expect("python3 with pandas (`cargo xtask setup` installs it)");
+    let said = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{said}{}", String::from_utf8_lossy(&run.stderr));
+    assert_eq!(
+        said.trim(),
+        format!(
+            "{} ['A', 'B'] ['a0', 'a1', 'b0', 'b1'] [0, 1] ['0x0000000a', '0x0000000b'] {}",
+            2 * N,
+            2 * N
+        )
+    );
 }
 
 #[test]

@@ -156,3 +156,40 @@ def by_sensor(df: pd.DataFrame) -> Dict[int, pd.DataFrame]:
         int(s): g.sort_values(key, kind="stable").reset_index(drop=True)
         for s, g in df.groupby("sensor")
     }
+
+
+def read_skin(folder: str) -> pd.DataFrame:
+    """The skin's `records.csv` of a session of several boards (`live
+    --skin FILE --source NAME=…`): every board's records, keyed by
+    `board` and `sensor` (with the sensor's `name`), `t_utc` the
+    record's time on the host's UTC through its board's clock fit (NaT
+    where its segment has none), `arrived_utc`, and the flags decoded as
+    in `read_records`. Each board's own session is `folder/<board>/`."""
+    df = _read(os.path.join(folder, "records.csv"))
+    if "board" not in df.columns or "t_utc_us" not in df.columns:
+        raise ValueError(f"{folder}/records.csv: not a skin's records (no board, t_utc_us columns)")
+    df["board"] = df["board"].astype(str)
+    df["t_utc"] = _utc_of_us(df["t_utc_us"].astype("float64"))
+    if "host_utc_us" in df.columns:
+        df["arrived_utc"] = _utc_of_us(df["host_utc_us"].astype("float64"))
+    return df
+
+
+def boards(folder: str) -> pd.DataFrame:
+    """The boards of a session of several (its `skin.json`): a row per
+    board with its `folder`, `device` (the first segment's id, hex),
+    `records`, `reconnects`, `complete`, and its first segment's clock
+    (`offset_unix_s`, `drift_ppm`, `sigma_offset_ms`)."""
+    with open(os.path.join(folder, "skin.json")) as f:
+        manifest = json.load(f)
+    rows = []
+    for b in manifest["boards"]:
+        clock = (b.get("clock") or [None])[0] or {}
+        rows.append({
+            "board": b["board"], "folder": b.get("folder"),
+            "device": (b.get("devices") or [None])[0], "records": b.get("records"),
+            "reconnects": b.get("reconnects"), "complete": b.get("complete"),
+            "offset_unix_s": clock.get("offset_unix_s"), "drift_ppm": clock.get("drift_ppm"),
+            "sigma_offset_ms": clock.get("sigma_offset_ms"),
+        })
+    return pd.DataFrame(rows)

@@ -118,13 +118,15 @@ macro_rules! writeln {
 }
 use writeln;
 
-/// Each board's stream: the array image run in QEMU (`skin` scenario,
-/// `seconds` s at `records` records/s), two at a time.
+/// Each board's stream: the array image run in QEMU (the `paper`
+/// scenario: sixteen of the paper's sensors, each later in the paper's
+/// cycle than the last, read with the rig's calibrated set; `seconds` s
+/// at `records` records/s), two at a time.
 pub fn streams(boards: &[BoardSpec], seconds: u32, records: u32) -> Result<Vec<Vec<u8>>> {
     let elf = crate::build_firmware("skin-array", &["qemu"])?;
     let run = |b: &BoardSpec| -> Result<Vec<u8>> {
         let args = [
-            "skin".to_string(),
+            "paper".to_string(),
             format!("seconds={seconds}"),
             format!("records={records}"),
             format!("device={:#x}", b.device_id),

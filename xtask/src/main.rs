@@ -31,6 +31,7 @@ mod cargo;
 mod checks;
 mod docs;
 mod main_job;
+mod main_skin;
 mod setup;
 mod soak;
 
@@ -62,6 +63,9 @@ enum Cmd {
     },
     /// The main job: the instrument at work, results under out/.
     Run,
+    /// The main job's whole skin alone: four boards in QEMU, their
+    /// clocks offset and drifting, read in one `live` session (out/skin).
+    Skin,
     /// Regenerate every figure of the README and docs/: the main job's
     /// plots copied into docs/, and each figure block rewritten by the
     /// test that measures it (`DOCS_UPDATE=1`).
@@ -137,6 +141,11 @@ fn main() -> Result<()> {
             if host {
                 bench::host(&root)?;
             }
+            Ok(())
+        }
+        Cmd::Skin => {
+            setup::run()?;
+            println!("{}", main_skin::run(&root.join("out/skin"))?);
             Ok(())
         }
         Cmd::Run => {

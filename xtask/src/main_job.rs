@@ -13,12 +13,14 @@ use std::path::Path;
 
 /// The main job: the multiplexed firmware (`out/firmware`) and the array
 /// (`out/array`) in QEMU, a skin of hand-made sensors calibrated over the
-/// link (`out/calibrate`), the paper's experiments on the simulated skin
+/// link (`out/calibrate`), four boards read as one skin (`out/skin`),
+/// the paper's experiments on the simulated skin
 /// (`out/paper`), then the Cortex-M4 instruction counts.
 pub fn all(root: &Path) -> Result<()> {
     println!("{}", run(&root.join("out/firmware"))?);
     println!("{}", run_array(&root.join("out/array"), &root.join("out/live"))?);
     println!("{}", run_calibration(&root.join("out/calibrate"))?);
+    println!("{}", crate::main_skin::run(&root.join("out/skin"))?);
     let st = std::process::Command::new(crate::cargo::bin())
         // xtask's profile: host-sim's dependencies are xtask's, built.
         .args([
