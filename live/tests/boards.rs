@@ -161,7 +161,11 @@ fn python_reads_the_skin(dir: &std::path::Path) {
         .output()
         .expect("python3 with pandas (`cargo xtask setup` installs it)");
     let said = String::from_utf8_lossy(&run.stdout);
-    assert!(run.status.success(), "{said}{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        run.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
     assert_eq!(
         said.trim(),
         format!(

@@ -27,13 +27,28 @@ fn four_boards_with_drifting_clocks_are_aligned_within_a_millisecond() {
         );
         assert_eq!(b.devices, [spec.device_id], "{}", b.board);
         assert_eq!(b.records, 16 * 250 * SECONDS as u64, "{}", b.board);
-        // Each clock's drift found, within 5 ppm.
-        let line = b.clocks[0].expect("a clock fit");
-        let drift = (1.0 / line.rate - 1.0) * 1e6;
         assert!(
-            line.rate_fitted && (drift - spec.drift_ppm as f64).abs() < 5.0,
-            "{}: {drift} ppm",
+            b.clocks[0].is_some_and(|l| l.rate_fitted),
+            "{}: no drift fitted",
             b.board
+        );
+    }
+    // Each clock's drift against the others' found within 3 ppm (the
+    // host's UTC clock, which stamps arrivals, may run a few ppm off
+    // the monotonic clock that paced the streams: a term common to all).
+    let fitted: Vec<f64> = run
+        .boards
+        .iter()
+        .map(|b| (1.0 / b.clocks[0].unwrap().rate - 1.0) * 1e6)
+        .collect();
+    let set: Vec<f64> = FOUR.iter().map(|b| b.drift_ppm as f64).collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    for k in 0..FOUR.len() {
+        let (f, s) = (fitted[k] - mean(&fitted), set[k] - mean(&set));
+        assert!(
+            (f - s).abs() < 3.0,
+            "{}: {f} ppm against the others, set {s}",
+            FOUR[k].name
         );
     }
     let placed = skin_run::placement(&run, &FOUR).unwrap();
