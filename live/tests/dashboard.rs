@@ -241,8 +241,9 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     let skin = tmp.path().join("skin.toml");
     std::fs::write(
         &skin,
-        "[skin]\nname = \"hand\"\n[[sensor]]\nname = \"thumb\"\nindex = 0\nplace = [10, 10]\n\
-         outline = [[5, 5], [15, 5], [15, 15], [5, 15]]\n[[sensor]]\nname = \"palm\"\nindex = 1\nplace = [40, 30]\n",
+        "[skin]\nname = \"hand\"\n[[sensor]]\nname = \"thumb\"\nindex = 0\ngroup = \"hand\"\nplace = [10, 10]\n\
+         outline = [[5, 5], [15, 5], [15, 15], [5, 15]]\n[[sensor]]\nname = \"palm\"\nindex = 1\ngroup = \"hand\"\n\
+         place = [40, 30]\n",
     )
     .unwrap();
     let live = common::serve_tcp(
@@ -297,11 +298,27 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
         sock.write_all(f).unwrap();
     }
     page.until("document.getElementById('taxel-0').dataset.state === 'valid'");
-    page.until("document.querySelector('#taxel-0 polygon').getAttribute('fill').startsWith('hsl(')");
+    // The layout against the records sent: 20 of each sensor, the last
+    // of sensor 0 at 6.9 mm (the most: red), of sensor 1 at 6.8 mm.
+    page.until("bySensor.get(0).n === 20 && bySensor.get(1).n === 20");
+    page.until("document.getElementById('skin-max').textContent === '6.9'");
+    page.until("document.querySelector('#taxel-0 polygon').getAttribute('fill') === 'hsl(0, 70%, 50%)'");
+    let hue = page.eval("document.querySelector('#taxel-1 circle').getAttribute('fill')");
+    let hue: f64 = hue.as_str().unwrap()[4..]
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((hue - 240.0 * (1.0 - 6.8 / 6.9)).abs() < 0.01, "{hue}");
     page.eval(
         "document.querySelector('#taxel-1 circle').dispatchEvent(new MouseEvent('click', {bubbles: true}))",
     );
     page.until("document.getElementById('sensor').value === '1' && document.querySelector('#charts').textContent.includes('sensor 1')");
+    // The group's chart: both sensors' C overlaid, each all its records.
+    page.until("document.querySelector('#group') !== null && groupChart.series.length === 3");
+    page.until("groupChart.data[1][0].length === 20 && groupChart.data[2][0].length === 20");
+    page.until("groupChart.data[2][1][19] === bySensor.get(1).last[2]");
     // Record: a recording into --dataset's folder, as the page says.
     page.eval("document.getElementById('record').click()");
     page.until("document.getElementById('recording').textContent.endsWith('trial')");

@@ -33,9 +33,11 @@ fn four_boards_with_drifting_clocks_are_aligned_within_a_millisecond() {
             b.board
         );
     }
-    // Each clock's drift against the others' found within 3 ppm (the
-    // host's UTC clock, which stamps arrivals, may run a few ppm off
-    // the monotonic clock that paced the streams: a term common to all).
+    // Each clock's drift against the others' found within 10 ppm (0.12
+    // ms over the run; the host's UTC clock, which stamps arrivals, may
+    // run a few ppm off the monotonic clock that paced the streams, a
+    // term common to all, and a loaded host's late sends bend a 12 s
+    // line by a few ppm more).
     let fitted: Vec<f64> = run
         .boards
         .iter()
