@@ -93,8 +93,12 @@ fn table(run: &skin_run::SkinRun, placed: &[Placed], valid: &[f64]) -> String {
         t,
         "\nThe drifts are fitted against the host's UTC clock, which stamps the arrivals; the streams were \
          paced by its monotonic clock, and the two may run a few ppm apart (here {:+.2} ppm on average), a \
-         term every board shares. Against each other the boards' drifts are what was set, within about 1 ppm.",
-        mean_fit - mean_set
+         term every board shares. Against each other the boards' drifts are what was set within {:.2} ppm.",
+        mean_fit - mean_set,
+        FOUR.iter()
+            .zip(&fitted)
+            .map(|(b, f)| ((f - mean_fit) - (b.drift_ppm as f64 - mean_set)).abs())
+            .fold(0.0, f64::max)
     );
     t
 }
