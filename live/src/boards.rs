@@ -13,9 +13,11 @@
 //! drift and their 1σ) and its records.
 
 use crate::clock::Line;
+use crate::dashboard::Dashboard;
 use crate::recorder::Sink;
 use crate::session::{Earlier, Session};
 use crate::skin::Skin;
+use crate::skin_view::SkinView;
 use crate::{follow, Stopped};
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
@@ -145,6 +147,7 @@ pub fn read_all(
     skin: &Skin,
     sources: &[BoardSource],
     stop: &AtomicBool,
+    dashboard: Option<&Dashboard>,
 ) -> Result<Vec<BoardDone>> {
     // Every folder checked before any source opens.
     let mut sessions = vec![];
@@ -153,11 +156,19 @@ pub fn read_all(
         session.set_skin(Arc::new(skin.on_board(Some(&s.board))?));
         sessions.push(session);
     }
+    let epoch_s = chrono::Utc::now().timestamp_micros() as f64 * 1e-6;
+    if let Some(d) = dashboard {
+        let names: Vec<&str> = sources.iter().map(|s| s.board.as_str()).collect();
+        d.skin_layout(crate::skin_view::layout_json(skin, &names));
+    }
     let done = std::thread::scope(|scope| {
         let runs: Vec<_> = sources
             .iter()
             .zip(sessions)
-            .map(|(s, session)| scope.spawn(move || read_board(s, session, skin, stop)))
+            .map(|(s, session)| {
+                let view = SkinView::new(skin, &s.board, epoch_s);
+                scope.spawn(move || read_board(s, session, skin, stop, dashboard.map(|d| (d, view))))
+            })
             .collect();
         runs.into_iter()
             .map(|r| r.join().unwrap_or_else(|_| bail!("a board's reader panicked")))
@@ -170,10 +181,20 @@ pub fn read_all(
 
 /// One board: its source read into `session` until it ends, opened again
 /// while it is lost; the recording finished.
-fn read_board(src: &BoardSource, session: Session, skin: &Skin, stop: &AtomicBool) -> Result<BoardDone> {
+fn read_board(
+    src: &BoardSource,
+    session: Session,
+    skin: &Skin,
+    stop: &AtomicBool,
+    shown: Option<(&Dashboard, SkinView)>,
+) -> Result<BoardDone> {
     let mut sink = Sink::new(Some(session), None);
     sink.skin = Some(Arc::new(skin.on_board(Some(&src.board))?));
     sink.label = Some(src.board.clone());
+    if let Some((d, view)) = shown {
+        sink.dashboard = Some(d);
+        sink.view = Some(view);
+    }
     let mut reconnects = 0;
     let stopped = match &src.source {
         Source::Replay(path) => {
@@ -194,6 +215,9 @@ fn read_board(src: &BoardSource, session: Session, skin: &Skin, stop: &AtomicBoo
                 Stopped::Source(why) if !stop.load(Ordering::Relaxed) && session_runs(&sink) => {
                     eprintln!("board {}: lost ({why}); opening it again", src.board);
                     reconnects += 1;
+                    if let Some(v) = &mut sink.view {
+                        v.reconnects = reconnects;
+                    }
                 }
                 other => break Some(other),
             }
@@ -270,6 +294,9 @@ fn finish_board(
     };
     if stopped == Some(Stopped::Asked) {
         session.ask_stop();
+    }
+    if let (Some(d), Some(v)) = (sink.dashboard, &sink.view) {
+        v.show(d, &session, true);
     }
     let devices = session.segments().iter().map(|g| g.start.device_id).collect();
     let clocks = session.segments().iter().map(|g| g.clock.line()).collect();

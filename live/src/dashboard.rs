@@ -177,6 +177,12 @@ struct Held {
     records_csv: Option<PathBuf>,
     /// The skin's sensors on this board, where described.
     skin: Option<Arc<crate::skin::Board>>,
+    /// A skin of several boards: each board's health, and each board's
+    /// sensors' availability (keyed by the skin's sensor numbers), with
+    /// when the merged events were last sent.
+    boards: BTreeMap<String, serde_json::Value>,
+    boards_sent: Option<std::time::Instant>,
+    valid_by_board: BTreeMap<String, Vec<serde_json::Value>>,
 }
 
 /// How much of `records.csv` holds whole records: how many, and its
@@ -442,6 +448,46 @@ impl Dashboard {
             "outlines": named(&|s| serde_json::json!(s.outline)),
         });
         self.named("device", Arc::new(json.to_string()), true);
+    }
+
+    /// A skin of several boards: its layout by the skin's sensor numbers
+    /// (event `device`, with `boards`: their names), sent and kept.
+    pub fn skin_layout(&self, json: serde_json::Value) {
+        self.named("device", Arc::new(json.to_string()), true);
+    }
+
+    /// A skin of several boards: board `name`'s health (its device,
+    /// clock, records, link) and its sensors' availability rows (keyed by
+    /// the skin's sensor numbers); the merged events (`boards`, `valid`)
+    /// sent at most once a second, or at once where `now` says.
+    pub fn board(&self, name: &str, health: serde_json::Value, valid: Vec<serde_json::Value>, now: bool) {
+        let t = std::time::Instant::now();
+        let (boards, rows) = {
+            let mut state = self.state();
+            state.boards.insert(name.to_string(), health);
+            state.valid_by_board.insert(name.to_string(), valid);
+            let due = now
+                || state
+                    .boards_sent
+                    .is_none_or(|s| t.duration_since(s) >= std::time::Duration::from_secs(1));
+            if !due {
+                return;
+            }
+            state.boards_sent = Some(t);
+            let boards: Vec<serde_json::Value> = state.boards.values().cloned().collect();
+            let rows: Vec<serde_json::Value> = state.valid_by_board.values().flatten().cloned().collect();
+            (boards, rows)
+        };
+        self.named(
+            "boards",
+            Arc::new(serde_json::Value::Array(boards).to_string()),
+            true,
+        );
+        self.named(
+            "valid",
+            Arc::new(serde_json::Value::Array(rows).to_string()),
+            true,
+        );
     }
 
     /// Keep `json` as event `name`'s latest value, and send it to the

@@ -56,6 +56,40 @@ impl Page {
         Ok(())
     }
 
+    /// The page as it is drawn now, `width` × `height` CSS pixels, as a
+    /// PNG written to `path`.
+    pub fn screenshot(&mut self, path: &std::path::Path, width: u32, height: u32) -> Result<()> {
+        use base64::Engine as _;
+        self.call(
+            "Emulation.setDeviceMetricsOverride",
+            serde_json::json!({"width": width, "height": height, "deviceScaleFactor": 1, "mobile": false}),
+        )?;
+        let shot = self.call("Page.captureScreenshot", serde_json::json!({"format": "png"}))?;
+        let data = shot["data"].as_str().context("no image in DevTools' answer")?;
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(data)
+            .context("DevTools' image")?;
+        std::fs::write(path, png).with_context(|| format!("writing {}", path.display()))
+    }
+
+    /// DevTools method `method` with `params`: its result.
+    fn call(&mut self, method: &str, params: serde_json::Value) -> Result<serde_json::Value> {
+        self.id += 1;
+        let msg = serde_json::json!({"id": self.id, "method": method, "params": params});
+        self.ws.send(tungstenite::Message::text(msg.to_string()))?;
+        loop {
+            let m = self.ws.read()?;
+            let Ok(text) = m.to_text() else { continue };
+            let v: serde_json::Value = serde_json::from_str(text).unwrap_or_default();
+            if v["id"] == self.id {
+                if v["error"].is_object() {
+                    bail!("{method}: {}", v["error"]);
+                }
+                return Ok(v["result"].clone());
+            }
+        }
+    }
+
     /// `expression`'s value, or the exception it threw.
     fn evaluate(&mut self, expression: &str) -> Result<Result<serde_json::Value, serde_json::Value>> {
         self.id += 1;

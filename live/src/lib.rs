@@ -32,6 +32,7 @@ mod records_csv;
 mod session;
 pub mod skin;
 mod skin_records;
+pub mod skin_view;
 mod summary;
 pub mod synthetic;
 

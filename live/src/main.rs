@@ -82,7 +82,7 @@ struct Cli {
         long = "source",
         value_name = "NAME=SOURCE",
         requires = "skin",
-        conflicts_with_all = ["replay", "serial", "tcp", "board", "idle", "serve"]
+        conflicts_with_all = ["replay", "serial", "tcp", "board", "idle"]
     )]
     sources: Vec<live::boards::BoardSource>,
 }
@@ -674,7 +674,18 @@ fn run_skin(cli: &Cli, dataset: &Path) -> Result<Outcome> {
     let flag = Arc::clone(&stop);
     ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
         .context("installing the Ctrl-C handler")?;
-    let done = live::boards::read_all(dataset, earlier, &skin, &cli.sources, &stop)?;
+    let dashboard = serve(cli.serve, None, None)?;
+    let done = live::boards::read_all(dataset, earlier, &skin, &cli.sources, &stop, dashboard.as_ref())?;
+    if let Some(d) = &dashboard {
+        d.end();
+        if cli.linger > 0 {
+            eprintln!(
+                "the boards' streams ended; serving the dashboard {} s more",
+                cli.linger
+            );
+            std::thread::sleep(Duration::from_secs(cli.linger));
+        }
+    }
     let mut outcome = Outcome::Complete;
     for b in &done {
         println!("board {}: {}", b.board, b.summary);

@@ -140,6 +140,9 @@ pub struct Sink<'a> {
     /// The board's name where a session reads several: its health
     /// lines carry it.
     pub label: Option<String>,
+    /// Where the board is one of a skin's several: its side of the
+    /// skin's dashboard (records shown on the skin's numbers and axis).
+    pub view: Option<crate::skin_view::SkinView>,
     watch: Watch,
     /// A start asked for: it begins at the next frame.
     starting: Option<(PathBuf, Option<Reply>)>,
@@ -161,6 +164,7 @@ impl<'a> Sink<'a> {
             finished: vec![],
             skin: None,
             label: None,
+            view: None,
             watch: Watch::default(),
             starting: None,
         }
@@ -186,6 +190,10 @@ impl<'a> Sink<'a> {
             return Ok(());
         };
         session.push_at(rest, host_utc_us)?;
+        if let (Some(d), Some(v)) = (self.dashboard, &self.view) {
+            v.show(d, session, false);
+            return Ok(());
+        }
         if let Some(d) = self.dashboard {
             d.push(session.fresh());
             if let Some(status) = session.fresh_status() {

@@ -199,3 +199,119 @@ fn a_source_for_a_board_the_skin_lacks_or_given_twice_is_refused() {
     assert_eq!(code, Some(2));
     assert!(err.contains("tcp, serial or replay"), "{err}");
 }
+
+/// The skin's dashboard in a real browser: both boards' sensors on the
+/// layout, each coloured from its latest record, the boards' table with
+/// their devices and B's reopened port, every record sent on the page,
+/// the same true instant of both boards at the same place on the axis.
+#[test]
+fn the_dashboard_shows_every_board_of_the_skin() {
+    use live::devtools::{free_port, Page};
+    use std::io::BufRead;
+    let tmp = tempfile::tempdir().unwrap();
+    let skin = tmp.path().join("pair.toml");
+    std::fs::write(&skin, SKIN).unwrap();
+    let (la, lb) = (
+        TcpListener::bind("127.0.0.1:0").unwrap(),
+        TcpListener::bind("127.0.0.1:0").unwrap(),
+    );
+    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
+        .arg("--skin")
+        .arg(&skin)
+        .args(["--serve", "127.0.0.1:0", "--linger", "3", "--source"])
+        .arg(format!("A=tcp:{}", la.local_addr().unwrap()))
+        .arg("--source")
+        .arg(format!("B=tcp:{}", lb.local_addr().unwrap()))
+        .arg("--dataset")
+        .arg(tmp.path().join("session"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut said = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut first = String::new();
+    said.read_line(&mut first).unwrap();
+    let url = first
+        .trim()
+        .strip_prefix("dashboard: ")
+        .expect(&first)
+        .to_string();
+    let port = free_port().unwrap();
+    let mut browser = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+        ])
+        .arg(format!("--remote-debugging-port={port}"))
+        .arg(format!(
+            "--user-data-dir={}",
+            tmp.path().join("chromium").display()
+        ))
+        .arg(&url)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("chromium (Debian's package; `cargo xtask setup` installs it)");
+    let mut page = Page::attach(port).unwrap();
+    let until = |page: &mut Page, e: &str| page.until(e, Duration::from_secs(20)).unwrap();
+    until(
+        &mut page,
+        "document.getElementById('state').textContent === 'open'",
+    );
+    until(
+        &mut page,
+        "document.querySelectorAll('#skin [data-sensor]').length === 4",
+    );
+    until(
+        &mut page,
+        "document.querySelector('#taxel-2 title').textContent === 'b0 (sensor 2)'",
+    );
+    // The boards send once the page is open: it sees every record.
+    let (fa, fb) = (frames(0xA, 0), frames(0xB, 7_300_000));
+    let t0 = Instant::now();
+    let a = std::thread::spawn(move || serve(la, fa, t0, None));
+    let b = std::thread::spawn(move || serve(lb, fb, t0, Some(N as usize / 2)));
+    until(
+        &mut page,
+        "[0, 1, 2, 3].every(i => document.getElementById('taxel-' + i).dataset.state === 'valid')",
+    );
+    until(&mut page, "document.querySelectorAll('#boards tr').length === 2");
+    a.join().unwrap();
+    b.join().unwrap();
+    assert!(child.wait().unwrap().success());
+    until(
+        &mut page,
+        "document.getElementById('state').textContent === 'ended'",
+    );
+    until(&mut page, "[0, 1, 2, 3].every(i => bySensor.get(i).n === 150)");
+    until(
+        &mut page,
+        "document.querySelector('#boards tr[data-board=B] td:nth-child(2)').textContent === '0000000b'",
+    );
+    until(
+        &mut page,
+        "document.querySelector('#boards tr[data-board=B] td:nth-child(9)').textContent === '1'",
+    );
+    until(
+        &mut page,
+        "document.querySelector('#boards tr[data-board=A] td:nth-child(10)').textContent === 'ended'",
+    );
+    // a0's and b0's last records were taken at the same true instant.
+    let apart = page
+        .eval("Math.abs(bySensor.get(0).last[0] - bySensor.get(2).last[0])")
+        .unwrap();
+    assert!(apart.as_f64().unwrap() < 0.005, "{apart} s apart");
+    until(
+        &mut page,
+        "document.getElementById('latest').textContent.includes('b1 (3)')",
+    );
+    let shot = tmp.path().join("page.png");
+    page.screenshot(&shot, 1200, 900).unwrap();
+    assert!(std::fs::read(&shot).unwrap().starts_with(b"\x89PNG\r\n\x1a\n"));
+    let _ = browser.kill();
+    let _ = browser.wait();
+    assert!(child.wait().unwrap().success());
+}

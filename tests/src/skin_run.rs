@@ -221,8 +221,15 @@ pub struct SkinRun {
 }
 
 /// Read `streams` (of `boards`) in one `live` session into `dir`, each
-/// sent in real time down its own socket.
-pub fn session(dir: &Path, boards: &[BoardSpec], streams: Vec<Vec<u8>>, block_us: u64) -> Result<SkinRun> {
+/// sent in real time down its own socket, shown on `dashboard` where
+/// one is served.
+pub fn session(
+    dir: &Path,
+    boards: &[BoardSpec],
+    streams: Vec<Vec<u8>>,
+    block_us: u64,
+    dashboard: Option<&live::dashboard::Dashboard>,
+) -> Result<SkinRun> {
     std::fs::create_dir_all(dir)?;
     let skin_path = dir.with_extension("toml");
     std::fs::write(&skin_path, skin_toml(boards))?;
@@ -247,7 +254,7 @@ pub fn session(dir: &Path, boards: &[BoardSpec], streams: Vec<Vec<u8>>, block_us
             .zip(boards)
             .map(|((l, bytes), b)| s.spawn(move || send_paced(l, bytes, *b, block_us, start)))
             .collect();
-        let done = live::boards::read_all(dir, live::Earlier::Overwrite, &skin, &sources, &stop)?;
+        let done = live::boards::read_all(dir, live::Earlier::Overwrite, &skin, &sources, &stop, dashboard)?;
         for h in senders {
             h.join().unwrap_or_else(|_| bail!("a sender panicked"))?;
         }

@@ -16,7 +16,7 @@ const SECONDS: u32 = 12;
 fn four_boards_with_drifting_clocks_are_aligned_within_a_millisecond() {
     let streams = skin_run::streams(&FOUR, SECONDS, 250).unwrap();
     let tmp = tempfile::tempdir().unwrap();
-    let run = skin_run::session(&tmp.path().join("skin"), &FOUR, streams, 4000).unwrap();
+    let run = skin_run::session(&tmp.path().join("skin"), &FOUR, streams, 4000, None).unwrap();
     // Every board complete, its device the one the skin names.
     for (b, spec) in run.boards.iter().zip(&FOUR) {
         assert!(

@@ -20,7 +20,25 @@ const RECORDS: u32 = 250;
 pub fn run(out: &Path) -> Result<String> {
     eprintln!("running four array boards in QEMU ({SECONDS} s each, 64 sensors), then reading them in one session in real time...");
     let streams = skin_run::streams(&FOUR, SECONDS, RECORDS)?;
-    let run = skin_run::session(&out.join("session"), &FOUR, streams, 1_000_000 / RECORDS as u64)?;
+    let dashboard = live::dashboard::Dashboard::serve("127.0.0.1:0".parse()?, None, None)?;
+    let shot = out.join("dashboard.png");
+    let _ = std::fs::remove_file(&shot);
+    let url = format!("http://{}/", dashboard.addr());
+    let run = std::thread::scope(|s| {
+        let camera = s.spawn(|| screenshot(&url, &shot, out));
+        let run = skin_run::session(
+            &out.join("session"),
+            &FOUR,
+            streams,
+            1_000_000 / RECORDS as u64,
+            Some(&dashboard),
+        );
+        camera
+            .join()
+            .map_err(|_| anyhow::anyhow!("the screenshot's thread panicked"))??;
+        run
+    })?;
+    dashboard.end();
     let placed = skin_run::placement(&run, &FOUR)?;
     let valid = valid_shares(&run.dir.join(live::RECORDS_CSV), &FOUR)?;
     let mut md = format!(
@@ -42,7 +60,10 @@ pub fn run(out: &Path) -> Result<String> {
          Wrote the session (`session/`: a folder per board, the skin's `records.csv` keyed by board and \
          sensor on the host's UTC, `skin.json`), `session.toml` (the skin's description) and \
          `skin_axis.svg` (sensor 0 of each board on the common axis: the four boards measure the same \
-         stretching, so their traces lie on each other when aligned).",
+         stretching, so their traces lie on each other when aligned), and `dashboard.png`: the dashboard \
+         (`--serve`) in headless Chromium {SHOT_AT_S} s into the session, the skin's 64 sensors on its \
+         layout coloured by their stretch, the boards' clocks and links, sensor 0's charts with its \
+         group's.",
         16 * FOUR.len(),
         FOUR.len()
     )?;
@@ -164,4 +185,51 @@ fn plot(out: &Path, run: &skin_run::SkinRun) -> Result<()> {
         &[panel],
     )
     .context("plot")
+}
+
+/// When the dashboard is photographed, s into the session.
+const SHOT_AT_S: u64 = 8;
+
+/// The dashboard at `url` in headless Chromium: sensor 0 selected (its
+/// charts and its group's), photographed [`SHOT_AT_S`] s into the
+/// session to `path` (Chromium's profile under `out`).
+fn screenshot(url: &str, path: &Path, out: &Path) -> Result<()> {
+    use live::devtools::{free_port, Page};
+    use std::time::Duration;
+    let port = free_port()?;
+    let mut browser = std::process::Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+        ])
+        .arg(format!("--remote-debugging-port={port}"))
+        .arg(format!("--user-data-dir={}", out.join("chromium").display()))
+        .arg(url)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .context("starting chromium (cargo xtask setup installs it)")?;
+    let t0 = std::time::Instant::now();
+    let shot = (|| -> Result<()> {
+        let mut page = Page::attach(port)?;
+        page.until(
+            "document.querySelectorAll('#skin [data-sensor]').length === 64",
+            Duration::from_secs(60),
+        )?;
+        page.until("bySensor.has(0)", Duration::from_secs(60))?;
+        page.eval(
+            "document.querySelector('#taxel-0').dispatchEvent(new MouseEvent('click', {bubbles: true}))",
+        )?;
+        if let Some(wait) = Duration::from_secs(SHOT_AT_S).checked_sub(t0.elapsed()) {
+            std::thread::sleep(wait);
+        }
+        page.screenshot(path, 1400, 1500)
+    })();
+    let _ = browser.kill();
+    let _ = browser.wait();
+    let _ = std::fs::remove_dir_all(out.join("chromium"));
+    shot
 }
