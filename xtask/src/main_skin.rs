@@ -25,7 +25,7 @@ pub fn run(out: &Path) -> Result<String> {
     let _ = std::fs::remove_file(&shot);
     let url = format!("http://{}/", dashboard.addr());
     let run = std::thread::scope(|s| {
-        let camera = s.spawn(|| screenshot(&url, &shot, out));
+        let camera = s.spawn(|| screenshot(&url, &shot));
         let run = skin_run::session(
             &out.join("session"),
             &FOUR,
@@ -112,9 +112,10 @@ fn table(run: &skin_run::SkinRun, placed: &[Placed], valid: &[f64]) -> String {
     }
     let _ = writeln!(
         t,
-        "\nThe drifts are fitted against the host's UTC clock, which stamps the arrivals; the streams were \
-         paced by its monotonic clock, and the two may run a few ppm apart (here {:+.2} ppm on average), a \
-         term every board shares. Against each other the boards' drifts are what was set within {:.2} ppm.",
+        "\nThe drifts are fitted against the host's UTC clock, which stamps the arrivals. A term every board \
+         shares (here {:+.2} ppm on average) is the host's: its UTC clock against the monotonic one that paced \
+         the streams, and sends that fall later as the host gets busier (headless Chromium draws the dashboard \
+         beside). Against each other the boards' drifts are what was set within {:.2} ppm.",
         mean_fit - mean_set,
         FOUR.iter()
             .zip(&fitted)
@@ -192,11 +193,12 @@ const SHOT_AT_S: u64 = 8;
 
 /// The dashboard at `url` in headless Chromium: sensor 0 selected (its
 /// charts and its group's), photographed [`SHOT_AT_S`] s into the
-/// session to `path` (Chromium's profile under `out`).
-fn screenshot(url: &str, path: &Path, out: &Path) -> Result<()> {
+/// session to `path`.
+fn screenshot(url: &str, path: &Path) -> Result<()> {
     use live::devtools::{free_port, Page};
     use std::time::Duration;
     let port = free_port()?;
+    let profile = std::env::temp_dir().join(format!("skin-dashboard-{}", std::process::id()));
     let mut browser = std::process::Command::new("chromium")
         .args([
             "--headless",
@@ -206,7 +208,7 @@ fn screenshot(url: &str, path: &Path, out: &Path) -> Result<()> {
             "--disable-background-networking",
         ])
         .arg(format!("--remote-debugging-port={port}"))
-        .arg(format!("--user-data-dir={}", out.join("chromium").display()))
+        .arg(format!("--user-data-dir={}", profile.display()))
         .arg(url)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -230,6 +232,6 @@ fn screenshot(url: &str, path: &Path, out: &Path) -> Result<()> {
     })();
     let _ = browser.kill();
     let _ = browser.wait();
-    let _ = std::fs::remove_dir_all(out.join("chromium"));
+    let _ = std::fs::remove_dir_all(&profile);
     shot
 }
