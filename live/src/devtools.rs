@@ -6,6 +6,56 @@ use anyhow::{bail, Context, Result};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::time::{Duration, Instant};
 
+/// Headless Chromium showing `url`, driven through DevTools: killed
+/// (and its profile removed) when dropped.
+pub struct Browser {
+    child: std::process::Child,
+    profile: std::path::PathBuf,
+    /// Its first page, once attached.
+    pub page: Page,
+}
+
+impl Browser {
+    /// Chromium started on `url` with a profile of its own (a new folder
+    /// under the system's temporary one) and `extra` switches, its page
+    /// attached.
+    pub fn open(url: &str, extra: &[&str]) -> Result<Self> {
+        let port = free_port()?;
+        let profile = std::env::temp_dir().join(format!("live-devtools-{}-{port}", std::process::id()));
+        let mut child = std::process::Command::new("chromium")
+            .args(["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"])
+            .args([
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+            ])
+            .args(extra)
+            .arg(format!("--remote-debugging-port={port}"))
+            .arg(format!("--user-data-dir={}", profile.display()))
+            .arg(url)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .context("chromium (Debian's package; `cargo xtask setup` installs it)")?;
+        match Page::attach(port) {
+            Ok(page) => Ok(Self { child, profile, page }),
+            Err(e) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                Err(e)
+            }
+        }
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self.profile);
+    }
+}
+
 /// A page of Chromium, JavaScript evaluated in it.
 pub struct Page {
     ws: tungstenite::WebSocket<std::net::TcpStream>,
@@ -92,25 +142,14 @@ impl Page {
 
     /// `expression`'s value, or the exception it threw.
     fn evaluate(&mut self, expression: &str) -> Result<Result<serde_json::Value, serde_json::Value>> {
-        self.id += 1;
-        let msg = serde_json::json!({
-            "id": self.id,
-            "method": "Runtime.evaluate",
-            "params": {"expression": expression, "returnByValue": true, "awaitPromise": true},
-        });
-        self.ws.send(tungstenite::Message::text(msg.to_string()))?;
-        loop {
-            let m = self.ws.read()?;
-            let Ok(text) = m.to_text() else { continue };
-            let v: serde_json::Value = serde_json::from_str(text).unwrap_or_default();
-            if v["id"] == self.id {
-                let exception = &v["result"]["exceptionDetails"];
-                return Ok(match exception.is_object() {
-                    true => Err(exception.clone()),
-                    false => Ok(v["result"]["result"]["value"].clone()),
-                });
-            }
-        }
+        let params =
+            serde_json::json!({"expression": expression, "returnByValue": true, "awaitPromise": true});
+        let result = self.call("Runtime.evaluate", params)?;
+        let exception = &result["exceptionDetails"];
+        Ok(match exception.is_object() {
+            true => Err(exception.clone()),
+            false => Ok(result["result"]["value"].clone()),
+        })
     }
 }
 

@@ -80,24 +80,12 @@ fn the_sets_in_force_are_kept_and_each_record_has_its_generation() {
     assert_eq!(sets[1]["t_us"], 8000);
 
     // The Python reader, from the manifest and from the stream alone.
-    let python = format!("{}/../python", env!("CARGO_MANIFEST_DIR"));
-    let run = std::process::Command::new(common::python_with("pandas"))
-        .env("PYTHONPATH", &python)
-        .arg("-c")
-        .arg(
-            "import sys; from skinread import dataset, stream\n\
-             a = dataset.read_records(sys.argv[1])['generation'].tolist()\n\
-             b = stream.read_stream(sys.argv[1] + '/stream.bin')[0]['generation'].tolist()\n\
-             print(a, b)",
-        )
-        .arg(&dir)
-        .output()
-        .expect("python3 with pandas (`cargo xtask setup` installs it)");
-    let said = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        run.status.success(),
-        "{said}{}",
-        String::from_utf8_lossy(&run.stderr)
+    let said = common::python_says(
+        "import sys; from skinread import dataset, stream\n\
+         a = dataset.read_records(sys.argv[1])['generation'].tolist()\n\
+         b = stream.read_stream(sys.argv[1] + '/stream.bin')[0]['generation'].tolist()\n\
+         print(a, b)",
+        &dir,
     );
     assert_eq!(said.trim(), "[1, 1, 1, 1, 2, 2, 2, 2] [1, 1, 1, 1, 2, 2, 2, 2]");
 }

@@ -68,29 +68,46 @@ fn serve(listener: TcpListener, frames: Vec<(Vec<u8>, u64)>, t0: Instant, drop_a
     }
 }
 
-#[test]
-fn two_boards_one_lost_and_back_are_read_in_one_session_on_one_axis() {
-    let tmp = tempfile::tempdir().unwrap();
-    let skin = tmp.path().join("pair.toml");
+/// `live` reading boards A and B of the pair's skin on `la` and `lb`
+/// into `tmp`/session, with `extra` options; its stderr piped.
+fn live_pair(
+    tmp: &std::path::Path,
+    la: &TcpListener,
+    lb: &TcpListener,
+    extra: &[&str],
+) -> std::process::Child {
+    let skin = tmp.join("pair.toml");
     std::fs::write(&skin, SKIN).unwrap();
-    let (la, lb) = (
-        TcpListener::bind("127.0.0.1:0").unwrap(),
-        TcpListener::bind("127.0.0.1:0").unwrap(),
-    );
-    let dir = tmp.path().join("session");
-    let child = Command::new(env!("CARGO_BIN_EXE_live"))
+    Command::new(env!("CARGO_BIN_EXE_live"))
         .arg("--skin")
         .arg(&skin)
+        .args(extra)
         .arg("--source")
         .arg(format!("A=tcp:{}", la.local_addr().unwrap()))
         .arg("--source")
         .arg(format!("B=tcp:{}", lb.local_addr().unwrap()))
         .arg("--dataset")
-        .arg(&dir)
+        .arg(tmp.join("session"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .unwrap();
+        .unwrap()
+}
+
+/// Two free listeners, the boards' ends.
+fn listeners() -> (TcpListener, TcpListener) {
+    (
+        TcpListener::bind("127.0.0.1:0").unwrap(),
+        TcpListener::bind("127.0.0.1:0").unwrap(),
+    )
+}
+
+#[test]
+fn two_boards_one_lost_and_back_are_read_in_one_session_on_one_axis() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (la, lb) = listeners();
+    let dir = tmp.path().join("session");
+    let child = live_pair(tmp.path(), &la, &lb, &[]);
     // B's clock started 7.3 s before A's.
     let (fa, fb) = (frames(0xA, 0), frames(0xB, 7_300_000));
     let t0 = Instant::now();
@@ -146,25 +163,13 @@ fn two_boards_one_lost_and_back_are_read_in_one_session_on_one_axis() {
 
 /// The Python reader takes the skin's records and its boards.
 fn python_reads_the_skin(dir: &std::path::Path) {
-    let python = format!("{}/../python", env!("CARGO_MANIFEST_DIR"));
-    let run = Command::new(common::python_with("pandas"))
-        .env("PYTHONPATH", &python)
-        .arg("-c")
-        .arg(
-            "import sys, skinread\n\
-             df = skinread.read_skin(sys.argv[1]); b = skinread.boards(sys.argv[1])\n\
-             assert df['t_utc'].is_monotonic_increasing and df['t_utc'].notna().all()\n\
-             print(len(df), sorted(set(df['board'])), sorted(set(df['name'])), b['reconnects'].tolist(), \
-             b['device'].tolist(), int(df['valid'].sum()))",
-        )
-        .arg(dir)
-        .output()
-        .expect("python3 with pandas (`cargo xtask setup` installs it)");
-    let said = String::from_utf8_lossy(&run.stdout);
-    assert!(
-        run.status.success(),
-        "{said}{}",
-        String::from_utf8_lossy(&run.stderr)
+    let said = common::python_says(
+        "import sys, skinread\n\
+         df = skinread.read_skin(sys.argv[1]); b = skinread.boards(sys.argv[1])\n\
+         assert df['t_utc'].is_monotonic_increasing and df['t_utc'].notna().all()\n\
+         print(len(df), sorted(set(df['board'])), sorted(set(df['name'])), b['reconnects'].tolist(), \
+         b['device'].tolist(), int(df['valid'].sum()))",
+        dir,
     );
     assert_eq!(
         said.trim(),
@@ -206,28 +211,11 @@ fn a_source_for_a_board_the_skin_lacks_or_given_twice_is_refused() {
 /// the same true instant of both boards at the same place on the axis.
 #[test]
 fn the_dashboard_shows_every_board_of_the_skin() {
-    use live::devtools::{free_port, Page};
+    use live::devtools::{Browser, Page};
     use std::io::BufRead;
     let tmp = tempfile::tempdir().unwrap();
-    let skin = tmp.path().join("pair.toml");
-    std::fs::write(&skin, SKIN).unwrap();
-    let (la, lb) = (
-        TcpListener::bind("127.0.0.1:0").unwrap(),
-        TcpListener::bind("127.0.0.1:0").unwrap(),
-    );
-    let mut child = Command::new(env!("CARGO_BIN_EXE_live"))
-        .arg("--skin")
-        .arg(&skin)
-        .args(["--serve", "127.0.0.1:0", "--linger", "3", "--source"])
-        .arg(format!("A=tcp:{}", la.local_addr().unwrap()))
-        .arg("--source")
-        .arg(format!("B=tcp:{}", lb.local_addr().unwrap()))
-        .arg("--dataset")
-        .arg(tmp.path().join("session"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let (la, lb) = listeners();
+    let mut child = live_pair(tmp.path(), &la, &lb, &["--serve", "127.0.0.1:0", "--linger", "3"]);
     let mut said = std::io::BufReader::new(child.stdout.take().unwrap());
     let mut first = String::new();
     said.read_line(&mut first).unwrap();
@@ -236,37 +224,16 @@ fn the_dashboard_shows_every_board_of_the_skin() {
         .strip_prefix("dashboard: ")
         .expect(&first)
         .to_string();
-    let port = free_port().unwrap();
-    let mut browser = Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-        ])
-        .arg(format!("--remote-debugging-port={port}"))
-        .arg(format!(
-            "--user-data-dir={}",
-            tmp.path().join("chromium").display()
-        ))
-        .arg(&url)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("chromium (Debian's package; `cargo xtask setup` installs it)");
-    let mut page = Page::attach(port).unwrap();
+    let mut browser = Browser::open(&url, &[]).unwrap();
+    let page = &mut browser.page;
     let until = |page: &mut Page, e: &str| page.until(e, Duration::from_secs(20)).unwrap();
+    until(page, "document.getElementById('state').textContent === 'open'");
     until(
-        &mut page,
-        "document.getElementById('state').textContent === 'open'",
-    );
-    until(
-        &mut page,
+        page,
         "document.querySelectorAll('#skin [data-sensor]').length === 4",
     );
     until(
-        &mut page,
+        page,
         "document.querySelector('#taxel-2 title').textContent === 'b0 (sensor 2)'",
     );
     // The boards send once the page is open: it sees every record.
@@ -275,28 +242,25 @@ fn the_dashboard_shows_every_board_of_the_skin() {
     let a = std::thread::spawn(move || serve(la, fa, t0, None));
     let b = std::thread::spawn(move || serve(lb, fb, t0, Some(N as usize / 2)));
     until(
-        &mut page,
+        page,
         "[0, 1, 2, 3].every(i => document.getElementById('taxel-' + i).dataset.state === 'valid')",
     );
-    until(&mut page, "document.querySelectorAll('#boards tr').length === 2");
+    until(page, "document.querySelectorAll('#boards tr').length === 2");
     a.join().unwrap();
     b.join().unwrap();
     assert!(child.wait().unwrap().success());
+    until(page, "document.getElementById('state').textContent === 'ended'");
+    until(page, "[0, 1, 2, 3].every(i => bySensor.get(i).n === 150)");
     until(
-        &mut page,
-        "document.getElementById('state').textContent === 'ended'",
-    );
-    until(&mut page, "[0, 1, 2, 3].every(i => bySensor.get(i).n === 150)");
-    until(
-        &mut page,
+        page,
         "document.querySelector('#boards tr[data-board=B] td:nth-child(2)').textContent === '0000000b'",
     );
     until(
-        &mut page,
+        page,
         "document.querySelector('#boards tr[data-board=B] td:nth-child(9)').textContent === '1'",
     );
     until(
-        &mut page,
+        page,
         "document.querySelector('#boards tr[data-board=A] td:nth-child(10)').textContent === 'ended'",
     );
     // a0's and b0's last records were taken at the same true instant.
@@ -305,13 +269,12 @@ fn the_dashboard_shows_every_board_of_the_skin() {
         .unwrap();
     assert!(apart.as_f64().unwrap() < 0.005, "{apart} s apart");
     until(
-        &mut page,
+        page,
         "document.getElementById('latest').textContent.includes('b1 (3)')",
     );
     let shot = tmp.path().join("page.png");
     page.screenshot(&shot, 1200, 900).unwrap();
     assert!(std::fs::read(&shot).unwrap().starts_with(b"\x89PNG\r\n\x1a\n"));
-    let _ = browser.kill();
-    let _ = browser.wait();
+    drop(browser);
     assert!(child.wait().unwrap().success());
 }

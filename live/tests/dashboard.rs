@@ -209,21 +209,22 @@ print(len(recs), disturbed, sorted({r["sensor"] for r in recs}), recs[0]["f2_hz"
     );
 }
 
-/// Chromium's page through DevTools ([`live::devtools`]), a test's
+/// Chromium on a page through DevTools ([`live::devtools`]), a test's
 /// failure where it fails.
-struct Page(live::devtools::Page);
+struct Page(live::devtools::Browser);
 
 impl Page {
-    fn attach(port: u16) -> Self {
-        Self(live::devtools::Page::attach(port).unwrap())
+    fn open(url: &str) -> Self {
+        Self(live::devtools::Browser::open(url, &[]).unwrap())
     }
 
     fn eval(&mut self, expression: &str) -> serde_json::Value {
-        self.0.eval(expression).unwrap()
+        self.0.page.eval(expression).unwrap()
     }
 
     fn until(&mut self, expression: &str) {
         self.0
+            .page
             .until(expression, std::time::Duration::from_secs(20))
             .unwrap()
     }
@@ -264,25 +265,7 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     for f in &frames[..100] {
         sock.write_all(f).unwrap();
     }
-    let port = live::devtools::free_port().unwrap();
-    let mut browser = Command::new("chromium")
-        .args(["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run"])
-        .args([
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-        ])
-        .arg(format!("--remote-debugging-port={port}"))
-        .arg(format!(
-            "--user-data-dir={}",
-            tmp.path().join("chromium").display()
-        ))
-        .arg(&url)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("chromium (Debian's package; `cargo xtask setup` installs it)");
-    let mut page = Page::attach(port);
+    let mut page = Page::open(&url);
     page.until("document.getElementById('state').textContent === 'open'");
     // Not recording, yet the records pass.
     page.until("document.getElementById('recording').textContent === '–' || document.getElementById('recording').textContent === 'no'");
@@ -331,8 +314,7 @@ fn the_page_records_and_marks_what_it_is_asked_to() {
     // Stop: the set written, and the page back to not recording.
     page.eval("document.getElementById('record').click()");
     page.until("document.getElementById('recording').textContent === 'no'");
-    let _ = browser.kill();
-    let _ = browser.wait();
+    drop(page);
     for f in &frames[200..] {
         sock.write_all(f).unwrap();
     }

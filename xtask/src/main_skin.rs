@@ -195,43 +195,18 @@ const SHOT_AT_S: u64 = 8;
 /// charts and its group's), photographed [`SHOT_AT_S`] s into the
 /// session to `path`.
 fn screenshot(url: &str, path: &Path) -> Result<()> {
-    use live::devtools::{free_port, Page};
     use std::time::Duration;
-    let port = free_port()?;
-    let profile = std::env::temp_dir().join(format!("skin-dashboard-{}", std::process::id()));
-    let mut browser = std::process::Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--no-first-run",
-            "--disable-background-networking",
-        ])
-        .arg(format!("--remote-debugging-port={port}"))
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(url)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .context("starting chromium (cargo xtask setup installs it)")?;
     let t0 = std::time::Instant::now();
-    let shot = (|| -> Result<()> {
-        let mut page = Page::attach(port)?;
-        page.until(
-            "document.querySelectorAll('#skin [data-sensor]').length === 64",
-            Duration::from_secs(60),
-        )?;
-        page.until("bySensor.has(0)", Duration::from_secs(60))?;
-        page.eval(
-            "document.querySelector('#taxel-0').dispatchEvent(new MouseEvent('click', {bubbles: true}))",
-        )?;
-        if let Some(wait) = Duration::from_secs(SHOT_AT_S).checked_sub(t0.elapsed()) {
-            std::thread::sleep(wait);
-        }
-        page.screenshot(path, 1400, 1500)
-    })();
-    let _ = browser.kill();
-    let _ = browser.wait();
-    let _ = std::fs::remove_dir_all(&profile);
-    shot
+    let mut browser = live::devtools::Browser::open(url, &[])?;
+    let page = &mut browser.page;
+    page.until(
+        "document.querySelectorAll('#skin [data-sensor]').length === 64",
+        Duration::from_secs(60),
+    )?;
+    page.until("bySensor.has(0)", Duration::from_secs(60))?;
+    page.eval("document.querySelector('#taxel-0').dispatchEvent(new MouseEvent('click', {bubbles: true}))")?;
+    if let Some(wait) = Duration::from_secs(SHOT_AT_S).checked_sub(t0.elapsed()) {
+        std::thread::sleep(wait);
+    }
+    page.screenshot(path, 1400, 1500)
 }

@@ -183,3 +183,25 @@ pub fn post(page: &str, path: &str, content_type: &str, body: &str) -> (u16, Str
         answer.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_string(),
     )
 }
+
+/// What the repository's Python reader (`python/`, with pandas) prints
+/// running `script` on `arg`; the test fails with its errors where it
+/// fails.
+#[allow(dead_code)]
+pub fn python_says(script: &str, arg: &std::path::Path) -> String {
+    let python = format!("{}/../python", env!("CARGO_MANIFEST_DIR"));
+    let run = std::process::Command::new(python_with("pandas"))
+        .env("PYTHONPATH", &python)
+        .arg("-c")
+        .arg(script)
+        .arg(arg)
+        .output()
+        .expect("python3 with pandas (`cargo xtask setup` installs it)");
+    let said = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(
+        run.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    said
+}
