@@ -167,7 +167,7 @@ pub fn read_all(
             .zip(sessions)
             .map(|(s, session)| {
                 let view = SkinView::new(skin, &s.board, epoch_s);
-                scope.spawn(move || read_board(s, session, skin, stop, dashboard.map(|d| (d, view))))
+                scope.spawn(move || read_board(s, session, stop, dashboard.map(|d| (d, view))))
             })
             .collect();
         runs.into_iter()
@@ -184,12 +184,12 @@ pub fn read_all(
 fn read_board(
     src: &BoardSource,
     session: Session,
-    skin: &Skin,
     stop: &AtomicBool,
     shown: Option<(&Dashboard, SkinView)>,
 ) -> Result<BoardDone> {
+    // The skin's names are the session's (set in read_all); the sink
+    // starts no recordings of its own, so it needs none.
     let mut sink = Sink::new(Some(session), None);
-    sink.skin = Some(Arc::new(skin.on_board(Some(&src.board))?));
     sink.label = Some(src.board.clone());
     if let Some((d, view)) = shown {
         sink.dashboard = Some(d);
@@ -295,7 +295,7 @@ fn finish_board(
     if stopped == Some(Stopped::Asked) {
         session.ask_stop();
     }
-    if let (Some(d), Some(v)) = (sink.dashboard, &sink.view) {
+    if let (Some(d), Some(v)) = (sink.dashboard, &mut sink.view) {
         v.show(d, &session, true);
     }
     let devices = session.segments().iter().map(|g| g.start.device_id).collect();

@@ -606,18 +606,11 @@ fn run(cli: Cli) -> Result<Outcome> {
     // Ctrl-C ends a live stream (a board's never ends by itself), the
     // normal way to end a run: the recording running is written with
     // what arrived, complete. `quit` on standard input does the same.
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
-        .context("installing the Ctrl-C handler")?;
+    let stop = stop_on_ctrl_c()?;
     if following {
         read_stdin(Arc::clone(&stop), marks_tx, commands_tx);
     }
-    let earlier = if cli.overwrite {
-        live::Earlier::Overwrite
-    } else {
-        live::Earlier::Refuse
-    };
+    let earlier = earlier(cli.overwrite);
     let mut folders = live::Folders::new(dataset.clone(), earlier);
     // The first recording from the start, unless --idle (checked now:
     // a folder that holds files is refused before the source opens).
@@ -655,6 +648,25 @@ fn run(cli: Cli) -> Result<Outcome> {
     end_recordings(&mut sink, stopped)
 }
 
+/// What a session does with a folder that holds files: replaced where
+/// `--overwrite` asks, else refused.
+fn earlier(overwrite: bool) -> live::Earlier {
+    match overwrite {
+        true => live::Earlier::Overwrite,
+        false => live::Earlier::Refuse,
+    }
+}
+
+/// The flag Ctrl-C sets: it ends a live stream (a board's never ends by
+/// itself), the normal way to end a run.
+fn stop_on_ctrl_c() -> Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
+        .context("installing the Ctrl-C handler")?;
+    Ok(stop)
+}
+
 /// Several boards in one session (`--source`, once per board): each
 /// read until it ends or Ctrl-C, the skin's records and manifest
 /// written; each board's ending printed.
@@ -666,14 +678,8 @@ fn run_skin(cli: &Cli, dataset: &Path) -> Result<Outcome> {
     for said in live::boards::check(&skin, &cli.sources)? {
         eprintln!("{said}");
     }
-    let earlier = match cli.overwrite {
-        true => live::Earlier::Overwrite,
-        false => live::Earlier::Refuse,
-    };
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))
-        .context("installing the Ctrl-C handler")?;
+    let earlier = earlier(cli.overwrite);
+    let stop = stop_on_ctrl_c()?;
     let dashboard = serve(cli.serve, None, None)?;
     let done = live::boards::read_all(dataset, earlier, &skin, &cli.sources, &stop, dashboard.as_ref())?;
     if let Some(d) = &dashboard {

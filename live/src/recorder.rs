@@ -190,7 +190,7 @@ impl<'a> Sink<'a> {
             return Ok(());
         };
         session.push_at(rest, host_utc_us)?;
-        if let (Some(d), Some(v)) = (self.dashboard, &self.view) {
+        if let (Some(d), Some(v)) = (self.dashboard, &mut self.view) {
             v.show(d, session, false);
             return Ok(());
         }

@@ -29,6 +29,8 @@ struct Reader {
     path: std::path::PathBuf,
     line: usize,
     clocks: Vec<Option<Line>>,
+    /// Its inputs' names in the skin.
+    names: std::collections::BTreeMap<u8, String>,
 }
 
 /// A line waiting its turn: its time on the axis (none sorts last), its
@@ -56,7 +58,7 @@ impl PartialOrd for Pending {
 }
 
 impl Reader {
-    fn open(board: usize, done: &BoardDone) -> Result<Self> {
+    fn open(board: usize, done: &BoardDone, skin: &Skin) -> Result<Self> {
         let path = done.dir.join(crate::RECORDS_CSV);
         let file = std::fs::File::open(&path).with_context(|| format!("reading {}", path.display()))?;
         let mut lines = std::io::BufReader::new(file).lines();
@@ -70,11 +72,17 @@ impl Reader {
             path,
             line: 1,
             clocks: done.clocks.clone(),
+            names: skin
+                .sensors
+                .iter()
+                .filter(|s| s.board == done.board)
+                .map(|s| (s.index, s.name.clone()))
+                .collect(),
         })
     }
 
     /// The next line with its place on the axis.
-    fn next(&mut self, skin: &Skin, board: &str) -> Result<Option<Pending>> {
+    fn next(&mut self) -> Result<Option<Pending>> {
         let Some(text) = self.lines.next().transpose()? else {
             return Ok(None);
         };
@@ -95,11 +103,7 @@ impl Reader {
             .checked_sub(1)
             .and_then(|k| self.clocks.get(k).copied().flatten());
         let t = line.map(|l| (l.host_of(t_us as f64 * 1e-6) * 1e6).round() as i64);
-        let name = skin
-            .sensors
-            .iter()
-            .find(|s| s.board == board && s.index == sensor)
-            .map_or(String::new(), |s| s.name.clone());
+        let name = self.names.get(&sensor).cloned().unwrap_or_default();
         Ok(Some(Pending {
             t,
             board: self.board,
@@ -119,11 +123,11 @@ pub fn merge(dir: &Path, skin: &Skin, done: &[BoardDone]) -> Result<u64> {
     let mut readers = done
         .iter()
         .enumerate()
-        .map(|(k, d)| Reader::open(k, d))
+        .map(|(k, d)| Reader::open(k, d, skin))
         .collect::<Result<Vec<_>>>()?;
     let mut heap = BinaryHeap::new();
-    for (k, r) in readers.iter_mut().enumerate() {
-        if let Some(p) = r.next(skin, &done[k].board)? {
+    for r in readers.iter_mut() {
+        if let Some(p) = r.next()? {
             heap.push(p);
         }
     }
@@ -133,7 +137,7 @@ pub fn merge(dir: &Path, skin: &Skin, done: &[BoardDone]) -> Result<u64> {
         let (board, name) = (quoted(&done[p.board].board), quoted(&p.name));
         writeln!(out, "{board},{name},{t},{}", p.text)?;
         n += 1;
-        if let Some(next) = readers[p.board].next(skin, &done[p.board].board)? {
+        if let Some(next) = readers[p.board].next()? {
             heap.push(next);
         }
     }

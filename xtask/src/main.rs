@@ -175,25 +175,7 @@ fn main() -> Result<()> {
             setup::run()?;
             docs::regenerate(&root)
         }
-        Cmd::Survey { seeds, first } => cargo::run_env(
-            &root,
-            &[
-                "test",
-                "--profile",
-                checks::TEST_PROFILE,
-                "-p",
-                "host-sim",
-                "--test",
-                "second_generator",
-                "--test",
-                "identify",
-                "--",
-                "--ignored",
-                "--nocapture",
-                "survey",
-            ],
-            &[("SEEDS", &seeds.to_string()), ("FIRST", &first.to_string())],
-        ),
+        Cmd::Survey { seeds, first } => survey(&root, seeds, first),
         Cmd::ExampleData { out } => {
             rig_sim::Bench::example()
                 .write(&out)
@@ -203,6 +185,29 @@ fn main() -> Result<()> {
         }
         Cmd::Fuzz { cases } => fuzz(&root, cases),
     }
+}
+
+/// identify's survey over both generators (`cargo xtask survey`).
+fn survey(root: &std::path::Path, seeds: u64, first: u64) -> Result<()> {
+    cargo::run_env(
+        root,
+        &[
+            "test",
+            "--profile",
+            checks::TEST_PROFILE,
+            "-p",
+            "host-sim",
+            "--test",
+            "second_generator",
+            "--test",
+            "identify",
+            "--",
+            "--ignored",
+            "--nocapture",
+            "survey",
+        ],
+        &[("SEEDS", &seeds.to_string()), ("FIRST", &first.to_string())],
+    )
 }
 
 /// The fuzz targets with `cases` cases each (fresh seeds): dsp-core's
