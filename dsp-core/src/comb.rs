@@ -706,17 +706,32 @@ impl<const K: usize> Tones<K> {
         if self.n == 0 {
             return 0.0;
         }
-        let n = self.n as i128;
-        let sum = self.sum.unsigned_abs() as u128;
-        let mut e = n * self.sq as i128 - (sum * sum) as i128;
-        e -= tones_energy(&self.x) as i128;
-        let e = e.max(0);
+        let e = self.residual_scaled();
         // To f32 through a shift (even) that keeps 30 bits (E·N < 2¹²⁶).
         let bits = 128 - e.leading_zeros();
         let sh = (bits.saturating_sub(30) + 1) & !1;
         let scaled = (e >> sh) as i32 as f32;
         // ×2^(sh/2), sh/2 ≤ 63: exact, as ldexpf (a library call).
         crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32) / self.n as f32
+    }
+
+    /// What no tone of the comb explains, as energy: E_res = Σ of the
+    /// residual's squares, counts² (0 for an empty block), from the same
+    /// i128 as [`Tones::residual_rms`], to f64 (relative error 10⁻¹⁶).
+    pub fn residual_energy(&self) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        self.residual_scaled() as f64 / self.n as f64
+    }
+
+    /// N·E_res in i128, not below 0 (`n` > 0).
+    fn residual_scaled(&self) -> i128 {
+        let n = self.n as i128;
+        let sum = self.sum.unsigned_abs() as u128;
+        let mut e = n * self.sq as i128 - (sum * sum) as i128;
+        e -= tones_energy(&self.x) as i128;
+        e.max(0)
     }
 
     /// The amplitudes of every tone, the phasors in f32 and the

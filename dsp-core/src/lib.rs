@@ -13,6 +13,7 @@
 //! | [`osc`] | phase-accumulator excitation oscillator ([`Oscillator`] / [`OscillatorState`]) |
 //! | [`demod`] | synchronous I/Q demodulation of (voltage, current) sample pairs, i64 sums |
 //! | [`comb`] | demodulation of a comb of tones from one input of a scanned block |
+//! | [`hum`] | mains hum followed across blocks and taken out of a comb's sums |
 //! | [`lockin`] | one tone through Nuttall's window, with a guard bin either side: far energy rejected, near energy seen |
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
@@ -67,6 +68,7 @@ pub mod dielectric;
 mod fixed;
 pub mod fixture;
 pub mod fmath;
+pub mod hum;
 pub mod invert;
 pub mod lockin;
 pub mod lumped;

@@ -1,0 +1,370 @@
+//! The hum canceller against an f64 reference that computes the same
+//! fit from the rows directly, with exact cosines: over its declared
+//! range (hum 0 to 8,000 counts, any phase, 50 and 60 Hz, both of the
+//! array's blocks, noise 1 to 10 counts), the tones it leaves and its
+//! residual.
+
+use super::*;
+use crate::comb::Comb;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+const RATE_HZ: u32 = 25_000;
+const TAU: f64 = core::f64::consts::TAU;
+
+/// The comb's tones as the array lays them out: amplitude (counts) and
+/// phase (rad) of each.
+const LEVELS: [(f64, f64); 5] = [
+    (3000.0, 0.3),
+    (2000.0, 1.1),
+    (1500.0, -2.0),
+    (900.0, 0.7),
+    (500.0, 2.9),
+];
+
+/// One block of input: DC, the tones, a hum and noise, rounded to codes.
+struct Block<const N: usize> {
+    rows: [[i16; 1]; N],
+}
+
+#[allow(clippy::too_many_arguments)]
+fn block<const N: usize>(
+    periods: &[u32; 5],
+    b: usize,
+    mains_hz: f64,
+    hum: f64,
+    hum_phase: f64,
+    sigma: f64,
+    rng: &mut ChaCha8Rng,
+) -> Block<N> {
+    let noise = Normal::new(0.0, sigma).unwrap();
+    let mut rows = [[0i16; 1]; N];
+    for (n, row) in rows.iter_mut().enumerate() {
+        let t = (b * N + n) as f64 / RATE_HZ as f64;
+        let mut x = 120.0 + hum * (TAU * mains_hz * t + hum_phase).cos();
+        for (&p, &(a, ph)) in periods.iter().zip(&LEVELS) {
+            x += a * (TAU * p as f64 * n as f64 / N as f64 + ph).cos();
+        }
+        x += noise.sample(rng);
+        row[0] = x.round().clamp(-32768.0, 32767.0) as i16;
+    }
+    Block { rows }
+}
+
+/// The same fit in f64 from the rows, with exact cosines: (p, the
+/// corrected tone sums, the corrected residual rms) where it applies.
+struct Reference<const N: usize> {
+    periods: [u32; 5],
+    mains_hz: f64,
+    m: [[f64; 2]; 2],
+    r: [f64; 2],
+    energy: f64,
+    weight: f64,
+}
+
+type Corrected = ([f64; 2], [(f64, f64); 5], f64);
+
+impl<const N: usize> Reference<N> {
+    fn new(periods: [u32; 5], mains_hz: f64) -> Self {
+        Self {
+            periods,
+            mains_hz,
+            m: [[0.0; 2]; 2],
+            r: [0.0; 2],
+            energy: 0.0,
+            weight: 0.0,
+        }
+    }
+
+    /// x less its mean and tones.
+    fn perp(&self, x: &[f64; N]) -> [f64; N] {
+        let nf = N as f64;
+        let mean = x.iter().sum::<f64>() / nf;
+        let mut out = x.map(|v| v - mean);
+        for &p in &self.periods {
+            let th = |n: usize| TAU * p as f64 * n as f64 / nf;
+            let c: f64 = (0..N).map(|n| x[n] * th(n).cos()).sum::<f64>() * 2.0 / nf;
+            let s: f64 = (0..N).map(|n| x[n] * th(n).sin()).sum::<f64>() * 2.0 / nf;
+            for (n, o) in out.iter_mut().enumerate() {
+                *o -= c * th(n).cos() + s * th(n).sin();
+            }
+        }
+        out
+    }
+
+    fn basis(&self, j: usize) -> [f64; N] {
+        core::array::from_fn(|n| {
+            let phi = TAU * self.mains_hz * n as f64 / RATE_HZ as f64;
+            if j == 0 {
+                phi.cos()
+            } else {
+                phi.sin()
+            }
+        })
+    }
+
+    fn step(&mut self, rows: &[[i16; 1]; N], clean: f64) -> Option<Corrected> {
+        let x: [f64; N] = core::array::from_fn(|n| rows[n][0] as f64);
+        let b = [self.basis(0), self.basis(1)];
+        let pb = [self.perp(&b[0]), self.perp(&b[1])];
+        let px = self.perp(&x);
+        let dot = |a: &[f64; N], c: &[f64; N]| a.iter().zip(c).map(|(a, c)| a * c).sum::<f64>();
+        let u = [dot(&px, &b[0]), dot(&px, &b[1])];
+        let q = [
+            [dot(&pb[0], &pb[0]), dot(&pb[0], &pb[1])],
+            [dot(&pb[1], &pb[0]), dot(&pb[1], &pb[1])],
+        ];
+        let psi = TAU * self.mains_hz * N as f64 / RATE_HZ as f64;
+        let (c, s) = (psi.cos(), psi.sin());
+        let l = 1.0 - (N as f64 / RATE_HZ as f64) / TAU_S as f64;
+        let t = [[c, s], [-s, c]];
+        let rot = |a: &[[f64; 2]; 2]| {
+            let ta: [[f64; 2]; 2] =
+                core::array::from_fn(|i| core::array::from_fn(|j| t[i][0] * a[0][j] + t[i][1] * a[1][j]));
+            let out: [[f64; 2]; 2] =
+                core::array::from_fn(|i| core::array::from_fn(|j| ta[i][0] * t[j][0] + ta[i][1] * t[j][1]));
+            out
+        };
+        let m = rot(&self.m);
+        self.m = core::array::from_fn(|i| core::array::from_fn(|j| l * m[i][j] + q[i][j]));
+        let r = self.r;
+        self.r = [
+            l * (c * r[0] + s * r[1]) + u[0],
+            l * (-s * r[0] + c * r[1]) + u[1],
+        ];
+        self.energy = l * self.energy + dot(&px, &px);
+        self.weight = l * self.weight + 1.0;
+        let m = self.m;
+        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+        let p = [
+            (m[1][1] * self.r[0] - m[0][1] * self.r[1]) / det,
+            (-m[1][0] * self.r[0] + m[0][0] * self.r[1]) / det,
+        ];
+        let explained = p[0] * self.r[0] + p[1] * self.r[1];
+        let noise = (self.energy - explained) / (self.weight * (N - 11) as f64 - 2.0);
+        let full = self.weight * (1.0 - l) >= 0.5;
+        if !(full && explained > SIGNIFICANT as f64 * noise && noise <= clean * clean) {
+            return None;
+        }
+        let y: [f64; N] = core::array::from_fn(|n| x[n] - p[0] * b[0][n] - p[1] * b[1][n]);
+        let tones = self.periods.map(|p| {
+            let th = |n: usize| TAU * p as f64 * n as f64 / N as f64;
+            let c: f64 = (0..N).map(|n| y[n] * th(n).cos()).sum();
+            let s: f64 = (0..N).map(|n| y[n] * th(n).sin()).sum();
+            (c, -s)
+        });
+        let py = self.perp(&y);
+        Some((p, tones, (dot(&py, &py) / N as f64).sqrt()))
+    }
+}
+
+/// Worst and rms errors over a run: of each corrected tone sum, relative
+/// to the tone's noise σ·√(N/2); of the residual, relative; and how many
+/// blocks both took a hum out of.
+#[derive(Debug, Default)]
+struct Errors {
+    tone: (f64, f64),
+    residual: (f64, f64),
+    applied: usize,
+    only_one: usize,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run<const N: usize>(
+    periods: [u32; 5],
+    mains_hz: u32,
+    hum: f64,
+    phase: f64,
+    sigma: f64,
+    blocks: usize,
+    seed: u64,
+    errors: &mut Errors,
+) {
+    let comb = Comb::<N, 5>::new(periods).unwrap();
+    let mains = Mains::new(mains_hz, RATE_HZ, &comb);
+    let mut window = Window::EMPTY;
+    let mut state = HumState::EMPTY;
+    let mut reference = Reference::<N>::new(periods, mains_hz as f64);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let clean = 6.4;
+    for b in 0..blocks {
+        let blk = block::<N>(&periods, b, mains_hz as f64, hum, phase, sigma, &mut rng);
+        let tones = comb.column(&blk.rows, 0);
+        let mut levels = tones.levels();
+        window.advance(&mains);
+        let ours = mains.cancel(
+            &window,
+            &mut state,
+            mains.sums(&blk.rows, 0),
+            &tones,
+            &mut levels,
+            clean,
+        );
+        let theirs = reference.step(&blk.rows, clean as f64);
+
+        match (ours, theirs) {
+            (Some(_), Some((_, x, res))) => {
+                errors.applied += 1;
+                let tone_sigma = sigma * (N as f64 / 2.0).sqrt();
+                for (ph, (re, im)) in levels.phasor.iter().zip(x) {
+                    let d = ((ph.re as f64 / Q31 - re).powi(2) + (ph.im as f64 / Q31 - im).powi(2)).sqrt()
+                        / tone_sigma;
+                    errors.tone.0 = errors.tone.0.max(d);
+                    errors.tone.1 += d * d;
+                }
+                let d = levels.residual as f64 / res - 1.0;
+                errors.residual.0 = errors.residual.0.max(d.abs());
+                errors.residual.1 += d * d;
+            }
+            (None, None) => {}
+            _ => errors.only_one += 1,
+        }
+    }
+}
+
+fn sweep<const N: usize>(periods: [u32; 5], seed: u64) -> Errors {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut errors = Errors::default();
+    for case in 0..24 {
+        let hum = if case == 0 {
+            0.0
+        } else {
+            10f64.powf(rng.gen_range(0.0..3.9))
+        };
+        let mains = if case % 2 == 0 { 50 } else { 60 };
+        let phase = rng.gen_range(0.0..TAU);
+        let sigma = rng.gen_range(1.0..10.0);
+        run::<N>(periods, mains, hum, phase, sigma, 120, seed + case, &mut errors);
+    }
+    let n = errors.applied.max(1) as f64;
+    errors.tone.1 = (errors.tone.1 / (5.0 * n)).sqrt();
+    errors.residual.1 = (errors.residual.1 / n).sqrt();
+    errors
+}
+
+/// The 4 ms block (100 instants, tones of 1 to 16 periods): the tones
+/// left within 0.02 of their noise σ·√(N/2) (rms 0.002), the residual
+/// within 2 % (rms 0.4 %: the comb's own residual, from its Q31 words,
+/// is 0.1 % off the exact one already); the two decide alike in all but
+/// a few blocks at the edge of the thresholds. Measured: 0.008 and
+/// 0.0006 of the noise, 1.2 % and 0.16 %.
+#[test]
+fn the_long_block_matches_the_f64_fit() {
+    let e = sweep::<100>([1, 2, 4, 8, 16], 11);
+    assert!(e.applied > 1000, "{e:?}");
+    assert!(e.tone.0 < 0.02 && e.tone.1 < 2e-3, "{e:?}");
+    assert!(e.residual.0 < 0.02 && e.residual.1 < 4e-3, "{e:?}");
+    assert!(e.only_one <= 3, "{e:?}");
+}
+
+/// The 1 ms block (25 instants, tones of 1, 2, 3, 4 and 6 periods), the
+/// same bounds. Measured: 0.0008 and 0.0001 of the noise, 0.8 % and
+/// 0.11 %.
+#[test]
+fn the_short_block_matches_the_f64_fit() {
+    let e = sweep::<25>([1, 2, 3, 4, 6], 12);
+    assert!(e.applied > 1000, "{e:?}");
+    assert!(e.tone.0 < 0.02 && e.tone.1 < 2e-3, "{e:?}");
+    assert!(e.residual.0 < 0.02 && e.residual.1 < 4e-3, "{e:?}");
+    assert!(e.only_one <= 3, "{e:?}");
+}
+
+/// The window's noise gains: 1 before any hum can be told (infinite
+/// with no block), then above 1, the one-period tone's most, and
+/// steady once the window is full.
+#[test]
+fn the_tones_noise_grows_by_the_hums_own() {
+    let comb = Comb::<100, 5>::new([1, 2, 4, 8, 16]).unwrap();
+    let mains = Mains::new(50, RATE_HZ, &comb);
+    let mut window = Window::EMPTY;
+    assert_eq!(window.gains(), &[1.0; 5]);
+    for _ in 0..200 {
+        window.advance(&mains);
+    }
+    let g = *window.gains();
+    assert!(g.iter().all(|&g| g > 1.0 && g < 1.5), "{g:?}");
+    assert!(g[0] >= g[1] && g[1] >= g[4], "{g:?}");
+    window.advance(&mains);
+    assert!(window.gains().iter().zip(&g).all(|(a, b)| (a - b).abs() < 1e-4));
+}
+
+/// Noise alone: a hum is taken out by chance in no more blocks than
+/// [`SIGNIFICANT`] allows (far below 1 in 1,000), and a sinusoid of
+/// 80 Hz, a tone the window cannot hold still, never.
+#[test]
+fn no_hum_and_other_frequencies_are_left_alone() {
+    let periods = [1, 2, 4, 8, 16];
+    for (hz, amplitude, most) in [(50.0, 0.0, 2), (80.0, 200.0, 0), (37.0, 500.0, 0)] {
+        let comb = Comb::<100, 5>::new(periods).unwrap();
+        let mains = Mains::new(50, RATE_HZ, &comb);
+        let mut window = Window::EMPTY;
+        let mut state = HumState::EMPTY;
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut applied = 0;
+        for b in 0..3000 {
+            let blk = block::<100>(&periods, b, hz, amplitude, 0.4, 3.05, &mut rng);
+            let tones = comb.column(&blk.rows, 0);
+            let mut levels = tones.levels();
+            window.advance(&mains);
+            if mains
+                .cancel(
+                    &window,
+                    &mut state,
+                    mains.sums(&blk.rows, 0),
+                    &tones,
+                    &mut levels,
+                    6.4,
+                )
+                .is_some()
+            {
+                applied += 1;
+            }
+        }
+        assert!(applied <= most, "{hz} Hz: {applied}");
+    }
+}
+
+/// A steady hum of 3,200 counts (0.1 of full scale) leaves the tones as
+/// they are without it, within their noise, and the residual at the
+/// noise.
+#[test]
+fn a_strong_hum_leaves_the_tones_as_they_are_without_it() {
+    let periods = [1, 2, 4, 8, 16];
+    let comb = Comb::<100, 5>::new(periods).unwrap();
+    let mains = Mains::new(50, RATE_HZ, &comb);
+    let mut window = Window::EMPTY;
+    let mut state = HumState::EMPTY;
+    let (mut rng, mut twin) = (ChaCha8Rng::seed_from_u64(8), ChaCha8Rng::seed_from_u64(8));
+    let sigma = 3.05;
+    for b in 0..200 {
+        let blk = block::<100>(&periods, b, 50.0, 3200.0, 1.0, sigma, &mut rng);
+        let clean = block::<100>(&periods, b, 50.0, 0.0, 1.0, sigma, &mut twin);
+        let tones = comb.column(&blk.rows, 0);
+        let mut levels = tones.levels();
+        window.advance(&mains);
+        let p = mains.cancel(
+            &window,
+            &mut state,
+            mains.sums(&blk.rows, 0),
+            &tones,
+            &mut levels,
+            6.4,
+        );
+        if b < 50 {
+            continue;
+        }
+        assert!(p.is_some(), "block {b}");
+        let want = comb.column(&clean.rows, 0).levels();
+        for k in 0..5 {
+            let d = (levels.phasor[k] - want.phasor[k]).norm() / Q31 as f32;
+            assert!(d < 4.0 * sigma as f32 * 50f32.sqrt(), "block {b} tone {k}: {d}");
+        }
+        assert!(
+            (levels.residual - want.residual).abs() < 0.5,
+            "{} {}",
+            levels.residual,
+            want.residual
+        );
+    }
+}
