@@ -16,14 +16,16 @@
 //! [`ArrayReader::solve`] does not.
 
 use crate::array::{
-    adc_position, input_of, Layout, BLOCK_INSTANTS, SCAN, SENSORS, SHORT_INSTANTS, TONES, VOLTAGE_INPUT,
+    adc_position, input_of, Layout, BLOCK_INSTANTS, RATE_HZ, SCAN, SENSORS, SHORT_INSTANTS, TONES,
+    VOLTAGE_INPUT,
 };
 use crate::channel::{Channel, Decimation, Record, Settings};
 use crate::config::{Readings, CHANNELS};
 use crate::sensor::Sensors;
 use crate::sequencer::{Plan, Slot};
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
-use dsp_core::comb::{Comb, CombError, Tones};
+use dsp_core::comb::{Comb, CombError, Levels, Tones};
+use dsp_core::hum::{HumState, Mains, Window};
 use dsp_core::Complex32;
 
 /// What became of a multiplexed slot's block.
@@ -102,14 +104,89 @@ pub struct Demodulated {
     pub v: Tones<TONES>,
     /// Sensor s's current (input [`input_of`]`(s)`).
     pub i: [Tones<TONES>; SENSORS],
+    /// Each input's hum sums ([`Mains::sums`]), by input: [`VOLTAGE_INPUT`]
+    /// and [`input_of`]`(s)` (zero where the reader follows no hum).
+    pub hum: [[i64; 2]; INPUTS],
 }
+
+/// The array's inputs: the excitation and every sensor's current.
+pub const INPUTS: usize = SENSORS + 1;
 
 impl Demodulated {
     /// No block yet: every input empty (read as no excitation).
     pub const EMPTY: Self = Self {
         v: Tones::EMPTY,
         i: [Tones::EMPTY; SENSORS],
+        hum: [[0; 2]; INPUTS],
     };
+}
+
+/// The mains frequency the array follows hum at by default, Hz
+/// ([`ArrayReader::with_mains`] for 60 Hz).
+pub const MAINS_HZ: u32 = 50;
+
+/// A layout's view of mains hum ([`dsp_core::hum`]), for either block
+/// length.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
+pub enum BlockMains {
+    /// Blocks of [`BLOCK_INSTANTS`].
+    Long(Mains<BLOCK_INSTANTS, TONES>),
+    /// Blocks of [`SHORT_INSTANTS`].
+    Short(Mains<SHORT_INSTANTS, TONES>),
+}
+
+impl BlockMains {
+    /// Hum at `mains_hz` beside `comb`'s tones.
+    pub fn new(comb: &BlockComb, mains_hz: u32) -> Self {
+        match comb {
+            BlockComb::Long(c) => Self::Long(Mains::new(mains_hz, RATE_HZ, c)),
+            BlockComb::Short(c) => Self::Short(Mains::new(mains_hz, RATE_HZ, c)),
+        }
+    }
+}
+
+/// The hum the array follows: the layout's view of it, the window all
+/// inputs share, and each input's own (state beside configuration, as
+/// the reader's channels).
+#[derive(Clone, Debug)]
+struct Hum {
+    mains: BlockMains,
+    window: Window<TONES>,
+    inputs: [HumState; INPUTS],
+}
+
+impl Hum {
+    /// One block: the window moves on.
+    fn advance(&mut self) {
+        match &self.mains {
+            BlockMains::Long(m) => self.window.advance(m),
+            BlockMains::Short(m) => self.window.advance(m),
+        }
+    }
+
+    /// Input `input`'s levels of the block, the hum taken out where the
+    /// window vouches for it, and each tone's noise gain.
+    fn levels(
+        &mut self,
+        input: usize,
+        tones: &Tones<TONES>,
+        sums: [i64; 2],
+        clean: f32,
+    ) -> (Levels<TONES>, [f32; TONES]) {
+        let mut levels = tones.levels();
+        let state = &mut self.inputs[input];
+        let taken = match &self.mains {
+            BlockMains::Long(m) => m.cancel(&self.window, state, sums, tones, &mut levels, clean),
+            BlockMains::Short(m) => m.cancel(&self.window, state, sums, tones, &mut levels, clean),
+        };
+        let gains = if taken.is_some() {
+            *self.window.gains()
+        } else {
+            [1.0; TONES]
+        };
+        (levels, gains)
+    }
 }
 
 /// The comb demodulator of a layout's blocks (4 KiB for 4 ms blocks,
@@ -160,21 +237,25 @@ impl BlockComb {
 /// ([`ArrayReader::demodulate_into`]).
 fn demodulate_with<'a, const N: usize>(
     comb: &Comb<N, TONES>,
+    mains: Option<&Mains<N, TONES>>,
     rows: impl Fn(usize) -> &'a [[i16; SCAN]],
     out: &mut Demodulated,
 ) {
     // In place: a result returned is copied on its way (~100
     // instructions an input on the Cortex-M4).
-    let column = |input: usize, out: &mut Tones<TONES>| {
+    let column = |input: usize, out: &mut Tones<TONES>, hum: &mut [[i64; 2]; INPUTS]| {
         let (a, j) = adc_position(input);
         match rows(a).first_chunk::<N>() {
-            Some(r) => comb.column_into(r, j, out),
+            Some(r) => {
+                comb.column_into(r, j, out);
+                hum[input] = mains.map_or([0; 2], |m| m.sums(r, j));
+            }
             None => *out = Tones::EMPTY,
         }
     };
-    column(VOLTAGE_INPUT, &mut out.v);
+    column(VOLTAGE_INPUT, &mut out.v, &mut out.hum);
     for (s, i) in out.i.iter_mut().enumerate() {
-        column(input_of(s), i);
+        column(input_of(s), i, &mut out.hum);
     }
 }
 
@@ -182,6 +263,7 @@ fn demodulate_with<'a, const N: usize>(
 #[derive(Clone, Debug)]
 pub struct ArrayReader {
     comb: BlockComb,
+    hum: Option<Hum>,
     layout: Layout,
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
@@ -195,8 +277,24 @@ impl ArrayReader {
     /// reading blocks of `layout` (the same as the settings' given to
     /// [`ArrayReader::solve`]).
     pub fn new<const N: usize>(layout: Layout, sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
+        Self::with_mains(layout, sensors, Some(MAINS_HZ))
+    }
+
+    /// [`ArrayReader::new`] following mains hum at `mains_hz` (None:
+    /// none; [`dsp_core::hum`]).
+    pub fn with_mains<const N: usize>(
+        layout: Layout,
+        sensors: &Sensors<N, SENSORS>,
+        mains_hz: Option<u32>,
+    ) -> Result<Self, CombError> {
+        let comb = BlockComb::new(&layout)?;
         Ok(Self {
-            comb: BlockComb::new(&layout)?,
+            hum: mains_hz.map(|hz| Hum {
+                mains: BlockMains::new(&comb, hz),
+                window: Window::EMPTY,
+                inputs: [HumState::EMPTY; INPUTS],
+            }),
+            comb,
             layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
             rotations: core::array::from_fn(|s| layout.skew_rotation(s)),
@@ -227,9 +325,12 @@ impl ArrayReader {
     /// KiB: returned, it is copied whole on its way).
     pub fn demodulate_into<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]], out: &mut Demodulated) {
         // One match a block, the comb's length known in each arm.
-        match &self.comb {
-            BlockComb::Long(c) => demodulate_with(c, rows, out),
-            BlockComb::Short(c) => demodulate_with(c, rows, out),
+        let mains = self.hum.as_ref().map(|h| &h.mains);
+        match (&self.comb, mains) {
+            (BlockComb::Long(c), Some(BlockMains::Long(m))) => demodulate_with(c, Some(m), rows, out),
+            (BlockComb::Short(c), Some(BlockMains::Short(m))) => demodulate_with(c, Some(m), rows, out),
+            (BlockComb::Long(c), _) => demodulate_with(c, None, rows, out),
+            (BlockComb::Short(c), _) => demodulate_with(c, None, rows, out),
         }
     }
 
@@ -246,10 +347,21 @@ impl ArrayReader {
         clipped: impl Fn(usize) -> bool,
         mut record: impl FnMut(ToneRecord),
     ) {
-        let v = Input::of(&block.v);
+        let clean = settings.thresholds.residual_counts;
+        if let Some(h) = self.hum.as_mut() {
+            h.advance();
+        }
+        let levels = |hum: &mut Option<Hum>, input: usize, tones: &Tones<TONES>| match hum {
+            Some(h) => h.levels(input, tones, block.hum[input], clean),
+            None => (tones.levels(), [1.0; TONES]),
+        };
+        let (v_levels, v_gains) = levels(&mut self.hum, VOLTAGE_INPUT, &block.v);
+        let v = Input::with(&block.v, v_levels, v_gains);
         let v_clipped = clipped(VOLTAGE_INPUT);
         let report = self.reports.due(settings.record_every);
         for (s, ch) in self.channels.iter_mut().enumerate() {
+            // Every input's hum is followed, in use or not.
+            let (i_levels, i_gains) = levels(&mut self.hum, input_of(s), &block.i[s]);
             if !settings.sensors.of(s as u8).in_use {
                 continue;
             }
@@ -258,7 +370,7 @@ impl ArrayReader {
                 s as u8,
                 t_us,
                 &v,
-                &Input::of(&block.i[s]),
+                &Input::with(&block.i[s], i_levels, i_gains),
                 clipped(input_of(s)) || v_clipped,
                 &self.rotations[s],
             );

@@ -200,15 +200,21 @@ pub struct Input<'a> {
     pub tones: &'a Tones<TONES>,
     /// Amplitudes and residual.
     pub levels: Levels<TONES>,
+    /// Each tone's noise, times what the residual gives: above 1 where
+    /// a hum was taken out of the levels ([`dsp_core::hum`]).
+    pub gains: [f32; TONES],
 }
 
 impl<'a> Input<'a> {
     /// An input's sums with their levels.
     pub fn of(tones: &'a Tones<TONES>) -> Self {
-        Self {
-            levels: tones.levels(),
-            tones,
-        }
+        Self::with(tones, tones.levels(), [1.0; TONES])
+    }
+
+    /// An input's sums with levels read from them otherwise (a hum
+    /// taken out), and the tones' noise gains.
+    pub fn with(tones: &'a Tones<TONES>, levels: Levels<TONES>, gains: [f32; TONES]) -> Self {
+        Self { tones, levels, gains }
     }
 }
 
@@ -394,7 +400,7 @@ fn read_tones<const N: usize>(
         tones[j] = Tone {
             z,
             f_hz: s.layout.tone_hz(k),
-            sigma_ohm: twotone::z_sigma(z, n, av, ai, rv, ri),
+            sigma_ohm: twotone::z_sigma(z, n, av, ai, rv * v.gains[k], ri * i.gains[k]),
         };
     }
     let biased = rec.flags.has(Flags::OPEN) || rec.flags.has(Flags::SHORTED);
