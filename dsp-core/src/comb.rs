@@ -715,17 +715,19 @@ impl<const K: usize> Tones<K> {
         crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32) / self.n as f32
     }
 
-    /// What no tone of the comb explains, as energy: E_res = Σ of the
-    /// residual's squares, counts² (0 for an empty block), from the same
-    /// i128 as [`Tones::residual_rms`], to f64 (relative error 10⁻¹⁶).
-    pub fn residual_energy(&self) -> f64 {
+    /// What no tone of the comb explains, as energy: N·E_res, E_res the
+    /// Σ of the residual's squares, counts², exactly (the i128 of
+    /// [`Tones::residual_rms`]; 0 for an empty block).
+    pub fn residual_n_energy(&self) -> i128 {
         if self.n == 0 {
-            return 0.0;
+            return 0;
         }
-        self.residual_scaled() as f64 / self.n as f64
+        self.residual_scaled()
     }
 
-    /// N·E_res in i128, not below 0 (`n` > 0).
+    /// N·E_res in i128, not below 0 (`n` > 0). Inlined: the rms is on
+    /// the boards' per-block path, in their fast RAM.
+    #[inline(always)]
     fn residual_scaled(&self) -> i128 {
         let n = self.n as i128;
         let sum = self.sum.unsigned_abs() as u128;
@@ -809,6 +811,8 @@ impl<const K: usize> Levels<K> {
 /// The bits dropped (l's lowest in h·l, l's low half in l²) are under
 /// 1/16 + 2⁻¹² unit a component, the final rounding ½: below one unit
 /// for 2 × 5 components, two for 32 (tested against the exact sum).
+/// Inlined: on the boards' per-block path, in their fast RAM.
+#[inline(always)]
 pub fn tones_energy<const K: usize>(x: &[Complex<i64>; K]) -> u128 {
     const LIMIT: i32 = 1 << 24;
     let small = 2 * K <= 32

@@ -37,10 +37,10 @@
 //! (M₂ the same sum with λ²), moves each tone by p·Lₖ: the tone's noise
 //! grows by the factor [`Window::gains`] gives.
 //!
-//! u is formed in i128 from the comb's exact sums, the residual's energy
-//! in f64 (a strong hum's is the small difference of large numbers), the
-//! rest in f32 (the constants in f64 once, from the Q31 words the sums
-//! use): basic arithmetic only, the same bits on every target.
+//! u and the residual's energy are formed in i128 from the comb's exact
+//! sums (a strong hum's are small differences of large numbers), the rest
+//! in f32, the constants in integers once from the Q31 words the sums
+//! use: no f64 on a core without it, and the same bits on every target.
 
 use crate::comb::{Comb, Levels, Tones};
 use crate::cossin::cossin;
@@ -54,25 +54,50 @@ pub const SIGNIFICANT: f32 = 25.0;
 /// The window's time constant τ, s: two turns of 50 Hz.
 pub const TAU_S: f32 = 0.04;
 
+/// The relative rounding f32 leaves in a sum of a few terms, against
+/// their sizes: 2⁻²⁰ (eight ulps).
+const ROUNDING: f32 = 1.0 / 1_048_576.0;
+
 /// The reference's full scale, 2³¹.
 const Q31: f64 = 2_147_483_648.0;
 
-/// A comb's view of mains hum at one frequency: its reference and how it
-/// overlaps the comb's mean and tones (configuration, fixed per layout).
+/// A comb's view of mains hum at one frequency: its reference over a
+/// block and how it overlaps the comb's mean and tones (configuration,
+/// fixed per layout).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mains<const N: usize, const K: usize> {
-    /// Instant n: [cos φₙ, sin φₙ], Q31 (saturated, as the comb's).
-    reference: [[i32; 2]; N],
+    /// Instant n: [cos φₙ, sin φₙ], Q15 (±32767): the hum's basis is
+    /// these words exactly (its overlaps are computed from them), 3·10⁻⁵
+    /// of a sinusoid.
+    reference: [[i16; 2]; N],
+    /// Instants 2m and 2m + 1 packed, for the Cortex-M4's dual products:
+    /// [cos, sin] each as (instant 2m) | (instant 2m + 1) << 16; the first
+    /// N/2 used.
+    packed: [[u32; 2]; N],
+    /// What every block's fit reads.
+    fit: Fit<K>,
+}
+
+/// The hum's overlap with a comb of K tones, and how it turns from
+/// block to block: all [`Fit::cancel`] needs, whatever the block's
+/// length (one copy of the code for every layout).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fit<const K: usize> {
+    /// Instants in a block.
+    n: u32,
     /// Lₖⱼ: the comb's sum of basis j at tone k, instants.
     leak: [[Complex32; 2]; K],
-    /// dcⱼ = Σₙ bⱼₙ, instants.
-    dc: [f32; 2],
     /// 2·Lₖⱼ/N, Q32: [re, im] (u's tone terms in exact integers).
     leak_q32: [[[i64; 2]; 2]; K],
     /// dcⱼ/N, Q32.
     dc_q32: [i64; 2],
+    /// dcⱼ = Σₙ bⱼₙ, instants.
+    dc: [f32; 2],
     /// Q = ⟨P⊥bᵢ, P⊥bⱼ⟩, instants.
     q: [[f32; 2]; 2],
+    /// Q in Q30 (the residual's energy takes the hum's pᵀQp, up to 10⁷
+    /// times the noise's, in integers).
+    q30: [[i64; 2]; 2],
     /// cos ψ, sin ψ: a block's turn of the hum.
     turn: [f32; 2],
     /// λ per block.
@@ -122,8 +147,8 @@ impl<const K: usize> Window<K> {
         &self.gains
     }
 
-    /// One more block (before any input's [`Mains::cancel`] of it).
-    pub fn advance<const N: usize>(&mut self, mains: &Mains<N, K>) {
+    /// One more block (before any input's [`Fit::cancel`] of it).
+    pub fn advance(&mut self, mains: &Fit<K>) {
         let l = mains.forget;
         self.m = add(&scale(&mains.rotate(&self.m), l), &mains.q);
         self.m2 = add(&scale(&mains.rotate(&self.m2), l * l), &mains.q);
@@ -135,7 +160,7 @@ impl<const K: usize> Window<K> {
         };
         // Cov p / σ² = M⁻¹·M₂·M⁻¹; a tone's component moves by l·p.
         let cov = mul(&mul(&a, &self.m2), &a);
-        let half = N as f32 / 2.0;
+        let half = mains.n as f32 / 2.0;
         for (g, leak) in self.gains.iter_mut().zip(&mains.leak) {
             let re = quad(&cov, [leak[0].re, leak[1].re]);
             let im = quad(&cov, [leak[0].im, leak[1].im]);
@@ -148,79 +173,239 @@ impl<const N: usize, const K: usize> Mains<N, K> {
     /// Hum at `mains_hz` in blocks of N instants at `rate_hz`, beside
     /// `comb`'s tones, followed over [`TAU_S`].
     pub fn new(mains_hz: u32, rate_hz: u32, comb: &Comb<N, K>) -> Self {
-        let mut reference = [[0i32; 2]; N];
-        for (n, w) in reference.iter_mut().enumerate() {
-            let (c, s) = cossin(turns(mains_hz as u64 * n as u64, rate_hz));
-            *w = [c.max(-i32::MAX), s.max(-i32::MAX)];
+        let mut reference = [[0i16; 2]; N];
+        let mut words = [[0i32; 2]; N];
+        for ((w, q31), n) in reference.iter_mut().zip(words.iter_mut()).zip(0u64..) {
+            let (c, s) = cossin(turns(mains_hz as u64 * n, rate_hz));
+            *w = [q15(c), q15(s)];
+            *q31 = w.map(|v| (v as i32) << 16);
         }
-        let basis = |j: usize, n: usize| reference[n][j] as f64 / Q31;
-        let mut leak = [[Complex32::new(0.0, 0.0); 2]; K];
-        let mut leak64 = [[(0.0f64, 0.0f64); 2]; K];
-        for (k, row) in leak64.iter_mut().enumerate() {
-            let Some(tone) = comb.reference(k) else { continue };
-            for (j, l) in row.iter_mut().enumerate() {
-                for (n, &[c, s]) in tone.iter().enumerate() {
-                    l.0 += basis(j, n) * c as f64 / Q31;
-                    l.1 -= basis(j, n) * s as f64 / Q31;
-                }
-                leak[k][j] = Complex32::new(l.0 as f32, l.1 as f32);
-            }
+        let mut packed = [[0u32; 2]; N];
+        for (m, pair) in packed.iter_mut().take(N / 2).enumerate() {
+            let (a, b) = (reference[2 * m], reference[2 * m + 1]);
+            *pair = [0, 1].map(|j| a[j] as u16 as u32 | (b[j] as u16 as u32) << 16);
         }
-        let dc = [0, 1].map(|j| (0..N).map(|n| basis(j, n)).sum::<f64>());
-        let nf = N as f64;
-        let q = core::array::from_fn(|i| {
-            core::array::from_fn(|j| {
-                let own: f64 = (0..N).map(|n| basis(i, n) * basis(j, n)).sum();
-                let tones: f64 = leak64.iter().map(|l| l[i].0 * l[j].0 + l[i].1 * l[j].1).sum();
-                (own - dc[i] * dc[j] / nf - 2.0 / nf * tones) as f32
-            })
-        });
-        let q32 = |v: f64| libm::round(v * 4_294_967_296.0) as i64;
-        let leak_q32 = leak64.map(|l| l.map(|(re, im)| [q32(2.0 * re / nf), q32(2.0 * im / nf)]));
-        let dc_q32 = dc.map(|d| q32(d / nf));
+        let tones: [&[[i32; 2]]; K] = core::array::from_fn(|k| comb.reference(k).map_or(&[][..], |r| &r[..]));
+        let fit = Fit::new(&words, &tones);
         let (c, s) = cossin(turns(mains_hz as u64 * N as u64, rate_hz));
         let block_s = N as f32 / rate_hz as f32;
         Self {
             reference,
-            leak,
-            dc: dc.map(|d| d as f32),
-            leak_q32,
-            dc_q32,
-            q,
-            turn: [c as f32 / Q31 as f32, s as f32 / Q31 as f32],
-            forget: 1.0 - block_s / TAU_S,
+            packed,
+            fit: Fit {
+                turn: [c as f32 / Q31 as f32, s as f32 / Q31 as f32],
+                forget: 1.0 - block_s / TAU_S,
+                ..fit
+            },
         }
+    }
+
+    /// What every block's fit reads.
+    pub fn fit(&self) -> &Fit<K> {
+        &self.fit
+    }
+
+    /// The hum's words, instant by instant: [cos φₙ, sin φₙ], Q15.
+    pub fn reference(&self) -> &[[i16; 2]; N] {
+        &self.reference
     }
 
     /// Σₙ xₙ·b₀ₙ and Σₙ xₙ·b₁ₙ of input `col` of a block's rows (Q31 ·
-    /// counts; each product below 2⁴⁶, N of them: no overflow for
-    /// N < 2¹⁷).
+    /// counts, from Q15 words: each product below 2³⁰, N of them, no
+    /// overflow for N < 2¹⁷). On the Cortex-M4 two instants a dual
+    /// product (`arm`), the same integers.
+    #[inline(never)]
     pub fn sums<const S: usize>(&self, rows: &[[i16; S]; N], col: usize) -> [i64; 2] {
-        let (mut c, mut s) = (0i64, 0i64);
         if col >= S {
             return [0, 0];
         }
-        for (row, &[rc, rs]) in rows.iter().zip(&self.reference) {
-            let x = row[col] as i64;
-            c += x * rc as i64;
-            s += x * rs as i64;
+        #[cfg(arm_dsp)]
+        let [c, s] = arm::sums(&self.packed, &self.reference, rows, col);
+        #[cfg(not(arm_dsp))]
+        let [c, s] = portable(&self.reference, rows, col, 0);
+        [c << 16, s << 16]
+    }
+}
+
+/// Σₙ xₙ·bₙ from instant `from` on, one instant at a time (Q15 · counts):
+/// the definition the Cortex-M4's dual products are held to.
+pub fn portable<const S: usize>(
+    reference: &[[i16; 2]],
+    rows: &[[i16; S]],
+    col: usize,
+    from: usize,
+) -> [i64; 2] {
+    let (mut c, mut s) = (0i64, 0i64);
+    for (row, w) in rows.iter().zip(reference).skip(from) {
+        let x = row[col] as i64;
+        c += x * w[0] as i64;
+        s += x * w[1] as i64;
+    }
+    [c, s]
+}
+
+/// The hum's sums on the Cortex-M4 (DSP extension): two instants packed
+/// into one word (`PKHBT`) against two packed reference words by two
+/// `SMLALD`, four instants a turn.
+#[cfg(arm_dsp)]
+#[allow(unsafe_code)]
+mod arm {
+    /// [`super::portable`]'s integers: the first 4·⌊N/4⌋ instants two by
+    /// two in assembly, the rest one by one.
+    #[inline(always)]
+    pub fn sums<const N: usize, const S: usize>(
+        packed: &[[u32; 2]; N],
+        reference: &[[i16; 2]; N],
+        rows: &[[i16; S]; N],
+        col: usize,
+    ) -> [i64; 2] {
+        let quads = N / 4;
+        let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
+        if quads > 0 {
+            let mut p = rows[0][col..].as_ptr();
+            let mut q = packed.as_ptr();
+            // SAFETY: `p` walks input `col` of the first 4·quads rows (S
+            // samples of 2 bytes apart) and `q` the first 2·quads packed
+            // pairs (8 bytes each), both inside their arrays; the loop
+            // reads exactly those and stops when `q` reaches `end`. Only
+            // registers and the two arrays are touched.
+            unsafe {
+                let end = q.add(2 * quads);
+                core::arch::asm!(
+                    "2:",
+                    "ldrsh {a}, [{p}], #{stride}",
+                    "ldrsh {b}, [{p}], #{stride}",
+                    "ldrd {c}, {s}, [{q}], #8",
+                    "pkhbt {a}, {a}, {b}, lsl #16",
+                    "smlald {cl}, {ch}, {a}, {c}",
+                    "smlald {sl}, {sh}, {a}, {s}",
+                    "ldrsh {a}, [{p}], #{stride}",
+                    "ldrsh {b}, [{p}], #{stride}",
+                    "ldrd {c}, {s}, [{q}], #8",
+                    "pkhbt {a}, {a}, {b}, lsl #16",
+                    "smlald {cl}, {ch}, {a}, {c}",
+                    "smlald {sl}, {sh}, {a}, {s}",
+                    "cmp {q}, {end}",
+                    "bne 2b",
+                    stride = const S * 2,
+                    p = inout(reg) p,
+                    q = inout(reg) q,
+                    end = in(reg) end,
+                    cl = inout(reg) cl,
+                    ch = inout(reg) ch,
+                    sl = inout(reg) sl,
+                    sh = inout(reg) sh,
+                    a = out(reg) _,
+                    b = out(reg) _,
+                    c = out(reg) _,
+                    s = out(reg) _,
+                    options(nostack, readonly),
+                );
+            }
+            let _ = (p, q);
         }
-        [c, s]
+        let done = [
+            ((ch as u64) << 32 | cl as u64) as i64,
+            ((sh as u64) << 32 | sl as u64) as i64,
+        ];
+        let rest = super::portable(reference, rows, col, 4 * quads);
+        [done[0] + rest[0], done[1] + rest[1]]
+    }
+}
+
+impl<const K: usize> Fit<K> {
+    /// The overlaps of a hum `reference` (Q31 words, one an instant) with
+    /// the mean and the comb's `tones` (each its Q31 words): exact sums
+    /// of the words' products in i128 ([`overlap`]), and from them every
+    /// constant in integers but the last conversion (compact code on a
+    /// core without f64); the turn and λ are the caller's.
+    #[inline(never)]
+    fn new(reference: &[[i32; 2]], tones: &[&[[i32; 2]]; K]) -> Self {
+        let count = reference.len() as i128;
+        // Lₖⱼ, Q62: [re, im].
+        let l62: [[[i128; 2]; 2]; K] = core::array::from_fn(|k| {
+            core::array::from_fn(|j| {
+                [
+                    overlap(reference, j, tones[k], 0),
+                    -overlap(reference, j, tones[k], 1),
+                ]
+            })
+        });
+        // dcⱼ, Q31.
+        let dc: [i128; 2] = [0, 1].map(|j| reference.iter().map(|w| w[j] as i128).sum());
+        // Q, Q62: ⟨bᵢ, bⱼ⟩ − dcᵢ·dcⱼ/N − (2/N)·Σₖ Re(Lₖᵢ·conj Lₖⱼ) (L to
+        // Q31 for the products: 2⁻³² of a tone's overlap, below 10⁻⁸).
+        let q30: [[i64; 2]; 2] = core::array::from_fn(|i| {
+            core::array::from_fn(|j| {
+                let tones = cross(&l62, i, j);
+                let q62 = overlap(reference, i, reference, j) - round_div(dc[i] * dc[j] + 2 * tones, count);
+                round_div(q62, 1 << 32) as i64
+            })
+        });
+        Self {
+            n: count as u32,
+            leak: l62.map(|l| l.map(|[re, im]| Complex32::new(q62_to_f32(re), q62_to_f32(im)))),
+            // 2·L/N in Q32 = 2·L₆₂/(N·2³⁰); dc/N in Q32 = 2·dc₃₁/N.
+            leak_q32: l62.map(|l| l.map(|c| c.map(|v| round_div(2 * v, count << 30) as i64))),
+            dc_q32: dc.map(|d| round_div(2 * d, count) as i64),
+            dc: dc.map(|d| fmath::i64_to_f32(d as i64) / Q31 as f32),
+            q: q30.map(|row| row.map(|v| fmath::i64_to_f32(v) / (1u32 << 30) as f32)),
+            q30,
+            turn: [1.0, 0.0],
+            forget: 0.0,
+        }
     }
 
-    /// u = ⟨P⊥x, b⟩ (counts·instants) from the block's exact sums: in
-    /// i128 (every term below 2⁸⁷: the sums below 2⁵³, the constants
-    /// 2³³), so that a strong hum's u, the small difference of large
-    /// sums, keeps every bit but the constants' rounding (2⁻³²).
-    fn projections(&self, sums: [i64; 2], tones: &Tones<K>) -> [f64; 2] {
+    /// u = ⟨P⊥x, b⟩ (counts·instants) in f32 from the block's levels, and
+    /// the size of the terms it is the difference of (what f32's rounding
+    /// scales with).
+    fn projections_f32(&self, sums: [i64; 2], tones: &Tones<K>, levels: &Levels<K>) -> ([f32; 2], [f32; 2]) {
+        let nf = self.n as f32;
+        let q31 = Q31 as f32;
+        let mean = fmath::i64_to_f32(tones.sum) / nf;
+        let mut u = [0.0; 2];
+        let mut size = [0.0; 2];
+        for j in 0..2 {
+            let own = fmath::i64_to_f32(sums[j]) / q31;
+            let (mut t, mut t_size) = (mean * self.dc[j], (mean * self.dc[j]).abs());
+            for (x, l) in levels.phasor.iter().zip(&self.leak) {
+                let v = (x.re * l[j].re + x.im * l[j].im) * (2.0 / (nf * q31));
+                t += v;
+                t_size +=
+                    (x.re * l[j].re).abs() * (2.0 / (nf * q31)) + (x.im * l[j].im).abs() * (2.0 / (nf * q31));
+            }
+            u[j] = own - t;
+            size[j] = own.abs() + t_size;
+        }
+        (u, size)
+    }
+
+    /// u = ⟨P⊥x, b⟩ from the block's exact sums, in Q23 (counts·instants):
+    /// formed in i128 (every term below 2⁸⁷: the sums below 2⁵³, the
+    /// constants 2³³), so that a strong hum's u, the small difference of
+    /// large sums, keeps every bit but the constants' rounding (2⁻³²).
+    fn projections(&self, sums: [i64; 2], tones: &Tones<K>) -> [i64; 2] {
         core::array::from_fn(|j| {
             let mut acc = (sums[j] as i128) << 32;
             for (x, l) in tones.x.iter().zip(&self.leak_q32) {
                 acc -= x.re as i128 * l[j][0] as i128 + x.im as i128 * l[j][1] as i128;
             }
             acc -= (tones.sum as i128 * self.dc_q32[j] as i128) << 31;
-            acc as f64 / (Q31 * 4_294_967_296.0)
+            // Q63 to Q23: |u| < 2⁴⁰.
+            (acc >> 40) as i64
         })
+    }
+
+    /// N·E' = N·(E − 2·pᵀu + pᵀQp), Q62 (counts²), in i128: `n_energy`
+    /// N·E exact, p in Q16 (below 2³¹), u in Q23 (below 2⁴⁴), Q in
+    /// Q30 (below 2³⁸): every product below 2¹⁰⁶.
+    fn less_hum(&self, n_energy: i128, p: [f32; 2], u: [i64; 2]) -> i128 {
+        let p16 = p.map(|v| (v * 65_536.0) as i64 as i128);
+        let pu = p16[0] * u[0] as i128 + p16[1] * u[1] as i128;
+        let q = self.q30.map(|row| row.map(|v| v as i128));
+        let pqp =
+            p16[0] * (q[0][0] * p16[0] + q[0][1] * p16[1]) + p16[1] * (q[1][0] * p16[0] + q[1][1] * p16[1]);
+        (n_energy << 62) - self.n as i128 * ((pu << 24) - pqp)
     }
 
     /// T·A·Tᵀ.
@@ -239,6 +424,7 @@ impl<const N: usize, const K: usize> Mains<N, K> {
     /// front end's residual bound). Returns the hum taken out, p
     /// (counts), or None where none was (`levels` untouched). `window`
     /// has advanced for this block.
+    #[inline(never)]
     pub fn cancel(
         &self,
         window: &Window<K>,
@@ -248,27 +434,26 @@ impl<const N: usize, const K: usize> Mains<N, K> {
         levels: &mut Levels<K>,
         clean_counts: f32,
     ) -> Option<[f32; 2]> {
-        if tones.n as usize != N {
+        if tones.n != self.n {
             return None;
         }
-        let nf = N as f32;
+        let nf = self.n as f32;
         let q31 = Q31 as f32;
-        let u = self.projections(sums, tones);
-        let u32 = u.map(|v| v as f32);
-        let energy = tones.residual_energy();
+        let (u, size) = self.projections_f32(sums, tones, levels);
+        let energy = levels.residual * levels.residual * nf;
         let [c, s] = self.turn;
         let l = self.forget;
         let r = state.r;
         state.r = [
-            l * (c * r[0] + s * r[1]) + u32[0],
-            l * (-s * r[0] + c * r[1]) + u32[1],
+            l * (c * r[0] + s * r[1]) + u[0],
+            l * (-s * r[0] + c * r[1]) + u[1],
         ];
-        state.energy = l * state.energy + energy as f32;
+        state.energy = l * state.energy + energy;
         let a = window.inverse?;
         let r = state.r;
         let p = [a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]];
         let explained = p[0] * r[0] + p[1] * r[1];
-        let dof = window.weight * (N - 1 - 2 * K) as f32 - 2.0;
+        let dof = window.weight * (self.n as usize - 1 - 2 * K) as f32 - 2.0;
         let noise = (state.energy - explained) / dof;
         // Half a window at least: a block or two alone cannot tell the
         // hum from the lowest tones (M is near singular).
@@ -290,15 +475,71 @@ impl<const N: usize, const K: usize> Mains<N, K> {
             .amplitude
             .iter()
             .fold(0.0, |m, &a| if a > m { a } else { m });
-        // The energy less the hum's cancels two numbers up to 10⁷ times
-        // the noise's (a strong hum): in f64, from u and E as exact.
-        let (p0, p1) = (p[0] as f64, p[1] as f64);
-        let q = self.q.map(|row| row.map(|v| v as f64));
-        let pqp = p0 * (q[0][0] * p0 + q[0][1] * p1) + p1 * (q[1][0] * p0 + q[1][1] * p1);
-        let e = energy - 2.0 * (p0 * u[0] + p1 * u[1]) + pqp;
-        levels.residual = fmath::sqrt((if e > 0.0 { e } else { 0.0 } / N as f64) as f32);
+        // E − 2·pᵀu + pᵀQp cancels: in f32, with what f32 can round off
+        // of its terms added, where that is under 1 % of the noise's
+        // energy (a weak hum); else (a strong one, up to 10⁷ times the
+        // noise's energy) in integers from the block's exact sums.
+        let (pu, pqp) = (p[0] * u[0] + p[1] * u[1], quad(&self.q, p));
+        let rounding = ROUNDING * (energy + 2.0 * (p[0].abs() * size[0] + p[1].abs() * size[1]) + pqp.abs());
+        levels.residual = if rounding <= 0.01 * noise * nf {
+            fmath::sqrt(fmath::max(energy - 2.0 * pu + pqp, 0.0) / nf + rounding / nf)
+        } else {
+            let exact = self.projections(sums, tones);
+            root_over_n(self.less_hum(tones.residual_n_energy(), p, exact).max(0), self.n)
+        };
         Some(p)
     }
+}
+
+/// Σₙ a[n][i]·b[n][j] over the shorter of the two, exactly (Q62 when
+/// both are Q31 words).
+#[inline(never)]
+fn overlap(a: &[[i32; 2]], i: usize, b: &[[i32; 2]], j: usize) -> i128 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| a[i] as i64 as i128 * b[j] as i64 as i128)
+        .sum()
+}
+
+/// a/b rounded to nearest (b > 0; out of line: i128 division is long
+/// code on a 32-bit core).
+#[inline(never)]
+fn round_div(a: i128, b: i128) -> i128 {
+    if a >= 0 {
+        (a + b / 2) / b
+    } else {
+        -((-a + b / 2) / b)
+    }
+}
+
+/// Σₖ Re(Lₖᵢ·conj Lₖⱼ), Q62, of overlaps given in Q62 (each taken to
+/// Q31 first: below 2³⁷, so each product is i64 by i64).
+#[inline(never)]
+fn cross(l62: &[[[i128; 2]; 2]], i: usize, j: usize) -> i128 {
+    let q31 = |v: i128| (v >> 31) as i64 as i128;
+    l62.iter()
+        .map(|l| q31(l[i][0]) * q31(l[j][0]) + q31(l[i][1]) * q31(l[j][1]))
+        .sum()
+}
+
+/// √(e·2⁻⁶²)/n for e = N·E in Q62: the residual's rms, counts, as
+/// [`Tones::residual_rms`] forms it (30 bits kept, one square root).
+fn root_over_n(e: i128, n: u32) -> f32 {
+    let bits = 128 - e.leading_zeros();
+    let sh = (bits.saturating_sub(30) + 1) & !1;
+    let scaled = (e >> sh) as i32 as f32;
+    fmath::sqrt(scaled) * fmath::pow2(sh as i32 / 2 - 31) / n as f32
+}
+
+/// A Q62 number to f32.
+#[inline(never)]
+fn q62_to_f32(v: i128) -> f32 {
+    fmath::i64_to_f32((v >> 31) as i64) / Q31 as f32
+}
+
+/// A Q31 word to Q15, rounded (±32767: symmetric, as the comb's).
+fn q15(v: i32) -> i16 {
+    ((v as i64 + (1 << 15)) >> 16).clamp(-32767, 32767) as i16
 }
 
 /// The phase of `num/den` turns as the comb's references take it (2³² a

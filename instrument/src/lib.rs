@@ -27,6 +27,7 @@
 //! | [`array`](mod@array) | the simultaneous front end: one comb excitation, a transimpedance stage per sensor, five scanning ADCs (`skin-spec`) |
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //! | [`avoid`] | an array channel moving its tones off one an interferer occupies, and back |
+//! | [`mains`] | the array's reader following mains hum, taken out of every input |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
 //!
@@ -56,6 +57,7 @@ pub mod digest;
 pub mod faults;
 pub mod frames;
 pub mod joint;
+pub mod mains;
 pub mod mux;
 pub mod policy;
 pub mod reader;

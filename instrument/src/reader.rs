@@ -16,16 +16,16 @@
 //! [`ArrayReader::solve`] does not.
 
 use crate::array::{
-    adc_position, input_of, Layout, BLOCK_INSTANTS, RATE_HZ, SCAN, SENSORS, SHORT_INSTANTS, TONES,
-    VOLTAGE_INPUT,
+    adc_position, input_of, Layout, BLOCK_INSTANTS, SCAN, SENSORS, SHORT_INSTANTS, TONES, VOLTAGE_INPUT,
 };
 use crate::channel::{Channel, Decimation, Record, Settings};
 use crate::config::{Readings, CHANNELS};
+use crate::mains::{BlockMains, Hum, MAINS_HZ};
 use crate::sensor::Sensors;
 use crate::sequencer::{Plan, Slot};
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
-use dsp_core::comb::{Comb, CombError, Levels, Tones};
-use dsp_core::hum::{HumState, Mains, Window};
+use dsp_core::comb::{Comb, CombError, Tones};
+use dsp_core::hum::Mains;
 use dsp_core::Complex32;
 
 /// What became of a multiplexed slot's block.
@@ -121,74 +121,6 @@ impl Demodulated {
     };
 }
 
-/// The mains frequency the array follows hum at by default, Hz
-/// ([`ArrayReader::with_mains`] for 60 Hz).
-pub const MAINS_HZ: u32 = 50;
-
-/// A layout's view of mains hum ([`dsp_core::hum`]), for either block
-/// length.
-#[derive(Clone, Debug)]
-#[allow(clippy::large_enum_variant)]
-pub enum BlockMains {
-    /// Blocks of [`BLOCK_INSTANTS`].
-    Long(Mains<BLOCK_INSTANTS, TONES>),
-    /// Blocks of [`SHORT_INSTANTS`].
-    Short(Mains<SHORT_INSTANTS, TONES>),
-}
-
-impl BlockMains {
-    /// Hum at `mains_hz` beside `comb`'s tones.
-    pub fn new(comb: &BlockComb, mains_hz: u32) -> Self {
-        match comb {
-            BlockComb::Long(c) => Self::Long(Mains::new(mains_hz, RATE_HZ, c)),
-            BlockComb::Short(c) => Self::Short(Mains::new(mains_hz, RATE_HZ, c)),
-        }
-    }
-}
-
-/// The hum the array follows: the layout's view of it, the window all
-/// inputs share, and each input's own (state beside configuration, as
-/// the reader's channels).
-#[derive(Clone, Debug)]
-struct Hum {
-    mains: BlockMains,
-    window: Window<TONES>,
-    inputs: [HumState; INPUTS],
-}
-
-impl Hum {
-    /// One block: the window moves on.
-    fn advance(&mut self) {
-        match &self.mains {
-            BlockMains::Long(m) => self.window.advance(m),
-            BlockMains::Short(m) => self.window.advance(m),
-        }
-    }
-
-    /// Input `input`'s levels of the block, the hum taken out where the
-    /// window vouches for it, and each tone's noise gain.
-    fn levels(
-        &mut self,
-        input: usize,
-        tones: &Tones<TONES>,
-        sums: [i64; 2],
-        clean: f32,
-    ) -> (Levels<TONES>, [f32; TONES]) {
-        let mut levels = tones.levels();
-        let state = &mut self.inputs[input];
-        let taken = match &self.mains {
-            BlockMains::Long(m) => m.cancel(&self.window, state, sums, tones, &mut levels, clean),
-            BlockMains::Short(m) => m.cancel(&self.window, state, sums, tones, &mut levels, clean),
-        };
-        let gains = if taken.is_some() {
-            *self.window.gains()
-        } else {
-            [1.0; TONES]
-        };
-        (levels, gains)
-    }
-}
-
 /// The comb demodulator of a layout's blocks (4 KiB for 4 ms blocks,
 /// 1 KiB for 1 ms: the reader is as large as the longer either way).
 #[derive(Clone, Debug)]
@@ -276,8 +208,14 @@ impl ArrayReader {
     /// Sixteen channels, each resting at its sensor's rest capacitance,
     /// reading blocks of `layout` (the same as the settings' given to
     /// [`ArrayReader::solve`]).
+    ///
+    /// Mains hum is followed at [`MAINS_HZ`] in 4 ms blocks; not in 1 ms
+    /// blocks, whose four times the blocks' hum fits would take the
+    /// board past its core (the cycle model's 1 ms block: 1.3 ms with
+    /// it, 0.82 without).
     pub fn new<const N: usize>(layout: Layout, sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
-        Self::with_mains(layout, sensors, Some(MAINS_HZ))
+        let mains = (layout.instants() == BLOCK_INSTANTS).then_some(MAINS_HZ);
+        Self::with_mains(layout, sensors, mains)
     }
 
     /// [`ArrayReader::new`] following mains hum at `mains_hz` (None:
@@ -289,11 +227,7 @@ impl ArrayReader {
     ) -> Result<Self, CombError> {
         let comb = BlockComb::new(&layout)?;
         Ok(Self {
-            hum: mains_hz.map(|hz| Hum {
-                mains: BlockMains::new(&comb, hz),
-                window: Window::EMPTY,
-                inputs: [HumState::EMPTY; INPUTS],
-            }),
+            hum: mains_hz.map(|hz| Hum::new(&comb, hz)),
             comb,
             layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
@@ -351,17 +285,14 @@ impl ArrayReader {
         if let Some(h) = self.hum.as_mut() {
             h.advance();
         }
-        let levels = |hum: &mut Option<Hum>, input: usize, tones: &Tones<TONES>| match hum {
-            Some(h) => h.levels(input, tones, block.hum[input], clean),
-            None => (tones.levels(), [1.0; TONES]),
-        };
-        let (v_levels, v_gains) = levels(&mut self.hum, VOLTAGE_INPUT, &block.v);
-        let v = Input::with(&block.v, v_levels, v_gains);
+        let mut v = Input::of(&block.v);
+        crate::mains::take_out(&mut self.hum, VOLTAGE_INPUT, &block.hum, &mut v, clean);
         let v_clipped = clipped(VOLTAGE_INPUT);
         let report = self.reports.due(settings.record_every);
         for (s, ch) in self.channels.iter_mut().enumerate() {
             // Every input's hum is followed, in use or not.
-            let (i_levels, i_gains) = levels(&mut self.hum, input_of(s), &block.i[s]);
+            let mut i = Input::of(&block.i[s]);
+            crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
             if !settings.sensors.of(s as u8).in_use {
                 continue;
             }
@@ -370,7 +301,7 @@ impl ArrayReader {
                 s as u8,
                 t_us,
                 &v,
-                &Input::with(&block.i[s], i_levels, i_gains),
+                &i,
                 clipped(input_of(s)) || v_clipped,
                 &self.rotations[s],
             );

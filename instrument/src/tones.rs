@@ -206,15 +206,14 @@ pub struct Input<'a> {
 }
 
 impl<'a> Input<'a> {
-    /// An input's sums with their levels.
+    /// An input's sums with their levels (the reader may then take a
+    /// hum out of them: [`crate::mains`]).
     pub fn of(tones: &'a Tones<TONES>) -> Self {
-        Self::with(tones, tones.levels(), [1.0; TONES])
-    }
-
-    /// An input's sums with levels read from them otherwise (a hum
-    /// taken out), and the tones' noise gains.
-    pub fn with(tones: &'a Tones<TONES>, levels: Levels<TONES>, gains: [f32; TONES]) -> Self {
-        Self { tones, levels, gains }
+        Self {
+            levels: tones.levels(),
+            tones,
+            gains: [1.0; TONES],
+        }
     }
 }
 

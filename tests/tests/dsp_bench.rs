@@ -20,6 +20,11 @@ fn dsp_kernels_on_cortex_m4_within_budget() {
         run.stdout
     );
     assert!(
+        run.stdout.contains("check hum_asm_equals_portable ok"),
+        "{}",
+        run.stdout
+    );
+    assert!(
         run.stdout.contains("check m4_floor_equals_portable ok"),
         "{}",
         run.stdout

@@ -1,5 +1,6 @@
 //! The hum canceller against an f64 reference that computes the same
-//! fit from the rows directly, with exact cosines: over its declared
+//! fit from the rows directly (exact cosines, the hum's basis rounded to
+//! the device's 15 bits): over its declared
 //! range (hum 0 to 8,000 counts, any phase, 50 and 60 Hz, both of the
 //! array's blocks, noise 1 to 10 counts), the tones it leaves and its
 //! residual.
@@ -93,14 +94,13 @@ impl<const N: usize> Reference<N> {
         out
     }
 
+    /// The hum's basis: a sinusoid in the 15 bits the device's words
+    /// keep (rounded exactly so, from exact cosines).
     fn basis(&self, j: usize) -> [f64; N] {
         core::array::from_fn(|n| {
             let phi = TAU * self.mains_hz * n as f64 / RATE_HZ as f64;
-            if j == 0 {
-                phi.cos()
-            } else {
-                phi.sin()
-            }
+            let v = if j == 0 { phi.cos() } else { phi.sin() };
+            (v * 32768.0).round().clamp(-32767.0, 32767.0) / 32768.0
         })
     }
 
@@ -192,8 +192,8 @@ fn run<const N: usize>(
         let blk = block::<N>(&periods, b, mains_hz as f64, hum, phase, sigma, &mut rng);
         let tones = comb.column(&blk.rows, 0);
         let mut levels = tones.levels();
-        window.advance(&mains);
-        let ours = mains.cancel(
+        window.advance(mains.fit());
+        let ours = mains.fit().cancel(
             &window,
             &mut state,
             mains.sums(&blk.rows, 0),
@@ -244,29 +244,30 @@ fn sweep<const N: usize>(periods: [u32; 5], seed: u64) -> Errors {
 }
 
 /// The 4 ms block (100 instants, tones of 1 to 16 periods): the tones
-/// left within 0.02 of their noise σ·√(N/2) (rms 0.002), the residual
-/// within 2 % (rms 0.4 %: the comb's own residual, from its Q31 words,
-/// is 0.1 % off the exact one already); the two decide alike in all but
-/// a few blocks at the edge of the thresholds. Measured: 0.008 and
-/// 0.0006 of the noise, 1.2 % and 0.16 %.
+/// left within 0.05 of their noise σ·√(N/2) (rms 0.005: the window
+/// follows u in f32), the residual within 5 % (rms 1 %: the comb's own
+/// residual, from its Q31 words, is 0.1 % off the exact one already, and
+/// a weak hum's is given with f32's rounding added); the two decide alike
+/// in all but a few blocks at the edge of the thresholds. Measured: 0.015
+/// and 0.0012 of the noise, 0.7 % and 0.2 %.
 #[test]
 fn the_long_block_matches_the_f64_fit() {
     let e = sweep::<100>([1, 2, 4, 8, 16], 11);
     assert!(e.applied > 1000, "{e:?}");
-    assert!(e.tone.0 < 0.02 && e.tone.1 < 2e-3, "{e:?}");
-    assert!(e.residual.0 < 0.02 && e.residual.1 < 4e-3, "{e:?}");
+    assert!(e.tone.0 < 0.05 && e.tone.1 < 5e-3, "{e:?}");
+    assert!(e.residual.0 < 0.05 && e.residual.1 < 0.01, "{e:?}");
     assert!(e.only_one <= 3, "{e:?}");
 }
 
 /// The 1 ms block (25 instants, tones of 1, 2, 3, 4 and 6 periods), the
-/// same bounds. Measured: 0.0008 and 0.0001 of the noise, 0.8 % and
-/// 0.11 %.
+/// same bounds. Measured: 0.008 and 0.0006 of the noise, 2.3 % and
+/// 0.3 %.
 #[test]
 fn the_short_block_matches_the_f64_fit() {
     let e = sweep::<25>([1, 2, 3, 4, 6], 12);
     assert!(e.applied > 1000, "{e:?}");
-    assert!(e.tone.0 < 0.02 && e.tone.1 < 2e-3, "{e:?}");
-    assert!(e.residual.0 < 0.02 && e.residual.1 < 4e-3, "{e:?}");
+    assert!(e.tone.0 < 0.05 && e.tone.1 < 5e-3, "{e:?}");
+    assert!(e.residual.0 < 0.05 && e.residual.1 < 0.01, "{e:?}");
     assert!(e.only_one <= 3, "{e:?}");
 }
 
@@ -280,12 +281,12 @@ fn the_tones_noise_grows_by_the_hums_own() {
     let mut window = Window::EMPTY;
     assert_eq!(window.gains(), &[1.0; 5]);
     for _ in 0..200 {
-        window.advance(&mains);
+        window.advance(mains.fit());
     }
     let g = *window.gains();
     assert!(g.iter().all(|&g| g > 1.0 && g < 1.5), "{g:?}");
     assert!(g[0] >= g[1] && g[1] >= g[4], "{g:?}");
-    window.advance(&mains);
+    window.advance(mains.fit());
     assert!(window.gains().iter().zip(&g).all(|(a, b)| (a - b).abs() < 1e-4));
 }
 
@@ -306,8 +307,9 @@ fn no_hum_and_other_frequencies_are_left_alone() {
             let blk = block::<100>(&periods, b, hz, amplitude, 0.4, 3.05, &mut rng);
             let tones = comb.column(&blk.rows, 0);
             let mut levels = tones.levels();
-            window.advance(&mains);
+            window.advance(mains.fit());
             if mains
+                .fit()
                 .cancel(
                     &window,
                     &mut state,
@@ -342,8 +344,8 @@ fn a_strong_hum_leaves_the_tones_as_they_are_without_it() {
         let clean = block::<100>(&periods, b, 50.0, 0.0, 1.0, sigma, &mut twin);
         let tones = comb.column(&blk.rows, 0);
         let mut levels = tones.levels();
-        window.advance(&mains);
-        let p = mains.cancel(
+        window.advance(mains.fit());
+        let p = mains.fit().cancel(
             &window,
             &mut state,
             mains.sums(&blk.rows, 0),

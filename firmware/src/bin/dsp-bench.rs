@@ -790,6 +790,10 @@ fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::a
         println!("FAIL comb assembly differs from portable");
         qemu::exit(1);
     }
+    if !hum_matches_portable(reader.comb(), layout, &frame) {
+        println!("FAIL the hum's assembly differs from portable");
+        qemu::exit(1);
+    }
     if !offset_binary_matches_portable(&frame) {
         println!("FAIL the offset-binary pass's assembly differs from portable");
         qemu::exit(1);
@@ -888,6 +892,38 @@ fn comb_matches_portable(
             BlockComb::Short(c) => rows.first_chunk().is_some_and(|r| column_matches(c, r, col)),
         })
     })
+}
+
+/// The hum's sums ([`dsp_core::hum::Mains::sums`], dual products in
+/// assembly) against the plain ones, bit for bit, on every input of
+/// `frame`, for 50 and 60 Hz beside `comb`'s tones (the 1 ms block's 25
+/// instants leave one to the plain loop).
+fn hum_matches_portable(
+    comb: &instrument::reader::BlockComb,
+    layout: instrument::array::Layout,
+    frame: &instrument::array::Frame,
+) -> bool {
+    use instrument::mains::BlockMains;
+    [50, 60].into_iter().all(|hz| {
+        let mains = BlockMains::new(comb, hz);
+        frame.iter().all(|rows| {
+            let rows = layout.rows(rows);
+            (0..4).all(|col| match &mains {
+                BlockMains::Long(m) => rows.first_chunk().is_some_and(|r| hum_column_matches(m, r, col)),
+                BlockMains::Short(m) => rows.first_chunk().is_some_and(|r| hum_column_matches(m, r, col)),
+            })
+        })
+    })
+}
+
+/// One input's hum sums from `mains` equal the plain sums.
+fn hum_column_matches<const B: usize, const K: usize>(
+    mains: &dsp_core::hum::Mains<B, K>,
+    rows: &[[i16; 4]; B],
+    col: usize,
+) -> bool {
+    let [c, s] = dsp_core::hum::portable(mains.reference(), rows, col, 0);
+    mains.sums(rows, col) == [c << 16, s << 16]
 }
 
 /// One input's tones and moments from `comb` equal the plain sums.
@@ -989,6 +1025,7 @@ fn array_budget(syst: &mut Clock, insns: &dyn Fn(u32) -> u32) {
         qemu::exit(1);
     }
     println!("check comb_asm_equals_portable ok");
+    println!("check hum_asm_equals_portable ok");
     for (name, cost) in [
         ("array_comb_pair_tone", &long),
         ("array_comb_1ms_pair_tone", &short),

@@ -1,0 +1,94 @@
+//! The array's reader following mains hum ([`dsp_core::hum`]): the
+//! layout's view of it, the window every input shares and each input's
+//! own. Out of the reader's module, and out of line, so that it runs
+//! from flash: the boards' zero-wait RAM holds the per-block path
+//! without it (`hot-ram.x`).
+
+use crate::array::{BLOCK_INSTANTS, SHORT_INSTANTS};
+use crate::array::{RATE_HZ, TONES};
+use crate::reader::{BlockComb, INPUTS};
+use crate::tones::Input;
+use dsp_core::hum::{Fit, HumState, Mains, Window};
+
+/// The mains frequency the array follows hum at by default, Hz
+/// ([`ArrayReader::with_mains`] for 60 Hz).
+pub const MAINS_HZ: u32 = 50;
+
+/// A layout's view of mains hum ([`dsp_core::hum`]), for either block
+/// length.
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
+pub enum BlockMains {
+    /// Blocks of [`BLOCK_INSTANTS`].
+    Long(Mains<BLOCK_INSTANTS, TONES>),
+    /// Blocks of [`SHORT_INSTANTS`].
+    Short(Mains<SHORT_INSTANTS, TONES>),
+}
+
+impl BlockMains {
+    /// What every block's fit reads.
+    pub fn fit(&self) -> &Fit<TONES> {
+        match self {
+            Self::Long(m) => m.fit(),
+            Self::Short(m) => m.fit(),
+        }
+    }
+
+    /// Hum at `mains_hz` beside `comb`'s tones.
+    #[inline(never)]
+    pub fn new(comb: &BlockComb, mains_hz: u32) -> Self {
+        match comb {
+            BlockComb::Long(c) => Self::Long(Mains::new(mains_hz, RATE_HZ, c)),
+            BlockComb::Short(c) => Self::Short(Mains::new(mains_hz, RATE_HZ, c)),
+        }
+    }
+}
+
+/// The hum the array follows: the layout's view of it, the window all
+/// inputs share, and each input's own (state beside configuration, as
+/// the reader's channels).
+#[derive(Clone, Debug)]
+pub(crate) struct Hum {
+    pub(crate) mains: BlockMains,
+    window: Window<TONES>,
+    inputs: [HumState; INPUTS],
+}
+
+impl Hum {
+    /// No block yet: hum at `mains_hz` beside `comb`'s tones.
+    #[inline(never)]
+    pub(crate) fn new(comb: &BlockComb, mains_hz: u32) -> Self {
+        Self {
+            mains: BlockMains::new(comb, mains_hz),
+            window: Window::EMPTY,
+            inputs: [HumState::EMPTY; INPUTS],
+        }
+    }
+
+    /// One block: the window moves on.
+    pub(crate) fn advance(&mut self) {
+        self.window.advance(self.mains.fit());
+    }
+}
+
+/// Input `input`'s hum (`sums`: every input's [`Mains::sums`]) into its
+/// state, and out of `into`'s levels where the window vouches for it,
+/// its tones' noise gains then the window's; nothing without `hum`.
+#[inline(never)]
+pub(crate) fn take_out(
+    hum: &mut Option<Hum>,
+    input: usize,
+    sums: &[[i64; 2]; INPUTS],
+    into: &mut Input<'_>,
+    clean: f32,
+) {
+    let Some(h) = hum.as_mut() else { return };
+    let state = &mut h.inputs[input];
+    let fit = h.mains.fit();
+    if fit
+        .cancel(&h.window, state, sums[input], into.tones, &mut into.levels, clean)
+        .is_some()
+    {
+        into.gains = *h.window.gains();
+    }
+}
