@@ -19,7 +19,7 @@
 //! ```text
 //! uⱼ = ⟨P⊥x, bⱼ⟩ = ⟨x, bⱼ⟩ − Σx·dcⱼ/N − (2/N)·Σₖ Re(Xₖ·conj Lₖⱼ)   (counts·instants)
 //! Q  = ⟨P⊥bᵢ, P⊥bⱼ⟩                                                (instants)
-//! M ← λ·T·M·Tᵀ + Q,   r ← λ·T·r + u,   p = M⁻¹·r                 (per block, λ = 1 − T_block/τ)
+//! M ← λ·T·M·Tᵀ + Q,   r ← λ·T·r + u,   p = M⁻¹·r                 (per block and input, λ = 1 − T_block/τ)
 //! ```
 //!
 //! (Lₖⱼ = Σₙ bⱼₙ·e^(−jθₖₙ), dcⱼ = Σₙ bⱼₙ: the basis's own comb sums.) The
@@ -33,9 +33,14 @@
 //! (χ² of 2 degrees of freedom above [`SIGNIFICANT`]), and what the
 //! window leaves must itself be clean (its rms within the caller's
 //! bound): a sinusoid of another frequency turns in this frame, is not
-//! one phasor, and leaves the window unclean. p's own noise, σ²·M⁻¹M₂M⁻¹
+//! one phasor, and leaves the window unclean; and taken out of the block
+//! it must leave less than the block had (a hum that just stopped does
+//! not). p's own noise, σ²·M⁻¹M₂M⁻¹
 //! (M₂ the same sum with λ²), moves each tone by p·Lₖ: the tone's noise
-//! grows by the factor [`Window::gains`] gives.
+//! grows by the factor [`Fit::cancel`] returns with it. Each input keeps
+//! its own window, which starts again where it no longer explains what it
+//! holds and its block is beyond the clean bound: a hum that starts or
+//! grows is followed within half a window.
 //!
 //! u and the residual's energy are formed in i128 from the comb's exact
 //! sums (a strong hum's are small differences of large numbers), the rest
@@ -104,24 +109,18 @@ pub struct Fit<const K: usize> {
     forget: f32,
 }
 
-/// What the window has seen, shared by every input of a front end (the
-/// same instants): M, M₂, Σλᵃ, and from them M⁻¹ and each tone's noise
-/// gain (state).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Window<const K: usize> {
-    m: [[f32; 2]; 2],
-    m2: [[f32; 2]; 2],
-    weight: f32,
-    inverse: Option<[[f32; 2]; 2]>,
-    gains: [f32; K],
-}
-
-/// One input's hum so far: r (counts·instants) and Σλᵃ·E, the residual
-/// energies the window holds (counts²·instants) (state).
+/// One input's window: r (counts·instants), Σλᵃ·E (the residual
+/// energies it holds, counts²·instants), M and M₂ (instants) and Σλᵃ
+/// (state).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HumState {
     r: [f32; 2],
     energy: f32,
+    m: [[f32; 2]; 2],
+    m2: [[f32; 2]; 2],
+    weight: f32,
+    /// Times the window started again (the hum changed).
+    pub restarts: u32,
 }
 
 impl HumState {
@@ -129,44 +128,11 @@ impl HumState {
     pub const EMPTY: Self = Self {
         r: [0.0; 2],
         energy: 0.0,
-    };
-}
-
-impl<const K: usize> Window<K> {
-    /// No block yet.
-    pub const EMPTY: Self = Self {
         m: [[0.0; 2]; 2],
         m2: [[0.0; 2]; 2],
         weight: 0.0,
-        inverse: None,
-        gains: [1.0; K],
+        restarts: 0,
     };
-
-    /// Each tone's noise, times its own, where a hum is taken out.
-    pub fn gains(&self) -> &[f32; K] {
-        &self.gains
-    }
-
-    /// One more block (before any input's [`Fit::cancel`] of it).
-    pub fn advance(&mut self, mains: &Fit<K>) {
-        let l = mains.forget;
-        self.m = add(&scale(&mains.rotate(&self.m), l), &mains.q);
-        self.m2 = add(&scale(&mains.rotate(&self.m2), l * l), &mains.q);
-        self.weight = l * self.weight + 1.0;
-        self.inverse = inverse2(&self.m);
-        let Some(a) = self.inverse else {
-            self.gains = [f32::INFINITY; K];
-            return;
-        };
-        // Cov p / σ² = M⁻¹·M₂·M⁻¹; a tone's component moves by l·p.
-        let cov = mul(&mul(&a, &self.m2), &a);
-        let half = mains.n as f32 / 2.0;
-        for (g, leak) in self.gains.iter_mut().zip(&mains.leak) {
-            let re = quad(&cov, [leak[0].re, leak[1].re]);
-            let im = quad(&cov, [leak[0].im, leak[1].im]);
-            *g = fmath::sqrt(1.0 + fmath::max(re, im) / half);
-        }
-    }
 }
 
 impl<const N: usize, const K: usize> Mains<N, K> {
@@ -417,77 +383,137 @@ impl<const K: usize> Fit<K> {
     }
 
     /// Take this block's view of the hum (`sums`: [`Mains::sums`] of the
-    /// input whose comb gave `tones` and `levels`) into `state`, and the
-    /// hum the window vouches for out of `levels` (module docs): its
-    /// phasors, amplitudes, largest and residual are then the block's
-    /// less the hum. `clean_counts`: the rms the window may leave (the
-    /// front end's residual bound). Returns the hum taken out, p
-    /// (counts), or None where none was (`levels` untouched). `window`
-    /// has advanced for this block.
+    /// input whose comb gave `tones` and `levels`) into the input's
+    /// window `state`, and the hum the window vouches for out of
+    /// `levels` (module docs): its phasors, amplitudes, largest and
+    /// residual are then the block's less the hum. `clean_counts`: the
+    /// rms the window may leave (the front end's residual bound). Returns
+    /// the hum taken out, p (counts), and each tone's noise gain; None
+    /// where none was (`levels` untouched).
     #[inline(never)]
     pub fn cancel(
         &self,
-        window: &Window<K>,
         state: &mut HumState,
         sums: [i64; 2],
         tones: &Tones<K>,
         levels: &mut Levels<K>,
         clean_counts: f32,
-    ) -> Option<[f32; 2]> {
+    ) -> Option<([f32; 2], [f32; K])> {
         if tones.n != self.n {
             return None;
         }
         let nf = self.n as f32;
-        let q31 = Q31 as f32;
         let (u, size) = self.projections_f32(sums, tones, levels);
         let energy = levels.residual * levels.residual * nf;
-        let [c, s] = self.turn;
-        let l = self.forget;
-        let r = state.r;
-        state.r = [
-            l * (c * r[0] + s * r[1]) + u[0],
-            l * (-s * r[0] + c * r[1]) + u[1],
-        ];
-        state.energy = l * state.energy + energy;
-        let a = window.inverse?;
+        let block_dof = (self.n as usize - 1 - 2 * K) as f32;
+        // The window's hum, as it stood, leaves more of this block than
+        // the clean bound, surely (f32's rounding taken off): the hum
+        // changed (it started, stopped, or grew). The window starts again
+        // from this block.
+        if let Some(p) = self.held(state) {
+            let [c, s] = self.turn;
+            let p = [c * p[0] + s * p[1], -s * p[0] + c * p[1]];
+            let (left, rounding) = self.less_hum_f32(energy, p, u, size);
+            if left - rounding > clean_counts * clean_counts * block_dof {
+                *state = HumState {
+                    restarts: state.restarts.wrapping_add(1),
+                    ..HumState::EMPTY
+                };
+            }
+        }
+        self.advance(state, u, energy);
+        let a = inverse2(&state.m)?;
         let r = state.r;
         let p = [a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]];
         let explained = p[0] * r[0] + p[1] * r[1];
-        let dof = window.weight * (self.n as usize - 1 - 2 * K) as f32 - 2.0;
-        let noise = (state.energy - explained) / dof;
+        let noise = (state.energy - explained) / (state.weight * block_dof - 2.0);
         // Half a window at least: a block or two alone cannot tell the
         // hum from the lowest tones (M is near singular).
-        let full = window.weight * (1.0 - self.forget) >= 0.5;
+        let full = state.weight * (1.0 - self.forget) >= 0.5;
         if !(full && explained > SIGNIFICANT * noise && noise <= clean_counts * clean_counts) {
             return None;
         }
+        // E − 2·pᵀu + pᵀQp cancels: in f32, with what f32 can round off
+        // of its terms added, where that is under 1 % of the noise's
+        // energy (a weak hum); else (a strong one, up to 10⁷ times the
+        // noise's energy) in integers from the block's exact sums.
+        let (left, rounding) = self.less_hum_f32(energy, p, u, size);
+        let residual = if rounding <= 0.01 * noise * nf {
+            fmath::sqrt(fmath::max(left, 0.0) / nf + rounding / nf)
+        } else {
+            let exact = self.projections(sums, tones);
+            root_over_n(self.less_hum(tones.residual_n_energy(), p, exact).max(0), self.n)
+        };
+        // A hum this block does not hold (it stopped, or is not one):
+        // taken out, it would leave more than it found. Left in.
+        // (NaN is no less: left in.)
+        if residual.partial_cmp(&levels.residual) != Some(core::cmp::Ordering::Less) {
+            return None;
+        }
+        levels.residual = residual;
         for ((phasor, amplitude), leak) in levels
             .phasor
             .iter_mut()
             .zip(levels.amplitude.iter_mut())
             .zip(&self.leak)
         {
-            let y = *phasor / q31 - (leak[0] * p[0] + leak[1] * p[1]);
-            *phasor = y * q31;
+            let y = *phasor / Q31 as f32 - (leak[0] * p[0] + leak[1] * p[1]);
+            *phasor = y * Q31 as f32;
             *amplitude = fmath::hypot(y.re, y.im) * (2.0 / nf);
         }
         levels.largest = levels
             .amplitude
             .iter()
             .fold(0.0, |m, &a| if a > m { a } else { m });
-        // E − 2·pᵀu + pᵀQp cancels: in f32, with what f32 can round off
-        // of its terms added, where that is under 1 % of the noise's
-        // energy (a weak hum); else (a strong one, up to 10⁷ times the
-        // noise's energy) in integers from the block's exact sums.
+        Some((p, self.gains(&a, &state.m2)))
+    }
+
+    /// The window moved on by one block: M ← λ·T·M·Tᵀ + Q, M₂ with λ²,
+    /// r ← λ·T·r + u, the energies and weights with λ.
+    fn advance(&self, state: &mut HumState, u: [f32; 2], energy: f32) {
+        let l = self.forget;
+        state.m = add(&scale(&self.rotate(&state.m), l), &self.q);
+        state.m2 = add(&scale(&self.rotate(&state.m2), l * l), &self.q);
+        let [c, s] = self.turn;
+        let r = state.r;
+        state.r = [
+            l * (c * r[0] + s * r[1]) + u[0],
+            l * (-s * r[0] + c * r[1]) + u[1],
+        ];
+        state.energy = l * state.energy + energy;
+        state.weight = l * state.weight + 1.0;
+    }
+
+    /// The hum the window holds, p = M⁻¹·r, where it is half full at
+    /// least (module docs).
+    fn held(&self, state: &HumState) -> Option<[f32; 2]> {
+        if state.weight * (1.0 - self.forget) < 0.5 {
+            return None;
+        }
+        let a = inverse2(&state.m)?;
+        let r = state.r;
+        Some([a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]])
+    }
+
+    /// E − 2·pᵀu + pᵀQp in f32 (`energy` = E, counts²·instants), and
+    /// what f32 can round off of its terms (`size`: u's terms' sizes).
+    fn less_hum_f32(&self, energy: f32, p: [f32; 2], u: [f32; 2], size: [f32; 2]) -> (f32, f32) {
         let (pu, pqp) = (p[0] * u[0] + p[1] * u[1], quad(&self.q, p));
         let rounding = ROUNDING * (energy + 2.0 * (p[0].abs() * size[0] + p[1].abs() * size[1]) + pqp.abs());
-        levels.residual = if rounding <= 0.01 * noise * nf {
-            fmath::sqrt(fmath::max(energy - 2.0 * pu + pqp, 0.0) / nf + rounding / nf)
-        } else {
-            let exact = self.projections(sums, tones);
-            root_over_n(self.less_hum(tones.residual_n_energy(), p, exact).max(0), self.n)
-        };
-        Some(p)
+        (energy - 2.0 * pu + pqp, rounding)
+    }
+
+    /// Each tone's noise, times its own, with the hum p = M⁻¹·r taken out
+    /// (`a` = M⁻¹): Cov p / σ² = M⁻¹·M₂·M⁻¹, and a tone's component moves
+    /// by its leak's row times p.
+    fn gains(&self, a: &[[f32; 2]; 2], m2: &[[f32; 2]; 2]) -> [f32; K] {
+        let cov = mul(&mul(a, m2), a);
+        let half = self.n as f32 / 2.0;
+        self.leak.map(|leak| {
+            let re = quad(&cov, [leak[0].re, leak[1].re]);
+            let im = quad(&cov, [leak[0].im, leak[1].im]);
+            fmath::sqrt(1.0 + fmath::max(re, im) / half)
+        })
     }
 }
 

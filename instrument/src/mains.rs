@@ -1,6 +1,5 @@
 //! The array's reader following mains hum ([`dsp_core::hum`]): the
-//! layout's view of it, the window every input shares and each input's
-//! own. Out of the reader's module, and out of line, so that it runs
+//! layout's view of it and each input's window. Out of the reader's module, and out of line, so that it runs
 //! from flash: the boards' zero-wait RAM holds the per-block path
 //! without it (`hot-ram.x`).
 
@@ -8,7 +7,7 @@ use crate::array::{BLOCK_INSTANTS, SHORT_INSTANTS};
 use crate::array::{RATE_HZ, TONES};
 use crate::reader::{BlockComb, INPUTS};
 use crate::tones::Input;
-use dsp_core::hum::{Fit, HumState, Mains, Window};
+use dsp_core::hum::{Fit, HumState, Mains};
 
 /// The mains frequency the array follows hum at by default, Hz
 /// ([`ArrayReader::with_mains`] for 60 Hz).
@@ -44,13 +43,11 @@ impl BlockMains {
     }
 }
 
-/// The hum the array follows: the layout's view of it, the window all
-/// inputs share, and each input's own (state beside configuration, as
-/// the reader's channels).
+/// The hum the array follows: the layout's view of it and each input's
+/// window (state beside configuration, as the reader's channels).
 #[derive(Clone, Debug)]
 pub(crate) struct Hum {
     pub(crate) mains: BlockMains,
-    window: Window<TONES>,
     inputs: [HumState; INPUTS],
 }
 
@@ -60,14 +57,8 @@ impl Hum {
     pub(crate) fn new(comb: &BlockComb, mains_hz: u32) -> Self {
         Self {
             mains: BlockMains::new(comb, mains_hz),
-            window: Window::EMPTY,
             inputs: [HumState::EMPTY; INPUTS],
         }
-    }
-
-    /// One block: the window moves on.
-    pub(crate) fn advance(&mut self) {
-        self.window.advance(self.mains.fit());
     }
 }
 
@@ -84,11 +75,11 @@ pub(crate) fn take_out(
 ) {
     let Some(h) = hum.as_mut() else { return };
     let state = &mut h.inputs[input];
-    let fit = h.mains.fit();
-    if fit
-        .cancel(&h.window, state, sums[input], into.tones, &mut into.levels, clean)
-        .is_some()
+    if let Some((_, gains)) = h
+        .mains
+        .fit()
+        .cancel(state, sums[input], into.tones, &mut into.levels, clean)
     {
-        into.gains = *h.window.gains();
+        into.gains = gains;
     }
 }

@@ -282,9 +282,6 @@ impl ArrayReader {
         mut record: impl FnMut(ToneRecord),
     ) {
         let clean = settings.thresholds.residual_counts;
-        if let Some(h) = self.hum.as_mut() {
-            h.advance();
-        }
         let mut v = Input::of(&block.v);
         crate::mains::take_out(&mut self.hum, VOLTAGE_INPUT, &block.hum, &mut v, clean);
         let v_clipped = clipped(VOLTAGE_INPUT);

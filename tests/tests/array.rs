@@ -176,9 +176,14 @@ fn the_model_check_tells_undeclared_wiring_from_clean_sensors() {
     }
 }
 
+/// 30 to 1,000 counts of 50 Hz on sensors 4–7 from 1 s to 2 s: the array
+/// follows the hum across blocks and takes it out ([`dsp_core::hum`]), so
+/// those sensors keep their records valid but as the hum starts (its
+/// window learns it: flagged meanwhile) and stops, and nothing valid is
+/// wrong, hum or not.
 #[test]
 #[ignore = "long: cargo xtask test --full"]
-fn hum_is_flagged_and_never_passes_as_valid() {
+fn hum_is_taken_out_and_never_passes_as_valid() {
     let (run, recs) = run_array("hum").unwrap();
     run.ok().unwrap();
     for s in 0..16u8 {
@@ -186,20 +191,34 @@ fn hum_is_flagged_and_never_passes_as_valid() {
             .iter()
             .filter(|r| r.rec.sensor == s && (1.0..2.0).contains(&r.t_s()))
             .collect();
-        let flagged = during.iter().filter(|r| !r.rec.flags.valid()).count();
+        let flagged: Vec<f64> = during
+            .iter()
+            .filter(|r| !r.rec.flags.valid())
+            .map(|r| r.t_s())
+            .collect();
         let (_, rms, max) = stats(&during);
         println!(
-            "sensor {s:2}: {flagged} of {} flagged during the hum, valid C rms {:.3} % max {:.3} %",
+            "sensor {s:2}: {} of {} flagged during the hum, valid C rms {:.3} % max {:.3} %",
+            flagged.len(),
             during.len(),
             rms * 100.0,
             max * 100.0
         );
         // What passes as valid is right, hum or not.
         assert!(max < 5e-3, "sensor {s}: a valid record {max} off");
-        if (6..=7).contains(&s) {
-            // 300 and 1000 counts of hum: every record flagged.
-            assert_eq!(flagged, during.len(), "sensor {s}");
-        }
+        // The hum's own records kept, but where it starts (its window
+        // then learns it: 24 ms measured) and one in a hundred by chance
+        // (the model check's χ², a sensor with 100 counts: once).
+        let late = flagged.iter().filter(|&&t| t > 1.05).count();
+        assert!(late * 100 <= during.len(), "sensor {s}: flagged at {flagged:?}");
+        // Once it stops, the window starts again: flagged no later than
+        // 50 ms on.
+        let after: Vec<f64> = recs
+            .iter()
+            .filter(|r| r.rec.sensor == s && (2.05..2.5).contains(&r.t_s()) && !r.rec.flags.valid())
+            .map(|r| r.t_s())
+            .collect();
+        assert!(after.len() <= 1, "sensor {s}: flagged after the hum at {after:?}");
     }
 }
 

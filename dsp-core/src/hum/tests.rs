@@ -78,6 +78,16 @@ impl<const N: usize> Reference<N> {
         }
     }
 
+    /// p = M⁻¹·r.
+    fn estimate(&self) -> [f64; 2] {
+        let m = self.m;
+        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+        [
+            (m[1][1] * self.r[0] - m[0][1] * self.r[1]) / det,
+            (-m[1][0] * self.r[0] + m[0][0] * self.r[1]) / det,
+        ]
+    }
+
     /// x less its mean and tones.
     fn perp(&self, x: &[f64; N]) -> [f64; N] {
         let nf = N as f64;
@@ -104,7 +114,7 @@ impl<const N: usize> Reference<N> {
         })
     }
 
-    fn step(&mut self, rows: &[[i16; 1]; N], clean: f64) -> Option<Corrected> {
+    fn step(&mut self, rows: &[[i16; 1]; N], clean: f64, restart: bool) -> Option<Corrected> {
         let x: [f64; N] = core::array::from_fn(|n| rows[n][0] as f64);
         let b = [self.basis(0), self.basis(1)];
         let pb = [self.perp(&b[0]), self.perp(&b[1])];
@@ -126,6 +136,11 @@ impl<const N: usize> Reference<N> {
                 core::array::from_fn(|i| core::array::from_fn(|j| ta[i][0] * t[j][0] + ta[i][1] * t[j][1]));
             out
         };
+        // Where the device's window started again (its hum changed: a
+        // decision at a threshold, taken from it), so does this one.
+        if restart {
+            (self.m, self.r, self.energy, self.weight) = ([[0.0; 2]; 2], [0.0; 2], 0.0, 0.0);
+        }
         let m = rot(&self.m);
         self.m = core::array::from_fn(|i| core::array::from_fn(|j| l * m[i][j] + q[i][j]));
         let r = self.r;
@@ -135,12 +150,7 @@ impl<const N: usize> Reference<N> {
         ];
         self.energy = l * self.energy + dot(&px, &px);
         self.weight = l * self.weight + 1.0;
-        let m = self.m;
-        let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-        let p = [
-            (m[1][1] * self.r[0] - m[0][1] * self.r[1]) / det,
-            (-m[1][0] * self.r[0] + m[0][0] * self.r[1]) / det,
-        ];
+        let p = self.estimate();
         let explained = p[0] * self.r[0] + p[1] * self.r[1];
         let noise = (self.energy - explained) / (self.weight * (N - 11) as f64 - 2.0);
         let full = self.weight * (1.0 - l) >= 0.5;
@@ -155,7 +165,8 @@ impl<const N: usize> Reference<N> {
             (c, -s)
         });
         let py = self.perp(&y);
-        Some((p, tones, (dot(&py, &py) / N as f64).sqrt()))
+        let left = dot(&py, &py);
+        (left < dot(&px, &px)).then_some((p, tones, (left / N as f64).sqrt()))
     }
 }
 
@@ -183,7 +194,6 @@ fn run<const N: usize>(
 ) {
     let comb = Comb::<N, 5>::new(periods).unwrap();
     let mains = Mains::new(mains_hz, RATE_HZ, &comb);
-    let mut window = Window::EMPTY;
     let mut state = HumState::EMPTY;
     let mut reference = Reference::<N>::new(periods, mains_hz as f64);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -192,16 +202,11 @@ fn run<const N: usize>(
         let blk = block::<N>(&periods, b, mains_hz as f64, hum, phase, sigma, &mut rng);
         let tones = comb.column(&blk.rows, 0);
         let mut levels = tones.levels();
-        window.advance(mains.fit());
-        let ours = mains.fit().cancel(
-            &window,
-            &mut state,
-            mains.sums(&blk.rows, 0),
-            &tones,
-            &mut levels,
-            clean,
-        );
-        let theirs = reference.step(&blk.rows, clean as f64);
+        let before = state.restarts;
+        let ours = mains
+            .fit()
+            .cancel(&mut state, mains.sums(&blk.rows, 0), &tones, &mut levels, clean);
+        let theirs = reference.step(&blk.rows, clean as f64, state.restarts != before);
 
         match (ours, theirs) {
             (Some(_), Some((_, x, res))) => {
@@ -248,15 +253,17 @@ fn sweep<const N: usize>(periods: [u32; 5], seed: u64) -> Errors {
 /// follows u in f32), the residual within 5 % (rms 1 %: the comb's own
 /// residual, from its Q31 words, is 0.1 % off the exact one already, and
 /// a weak hum's is given with f32's rounding added); the two decide alike
-/// in all but a few blocks at the edge of the thresholds. Measured: 0.015
+/// in all but 1 % of the blocks, at the edge of the thresholds (where
+/// the device's window starts again, the reference's does: a decision
+/// at a threshold, which f32 and f64 may take apart). Measured: 0.015
 /// and 0.0012 of the noise, 0.7 % and 0.2 %.
 #[test]
 fn the_long_block_matches_the_f64_fit() {
     let e = sweep::<100>([1, 2, 4, 8, 16], 11);
-    assert!(e.applied > 1000, "{e:?}");
+    assert!(e.applied > 500, "{e:?}");
     assert!(e.tone.0 < 0.05 && e.tone.1 < 5e-3, "{e:?}");
     assert!(e.residual.0 < 0.05 && e.residual.1 < 0.01, "{e:?}");
-    assert!(e.only_one <= 3, "{e:?}");
+    assert!(e.only_one * 100 <= e.applied, "{e:?}");
 }
 
 /// The 1 ms block (25 instants, tones of 1, 2, 3, 4 and 6 periods), the
@@ -265,29 +272,76 @@ fn the_long_block_matches_the_f64_fit() {
 #[test]
 fn the_short_block_matches_the_f64_fit() {
     let e = sweep::<25>([1, 2, 3, 4, 6], 12);
-    assert!(e.applied > 1000, "{e:?}");
+    assert!(e.applied > 500, "{e:?}");
     assert!(e.tone.0 < 0.05 && e.tone.1 < 5e-3, "{e:?}");
     assert!(e.residual.0 < 0.05 && e.residual.1 < 0.01, "{e:?}");
-    assert!(e.only_one <= 3, "{e:?}");
+    assert!(e.only_one * 100 <= e.applied, "{e:?}");
 }
 
-/// The window's noise gains: 1 before any hum can be told (infinite
-/// with no block), then above 1, the one-period tone's most, and
-/// steady once the window is full.
+/// The tones' noise gains with a steady hum taken out: above 1, the
+/// one-period tone's most, and steady once the window is full.
 #[test]
 fn the_tones_noise_grows_by_the_hums_own() {
-    let comb = Comb::<100, 5>::new([1, 2, 4, 8, 16]).unwrap();
+    let periods = [1, 2, 4, 8, 16];
+    let comb = Comb::<100, 5>::new(periods).unwrap();
     let mains = Mains::new(50, RATE_HZ, &comb);
-    let mut window = Window::EMPTY;
-    assert_eq!(window.gains(), &[1.0; 5]);
-    for _ in 0..200 {
-        window.advance(mains.fit());
+    let mut state = HumState::EMPTY;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut last: Option<[f32; 5]> = None;
+    for b in 0..200 {
+        let blk = block::<100>(&periods, b, 50.0, 400.0, 0.2, 3.05, &mut rng);
+        let tones = comb.column(&blk.rows, 0);
+        let mut levels = tones.levels();
+        let taken = mains
+            .fit()
+            .cancel(&mut state, mains.sums(&blk.rows, 0), &tones, &mut levels, 6.4);
+        if b < 100 {
+            continue;
+        }
+        let (_, g) = taken.expect("a steady hum is taken out");
+        assert!(g.iter().all(|&g| g > 1.0 && g < 1.5), "{g:?}");
+        assert!(g[0] >= g[1] && g[1] >= g[4], "{g:?}");
+        if let Some(l) = last {
+            assert!(g.iter().zip(&l).all(|(a, b)| (a - b).abs() < 1e-3), "{g:?} {l:?}");
+        }
+        last = Some(g);
     }
-    let g = *window.gains();
-    assert!(g.iter().all(|&g| g > 1.0 && g < 1.5), "{g:?}");
-    assert!(g[0] >= g[1] && g[1] >= g[4], "{g:?}");
-    window.advance(mains.fit());
-    assert!(window.gains().iter().zip(&g).all(|(a, b)| (a - b).abs() < 1e-4));
+}
+
+/// A hum that starts (1,000 counts, from block 50) is taken out within
+/// a dozen blocks (the window starts again, then must be half full), and
+/// one that stops is no longer taken out from the next block.
+#[test]
+fn a_hum_that_starts_or_stops_is_followed() {
+    let periods = [1, 2, 4, 8, 16];
+    let comb = Comb::<100, 5>::new(periods).unwrap();
+    let mains = Mains::new(50, RATE_HZ, &comb);
+    let mut state = HumState::EMPTY;
+    let mut rng = ChaCha8Rng::seed_from_u64(4);
+    for b in 0..300 {
+        let on = (50..200).contains(&b);
+        let blk = block::<100>(
+            &periods,
+            b,
+            50.0,
+            if on { 1000.0 } else { 0.0 },
+            1.3,
+            3.05,
+            &mut rng,
+        );
+        let tones = comb.column(&blk.rows, 0);
+        let mut levels = tones.levels();
+        let taken = mains
+            .fit()
+            .cancel(&mut state, mains.sums(&blk.rows, 0), &tones, &mut levels, 6.4);
+        if (62..200).contains(&b) {
+            assert!(taken.is_some(), "block {b}");
+            assert!(levels.residual < 4.0, "block {b}: {}", levels.residual);
+        }
+        if b >= 200 {
+            assert!(taken.is_none(), "block {b}");
+        }
+    }
 }
 
 /// Noise alone: a hum is taken out by chance in no more blocks than
@@ -299,7 +353,6 @@ fn no_hum_and_other_frequencies_are_left_alone() {
     for (hz, amplitude, most) in [(50.0, 0.0, 2), (80.0, 200.0, 0), (37.0, 500.0, 0)] {
         let comb = Comb::<100, 5>::new(periods).unwrap();
         let mains = Mains::new(50, RATE_HZ, &comb);
-        let mut window = Window::EMPTY;
         let mut state = HumState::EMPTY;
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut applied = 0;
@@ -307,17 +360,9 @@ fn no_hum_and_other_frequencies_are_left_alone() {
             let blk = block::<100>(&periods, b, hz, amplitude, 0.4, 3.05, &mut rng);
             let tones = comb.column(&blk.rows, 0);
             let mut levels = tones.levels();
-            window.advance(mains.fit());
             if mains
                 .fit()
-                .cancel(
-                    &window,
-                    &mut state,
-                    mains.sums(&blk.rows, 0),
-                    &tones,
-                    &mut levels,
-                    6.4,
-                )
+                .cancel(&mut state, mains.sums(&blk.rows, 0), &tones, &mut levels, 6.4)
                 .is_some()
             {
                 applied += 1;
@@ -335,7 +380,6 @@ fn a_strong_hum_leaves_the_tones_as_they_are_without_it() {
     let periods = [1, 2, 4, 8, 16];
     let comb = Comb::<100, 5>::new(periods).unwrap();
     let mains = Mains::new(50, RATE_HZ, &comb);
-    let mut window = Window::EMPTY;
     let mut state = HumState::EMPTY;
     let (mut rng, mut twin) = (ChaCha8Rng::seed_from_u64(8), ChaCha8Rng::seed_from_u64(8));
     let sigma = 3.05;
@@ -344,15 +388,9 @@ fn a_strong_hum_leaves_the_tones_as_they_are_without_it() {
         let clean = block::<100>(&periods, b, 50.0, 0.0, 1.0, sigma, &mut twin);
         let tones = comb.column(&blk.rows, 0);
         let mut levels = tones.levels();
-        window.advance(mains.fit());
-        let p = mains.fit().cancel(
-            &window,
-            &mut state,
-            mains.sums(&blk.rows, 0),
-            &tones,
-            &mut levels,
-            6.4,
-        );
+        let p = mains
+            .fit()
+            .cancel(&mut state, mains.sums(&blk.rows, 0), &tones, &mut levels, 6.4);
         if b < 50 {
             continue;
         }
