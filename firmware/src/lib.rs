@@ -43,3 +43,7 @@ pub mod scenario;
 pub mod settings_log;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod stack;
+
+/// The mains frequency the array's images follow hum at, Hz: 50, or 60
+/// with the feature `mains-60hz` ([`instrument::reader::ArrayReader::for_mains`]).
+pub const MAINS_HZ: u32 = if cfg!(feature = "mains-60hz") { 60 } else { 50 };

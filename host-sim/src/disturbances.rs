@@ -476,6 +476,25 @@ pub fn array_for(
     duration_s: f64,
     from_s: f64,
 ) -> Option<Outcome> {
+    array_for_mains(
+        layout,
+        class,
+        profile,
+        duration_s,
+        from_s,
+        instrument::mains::MAINS_HZ,
+    )
+}
+
+/// [`array_for`] with the reader set for mains at `mains_hz`.
+pub fn array_for_mains(
+    layout: Layout,
+    class: &Class,
+    profile: &Profile,
+    duration_s: f64,
+    from_s: f64,
+    mains_hz: u32,
+) -> Option<Outcome> {
     if matches!(
         class.front,
         Front::Step(_) | Front::Offset(_) | Front::Burst(..) | Front::Stuck(_)
@@ -486,7 +505,7 @@ pub fn array_for(
     let paper = SensorParams::PAPER;
     let each = paper_sensors();
     let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
-    let mut reader = ArrayReader::new(layout, &each).expect("the array's comb lays out");
+    let mut reader = ArrayReader::for_mains(layout, &each, mains_hz).expect("the array's comb lays out");
     let mut rng = Rng::new(0xa77a);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
     let block_s = layout.block_us() as f64 * 1e-6;

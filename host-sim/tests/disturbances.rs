@@ -5,7 +5,7 @@
 //! channel's records valid and right, both paths keep a clean skin's
 //! records, and the page shows what the code measures.
 
-use host_sim::disturbances::{array_for, array_in, markdown, rows, CLASSES};
+use host_sim::disturbances::{array_for, array_for_mains, array_in, markdown, rows, CLASSES};
 use instrument::array::Layout;
 use instrument::faults::{Flags, Thresholds};
 use skin_sim::profile::Profile;
@@ -257,8 +257,9 @@ fn the_array_moves_off_a_tone_an_interferer_occupies() {
 /// stretching at 20 mm/s: from one second after it starts, the array
 /// keeps at least 99 % of its records valid and none wrong, where it kept
 /// none and a quarter before it followed the hum across blocks
-/// ([`dsp_core::hum`]). Hum the reader is not set for (60 Hz where it
-/// follows 50) is not taken out: nothing valid is wrong either.
+/// ([`dsp_core::hum`]). 60 Hz hum likewise on a reader set for it; on
+/// one set for 50 Hz it is not taken out, and nothing valid is wrong
+/// either.
 #[test]
 fn the_array_takes_mains_hum_out_of_its_records() {
     let class = |name: &str| *CLASSES.iter().find(|c| c.name == name).expect(name);
@@ -283,6 +284,11 @@ fn the_array_takes_mains_hum_out_of_its_records() {
     }
     let o = array_for(Layout::BLOCK_4MS, &sixty, &moving, 2.0, 1.0).expect("the array runs sinusoids");
     assert_eq!(o.valid_off, 0, "{o:?}");
+    let o =
+        array_for_mains(Layout::BLOCK_4MS, &sixty, &moving, 2.0, 1.0, 60).expect("the array runs sinusoids");
+    let a = &o.availability;
+    assert_eq!(o.valid_off, 0, "{o:?}");
+    assert!(a.valid * 100 >= a.records * 99, "60 Hz: {a} ({})", a.why());
 }
 
 /// The position of `flag` in an availability's counts (bit order).

@@ -214,7 +214,16 @@ impl ArrayReader {
     /// board past its core (the cycle model's 1 ms block: 1.3 ms with
     /// it, 0.82 without).
     pub fn new<const N: usize>(layout: Layout, sensors: &Sensors<N, SENSORS>) -> Result<Self, CombError> {
-        let mains = (layout.instants() == BLOCK_INSTANTS).then_some(MAINS_HZ);
+        Self::for_mains(layout, sensors, MAINS_HZ)
+    }
+
+    /// [`ArrayReader::new`] where the mains run at `mains_hz` (50 or 60).
+    pub fn for_mains<const N: usize>(
+        layout: Layout,
+        sensors: &Sensors<N, SENSORS>,
+        mains_hz: u32,
+    ) -> Result<Self, CombError> {
+        let mains = (layout.instants() == BLOCK_INSTANTS).then_some(mains_hz);
         Self::with_mains(layout, sensors, mains)
     }
 

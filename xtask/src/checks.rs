@@ -171,8 +171,9 @@ fn firmware_lint(root: &Path, pass: Pass) -> Result<()> {
     Ok(())
 }
 
-/// The firmware's feature sets, one for each set of images.
-const FIRMWARE_FEATURES: [&str; 3] = ["bench", "board", "board,store"];
+/// The firmware's feature sets, one for each set of images (and the
+/// array's for 60 Hz mains).
+const FIRMWARE_FEATURES: [&str; 4] = ["bench", "board", "board,store", "board,mains-60hz"];
 
 /// `cargo clippy ARGS -- -D warnings` in `dir`.
 fn clippy(dir: &Path, args: &[&str]) -> Result<()> {

@@ -232,7 +232,7 @@ mod app {
             watchdog::await_reset()
         };
         let in_force = in_force_at_start(&mut store, cx.local.sensors);
-        let Ok(reader) = ArrayReader::new(LAYOUT, in_force.sensors()) else {
+        let Ok(reader) = ArrayReader::for_mains(LAYOUT, in_force.sensors(), firmware::MAINS_HZ) else {
             defmt::println!("comb: bad tone set; watchdog reset follows");
             watchdog::await_reset()
         };

@@ -210,7 +210,9 @@ mod app {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::new(layout, sensors)) else {
+        let Ok(reader) = qemu::place(cx.local.reader_slot, || {
+            ArrayReader::for_mains(layout, sensors, firmware::MAINS_HZ)
+        }) else {
             qemu::exit(3)
         };
         let common = ToneCommon {
