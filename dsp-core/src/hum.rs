@@ -216,6 +216,19 @@ pub fn portable<const S: usize>(
 #[cfg(arm_dsp)]
 #[allow(unsafe_code)]
 mod arm {
+    /// Two instants: their samples packed into one word, two dual
+    /// products with the packed cosines and sines.
+    macro_rules! pair {
+        () => {
+            "ldrsh {a}, [{p}], #{stride}\n\
+             ldrsh {b}, [{p}], #{stride}\n\
+             ldrd {c}, {s}, [{q}], #8\n\
+             pkhbt {a}, {a}, {b}, lsl #16\n\
+             smlald {cl}, {ch}, {a}, {c}\n\
+             smlald {sl}, {sh}, {a}, {s}"
+        };
+    }
+
     /// [`super::portable`]'s integers: the first 4·⌊N/4⌋ instants two by
     /// two in assembly, the rest one by one.
     #[inline(always)]
@@ -239,18 +252,8 @@ mod arm {
                 let end = q.add(2 * quads);
                 core::arch::asm!(
                     "2:",
-                    "ldrsh {a}, [{p}], #{stride}",
-                    "ldrsh {b}, [{p}], #{stride}",
-                    "ldrd {c}, {s}, [{q}], #8",
-                    "pkhbt {a}, {a}, {b}, lsl #16",
-                    "smlald {cl}, {ch}, {a}, {c}",
-                    "smlald {sl}, {sh}, {a}, {s}",
-                    "ldrsh {a}, [{p}], #{stride}",
-                    "ldrsh {b}, [{p}], #{stride}",
-                    "ldrd {c}, {s}, [{q}], #8",
-                    "pkhbt {a}, {a}, {b}, lsl #16",
-                    "smlald {cl}, {ch}, {a}, {c}",
-                    "smlald {sl}, {sh}, {a}, {s}",
+                    pair!(),
+                    pair!(),
                     "cmp {q}, {end}",
                     "bne 2b",
                     stride = const S * 2,
