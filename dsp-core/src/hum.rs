@@ -27,7 +27,7 @@
 //! and the residual's energy E − 2·pᵀu + pᵀQp; every later step (the
 //! amplitudes, the ratio V/I, the residual checks) reads them unchanged.
 //!
-//! Only a hum the window vouches for is taken out ([`Mains::cancel`]):
+//! Only a hum the window vouches for is taken out ([`Fit::cancel`]):
 //! the window must be half full (τ·ln 2: a block or two cannot tell the
 //! hum from the lowest tones), its energy pᵀr must stand out of the noise the window leaves
 //! (χ² of 2 degrees of freedom above [`SIGNIFICANT`]), and what the

@@ -10,7 +10,7 @@ use crate::tones::Input;
 use dsp_core::hum::{Fit, HumState, Mains};
 
 /// The mains frequency the array follows hum at by default, Hz
-/// ([`ArrayReader::with_mains`] for 60 Hz).
+/// ([`crate::reader::ArrayReader::for_mains`] for 60 Hz).
 pub const MAINS_HZ: u32 = 50;
 
 /// A layout's view of mains hum ([`dsp_core::hum`]), for either block
