@@ -706,13 +706,7 @@ impl<const K: usize> Tones<K> {
         if self.n == 0 {
             return 0.0;
         }
-        let e = self.residual_scaled();
-        // To f32 through a shift (even) that keeps 30 bits (E·N < 2¹²⁶).
-        let bits = 128 - e.leading_zeros();
-        let sh = (bits.saturating_sub(30) + 1) & !1;
-        let scaled = (e >> sh) as i32 as f32;
-        // ×2^(sh/2), sh/2 ≤ 63: exact, as ldexpf (a library call).
-        crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32) / self.n as f32
+        root_over(self.residual_scaled(), 0, self.n)
     }
 
     /// What no tone of the comb explains, as energy: N·E_res, E_res the
@@ -748,10 +742,7 @@ impl<const K: usize> Tones<K> {
             [0.0; K]
         };
         Levels {
-            // (From 0, never NaN: a NaN amplitude is passed over, as by
-            // `fmath::max`, whose NaN test of the running value it
-            // spares.)
-            largest: amplitude.iter().fold(0.0, |m, &a| if a > m { a } else { m }),
+            largest: largest(&amplitude),
             amplitude,
             phasor,
             residual: self.residual_rms(),
@@ -852,6 +843,26 @@ pub fn tones_energy_exact<const K: usize>(x: &[Complex<i64>; K]) -> u128 {
         tones += square(c.re) + square(c.im);
     }
     (tones + (1 << 60)) >> 61
+}
+
+/// √(e·2⁻²ᵈ)/n for e ≥ 0 (`down` = d): e to f32 through an even shift
+/// that keeps 30 bits (e < 2¹²⁶), one square root, and the shift's half
+/// less d put back as a power of two (exact, as ldexpf, a library call).
+/// The residual's rms from N·E (d = 0), or from N·E in Q62 (d = 31).
+#[inline(always)]
+pub(crate) fn root_over(e: i128, down: i32, n: u32) -> f32 {
+    let bits = 128 - e.leading_zeros();
+    let sh = (bits.saturating_sub(30) + 1) & !1;
+    let scaled = (e >> sh) as i32 as f32;
+    crate::fmath::sqrt(scaled) * crate::fmath::pow2((sh / 2) as i32 - down) / n as f32
+}
+
+/// The largest of some amplitudes (0 for none; a NaN amplitude is passed
+/// over, as by `fmath::max`, whose NaN test of the running value it
+/// spares; from 0, never NaN).
+#[inline(always)]
+pub(crate) fn largest(amplitude: &[f32]) -> f32 {
+    amplitude.iter().fold(0.0, |m, &a| if a > m { a } else { m })
 }
 
 /// A sum Xₖ in f32 ([`crate::fmath::i64_to_f32`], 1.5 ulp).

@@ -47,7 +47,7 @@
 //! in f32, the constants in integers once from the Q31 words the sums
 //! use: no f64 on a core without it, and the same bits on every target.
 
-use crate::comb::{Comb, Levels, Tones};
+use crate::comb::{largest, root_over, Comb, Levels, Tones};
 use crate::cossin::cossin;
 use crate::fmath;
 use crate::Complex32;
@@ -152,17 +152,13 @@ impl<const N: usize, const K: usize> Mains<N, K> {
             *pair = [0, 1].map(|j| a[j] as u16 as u32 | (b[j] as u16 as u32) << 16);
         }
         let tones: [&[[i32; 2]]; K] = core::array::from_fn(|k| comb.reference(k).map_or(&[][..], |r| &r[..]));
-        let fit = Fit::new(&words, &tones);
         let (c, s) = cossin(turns(mains_hz as u64 * N as u64, rate_hz));
-        let block_s = N as f32 / rate_hz as f32;
+        let turn = [c as f32 / Q31 as f32, s as f32 / Q31 as f32];
+        let forget = 1.0 - N as f32 / rate_hz as f32 / TAU_S;
         Self {
             reference,
             packed,
-            fit: Fit {
-                turn: [c as f32 / Q31 as f32, s as f32 / Q31 as f32],
-                forget: 1.0 - block_s / TAU_S,
-                ..fit
-            },
+            fit: Fit::new(&words, &tones, turn, forget),
         }
     }
 
@@ -287,9 +283,10 @@ impl<const K: usize> Fit<K> {
     /// the mean and the comb's `tones` (each its Q31 words): exact sums
     /// of the words' products in i128 ([`overlap`]), and from them every
     /// constant in integers but the last conversion (compact code on a
-    /// core without f64); the turn and λ are the caller's.
+    /// core without f64); a block's `turn` (cos ψ, sin ψ) and λ
+    /// (`forget`) as given.
     #[inline(never)]
-    fn new(reference: &[[i32; 2]], tones: &[&[[i32; 2]]; K]) -> Self {
+    fn new(reference: &[[i32; 2]], tones: &[&[[i32; 2]]; K], turn: [f32; 2], forget: f32) -> Self {
         let count = reference.len() as i128;
         // Lₖⱼ, Q62: [re, im].
         let l62: [[[i128; 2]; 2]; K] = core::array::from_fn(|k| {
@@ -320,8 +317,8 @@ impl<const K: usize> Fit<K> {
             dc: dc.map(|d| fmath::i64_to_f32(d as i64) / Q31 as f32),
             q: q30.map(|row| row.map(|v| fmath::i64_to_f32(v) / (1u32 << 30) as f32)),
             q30,
-            turn: [1.0, 0.0],
-            forget: 0.0,
+            turn,
+            forget,
         }
     }
 
@@ -413,10 +410,8 @@ impl<const K: usize> Fit<K> {
         // the clean bound, surely (f32's rounding taken off): the hum
         // changed (it started, stopped, or grew). The window starts again
         // from this block.
-        if let Some(p) = self.held(state) {
-            let [c, s] = self.turn;
-            let p = [c * p[0] + s * p[1], -s * p[0] + c * p[1]];
-            let (left, rounding) = self.less_hum_f32(energy, p, u, size);
+        if let Some((_, p)) = self.held(state) {
+            let (left, rounding) = self.less_hum_f32(energy, self.turned(p), u, size);
             if left - rounding > clean_counts * clean_counts * block_dof {
                 *state = HumState {
                     restarts: state.restarts.wrapping_add(1),
@@ -425,15 +420,10 @@ impl<const K: usize> Fit<K> {
             }
         }
         self.advance(state, u, energy);
-        let a = inverse2(&state.m)?;
-        let r = state.r;
-        let p = [a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]];
-        let explained = p[0] * r[0] + p[1] * r[1];
+        let (a, p) = self.held(state)?;
+        let explained = p[0] * state.r[0] + p[1] * state.r[1];
         let noise = (state.energy - explained) / (state.weight * block_dof - 2.0);
-        // Half a window at least: a block or two alone cannot tell the
-        // hum from the lowest tones (M is near singular).
-        let full = state.weight * (1.0 - self.forget) >= 0.5;
-        if !(full && explained > SIGNIFICANT * noise && noise <= clean_counts * clean_counts) {
+        if !(explained > SIGNIFICANT * noise && noise <= clean_counts * clean_counts) {
             return None;
         }
         // E − 2·pᵀu + pᵀQp cancels: in f32, with what f32 can round off
@@ -445,7 +435,11 @@ impl<const K: usize> Fit<K> {
             fmath::sqrt(fmath::max(left, 0.0) / nf + rounding / nf)
         } else {
             let exact = self.projections(sums, tones);
-            root_over_n(self.less_hum(tones.residual_n_energy(), p, exact).max(0), self.n)
+            root_over(
+                self.less_hum(tones.residual_n_energy(), p, exact).max(0),
+                31,
+                self.n,
+            )
         };
         // A hum this block does not hold (it stopped, or is not one):
         // taken out, it would leave more than it found. Left in.
@@ -464,10 +458,7 @@ impl<const K: usize> Fit<K> {
             *phasor = y * Q31 as f32;
             *amplitude = fmath::hypot(y.re, y.im) * (2.0 / nf);
         }
-        levels.largest = levels
-            .amplitude
-            .iter()
-            .fold(0.0, |m, &a| if a > m { a } else { m });
+        levels.largest = largest(&levels.amplitude);
         Some((p, self.gains(&a, &state.m2)))
     }
 
@@ -477,25 +468,31 @@ impl<const K: usize> Fit<K> {
         let l = self.forget;
         state.m = add(&scale(&self.rotate(&state.m), l), &self.q);
         state.m2 = add(&scale(&self.rotate(&state.m2), l * l), &self.q);
-        let [c, s] = self.turn;
-        let r = state.r;
-        state.r = [
-            l * (c * r[0] + s * r[1]) + u[0],
-            l * (-s * r[0] + c * r[1]) + u[1],
-        ];
+        let r = self.turned(state.r);
+        state.r = [l * r[0] + u[0], l * r[1] + u[1]];
         state.energy = l * state.energy + energy;
         state.weight = l * state.weight + 1.0;
     }
 
-    /// The hum the window holds, p = M⁻¹·r, where it is half full at
-    /// least (module docs).
-    fn held(&self, state: &HumState) -> Option<[f32; 2]> {
+    /// The hum the window holds, p = M⁻¹·r, with M⁻¹, where it is half
+    /// full at least: a block or two alone cannot tell the hum from the
+    /// lowest tones (M is near singular).
+    fn held(&self, state: &HumState) -> Option<([[f32; 2]; 2], [f32; 2])> {
         if state.weight * (1.0 - self.forget) < 0.5 {
             return None;
         }
         let a = inverse2(&state.m)?;
         let r = state.r;
-        Some([a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]])
+        Some((
+            a,
+            [a[0][0] * r[0] + a[0][1] * r[1], a[1][0] * r[0] + a[1][1] * r[1]],
+        ))
+    }
+
+    /// T·v: a hum (or r) of one block in the next block's frame.
+    fn turned(&self, v: [f32; 2]) -> [f32; 2] {
+        let [c, s] = self.turn;
+        [c * v[0] + s * v[1], -s * v[0] + c * v[1]]
     }
 
     /// E − 2·pᵀu + pᵀQp in f32 (`energy` = E, counts²·instants), and
@@ -549,15 +546,6 @@ fn cross(l62: &[[[i128; 2]; 2]], i: usize, j: usize) -> i128 {
     l62.iter()
         .map(|l| q31(l[i][0]) * q31(l[j][0]) + q31(l[i][1]) * q31(l[j][1]))
         .sum()
-}
-
-/// √(e·2⁻⁶²)/n for e = N·E in Q62: the residual's rms, counts, as
-/// [`Tones::residual_rms`] forms it (30 bits kept, one square root).
-fn root_over_n(e: i128, n: u32) -> f32 {
-    let bits = 128 - e.leading_zeros();
-    let sh = (bits.saturating_sub(30) + 1) & !1;
-    let scaled = (e >> sh) as i32 as f32;
-    fmath::sqrt(scaled) * fmath::pow2(sh as i32 / 2 - 31) / n as f32
 }
 
 /// A Q62 number to f32.
