@@ -62,6 +62,15 @@ impl Hum {
     }
 }
 
+/// Input `input`'s window emptied (its sensor not in use: nothing it
+/// held would be this block's once the sensor is back).
+#[inline(never)]
+pub(crate) fn forget(hum: &mut Option<Hum>, input: usize) {
+    if let Some(h) = hum.as_mut() {
+        h.inputs[input] = HumState::EMPTY;
+    }
+}
+
 /// Input `input`'s hum (`sums`: every input's [`Mains::sums`]) into its
 /// state, and out of `into`'s levels where the window vouches for it,
 /// its tones' noise gains then the window's; nothing without `hum`.

@@ -296,12 +296,14 @@ impl ArrayReader {
         let v_clipped = clipped(VOLTAGE_INPUT);
         let report = self.reports.due(settings.record_every);
         for (s, ch) in self.channels.iter_mut().enumerate() {
-            // Every input's hum is followed, in use or not.
-            let mut i = Input::of(&block.i[s]);
-            crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
             if !settings.sensors.of(s as u8).in_use {
+                // Its hum not followed: a sensor put in use again starts
+                // its window afresh.
+                crate::mains::forget(&mut self.hum, input_of(s));
                 continue;
             }
+            let mut i = Input::of(&block.i[s]);
+            crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
             let rec = ch.process(
                 settings,
                 s as u8,
