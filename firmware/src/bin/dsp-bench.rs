@@ -786,16 +786,8 @@ fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::a
             last = recs[0];
         }
     }
-    if !comb_matches_portable(reader.comb(), layout, &frame) {
-        println!("FAIL comb assembly differs from portable");
-        qemu::exit(1);
-    }
-    if !hum_matches_portable(reader.comb(), layout, &frame) {
-        println!("FAIL the hum's assembly differs from portable");
-        qemu::exit(1);
-    }
-    if !offset_binary_matches_portable(&frame) {
-        println!("FAIL the offset-binary pass's assembly differs from portable");
+    if let Some(what) = assembly_differs(reader.comb(), layout, &frame) {
+        println!("FAIL {what}'s assembly differs from portable");
         qemu::exit(1);
     }
     if valid != SENSORS * blocks as usize {
@@ -874,6 +866,25 @@ fn array_block<const N: usize>(
         to_signed,
         comb,
         solve,
+    }
+}
+
+/// Which of the array's assembly loops (the comb's, the hum's, the
+/// offset-binary pass's) gives other integers than its portable code on
+/// `frame` (a block of `layout`), if any.
+fn assembly_differs(
+    comb: &instrument::reader::BlockComb,
+    layout: instrument::array::Layout,
+    frame: &instrument::array::Frame,
+) -> Option<&'static str> {
+    if !comb_matches_portable(comb, layout, frame) {
+        Some("the comb")
+    } else if !hum_matches_portable(comb, layout, frame) {
+        Some("the hum")
+    } else if !offset_binary_matches_portable(frame) {
+        Some("the offset-binary pass")
+    } else {
+        None
     }
 }
 
