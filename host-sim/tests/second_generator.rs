@@ -13,6 +13,8 @@
 //! prints the survey's table over every family, the localized bumps of
 //! stretch and resistance included.
 
+mod survey;
+
 use host_sim::dataset::read_dir;
 use host_sim::identify::{identify, Options, Report, Verdict};
 use host_sim::model::Effect;
@@ -21,17 +23,11 @@ use rand_chacha::ChaCha8Rng;
 use rig_sim::meter::Dynamics;
 use rig_sim::{Bench, Family};
 use std::path::Path;
+use survey::{named, Hidden, Tally};
 
 fn run(dir: &Path, bench: &Bench) -> Report {
     bench.write(dir).unwrap();
     identify(&read_dir(dir).unwrap(), Options::default()).unwrap()
-}
-
-fn named(r: &Report) -> Vec<&'static str> {
-    r.named_fit()
-        .into_iter()
-        .flat_map(|a| a.effects.iter().map(|e| e.id()))
-        .collect()
 }
 
 /// The survey over every family (`cargo xtask survey`): `SEEDS` sets
@@ -39,38 +35,22 @@ fn named(r: &Report) -> Vec<&'static str> {
 /// every tenth set is clean and every tenth (from the fifth) has an
 /// effect outside the library; `FAMILY=name` draws only that family,
 /// `FIRST=k` starts at seed k (another draw), `SURVEY_DIR=dir` keeps the
-/// sets in `dir`.
-/// Prints a row per set and the survey's summary (one function of about
-/// 90 lines: drawing, identifying and tallying a set are one loop).
+/// sets in `dir`. Prints a row per set and the survey's summary.
 #[test]
 #[ignore = "survey: cargo xtask survey"]
 fn survey() {
     let tmp = tempfile::tempdir().unwrap();
     // `SURVEY_DIR=dir` keeps the sets there (for `host-sim identify`).
     let dir = std::env::var_os("SURVEY_DIR").map_or(tmp.path().to_path_buf(), Into::into);
-    let n: u64 = std::env::var("SEEDS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(50);
-    // `FIRST=k`: another draw, seeds k… (the default draw is 0…).
-    let first: u64 = std::env::var("FIRST")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(0);
+    let var = |name: &str, default: u64| {
+        std::env::var(name)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default)
+    };
+    let (n, first) = (var("SEEDS", 50), var("FIRST", 0));
     let fam: Option<String> = std::env::var("FAMILY").ok();
-    println!("| seed | family | value (SI) | baseline/noise | named | after/noise | drop | s |");
-    println!("|---|---|---:|---:|---|---:|---:|---:|");
-    // Per family: (sets, detectable, named right, afters, drops).
-    type Tally = (String, usize, usize, usize, Vec<f64>, Vec<f64>);
-    let mut by: Vec<Tally> = vec![];
-    let (mut clean, mut clean_ok, mut outside, mut outside_ok) = (0, 0, 0, 0);
-    // Outside sets named with a remainder (not called explained); in
-    // library sets named right with a remainder.
-    let (mut outside_named, mut with_remainder) = (0, 0);
-    // Sets where an effect was named that is not the one generated, and
-    // of those, where the report lists the right one beside it as
-    // equal on these data (competing).
-    let (mut wrong, mut wrong_but_listed) = (0, 0);
+    let mut tally = Tally::new("rig-sim (second generator)");
     for seed in first..first + n {
         let mut rng = ChaCha8Rng::seed_from_u64(5000 + seed);
         let lib = Family::IN_LIBRARY;
@@ -91,76 +71,16 @@ fn survey() {
         };
         let t = std::time::Instant::now();
         let r = run(&dir.join(format!("s{seed}")), &Bench::new(fx, meter, seed));
-        let nf = r.noise_floor_pf;
-        // After: against the floor seen through the final model.
-        let fnf = r.final_noise_pf();
-        let (base, fin) = (r.baseline().rms_pf, r.final_fit().rms_pf);
-        let ids = named(&r);
+        let hidden = match family {
+            None => Hidden::Clean,
+            Some(f) if f.catalogue_ids().is_empty() => Hidden::Outside,
+            Some(_) => Hidden::InLibrary,
+        };
         let name = family.map_or("clean", |f| f.name());
-        println!(
-            "| {seed} | {name} | {v:.4e} | {:.1} | {} | {:.2} | {:.1} | {:.0} |",
-            base / nf,
-            r.outcome(),
-            fin / fnf,
-            base / fin,
-            t.elapsed().as_secs_f64()
-        );
-        let Some(f) = family else {
-            clean += 1;
-            clean_ok += usize::from(r.kind() == Verdict::Clean);
-            wrong += usize::from(r.named_fit().is_some());
-            continue;
-        };
-        if f.catalogue_ids().is_empty() {
-            outside += 1;
-            outside_ok += usize::from(r.kind() != Verdict::Explained);
-            outside_named += usize::from(r.kind() == Verdict::Named);
-            continue;
-        }
-        let k = match by.iter().position(|b| b.0 == name) {
-            Some(k) => k,
-            None => {
-                by.push((name.to_string(), 0, 0, 0, vec![], vec![]));
-                by.len() - 1
-            }
-        };
-        by[k].1 += 1;
-        let right = f.named_right_at(&ids, &meter, 0.02);
-        wrong += usize::from(r.named_fit().is_some() && !right);
-        with_remainder += usize::from(right && r.kind() == Verdict::Named);
-        wrong_but_listed += usize::from(
-            r.named_fit().is_some()
-                && !right
-                && r.competing.iter().any(|c| {
-                    let ids: Vec<&str> = c.fit.effects.iter().map(|e| e.id()).collect();
-                    f.named_right_at(&ids, &meter, 0.02)
-                }),
-        );
-        if base > 1.5 * nf {
-            by[k].2 += 1;
-            by[k].3 += usize::from(right);
-            by[k].4.push(fin / fnf);
-            by[k].5.push(base / fin);
-        }
+        let right = |ids: &[&str]| family.is_some_and(|f| f.named_right_at(ids, &meter, 0.02));
+        tally.add(seed, (name, hidden, v), &r, &right, t.elapsed().as_secs_f64());
     }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-    };
-    println!("\n| family | sets | detectable | named right | after/noise (max) | drop (median) |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    let (mut det, mut right, mut drops) = (0, 0, vec![]);
-    for (name, sets, d, r, after, drop) in &mut by {
-        det += *d;
-        right += *r;
-        drops.extend(drop.iter());
-        let mx = after.iter().copied().fold(f64::NAN, f64::max);
-        println!("| {name} | {sets} | {d} | {r} | {mx:.2} | {:.1} |", median(drop));
-    }
-    println!(
-        "\nin library: {right}/{det} detectable named right ({with_remainder} of them with a remainder), median drop {:.1}x; outside: {outside_ok}/{outside} not called explained ({outside_named} named with a remainder); clean: {clean_ok}/{clean} clean; a wrong effect named in {wrong} of {n} sets ({wrong_but_listed} with the right one listed as competing: the data cannot tell them apart)",
-        median(&mut drops)
-    );
+    tally.print();
 }
 
 #[test]

@@ -12,8 +12,8 @@
 //!   (`-icount`), image sizes, and with `--host` the criterion benchmarks.
 //! * `docs` ([`docs`]): every figure of the README and docs/ regenerated.
 //! * `example-data`: the example data set (`data/example`) from rig-sim.
-//! * `survey`: `identify` over the physical ranges on both generators,
-//!   many seeds.
+//! * `survey`: `identify` over the physical ranges on the three
+//!   generators, many seeds, a table per generator.
 //! * `soak` ([`soak`]): `live` streaming a day of a skin's records over
 //!   TCP with the dashboard open, killed at random moments and
 //!   restarted; resident memory and records lost reported (the test
@@ -70,10 +70,11 @@ enum Cmd {
     /// plots copied into docs/, and each figure block rewritten by the
     /// test that measures it (`DOCS_UPDATE=1`).
     Docs,
-    /// identify over the physical ranges on both generators (`rig-sim`:
-    /// with clean sets and effects outside the library; `skin-sim`): one
-    /// hidden effect per set, a row per set and a summary (rig-sim's 50
-    /// sets take about 6 minutes on 2 cores).
+    /// identify over the physical ranges on the three generators
+    /// (`rig-sim` and `labgen`: with clean sets and effects outside the
+    /// library; `skin-sim`): one hidden effect per set, a row per set and
+    /// a table per generator (50 sets of rig-sim take about 6 minutes on
+    /// 2 cores, of labgen about 10).
     Survey {
         /// Sets.
         #[arg(long, default_value_t = 50)]
@@ -187,7 +188,7 @@ fn main() -> Result<()> {
     }
 }
 
-/// identify's survey over both generators (`cargo xtask survey`).
+/// identify's survey over the three generators (`cargo xtask survey`).
 fn survey(root: &std::path::Path, seeds: u64, first: u64) -> Result<()> {
     cargo::run_env(
         root,
@@ -199,6 +200,8 @@ fn survey(root: &std::path::Path, seeds: u64, first: u64) -> Result<()> {
             "host-sim",
             "--test",
             "second_generator",
+            "--test",
+            "third_generator",
             "--test",
             "identify",
             "--",
