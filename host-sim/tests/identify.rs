@@ -113,7 +113,9 @@ fn strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::StretchBump => (0.1, 0.4, true),
         Effect::ResistanceBump => (0.2, 3.0, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
-        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder => unreachable!("shape parameters"),
+        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder | Effect::BulgePower => {
+            unreachable!("shape parameters")
+        }
     };
     log_uniform(lo, hi, signed, rng)
 }
@@ -147,7 +149,9 @@ fn physical_strength(effect: Effect, rng: &mut Rng) -> f64 {
         Effect::StretchBump => (0.02, 0.95, true),
         Effect::ResistanceBump => (0.02, 0.95, true),
         Effect::DielectricDispersion | Effect::DielectricLoss => unreachable!("not in the library"),
-        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder => unreachable!("shape parameters"),
+        Effect::BumpCentre | Effect::BumpWidth | Effect::MeterOrder | Effect::BulgePower => {
+            unreachable!("shape parameters")
+        }
     };
     log_uniform(lo, hi, signed, rng)
 }

@@ -58,7 +58,11 @@ fn python() -> String {
                 .output()
                 .is_ok_and(|o| o.status.success())
         };
-        ["python3", "/usr/bin/python3"].into_iter().find(numpy).unwrap_or("python3").into()
+        ["python3", "/usr/bin/python3"]
+            .into_iter()
+            .find(numpy)
+            .unwrap_or("python3")
+            .into()
     })
 }
 
@@ -107,7 +111,10 @@ fn run(dir: &Path, seed: u64, family: Option<&str>) -> (Truth, Report) {
 }
 
 fn env(name: &str, default: u64) -> u64 {
-    std::env::var(name).ok().and_then(|s| s.parse().ok()).unwrap_or(default)
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
 }
 
 /// identify over `n` of `labgen`'s sets from seed `first`, each family
@@ -142,7 +149,7 @@ fn survey() {
 /// explained, clean sets clean, no wrong effect named.
 #[test]
 #[ignore = "long: cargo xtask test --full"]
-fn the_survey_goals_hold_on_twenty_sets() {
+fn the_goals_hold_on_its_first_twenty_sets() {
     let tmp = tempfile::tempdir().unwrap();
     let t = survey_of(tmp.path(), 0, 20);
     let (det, right) = t.in_library_named();

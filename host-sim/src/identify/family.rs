@@ -75,6 +75,17 @@ pub fn note(f: &Fit) -> Option<String> {
             });
         }
     }
+    for (bulge, what) in [
+        (Effect::StretchBulge, "stretch"),
+        (Effect::ResistanceBulge, "resistance"),
+    ] {
+        if has(bulge) && f.fitted.contains(&Effect::BulgePower) {
+            return Some(format!(
+                "the {what} profile: a symmetric bulge of power {:.2}, (4ξ(1 − ξ))^k, from the parabola (k = 1) through sin(πξ) (about 1.2) to a sin²(πξ)-like bell (about 2.4)",
+                p(Effect::BulgePower)
+            ));
+        }
+    }
     None
 }
 

@@ -302,28 +302,33 @@ impl Problem<'_> {
     }
 
     /// Each effect of `scan` on its grid from `p` (S `s_best` there), on
-    /// this (coarse) copy, a response's time constant at each whole order;
+    /// this (coarse) copy, a response's time constant at each whole order
+    /// and a bulge's amplitude at each of [`POWERS`];
     /// a bump's effects left to [`Problem::bump_start`] when `bump`: the
     /// best parameters found.
     fn grid_start(&self, scan: &[Effect], mut p: Params, mut s_best: f64, bump: bool) -> Params {
         let bump_shape = |e: &Effect| Effect::BUMP_SHAPES.contains(e);
         // A response with its order: its time constant's grid at each
         // whole order (the two trade along n·τ, the kernel's
-        // centroid).
-        let orders: &[f64] = if scan.contains(&Effect::MeterOrder) {
-            &ORDERS
+        // centroid); a bulge with its power: its amplitude's grid at
+        // each power alike (the peak moves with both).
+        let (shape, values): (Option<Effect>, &[f64]) = if scan.contains(&Effect::MeterOrder) {
+            (Some(Effect::MeterOrder), &ORDERS)
+        } else if scan.contains(&Effect::BulgePower) {
+            (Some(Effect::BulgePower), &POWERS)
         } else {
-            &[0.0]
+            (None, &[0.0])
         };
         let start = p;
-        for &order in orders {
+        for &value in values {
             let mut q = start;
-            if order > 0.0 {
-                q = q.with(Effect::MeterOrder, order);
+            if let Some(e) = shape {
+                q = q.with(e, value);
             }
-            for &e in scan.iter().filter(|e| {
-                **e != Effect::MeterOrder && (!bump || !(Effect::BUMPS.contains(e) || bump_shape(e)))
-            }) {
+            for &e in scan
+                .iter()
+                .filter(|e| Some(**e) != shape && (!bump || !(Effect::BUMPS.contains(e) || bump_shape(e))))
+            {
                 let mut at = q.get(e);
                 let mut found = false;
                 for v in grid(&self.prep.search, e) {
@@ -339,10 +344,10 @@ impl Problem<'_> {
                 }
             }
         }
-        // No order improved on the start: the response starts first
-        // order.
-        if scan.contains(&Effect::MeterOrder) && p.get(Effect::MeterOrder) == 0.0 {
-            p = p.with(Effect::MeterOrder, 1.0);
+        // No value improved on the start: the response starts first
+        // order, the bulge a parabola.
+        if let Some(e) = shape.filter(|&e| p.get(e) == 0.0) {
+            p = p.with(e, 1.0);
         }
         p
     }
@@ -413,6 +418,10 @@ impl lsq::Problem for Unknowns<'_, '_> {
 /// The whole orders a response's time constant is scanned at
 /// ([`Effect::MeterOrder`]).
 const ORDERS: [f64; 4] = [1.0, 2.0, 3.0, 4.0];
+
+/// The powers a bulge's amplitude is scanned at
+/// ([`Effect::BulgePower`]): the parabola, and toward a sin²-like bell.
+const POWERS: [f64; 3] = [1.0, 2.0, 3.0];
 
 /// A bump's places on its joint grid (fractions of the sensor).
 const BUMP_CENTRES: [f64; 10] = [0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95];

@@ -182,6 +182,9 @@ impl Fit {
             if self.fitted.contains(&Effect::MeterOrder) {
                 notes.push(format!("order {:.2}", self.params.get(Effect::MeterOrder)));
             }
+            if self.fitted.contains(&Effect::BulgePower) {
+                notes.push(format!("power {:.2}", self.params.get(Effect::BulgePower)));
+            }
             if let Some(a) = self.averaging {
                 notes.push(a.to_string());
             }
@@ -488,11 +491,16 @@ struct Candidate {
     averaging: Averaging,
 }
 
+/// The symmetric modes, each fitted as the parabola and with its power
+/// ([`Effect::BulgePower`]).
+const BULGES: [Effect; 2] = [Effect::StretchBulge, Effect::ResistanceBulge];
+
 /// What candidates fit for the effect `e`: a window jointly with its
 /// stamp (a time offset: a trailing and a centred window are both
 /// windows), a discrete kernel with its delay, a first-order response
-/// alone and with its order (two shapes in time, chosen by BIC), any
-/// other effect alone.
+/// alone and with its order (two shapes in time, chosen by BIC), a bulge
+/// as the parabola and with its power (from parabola to a sin²-like
+/// bell, chosen alike), any other effect alone.
 fn fitted_for(e: Effect) -> Vec<Vec<Effect>> {
     if e == Effect::MeterLag || DISCRETE.contains(&e) {
         vec![vec![e, Effect::TimeOffset]]
@@ -500,6 +508,8 @@ fn fitted_for(e: Effect) -> Vec<Vec<Effect>> {
         vec![vec![e, Effect::BumpCentre, Effect::BumpWidth]]
     } else if e == Effect::MeterResponse {
         vec![vec![e], vec![e, Effect::MeterOrder]]
+    } else if BULGES.contains(&e) {
+        vec![vec![e], vec![e, Effect::BulgePower]]
     } else {
         vec![vec![e]]
     }

@@ -319,7 +319,7 @@ mod tests {
 
     /// The extrapolated cascade of [`SEGMENTS`] pieces against that of 64
     /// (fourth order, so 256× closer to the line), over each mode at its
-    /// search range's ends and combined, wherever the local stretch stays
+    /// search range's ends (the bulges at their power's too) and combined, wherever the local stretch stays
     /// within the calibration (0–30 mm; beyond it the static curves are
     /// extrapolated with a kink, and no piece count converges): within
     /// 0.015 pF up to 6 kHz, 0.05 pF at 30 kHz.
@@ -338,6 +338,17 @@ mod tests {
             let (lo, hi) = e.info().search;
             sets.push(Params::NONE.with(e, lo));
             sets.push(Params::NONE.with(e, hi));
+        }
+        // The bulges at the ends of their power's range.
+        let (k_lo, k_hi) = Effect::BulgePower.info().search;
+        for (e, v) in [
+            (Effect::StretchBulge, 0.5),
+            (Effect::ResistanceBulge, 0.9),
+            (Effect::ResistanceBulge, -0.9),
+        ] {
+            for k in [k_lo, k_hi] {
+                sets.push(Params::NONE.with(e, v).with(Effect::BulgePower, k));
+            }
         }
         sets.push(
             Params::NONE

@@ -66,8 +66,9 @@ impl Shape {
     /// symmetric mode v): the calibration recorded each curve's mean along
     /// the sensor, so the local ones are found by undoing that mean. C:
     /// exact for the quadratic (c2 → c2/mean φ², mean φ² = 1 + u²/3 +
-    /// v²/5 for the modes, which are orthogonal; with a bump, by the
-    /// midpoint rule on 512 points). R: fixed-point iteration
+    /// v²/5 for the modes, which are orthogonal; with a bump or a bulge
+    /// of another power than the parabola's, by the midpoint rule on 512
+    /// points). R: fixed-point iteration
     /// ρ ← ρ·R_cal/mean_ξ ρ(s·φ(ξ)) at the calibration points, R_cal the
     /// film's (the recorded totals less the contacts of `p`).
     pub fn local(&self, p: &crate::model::Params) -> Shape {
@@ -82,7 +83,9 @@ impl Shape {
             .map(|&(s, r)| (s, (r - rc4).max(1e-3 * r)))
             .collect();
         let [a, b, c2] = self.c;
-        let mean_sq = if p.has(Effect::StretchBump) {
+        let power = p.get(Effect::BulgePower);
+        let parabola = power == 0.0 || power == 1.0 || v == 0.0;
+        let mean_sq = if p.has(Effect::StretchBump) || !parabola {
             const M: usize = 512;
             (0..M)
                 .map(|i| p.stretch_profile((i as f64 + 0.5) / M as f64).powi(2))
