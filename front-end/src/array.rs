@@ -1,0 +1,332 @@
+//! The array board's front end (`skin-array-board`): one comb
+//! excitation for sixteen sensors, a transimpedance stage on each, and
+//! the voltage the sensors see, each on the G474 input the firmware maps
+//! it to.
+//!
+//! ```text
+//! PA4 ─ reconstruction (Sallen–Key, 43 kHz) ─ 49.9 Ω ─ EXC ─┬─ J1…J16 top tabs
+//!                                                          ├─ 3.3 kΩ / 220 pF ─ follower ─ 100 Ω / 1 nF ─ PA0
+//!                                                          └─ 680 kΩ + 220 pF (the self-test's reference)
+//! bottom tab ─ TIA (330 kΩ ∥ 2.2 pF, + at BIAS) ─ 100 Ω / 1 nF ─ the sensor's pin
+//! ```
+//!
+//! **Why the voltage path has a pole.** A stage's feedback capacitor
+//! (for its stability with 20 pF of cable and the op-amp's 9 pF) makes
+//! its gain R_f/(1 + jωR_fC_f): 18 mrad of phase at 4 kHz, which the
+//! firmware's one real transimpedance (`FrontEnd::transimpedance`) does
+//! not carry. The voltage path's 3.3 kΩ and 220 pF have the same time
+//! constant, 726 ns, so the ratio V/I the firmware reads carries none
+//! (within the parts' tolerances: `tests/array.rs`). The ADC inputs'
+//! 100 Ω and 1 nF (the sampling capacitor's charge reservoir, 1.6 MHz)
+//! are on every path alike.
+
+use crate::circuit::{Circuit, Kind, Sensor};
+use crate::parts::{self, Part};
+use skin_spec::array::SENSORS;
+
+/// Each sensor's ADC input pin, as the firmware's pin map
+/// (`firmware::board::scan::INPUT_PINS`) sets it: sensor s on input
+/// s + 1. The firmware's test `the_netlist_wires_every_input_as_the_pin_map`
+/// holds the two together.
+pub const SENSOR_PINS: [&str; SENSORS] = [
+    "PC0", "PC1", "PC2", "PA6", "PA7", "PC4", "PC5", "PB0", "PB1", "PB13", "PA1", "PA8", "PA9", "PC3",
+    "PB11", "PB12",
+];
+/// The excitation's voltage input.
+pub const VOLTAGE_PIN: &str = "PA0";
+/// The self-test's reference network's input (spare input 17).
+pub const REFERENCE_PIN: &str = "PB14";
+/// The other spare input (18), held at the bias.
+pub const SPARE_PIN: &str = "PB15";
+/// The DAC's output.
+pub const DAC_PIN: &str = "PA4";
+
+/// The op-amp section of transimpedance stage `s` (0–15: sensors; 16:
+/// the reference network): U1A … U4D, then U5A.
+fn stage(s: usize) -> String {
+    format!("U{}{}", s / 4 + 1, ['A', 'B', 'C', 'D'][s % 4])
+}
+
+/// The array board as built, the paper's sensor on every connector.
+pub fn board() -> Circuit {
+    let mut c = Circuit::new("skin-array-board front end: sixteen DE sensors, one comb excitation");
+    excitation(&mut c);
+    voltage_path(&mut c);
+    for (s, pin) in SENSOR_PINS.iter().enumerate() {
+        let j = format!("J{}", s + 1);
+        let tab = format!("TAB{s}");
+        c.add(
+            &j,
+            Kind::Connector,
+            Some(parts::JST_PH2),
+            &["EXC", &tab],
+            &format!("sensor {s}: pin 1 top tab, pin 2 bottom tab"),
+            "sensors",
+        );
+        transimpedance(&mut c, s, &tab, pin, &format!("sensor {s}"));
+        c.sensors.push((j, Sensor::PAPER));
+    }
+    let block = "self-test";
+    c.add(
+        "RREF",
+        Kind::Resistor,
+        Some(parts::R_680K),
+        &["EXC", "REFM"],
+        "reference network: resistor",
+        block,
+    );
+    c.add(
+        "CREF",
+        Kind::Capacitor,
+        Some(parts::C_220P),
+        &["REFM", "TABREF"],
+        "reference network: capacitor",
+        block,
+    );
+    transimpedance(&mut c, SENSORS, "TABREF", REFERENCE_PIN, "the reference network");
+    adc_input(
+        &mut c,
+        "SP",
+        "BIAS",
+        SPARE_PIN,
+        "spare input at the bias",
+        "self-test",
+    );
+    supplies(&mut c);
+    c
+}
+
+/// PA4 through a unity-gain Sallen–Key low-pass (43 kHz, Q 0.73: the
+/// DAC's 1 MSa/s steps' images 50 dB down, the comb's 4 kHz flat within
+/// 10⁻⁴) to the buffered excitation, EXC.
+fn excitation(c: &mut Circuit) {
+    let b = "excitation";
+    c.add(
+        DAC_PIN,
+        Kind::DacPin,
+        None,
+        &[DAC_PIN],
+        "DAC1_OUT1: the comb, 1 MSa/s",
+        b,
+    );
+    c.add(
+        "R1",
+        Kind::Resistor,
+        Some(parts::R_5K36),
+        &[DAC_PIN, "SK1"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        "R2",
+        Kind::Resistor,
+        Some(parts::R_5K36),
+        &["SK1", "SK2"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        "C1",
+        Kind::Capacitor,
+        Some(parts::C_1N),
+        &["SK1", "EXCB"],
+        "reconstruction filter (feedback)",
+        b,
+    );
+    c.add(
+        "C2",
+        Kind::Capacitor,
+        Some(parts::C_470P),
+        &["SK2", "0"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        "U5B",
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["SK2", "EXCB", "EXCB"],
+        "excitation buffer",
+        b,
+    );
+    c.add(
+        "R3",
+        Kind::Resistor,
+        Some(parts::R_49R9),
+        &["EXCB", "EXC"],
+        "buffer's isolation from the cables",
+        b,
+    );
+}
+
+/// EXC through the pole matched to the stages' (3.3 kΩ, 220 pF) and a
+/// follower to PA0; the bias, VDDA/2, buffered.
+fn voltage_path(c: &mut Circuit) {
+    let b = "voltage";
+    c.add(
+        "R4",
+        Kind::Resistor,
+        Some(parts::R_3K3),
+        &["EXC", "VRC"],
+        "voltage path: pole matched to R_f·C_f",
+        b,
+    );
+    c.add(
+        "C3",
+        Kind::Capacitor,
+        Some(parts::C_220P),
+        &["VRC", "0"],
+        "voltage path: pole matched to R_f·C_f",
+        b,
+    );
+    c.add(
+        "U5D",
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["VRC", "VBUF", "VBUF"],
+        "voltage path follower",
+        b,
+    );
+    adc_input(c, "V", "VBUF", VOLTAGE_PIN, "the excitation's voltage", b);
+    let b = "bias";
+    c.add(
+        "R5",
+        Kind::Resistor,
+        Some(parts::R_10K),
+        &["VDDA", "BIASD"],
+        "bias divider",
+        b,
+    );
+    c.add(
+        "R6",
+        Kind::Resistor,
+        Some(parts::R_10K),
+        &["BIASD", "0"],
+        "bias divider",
+        b,
+    );
+    c.add(
+        "C4",
+        Kind::Capacitor,
+        Some(parts::C_100N),
+        &["BIASD", "0"],
+        "bias divider's filter",
+        b,
+    );
+    c.add(
+        "U5C",
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["BIASD", "BIAS", "BIAS"],
+        "bias buffer, VDDA/2",
+        b,
+    );
+    c.add(
+        "C5",
+        Kind::Capacitor,
+        Some(parts::C_100N),
+        &["BIAS", "0"],
+        "bias decoupling",
+        b,
+    );
+}
+
+/// Transimpedance stage `s` from `tab` to the ADC input `pin`.
+fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
+    let (u, out) = (stage(s), format!("TIA{s}"));
+    let b = if s < SENSORS {
+        format!("stage {s}")
+    } else {
+        "self-test".to_string()
+    };
+    let id = if s < SENSORS {
+        s.to_string()
+    } else {
+        "REF".to_string()
+    };
+    c.add(
+        &u,
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["BIAS", tab, &out],
+        &format!("{what}: transimpedance"),
+        &b,
+    );
+    c.add(
+        &format!("RF{id}"),
+        Kind::Resistor,
+        Some(parts::R_330K),
+        &[tab, &out],
+        &format!("{what}: feedback"),
+        &b,
+    );
+    c.add(
+        &format!("CF{id}"),
+        Kind::Capacitor,
+        Some(parts::C_2P2),
+        &[tab, &out],
+        &format!("{what}: feedback (stability)"),
+        &b,
+    );
+    adc_input(c, &id, &out, pin, what, &b);
+}
+
+/// `from` through 100 Ω to ADC pin `pin`, 1 nF there.
+fn adc_input(c: &mut Circuit, id: &str, from: &str, pin: &str, what: &str, block: &str) {
+    c.add(
+        &format!("RA{id}"),
+        Kind::Resistor,
+        Some(parts::R_100),
+        &[from, pin],
+        &format!("{what}: ADC input"),
+        block,
+    );
+    c.add(
+        &format!("CA{id}"),
+        Kind::Capacitor,
+        Some(parts::C_1N),
+        &[pin, "0"],
+        &format!("{what}: ADC charge reservoir"),
+        block,
+    );
+    c.add(
+        pin,
+        Kind::AdcPin,
+        None,
+        &[pin],
+        &format!("{what}: ADC input"),
+        block,
+    );
+}
+
+/// One 100 nF per op-amp package, and the Nucleo's two morpho sockets.
+fn supplies(c: &mut Circuit) {
+    let b = "supplies";
+    for u in 1..=5 {
+        let part: Part = parts::C_100N;
+        c.add(
+            &format!("C{}", 5 + u),
+            Kind::Capacitor,
+            Some(part),
+            &["VDDA", "0"],
+            &format!("U{u} decoupling"),
+            b,
+        );
+    }
+    c.add(
+        "CN7",
+        Kind::Connector,
+        Some(parts::MORPHO),
+        &["VDDA", "0"],
+        "to the Nucleo's CN7 (pins as named: UM2505)",
+        b,
+    );
+    c.add(
+        "CN10",
+        Kind::Connector,
+        Some(parts::MORPHO),
+        &["0"],
+        "to the Nucleo's CN10",
+        b,
+    );
+}

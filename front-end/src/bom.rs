@@ -1,0 +1,76 @@
+//! The bill of materials: every ordered part of a board, one line per
+//! part number, written from the same circuit as its netlist.
+
+use crate::circuit::Circuit;
+
+/// The CSV's columns.
+pub const HEADER: [&str; 8] = [
+    "references",
+    "quantity",
+    "value",
+    "tolerance",
+    "package",
+    "manufacturer",
+    "part number",
+    "function",
+];
+
+/// The bill of materials of `board` as CSV: one row per part number in
+/// the order the board first uses it; its references, how many, and
+/// what they do (each function once).
+pub fn csv(board: &Circuit) -> Result<String, String> {
+    let mut groups: Vec<(crate::parts::Part, Vec<&str>, Vec<&str>)> = Vec::new();
+    for e in &board.elements {
+        let Some(part) = e.part else { continue };
+        let i = match groups.iter().position(|(p, ..)| p.number == part.number) {
+            Some(i) => i,
+            None => {
+                groups.push((part, Vec::new(), Vec::new()));
+                groups.len() - 1
+            }
+        };
+        let (_, refs, functions) = &mut groups[i];
+        refs.push(&e.reference);
+        if !functions.contains(&e.function.as_str()) {
+            functions.push(&e.function);
+        }
+    }
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(HEADER).map_err(|e| e.to_string())?;
+    for (p, refs, functions) in &groups {
+        let row = [
+            refs.join(" "),
+            refs.len().to_string(),
+            p.value.to_string(),
+            p.tolerance.to_string(),
+            p.package.to_string(),
+            p.manufacturer.to_string(),
+            p.number.to_string(),
+            summarise(functions),
+        ];
+        w.write_record(&row).map_err(|e| e.to_string())?;
+    }
+    String::from_utf8(w.into_inner().map_err(|e| e.to_string())?).map_err(|e| e.to_string())
+}
+
+/// A group's functions, each kind once with how many share it
+/// ("feedback ×17; voltage path: pole"): the text after a function's
+/// "what: " prefix is its kind.
+fn summarise(functions: &[&str]) -> String {
+    let mut kinds: Vec<(&str, usize)> = Vec::new();
+    for f in functions {
+        let kind = f.rsplit(": ").next().unwrap_or(f);
+        match kinds.iter_mut().find(|(k, _)| *k == kind) {
+            Some((_, n)) => *n += 1,
+            None => kinds.push((kind, 1)),
+        }
+    }
+    let one = |(k, n): &(&str, usize)| {
+        if *n > 1 {
+            format!("{k} ×{n}")
+        } else {
+            k.to_string()
+        }
+    };
+    kinds.iter().map(one).collect::<Vec<_>>().join("; ")
+}

@@ -1,0 +1,130 @@
+//! The orderable parts the boards are built from: one entry per
+//! manufacturer's part number, with what the netlist and the bill of
+//! materials need of it.
+
+/// A part a lab can order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Part {
+    /// Manufacturer.
+    pub manufacturer: &'static str,
+    /// Manufacturer's part number.
+    pub number: &'static str,
+    /// Package.
+    pub package: &'static str,
+    /// Value as the bill of materials prints it.
+    pub value: &'static str,
+    /// Tolerance as the bill of materials prints it.
+    pub tolerance: &'static str,
+    /// The value in SI units (Ω, F), 0 for parts without one.
+    pub si: f64,
+    /// The tolerance as a fraction of `si` (C0G parts under 10 pF are
+    /// toleranced in pF: given here as the fraction it is of `si`).
+    pub tol: f64,
+}
+
+const fn r(number: &'static str, value: &'static str, si: f64, tol: f64, tolerance: &'static str) -> Part {
+    let manufacturer = if tol < 0.005 { "Panasonic" } else { "Yageo" };
+    Part {
+        manufacturer,
+        number,
+        package: "0603",
+        value,
+        tolerance,
+        si,
+        tol,
+    }
+}
+
+const fn c(
+    manufacturer: &'static str,
+    number: &'static str,
+    value: &'static str,
+    si: f64,
+    tol: f64,
+    tolerance: &'static str,
+) -> Part {
+    Part {
+        manufacturer,
+        number,
+        package: "0603",
+        value,
+        tolerance,
+        si,
+        tol,
+    }
+}
+
+/// 330 kΩ, 0.1 %, 25 ppm/K thin film: every transimpedance stage's
+/// feedback ([`skin_spec::array::SENSOR_TIA_OHM`]).
+pub const R_330K: Part = r("ERA-3AEB334V", "330 kΩ", 330e3, 0.001, "0.1 %");
+/// 680 kΩ, 0.1 %: the self-test's reference network.
+pub const R_680K: Part = r("ERA-3AEB684V", "680 kΩ", 680e3, 0.001, "0.1 %");
+/// 3.3 kΩ, 0.1 %: the voltage path's pole, matched to the stages'.
+pub const R_3K3: Part = r("ERA-3AEB332V", "3.3 kΩ", 3.3e3, 0.001, "0.1 %");
+/// 5.36 kΩ, 0.1 %: the reconstruction filter (the DAC's buffered output
+/// wants 5 kΩ or more).
+pub const R_5K36: Part = r("ERA-3AEB5361V", "5.36 kΩ", 5.36e3, 0.001, "0.1 %");
+/// 10 kΩ, 0.1 %: the bias divider.
+pub const R_10K: Part = r("ERA-3AEB103V", "10 kΩ", 10e3, 0.001, "0.1 %");
+/// 100 Ω, 1 %: each ADC input's series resistor.
+pub const R_100: Part = r("RC0603FR-07100RL", "100 Ω", 100.0, 0.01, "1 %");
+/// 49.9 Ω, 1 %: the excitation buffer's isolation from the cables.
+pub const R_49R9: Part = r("RC0603FR-0749R9L", "49.9 Ω", 49.9, 0.01, "1 %");
+
+/// 2.2 pF ± 0.05 pF C0G (high-Q series, 0402): each transimpedance
+/// stage's feedback capacitor. Its absolute tolerance across 330 kΩ is
+/// most of a path's delay spread (`tests/array.rs`): ±0.1 pF parts
+/// would double it.
+pub const C_2P2: Part = Part {
+    manufacturer: "Murata",
+    number: "GJM1555C1H2R2WB01D",
+    package: "0402",
+    value: "2.2 pF",
+    tolerance: "±0.05 pF",
+    si: 2.2e-12,
+    tol: 0.05 / 2.2,
+};
+/// 220 pF, 1 %, C0G: the voltage path's pole; the self-test's reference.
+pub const C_220P: Part = c("KEMET", "C0603C221F5GACTU", "220 pF", 220e-12, 0.01, "1 %");
+/// 470 pF, 1 %, C0G: the reconstruction filter.
+pub const C_470P: Part = c("KEMET", "C0603C471F5GACTU", "470 pF", 470e-12, 0.01, "1 %");
+/// 1 nF, 1 %, C0G: the reconstruction filter; each ADC input's charge
+/// reservoir.
+pub const C_1N: Part = c("KEMET", "C0603C102F5GACTU", "1 nF", 1e-9, 0.01, "1 %");
+/// 100 nF, 10 %, X7R: decoupling and the bias.
+pub const C_100N: Part = c("Murata", "GRM188R71H104KA93D", "100 nF", 100e-9, 0.1, "10 %");
+
+/// Quad CMOS op-amp, 10 MHz, rail to rail, 2.5–5.5 V ([`crate::models`]).
+pub const MCP6024: Part = Part {
+    manufacturer: "Microchip",
+    number: "MCP6024-E/SL",
+    package: "SOIC-14",
+    value: "MCP6024",
+    tolerance: "",
+    si: 0.0,
+    tol: 0.0,
+};
+
+/// A sensor's connector: JST PH, 2 pins, 2 mm, through hole (pin 1 the
+/// top tab, pin 2 the bottom tab).
+pub const JST_PH2: Part = Part {
+    manufacturer: "JST",
+    number: "B2B-PH-K-S(LF)(SN)",
+    package: "THT 2 mm",
+    value: "PH 2-pin",
+    tolerance: "",
+    si: 0.0,
+    tol: 0.0,
+};
+
+/// The Nucleo's morpho connector, 2×19 female, 2.54 mm (two a board:
+/// CN7 and CN10).
+pub const MORPHO: Part = Part {
+    manufacturer: "Sullins",
+    number: "PPTC192LFBN-RC",
+    package: "THT 2.54 mm 2×19",
+    value: "2×19 socket",
+    tolerance: "",
+    si: 0.0,
+    tol: 0.0,
+};

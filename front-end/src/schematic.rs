@@ -1,0 +1,170 @@
+//! The schematic drawing, from the same circuit as the netlist: each
+//! block of the board in a panel, each part as its symbol with its
+//! reference and value, each pin labelled with its net (nets connect by
+//! name, as on a schematic with net labels). The Nucleo's pins are
+//! flags named for the G474 pin the firmware maps.
+
+use crate::circuit::{Circuit, Element, Kind};
+use std::fmt::Write as _;
+
+/// A part's cell, px.
+const CELL: (f64, f64) = (150.0, 96.0);
+/// Parts on one row of a panel.
+const PER_ROW: usize = 8;
+/// A panel's title bar, px.
+const TITLE: f64 = 22.0;
+
+/// The board as an SVG drawing.
+pub fn svg(board: &Circuit) -> String {
+    let mut blocks: Vec<(&str, Vec<&Element>)> = Vec::new();
+    for e in &board.elements {
+        match blocks.iter_mut().find(|(b, _)| *b == e.block) {
+            Some((_, v)) => v.push(e),
+            None => blocks.push((&e.block, vec![e])),
+        }
+    }
+    let width = PER_ROW as f64 * CELL.0 + 20.0;
+    let mut body = String::new();
+    let mut y = 40.0;
+    for (name, parts) in &blocks {
+        let rows = parts.len().div_ceil(PER_ROW);
+        let h = TITLE + rows as f64 * CELL.1;
+        let _ = write!(
+            body,
+            r##"<rect x="10" y="{y}" width="{}" height="{h}" fill="none" stroke="#999"/><text x="16" y="{}" class="t">{}</text>"##,
+            width - 20.0,
+            y + 15.0,
+            escape(name)
+        );
+        for (i, e) in parts.iter().enumerate() {
+            let x = 10.0 + (i % PER_ROW) as f64 * CELL.0;
+            let top = y + TITLE + (i / PER_ROW) as f64 * CELL.1;
+            body += &symbol(e, x, top);
+        }
+        y += h + 10.0;
+    }
+    format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{}" viewBox="0 0 {width} {}" font-family="sans-serif" font-size="10"><style>.t{{font-weight:bold;font-size:12px}} .n{{fill:#05a}} .v{{fill:#555}} path,line,polygon,rect.s{{fill:none;stroke:#000;stroke-width:1.2}}</style><rect width="100%" height="100%" fill="#fff"/><text x="10" y="24" class="t">{}</text>{body}</svg>
+"##,
+        y,
+        y,
+        escape(&board.title)
+    )
+}
+
+/// Net `n` as its label reads ("GND" for node 0).
+fn net(n: &str) -> &str {
+    if n == "0" {
+        "GND"
+    } else {
+        n
+    }
+}
+
+/// Element `e`'s symbol in the cell at (x, y): its drawing, its pins'
+/// stubs with their nets' labels, its reference and value.
+fn symbol(e: &Element, x: f64, y: f64) -> String {
+    let (cx, cy) = (x + CELL.0 / 2.0, y + CELL.1 / 2.0);
+    let value = e.part.map_or("", |p| p.value);
+    let mut s = format!(
+        r#"<text x="{cx}" y="{}" text-anchor="middle">{}</text><text x="{cx}" y="{}" text-anchor="middle" class="v">{}</text>"#,
+        y + 14.0,
+        escape(&e.reference),
+        y + CELL.1 - 8.0,
+        escape(value)
+    );
+    let pins: Vec<(f64, f64, &str)> = match e.kind {
+        Kind::Resistor => {
+            let _ = write!(
+                s,
+                r#"<path d="M{} {cy} l5 -6 l10 12 l10 -12 l10 12 l10 -12 l5 6"/>"#,
+                cx - 25.0
+            );
+            two(cx, cy, 25.0)
+        }
+        Kind::Capacitor => {
+            let _ = write!(
+                s,
+                r#"<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/><line x1="{3}" y1="{1}" x2="{3}" y2="{2}"/>"#,
+                cx - 4.0,
+                cy - 12.0,
+                cy + 12.0,
+                cx + 4.0
+            );
+            two(cx, cy, 4.0)
+        }
+        Kind::OpAmp => {
+            let _ = write!(
+                s,
+                r#"<polygon points="{},{} {},{} {},{cy}"/><text x="{}" y="{}">+</text><text x="{}" y="{}">−</text>"#,
+                cx - 22.0,
+                cy - 22.0,
+                cx - 22.0,
+                cy + 22.0,
+                cx + 22.0,
+                cx - 19.0,
+                cy - 7.0,
+                cx - 19.0,
+                cy + 15.0
+            );
+            vec![
+                (cx - 22.0, cy - 10.0, "l"),
+                (cx - 22.0, cy + 10.0, "l"),
+                (cx + 22.0, cy, "r"),
+            ]
+        }
+        Kind::Connector => {
+            let n = e.nodes.len() as f64;
+            let _ = write!(
+                s,
+                r#"<rect class="s" x="{}" y="{}" width="24" height="{}"/>"#,
+                cx - 12.0,
+                cy - 8.0 * n,
+                16.0 * n
+            );
+            (0..e.nodes.len())
+                .map(|i| (cx + 12.0, cy - 8.0 * n + 8.0 + 16.0 * i as f64, "r"))
+                .collect()
+        }
+        Kind::AdcPin | Kind::DacPin => {
+            let what = if e.kind == Kind::AdcPin { "ADC" } else { "DAC" };
+            let _ = write!(
+                s,
+                r#"<polygon points="{0},{1} {2},{1} {3},{cy} {2},{4} {0},{4}"/><text x="{5}" y="{6}" text-anchor="middle">{what}</text>"#,
+                cx - 20.0,
+                cy - 9.0,
+                cx + 12.0,
+                cx + 20.0,
+                cy + 9.0,
+                cx - 2.0,
+                cy + 4.0
+            );
+            vec![(cx - 20.0, cy, "l")]
+        }
+    };
+    for ((px, py, side), n) in pins.iter().zip(&e.nodes) {
+        let (dx, anchor) = if *side == "l" {
+            (-14.0, "end")
+        } else {
+            (14.0, "start")
+        };
+        let _ = write!(
+            s,
+            r#"<line x1="{px}" y1="{py}" x2="{}" y2="{py}"/><text x="{}" y="{}" text-anchor="{anchor}" class="n">{}</text>"#,
+            px + dx,
+            px + dx + dx.signum() * 2.0,
+            py + 3.5,
+            escape(net(n))
+        );
+    }
+    s
+}
+
+/// A two-pin part's pins, `half` either side of its centre.
+fn two(cx: f64, cy: f64, half: f64) -> Vec<(f64, f64, &'static str)> {
+    vec![(cx - half, cy, "l"), (cx + half, cy, "r")]
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}

@@ -1,0 +1,216 @@
+//! ngspice on the array board's netlist, against the constants the
+//! firmware assumes: a mismatch fails.
+
+use dsp_core::invert::Inverter;
+use dsp_core::tline::LineModel;
+use front_end::array;
+use front_end::circuit::{Circuit, Sensor};
+use front_end::spice;
+use num_complex::Complex64;
+use skin_spec::array::{Layout, SENSOR_TIA_OHM};
+
+/// The firmware's k in Z = k·V/I (`ArrayFrontEnd::dsp_front_end`: one
+/// real transimpedance, the stage inverting).
+const K: f64 = -SENSOR_TIA_OHM;
+
+/// The sensors of the documented range: the paper's; electrodes half
+/// the paper's with the largest film (290 pF); twice the paper's; each
+/// of the last two behind 20 pF of cable shield at the stage's input.
+fn range() -> [(&'static str, Sensor); 3] {
+    let shielded = |r_ohm: f64, c_farad: f64| Sensor {
+        r_ohm,
+        c_farad,
+        cable_farad: 0.0,
+        shield_farad: 20e-12,
+    };
+    [
+        ("paper's", Sensor::PAPER),
+        ("0.35 MΩ, 290 pF", shielded(350e3, 290e-12)),
+        ("1.4 MΩ, 210 pF", shielded(1.4e6, 210e-12)),
+    ]
+}
+
+/// The parts' tolerances at their worst for the ratio V/I: the
+/// stage's pole (R_f·C_f) against the voltage path's (R4·C3) one way,
+/// and the other way, R_f's own 0.1 % with it.
+fn corners(board: &Circuit) -> [(&'static str, Circuit); 3] {
+    let tol = |r: &str| board.element(r).and_then(|e| e.part).map_or(0.0, |p| p.tol);
+    let skew = |sign: f64| {
+        board
+            .scaled("RF0", 1.0 + sign * tol("RF0"))
+            .scaled("CF0", 1.0 + sign * tol("CF0"))
+            .scaled("R4", 1.0 - sign * tol("R4"))
+            .scaled("C3", 1.0 - sign * tol("C3"))
+    };
+    [
+        ("nominal", board.clone()),
+        ("stage slow", skew(1.0)),
+        ("stage fast", skew(-1.0)),
+    ]
+}
+
+/// Every tone of both layouts, Hz, each once.
+fn tones() -> Vec<f64> {
+    let mut f: Vec<f64> = Layout::ALL
+        .iter()
+        .flat_map(|l| l.tones_hz())
+        .map(f64::from)
+        .collect();
+    f.sort_by(f64::total_cmp);
+    f.dedup();
+    f
+}
+
+/// Sensor 0's impedance as the firmware reads it, k·V/I from its two
+/// ADC pins, and as it is between its tabs: (Hz, read, true).
+fn reads(board: &Circuit) -> Vec<(f64, Complex64, Complex64)> {
+    let freqs = tones();
+    let vectors = ["v(PA0)", "v(PC0)", "v(EXC)", "v(TAB0)", "i(VJ1_i)"];
+    let rows = spice::ac(board, spice::AC_STIMULUS, "", &vectors, &freqs).expect("ngspice's AC analysis");
+    freqs
+        .iter()
+        .zip(rows)
+        .map(|(&f, r)| (f, K * r[0] / r[1], (r[2] - r[3]) / r[4]))
+        .collect()
+}
+
+/// C from one tone's impedance by the firmware's inversion, F.
+fn c_of(z: Complex64, f: f64) -> Option<f64> {
+    let inv = Inverter::new(LineModel::Continuous);
+    let z = dsp_core::Complex32::new(z.re as f32, z.im as f32);
+    inv.invert(z, f as f32).ok().map(|l| l.c_farad as f64)
+}
+
+/// The nominal board: at every tone of both layouts, for every sensor of
+/// the range, the impedance the firmware reads from the ADC pins is the
+/// sensor's within 0.15 % and 0.5 mrad (the op-amps' finite gain), and C
+/// from it within 0.2 % of C from the sensor's own wherever the policy
+/// may read (x = 2π·f·R·C ≤ 4, where the inversion amplifies a phase
+/// error up to 1.5-fold).
+#[test]
+fn the_nominal_board_reads_every_sensor_as_the_firmware_assumes() {
+    let board = array::board();
+    let (mut worst_z, mut worst_phase, mut worst_c) = (0f64, 0f64, 0f64);
+    for (name, sensor) in range() {
+        for (f, read, truth) in reads(&board.with_sensors(sensor)) {
+            let e = read / truth;
+            let (mag, phase) = ((e.norm() - 1.0).abs(), e.arg().abs());
+            let x = std::f64::consts::TAU * f * sensor.r_ohm * sensor.c_farad;
+            let c = if x <= 4.0 {
+                let (a, b) = (
+                    c_of(read, f).expect("the read inverts"),
+                    c_of(truth, f).expect("the truth inverts"),
+                );
+                (a / b - 1.0).abs()
+            } else {
+                0.0
+            };
+            println!("{name:>16} {f:>6} Hz x {x:>5.2}: |Z| {mag:.2e}, phase {phase:.2e} rad, C {c:.2e}");
+            (worst_z, worst_phase, worst_c) = (worst_z.max(mag), worst_phase.max(phase), worst_c.max(c));
+        }
+    }
+    println!("worst: |Z| {worst_z:.2e}, phase {worst_phase:.2e} rad, C {worst_c:.2e}");
+    assert!(worst_z <= 1.5e-3, "|Z| off by {worst_z:e}");
+    assert!(worst_phase <= 5e-4, "phase off by {worst_phase:e} rad");
+    assert!(worst_c <= 2e-3, "C off by {worst_c:e}");
+}
+
+/// The parts' spread is a gain and a delay per path: at the tolerance
+/// corners the ratio read/true is g·e^(jωΔt) within 10⁻⁴ at every tone,
+/// with |g − 1| ≤ 0.1 % (R_f) and Δt within 10 % of the two poles'
+/// spread to first order, τ·(Σ tolerances): 25 ns, two thirds of it C_f's
+/// ±0.05 pF across 330 kΩ: what a path's calibration must measure
+/// (docs/hardware.md).
+#[test]
+fn the_parts_spread_is_a_gain_and_a_delay_per_path() {
+    let board = array::board();
+    let nominal: Vec<Complex64> = reads(&board).iter().map(|(_, r, t)| r / t).collect();
+    let part = |r: &str| board.element(r).and_then(|e| e.part).expect("a part");
+    let tau = part("RF0").si * part("CF0").si;
+    let spread = tau
+        * ["RF0", "CF0", "R4", "C3"]
+            .iter()
+            .map(|r| part(r).tol)
+            .sum::<f64>();
+    for (corner, b) in corners(&board).into_iter().skip(1) {
+        let rows = reads(&b);
+        // Against the nominal board's own ratio: what the spread adds.
+        let ratio: Vec<(f64, Complex64)> = rows
+            .iter()
+            .zip(&nominal)
+            .map(|((f, r, t), n)| (*f, r / t / n))
+            .collect();
+        let g = ratio[0].1.norm();
+        // Δt from the highest tone's phase; then every tone against it.
+        let (f_hi, e_hi) = ratio[ratio.len() - 1];
+        let dt = e_hi.arg() / (std::f64::consts::TAU * f_hi);
+        let mut worst = 0f64;
+        for (f, e) in &ratio {
+            let model = Complex64::from_polar(g, std::f64::consts::TAU * f * dt);
+            worst = worst.max((e / model - 1.0).norm());
+        }
+        println!(
+            "{corner}: g − 1 = {:.2e}, Δt = {:.1} ns, worst {worst:.1e}",
+            g - 1.0,
+            dt * 1e9
+        );
+        assert!((g - 1.0).abs() <= 1.05e-3, "{corner}: gain {g}");
+        assert!(
+            (dt.abs() / spread - 1.0).abs() <= 0.1,
+            "{corner}: delay {dt:e} s, not {spread:e}"
+        );
+        assert!(worst <= 1e-4, "{corner}: {worst:e} beyond a gain and a delay");
+    }
+}
+
+/// The noise of one oversampled result from the analog path, counts:
+/// the spectrum at `node` (V/√Hz) through the mean of the 16
+/// conversions a result sums (588 ns apart: their lobes fold the
+/// op-amps' wideband noise in), on the 16-bit scale.
+fn result_noise_counts(board: &Circuit, node: &str) -> f64 {
+    use skin_spec::array::{ADC_CLOCK_HZ, CONVERSION_CYCLES, OVERSAMPLING};
+    let spectrum = spice::noise(board, node, 10.0, 20e6, 100).expect("ngspice's noise analysis");
+    let ts = CONVERSION_CYCLES as f64 / ADC_CLOCK_HZ as f64;
+    let m = OVERSAMPLING as f64;
+    // S(f) interpolated log-log, the mean's |H|² exact, on a 500 Hz grid.
+    let density = |f: f64| {
+        let i = spectrum
+            .partition_point(|(g, _)| *g < f)
+            .clamp(1, spectrum.len() - 1);
+        let ((f0, s0), (f1, s1)) = (spectrum[i - 1], spectrum[i]);
+        let u = (f.ln() - f0.ln()) / (f1.ln() - f0.ln());
+        (s0.ln() + u * (s1.ln() - s0.ln())).exp()
+    };
+    let df = 500.0;
+    let variance: f64 = (1..(20e6 / df) as usize)
+        .map(|k| {
+            let f = k as f64 * df;
+            let x = std::f64::consts::PI * f * ts;
+            let h = (m * x).sin() / (m * x.sin());
+            density(f).powi(2) * h * h * df
+        })
+        .sum();
+    let lsb = skin_spec::design::VREF_VOLT / 4096.0;
+    m * variance.sqrt() / lsb
+}
+
+/// The analog path's noise in a result, against the converter's own that
+/// the accuracy figures assume ([`skin_spec::array::NOISE_COUNTS`]): at
+/// most 10 % more in quadrature, at every stage input and at the voltage
+/// input, for every sensor of the range (their electrodes' own thermal
+/// noise included).
+#[test]
+fn the_analog_noise_is_within_what_the_accuracy_figures_assume() {
+    let assumed = skin_spec::array::NOISE_COUNTS as f64;
+    let allowed = assumed * (1.1f64.powi(2) - 1.0).sqrt();
+    let mut worst = 0f64;
+    for (name, sensor) in range() {
+        let board = array::board().with_sensors(sensor);
+        for node in [array::SENSOR_PINS[0], array::VOLTAGE_PIN] {
+            let n = result_noise_counts(&board, node);
+            println!("{name:>16} at {node}: {n:.2} counts rms (converter: {assumed})");
+            worst = worst.max(n);
+        }
+    }
+    assert!(worst <= allowed, "{worst} counts, more than {allowed}");
+}
