@@ -5,17 +5,17 @@
 //!
 //! ```text
 //! PA4 ─ reconstruction (Sallen–Key, 43 kHz) ─ 49.9 Ω ─ EXC ─┬─ J1…J16 top tabs
-//!                                                          ├─ 3.3 kΩ / 220 pF ─ follower ─ 100 Ω / 1 nF ─ PA0
+//!                                                          ├─ 3.3 kΩ / 270 pF ─ follower ─ 100 Ω / 1 nF ─ PA0
 //!                                                          └─ 680 kΩ + 220 pF (the self-test's reference)
-//! bottom tab ─ TIA (330 kΩ ∥ 2.2 pF, + at BIAS) ─ 100 Ω / 1 nF ─ the sensor's pin
+//! bottom tab ─ TIA (330 kΩ ∥ 2.7 pF, + at BIAS) ─ 100 Ω / 1 nF ─ the sensor's pin
 //! ```
 //!
 //! **Why the voltage path has a pole.** A stage's feedback capacitor
 //! (for its stability with 20 pF of cable and the op-amp's 9 pF) makes
-//! its gain R_f/(1 + jωR_fC_f): 18 mrad of phase at 4 kHz, which the
+//! its gain R_f/(1 + jωR_fC_f): 22 mrad of phase at 4 kHz, which the
 //! firmware's one real transimpedance (`FrontEnd::transimpedance`) does
-//! not carry. The voltage path's 3.3 kΩ and 220 pF have the same time
-//! constant, 726 ns, so the ratio V/I the firmware reads carries none
+//! not carry. The voltage path's 3.3 kΩ and 270 pF have the same time
+//! constant, 891 ns, so the ratio V/I the firmware reads carries none
 //! (within the parts' tolerances: `tests/array.rs`). The ADC inputs'
 //! 100 Ω and 1 nF (the sampling capacitor's charge reservoir, 1.6 MHz)
 //! are on every path alike.
@@ -159,7 +159,7 @@ fn excitation(c: &mut Circuit) {
     );
 }
 
-/// EXC through the pole matched to the stages' (3.3 kΩ, 220 pF) and a
+/// EXC through the pole matched to the stages' (3.3 kΩ, 270 pF) and a
 /// follower to PA0; the bias, VDDA/2, buffered.
 fn voltage_path(c: &mut Circuit) {
     let b = "voltage";
@@ -174,7 +174,7 @@ fn voltage_path(c: &mut Circuit) {
     c.add(
         "C3",
         Kind::Capacitor,
-        Some(parts::C_220P),
+        Some(parts::C_270P),
         &["VRC", "0"],
         "voltage path: pole matched to R_f·C_f",
         b,
@@ -263,7 +263,7 @@ fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
     c.add(
         &format!("CF{id}"),
         Kind::Capacitor,
-        Some(parts::C_2P2),
+        Some(parts::C_2P7),
         &[tab, &out],
         &format!("{what}: feedback (stability)"),
         &b,

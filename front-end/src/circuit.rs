@@ -59,6 +59,9 @@ pub struct Circuit {
     pub elements: Vec<Element>,
     /// Per sensor connector (its reference): the sensor it carries.
     pub sensors: Vec<(String, Sensor)>,
+    /// Sections of each sensor's line ([`SECTIONS`]; fewer for a
+    /// transient, where the line's fine shape is not what is asked).
+    pub sections: usize,
 }
 
 /// A DE sensor as a simulation sees it off the board: a line of
@@ -110,6 +113,7 @@ impl Circuit {
             title: title.to_string(),
             elements: Vec::new(),
             sensors: Vec::new(),
+            sections: SECTIONS,
         }
     }
 
@@ -150,6 +154,14 @@ impl Circuit {
         c
     }
 
+    /// The same board with lines of `sections` sections.
+    pub fn with_sections(&self, sections: usize) -> Self {
+        Self {
+            sections: sections.max(1),
+            ..self.clone()
+        }
+    }
+
     /// Every connector carrying `sensor`.
     pub fn with_sensors(&self, sensor: Sensor) -> Self {
         let mut c = self.clone();
@@ -184,7 +196,7 @@ impl Circuit {
         }
         for (j, sensor) in &self.sensors {
             if let Some(e) = self.element(j) {
-                s += &crate::models::sensor(j, &e.nodes[0], &e.nodes[1], sensor);
+                s += &crate::models::sensor(j, &e.nodes[0], &e.nodes[1], sensor, self.sections);
             }
         }
         s += extra;

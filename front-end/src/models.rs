@@ -1,7 +1,7 @@
 //! The SPICE models the netlists include: the op-amp's macro-model from
 //! its data sheet, the G474's ADC input, and a sensor's line.
 
-use crate::circuit::{Sensor, SECTIONS};
+use crate::circuit::Sensor;
 use std::fmt::Write as _;
 
 /// Microchip's MCP6024 (one section) as a macro-model built from the
@@ -49,18 +49,18 @@ Cadc s 0 5p
 .ends
 ";
 
-/// Sensor `name` between nodes `top` and `bottom`: [`SECTIONS`] R-C
+/// Sensor `name` between nodes `top` and `bottom`: `sections` R-C
 /// elements along both electrodes (midpoint sections), the far end open, with its cable;
 /// the current into its top tab is that of the 0 V source `V{name}_i`.
-pub fn sensor(name: &str, top: &str, bottom: &str, s: &Sensor) -> String {
-    let n = SECTIONS as f64;
+pub fn sensor(name: &str, top: &str, bottom: &str, s: &Sensor, sections: usize) -> String {
+    let n = sections as f64;
     let (r, c) = (s.r_ohm / 2.0 / n, s.c_farad / n);
     let mut out = format!(
         "* sensor on {name}: {:e} ohm, {:e} F; its current through V{name}_i\nV{name}_i {top} {name}_top 0\n",
         s.r_ohm, s.c_farad
     );
     let (mut t, mut b) = (format!("{name}_top"), bottom.to_string());
-    for k in 1..=SECTIONS {
+    for k in 1..=sections {
         let (tk, bk) = (format!("{name}_t{k}"), format!("{name}_b{k}"));
         // Midpoint sections: half a section's resistance before the first
         // capacitor (the open far end needs none after the last).

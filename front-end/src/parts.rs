@@ -71,20 +71,22 @@ pub const R_100: Part = r("RC0603FR-07100RL", "100 Ω", 100.0, 0.01, "1 %");
 /// 49.9 Ω, 1 %: the excitation buffer's isolation from the cables.
 pub const R_49R9: Part = r("RC0603FR-0749R9L", "49.9 Ω", 49.9, 0.01, "1 %");
 
-/// 2.2 pF ± 0.05 pF C0G (high-Q series, 0402): each transimpedance
+/// 2.7 pF ± 0.05 pF C0G (high-Q series, 0402): each transimpedance
 /// stage's feedback capacitor. Its absolute tolerance across 330 kΩ is
 /// most of a path's delay spread (`tests/array.rs`): ±0.1 pF parts
 /// would double it.
-pub const C_2P2: Part = Part {
+pub const C_2P7: Part = Part {
     manufacturer: "Murata",
-    number: "GJM1555C1H2R2WB01D",
+    number: "GJM1555C1H2R7WB01D",
     package: "0402",
-    value: "2.2 pF",
+    value: "2.7 pF",
     tolerance: "±0.05 pF",
-    si: 2.2e-12,
-    tol: 0.05 / 2.2,
+    si: 2.7e-12,
+    tol: 0.05 / 2.7,
 };
-/// 220 pF, 1 %, C0G: the voltage path's pole; the self-test's reference.
+/// 270 pF, 1 %, C0G: the voltage path's pole.
+pub const C_270P: Part = c("KEMET", "C0603C271F5GACTU", "270 pF", 270e-12, 0.01, "1 %");
+/// 220 pF, 1 %, C0G: the self-test's reference.
 pub const C_220P: Part = c("KEMET", "C0603C221F5GACTU", "220 pF", 220e-12, 0.01, "1 %");
 /// 470 pF, 1 %, C0G: the reconstruction filter.
 pub const C_470P: Part = c("KEMET", "C0603C471F5GACTU", "470 pF", 470e-12, 0.01, "1 %");

@@ -29,7 +29,14 @@ pub fn run<T>(
         String::from_utf8_lossy(&out.stderr)
     );
     if !out.status.success() || log.contains("Error") || log.contains("error:") {
-        return Err(format!("ngspice on {}: {}\n{log}", cir.display(), out.status));
+        // Its messages, not the netlist lines it echoes with them.
+        let said: Vec<&str> = log.lines().filter(|l| l.len() < 300).collect();
+        return Err(format!(
+            "ngspice on {}: {}\n{}",
+            cir.display(),
+            out.status,
+            said.join("\n")
+        ));
     }
     read(dir.path())
 }

@@ -118,7 +118,7 @@ fn the_nominal_board_reads_every_sensor_as_the_firmware_assumes() {
 /// The parts' spread is a gain and a delay per path: at the tolerance
 /// corners the ratio read/true is g·e^(jωΔt) within 10⁻⁴ at every tone,
 /// with |g − 1| ≤ 0.1 % (R_f) and Δt within 10 % of the two poles'
-/// spread to first order, τ·(Σ tolerances): 25 ns, two thirds of it C_f's
+/// spread to first order, τ·(Σ tolerances): 27 ns, two thirds of it C_f's
 /// ±0.05 pF across 330 kΩ: what a path's calibration must measure
 /// (docs/hardware.md).
 #[test]
@@ -213,4 +213,143 @@ fn the_analog_noise_is_within_what_the_accuracy_figures_assume() {
         }
     }
     assert!(worst <= allowed, "{worst} counts, more than {allowed}");
+}
+
+/// The DAC's output as a SPICE source: `layout`'s table
+/// ([`Layout::dac_table`]), each code held 1 µs, repeating.
+fn dac_pwl(layout: &Layout) -> String {
+    use skin_spec::array::{DAC_RATE_HZ, DAC_TABLE};
+    let mut table = [0u16; DAC_TABLE];
+    let codes = layout.dac_table(&mut table);
+    let dt = 1.0 / DAC_RATE_HZ as f64;
+    let volts = |c: u16| c as f64 * skin_spec::design::VREF_VOLT / 4096.0;
+    let mut s = format!("PWL(0 {:.6}", volts(codes[0]));
+    for (n, &c) in codes.iter().enumerate() {
+        let t = n as f64 * dt;
+        // Each step takes 100 ns (the DAC's buffer slews), so that the
+        // solver need not resolve 8,000 sharp edges.
+        if n > 0 {
+            s += &format!(" {:e} {:.6}", t + 1e-7, volts(c));
+        }
+        s += &format!(" {:e} {:.6}", t + dt, volts(c));
+    }
+    s + ") r=0"
+}
+
+/// The excitation and sensor 0's stage output over the second block of
+/// `layout`'s comb (the first lets the sensors' lines settle), each 1 µs:
+/// rows of [t, EXC, TIA0].
+fn comb_run(board: &Circuit, layout: &Layout) -> Vec<Vec<f64>> {
+    let block = layout.block_us() as f64 * 1e-6;
+    spice::tran(
+        board,
+        &dac_pwl(layout),
+        &["EXC", "TIA0"],
+        1e-6,
+        block,
+        2.0 * block,
+    )
+    .expect("ngspice's transient")
+}
+
+/// Tone `f`'s amplitude in `x` sampled every `dt` over whole periods.
+fn amplitude(x: &[f64], dt: f64, f: f64) -> f64 {
+    let (mut c, mut s) = (0.0, 0.0);
+    for (n, v) in x.iter().enumerate() {
+        let p = std::f64::consts::TAU * f * n as f64 * dt;
+        (c, s) = (c + v * p.cos(), s + v * p.sin());
+    }
+    2.0 * c.hypot(s) / x.len() as f64
+}
+
+/// The DAC's table through the reconstruction filter and the buffer, all
+/// sixteen connectors carrying the largest sensor the docs allow (0.35 MΩ
+/// electrodes, 290 pF, 20 pF of cable across and 20 pF to the shield):
+/// every tone reaches the sensors at the amplitude the firmware assumes
+/// ([`Layout::tone_volts`], the chain's gain 1) within 0.3 %; the buffer
+/// swings within the ±1.45 V the comb was sized for; and each stage's
+/// output keeps at least 0.1 V from either rail (the op-amp's swing and
+/// the ADC's span, 0–3.3 V).
+#[test]
+fn the_comb_reaches_the_sensors_and_no_stage_clips() {
+    let largest = Sensor {
+        r_ohm: 350e3,
+        c_farad: 290e-12,
+        cable_farad: 20e-12,
+        shield_farad: 20e-12,
+    };
+    // Eight sections a line: the current's shape within 10⁻³ (x ≤ 2).
+    let board = array::board().with_sensors(largest).with_sections(8);
+    let bias = skin_spec::design::BIAS_VOLT;
+    for layout in Layout::ALL {
+        let rows = comb_run(&board, &layout);
+        let n = layout.instants() * skin_spec::array::DAC_PER_INSTANT;
+        let rows = &rows[rows.len() - n..];
+        let exc: Vec<f64> = rows.iter().map(|r| r[1] - bias).collect();
+        for (f, want) in layout.tones_hz().iter().zip(layout.tone_volts()) {
+            let got = amplitude(&exc, 1e-6, *f as f64);
+            println!(
+                "{} ms, {f} Hz: {got:.4} V at the sensors, {want} V assumed",
+                layout.block_us() / 1000
+            );
+            assert!((got / want - 1.0).abs() <= 3e-3, "{f} Hz: {got} V, not {want} V");
+        }
+        let peak = |k: usize| rows.iter().map(|r| (r[k] - bias).abs()).fold(0.0, f64::max);
+        let (swing, out) = (peak(1), peak(2));
+        println!("buffer ±{swing:.3} V, stage 0 ±{out:.3} V around {bias} V");
+        assert!(swing <= 1.45, "the buffer swings ±{swing} V");
+        assert!(out <= bias - 0.1, "stage 0 swings ±{out} V");
+    }
+}
+
+/// A current step into sensor 0's stage, with every sensor of the range
+/// and 20 pF of cable both across and to the shield: the stage settles
+/// without ringing (overshoot under 3 %: a phase margin over 60°) to R_f
+/// times the step within 0.2 % by 10 µs, long before the next
+/// instant's first conversion could see it.
+#[test]
+fn every_stage_is_stable_with_the_longest_cable() {
+    for (name, sensor) in range() {
+        let sensor = Sensor {
+            cable_farad: 20e-12,
+            shield_farad: 20e-12,
+            ..sensor
+        };
+        let board = array::board().with_sensors(sensor);
+        let step = "IINJ 0 TAB0 PULSE(0 1e-6 2e-6 1e-9 1e-9 1 2)";
+        let text = |dir: &std::path::Path| {
+            let c = format!(
+                "{step}\n.control\nset wr_singlescale\nset numdgt=12\ntran 1e-9 14e-6 0 5e-9\nlinearize\nwrdata {} v(TIA0)\nquit\n.endc",
+                dir.join("step.txt").display()
+            );
+            board.netlist("DC 1.65", &c)
+        };
+        let rows = spice::run(text, |dir| {
+            let text = std::fs::read_to_string(dir.join("step.txt")).map_err(|e| e.to_string())?;
+            Ok(text
+                .lines()
+                .map(|l| {
+                    l.split_whitespace()
+                        .map(|v| v.parse::<f64>().unwrap())
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>())
+        })
+        .expect("ngspice's step");
+        let base = rows[0][1];
+        let out: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], base - r[1])).collect();
+        let want = SENSOR_TIA_OHM * 1e-6;
+        let peak = out.iter().map(|(_, v)| *v).fold(0.0, f64::max);
+        let at_12us = out.iter().find(|(t, _)| *t >= 12e-6).map_or(0.0, |(_, v)| *v);
+        println!(
+            "{name:>16}: overshoot {:.2} %, at 10 µs {:.4} % off",
+            100.0 * (peak / want - 1.0),
+            100.0 * (at_12us / want - 1.0)
+        );
+        assert!(peak <= 1.03 * want, "{name}: overshoot to {peak} V of {want} V");
+        assert!(
+            (at_12us / want - 1.0).abs() <= 2e-3,
+            "{name}: {at_12us} V at 10 µs, not {want} V"
+        );
+    }
 }
