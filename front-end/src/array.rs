@@ -233,17 +233,12 @@ fn voltage_path(c: &mut Circuit) {
 
 /// Transimpedance stage `s` from `tab` to the ADC input `pin`.
 fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
-    let (u, out) = (stage(s), format!("TIA{s}"));
-    let b = if s < SENSORS {
-        format!("stage {s}")
+    let (id, b) = if s < SENSORS {
+        (s.to_string(), format!("stage {s}"))
     } else {
-        "self-test".to_string()
+        ("REF".to_string(), "self-test".to_string())
     };
-    let id = if s < SENSORS {
-        s.to_string()
-    } else {
-        "REF".to_string()
-    };
+    let (u, out) = (stage(s), format!("TIA{id}"));
     c.add(
         &u,
         Kind::OpAmp,
@@ -318,7 +313,7 @@ fn supplies(c: &mut Circuit) {
         Kind::Connector,
         Some(parts::MORPHO),
         &["VDDA", "0"],
-        "to the Nucleo's CN7 (pins as named: UM2505)",
+        "to the Nucleo's CN7, its pins as UM2505 names them",
         b,
     );
     c.add(

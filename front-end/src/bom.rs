@@ -53,24 +53,20 @@ pub fn csv(board: &Circuit) -> Result<String, String> {
     String::from_utf8(w.into_inner().map_err(|e| e.to_string())?).map_err(|e| e.to_string())
 }
 
-/// A group's functions, each kind once with how many share it
-/// ("feedback ×17; voltage path: pole"): the text after a function's
-/// "what: " prefix is its kind.
+/// A group's functions: those of several elements alike by their kind
+/// (the text after "what: ") with how many ("feedback ×17"), the others
+/// whole.
 fn summarise(functions: &[&str]) -> String {
-    let mut kinds: Vec<(&str, usize)> = Vec::new();
+    let kind = |f: &str| f.rsplit(": ").next().unwrap_or(f).to_string();
+    let mut out: Vec<(String, usize)> = Vec::new();
     for f in functions {
-        let kind = f.rsplit(": ").next().unwrap_or(f);
-        match kinds.iter_mut().find(|(k, _)| *k == kind) {
-            Some((_, n)) => *n += 1,
-            None => kinds.push((kind, 1)),
+        let k = kind(f);
+        let n = functions.iter().filter(|g| kind(g) == k).count();
+        let text = if n > 1 { k } else { f.to_string() };
+        if !out.iter().any(|(t, _)| *t == text) {
+            out.push((text, n));
         }
     }
-    let one = |(k, n): &(&str, usize)| {
-        if *n > 1 {
-            format!("{k} ×{n}")
-        } else {
-            k.to_string()
-        }
-    };
-    kinds.iter().map(one).collect::<Vec<_>>().join("; ")
+    let one = |(t, n): &(String, usize)| if *n > 1 { format!("{t} ×{n}") } else { t.clone() };
+    out.iter().map(one).collect::<Vec<_>>().join("; ")
 }

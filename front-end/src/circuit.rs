@@ -185,8 +185,8 @@ impl Circuit {
         for e in &self.elements {
             let n = e.nodes.join(" ");
             let line = match e.kind {
-                Kind::Resistor => format!("R{} {n} {:e}", e.reference, e.value()),
-                Kind::Capacitor => format!("C{} {n} {:e}", e.reference, e.value()),
+                Kind::Resistor => format!("{} {n} {:e}", spice_name('R', &e.reference), e.value()),
+                Kind::Capacitor => format!("{} {n} {:e}", spice_name('C', &e.reference), e.value()),
                 Kind::OpAmp => format!("X{} {n} VDDA 0 MCP6024", e.reference),
                 Kind::Connector => format!("* {} ({}): {n}", e.reference, e.function),
                 Kind::AdcPin => format!("XADC_{} {n} ADC_INPUT", e.reference),
@@ -202,5 +202,16 @@ impl Circuit {
         s += extra;
         s += "\n.end\n";
         s
+    }
+}
+
+/// A reference as SPICE names an element of kind `letter`: itself where
+/// it starts with the letter (R12), else prefixed (a resistor RT1 stays,
+/// a capacitor named otherwise gets a C).
+fn spice_name(letter: char, reference: &str) -> String {
+    if reference.starts_with(letter) {
+        reference.to_string()
+    } else {
+        format!("{letter}{reference}")
     }
 }

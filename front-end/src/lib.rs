@@ -8,6 +8,7 @@
 pub mod array;
 pub mod bom;
 pub mod circuit;
+pub mod files;
 pub mod models;
 pub mod parts;
 pub mod schematic;

@@ -122,6 +122,15 @@ fn symbol(e: &Element, x: f64, y: f64) -> String {
                 cy - 8.0 * n,
                 16.0 * n
             );
+            for i in 0..e.nodes.len() {
+                let y = cy - 8.0 * n + 11.5 + 16.0 * i as f64;
+                let _ = write!(
+                    s,
+                    r#"<text x="{}" y="{y}" text-anchor="end">{}</text>"#,
+                    cx + 9.0,
+                    i + 1
+                );
+            }
             (0..e.nodes.len())
                 .map(|i| (cx + 12.0, cy - 8.0 * n + 8.0 + 16.0 * i as f64, "r"))
                 .collect()

@@ -17,7 +17,7 @@ const PLOTS: [(&str, &str); 4] = [
 ];
 
 /// The test files that hold figure tests: (crate, test file).
-const FILES: [(&str, &str); 8] = [
+const FILES: [(&str, &str); 9] = [
     ("qemu-tests", "decode"),
     ("qemu-tests", "array"),
     ("qemu-tests", "dsp_bench"),
@@ -26,10 +26,11 @@ const FILES: [(&str, &str); 8] = [
     ("host-sim", "residual"),
     ("host-sim", "cli"),
     ("host-sim", "disturbances"),
+    ("front-end", "files"),
 ];
 
 /// The tests that measure the figures (each checks its blocks).
-const TESTS: [&str; 10] = [
+const TESTS: [&str; 11] = [
     "the_main_jobs_recording_decodes",
     "sixteen_sensors_250_times_a_second_within",
     "sixteen_sensors_1000_times_a_second_within",
@@ -40,6 +41,7 @@ const TESTS: [&str; 10] = [
     "the_docs_show_the_example_data_sets_verdicts",
     "the_docs_show_what_model_and_invert_print",
     "neither_path_vouches_for_a_wrong_record_under_any_disturbance",
+    "the_array_boards_files_are_its_circuits",
 ];
 
 /// Run the main job, copy its plots, rewrite the figure blocks.

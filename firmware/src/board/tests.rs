@@ -8,6 +8,7 @@
 use super::dma::Event;
 use super::scan::{Adc, INPUT_PINS, SCAN_ADCS};
 use super::{adc, clocks, dac, dma, flash, link, lpuart, opamp, pac, pins, scan, timer, watchdog};
+use std::format;
 use std::vec;
 use std::vec::Vec;
 
@@ -778,4 +779,45 @@ fn the_arrays_buffer_halves_follow_the_layout() {
         // A half beyond the second is the second.
         assert_eq!(array_half(&mut buf, &layout, 7)[0][0] as usize, n);
     }
+}
+
+/// The reference front end's netlist (`front-end/array/board.cir`,
+/// generated from the same circuit as its schematic and bill of
+/// materials) wires every input as [`INPUT_PINS`] maps it: sensor s's
+/// stage output through its ADC resistor to the pin of input s + 1, the
+/// excitation's follower to input 0's, the self-test's reference to
+/// input 17's, and the DAC on PA4.
+#[test]
+fn the_netlist_wires_every_input_as_the_pin_map() {
+    use instrument::array::{input_of, SENSORS, VOLTAGE_INPUT};
+    let netlist = include_str!("../../../front-end/array/board.cir");
+    let lines: Vec<Vec<&str>> = netlist
+        .lines()
+        .filter(|l| !l.starts_with('*'))
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let element = |name: &str| {
+        lines
+            .iter()
+            .find(|t| t.first() == Some(&name))
+            .unwrap_or_else(|| panic!("no {name} in the netlist"))
+    };
+    let pin = |input: usize| format!("P{}{}", INPUT_PINS[input].port, INPUT_PINS[input].pin);
+    let adc = |input: usize, from: &str, resistor: &str| {
+        let name = pin(input);
+        assert_eq!(element(&format!("XADC_{name}"))[1], name, "input {input}");
+        assert_eq!(element(resistor)[1..3], [from, name.as_str()], "input {input}");
+    };
+    for s in 0..SENSORS {
+        let (tab, out) = (format!("TAB{s}"), format!("TIA{s}"));
+        let stage = lines
+            .iter()
+            .find(|t| t.first().is_some_and(|n| n.starts_with("XU")) && t.get(2) == Some(&tab.as_str()))
+            .unwrap_or_else(|| panic!("no stage on {tab}"));
+        assert_eq!(stage[1..4], ["BIAS", tab.as_str(), out.as_str()], "sensor {s}");
+        adc(input_of(s), &out, &format!("RA{s}"));
+    }
+    adc(VOLTAGE_INPUT, "VBUF", "RAV");
+    adc(17, "TIAREF", "RAREF");
+    assert_eq!(element("VDAC_PA4")[1], "PA4");
 }
