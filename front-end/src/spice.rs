@@ -135,11 +135,13 @@ pub fn noise(
 }
 
 /// A transient of `stop_s` (steps of at most `step_s`), the DAC playing
-/// `stimulus`: each of `nodes` sampled every `step_s` from `from_s`, a
-/// row per instant (time first).
+/// `stimulus` (`extra`: more lines, such as a source of its own): each
+/// of `nodes` sampled every `step_s` from `from_s`, a row per instant
+/// (time first).
 pub fn tran(
     board: &Circuit,
     stimulus: &str,
+    extra: &str,
     nodes: &[&str],
     step_s: f64,
     from_s: f64,
@@ -148,7 +150,7 @@ pub fn tran(
     let vectors: Vec<String> = nodes.iter().map(|n| format!("v({n})")).collect();
     let text = |dir: &Path| {
         let c = format!(
-            ".control\nset wr_singlescale\nset numdgt=12\noption reltol=1e-5\ntran {step_s:e} {stop_s:e} {from_s:e} {step_s:e}\nlinearize\nwrdata {} {}\nquit\n.endc",
+            "{extra}\n.control\nset wr_singlescale\nset numdgt=12\noption reltol=1e-5\ntran {step_s:e} {stop_s:e} {from_s:e} {step_s:e}\nlinearize\nwrdata {} {}\nquit\n.endc",
             dir.join("tran.txt").display(),
             vectors.join(" ")
         );

@@ -91,7 +91,10 @@ fn c_of(z: Complex64, f: f64) -> Option<f64> {
 fn the_nominal_board_reads_every_sensor_as_the_firmware_assumes() {
     let board = array::board();
     let (mut worst_z, mut worst_phase, mut worst_c) = (0f64, 0f64, 0f64);
+    let mut md =
+        String::from("| sensor | worst \\|Z\\| | worst phase | worst C (x ≤ 4) |\n|---|---:|---:|---:|\n");
     for (name, sensor) in range() {
+        let mut row = (0f64, 0f64, 0f64);
         for (f, read, truth) in reads(&board.with_sensors(sensor)) {
             let e = read / truth;
             let (mag, phase) = ((e.norm() - 1.0).abs(), e.arg().abs());
@@ -106,10 +109,18 @@ fn the_nominal_board_reads_every_sensor_as_the_firmware_assumes() {
                 0.0
             };
             println!("{name:>16} {f:>6} Hz x {x:>5.2}: |Z| {mag:.2e}, phase {phase:.2e} rad, C {c:.2e}");
-            (worst_z, worst_phase, worst_c) = (worst_z.max(mag), worst_phase.max(phase), worst_c.max(c));
+            row = (row.0.max(mag), row.1.max(phase), row.2.max(c));
         }
+        md += &format!(
+            "| {name} | {:.3} % | {:.2} mrad | {:.3} % |\n",
+            100.0 * row.0,
+            1e3 * row.1,
+            100.0 * row.2
+        );
+        (worst_z, worst_phase, worst_c) = (worst_z.max(row.0), worst_phase.max(row.1), worst_c.max(row.2));
     }
-    println!("worst: |Z| {worst_z:.2e}, phase {worst_phase:.2e} rad, C {worst_c:.2e}");
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-transfer", &md, 0.02).unwrap();
     assert!(worst_z <= 1.5e-3, "|Z| off by {worst_z:e}");
     assert!(worst_phase <= 5e-4, "phase off by {worst_phase:e} rad");
     assert!(worst_c <= 2e-3, "C off by {worst_c:e}");
@@ -132,8 +143,20 @@ fn the_parts_spread_is_a_gain_and_a_delay_per_path() {
             .iter()
             .map(|r| part(r).tol)
             .sum::<f64>();
+    let mut md = String::from(
+        "| corner | gain − 1 | delay Δt | beyond gain and delay | C uncalibrated, 4 ms tones | 1 ms tones |\n|---|---:|---:|---:|---:|---:|\n",
+    );
     for (corner, b) in corners(&board).into_iter().skip(1) {
         let rows = reads(&b);
+        let each: Vec<_> = range()
+            .iter()
+            .skip(1)
+            .map(|(_, sensor)| reads(&b.with_sensors(*sensor)))
+            .collect();
+        let every: Vec<&[_]> = std::iter::once(rows.as_slice())
+            .chain(each.iter().map(Vec::as_slice))
+            .collect();
+        let c_off = |layout: Layout| uncalibrated_c(&layout, &every);
         // Against the nominal board's own ratio: what the spread adds.
         let ratio: Vec<(f64, Complex64)> = rows
             .iter()
@@ -160,7 +183,37 @@ fn the_parts_spread_is_a_gain_and_a_delay_per_path() {
             "{corner}: delay {dt:e} s, not {spread:e}"
         );
         assert!(worst <= 1e-4, "{corner}: {worst:e} beyond a gain and a delay");
+        md += &format!(
+            "| {corner} | {:+.3} % | {:+.1} ns | {worst:.0e} | {:.2} % | {:.2} % |\n",
+            100.0 * (g - 1.0),
+            dt * 1e9,
+            100.0 * c_off(Layout::BLOCK_4MS),
+            100.0 * c_off(Layout::BLOCK_1MS)
+        );
     }
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-spread", &md, 0.02).unwrap();
+}
+
+/// The worst error of C from one tone of `layout`, over the sensors of
+/// the range (`reads`: each one's, in the order of [`range`]) where the
+/// policy may read it (x ≤ 4): what the spread leaves a board that no
+/// calibration corrects.
+fn uncalibrated_c(layout: &Layout, reads: &[&[(f64, Complex64, Complex64)]]) -> f64 {
+    let mut worst = 0f64;
+    for ((_, sensor), rows) in range().iter().zip(reads) {
+        for &(f, read, truth) in rows.iter() {
+            let x = std::f64::consts::TAU * f * sensor.r_ohm * sensor.c_farad;
+            if x <= 4.0 && layout.tones_hz().contains(&(f as f32)) {
+                let (a, t) = (
+                    c_of(read, f).expect("the read inverts"),
+                    c_of(truth, f).expect("the truth inverts"),
+                );
+                worst = worst.max((a / t - 1.0).abs());
+            }
+        }
+    }
+    worst
 }
 
 /// The noise of one oversampled result from the analog path, counts:
@@ -204,14 +257,21 @@ fn the_analog_noise_is_within_what_the_accuracy_figures_assume() {
     let assumed = skin_spec::array::NOISE_COUNTS as f64;
     let allowed = assumed * (1.1f64.powi(2) - 1.0).sqrt();
     let mut worst = 0f64;
+    let mut md = String::from("| sensor | a stage's input | the voltage input | with the converter's, in quadrature |\n|---|---:|---:|---:|\n");
     for (name, sensor) in range() {
         let board = array::board().with_sensors(sensor);
-        for node in [array::SENSOR_PINS[0], array::VOLTAGE_PIN] {
-            let n = result_noise_counts(&board, node);
-            println!("{name:>16} at {node}: {n:.2} counts rms (converter: {assumed})");
-            worst = worst.max(n);
-        }
+        let n = [array::SENSOR_PINS[0], array::VOLTAGE_PIN].map(|node| result_noise_counts(&board, node));
+        md += &format!(
+            "| {name} | {:.2} | {:.2} | {:.2} ({:+.1} %) |\n",
+            n[0],
+            n[1],
+            n[0].hypot(assumed),
+            100.0 * (n[0].hypot(assumed) / assumed - 1.0)
+        );
+        worst = worst.max(n[0]).max(n[1]);
     }
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-noise", &md, 0.02).unwrap();
     assert!(worst <= allowed, "{worst} counts, more than {allowed}");
 }
 
@@ -244,6 +304,7 @@ fn comb_run(board: &Circuit, layout: &Layout) -> Vec<Vec<f64>> {
     spice::tran(
         board,
         &dac_pwl(layout),
+        "",
         &["EXC", "TIA0"],
         1e-6,
         block,
@@ -281,7 +342,11 @@ fn the_comb_reaches_the_sensors_and_no_stage_clips() {
     // Eight sections a line: the current's shape within 10⁻³ (x ≤ 2).
     let board = array::board().with_sensors(largest).with_sections(8);
     let bias = skin_spec::design::BIAS_VOLT;
+    let mut md = String::from(
+        "| block | worst tone at the sensors | buffer's swing | stage 0's swing |\n|---|---:|---:|---:|\n",
+    );
     for layout in Layout::ALL {
+        let mut off = 0f64;
         let rows = comb_run(&board, &layout);
         let n = layout.instants() * skin_spec::array::DAC_PER_INSTANT;
         let rows = &rows[rows.len() - n..];
@@ -293,13 +358,21 @@ fn the_comb_reaches_the_sensors_and_no_stage_clips() {
                 layout.block_us() / 1000
             );
             assert!((got / want - 1.0).abs() <= 3e-3, "{f} Hz: {got} V, not {want} V");
+            off = off.max((got / want - 1.0).abs());
         }
         let peak = |k: usize| rows.iter().map(|r| (r[k] - bias).abs()).fold(0.0, f64::max);
         let (swing, out) = (peak(1), peak(2));
         println!("buffer ±{swing:.3} V, stage 0 ±{out:.3} V around {bias} V");
         assert!(swing <= 1.45, "the buffer swings ±{swing} V");
         assert!(out <= bias - 0.1, "stage 0 swings ±{out} V");
+        md += &format!(
+            "| {} ms | {:.2} % off | ±{swing:.3} V | ±{out:.3} V |\n",
+            layout.block_us() / 1000,
+            100.0 * off
+        );
     }
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-swing", &md, 0.02).unwrap();
 }
 
 /// A current step into sensor 0's stage, with every sensor of the range
@@ -309,6 +382,9 @@ fn the_comb_reaches_the_sensors_and_no_stage_clips() {
 /// instant's first conversion could see it.
 #[test]
 fn every_stage_is_stable_with_the_longest_cable() {
+    let mut md = String::from(
+        "| sensor, with 20 pF across and to the shield | overshoot | off after 10 µs |\n|---|---:|---:|\n",
+    );
     for (name, sensor) in range() {
         let sensor = Sensor {
             cable_farad: 20e-12,
@@ -317,25 +393,7 @@ fn every_stage_is_stable_with_the_longest_cable() {
         };
         let board = array::board().with_sensors(sensor);
         let step = "IINJ 0 TAB0 PULSE(0 1e-6 2e-6 1e-9 1e-9 1 2)";
-        let text = |dir: &std::path::Path| {
-            let c = format!(
-                "{step}\n.control\nset wr_singlescale\nset numdgt=12\ntran 1e-9 14e-6 0 5e-9\nlinearize\nwrdata {} v(TIA0)\nquit\n.endc",
-                dir.join("step.txt").display()
-            );
-            board.netlist("DC 1.65", &c)
-        };
-        let rows = spice::run(text, |dir| {
-            let text = std::fs::read_to_string(dir.join("step.txt")).map_err(|e| e.to_string())?;
-            Ok(text
-                .lines()
-                .map(|l| {
-                    l.split_whitespace()
-                        .map(|v| v.parse::<f64>().unwrap())
-                        .collect::<Vec<_>>()
-                })
-                .collect::<Vec<_>>())
-        })
-        .expect("ngspice's step");
+        let rows = spice::tran(&board, "DC 1.65", step, &["TIA0"], 5e-9, 0.0, 14e-6).expect("ngspice's step");
         let base = rows[0][1];
         let out: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], base - r[1])).collect();
         let want = SENSOR_TIA_OHM * 1e-6;
@@ -351,5 +409,48 @@ fn every_stage_is_stable_with_the_longest_cable() {
             (at_12us / want - 1.0).abs() <= 2e-3,
             "{name}: {at_12us} V at 10 µs, not {want} V"
         );
+        md += &format!(
+            "| {name} | {:.1} % | {:.2} % |\n",
+            100.0 * (peak / want - 1.0),
+            100.0 * (at_12us / want - 1.0).abs()
+        );
     }
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-step", &md, 0.02).unwrap();
+}
+
+/// What the analog path and the mean of a result's 16 conversions do to
+/// an interferer at an alias of each tone (the sample rate less the
+/// tone, as the disturbance table's alias row puts one), against the
+/// tone itself, both entering at a sensor's tab: the array has no
+/// anti-alias filter of its own (one that passed 6 kHz flat to 10⁻³ in
+/// phase across two paths' parts would reject little at 19 kHz), so this
+/// is the rejection docs/disturbances.md's alias rows are worth at the
+/// sensor.
+#[test]
+fn the_aliases_of_every_tone_are_tabulated() {
+    use skin_spec::array::{ADC_CLOCK_HZ, CONVERSION_CYCLES, OVERSAMPLING, RATE_HZ};
+    let ts = CONVERSION_CYCLES as f64 / ADC_CLOCK_HZ as f64;
+    let mean = |f: f64| {
+        let x = std::f64::consts::PI * f * ts;
+        let m = OVERSAMPLING as f64;
+        ((m * x).sin() / (m * x.sin())).abs()
+    };
+    let tones = tones();
+    let aliases: Vec<f64> = tones.iter().map(|f| RATE_HZ as f64 - f).collect();
+    let all: Vec<f64> = tones.iter().chain(&aliases).copied().collect();
+    let rows = spice::ac(&array::board(), "DC 1.65", "IINJ 0 TAB0 AC 1", &["v(PC0)"], &all)
+        .expect("ngspice's AC analysis");
+    let mut md = String::from("| tone | its alias | rejection |\n|---|---:|---:|\n");
+    for (k, f) in tones.iter().enumerate() {
+        let (at_tone, at_alias) = (
+            rows[k][0].norm() * mean(*f),
+            rows[tones.len() + k][0].norm() * mean(aliases[k]),
+        );
+        let db = 20.0 * (at_tone / at_alias).log10();
+        assert!(db >= 0.0, "{f} Hz: its alias passes {db} dB more");
+        md += &format!("| {f} Hz | {} Hz | {db:.1} dB |\n", aliases[k]);
+    }
+    println!("{md}");
+    figures::check_within("docs/hardware.md", "array-aliases", &md, 0.02).unwrap();
 }
