@@ -20,6 +20,7 @@
 //! 100 Ω and 1 nF (the sampling capacitor's charge reservoir, 1.6 MHz)
 //! are on every path alike.
 
+use crate::blocks;
 use crate::circuit::{Circuit, Kind, Sensor};
 use crate::parts::{self, Part};
 use skin_spec::array::SENSORS;
@@ -32,14 +33,11 @@ pub const SENSOR_PINS: [&str; SENSORS] = [
     "PC0", "PC1", "PC2", "PA6", "PA7", "PC4", "PC5", "PB0", "PB1", "PB13", "PA1", "PA8", "PA9", "PC3",
     "PB11", "PB12",
 ];
-/// The excitation's voltage input.
-pub const VOLTAGE_PIN: &str = "PA0";
+pub use crate::blocks::{DAC_PIN, VOLTAGE_PIN};
 /// The self-test's reference network's input (spare input 17).
 pub const REFERENCE_PIN: &str = "PB14";
 /// The other spare input (18), held at the bias.
 pub const SPARE_PIN: &str = "PB15";
-/// The DAC's output.
-pub const DAC_PIN: &str = "PA4";
 
 /// The op-amp section of transimpedance stage `s` (0–15: sensors; 16:
 /// the reference network): U1A … U4D, then U5A.
@@ -50,8 +48,9 @@ fn stage(s: usize) -> String {
 /// The array board as built, the paper's sensor on every connector.
 pub fn board() -> Circuit {
     let mut c = Circuit::new("skin-array-board front end: sixteen DE sensors, one comb excitation");
-    excitation(&mut c);
-    voltage_path(&mut c);
+    blocks::excitation(&mut c, "U5B", "the comb, 1 MSa/s");
+    blocks::voltage_path(&mut c, "U5D", parts::R_3K3, parts::C_270P);
+    blocks::bias(&mut c, "U5C");
     for (s, pin) in SENSOR_PINS.iter().enumerate() {
         let j = format!("J{}", s + 1);
         let tab = format!("TAB{s}");
@@ -84,7 +83,7 @@ pub fn board() -> Circuit {
         block,
     );
     transimpedance(&mut c, SENSORS, "TABREF", REFERENCE_PIN, "the reference network");
-    adc_input(
+    blocks::adc_input(
         &mut c,
         "SP",
         "BIAS",
@@ -94,141 +93,6 @@ pub fn board() -> Circuit {
     );
     supplies(&mut c);
     c
-}
-
-/// PA4 through a unity-gain Sallen–Key low-pass (43 kHz, Q 0.73: the
-/// DAC's 1 MSa/s steps' images 50 dB down, the comb's 4 kHz flat within
-/// 10⁻⁴) to the buffered excitation, EXC.
-fn excitation(c: &mut Circuit) {
-    let b = "excitation";
-    c.add(
-        DAC_PIN,
-        Kind::DacPin,
-        None,
-        &[DAC_PIN],
-        "DAC1_OUT1: the comb, 1 MSa/s",
-        b,
-    );
-    c.add(
-        "R1",
-        Kind::Resistor,
-        Some(parts::R_5K36),
-        &[DAC_PIN, "SK1"],
-        "reconstruction filter",
-        b,
-    );
-    c.add(
-        "R2",
-        Kind::Resistor,
-        Some(parts::R_5K36),
-        &["SK1", "SK2"],
-        "reconstruction filter",
-        b,
-    );
-    c.add(
-        "C1",
-        Kind::Capacitor,
-        Some(parts::C_1N),
-        &["SK1", "EXCB"],
-        "reconstruction filter (feedback)",
-        b,
-    );
-    c.add(
-        "C2",
-        Kind::Capacitor,
-        Some(parts::C_470P),
-        &["SK2", "0"],
-        "reconstruction filter",
-        b,
-    );
-    c.add(
-        "U5B",
-        Kind::OpAmp,
-        Some(parts::MCP6024),
-        &["SK2", "EXCB", "EXCB"],
-        "excitation buffer",
-        b,
-    );
-    c.add(
-        "R3",
-        Kind::Resistor,
-        Some(parts::R_49R9),
-        &["EXCB", "EXC"],
-        "buffer's isolation from the cables",
-        b,
-    );
-}
-
-/// EXC through the pole matched to the stages' (3.3 kΩ, 270 pF) and a
-/// follower to PA0; the bias, VDDA/2, buffered.
-fn voltage_path(c: &mut Circuit) {
-    let b = "voltage";
-    c.add(
-        "R4",
-        Kind::Resistor,
-        Some(parts::R_3K3),
-        &["EXC", "VRC"],
-        "voltage path: pole matched to R_f·C_f",
-        b,
-    );
-    c.add(
-        "C3",
-        Kind::Capacitor,
-        Some(parts::C_270P),
-        &["VRC", "0"],
-        "voltage path: pole matched to R_f·C_f",
-        b,
-    );
-    c.add(
-        "U5D",
-        Kind::OpAmp,
-        Some(parts::MCP6024),
-        &["VRC", "VBUF", "VBUF"],
-        "voltage path follower",
-        b,
-    );
-    adc_input(c, "V", "VBUF", VOLTAGE_PIN, "the excitation's voltage", b);
-    let b = "bias";
-    c.add(
-        "R5",
-        Kind::Resistor,
-        Some(parts::R_10K),
-        &["VDDA", "BIASD"],
-        "bias divider",
-        b,
-    );
-    c.add(
-        "R6",
-        Kind::Resistor,
-        Some(parts::R_10K),
-        &["BIASD", "0"],
-        "bias divider",
-        b,
-    );
-    c.add(
-        "C4",
-        Kind::Capacitor,
-        Some(parts::C_100N),
-        &["BIASD", "0"],
-        "bias divider's filter",
-        b,
-    );
-    c.add(
-        "U5C",
-        Kind::OpAmp,
-        Some(parts::MCP6024),
-        &["BIASD", "BIAS", "BIAS"],
-        "bias buffer, VDDA/2",
-        b,
-    );
-    c.add(
-        "C5",
-        Kind::Capacitor,
-        Some(parts::C_100N),
-        &["BIAS", "0"],
-        "bias decoupling",
-        b,
-    );
 }
 
 /// Transimpedance stage `s` from `tab` to the ADC input `pin`.
@@ -263,35 +127,7 @@ fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
         &format!("{what}: feedback (stability)"),
         &b,
     );
-    adc_input(c, &id, &out, pin, what, &b);
-}
-
-/// `from` through 100 Ω to ADC pin `pin`, 1 nF there.
-fn adc_input(c: &mut Circuit, id: &str, from: &str, pin: &str, what: &str, block: &str) {
-    c.add(
-        &format!("RA{id}"),
-        Kind::Resistor,
-        Some(parts::R_100),
-        &[from, pin],
-        &format!("{what}: ADC input"),
-        block,
-    );
-    c.add(
-        &format!("CA{id}"),
-        Kind::Capacitor,
-        Some(parts::C_1N),
-        &[pin, "0"],
-        &format!("{what}: ADC charge reservoir"),
-        block,
-    );
-    c.add(
-        pin,
-        Kind::AdcPin,
-        None,
-        &[pin],
-        &format!("{what}: ADC input"),
-        block,
-    );
+    blocks::adc_input(c, &id, &out, pin, what, &b);
 }
 
 /// One 100 nF per op-amp package, and the Nucleo's two morpho sockets.

@@ -6,6 +6,7 @@
 //! against the constants the firmware assumes (`tests/`).
 
 pub mod array;
+pub mod blocks;
 pub mod bom;
 pub mod circuit;
 pub mod files;

@@ -1,0 +1,178 @@
+//! The pieces both boards share: the excitation's reconstruction filter
+//! and buffer, the voltage path, the bias, and an ADC input.
+
+use crate::circuit::{Circuit, Kind};
+use crate::parts::{self, Part};
+
+/// The DAC's output pin.
+pub const DAC_PIN: &str = "PA4";
+/// The excitation's voltage input.
+pub const VOLTAGE_PIN: &str = "PA0";
+
+/// PA4 through a unity-gain Sallen–Key low-pass (43 kHz, Q 0.73: the
+/// DAC's steps' images 26 dB (200 kSa/s) to 50 dB (1 MSa/s) down, 6 kHz
+/// flat within 10⁻⁴) to the buffered excitation, EXC, through `buffer`
+/// (an op-amp section) and 49.9 Ω; `what` the DAC plays.
+pub fn excitation(c: &mut Circuit, buffer: &str, what: &str) {
+    let b = "excitation";
+    c.add(
+        DAC_PIN,
+        Kind::DacPin,
+        None,
+        &[DAC_PIN],
+        &format!("DAC1_OUT1: {what}"),
+        b,
+    );
+    c.add(
+        "R1",
+        Kind::Resistor,
+        Some(parts::R_5K36),
+        &[DAC_PIN, "SK1"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        "R2",
+        Kind::Resistor,
+        Some(parts::R_5K36),
+        &["SK1", "SK2"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        "C1",
+        Kind::Capacitor,
+        Some(parts::C_1N),
+        &["SK1", "EXCB"],
+        "reconstruction filter (feedback)",
+        b,
+    );
+    c.add(
+        "C2",
+        Kind::Capacitor,
+        Some(parts::C_470P),
+        &["SK2", "0"],
+        "reconstruction filter",
+        b,
+    );
+    c.add(
+        buffer,
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["SK2", "EXCB", "EXCB"],
+        "excitation buffer",
+        b,
+    );
+    c.add(
+        "R3",
+        Kind::Resistor,
+        Some(parts::R_49R9),
+        &["EXCB", "EXC"],
+        "buffer's isolation from the cables",
+        b,
+    );
+}
+
+/// EXC through the pole matched to the stages' (`r` and `cap`) and the
+/// `follower` op-amp section to PA0.
+pub fn voltage_path(c: &mut Circuit, follower: &str, r: Part, cap: Part) {
+    let b = "voltage";
+    c.add(
+        "R4",
+        Kind::Resistor,
+        Some(r),
+        &["EXC", "VRC"],
+        "voltage path: pole matched to R_f·C_f",
+        b,
+    );
+    c.add(
+        "C3",
+        Kind::Capacitor,
+        Some(cap),
+        &["VRC", "0"],
+        "voltage path: pole matched to R_f·C_f",
+        b,
+    );
+    c.add(
+        follower,
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["VRC", "VBUF", "VBUF"],
+        "voltage path follower",
+        b,
+    );
+    adc_input(c, "V", "VBUF", VOLTAGE_PIN, "the excitation's voltage", b);
+}
+
+/// The bias, VDDA/2 from two 10 kΩ, through the `buffer` op-amp section.
+pub fn bias(c: &mut Circuit, buffer: &str) {
+    let b = "bias";
+    c.add(
+        "R5",
+        Kind::Resistor,
+        Some(parts::R_10K),
+        &["VDDA", "BIASD"],
+        "bias divider",
+        b,
+    );
+    c.add(
+        "R6",
+        Kind::Resistor,
+        Some(parts::R_10K),
+        &["BIASD", "0"],
+        "bias divider",
+        b,
+    );
+    c.add(
+        "C4",
+        Kind::Capacitor,
+        Some(parts::C_100N),
+        &["BIASD", "0"],
+        "bias divider's filter",
+        b,
+    );
+    c.add(
+        buffer,
+        Kind::OpAmp,
+        Some(parts::MCP6024),
+        &["BIASD", "BIAS", "BIAS"],
+        "bias buffer, VDDA/2",
+        b,
+    );
+    c.add(
+        "C5",
+        Kind::Capacitor,
+        Some(parts::C_100N),
+        &["BIAS", "0"],
+        "bias decoupling",
+        b,
+    );
+}
+
+/// `from` through 100 Ω to ADC pin `pin`, 1 nF there.
+pub fn adc_input(c: &mut Circuit, id: &str, from: &str, pin: &str, what: &str, block: &str) {
+    c.add(
+        &format!("RA{id}"),
+        Kind::Resistor,
+        Some(parts::R_100),
+        &[from, pin],
+        &format!("{what}: ADC input"),
+        block,
+    );
+    c.add(
+        &format!("CA{id}"),
+        Kind::Capacitor,
+        Some(parts::C_1N),
+        &[pin, "0"],
+        &format!("{what}: ADC charge reservoir"),
+        block,
+    );
+    c.add(
+        pin,
+        Kind::AdcPin,
+        None,
+        &[pin],
+        &format!("{what}: ADC input"),
+        block,
+    );
+}
