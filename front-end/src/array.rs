@@ -48,8 +48,10 @@ fn stage(s: usize) -> String {
 /// The array board as built, the paper's sensor on every connector.
 pub fn board() -> Circuit {
     let mut c = Circuit::new("skin-array-board front end: sixteen DE sensors, one comb excitation");
-    blocks::excitation(&mut c, "U5B", "the comb, 1 MSa/s");
-    blocks::voltage_path(&mut c, "U5D", parts::R_3K3, parts::C_270P);
+    // 43 kHz, Q 0.73: the DAC's 1 MSa/s steps' images 50 dB down, 6 kHz
+    // flat within 10⁻⁴.
+    blocks::excitation(&mut c, "U5B", "the comb, 1 MSa/s", [parts::C_1N, parts::C_470P]);
+    blocks::voltage_path(&mut c, "U5D", parts::R_3K3, parts::C_270P, blocks::RESERVOIR);
     blocks::bias(&mut c, "U5C");
     for (s, pin) in SENSOR_PINS.iter().enumerate() {
         let j = format!("J{}", s + 1);
@@ -85,6 +87,7 @@ pub fn board() -> Circuit {
     transimpedance(&mut c, SENSORS, "TABREF", REFERENCE_PIN, "the reference network");
     blocks::adc_input(
         &mut c,
+        blocks::RESERVOIR,
         "SP",
         "BIAS",
         SPARE_PIN,
@@ -127,7 +130,7 @@ fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
         &format!("{what}: feedback (stability)"),
         &b,
     );
-    blocks::adc_input(c, &id, &out, pin, what, &b);
+    blocks::adc_input(c, blocks::RESERVOIR, &id, &out, pin, what, &b);
 }
 
 /// One 100 nF per op-amp package, and the Nucleo's two morpho sockets.

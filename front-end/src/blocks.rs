@@ -9,11 +9,10 @@ pub const DAC_PIN: &str = "PA4";
 /// The excitation's voltage input.
 pub const VOLTAGE_PIN: &str = "PA0";
 
-/// PA4 through a unity-gain Sallen–Key low-pass (43 kHz, Q 0.73: the
-/// DAC's steps' images 26 dB (200 kSa/s) to 50 dB (1 MSa/s) down, 6 kHz
-/// flat within 10⁻⁴) to the buffered excitation, EXC, through `buffer`
-/// (an op-amp section) and 49.9 Ω; `what` the DAC plays.
-pub fn excitation(c: &mut Circuit, buffer: &str, what: &str) {
+/// PA4 through a unity-gain Sallen–Key low-pass (two 5.36 kΩ, `caps` the
+/// feedback and the ground capacitor) to the buffered excitation, EXC,
+/// through `buffer` (an op-amp section) and 49.9 Ω; `what` the DAC plays.
+pub fn excitation(c: &mut Circuit, buffer: &str, what: &str, caps: [Part; 2]) {
     let b = "excitation";
     c.add(
         DAC_PIN,
@@ -42,7 +41,7 @@ pub fn excitation(c: &mut Circuit, buffer: &str, what: &str) {
     c.add(
         "C1",
         Kind::Capacitor,
-        Some(parts::C_1N),
+        Some(caps[0]),
         &["SK1", "EXCB"],
         "reconstruction filter (feedback)",
         b,
@@ -50,7 +49,7 @@ pub fn excitation(c: &mut Circuit, buffer: &str, what: &str) {
     c.add(
         "C2",
         Kind::Capacitor,
-        Some(parts::C_470P),
+        Some(caps[1]),
         &["SK2", "0"],
         "reconstruction filter",
         b,
@@ -74,8 +73,8 @@ pub fn excitation(c: &mut Circuit, buffer: &str, what: &str) {
 }
 
 /// EXC through the pole matched to the stages' (`r` and `cap`) and the
-/// `follower` op-amp section to PA0.
-pub fn voltage_path(c: &mut Circuit, follower: &str, r: Part, cap: Part) {
+/// `follower` op-amp section to PA0 through `filter`.
+pub fn voltage_path(c: &mut Circuit, follower: &str, r: Part, cap: Part, filter: AdcFilter) {
     let b = "voltage";
     c.add(
         "R4",
@@ -101,7 +100,7 @@ pub fn voltage_path(c: &mut Circuit, follower: &str, r: Part, cap: Part) {
         "voltage path follower",
         b,
     );
-    adc_input(c, "V", "VBUF", VOLTAGE_PIN, "the excitation's voltage", b);
+    adc_input(c, filter, "V", "VBUF", VOLTAGE_PIN, "the excitation's voltage", b);
 }
 
 /// The bias, VDDA/2 from two 10 kΩ, through the `buffer` op-amp section.
@@ -149,12 +148,34 @@ pub fn bias(c: &mut Circuit, buffer: &str) {
     );
 }
 
-/// `from` through 100 Ω to ADC pin `pin`, 1 nF there.
-pub fn adc_input(c: &mut Circuit, id: &str, from: &str, pin: &str, what: &str, block: &str) {
+/// An ADC input's series resistor and the capacitor at its pin.
+pub type AdcFilter = [Part; 2];
+
+/// The array's: 100 Ω and 1 nF (1.6 MHz): the sampling capacitor's
+/// charge reservoir; its 16 conversions a result average the rest.
+pub const RESERVOIR: AdcFilter = [parts::R_100, parts::C_1N];
+
+/// The multiplexed board's: 160 Ω and 10 nF, 0.1 % and 1 % (100 kHz): one
+/// conversion a sample folds in all the op-amp passes, so the noise above
+/// the tones is cut before the pin, on the voltage's path and the
+/// current's alike.
+pub const ANTI_ALIAS: AdcFilter = [parts::R_160, parts::C_10N];
+
+/// `from` through `filter`'s resistor to ADC pin `pin`, its capacitor
+/// there.
+pub fn adc_input(
+    c: &mut Circuit,
+    filter: AdcFilter,
+    id: &str,
+    from: &str,
+    pin: &str,
+    what: &str,
+    block: &str,
+) {
     c.add(
         &format!("RA{id}"),
         Kind::Resistor,
-        Some(parts::R_100),
+        Some(filter[0]),
         &[from, pin],
         &format!("{what}: ADC input"),
         block,
@@ -162,7 +183,7 @@ pub fn adc_input(c: &mut Circuit, id: &str, from: &str, pin: &str, what: &str, b
     c.add(
         &format!("CA{id}"),
         Kind::Capacitor,
-        Some(parts::C_1N),
+        Some(filter[1]),
         &[pin, "0"],
         &format!("{what}: ADC charge reservoir"),
         block,

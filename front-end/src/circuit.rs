@@ -23,6 +23,12 @@ pub enum Kind {
     AdcPin,
     /// The DAC's output pin (PA4): the stimulus of an analysis.
     DacPin,
+    /// A GPIO pin of the Nucleo driving a logic line (a multiplexer's
+    /// address), as the board's [`Circuit::drives`] set it.
+    GpioPin,
+    /// A device with a SPICE model of its own (`models`): its nodes in
+    /// the model's order, the supply last.
+    Device(&'static str),
 }
 
 /// One element of a board.
@@ -62,6 +68,9 @@ pub struct Circuit {
     /// Sections of each sensor's line ([`SECTIONS`]; fewer for a
     /// transient, where the line's fine shape is not what is asked).
     pub sections: usize,
+    /// What drives each GPIO pin (its SPICE source's value: `DC 3.3`, a
+    /// `PWL(…)`); a pin not listed is low.
+    pub drives: Vec<(String, String)>,
 }
 
 /// A DE sensor as a simulation sees it off the board: a line of
@@ -114,6 +123,7 @@ impl Circuit {
             elements: Vec::new(),
             sensors: Vec::new(),
             sections: SECTIONS,
+            drives: Vec::new(),
         }
     }
 
@@ -162,6 +172,15 @@ impl Circuit {
         }
     }
 
+    /// The same board with GPIO pin `pin` driven by `source` (a SPICE
+    /// source's value).
+    pub fn driven(&self, pin: &str, source: &str) -> Self {
+        let mut c = self.clone();
+        c.drives.retain(|(p, _)| p != pin);
+        c.drives.push((pin.to_string(), source.to_string()));
+        c
+    }
+
     /// Every connector carrying `sensor`.
     pub fn with_sensors(&self, sensor: Sensor) -> Self {
         let mut c = self.clone();
@@ -181,6 +200,13 @@ impl Circuit {
         );
         s += crate::models::OPAMP;
         s += crate::models::ADC_INPUT;
+        for e in &self.elements {
+            if let Kind::Device(model) = e.kind {
+                if !s.contains(&format!(".subckt {model} ")) {
+                    s += &crate::models::device(model);
+                }
+            }
+        }
         s += "\nVDDA VDDA 0 3.3\n";
         for e in &self.elements {
             let n = e.nodes.join(" ");
@@ -191,6 +217,15 @@ impl Circuit {
                 Kind::Connector => format!("* {} ({}): {n}", e.reference, e.function),
                 Kind::AdcPin => format!("XADC_{} {n} ADC_INPUT", e.reference),
                 Kind::DacPin => format!("VDAC_{} {n} 0 {stimulus}", e.reference),
+                Kind::GpioPin => {
+                    let drive = self
+                        .drives
+                        .iter()
+                        .find(|(p, _)| *p == e.reference)
+                        .map_or("DC 0", |(_, d)| d);
+                    format!("VGPIO_{} {n} 0 {drive}", e.reference)
+                }
+                Kind::Device(model) => format!("X{} {n} {model}", e.reference),
             };
             let _ = writeln!(s, "{line}");
         }

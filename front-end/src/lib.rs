@@ -11,6 +11,7 @@ pub mod bom;
 pub mod circuit;
 pub mod files;
 pub mod models;
+pub mod mux;
 pub mod parts;
 pub mod schematic;
 pub mod spice;

@@ -79,3 +79,78 @@ pub fn sensor(name: &str, top: &str, bottom: &str, s: &Sensor, sections: usize) 
     }
     out
 }
+
+/// An analog multiplexer of `channels` (8 or 4): drain `d`, sources
+/// `s1…`, address lines `a0…` (high above VDD/2), supply `vdd`. Its
+/// figures are bounds no better than the data sheets' (ADG708: 3 Ω on
+/// resistance typical at 5 V, more at 3.3 V; TMUX1104: a few Ω): on
+/// resistance `ron` Ω, each source's and the drain's capacitance to
+/// ground, and charge injection as a capacitance from each address line
+/// to the drain (Q = C·VDD on every edge: the gate charge the decoder's
+/// switching couples in). `tests/mux.rs` passes with them; a part with
+/// smaller ones only does better. A switch is a conductance its decoder
+/// sets (ngspice-39's own switch reads open in an AC analysis whatever
+/// its control).
+fn mux_model(name: &str, channels: usize, ron: f64, c_source: f64, c_drain: f64, q_coulomb: f64) -> String {
+    let lines = channels.trailing_zeros() as usize;
+    let sources: Vec<String> = (1..=channels).map(|k| format!("s{k}")).collect();
+    let address: Vec<String> = (0..lines).map(|k| format!("a{k}")).collect();
+    let mut m = format!(
+        ".subckt {name} d {} {} vdd\n",
+        sources.join(" "),
+        address.join(" ")
+    );
+    let code: Vec<String> = (0..lines)
+        .map(|k| format!("(V(a{k}) > V(vdd)/2 ? {} : 0)", 1 << k))
+        .collect();
+    let _ = writeln!(m, "Bcode code 0 V = {}", code.join(" + "));
+    for k in 1..=channels {
+        let _ = writeln!(
+            m,
+            "Bc{k} c{k} 0 V = abs(V(code) - {}) < 0.5 ? 1 : 0\nBs{k} d s{k} I = (V(d) - V(s{k})) * (V(c{k}) * {:e} + 1e-12)\nCs{k} s{k} 0 {c_source:e}",
+            k - 1,
+            1.0 / ron
+        );
+    }
+    let _ = writeln!(m, "Cd d 0 {c_drain:e}");
+    for k in 0..lines {
+        let _ = writeln!(m, "Cq{k} a{k} d {:e}", q_coulomb / 3.3);
+    }
+    m += ".ends\n";
+    m
+}
+
+/// The sensors' multiplexer, ADG708 (8:1), as [`mux_model`] bounds it:
+/// 10 Ω on, 15 pF at each source, 100 pF at the drain, 5 pC injected on
+/// an address edge.
+pub fn adg708() -> String {
+    mux_model("ADG708", 8, 10.0, 15e-12, 100e-12, 5e-12)
+}
+
+/// The range switch, TMUX1104 (4:1), as [`mux_model`] bounds it: 10 Ω
+/// on, 10 pF at each source, 30 pF at the drain, 5 pC on an edge.
+pub fn tmux1104() -> String {
+    mux_model("TMUX1104", 4, 10.0, 10e-12, 30e-12, 5e-12)
+}
+
+/// The model of device `name` ([`adg708`], [`tmux1104`]); empty for one
+/// this crate has no model of.
+pub fn device(name: &str) -> String {
+    match name {
+        "ADG708" => adg708(),
+        "TMUX1104" => tmux1104(),
+        _ => String::new(),
+    }
+}
+
+/// The pins of device `name`'s model, in the order its netlist line
+/// gives its nodes.
+pub fn pins(name: &str) -> &'static [&'static str] {
+    match name {
+        "ADG708" => &[
+            "D", "S1", "S2", "S3", "S4", "S5", "S6", "S7", "S8", "A0", "A1", "A2", "VDD",
+        ],
+        "TMUX1104" => &["D", "S1", "S2", "S3", "S4", "A0", "A1", "VDD"],
+        _ => &[],
+    }
+}

@@ -66,6 +66,19 @@ pub const R_3K3: Part = r("ERA-3AEB332V", "3.3 kΩ", 3.3e3, 0.001, "0.1 %");
 pub const R_5K36: Part = r("ERA-3AEB5361V", "5.36 kΩ", 5.36e3, 0.001, "0.1 %");
 /// 10 kΩ, 0.1 %: the bias divider.
 pub const R_10K: Part = r("ERA-3AEB103V", "10 kΩ", 10e3, 0.001, "0.1 %");
+/// 160 Ω, 0.1 %: the multiplexed board's anti-alias filter at each ADC
+/// input (matched between the voltage's and the current's).
+pub const R_160: Part = r("ERA-3AEB161V", "160 Ω", 160.0, 0.001, "0.1 %");
+/// 10 nF, 1 %, C0G (0805): with [`R_160`].
+pub const C_10N: Part = Part {
+    manufacturer: "KEMET",
+    number: "C0805C103F5GACTU",
+    package: "0805",
+    value: "10 nF",
+    tolerance: "1 %",
+    si: 10e-9,
+    tol: 0.01,
+};
 /// 100 Ω, 1 %: each ADC input's series resistor.
 pub const R_100: Part = r("RC0603FR-07100RL", "100 Ω", 100.0, 0.01, "1 %");
 /// 49.9 Ω, 1 %: the excitation buffer's isolation from the cables.
@@ -93,6 +106,11 @@ pub const C_470P: Part = c("KEMET", "C0603C471F5GACTU", "470 pF", 470e-12, 0.01,
 /// 1 nF, 1 %, C0G: the reconstruction filter; each ADC input's charge
 /// reservoir.
 pub const C_1N: Part = c("KEMET", "C0603C102F5GACTU", "1 nF", 1e-9, 0.01, "1 %");
+/// 3.3 nF and 1.5 nF, 1 %, C0G: the multiplexed board's reconstruction
+/// filter.
+pub const C_3N3: Part = c("KEMET", "C0603C332F5GACTU", "3.3 nF", 3.3e-9, 0.01, "1 %");
+/// See [`C_3N3`].
+pub const C_1N5: Part = c("KEMET", "C0603C152F5GACTU", "1.5 nF", 1.5e-9, 0.01, "1 %");
 /// 100 nF, 10 %, X7R: decoupling and the bias.
 pub const C_100N: Part = c("Murata", "GRM188R71H104KA93D", "100 nF", 100e-9, 0.1, "10 %");
 
@@ -129,4 +147,66 @@ pub const MORPHO: Part = Part {
     tolerance: "",
     si: 0.0,
     tol: 0.0,
+};
+
+/// 100 kΩ, 220 kΩ, 470 kΩ and 1 MΩ, 0.1 %: the multiplexed board's four
+/// ranges ([`skin_spec::design::TIA_RANGES_OHM`]).
+pub const R_RANGES: [Part; 4] = [
+    r("ERA-3AEB104V", "100 kΩ", 100e3, 0.001, "0.1 %"),
+    r("ERA-3AEB224V", "220 kΩ", 220e3, 0.001, "0.1 %"),
+    r("ERA-3AEB474V", "470 kΩ", 470e3, 0.001, "0.1 %"),
+    r("ERA-3AEB105V", "1 MΩ", 1e6, 0.001, "0.1 %"),
+];
+/// Each range's feedback capacitor, C0G: one time constant, 4.7 µs, for
+/// all four (the voltage path's pole matches it), 47 pF … 4.7 pF; the
+/// 220 kΩ range's 21.3 pF is 18 pF with [`C_3P3`] beside it.
+pub const C_RANGES: [Part; 4] = [
+    c("KEMET", "C0603C470F5GACTU", "47 pF", 47e-12, 0.01, "1 %"),
+    c("KEMET", "C0603C180F5GACTU", "18 pF", 18e-12, 0.01, "1 %"),
+    c("KEMET", "C0603C100F5GACTU", "10 pF", 10e-12, 0.01, "1 %"),
+    Part {
+        manufacturer: "Murata",
+        number: "GJM1555C1H4R7WB01D",
+        package: "0402",
+        value: "4.7 pF",
+        tolerance: "±0.05 pF",
+        si: 4.7e-12,
+        tol: 0.05 / 4.7,
+    },
+];
+/// 4.7 kΩ, 0.1 %: the multiplexed board's voltage path pole.
+pub const R_4K7: Part = r("ERA-3AEB472V", "4.7 kΩ", 4.7e3, 0.001, "0.1 %");
+
+/// Eight-channel analog multiplexer, 1.8–5.5 V ([`crate::models::adg708`]).
+pub const ADG708: Part = Part {
+    manufacturer: "Analog Devices",
+    number: "ADG708BRUZ",
+    package: "TSSOP-16",
+    value: "ADG708",
+    tolerance: "",
+    si: 0.0,
+    tol: 0.0,
+};
+
+/// Four-channel precision multiplexer, 1.08–5.5 V
+/// ([`crate::models::tmux1104`]).
+pub const TMUX1104: Part = Part {
+    manufacturer: "Texas Instruments",
+    number: "TMUX1104DGSR",
+    package: "VSSOP-10",
+    value: "TMUX1104",
+    tolerance: "",
+    si: 0.0,
+    tol: 0.0,
+};
+
+/// 3.3 pF ± 0.05 pF C0G (0402): beside the 220 kΩ range's 18 pF.
+pub const C_3P3: Part = Part {
+    manufacturer: "Murata",
+    number: "GJM1555C1H3R3WB01D",
+    package: "0402",
+    value: "3.3 pF",
+    tolerance: "±0.05 pF",
+    si: 3.3e-12,
+    tol: 0.05 / 3.3,
 };

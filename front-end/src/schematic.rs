@@ -135,8 +135,13 @@ fn symbol(e: &Element, x: f64, y: f64) -> String {
                 .map(|i| (cx + 12.0, cy - 8.0 * n + 8.0 + 16.0 * i as f64, "r"))
                 .collect()
         }
-        Kind::AdcPin | Kind::DacPin => {
-            let what = if e.kind == Kind::AdcPin { "ADC" } else { "DAC" };
+        Kind::Device(model) => device(&mut s, model, e.nodes.len(), cx, cy),
+        Kind::AdcPin | Kind::DacPin | Kind::GpioPin => {
+            let what = match e.kind {
+                Kind::AdcPin => "ADC",
+                Kind::DacPin => "DAC",
+                _ => "GPIO",
+            };
             let _ = write!(
                 s,
                 r#"<polygon points="{0},{1} {2},{1} {3},{cy} {2},{4} {0},{4}"/><text x="{5}" y="{6}" text-anchor="middle">{what}</text>"#,
@@ -167,6 +172,44 @@ fn symbol(e: &Element, x: f64, y: f64) -> String {
         );
     }
     s
+}
+
+/// A device's box, its `count` pins named as its model names them
+/// ([`crate::models::pins`]): the first half on the left, the rest on
+/// the right, 9 px apart.
+fn device(s: &mut String, model: &str, count: usize, cx: f64, cy: f64) -> Vec<(f64, f64, &'static str)> {
+    let names = crate::models::pins(model);
+    let left = count.div_ceil(2);
+    let rows = left as f64;
+    let top = cy - 4.5 * rows;
+    let _ = write!(
+        s,
+        r#"<rect class="s" x="{}" y="{top}" width="40" height="{}"/>"#,
+        cx - 20.0,
+        9.0 * rows + 2.0
+    );
+    let mut pins = Vec::new();
+    for i in 0..count {
+        let (x, side, row) = if i < left {
+            (cx - 20.0, "l", i)
+        } else {
+            (cx + 20.0, "r", i - left)
+        };
+        let y = top + 5.5 + 9.0 * row as f64;
+        let (tx, anchor) = if side == "l" {
+            (x + 2.0, "start")
+        } else {
+            (x - 2.0, "end")
+        };
+        let name = names.get(i).copied().unwrap_or("");
+        let _ = write!(
+            s,
+            r#"<text x="{tx}" y="{}" text-anchor="{anchor}" font-size="7">{name}</text>"#,
+            y + 2.5
+        );
+        pins.push((x, y, side));
+    }
+    pins
 }
 
 /// A two-pin part's pins, `half` either side of its centre.

@@ -134,7 +134,7 @@ pub fn noise(
     })
 }
 
-/// A transient of `stop_s` (steps of at most `step_s`), the DAC playing
+/// A transient of `stop_s` (steps of at most a quarter of `step_s`), the DAC playing
 /// `stimulus` (`extra`: more lines, such as a source of its own): each
 /// of `nodes` sampled every `step_s` from `from_s`, a row per instant
 /// (time first).
@@ -150,7 +150,8 @@ pub fn tran(
     let vectors: Vec<String> = nodes.iter().map(|n| format!("v({n})")).collect();
     let text = |dir: &Path| {
         let c = format!(
-            "{extra}\n.control\nset wr_singlescale\nset numdgt=12\noption reltol=1e-5\ntran {step_s:e} {stop_s:e} {from_s:e} {step_s:e}\nlinearize\nwrdata {} {}\nquit\n.endc",
+            "{extra}\n.control\nset wr_singlescale\nset numdgt=12\noption reltol=1e-5\ntran {step_s:e} {stop_s:e} {from_s:e} {:e}\nlinearize\nwrdata {} {}\nquit\n.endc",
+            step_s / 4.0,
             dir.join("tran.txt").display(),
             vectors.join(" ")
         );

@@ -1,8 +1,9 @@
 //! ngspice on the array board's netlist, against the constants the
 //! firmware assumes: a mismatch fails.
 
-use dsp_core::invert::Inverter;
-use dsp_core::tline::LineModel;
+mod common;
+
+use common::{amplitude, c_of, range};
 use front_end::array;
 use front_end::circuit::{Circuit, Sensor};
 use front_end::spice;
@@ -12,23 +13,6 @@ use skin_spec::array::{Layout, SENSOR_TIA_OHM};
 /// The firmware's k in Z = k·V/I (`ArrayFrontEnd::dsp_front_end`: one
 /// real transimpedance, the stage inverting).
 const K: f64 = -SENSOR_TIA_OHM;
-
-/// The sensors of the documented range: the paper's; electrodes half
-/// the paper's with the largest film (290 pF); twice the paper's; each
-/// of the last two behind 20 pF of cable shield at the stage's input.
-fn range() -> [(&'static str, Sensor); 3] {
-    let shielded = |r_ohm: f64, c_farad: f64| Sensor {
-        r_ohm,
-        c_farad,
-        cable_farad: 0.0,
-        shield_farad: 20e-12,
-    };
-    [
-        ("paper's", Sensor::PAPER),
-        ("0.35 MΩ, 290 pF", shielded(350e3, 290e-12)),
-        ("1.4 MΩ, 210 pF", shielded(1.4e6, 210e-12)),
-    ]
-}
 
 /// The parts' tolerances at their worst for the ratio V/I: the
 /// stage's pole (R_f·C_f) against the voltage path's (R4·C3) one way,
@@ -72,13 +56,6 @@ fn reads(board: &Circuit) -> Vec<(f64, Complex64, Complex64)> {
         .zip(rows)
         .map(|(&f, r)| (f, K * r[0] / r[1], (r[2] - r[3]) / r[4]))
         .collect()
-}
-
-/// C from one tone's impedance by the firmware's inversion, F.
-fn c_of(z: Complex64, f: f64) -> Option<f64> {
-    let inv = Inverter::new(LineModel::Continuous);
-    let z = dsp_core::Complex32::new(z.re as f32, z.im as f32);
-    inv.invert(z, f as f32).ok().map(|l| l.c_farad as f64)
 }
 
 /// The nominal board: at every tone of both layouts, for every sensor of
@@ -216,37 +193,6 @@ fn uncalibrated_c(layout: &Layout, reads: &[&[(f64, Complex64, Complex64)]]) -> 
     worst
 }
 
-/// The noise of one oversampled result from the analog path, counts:
-/// the spectrum at `node` (V/√Hz) through the mean of the 16
-/// conversions a result sums (588 ns apart: their lobes fold the
-/// op-amps' wideband noise in), on the 16-bit scale.
-fn result_noise_counts(board: &Circuit, node: &str) -> f64 {
-    use skin_spec::array::{ADC_CLOCK_HZ, CONVERSION_CYCLES, OVERSAMPLING};
-    let spectrum = spice::noise(board, node, 10.0, 20e6, 100).expect("ngspice's noise analysis");
-    let ts = CONVERSION_CYCLES as f64 / ADC_CLOCK_HZ as f64;
-    let m = OVERSAMPLING as f64;
-    // S(f) interpolated log-log, the mean's |H|² exact, on a 500 Hz grid.
-    let density = |f: f64| {
-        let i = spectrum
-            .partition_point(|(g, _)| *g < f)
-            .clamp(1, spectrum.len() - 1);
-        let ((f0, s0), (f1, s1)) = (spectrum[i - 1], spectrum[i]);
-        let u = (f.ln() - f0.ln()) / (f1.ln() - f0.ln());
-        (s0.ln() + u * (s1.ln() - s0.ln())).exp()
-    };
-    let df = 500.0;
-    let variance: f64 = (1..(20e6 / df) as usize)
-        .map(|k| {
-            let f = k as f64 * df;
-            let x = std::f64::consts::PI * f * ts;
-            let h = (m * x).sin() / (m * x.sin());
-            density(f).powi(2) * h * h * df
-        })
-        .sum();
-    let lsb = skin_spec::design::VREF_VOLT / 4096.0;
-    m * variance.sqrt() / lsb
-}
-
 /// The analog path's noise in a result, against the converter's own that
 /// the accuracy figures assume ([`skin_spec::array::NOISE_COUNTS`]): at
 /// most 10 % more in quadrature, at every stage input and at the voltage
@@ -260,7 +206,17 @@ fn the_analog_noise_is_within_what_the_accuracy_figures_assume() {
     let mut md = String::from("| sensor | a stage's input | the voltage input | with the converter's, in quadrature |\n|---|---:|---:|---:|\n");
     for (name, sensor) in range() {
         let board = array::board().with_sensors(sensor);
-        let n = [array::SENSOR_PINS[0], array::VOLTAGE_PIN].map(|node| result_noise_counts(&board, node));
+        let n = [array::SENSOR_PINS[0], array::VOLTAGE_PIN].map(|node| {
+            use skin_spec::array::{ADC_CLOCK_HZ, CONVERSION_CYCLES, OVERSAMPLING};
+            let ts = CONVERSION_CYCLES as f64 / ADC_CLOCK_HZ as f64;
+            common::result_noise(
+                &board,
+                node,
+                OVERSAMPLING as usize,
+                ts,
+                skin_spec::design::VREF_VOLT / 4096.0,
+            )
+        });
         md += &format!(
             "| {name} | {:.2} | {:.2} | {:.2} ({:+.1} %) |\n",
             n[0],
@@ -311,16 +267,6 @@ fn comb_run(board: &Circuit, layout: &Layout) -> Vec<Vec<f64>> {
         2.0 * block,
     )
     .expect("ngspice's transient")
-}
-
-/// Tone `f`'s amplitude in `x` sampled every `dt` over whole periods.
-fn amplitude(x: &[f64], dt: f64, f: f64) -> f64 {
-    let (mut c, mut s) = (0.0, 0.0);
-    for (n, v) in x.iter().enumerate() {
-        let p = std::f64::consts::TAU * f * n as f64 * dt;
-        (c, s) = (c + v * p.cos(), s + v * p.sin());
-    }
-    2.0 * c.hypot(s) / x.len() as f64
 }
 
 /// The DAC's table through the reconstruction filter and the buffer, all
@@ -392,10 +338,7 @@ fn every_stage_is_stable_with_the_longest_cable() {
             ..sensor
         };
         let board = array::board().with_sensors(sensor);
-        let step = "IINJ 0 TAB0 PULSE(0 1e-6 2e-6 1e-9 1e-9 1 2)";
-        let rows = spice::tran(&board, "DC 1.65", step, &["TIA0"], 5e-9, 0.0, 14e-6).expect("ngspice's step");
-        let base = rows[0][1];
-        let out: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], base - r[1])).collect();
+        let out = common::step(&board, "TAB0", "TIA0", 14e-6);
         let want = SENSOR_TIA_OHM * 1e-6;
         let peak = out.iter().map(|(_, v)| *v).fold(0.0, f64::max);
         let at_12us = out.iter().find(|(t, _)| *t >= 12e-6).map_or(0.0, |(_, v)| *v);

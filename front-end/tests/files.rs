@@ -1,7 +1,7 @@
 //! The netlist, the bill of materials and the schematic in the
 //! repository are what each board's circuit gives.
 
-use front_end::{array, files};
+use front_end::{array, files, mux};
 
 #[test]
 fn the_array_boards_files_are_its_circuits() {
@@ -9,12 +9,23 @@ fn the_array_boards_files_are_its_circuits() {
     files::check("array", &array::board(), update).unwrap();
 }
 
+#[test]
+fn the_multiplexed_boards_files_are_its_circuits() {
+    let update = std::env::var_os(figures::UPDATE_VAR).is_some();
+    files::check("mux", &mux::board(), update).unwrap();
+}
+
 /// Every ordered part has a manufacturer's number, and every element of
 /// the netlist but the Nucleo's pins is ordered.
 #[test]
 fn every_part_is_orderable() {
-    let board = array::board();
-    let bom = front_end::bom::csv(&board).unwrap();
+    for board in [array::board(), mux::board()] {
+        orderable(&board);
+    }
+}
+
+fn orderable(board: &front_end::circuit::Circuit) {
+    let bom = front_end::bom::csv(board).unwrap();
     let mut rows = csv::Reader::from_reader(bom.as_bytes());
     let mut count = 0;
     for row in rows.records() {

@@ -30,7 +30,7 @@ const FILES: [(&str, &str); 9] = [
 ];
 
 /// The tests that measure the figures (each checks its blocks).
-const TESTS: [&str; 11] = [
+const TESTS: [&str; 12] = [
     "the_main_jobs_recording_decodes",
     "sixteen_sensors_250_times_a_second_within",
     "sixteen_sensors_1000_times_a_second_within",
@@ -42,6 +42,7 @@ const TESTS: [&str; 11] = [
     "the_docs_show_what_model_and_invert_print",
     "neither_path_vouches_for_a_wrong_record_under_any_disturbance",
     "the_array_boards_files_are_its_circuits",
+    "the_multiplexed_boards_files_are_its_circuits",
 ];
 
 /// Run the main job, copy its plots, rewrite the figure blocks.

@@ -107,6 +107,19 @@ pub enum AnyPin {
     R1(PinB<6>),
 }
 
+impl AnyPin {
+    /// Its pin number on GPIOB.
+    pub const fn pin(&self) -> u8 {
+        match self {
+            AnyPin::A0(_) => 0,
+            AnyPin::A1(_) => 1,
+            AnyPin::A2(_) => 2,
+            AnyPin::R0(_) => 5,
+            AnyPin::R1(_) => 6,
+        }
+    }
+}
+
 impl embedded_hal::digital::ErrorType for AnyPin {
     type Error = core::convert::Infallible;
 }

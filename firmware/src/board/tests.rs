@@ -9,6 +9,7 @@ use super::dma::Event;
 use super::scan::{Adc, INPUT_PINS, SCAN_ADCS};
 use super::{adc, clocks, dac, dma, flash, link, lpuart, opamp, pac, pins, scan, timer, watchdog};
 use std::format;
+use std::string::String;
 use std::vec;
 use std::vec::Vec;
 
@@ -820,4 +821,41 @@ fn the_netlist_wires_every_input_as_the_pin_map() {
     adc(VOLTAGE_INPUT, "VBUF", "RAV");
     adc(17, "TIAREF", "RAREF");
     assert_eq!(element("VDAC_PA4")[1], "PA4");
+}
+
+/// The multiplexed board's reference netlist (`front-end/mux/board.cir`)
+/// puts the voltage on PA0 and the current on PA1 (the pins
+/// [`pins::analog`] sets analog), the DAC on PA4, and drives both
+/// multiplexers' address lines from the pins [`pins::mux_pins`] drives
+/// and the range switch's from [`pins::range_pins`]'.
+#[test]
+fn the_multiplexed_netlist_wires_the_pins_the_firmware_drives() {
+    let netlist = include_str!("../../../front-end/mux/board.cir");
+    let lines: Vec<Vec<&str>> = netlist
+        .lines()
+        .filter(|l| !l.starts_with('*'))
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let element = |name: &str| {
+        lines
+            .iter()
+            .find(|t| t.first() == Some(&name))
+            .unwrap_or_else(|| panic!("no {name} in the netlist"))
+    };
+    assert_eq!(element("RAV")[1..3], ["VBUF", "PA0"]);
+    assert_eq!(element("RAI")[1..3], ["TIA", "PA1"]);
+    assert_eq!(element("XADC_PA0")[1], "PA0");
+    assert_eq!(element("XADC_PA1")[1], "PA1");
+    assert_eq!(element("VDAC_PA4")[1], "PA4");
+    let gpio = |p: &pins::AnyPin| format!("PB{}", p.pin());
+    let mux: Vec<String> = pins::mux_pins().iter().map(gpio).collect();
+    let range: Vec<String> = pins::range_pins().iter().map(gpio).collect();
+    // XU2 D S1…S8 A0 A1 A2 VDD ADG708; XU4 D S1…S4 A0 A1 VDD TMUX1104.
+    for u in ["XU2", "XU3"] {
+        assert_eq!(element(u)[10..13], mux[..], "{u}");
+    }
+    assert_eq!(element("XU4")[6..8], range[..]);
+    for p in mux.iter().chain(&range) {
+        assert_eq!(element(&format!("VGPIO_{p}"))[1], p.as_str());
+    }
 }
