@@ -27,8 +27,12 @@ pub fn svg(board: &Circuit) -> String {
     let mut body = String::new();
     let mut y = 40.0;
     for (name, parts) in &blocks {
-        let rows = parts.len().div_ceil(PER_ROW);
-        let h = TITLE + rows as f64 * CELL.1;
+        // Each row as tall as its tallest part.
+        let heights: Vec<f64> = parts
+            .chunks(PER_ROW)
+            .map(|row| row.iter().map(|e| height(e)).fold(CELL.1, f64::max))
+            .collect();
+        let h = TITLE + heights.iter().sum::<f64>();
         let _ = write!(
             body,
             r##"<rect x="10" y="{y}" width="{}" height="{h}" fill="none" stroke="#999"/><text x="16" y="{}" class="t">{}</text>"##,
@@ -38,8 +42,8 @@ pub fn svg(board: &Circuit) -> String {
         );
         for (i, e) in parts.iter().enumerate() {
             let x = 10.0 + (i % PER_ROW) as f64 * CELL.0;
-            let top = y + TITLE + (i / PER_ROW) as f64 * CELL.1;
-            body += &symbol(e, x, top);
+            let top = y + TITLE + heights[..i / PER_ROW].iter().sum::<f64>();
+            body += &symbol(e, x, top, heights[i / PER_ROW]);
         }
         y += h + 10.0;
     }
@@ -52,6 +56,29 @@ pub fn svg(board: &Circuit) -> String {
     )
 }
 
+/// The height part `e` needs, px: a device's box grows with its pins.
+fn height(e: &Element) -> f64 {
+    match e.kind {
+        Kind::Device(model) => 44.0 + PITCH * sides(model, e.nodes.len()).0.len().max(1) as f64,
+        _ => CELL.1,
+    }
+}
+
+/// A device's pin: its node's index and its name.
+type NamedPin = (usize, &'static str);
+
+/// A device's pin spacing, px.
+const PITCH: f64 = 11.0;
+
+/// Device `model`'s pins (of `count`) split into the left side (its
+/// sources, S…) and the right (the rest), each as (index, name).
+fn sides(model: &str, count: usize) -> (Vec<NamedPin>, Vec<NamedPin>) {
+    let names = crate::models::pins(model);
+    (0..count)
+        .map(|i| (i, names.get(i).copied().unwrap_or("")))
+        .partition(|(_, n)| n.starts_with('S'))
+}
+
 /// Net `n` as its label reads ("GND" for node 0).
 fn net(n: &str) -> &str {
     if n == "0" {
@@ -61,16 +88,16 @@ fn net(n: &str) -> &str {
     }
 }
 
-/// Element `e`'s symbol in the cell at (x, y): its drawing, its pins'
-/// stubs with their nets' labels, its reference and value.
-fn symbol(e: &Element, x: f64, y: f64) -> String {
-    let (cx, cy) = (x + CELL.0 / 2.0, y + CELL.1 / 2.0);
+/// Element `e`'s symbol in the cell at (x, y), `h` tall: its drawing,
+/// its pins' stubs with their nets' labels, its reference and value.
+fn symbol(e: &Element, x: f64, y: f64, h: f64) -> String {
+    let (cx, cy) = (x + CELL.0 / 2.0, y + h / 2.0);
     let value = e.part.map_or("", |p| p.value);
     let mut s = format!(
         r#"<text x="{cx}" y="{}" text-anchor="middle">{}</text><text x="{cx}" y="{}" text-anchor="middle" class="v">{}</text>"#,
         y + 14.0,
         escape(&e.reference),
-        y + CELL.1 - 8.0,
+        y + h - 8.0,
         escape(value)
     );
     let pins: Vec<(f64, f64, &str)> = match e.kind {
@@ -175,39 +202,34 @@ fn symbol(e: &Element, x: f64, y: f64) -> String {
 }
 
 /// A device's box, its `count` pins named as its model names them
-/// ([`crate::models::pins`]): the first half on the left, the rest on
-/// the right, 9 px apart.
+/// ([`crate::models::pins`]): its sources on the left, the rest on the
+/// right, [`PITCH`] apart, in node order.
 fn device(s: &mut String, model: &str, count: usize, cx: f64, cy: f64) -> Vec<(f64, f64, &'static str)> {
-    let names = crate::models::pins(model);
-    let left = count.div_ceil(2);
-    let rows = left as f64;
-    let top = cy - 4.5 * rows;
+    let (left, right) = sides(model, count);
+    let rows = left.len().max(right.len()) as f64;
+    let top = cy - PITCH * rows / 2.0;
     let _ = write!(
         s,
-        r#"<rect class="s" x="{}" y="{top}" width="40" height="{}"/>"#,
-        cx - 20.0,
-        9.0 * rows + 2.0
+        r#"<rect class="s" x="{}" y="{top}" width="36" height="{}"/>"#,
+        cx - 18.0,
+        PITCH * rows
     );
-    let mut pins = Vec::new();
-    for i in 0..count {
-        let (x, side, row) = if i < left {
-            (cx - 20.0, "l", i)
-        } else {
-            (cx + 20.0, "r", i - left)
-        };
-        let y = top + 5.5 + 9.0 * row as f64;
-        let (tx, anchor) = if side == "l" {
-            (x + 2.0, "start")
-        } else {
-            (x - 2.0, "end")
-        };
-        let name = names.get(i).copied().unwrap_or("");
-        let _ = write!(
-            s,
-            r#"<text x="{tx}" y="{}" text-anchor="{anchor}" font-size="7">{name}</text>"#,
-            y + 2.5
-        );
-        pins.push((x, y, side));
+    let mut pins = vec![(0.0, 0.0, "l"); count];
+    for (side, list) in [("l", &left), ("r", &right)] {
+        for (row, (i, name)) in list.iter().enumerate() {
+            let (x, tx, anchor) = if side == "l" {
+                (cx - 18.0, cx - 16.0, "start")
+            } else {
+                (cx + 18.0, cx + 16.0, "end")
+            };
+            let y = top + PITCH * (row as f64 + 0.5);
+            let _ = write!(
+                s,
+                r#"<text x="{tx}" y="{}" text-anchor="{anchor}" font-size="7">{name}</text>"#,
+                y + 2.5
+            );
+            pins[*i] = (x, y, side);
+        }
     }
     pins
 }
