@@ -22,7 +22,7 @@
 
 use crate::blocks;
 use crate::circuit::{Circuit, Kind, Sensor};
-use crate::parts::{self, Part};
+use crate::parts;
 use skin_spec::array::SENSORS;
 
 /// Each sensor's ADC input pin, as the firmware's pin map
@@ -94,7 +94,7 @@ pub fn board() -> Circuit {
         "spare input at the bias",
         "self-test",
     );
-    supplies(&mut c);
+    blocks::supplies(&mut c, &["U1", "U2", "U3", "U4", "U5"], 6);
     c
 }
 
@@ -131,36 +131,4 @@ fn transimpedance(c: &mut Circuit, s: usize, tab: &str, pin: &str, what: &str) {
         &b,
     );
     blocks::adc_input(c, blocks::RESERVOIR, &id, &out, pin, what, &b);
-}
-
-/// One 100 nF per op-amp package, and the Nucleo's two morpho sockets.
-fn supplies(c: &mut Circuit) {
-    let b = "supplies";
-    for u in 1..=5 {
-        let part: Part = parts::C_100N;
-        c.add(
-            &format!("C{}", 5 + u),
-            Kind::Capacitor,
-            Some(part),
-            &["VDDA", "0"],
-            &format!("U{u} decoupling"),
-            b,
-        );
-    }
-    c.add(
-        "CN7",
-        Kind::Connector,
-        Some(parts::MORPHO),
-        &["VDDA", "0"],
-        "to the Nucleo's CN7, its pins as UM2505 names them",
-        b,
-    );
-    c.add(
-        "CN10",
-        Kind::Connector,
-        Some(parts::MORPHO),
-        &["0"],
-        "to the Nucleo's CN10",
-        b,
-    );
 }

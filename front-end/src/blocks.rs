@@ -197,3 +197,37 @@ pub fn adc_input(
         block,
     );
 }
+
+/// One 100 nF at each of `packages`' supply pins (C`first` on), and the
+/// Nucleo's two morpho sockets, which bring VDDA and ground.
+pub fn supplies(c: &mut Circuit, packages: &[&str], first: usize) {
+    let b = "supplies";
+    for (k, u) in packages.iter().enumerate() {
+        let reference = format!("C{}", first + k);
+        c.add(
+            &reference,
+            Kind::Capacitor,
+            Some(parts::C_100N),
+            &["VDDA", "0"],
+            &format!("{u} decoupling"),
+            b,
+        );
+    }
+    let cn7 = "to the Nucleo's CN7, its pins as UM2505 names them";
+    c.add(
+        "CN7",
+        Kind::Connector,
+        Some(parts::MORPHO),
+        &["VDDA", "0"],
+        cn7,
+        b,
+    );
+    c.add(
+        "CN10",
+        Kind::Connector,
+        Some(parts::MORPHO),
+        &["0"],
+        "to the Nucleo's CN10",
+        b,
+    );
+}

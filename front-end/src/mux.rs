@@ -89,7 +89,7 @@ pub fn board() -> Circuit {
         c.sensors.push((j, Sensor::PAPER));
     }
     stage(&mut c);
-    supplies(&mut c);
+    blocks::supplies(&mut c, &["U1", "U2", "U3", "U4"], 10);
     c
 }
 
@@ -149,37 +149,6 @@ fn stage(c: &mut Circuit) {
         b,
     );
     blocks::adc_input(c, blocks::ANTI_ALIAS, "I", "TIA", CURRENT_PIN, "the current", b);
-}
-
-/// One 100 nF per package, the morpho sockets.
-fn supplies(c: &mut Circuit) {
-    let b = "supplies";
-    for (k, u) in ["U1", "U2", "U3", "U4"].iter().enumerate() {
-        c.add(
-            &format!("C{}", 10 + k),
-            Kind::Capacitor,
-            Some(parts::C_100N),
-            &["VDDA", "0"],
-            &format!("{u} decoupling"),
-            b,
-        );
-    }
-    c.add(
-        "CN7",
-        Kind::Connector,
-        Some(parts::MORPHO),
-        &["VDDA", "0"],
-        "to the Nucleo's CN7, its pins as UM2505 names them",
-        b,
-    );
-    c.add(
-        "CN10",
-        Kind::Connector,
-        Some(parts::MORPHO),
-        &["0"],
-        "to the Nucleo's CN10",
-        b,
-    );
 }
 
 /// `board` with channel `channel` and range `range` selected (their

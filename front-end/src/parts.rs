@@ -35,6 +35,19 @@ const fn r(number: &'static str, value: &'static str, si: f64, tol: f64, toleran
     }
 }
 
+/// A C0G part of Murata's high-Q series (0402), ± 0.05 pF.
+const fn gjm(number: &'static str, value: &'static str, si: f64) -> Part {
+    Part {
+        manufacturer: "Murata",
+        number,
+        package: "0402",
+        value,
+        tolerance: "±0.05 pF",
+        si,
+        tol: 0.05e-12 / si,
+    }
+}
+
 const fn c(
     manufacturer: &'static str,
     number: &'static str,
@@ -88,15 +101,7 @@ pub const R_49R9: Part = r("RC0603FR-0749R9L", "49.9 Ω", 49.9, 0.01, "1 %");
 /// stage's feedback capacitor. Its absolute tolerance across 330 kΩ is
 /// most of a path's delay spread (`tests/array.rs`): ±0.1 pF parts
 /// would double it.
-pub const C_2P7: Part = Part {
-    manufacturer: "Murata",
-    number: "GJM1555C1H2R7WB01D",
-    package: "0402",
-    value: "2.7 pF",
-    tolerance: "±0.05 pF",
-    si: 2.7e-12,
-    tol: 0.05 / 2.7,
-};
+pub const C_2P7: Part = gjm("GJM1555C1H2R7WB01D", "2.7 pF", 2.7e-12);
 /// 270 pF, 1 %, C0G: the voltage path's pole.
 pub const C_270P: Part = c("KEMET", "C0603C271F5GACTU", "270 pF", 270e-12, 0.01, "1 %");
 /// 220 pF, 1 %, C0G: the self-test's reference.
@@ -164,15 +169,7 @@ pub const C_RANGES: [Part; 4] = [
     c("KEMET", "C0603C470F5GACTU", "47 pF", 47e-12, 0.01, "1 %"),
     c("KEMET", "C0603C180F5GACTU", "18 pF", 18e-12, 0.01, "1 %"),
     c("KEMET", "C0603C100F5GACTU", "10 pF", 10e-12, 0.01, "1 %"),
-    Part {
-        manufacturer: "Murata",
-        number: "GJM1555C1H4R7WB01D",
-        package: "0402",
-        value: "4.7 pF",
-        tolerance: "±0.05 pF",
-        si: 4.7e-12,
-        tol: 0.05 / 4.7,
-    },
+    gjm("GJM1555C1H4R7WB01D", "4.7 pF", 4.7e-12),
 ];
 /// 4.7 kΩ, 0.1 %: the multiplexed board's voltage path pole.
 pub const R_4K7: Part = r("ERA-3AEB472V", "4.7 kΩ", 4.7e3, 0.001, "0.1 %");
@@ -201,12 +198,4 @@ pub const TMUX1104: Part = Part {
 };
 
 /// 3.3 pF ± 0.05 pF C0G (0402): beside the 220 kΩ range's 18 pF.
-pub const C_3P3: Part = Part {
-    manufacturer: "Murata",
-    number: "GJM1555C1H3R3WB01D",
-    package: "0402",
-    value: "3.3 pF",
-    tolerance: "±0.05 pF",
-    si: 3.3e-12,
-    tol: 0.05 / 3.3,
-};
+pub const C_3P3: Part = gjm("GJM1555C1H3R3WB01D", "3.3 pF", 3.3e-12);

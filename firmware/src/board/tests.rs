@@ -782,6 +782,23 @@ fn the_arrays_buffer_halves_follow_the_layout() {
     }
 }
 
+/// A netlist's element lines (comments left out), each split into its
+/// words: the element's name, its nodes, its value or model.
+fn netlist(text: &str) -> Vec<Vec<&str>> {
+    text.lines()
+        .filter(|l| !l.starts_with('*'))
+        .map(|l| l.split_whitespace().collect())
+        .collect()
+}
+
+/// Element `name`'s line of a [`netlist`].
+fn element<'a>(lines: &'a [Vec<&'a str>], name: &str) -> &'a [&'a str] {
+    lines
+        .iter()
+        .find(|t| t.first() == Some(&name))
+        .unwrap_or_else(|| panic!("no {name} in the netlist"))
+}
+
 /// The reference front end's netlist (`front-end/array/board.cir`,
 /// generated from the same circuit as its schematic and bill of
 /// materials) wires every input as [`INPUT_PINS`] maps it: sensor s's
@@ -791,18 +808,8 @@ fn the_arrays_buffer_halves_follow_the_layout() {
 #[test]
 fn the_netlist_wires_every_input_as_the_pin_map() {
     use instrument::array::{input_of, SENSORS, VOLTAGE_INPUT};
-    let netlist = include_str!("../../../front-end/array/board.cir");
-    let lines: Vec<Vec<&str>> = netlist
-        .lines()
-        .filter(|l| !l.starts_with('*'))
-        .map(|l| l.split_whitespace().collect())
-        .collect();
-    let element = |name: &str| {
-        lines
-            .iter()
-            .find(|t| t.first() == Some(&name))
-            .unwrap_or_else(|| panic!("no {name} in the netlist"))
-    };
+    let lines = netlist(include_str!("../../../front-end/array/board.cir"));
+    let element = |name: &str| element(&lines, name);
     let pin = |input: usize| format!("P{}{}", INPUT_PINS[input].port, INPUT_PINS[input].pin);
     let adc = |input: usize, from: &str, resistor: &str| {
         let name = pin(input);
@@ -830,18 +837,8 @@ fn the_netlist_wires_every_input_as_the_pin_map() {
 /// and the range switch's from [`pins::range_pins`]'.
 #[test]
 fn the_multiplexed_netlist_wires_the_pins_the_firmware_drives() {
-    let netlist = include_str!("../../../front-end/mux/board.cir");
-    let lines: Vec<Vec<&str>> = netlist
-        .lines()
-        .filter(|l| !l.starts_with('*'))
-        .map(|l| l.split_whitespace().collect())
-        .collect();
-    let element = |name: &str| {
-        lines
-            .iter()
-            .find(|t| t.first() == Some(&name))
-            .unwrap_or_else(|| panic!("no {name} in the netlist"))
-    };
+    let lines = netlist(include_str!("../../../front-end/mux/board.cir"));
+    let element = |name: &str| element(&lines, name);
     assert_eq!(element("RAV")[1..3], ["VBUF", "PA0"]);
     assert_eq!(element("RAI")[1..3], ["TIA", "PA1"]);
     assert_eq!(element("XADC_PA0")[1], "PA0");
