@@ -22,32 +22,22 @@ pub struct Part {
     pub tol: f64,
 }
 
+/// A 0603 resistor: Panasonic's thin film at 0.1 %, Yageo's thick film
+/// at 1 %.
 const fn r(number: &'static str, value: &'static str, si: f64, tol: f64, tolerance: &'static str) -> Part {
     let manufacturer = if tol < 0.005 { "Panasonic" } else { "Yageo" };
-    Part {
-        manufacturer,
-        number,
-        package: "0603",
-        value,
-        tolerance,
-        si,
-        tol,
-    }
+    c(manufacturer, number, value, si, tol, tolerance)
 }
 
 /// A C0G part of Murata's high-Q series (0402), ± 0.05 pF.
 const fn gjm(number: &'static str, value: &'static str, si: f64) -> Part {
     Part {
-        manufacturer: "Murata",
-        number,
         package: "0402",
-        value,
-        tolerance: "±0.05 pF",
-        si,
-        tol: 0.05e-12 / si,
+        ..c("Murata", number, value, si, 0.05e-12 / si, "±0.05 pF")
     }
 }
 
+/// A 0603 part.
 const fn c(
     manufacturer: &'static str,
     number: &'static str,
