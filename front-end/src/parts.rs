@@ -29,6 +29,25 @@ const fn r(number: &'static str, value: &'static str, si: f64, tol: f64, toleran
     c(manufacturer, number, value, si, tol, tolerance)
 }
 
+/// A part without a value of its own (an integrated circuit, a
+/// connector): its value column names it.
+const fn unvalued(
+    manufacturer: &'static str,
+    number: &'static str,
+    package: &'static str,
+    value: &'static str,
+) -> Part {
+    Part {
+        manufacturer,
+        number,
+        package,
+        value,
+        tolerance: "",
+        si: 0.0,
+        tol: 0.0,
+    }
+}
+
 /// A C0G part of Murata's high-Q series (0402), ± 0.05 pF.
 const fn gjm(number: &'static str, value: &'static str, si: f64) -> Part {
     Part {
@@ -74,13 +93,8 @@ pub const R_10K: Part = r("ERA-3AEB103V", "10 kΩ", 10e3, 0.001, "0.1 %");
 pub const R_160: Part = r("ERA-3AEB161V", "160 Ω", 160.0, 0.001, "0.1 %");
 /// 10 nF, 1 %, C0G (0805): with [`R_160`].
 pub const C_10N: Part = Part {
-    manufacturer: "KEMET",
-    number: "C0805C103F5GACTU",
     package: "0805",
-    value: "10 nF",
-    tolerance: "1 %",
-    si: 10e-9,
-    tol: 0.01,
+    ..c("KEMET", "C0805C103F5GACTU", "10 nF", 10e-9, 0.01, "1 %")
 };
 /// 100 Ω, 1 %: each ADC input's series resistor.
 pub const R_100: Part = r("RC0603FR-07100RL", "100 Ω", 100.0, 0.01, "1 %");
@@ -110,39 +124,15 @@ pub const C_1N5: Part = c("KEMET", "C0603C152F5GACTU", "1.5 nF", 1.5e-9, 0.01, "
 pub const C_100N: Part = c("Murata", "GRM188R71H104KA93D", "100 nF", 100e-9, 0.1, "10 %");
 
 /// Quad CMOS op-amp, 10 MHz, rail to rail, 2.5–5.5 V ([`crate::models`]).
-pub const MCP6024: Part = Part {
-    manufacturer: "Microchip",
-    number: "MCP6024-E/SL",
-    package: "SOIC-14",
-    value: "MCP6024",
-    tolerance: "",
-    si: 0.0,
-    tol: 0.0,
-};
+pub const MCP6024: Part = unvalued("Microchip", "MCP6024-E/SL", "SOIC-14", "MCP6024");
 
 /// A sensor's connector: JST PH, 2 pins, 2 mm, through hole (pin 1 the
 /// top tab, pin 2 the bottom tab).
-pub const JST_PH2: Part = Part {
-    manufacturer: "JST",
-    number: "B2B-PH-K-S(LF)(SN)",
-    package: "THT 2 mm",
-    value: "PH 2-pin",
-    tolerance: "",
-    si: 0.0,
-    tol: 0.0,
-};
+pub const JST_PH2: Part = unvalued("JST", "B2B-PH-K-S(LF)(SN)", "THT 2 mm", "PH 2-pin");
 
 /// The Nucleo's morpho connector, 2×19 female, 2.54 mm (two a board:
 /// CN7 and CN10).
-pub const MORPHO: Part = Part {
-    manufacturer: "Sullins",
-    number: "PPTC192LFBN-RC",
-    package: "THT 2.54 mm 2×19",
-    value: "2×19 socket",
-    tolerance: "",
-    si: 0.0,
-    tol: 0.0,
-};
+pub const MORPHO: Part = unvalued("Sullins", "PPTC192LFBN-RC", "THT 2.54 mm 2×19", "2×19 socket");
 
 /// 100 kΩ, 220 kΩ, 470 kΩ and 1 MΩ, 0.1 %: the multiplexed board's four
 /// ranges ([`skin_spec::design::TIA_RANGES_OHM`]).
@@ -165,27 +155,11 @@ pub const C_RANGES: [Part; 4] = [
 pub const R_4K7: Part = r("ERA-3AEB472V", "4.7 kΩ", 4.7e3, 0.001, "0.1 %");
 
 /// Eight-channel analog multiplexer, 1.8–5.5 V ([`crate::models::adg708`]).
-pub const ADG708: Part = Part {
-    manufacturer: "Analog Devices",
-    number: "ADG708BRUZ",
-    package: "TSSOP-16",
-    value: "ADG708",
-    tolerance: "",
-    si: 0.0,
-    tol: 0.0,
-};
+pub const ADG708: Part = unvalued("Analog Devices", "ADG708BRUZ", "TSSOP-16", "ADG708");
 
 /// Four-channel precision multiplexer, 1.08–5.5 V
 /// ([`crate::models::tmux1104`]).
-pub const TMUX1104: Part = Part {
-    manufacturer: "Texas Instruments",
-    number: "TMUX1104DGSR",
-    package: "VSSOP-10",
-    value: "TMUX1104",
-    tolerance: "",
-    si: 0.0,
-    tol: 0.0,
-};
+pub const TMUX1104: Part = unvalued("Texas Instruments", "TMUX1104DGSR", "VSSOP-10", "TMUX1104");
 
 /// 3.3 pF ± 0.05 pF C0G (0402): beside the 220 kΩ range's 18 pF.
 pub const C_3P3: Part = gjm("GJM1555C1H3R3WB01D", "3.3 pF", 3.3e-12);
