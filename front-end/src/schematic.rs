@@ -59,7 +59,10 @@ pub fn svg(board: &Circuit) -> String {
 /// The height part `e` needs, px: a device's box grows with its pins.
 fn height(e: &Element) -> f64 {
     match e.kind {
-        Kind::Device(model) => 44.0 + PITCH * sides(model, e.nodes.len()).0.len().max(1) as f64,
+        Kind::Device(model) => {
+            let (left, right) = sides(model, e.nodes.len());
+            44.0 + PITCH * left.len().max(right.len()).max(1) as f64
+        }
         _ => CELL.1,
     }
 }
@@ -100,89 +103,7 @@ fn symbol(e: &Element, x: f64, y: f64, h: f64) -> String {
         y + h - 8.0,
         escape(value)
     );
-    let pins: Vec<(f64, f64, &str)> = match e.kind {
-        Kind::Resistor => {
-            let _ = write!(
-                s,
-                r#"<path d="M{} {cy} l5 -6 l10 12 l10 -12 l10 12 l10 -12 l5 6"/>"#,
-                cx - 25.0
-            );
-            two(cx, cy, 25.0)
-        }
-        Kind::Capacitor => {
-            let _ = write!(
-                s,
-                r#"<line x1="{0}" y1="{1}" x2="{0}" y2="{2}"/><line x1="{3}" y1="{1}" x2="{3}" y2="{2}"/>"#,
-                cx - 4.0,
-                cy - 12.0,
-                cy + 12.0,
-                cx + 4.0
-            );
-            two(cx, cy, 4.0)
-        }
-        Kind::OpAmp => {
-            let _ = write!(
-                s,
-                r#"<polygon points="{},{} {},{} {},{cy}"/><text x="{}" y="{}">+</text><text x="{}" y="{}">−</text>"#,
-                cx - 22.0,
-                cy - 22.0,
-                cx - 22.0,
-                cy + 22.0,
-                cx + 22.0,
-                cx - 19.0,
-                cy - 7.0,
-                cx - 19.0,
-                cy + 15.0
-            );
-            vec![
-                (cx - 22.0, cy - 10.0, "l"),
-                (cx - 22.0, cy + 10.0, "l"),
-                (cx + 22.0, cy, "r"),
-            ]
-        }
-        Kind::Connector => {
-            let n = e.nodes.len() as f64;
-            let _ = write!(
-                s,
-                r#"<rect class="s" x="{}" y="{}" width="24" height="{}"/>"#,
-                cx - 12.0,
-                cy - 8.0 * n,
-                16.0 * n
-            );
-            for i in 0..e.nodes.len() {
-                let y = cy - 8.0 * n + 11.5 + 16.0 * i as f64;
-                let _ = write!(
-                    s,
-                    r#"<text x="{}" y="{y}" text-anchor="end">{}</text>"#,
-                    cx + 9.0,
-                    i + 1
-                );
-            }
-            (0..e.nodes.len())
-                .map(|i| (cx + 12.0, cy - 8.0 * n + 8.0 + 16.0 * i as f64, "r"))
-                .collect()
-        }
-        Kind::Device(model) => device(&mut s, model, e.nodes.len(), cx, cy),
-        Kind::AdcPin | Kind::DacPin | Kind::GpioPin => {
-            let what = match e.kind {
-                Kind::AdcPin => "ADC",
-                Kind::DacPin => "DAC",
-                _ => "GPIO",
-            };
-            let _ = write!(
-                s,
-                r#"<polygon points="{0},{1} {2},{1} {3},{cy} {2},{4} {0},{4}"/><text x="{5}" y="{6}" text-anchor="middle">{what}</text>"#,
-                cx - 20.0,
-                cy - 9.0,
-                cx + 12.0,
-                cx + 20.0,
-                cy + 9.0,
-                cx - 2.0,
-                cy + 4.0
-            );
-            vec![(cx - 20.0, cy, "l")]
-        }
-    };
+    let pins = drawing(&mut s, e, cx, cy);
     for ((px, py, side), n) in pins.iter().zip(&e.nodes) {
         let (dx, anchor) = if *side == "l" {
             (-14.0, "end")
@@ -201,10 +122,93 @@ fn symbol(e: &Element, x: f64, y: f64, h: f64) -> String {
     s
 }
 
+/// A pin's end: (x, y, side: "l" or "r"), px.
+type Pin = (f64, f64, &'static str);
+
+/// Element `e`'s drawing centred on (cx, cy) into `s`; its pins' ends in
+/// the order of its nodes.
+fn drawing(s: &mut String, e: &Element, cx: f64, cy: f64) -> Vec<Pin> {
+    match e.kind {
+        Kind::Resistor => {
+            let _ = write!(
+                s,
+                r#"<path d="M{} {cy} l5 -6 l10 12 l10 -12 l10 12 l10 -12 l5 6"/>"#,
+                cx - 25.0
+            );
+            two(cx, cy, 25.0)
+        }
+        Kind::Capacitor => {
+            let (x0, x1, y0, y1) = (cx - 4.0, cx + 4.0, cy - 12.0, cy + 12.0);
+            let _ = write!(
+                s,
+                r#"<line x1="{x0}" y1="{y0}" x2="{x0}" y2="{y1}"/><line x1="{x1}" y1="{y0}" x2="{x1}" y2="{y1}"/>"#
+            );
+            two(cx, cy, 4.0)
+        }
+        Kind::OpAmp => opamp(s, cx, cy),
+        Kind::Connector => connector(s, e.nodes.len(), cx, cy),
+        Kind::Device(model) => device(s, model, e.nodes.len(), cx, cy),
+        Kind::AdcPin => flag(s, "ADC", cx, cy),
+        Kind::DacPin => flag(s, "DAC", cx, cy),
+        Kind::GpioPin => flag(s, "GPIO", cx, cy),
+    }
+}
+
+/// An op-amp's triangle: + and − on the left, the output on the right.
+fn opamp(s: &mut String, cx: f64, cy: f64) -> Vec<Pin> {
+    let (l, r, top, bottom) = (cx - 22.0, cx + 22.0, cy - 22.0, cy + 22.0);
+    let _ = write!(
+        s,
+        r#"<polygon points="{l},{top} {l},{bottom} {r},{cy}"/><text x="{}" y="{}">+</text><text x="{}" y="{}">−</text>"#,
+        l + 3.0,
+        cy - 7.0,
+        l + 3.0,
+        cy + 15.0
+    );
+    vec![(l, cy - 10.0, "l"), (l, cy + 10.0, "l"), (r, cy, "r")]
+}
+
+/// A connector of `count` pins, numbered from 1, its pins on the right.
+fn connector(s: &mut String, count: usize, cx: f64, cy: f64) -> Vec<Pin> {
+    let top = cy - 8.0 * count as f64;
+    let _ = write!(
+        s,
+        r#"<rect class="s" x="{}" y="{top}" width="24" height="{}"/>"#,
+        cx - 12.0,
+        16.0 * count as f64
+    );
+    (0..count)
+        .map(|i| {
+            let y = top + 8.0 + 16.0 * i as f64;
+            let _ = write!(
+                s,
+                r#"<text x="{}" y="{}" text-anchor="end">{}</text>"#,
+                cx + 9.0,
+                y + 3.5,
+                i + 1
+            );
+            (cx + 12.0, y, "r")
+        })
+        .collect()
+}
+
+/// A pin of the Nucleo: a flag saying `what` it is (ADC, DAC, GPIO), its
+/// one pin on the left.
+fn flag(s: &mut String, what: &str, cx: f64, cy: f64) -> Vec<Pin> {
+    let (l, r, tip, top, bottom) = (cx - 20.0, cx + 12.0, cx + 20.0, cy - 9.0, cy + 9.0);
+    let _ = write!(
+        s,
+        r#"<polygon points="{l},{top} {r},{top} {tip},{cy} {r},{bottom} {l},{bottom}"/><text x="{}" y="{}" text-anchor="middle">{what}</text>"#,
+        cx - 2.0,
+        cy + 4.0
+    );
+    vec![(l, cy, "l")]
+}
+
 /// A device's box, its `count` pins named as its model names them
 /// ([`crate::models::pins`]): its sources on the left, the rest on the
 /// right, [`PITCH`] apart, in node order.
-fn device(s: &mut String, model: &str, count: usize, cx: f64, cy: f64) -> Vec<(f64, f64, &'static str)> {
+fn device(s: &mut String, model: &str, count: usize, cx: f64, cy: f64) -> Vec<Pin> {
     let (left, right) = sides(model, count);
     let rows = left.len().max(right.len()) as f64;
     let top = cy - PITCH * rows / 2.0;
@@ -235,7 +239,7 @@ fn device(s: &mut String, model: &str, count: usize, cx: f64, cy: f64) -> Vec<(f
 }
 
 /// A two-pin part's pins, `half` either side of its centre.
-fn two(cx: f64, cy: f64, half: f64) -> Vec<(f64, f64, &'static str)> {
+fn two(cx: f64, cy: f64, half: f64) -> Vec<Pin> {
     vec![(cx - half, cy, "l"), (cx + half, cy, "r")]
 }
 
