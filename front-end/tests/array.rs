@@ -340,23 +340,10 @@ fn every_stage_is_stable_with_the_longest_cable() {
         let board = array::board().with_sensors(sensor);
         let out = common::step(&board, "TAB0", "TIA0", 14e-6);
         let want = SENSOR_TIA_OHM * 1e-6;
-        let peak = out.iter().map(|(_, v)| *v).fold(0.0, f64::max);
-        let at_12us = out.iter().find(|(t, _)| *t >= 12e-6).map_or(0.0, |(_, v)| *v);
-        println!(
-            "{name:>16}: overshoot {:.2} %, at 10 µs {:.4} % off",
-            100.0 * (peak / want - 1.0),
-            100.0 * (at_12us / want - 1.0)
-        );
-        assert!(peak <= 1.03 * want, "{name}: overshoot to {peak} V of {want} V");
-        assert!(
-            (at_12us / want - 1.0).abs() <= 2e-3,
-            "{name}: {at_12us} V at 10 µs, not {want} V"
-        );
-        md += &format!(
-            "| {name} | {:.1} % | {:.2} % |\n",
-            100.0 * (peak / want - 1.0),
-            100.0 * (at_12us / want - 1.0).abs()
-        );
+        let (overshoot, off) = common::settling(&out, want, 12e-6);
+        assert!(overshoot <= 0.03, "{name}: overshoot {overshoot} of {want} V");
+        assert!(off <= 2e-3, "{name}: {off} off {want} V 10 µs after the step");
+        md += &format!("| {name} | {:.1} % | {:.2} % |\n", 100.0 * overshoot, 100.0 * off);
     }
     println!("{md}");
     figures::check_within("docs/hardware.md", "array-step", &md, 0.02).unwrap();

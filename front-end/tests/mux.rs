@@ -281,21 +281,14 @@ fn every_range_is_stable_with_the_longest_cable() {
         let board = mux::select(&mux::board().with_sensors(sensor), 0, k);
         let out = common::step(&board, "TABM", "TIA", 40e-6);
         let want = r * 1e-6;
-        let peak = out.iter().map(|(_, v)| *v).fold(0.0, f64::max);
-        let end = out.last().map_or(0.0, |(_, v)| *v);
+        let (overshoot, off) = common::settling(&out, want, f64::INFINITY);
+        assert!(overshoot <= 0.03, "range {k}: overshoot {overshoot} of {want} V");
+        assert!(off <= 2e-3, "range {k}: {off} off {want} V 38 µs after the step");
         md += &format!(
             "| {:.0} kΩ | {:.1} % | {:.2} % |\n",
             r / 1e3,
-            100.0 * (peak / want - 1.0),
-            100.0 * (end / want - 1.0).abs()
-        );
-        assert!(
-            peak <= 1.03 * want,
-            "range {k}: overshoot to {peak} V of {want} V"
-        );
-        assert!(
-            (end / want - 1.0).abs() <= 2e-3,
-            "range {k}: {end} V, not {want} V"
+            100.0 * overshoot,
+            100.0 * off
         );
     }
     println!("{md}");

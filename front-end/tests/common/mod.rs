@@ -81,3 +81,16 @@ pub fn step(board: &Circuit, node: &str, out: &str, stop_s: f64) -> Vec<(f64, f6
     let rows = spice::tran(board, "DC 1.65", &source, &[out], 5e-9, 0.0, stop_s).expect("ngspice's step");
     rows.iter().map(|r| (r[0], rows[0][1] - r[1])).collect()
 }
+
+/// A [`step`] response against its final value `want`: its overshoot
+/// (0 when it never passes `want`) and how far off `want` it is at
+/// `at_s` (at its end where it stops before), both relative.
+pub fn settling(out: &[(f64, f64)], want: f64, at_s: f64) -> (f64, f64) {
+    let peak = out.iter().map(|(_, v)| *v).fold(0.0, f64::max);
+    let at = out
+        .iter()
+        .find(|(t, _)| *t >= at_s)
+        .or(out.last())
+        .map_or(0.0, |(_, v)| *v);
+    ((peak / want - 1.0).max(0.0), (at / want - 1.0).abs())
+}
