@@ -151,6 +151,7 @@ mod tests {
             sample_rate_hz: 25_000,
             generation: 0,
             device_id: 0,
+            self_test: link::SelfTest::default(),
         }
     }
 

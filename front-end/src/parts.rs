@@ -2,6 +2,8 @@
 //! manufacturer's part number, with what the netlist and the bill of
 //! materials need of it.
 
+use skin_spec::array::{REFERENCE_FARAD, REFERENCE_FARAD_TOLERANCE, REFERENCE_OHM, REFERENCE_OHM_TOLERANCE};
+
 /// A part a lab can order.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Part {
@@ -79,8 +81,15 @@ const fn c(
 /// 330 kΩ, 0.1 %, 25 ppm/K thin film: every transimpedance stage's
 /// feedback ([`skin_spec::array::SENSOR_TIA_OHM`]).
 pub const R_330K: Part = r("ERA-3AEB334V", "330 kΩ", 330e3, 0.001, "0.1 %");
-/// 680 kΩ, 0.1 %: the self-test's reference network.
-pub const R_680K: Part = r("ERA-3AEB684V", "680 kΩ", 680e3, 0.001, "0.1 %");
+/// 680 kΩ, 0.1 %: the self-test's reference network (its value and
+/// tolerance the firmware's: `skin_spec::array::REFERENCE_OHM`).
+pub const R_680K: Part = r(
+    "ERA-3AEB684V",
+    "680 kΩ",
+    REFERENCE_OHM,
+    REFERENCE_OHM_TOLERANCE,
+    "0.1 %",
+);
 /// 3.3 kΩ, 0.1 %: the voltage path's pole, matched to the stages'.
 pub const R_3K3: Part = r("ERA-3AEB332V", "3.3 kΩ", 3.3e3, 0.001, "0.1 %");
 /// 5.36 kΩ, 0.1 %: the reconstruction filter (the DAC's buffered output
@@ -108,8 +117,16 @@ pub const R_49R9: Part = r("RC0603FR-0749R9L", "49.9 Ω", 49.9, 0.01, "1 %");
 pub const C_2P7: Part = gjm("GJM1555C1H2R7WB01D", "2.7 pF", 2.7e-12);
 /// 270 pF, 1 %, C0G: the voltage path's pole.
 pub const C_270P: Part = c("KEMET", "C0603C271F5GACTU", "270 pF", 270e-12, 0.01, "1 %");
-/// 220 pF, 1 %, C0G: the self-test's reference.
-pub const C_220P: Part = c("KEMET", "C0603C221F5GACTU", "220 pF", 220e-12, 0.01, "1 %");
+/// 220 pF, 1 %, C0G: the self-test's reference (the firmware's
+/// `skin_spec::array::REFERENCE_FARAD`).
+pub const C_220P: Part = c(
+    "KEMET",
+    "C0603C221F5GACTU",
+    "220 pF",
+    REFERENCE_FARAD,
+    REFERENCE_FARAD_TOLERANCE,
+    "1 %",
+);
 /// 470 pF, 1 %, C0G: the reconstruction filter.
 pub const C_470P: Part = c("KEMET", "C0603C471F5GACTU", "470 pF", 470e-12, 0.01, "1 %");
 /// 1 nF, 1 %, C0G: the reconstruction filter; each ADC input's charge

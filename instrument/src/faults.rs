@@ -64,10 +64,15 @@ impl Flags {
     /// record is read at three others, with the same checks as any
     /// (the array's; `crate::tones::Avoidance`).
     pub const TONE_MOVED: u16 = 1 << 13;
+    /// The power-up self-test failed on a path the record rests on (the
+    /// excitation's, the reference's check of the chain, or its sensor's
+    /// stage: [`crate::selftest`]): refused, whatever the record's own
+    /// checks say. The start frame says which paths failed.
+    pub const SELF_TEST: u16 = 1 << 14;
 
     /// Every flag and its name, in bit order (as
     /// `docs/data-format.md` names them).
-    pub const NAMES: [(u16, &'static str); 14] = [
+    pub const NAMES: [(u16, &'static str); 15] = [
         (Self::CLIPPED, "CLIPPED"),
         (Self::OPEN, "OPEN"),
         (Self::SHORTED, "SHORTED"),
@@ -82,6 +87,7 @@ impl Flags {
         (Self::LATE, "LATE"),
         (Self::TONE_LEFT_OUT, "TONE_LEFT_OUT"),
         (Self::TONE_MOVED, "TONE_MOVED"),
+        (Self::SELF_TEST, "SELF_TEST"),
     ];
 
     /// The names of the flags set, in bit order (bits without a name are
@@ -120,7 +126,8 @@ impl Flags {
         | Self::UNCERTAIN
         | Self::HELD
         | Self::MODEL
-        | Self::LATE;
+        | Self::LATE
+        | Self::SELF_TEST;
 
     /// True if the capacitance of the record can be trusted: no fault.
     pub fn valid(self) -> bool {

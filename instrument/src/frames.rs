@@ -106,6 +106,8 @@ pub fn start(
         sample_rate_hz,
         generation,
         device_id,
+        // Not run: an array firmware sets its own after the test.
+        self_test: link::SelfTest::default(),
     }
 }
 

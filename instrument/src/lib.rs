@@ -29,6 +29,7 @@
 //! | [`avoid`] | an array channel moving its tones off one an interferer occupies, and back |
 //! | [`mains`] | the array's reader following mains hum, taken out of every input |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
+//! | [`selftest`] | the array's power-up self-test: the reference network and every path held to the firmware's constants; the records of a failing path refused |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
 //!
 //! The firmware (board and QEMU) runs this code; host-sim's time-domain
@@ -61,6 +62,7 @@ pub mod mains;
 pub mod mux;
 pub mod policy;
 pub mod reader;
+pub mod selftest;
 pub mod sensor;
 pub mod sequencer;
 pub mod store;

@@ -20,6 +20,7 @@ use crate::array::{
 };
 use crate::channel::{Channel, Decimation, Record, Settings};
 use crate::config::{Readings, CHANNELS};
+use crate::faults::Flags;
 use crate::mains::{BlockMains, Hum, MAINS_HZ};
 use crate::sensor::Sensors;
 use crate::sequencer::{Plan, Slot};
@@ -202,6 +203,9 @@ pub struct ArrayReader {
     rotations: [[Complex32; TONES]; SENSORS],
     /// Which blocks are reported.
     reports: Decimation,
+    /// Sensors whose records the power-up self-test refused, one bit
+    /// each ([`crate::selftest::Outcome::refused`]).
+    refused: u16,
 }
 
 impl ArrayReader {
@@ -242,7 +246,23 @@ impl ArrayReader {
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
             rotations: core::array::from_fn(|s| layout.skew_rotation(s)),
             reports: Decimation::new(),
+            refused: 0,
         })
+    }
+
+    /// Refuse the records of the sensors whose bits `sensors` sets (the
+    /// power-up self-test's [`crate::selftest::Outcome::refused`]): they
+    /// are measured and flagged [`Flags::SELF_TEST`].
+    pub fn refuse(&mut self, sensors: u16) {
+        self.refused = sensors;
+    }
+
+    /// The comb on the self-test's reference input
+    /// ([`crate::array::REFERENCE_INPUT`]) of a block: `rows(a)` as
+    /// [`ArrayReader::demodulate`]'s.
+    pub fn reference<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> Tones<TONES> {
+        let (a, j) = adc_position(crate::array::REFERENCE_INPUT);
+        self.comb.column(rows(a), j)
     }
 
     /// The comb demodulator every input goes through.
@@ -304,7 +324,7 @@ impl ArrayReader {
             }
             let mut i = Input::of(&block.i[s]);
             crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
-            let rec = ch.process(
+            let mut rec = ch.process(
                 settings,
                 s as u8,
                 t_us,
@@ -313,6 +333,9 @@ impl ArrayReader {
                 clipped(input_of(s)) || v_clipped,
                 &self.rotations[s],
             );
+            if self.refused & 1 << s != 0 {
+                rec.flags.set(Flags::SELF_TEST);
+            }
             if report {
                 record(rec);
             }

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 
 /// The version of this wire format, sent in every [`Start`] frame. A
 /// receiver refuses a stream of another version.
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 
 /// The board link's baud rate: LPUART1 of the STM32G474 into the
 /// Nucleo-G474RE's STLINK-V3E, whose virtual COM port carries it to the
@@ -163,6 +163,48 @@ pub struct Start {
     /// QEMU's: its `device=` argument, 0 without), which tells the boards
     /// of a skin apart.
     pub device_id: u32,
+    /// The power-up self-test's result (the array's reference network,
+    /// measured before the skin).
+    pub self_test: SelfTest,
+}
+
+/// What the power-up self-test found, as the start frame carries it
+/// (`instrument::selftest`). A path is an ADC input: bit 0 the
+/// excitation, bits 1–16 the sensors' stages, bit 17 the reference
+/// network's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SelfTest {
+    /// What became of it.
+    pub verdict: Verdict,
+    /// Paths that failed a check (on a rail, offset, the excitation's
+    /// amplitude, the reference's impedance): the records resting on
+    /// one are flagged `SELF_TEST`.
+    pub failed: u32,
+    /// Paths whose noise exceeded its bound (reported only: each
+    /// record's own residual check stands).
+    pub noisy: u32,
+    /// The reference network's impedance against the parts' nominal
+    /// one: the worst tone's |Z| error, ppm.
+    pub gain_ppm: i32,
+    /// ... and its worst phase error, µrad.
+    pub phase_urad: i32,
+    /// The excitation's worst tone amplitude against the design, ppm.
+    pub excitation_ppm: i32,
+    /// The noisiest path's residual over the converter's noise, ‰.
+    pub noise_permille: u16,
+}
+
+/// A self-test's verdict.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Verdict {
+    /// Not run: a front end without a reference network (the
+    /// multiplexed board's).
+    #[default]
+    NotRun,
+    /// Every path passed.
+    Passed,
+    /// A path failed ([`SelfTest::failed`]).
+    Failed,
 }
 
 impl Start {

@@ -3,8 +3,8 @@
 //! frames that were sent, and counts the rest.
 
 use link::{
-    decode, encode, Applied, Body, Decoder, Encoder, End, Error, Frame, Record, Start, Tone, MAX_FRAME,
-    VERSION,
+    decode, encode, Applied, Body, Decoder, Encoder, End, Error, Frame, Record, SelfTest, Start, Tone,
+    Verdict, MAX_FRAME, VERSION,
 };
 use proptest::prelude::*;
 
@@ -38,6 +38,35 @@ fn record() -> impl Strategy<Value = Record> {
         })
 }
 
+/// Any self-test result, every field to its extremes (the longest a
+/// start frame can be).
+fn self_test() -> impl Strategy<Value = SelfTest> {
+    (
+        prop_oneof![
+            Just(Verdict::NotRun),
+            Just(Verdict::Passed),
+            Just(Verdict::Failed)
+        ],
+        any::<u32>(),
+        any::<u32>(),
+        any::<i32>(),
+        any::<i32>(),
+        any::<i32>(),
+        any::<u16>(),
+    )
+        .prop_map(
+            |(verdict, failed, noisy, gain_ppm, phase_urad, excitation_ppm, noise_permille)| SelfTest {
+                verdict,
+                failed,
+                noisy,
+                gain_ppm,
+                phase_urad,
+                excitation_ppm,
+                noise_permille,
+            },
+        )
+}
+
 fn body() -> impl Strategy<Value = Body> {
     prop_oneof![
         record().prop_map(Body::Record),
@@ -48,9 +77,10 @@ fn body() -> impl Strategy<Value = Body> {
             any::<u8>(),
             any::<u32>(),
             any::<u32>(),
-            any::<u32>()
+            any::<u32>(),
+            self_test()
         )
-            .prop_map(|(fw, s, c, n, r, g, d)| {
+            .prop_map(|(fw, s, c, n, r, g, d, t)| {
                 Body::Start(Start {
                     version: VERSION,
                     firmware: fw,
@@ -60,6 +90,7 @@ fn body() -> impl Strategy<Value = Body> {
                     sample_rate_hz: r,
                     generation: g,
                     device_id: d,
+                    self_test: t,
                 })
             }),
         (any::<u32>(), any::<u32>()).prop_map(|(records, dropped)| Body::End(End { records, dropped })),
@@ -132,6 +163,7 @@ fn stream(n: u32) -> (Vec<u8>, Vec<Frame>) {
             sample_rate_hz: 25_000,
             generation: 3,
             device_id: 0xA1B2_C3D4,
+            self_test: SelfTest::default(),
         }),
         &mut bytes,
         &mut frames,
@@ -290,8 +322,9 @@ fn the_bytes_at_once_are_the_bytes_one_by_one() {
             _ => corrupt(&clean, &mut rng),
         };
         if case % 7 == 0 {
-            // A run longer than any frame.
-            let at = rng.below(bytes.len());
+            // A run longer than any frame (a corruption may have left
+            // nothing: then the run is all).
+            let at = rng.below(bytes.len() + 1);
             bytes.splice(at..at, std::iter::repeat_n(0x55, MAX_FRAME + rng.below(40)));
         }
         let mut one = Decoder::new();

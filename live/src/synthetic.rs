@@ -48,6 +48,7 @@ pub fn skin_start(sensors: u8) -> Start {
         sample_rate_hz: 25_000,
         generation: 0,
         device_id: 0,
+        self_test: link::SelfTest::default(),
     }
 }
 

@@ -10,8 +10,9 @@
 //! the block: the sensor moves slowly against a block of 1 or 4 ms; the
 //! layout, [`skin_spec::array::Layout`], is the front end's). Each result is
 //! quantized to the 15-bit oversampled scale with Gaussian noise of
-//! [`NOISE_COUNTS`] and clipped at the rails (reported per input). Spare
-//! inputs read noise. Phases use dsp-core's integer `cossin` and the
+//! [`NOISE_COUNTS`] and clipped at the rails (reported per input). The
+//! self-test's reference network on [`REFERENCE_INPUT`] reads as a
+//! sensor of R + 1/(jωC) would; the other spare inputs read noise. Phases use dsp-core's integer `cossin` and the
 //! synthesis `f32` arithmetic, so the codes are the same on the host and
 //! in QEMU.
 
@@ -20,8 +21,8 @@ use crate::rng::Rng;
 use dsp_core::cossin::cossin;
 use num_complex::Complex64;
 use skin_spec::array::{
-    adc_position, input_of, Frame, Layout, HALF_SCALE, NOISE_COUNTS, RATE_HZ, SCAN, SCAN_STEP_S, SENSORS,
-    SENSOR_TIA_OHM, TONES, VOLTAGE_INPUT,
+    adc_position, input_of, Frame, Layout, HALF_SCALE, NOISE_COUNTS, RATE_HZ, REFERENCE_FARAD,
+    REFERENCE_INPUT, REFERENCE_OHM, SCAN, SCAN_STEP_S, SENSORS, SENSOR_TIA_OHM, TONES, VOLTAGE_INPUT,
 };
 use skin_spec::design;
 
@@ -41,6 +42,13 @@ pub struct ArrayFrontEnd {
     pub half_scale_volt: f64,
     /// Noise of one result, counts rms.
     pub noise_counts: f64,
+    /// The self-test's reference network on [`REFERENCE_INPUT`] as
+    /// assembled: its resistor, Ω, and capacitor, F (None: a spare that
+    /// reads noise).
+    pub reference: Option<(f64, f64)>,
+    /// A DC offset at each input, counts: a stage's output off the bias
+    /// (one past a rail: a stage open loop).
+    pub offset_counts: [f32; INPUTS],
 }
 
 impl ArrayFrontEnd {
@@ -55,6 +63,8 @@ impl ArrayFrontEnd {
             tia_ohm: SENSOR_TIA_OHM,
             half_scale_volt: design::ADC_HALF_SCALE_VOLT,
             noise_counts: NOISE_COUNTS as f64,
+            reference: Some((REFERENCE_OHM, REFERENCE_FARAD)),
+            offset_counts: [0.0; INPUTS],
         }
     }
 
@@ -84,11 +94,21 @@ impl ArrayFrontEnd {
         for (c, &a) in coef[VOLTAGE_INPUT].iter_mut().zip(&volts) {
             *c = ((a * self.v_gain / lsb) as f32, 0.0);
         }
+        let g = -self.tia_ohm / lsb;
+        let current = |z: Complex64, k: usize| {
+            let y = Complex64::new(volts[k], 0.0) / z;
+            ((g * y.re) as f32, (g * y.im) as f32)
+        };
         for (s, zs) in z.iter().enumerate() {
             for (k, zk) in zs.iter().enumerate() {
-                let y = Complex64::new(volts[k], 0.0) / zk;
-                let g = -self.tia_ohm / lsb;
-                coef[input_of(s)][k] = ((g * y.re) as f32, (g * y.im) as f32);
+                coef[input_of(s)][k] = current(*zk, k);
+            }
+        }
+        if let Some((r, c)) = self.reference {
+            let hz = self.layout.tones_hz();
+            for (k, x) in coef[REFERENCE_INPUT].iter_mut().enumerate() {
+                let w = core::f64::consts::TAU * hz[k] as f64;
+                *x = current(Complex64::new(r, -1.0 / (w * c)), k);
             }
         }
         // The phase offset of each tone at each scan position, 2³² a turn.
@@ -133,7 +153,7 @@ impl ArrayFrontEnd {
                         x += h.hum_i * s as f32 * q;
                     }
                 }
-                x += noise * rng.gaussian_fast();
+                x += noise * rng.gaussian_fast() + self.offset_counts[input];
                 let (code, rail) = crate::frontend::quantize(x, half);
                 clipped[input] |= rail;
                 frame[a][n][j] = code;

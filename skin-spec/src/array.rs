@@ -108,9 +108,28 @@ pub const fn adc_position(input: usize) -> (usize, usize) {
     (input / SCAN, input % SCAN)
 }
 
+/// The input of the power-up self-test's reference network (a spare of
+/// the scan: ADC 4, position 1): [`REFERENCE_OHM`] in series with
+/// [`REFERENCE_FARAD`] from the excitation to a stage of its own, laid
+/// out as the sensors' are (`front-end/`'s board, `instrument::selftest`).
+pub const REFERENCE_INPUT: usize = SENSORS + 1;
+/// The reference network's resistor, Ω (thin film).
+pub const REFERENCE_OHM: f64 = 680e3;
+/// Its tolerance, relative (0.1 %).
+pub const REFERENCE_OHM_TOLERANCE: f64 = 0.001;
+/// The reference network's capacitor, F (C0G).
+pub const REFERENCE_FARAD: f64 = 220e-12;
+/// Its tolerance, relative (1 %).
+pub const REFERENCE_FARAD_TOLERANCE: f64 = 0.01;
+
 /// How much later than the voltage sensor `s`'s current is sampled, s.
 pub fn skew_s(sensor: usize) -> f32 {
-    let (_, j) = adc_position(input_of(sensor));
+    skew_of_input(input_of(sensor))
+}
+
+/// How much later than the voltage input `input` is sampled, s.
+pub fn skew_of_input(input: usize) -> f32 {
+    let (_, j) = adc_position(input);
     let (_, jv) = adc_position(VOLTAGE_INPUT);
     (j as f32 - jv as f32) * SCAN_STEP_S
 }
@@ -290,7 +309,13 @@ impl Layout {
     /// tone: e^(+j·2π·f·Δt) (the current's phasor carries e^(+j·2π·f·Δt)
     /// too many, so V/I carries its inverse).
     pub fn skew_rotation(&self, sensor: usize) -> [Complex32; TONES] {
-        let dt = skew_s(sensor);
+        self.input_rotation(input_of(sensor))
+    }
+
+    /// [`Layout::skew_rotation`] of ADC input `input` (the self-test's
+    /// reference, [`REFERENCE_INPUT`], as a sensor's).
+    pub fn input_rotation(&self, input: usize) -> [Complex32; TONES] {
+        let dt = skew_of_input(input);
         core::array::from_fn(|k| {
             let (s, c) = libm::sincosf(TAU * self.tone_hz(k) * dt);
             Complex32::new(c, s)

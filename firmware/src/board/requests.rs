@@ -190,6 +190,7 @@ mod tests {
             sample_rate_hz: 200_000,
             generation: 0,
             device_id: 0,
+            self_test: link::SelfTest::default(),
         }
     }
 
