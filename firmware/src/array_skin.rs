@@ -44,6 +44,44 @@ pub enum ArrayScenario {
     Stairs,
 }
 
+/// A board assembled wrong, for the self-test's failing cases (`fault=`
+/// on the command line).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoardFault {
+    /// `fault=reference`: the reference network's capacitor from the
+    /// wrong reel (270 pF for 220 pF): the chain fails, every sensor is
+    /// refused.
+    Reference,
+    /// `fault=stage`: sensor [`FAULTY_STAGE`]'s stage open loop (its
+    /// feedback resistor missing), its output on a rail: that sensor is
+    /// refused.
+    Stage,
+}
+
+/// The sensor whose stage `fault=stage` leaves open loop.
+pub const FAULTY_STAGE: usize = 5;
+
+impl BoardFault {
+    /// Parse a fault's name.
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "reference" => Some(Self::Reference),
+            "stage" => Some(Self::Stage),
+            _ => None,
+        }
+    }
+
+    /// The front end assembled with this fault.
+    fn apply(self, fe: &mut ArrayFrontEnd) {
+        match self {
+            Self::Reference => {
+                fe.reference = fe.reference.map(|(r, _)| (r, 270e-12));
+            }
+            Self::Stage => fe.offset_counts[instrument::array::input_of(FAULTY_STAGE)] = 40_000.0,
+        }
+    }
+}
+
 /// The undeclared cable capacitance of the `identify` scenario, pF.
 pub const HIDDEN_PF: f64 = 12.0;
 
@@ -149,6 +187,11 @@ impl ArraySkin {
             front_end: ArrayFrontEnd::reference(layout),
             rng: Rng::new(0xa11a),
         }
+    }
+
+    /// Assemble the board with `fault`.
+    pub fn set_fault(&mut self, fault: BoardFault) {
+        fault.apply(&mut self.front_end);
     }
 
     /// The front end (for the transimpedance the firmware divides by).

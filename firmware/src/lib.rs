@@ -12,6 +12,7 @@
 //! | `device_clock` | a device clock offset and drifting from true time: the QEMU images' `offset_us=`, `drift_ppm=` |
 //! | `in_force` | the set a device measures with, replaced while it runs when the host stores another (`Applied` frame) |
 //! | `hot_ram` | (target) the per-block code's load into zero-wait RAM (the CCM SRAM) at reset |
+//! | `power_up` | (target) the array's power-up self-test in an image: its blocks, its log, the start frame after it |
 //! | `link_out` | the record link's sending end on the board: frames into a byte queue a DMA channel drains (`bbqueue`); never waits, counts drops |
 //! | `settings_log` | (target) what a device says of its stored settings at start |
 //! | `records` | the array's record queue between acquisition and logger (`heapless`): never waits, counts drops |
@@ -32,6 +33,8 @@ pub mod device_clock;
 pub mod hot_ram;
 pub mod in_force;
 pub mod link_out;
+#[cfg(target_os = "none")]
+pub mod power_up;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 pub mod qemu;
 #[cfg(all(target_os = "none", feature = "qemu"))]

@@ -30,15 +30,27 @@ impl<'a, const N: usize> FrameWriter<'a, N> {
     /// The writer on `queue` (the consumer is [`LinkQueue::stream_consumer`]
     /// of the same queue), its start frame queued.
     pub fn start(queue: &'a LinkQueue<N>, start: link::Start) -> Self {
-        let mut w = Self {
+        let mut w = Self::new(queue);
+        w.send_start(&start);
+        w
+    }
+
+    /// The writer on `queue`, nothing queued yet: the start frame is
+    /// [`FrameWriter::send_start`]'s, first (the array's, after its
+    /// self-test).
+    pub fn new(queue: &'a LinkQueue<N>) -> Self {
+        Self {
             producer: queue.stream_producer(),
             encoder: link::Encoder::new(),
             records: 0,
             dropped: 0,
             last_t_us: 0,
-        };
-        w.queue(|e, out| e.start(&start, out));
-        w
+        }
+    }
+
+    /// Queue the stream's start frame; false if there was no room.
+    pub fn send_start(&mut self, start: &link::Start) -> bool {
+        self.queue(|e, out| e.start(start, out))
     }
 
     /// Number, encode (with `encode`, one of [`link::Encoder`]'s

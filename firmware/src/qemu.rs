@@ -88,15 +88,27 @@ pub struct LinkSender {
 impl LinkSender {
     /// The link on `uart`, its start frame sent.
     pub fn start(uart: Uart0, start: link::Start) -> Self {
-        let mut link = Self {
+        let mut link = Self::new(uart);
+        link.send_start(&start);
+        link
+    }
+
+    /// The link on `uart`, nothing sent yet: the start frame is
+    /// [`LinkSender::send_start`]'s, first (the array's, after its
+    /// self-test).
+    pub fn new(uart: Uart0) -> Self {
+        Self {
             uart,
             encoder: link::Encoder::new(),
             records: 0,
             last_t_us: 0,
             requests: link::Decoder::new(),
-        };
-        link.send(|e, out| e.start(&start, out));
-        link
+        }
+    }
+
+    /// Send the stream's start frame.
+    pub fn send_start(&mut self, start: &link::Start) {
+        self.send(|e, out| e.start(start, out));
     }
 
     /// Number, encode (with one of [`link::Encoder`]'s per-body

@@ -440,6 +440,7 @@ impl Dashboard {
             "generation": start.generation,
             "sensors": start.sensors,
             "sample_rate_hz": start.sample_rate_hz,
+            "self_test": crate::self_test::json(&start.self_test, start.sensors),
             "clock": clock.map(|l| l.json()),
             "skin": skin.as_ref().map(|b| b.skin.clone()),
             "names": named(&|s| serde_json::json!(s.name)),

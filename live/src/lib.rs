@@ -30,6 +30,7 @@ pub mod markers;
 mod recorder;
 mod records_csv;
 mod session;
+pub mod self_test;
 pub mod skin;
 mod skin_records;
 pub mod skin_view;

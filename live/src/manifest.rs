@@ -104,6 +104,8 @@ fn segment(g: &Segment, skin: Option<&crate::skin::Board>) -> Value {
         "calibration_digest": format!("{:08x}", g.start.calibration_digest),
         "sensors": g.start.sensors,
         "sample_rate_hz": g.start.sample_rate_hz,
+        // The power-up self-test the device ran before its first record.
+        "self_test": crate::self_test::json(&g.start.self_test, g.start.sensors),
         "skin_mismatch": skin.map(|b| b.mismatch(g.start.sensors, g.start.device_id)),
         // The id the device reports (a board's: from its chip's unique
         // ID), which names it among a skin's boards.

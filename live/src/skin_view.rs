@@ -96,6 +96,7 @@ impl SkinView {
         json!({
             "board": self.board,
             "device_id": seg.map(|g| format!("{:08x}", g.start.device_id)),
+            "self_test": seg.map(|g| crate::self_test::json(&g.start.self_test, g.start.sensors)),
             "segments": session.segments().len(),
             "records": session.segments().iter().map(|g| g.records).sum::<u64>(),
             "frames": stats.frames,

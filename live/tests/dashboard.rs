@@ -19,6 +19,12 @@ fn stream(n: u32) -> Vec<u8> {
         version: VERSION,
         firmware: Start::firmware_field("dashboard test"),
         sensors: 2,
+        // Sensor 1's stage failed the power-up self-test.
+        self_test: link::SelfTest {
+            verdict: link::Verdict::Failed,
+            failed: 1 << 2,
+            ..link::SelfTest::default()
+        },
         ..Start::default()
     };
     let mut bytes = enc.frame(Body::Start(start), &mut out).unwrap().to_vec();
@@ -137,6 +143,11 @@ fn the_page_shows_every_record_it_was_sent() {
     assert_eq!(count("sensors"), Some(2));
     assert_eq!(count("flagged"), Some(17));
     assert!(dom.contains("sensor 0: C"), "no charts: {dom}");
+    // The device's self-test, as its start frame gave it.
+    assert!(
+        dom.contains("self-test FAILED on sensor 1: sensor 1's records refused"),
+        "no self-test: {dom}"
+    );
     // The table's row of sensor 1: its last record's values as dashes.
     let row = dom
         .split("<tr")

@@ -20,13 +20,14 @@ FLAGS = (
     (11, "LATE"),
     (12, "TONE_LEFT_OUT"),
     (13, "TONE_MOVED"),
+    (14, "SELF_TEST"),
 )
 
 #: The fault bits: C and R are valid when none is set.
-FAULTS = 0b1000_1111_1111
+FAULTS = 0b100_1000_1111_1111
 #: The bits that keep the stretch from being vouched for (faults and
 #: the stretch's statuses).
-STRETCH_FAULTS = 0b1111_1111_1111
+STRETCH_FAULTS = 0b100_1111_1111_1111
 
 
 def names(bits: int) -> List[str]:

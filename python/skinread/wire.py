@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Iterator, List, Optional, Tuple, Union
 
 #: The wire format's version this reader knows.
-VERSION = 4
+VERSION = 5
 #: The longest frame on the wire, its closing zero excluded (bytes).
 MAX_FRAME = 96
 
@@ -86,6 +86,11 @@ class _Reader:
     def u64(self) -> int:
         return self.varint(64)
 
+    def i32(self) -> int:
+        """A signed integer, zigzag then LEB128 (postcard's)."""
+        z = self.varint(32)
+        return (z >> 1) ^ -(z & 1)
+
     def f32(self) -> float:
         return struct.unpack("<f", self._take(4))[0]
 
@@ -113,6 +118,28 @@ class Tone:
 
 
 @dataclass(frozen=True)
+class SelfTest:
+    """The power-up self-test (docs/data-format.md): a path is an ADC
+    input, bit 0 the excitation, 1-16 the sensors' stages, 17 the
+    reference network's."""
+
+    #: "NotRun", "Passed" or "Failed".
+    verdict: str
+    #: Paths that failed a check: their sensors' records are flagged
+    #: SELF_TEST (every sensor's if bit 0 or 17 is set).
+    failed: int
+    #: Paths whose noise exceeded its bound (reported only).
+    noisy: int
+    #: The reference's worst |Z| error, ppm, and phase error, µrad.
+    gain_ppm: int
+    phase_urad: int
+    #: The excitation's worst tone amplitude error, ppm.
+    excitation_ppm: int
+    #: The noisiest path's residual over the converter's noise, ‰.
+    noise_permille: int
+
+
+@dataclass(frozen=True)
 class Start:
     version: int
     firmware: str
@@ -124,6 +151,8 @@ class Start:
     generation: int
     #: The device's id (a board's: the CRC-32 of its chip's unique ID).
     device_id: int
+    #: What the power-up self-test found.
+    self_test: SelfTest
 
 
 @dataclass(frozen=True)
@@ -208,7 +237,10 @@ def _body(r: _Reader) -> Body:
     if kind == "Start":
         version, firmware = r.u16(), r.raw(24)
         name = firmware.split(b"\0", 1)[0].decode("ascii", "replace")
-        return Start(version, name, r.u32(), r.u32(), r.u8(), r.u32(), r.u32(), r.u32())
+        fields = (r.u32(), r.u32(), r.u8(), r.u32(), r.u32(), r.u32())
+        test = SelfTest(r.variant(("NotRun", "Passed", "Failed")), r.u32(), r.u32(),
+                        r.i32(), r.i32(), r.i32(), r.u16())
+        return Start(version, name, *fields, test)
     if kind == "Applied":
         return Applied(r.u32(), r.u32(), r.u32(), r.u64())
     if kind == "Record":

@@ -57,6 +57,10 @@ def test_crc_is_iso_hdlc():
     assert wire.crc32(b"123456789") == 0xCBF43926
 
 
+#: A start frame's self-test that did not run: its seven fields zero.
+NOT_RUN = bytes(7)
+
+
 def record_body(seq=7, t_us=1_234_567, sensor=3, flags=256):
     f = lambda *xs: struct.pack("<%df" % len(xs), *xs)
     return (
@@ -77,11 +81,17 @@ def test_a_record_built_from_the_spec_decodes_field_by_field():
 
 
 def test_start_end_and_status_frames():
-    start = varint(0) + varint(0) + varint(4) + b"skin-array 0.1.0".ljust(24, b"\0") \
-        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000) + varint(7) + varint(0xA1B2C3D4)
+    zigzag = lambda v: varint(((v << 1) ^ (v >> 31)) & 0xFFFFFFFF)
+    # Its self-test: Failed (2), sensor 5's path (bit 6), the
+    # excitation noisy, +120 ppm, -4500 µrad, -3 ppm, 1.021x.
+    test = varint(2) + varint(1 << 6) + varint(1) + zigzag(120) + zigzag(-4500) + zigzag(-3) + varint(1021)
+    start = varint(0) + varint(0) + varint(5) + b"skin-array 0.1.0".ljust(24, b"\0") \
+        + varint(0xDEADBEEF) + varint(0x0BADF00D) + bytes([16]) + varint(25_000) + varint(7) + varint(0xA1B2C3D4) \
+        + test
     s = wire.decode(sealed(start)).body
-    assert (s.version, s.firmware, s.sensors, s.sample_rate_hz) == (4, "skin-array 0.1.0", 16, 25_000)
+    assert (s.version, s.firmware, s.sensors, s.sample_rate_hz) == (5, "skin-array 0.1.0", 16, 25_000)
     assert s.settings_digest == 0xDEADBEEF and s.generation == 7 and s.device_id == 0xA1B2C3D4
+    assert s.self_test == wire.SelfTest("Failed", 1 << 6, 1, 120, -4500, -3, 1021)
     end = wire.decode(sealed(varint(9) + varint(2) + varint(1000) + varint(0))).body
     assert (end.records, end.dropped) == (1000, 0)
     status = varint(5) + varint(5) + varint(10**6) + varint(1) + b"".join(varint(v) for v in range(7))
@@ -106,8 +116,8 @@ def test_a_corrupted_or_padded_frame_is_refused_and_the_stream_goes_on():
 def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
     from skinread import check
 
-    start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
-        + varint(25_000) + varint(0) + varint(0)
+    start = varint(0) + varint(0) + varint(5) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
+        + varint(25_000) + varint(0) + varint(0) + NOT_RUN
     stream = sealed(start) + b"\0" + sealed(record_body(seq=1)) + b"\0"
     # A duplicate (seq 1 again) is dropped, as live drops it.
     stream += sealed(record_body(seq=1)) + b"\0"
@@ -133,8 +143,8 @@ def test_check_finds_a_records_file_that_is_not_its_stream(tmp_path):
 def test_records_after_an_applied_frame_are_of_its_generation(tmp_path):
     from skinread.stream import read_stream
 
-    start = varint(0) + varint(0) + varint(4) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
-        + varint(25_000) + varint(2) + varint(0)
+    start = varint(0) + varint(0) + varint(5) + b"t".ljust(24, b"\0") + varint(1) + varint(2) + bytes([4]) \
+        + varint(25_000) + varint(2) + varint(0) + NOT_RUN
     applied = varint(2) + varint(6) + varint(3) + varint(0xAB) + varint(0xCD) + varint(1234567)
     a = wire.decode(sealed(applied)).body
     assert a == wire.Applied(3, 0xAB, 0xCD, 1234567)

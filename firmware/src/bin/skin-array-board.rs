@@ -63,6 +63,7 @@ use firmware::board::setup::{self, Watchdog};
 use firmware::board::{clocks, dac, pac, watchdog};
 use firmware::in_force::InForce;
 use firmware::link_out::{FrameWriter, LinkQueue};
+use firmware::power_up::PowerUp;
 use firmware::records::{RecordSink, QUEUE};
 use heapless::spsc::{Consumer, Queue};
 use heapless::Vec;
@@ -186,6 +187,8 @@ mod app {
         /// The settings and sensors measured with, replaced by `idle`
         /// when the host stores a new set.
         in_force: InForce<ToneCommon, SENSORS>,
+        /// The self-test's result, for the start frame, once it is done.
+        self_test: Option<::link::SelfTest>,
     }
 
     #[local]
@@ -200,8 +203,13 @@ mod app {
         records: RecordSink<'static>,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         writer: FrameWriter<'static, LINK_BYTES>,
+        /// The start frame, queued when the self-test is done (`None`
+        /// once queued).
+        start: Option<::link::Start>,
         requests: Requests<SettingsFlash>,
         sending: bool,
+        /// The power-up self-test, in the first blocks.
+        power_up: PowerUp,
     }
 
     #[init(local = [
@@ -237,14 +245,12 @@ mod app {
             watchdog::await_reset()
         };
         let queue: &'static LinkQueue<LINK_BYTES> = cx.local.link_queue;
-        let writer = FrameWriter::start(
-            queue,
-            in_force.start_frame(
-                concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
-                firmware::board::device_id::read(),
-                SENSORS,
-                RATE_HZ,
-            ),
+        let writer = FrameWriter::new(queue);
+        let start = in_force.start_frame(
+            concat!("skin-array-board ", env!("CARGO_PKG_VERSION")),
+            firmware::board::device_id::read(),
+            SENSORS,
+            RATE_HZ,
         );
         let ring: &'static mut RxRing = cx.local.rx_ring;
         link::receive(&owned.link.dma, owned.link.rdr, ring.as_ptr() as u32);
@@ -268,6 +274,7 @@ mod app {
                 ),
                 status: None,
                 in_force,
+                self_test: None,
             },
             Local {
                 dma: owned.dma,
@@ -280,8 +287,10 @@ mod app {
                 records: RecordSink::new(records),
                 logger,
                 writer,
+                start: Some(start),
                 requests: Requests::new(ring, Commands::sweeping(), store),
                 sending: true,
+                power_up: PowerUp::new(LAYOUT),
             },
         )
     }
@@ -291,10 +300,29 @@ mod app {
     /// ([`instrument::commands`]: the stored settings, start, stop, a
     /// calibration step's sweep); then
     /// the transmitter woken.
-    #[idle(shared = [tx, sweep, status, in_force], local = [logger, writer, requests, sending])]
+    #[idle(
+        shared = [tx, sweep, status, in_force, self_test],
+        local = [logger, writer, start, requests, sending]
+    )]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
             let l = &mut cx.local;
+            if let Some(start) = l.start.as_mut() {
+                // Nothing on the link before the start frame, which waits
+                // for the self-test (the host's requests wait in the ring).
+                match cx.shared.self_test.lock(Option::take) {
+                    Some(result) => {
+                        start.self_test = result;
+                        l.writer.send_start(start);
+                        *l.start = None;
+                        rtic::pend(pac::Interrupt::DMA2_CH1);
+                    }
+                    None => {
+                        cortex_m::asm::wfi();
+                        continue;
+                    }
+                }
+            }
             let mut queued = send_records(l.logger, l.writer, *l.sending);
             if let Some(status) = cx.shared.status.lock(Option::take) {
                 if *l.sending {
@@ -378,8 +406,8 @@ mod app {
     /// The block's records, straight from the DMA buffers.
     #[task(
         priority = 1,
-        shared = [finished, sweep, busy, status, in_force],
-        local = [bufs, reader, records, watchdog]
+        shared = [finished, sweep, busy, status, in_force, self_test],
+        local = [bufs, reader, records, watchdog, power_up]
     )]
     async fn process(mut cx: process::Context) {
         let Some((half, k, completed)) = cx.shared.finished.lock(|f| f.take()) else {
@@ -396,6 +424,14 @@ mod app {
             core::array::from_fn(|a| unsafe { array_half(&mut (*bufs)[a], &LAYOUT, half) });
         let t_us = k * BLOCK_US + BLOCK_US / 2;
         let reader = &mut *cx.local.reader;
+        if cx.local.power_up.testing() {
+            let k = cx.shared.in_force.lock(|f| f.settings().front_end);
+            if let Some(r) = self_test_block(cx.local.power_up, reader, rows, &k) {
+                cx.shared.self_test.lock(|s| *s = Some(r));
+            }
+            cx.local.watchdog.feed();
+            return;
+        }
         let recs = cx.shared.in_force.lock(|f| {
             let settings = ToneSettings {
                 sweep,
@@ -419,6 +455,24 @@ mod app {
         // A block went all the way through: the chain is alive.
         cx.local.watchdog.feed();
     }
+}
+
+/// A block of the power-up self-test ([`PowerUp::block`]) from the ADCs'
+/// rows of it: the rows to two's complement in place, the comb on every
+/// input and on the reference's. Not in CCM SRAM: it runs for the first
+/// 100 ms only.
+fn self_test_block(
+    power_up: &mut PowerUp,
+    reader: &mut ArrayReader,
+    mut rows: [&mut [[i16; SCAN]]; ADCS],
+    k: &FrontEnd,
+) -> Option<::link::SelfTest> {
+    let rails = to_signed_all(&mut rows);
+    let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
+    let mut block = Demodulated::EMPTY;
+    reader.demodulate_into(|a| rows[a], &mut block);
+    let reference = reader.reference(|a| rows[a]);
+    power_up.block(reader, &block, &reference, |i| rails[i], k)
 }
 
 /// A block's records from the ADCs' rows of it (the half the DMA

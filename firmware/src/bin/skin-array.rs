@@ -37,7 +37,8 @@
 use core::mem::MaybeUninit;
 
 use dsp_core::comb::CombError;
-use firmware::array_skin::{ArrayScenario, ArraySkin};
+use firmware::array_skin::{ArrayScenario, ArraySkin, BoardFault};
+use firmware::power_up::PowerUp;
 use firmware::device_clock::DeviceClock;
 use firmware::in_force::InForce;
 use firmware::qemu::{self, LinkSender, Uart0};
@@ -78,6 +79,9 @@ struct Arguments {
     /// The device's clock (`offset_us=N`, `drift_ppm=N`): what it
     /// stamps its records with.
     clock: DeviceClock,
+    /// A board assembled wrong (`fault=reference`, `fault=stage`): the
+    /// self-test's failing cases.
+    fault: Option<BoardFault>,
 }
 
 /// The command line: the scenario first, then its options; a run with
@@ -93,8 +97,15 @@ fn arguments() -> Arguments {
         let mut clock = DeviceClock::default();
         let mut layout = Layout::BLOCK_4MS;
         let mut duration_s = scenario.duration_s();
+        let mut fault = None;
         for arg in args {
-            if let Some(rate) = arg.strip_prefix("records=") {
+            if let Some(name) = arg.strip_prefix("fault=") {
+                fault = BoardFault::parse(name);
+                if fault.is_none() {
+                    defmt::println!("fault=: reference or stage, not '{=str}'", name);
+                    qemu::exit(2)
+                }
+            } else if let Some(rate) = arg.strip_prefix("records=") {
                 match rate.parse().ok().and_then(Layout::of_records_per_s) {
                     Some(l) => layout = l,
                     None => {
@@ -129,6 +140,7 @@ fn arguments() -> Arguments {
             duration_s,
             flash,
             clock,
+            fault,
         }
     })
 }
@@ -163,6 +175,8 @@ mod app {
         /// The settings and sensors measured with, replaced by `idle`
         /// when the host stores a new set.
         in_force: InForce<ToneCommon, SENSORS>,
+        /// The self-test's result, for the start frame, once it is done.
+        self_test: Option<link::SelfTest>,
     }
 
     #[local]
@@ -178,8 +192,13 @@ mod app {
         clock: DeviceClock,
         logger: Consumer<'static, ToneRecord, QUEUE>,
         link: LinkSender,
+        /// The start frame, sent when the self-test is done (`None`
+        /// once sent).
+        start: Option<link::Start>,
         store: Option<Store<FileFlash>>,
         commands: Commands,
+        /// The power-up self-test, in the first blocks.
+        power_up: PowerUp,
     }
 
     #[init(local = [
@@ -202,8 +221,12 @@ mod app {
             duration_s,
             flash,
             clock,
+            fault,
         } = arguments();
         let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
+        if let Some(f) = fault {
+            skin.set_fault(f);
+        }
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
         let (store, (generation, set)) = flash.set_in_force(&rig);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
@@ -221,14 +244,11 @@ mod app {
             ..ToneSettings::new(layout, skin.front_end().dsp_front_end(), &*sensors).common()
         };
         let in_force = InForce::new(common, sensors, generation);
-        let link = LinkSender::start(
-            Uart0::take(),
-            in_force.start_frame(
-                concat!("skin-array ", env!("CARGO_PKG_VERSION")),
-                flash.device,
-                SENSORS,
-                RATE_HZ,
-            ),
+        let start = in_force.start_frame(
+            concat!("skin-array ", env!("CARGO_PKG_VERSION")),
+            flash.device,
+            SENSORS,
+            RATE_HZ,
         );
         defmt::println!(
             "start array {=u8} sensors, {=u32} records/s each, scenario {}",
@@ -250,19 +270,24 @@ mod app {
                 ),
                 status: None,
                 in_force,
+                self_test: None,
             },
             Local {
                 skin,
                 block: 0,
                 block_us: layout.block_us(),
-                end_block: flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
+                // The self-test's blocks first, then the run's.
+                end_block: PowerUp::blocks(layout)
+                    + flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
                 reader,
                 records: RecordSink::new(records),
                 clock,
                 logger,
-                link,
+                link: LinkSender::new(Uart0::take()),
+                start: Some(start),
                 store,
                 commands: Commands::sweeping(),
+                power_up: PowerUp::new(layout),
             },
         )
     }
@@ -270,9 +295,27 @@ mod app {
     /// The logger: each record to defmt and to the link (UART0); the
     /// host's requests down the link answered (the stored settings, stop);
     /// the link's end frame when the run is done or the host stops it.
-    #[idle(shared = [done, dropped, sweep, status, in_force], local = [logger, link, store, commands])]
+    #[idle(
+        shared = [done, dropped, sweep, status, in_force, self_test],
+        local = [logger, link, start, store, commands]
+    )]
     fn idle(mut cx: idle::Context) -> ! {
         loop {
+            if let Some(start) = cx.local.start.as_mut() {
+                // Nothing on the link before the start frame, and it
+                // waits for the self-test's result.
+                match cx.shared.self_test.lock(Option::take) {
+                    Some(result) => {
+                        start.self_test = result;
+                        cx.local.link.send_start(start);
+                        *cx.local.start = None;
+                    }
+                    None => {
+                        rtic::pend(Interrupt::GPIOA);
+                        continue;
+                    }
+                }
+            }
             log_records(cx.local.logger, cx.local.link);
             if let Some(status) = cx.shared.status.lock(Option::take) {
                 cx.local.link.status(&status);
@@ -327,10 +370,25 @@ mod app {
     /// Demodulate every input, solve every sensor, log the records.
     #[task(
         priority = 1,
-        shared = [frame, done, dropped, sweep, busy, status, in_force],
-        local = [reader, end_block, records, clock]
+        shared = [frame, done, dropped, sweep, busy, status, in_force, self_test],
+        local = [reader, end_block, records, clock, power_up]
     )]
     async fn process(mut cx: process::Context) {
+        if cx.local.power_up.testing() {
+            let reader = &mut **cx.local.reader;
+            let k = cx.shared.in_force.lock(|f| f.settings().front_end);
+            let mut block = Demodulated::EMPTY;
+            let result = cx.shared.frame.lock(|(frame, clipped, _)| {
+                let layout = *reader.layout();
+                reader.demodulate_into(|a| layout.rows(&frame[a]), &mut block);
+                let reference = reader.reference(|a| layout.rows(&frame[a]));
+                cx.local.power_up.block(reader, &block, &reference, |i| clipped[i], &k)
+            });
+            if let Some(r) = result {
+                cx.shared.self_test.lock(|s| *s = Some(r));
+            }
+            return;
+        }
         let started = qemu::Instructions::now();
         let sweep = cx.shared.sweep.lock(|s| s.next_block());
         let reader = &mut **cx.local.reader;
