@@ -532,8 +532,10 @@ impl Session {
                 self.gaps.restart();
             }
         }
-        // A sensor the skin names that the device lacks, or one it
-        // reports that the skin does not name: said at once.
+        // The device's power-up self-test, and a sensor the skin names
+        // that the device lacks, or one it reports that the skin does
+        // not name: said at once.
+        eprintln!("{}", crate::self_test::line(&s.self_test, s.sensors));
         if let Some(skin) = &self.skin {
             for line in skin.mismatch(s.sensors, s.device_id) {
                 eprintln!("{line}");

@@ -559,3 +559,62 @@ fn the_device_reports_how_its_cpu_keeps_up() {
         serde_json::from_str(&std::fs::read_to_string(tmp.path().join("session.json")).unwrap()).unwrap();
     assert_eq!(manifest["segments"][0]["cpu"]["blocks"], 500);
 }
+
+/// The start frame of a run's link stream (the first frame, before any
+/// record).
+fn start_of(run: &qemu_tests::Run) -> link::Start {
+    let mut d = link::Decoder::new();
+    let first = run.serial.iter().find_map(|&b| d.push(b)).unwrap().unwrap();
+    match first.body {
+        link::Body::Start(s) => s,
+        other => panic!("the stream starts with {other:?}"),
+    }
+}
+
+/// The power-up self-test of a board as designed passes: the start
+/// frame says so, the log gives every path's figures, and no record is
+/// refused.
+#[test]
+fn the_self_test_passes_on_a_board_as_designed() {
+    let (run, recs) = paper_2s();
+    let t = start_of(run).self_test;
+    println!("{t:?}");
+    assert_eq!((t.verdict, t.failed, t.noisy), (link::Verdict::Passed, 0, 0));
+    assert!(t.gain_ppm.abs() < 300 && t.phase_urad.abs() < 300, "{t:?}");
+    assert!(run.stdout.contains("self-test passed"));
+    assert_eq!(run.stdout.matches("self-test path ").count(), 18);
+    assert!(recs.iter().all(|r| !r.rec.flags.has(Flags::SELF_TEST)));
+}
+
+/// A board assembled wrong fails its self-test, and the records it cannot
+/// vouch for say so: a stage open loop refuses its own sensor's
+/// (`fault=stage`, sensor 5), a reference of the wrong part every one
+/// (`fault=reference`). The others are measured as ever.
+#[test]
+fn the_self_test_fails_a_board_assembled_wrong_and_refuses_its_records() {
+    for (fault, failed, refused) in [
+        ("fault=stage", 1u32 << (STAGE + 1), 1u16 << STAGE),
+        ("fault=reference", 1 << 17, u16::MAX),
+    ] {
+        let (run, recs) = run_array_args(&["paper", "seconds=1", fault]).unwrap();
+        let run = run.ok().unwrap();
+        let t = start_of(&run).self_test;
+        println!("{fault}: {t:?}");
+        assert_eq!((t.verdict, t.failed), (link::Verdict::Failed, failed), "{fault}");
+        assert!(run.stdout.contains("self-test failed"), "{fault}");
+        assert!(recs.len() >= 16 * 240, "{fault}: {} records", recs.len());
+        for r in &recs {
+            let refuse = refused & 1 << r.rec.sensor != 0;
+            assert_eq!(r.rec.flags.has(Flags::SELF_TEST), refuse, "{fault}: {:?}", r.rec);
+            assert!(!(refuse && r.rec.flags.valid()));
+        }
+        if refused != u16::MAX {
+            let valid = recs.iter().filter(|r| r.rec.flags.valid()).count();
+            assert!(valid as f64 >= 0.9 * recs.len() as f64 * 15.0 / 16.0, "{fault}: {valid}");
+        }
+    }
+}
+
+/// The sensor whose stage the image's `fault=stage` leaves open loop
+/// (`firmware::array_skin::FAULTY_STAGE`).
+const STAGE: usize = 5;
