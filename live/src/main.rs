@@ -801,7 +801,10 @@ fn print_finished(session: Session) -> Result<Outcome> {
             g.start.device_id,
             g.start.generation
         );
-        println!("segment {k}: {}", live::self_test::line(&g.start.self_test, g.start.sensors));
+        println!(
+            "segment {k}: {}",
+            live::self_test::line(&g.start.self_test, g.start.sensors)
+        );
         for (seq, a) in &g.applied {
             println!(
                 "segment {k}: settings generation {} applied at {:.3} s (frame {seq}), in force for the records after it",

@@ -145,6 +145,21 @@ impl Run {
             None => bail!("firmware hung: killed by the watchdog\n--- stdout ---\n{}", self.stdout),
         }
     }
+
+    /// The start frame of its link stream: the first frame UART0 carried
+    /// (an error if that is another frame, or none came).
+    pub fn start_frame(&self) -> Result<link::Start> {
+        let mut d = link::Decoder::new();
+        match self.serial.iter().find_map(|&b| d.push(b)) {
+            Some(Ok(link::Frame {
+                body: link::Body::Start(s),
+                ..
+            })) => Ok(s),
+            Some(Ok(f)) => bail!("the link's stream starts with {:?}, not a start frame", f.body),
+            Some(Err(e)) => bail!("the link's first frame was refused: {e:?}"),
+            None => bail!("nothing on the link"),
+        }
+    }
 }
 
 /// Run `elf` in QEMU; kill it after `watchdog`.

@@ -560,24 +560,13 @@ fn the_device_reports_how_its_cpu_keeps_up() {
     assert_eq!(manifest["segments"][0]["cpu"]["blocks"], 500);
 }
 
-/// The start frame of a run's link stream (the first frame, before any
-/// record).
-fn start_of(run: &qemu_tests::Run) -> link::Start {
-    let mut d = link::Decoder::new();
-    let first = run.serial.iter().find_map(|&b| d.push(b)).unwrap().unwrap();
-    match first.body {
-        link::Body::Start(s) => s,
-        other => panic!("the stream starts with {other:?}"),
-    }
-}
-
 /// The power-up self-test of a board as designed passes: the start
 /// frame says so, the log gives every path's figures, and no record is
 /// refused.
 #[test]
 fn the_self_test_passes_on_a_board_as_designed() {
     let (run, recs) = paper_2s();
-    let t = start_of(run).self_test;
+    let t = run.start_frame().unwrap().self_test;
     println!("{t:?}");
     assert_eq!((t.verdict, t.failed, t.noisy), (link::Verdict::Passed, 0, 0));
     assert!(t.gain_ppm.abs() < 300 && t.phase_urad.abs() < 300, "{t:?}");
@@ -598,7 +587,7 @@ fn the_self_test_fails_a_board_assembled_wrong_and_refuses_its_records() {
     ] {
         let (run, recs) = run_array_args(&["paper", "seconds=1", fault]).unwrap();
         let run = run.ok().unwrap();
-        let t = start_of(&run).self_test;
+        let t = run.start_frame().unwrap().self_test;
         println!("{fault}: {t:?}");
         assert_eq!((t.verdict, t.failed), (link::Verdict::Failed, failed), "{fault}");
         assert!(run.stdout.contains("self-test failed"), "{fault}");
@@ -610,7 +599,10 @@ fn the_self_test_fails_a_board_assembled_wrong_and_refuses_its_records() {
         }
         if refused != u16::MAX {
             let valid = recs.iter().filter(|r| r.rec.flags.valid()).count();
-            assert!(valid as f64 >= 0.9 * recs.len() as f64 * 15.0 / 16.0, "{fault}: {valid}");
+            assert!(
+                valid as f64 >= 0.9 * recs.len() as f64 * 15.0 / 16.0,
+                "{fault}: {valid}"
+            );
         }
     }
 }

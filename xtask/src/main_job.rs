@@ -179,6 +179,12 @@ pub fn run_array(out: &Path, live_dir: &Path) -> Result<String> {
         summary::span(figures.iter().map(|s| s.rate), 1),
         summary::sensor_table(&figures)
     );
+    let start = run.start_frame()?;
+    writeln!(
+        md,
+        "\nBefore the first record, the board's power-up self-test (docs/hardware.md): {}.",
+        live::self_test::line(&start.self_test, start.sensors)
+    )?;
     let panels: Vec<Panel> = figures
         .iter()
         .step_by(8)

@@ -38,9 +38,9 @@ use core::mem::MaybeUninit;
 
 use dsp_core::comb::CombError;
 use firmware::array_skin::{ArrayScenario, ArraySkin, BoardFault};
-use firmware::power_up::PowerUp;
 use firmware::device_clock::DeviceClock;
 use firmware::in_force::InForce;
+use firmware::power_up::PowerUp;
 use firmware::qemu::{self, LinkSender, Uart0};
 use firmware::qemu_flash::{self, FileFlash, FlashArgs};
 use firmware::records::{RecordSink, QUEUE};
@@ -382,7 +382,9 @@ mod app {
                 let layout = *reader.layout();
                 reader.demodulate_into(|a| layout.rows(&frame[a]), &mut block);
                 let reference = reader.reference(|a| layout.rows(&frame[a]));
-                cx.local.power_up.block(reader, &block, &reference, |i| clipped[i], &k)
+                cx.local
+                    .power_up
+                    .block(reader, &block, &reference, |i| clipped[i], &k)
             });
             if let Some(r) = result {
                 cx.shared.self_test.lock(|s| *s = Some(r));
