@@ -344,7 +344,7 @@ mod names_tests {
         for (k, (bit, _)) in Flags::NAMES.iter().enumerate() {
             assert_eq!(*bit, 1 << k);
         }
-        let f = Flags(Flags::OPEN | Flags::MODEL | Flags::OFF_TABLE | 1 << 14);
+        let f = Flags(Flags::OPEN | Flags::MODEL | Flags::OFF_TABLE | 1 << 15);
         assert_eq!(
             f.names().collect::<std::vec::Vec<_>>(),
             ["OPEN", "MODEL", "OFF_TABLE"]
