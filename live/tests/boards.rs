@@ -255,13 +255,19 @@ fn the_dashboard_shows_every_board_of_the_skin() {
         page,
         "document.querySelector('#boards tr[data-board=B] td:nth-child(2)').textContent === '0000000b'",
     );
+    // The boards' self-tests, from their start frames (these streams'
+    // say none ran).
     until(
         page,
-        "document.querySelector('#boards tr[data-board=B] td:nth-child(9)').textContent === '1'",
+        "document.querySelector('#boards tr[data-board=B] td:nth-child(3)').textContent === 'not run'",
     );
     until(
         page,
-        "document.querySelector('#boards tr[data-board=A] td:nth-child(10)').textContent === 'ended'",
+        "document.querySelector('#boards tr[data-board=B] td:nth-child(10)').textContent === '1'",
+    );
+    until(
+        page,
+        "document.querySelector('#boards tr[data-board=A] td:nth-child(11)').textContent === 'ended'",
     );
     // a0's and b0's last records were taken at the same true instant.
     let apart = page
