@@ -850,7 +850,7 @@ pub fn tones_energy_exact<const K: usize>(x: &[Complex<i64>; K]) -> u128 {
 /// less d put back as a power of two (exact, as ldexpf, a library call).
 /// The residual's rms from N·E (d = 0), or from N·E in Q62 (d = 31).
 #[inline(always)]
-pub(crate) fn root_over(e: i128, down: i32, n: u32) -> f32 {
+pub fn root_over(e: i128, down: i32, n: u32) -> f32 {
     let bits = 128 - e.leading_zeros();
     let sh = (bits.saturating_sub(30) + 1) & !1;
     let scaled = (e >> sh) as i32 as f32;

@@ -50,7 +50,7 @@ impl PowerUp {
         if !test.done() {
             return None;
         }
-        let out = test.outcome(front_end, &Limits::DEFAULT);
+        let out = test.outcome(front_end, reader.reference_rotation(), &Limits::DEFAULT);
         self.test = None;
         log(&out);
         reader.refuse(out.refused());
@@ -61,23 +61,10 @@ impl PowerUp {
 /// Each path's figures, the reference's, and the verdict.
 fn log(out: &Outcome) {
     for p in 0..PATHS {
-        defmt::println!(
-            "self-test path {=usize}: offset {=f32} counts, noise {=f32}x{=str}{=str}",
-            p,
-            out.offset_counts[p],
-            out.noise[p],
-            if out.failed & 1 << p != 0 { ", FAILED" } else { "" },
-            if out.noisy & 1 << p != 0 { ", noisy" } else { "" },
-        );
+        log_path(out, p);
     }
     for k in 0..TONES {
-        defmt::println!(
-            "self-test tone {=usize}: excitation {=f32} %, reference |Z| {=f32} %, phase {=f32} mrad",
-            k,
-            out.excitation[k] * 100.0,
-            out.gain[k] * 100.0,
-            out.phase_rad[k] * 1e3,
-        );
+        log_tone(out, k);
     }
     if out.passed() {
         defmt::println!("self-test passed");
@@ -88,4 +75,29 @@ fn log(out: &Outcome) {
             out.refused()
         );
     }
+}
+
+/// Path `p`'s line (out of line: a loop of calls, not a copy a path).
+#[inline(never)]
+fn log_path(out: &Outcome, p: usize) {
+    defmt::println!(
+        "self-test path {=usize}: offset {=f32} counts, noise {=f32}x{=str}{=str}",
+        p,
+        out.offset_counts[p],
+        out.noise[p],
+        if out.failed & 1 << p != 0 { ", FAILED" } else { "" },
+        if out.noisy & 1 << p != 0 { ", noisy" } else { "" },
+    );
+}
+
+/// Tone `k`'s line.
+#[inline(never)]
+fn log_tone(out: &Outcome, k: usize) {
+    defmt::println!(
+        "self-test tone {=usize}: excitation {=f32} %, reference |Z| {=f32} %, phase {=f32} mrad",
+        k,
+        out.excitation[k] * 100.0,
+        out.gain[k] * 100.0,
+        out.phase_rad[k] * 1e3,
+    );
 }

@@ -161,12 +161,8 @@ impl LinkSender {
     /// are not requests, or do not check, are passed over).
     pub fn request(&mut self) -> Option<(u32, link::Request)> {
         while let Some(b) = self.uart.read() {
-            if let Some(Ok(link::Frame {
-                seq,
-                body: link::Body::Request(r),
-            })) = self.requests.push(b)
-            {
-                return Some((seq, r));
+            if let Some(Ok(request)) = self.requests.push_request(b) {
+                return Some(request);
             }
         }
         None

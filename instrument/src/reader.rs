@@ -201,6 +201,8 @@ pub struct ArrayReader {
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
     rotations: [[Complex32; TONES]; SENSORS],
+    /// The self-test's reference input's rotation.
+    reference_rotation: [Complex32; TONES],
     /// Which blocks are reported.
     reports: Decimation,
     /// Sensors whose records the power-up self-test refused, one bit
@@ -244,7 +246,8 @@ impl ArrayReader {
             comb,
             layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
-            rotations: core::array::from_fn(|s| layout.skew_rotation(s)),
+            rotations: core::array::from_fn(|s| layout.input_rotation(input_of(s))),
+            reference_rotation: layout.input_rotation(crate::array::REFERENCE_INPUT),
             reports: Decimation::new(),
             refused: 0,
         })
@@ -257,12 +260,34 @@ impl ArrayReader {
         self.refused = sensors;
     }
 
+    /// The factor that takes the self-test's reference input's scan
+    /// skew out of its V/I ([`Layout::input_rotation`]).
+    pub fn reference_rotation(&self) -> &[Complex32; TONES] {
+        &self.reference_rotation
+    }
+
     /// The comb on the self-test's reference input
     /// ([`crate::array::REFERENCE_INPUT`]) of a block: `rows(a)` as
     /// [`ArrayReader::demodulate`]'s.
     pub fn reference<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]]) -> Tones<TONES> {
         let (a, j) = adc_position(crate::array::REFERENCE_INPUT);
-        self.comb.column(rows(a), j)
+        let mut out = Tones::EMPTY;
+        // The demodulation every input goes through (`column_into`):
+        // one more instance of the comb's unrolled sums would cost the
+        // board's flash 26 KiB.
+        match &self.comb {
+            BlockComb::Long(c) => {
+                if let Some(r) = rows(a).first_chunk() {
+                    c.column_into(r, j, &mut out);
+                }
+            }
+            BlockComb::Short(c) => {
+                if let Some(r) = rows(a).first_chunk() {
+                    c.column_into(r, j, &mut out);
+                }
+            }
+        }
+        out
     }
 
     /// The comb demodulator every input goes through.

@@ -42,6 +42,7 @@ use crate::array::{
 use crate::reader::Demodulated;
 use dsp_core::comb::Tones;
 use dsp_core::demod::FrontEnd;
+use dsp_core::fmath::i64_to_f32;
 use dsp_core::Complex32;
 use link::Verdict;
 
@@ -140,73 +141,85 @@ impl SelfTest {
         if rail {
             self.rails |= 1 << p;
         }
-        let levels = tones.levels();
         let sums = match p {
             VOLTAGE_INPUT => Some(&mut self.v),
             REFERENCE_INPUT => Some(&mut self.i),
             _ => None,
         };
         if let Some(sums) = sums {
-            for (s, x) in sums.iter_mut().zip(levels.phasor) {
-                *s += x;
+            // The phasors in f32 as the records' levels convert them
+            // (not `Tones::levels`: a second copy of it in flash).
+            for (s, x) in sums.iter_mut().zip(&tones.x) {
+                *s += Complex32::new(i64_to_f32(x.re), i64_to_f32(x.im));
             }
         }
         let n = tones.n.max(1) as f32;
         self.mean[p] += tones.sum as f32 / n;
-        let r = levels.residual;
+        // Not `residual_rms`: a second caller would take it out of line,
+        // and out of the records' per-block code in the board's fast RAM.
+        let r = dsp_core::comb::root_over(tones.residual_n_energy(), 0, tones.n.max(1));
         self.var[p] += r * r * n / self.layout.residual_dof() as f32;
     }
 
     /// The verdict on the blocks read, with `front_end`'s k (the one
-    /// the records use) and `limits`.
-    pub fn outcome(&self, front_end: &FrontEnd, limits: &Limits) -> Outcome {
-        let blocks = self.blocks.max(1) as f32;
-        let mut out = Outcome {
-            offset_counts: self.mean.map(|m| m / blocks),
-            noise: self.var.map(|v| libm::sqrtf(v / blocks) / NOISE_COUNTS),
-            ..Outcome::EMPTY
-        };
-        out.excitation = self.excitation_error();
-        (out.gain, out.phase_rad) = self.reference_error(front_end);
-        let mut failed = self.rails;
-        for (p, m) in out.offset_counts.iter().enumerate() {
-            if !within(*m, limits.offset_counts) {
-                failed |= 1 << p;
-            }
+    /// the records use), the reference's scan skew taken out by
+    /// `rotation` ([`crate::reader::ArrayReader::reference_rotation`])
+    /// and `limits`.
+    pub fn outcome(&self, front_end: &FrontEnd, rotation: &[Complex32; TONES], limits: &Limits) -> Outcome {
+        let mut out = Outcome::EMPTY;
+        for p in 0..PATHS {
+            self.path(p, limits, &mut out);
         }
+        out.excitation = self.excitation_error();
+        (out.gain, out.phase_rad) = self.reference_error(front_end, rotation);
         if !worst(&out.excitation).is_some_and(|e| within(e, limits.excitation)) {
-            failed |= 1 << VOLTAGE_INPUT;
+            out.failed |= 1 << VOLTAGE_INPUT;
         }
         let gain_ok = worst(&out.gain).is_some_and(|e| within(e, limits.gain));
         let phase_ok = worst(&out.phase_rad).is_some_and(|e| within(e, limits.phase_rad));
         if !(gain_ok && phase_ok) {
-            failed |= 1 << REFERENCE_INPUT;
+            out.failed |= 1 << REFERENCE_INPUT;
         }
-        out.failed = failed;
-        out.noisy = out
-            .noise
-            .iter()
-            .enumerate()
-            .filter(|(_, r)| !within(**r, limits.noise))
-            .fold(0, |m, (p, _)| m | 1 << p);
         out
+    }
+
+    /// Path `p`'s offset and noise into `out`, and whether it failed (a
+    /// rail, its offset) or is noisy. Out of line: a loop of calls, not
+    /// eighteen copies of it in the board's flash.
+    #[inline(never)]
+    fn path(&self, p: usize, limits: &Limits, out: &mut Outcome) {
+        let blocks = self.blocks.max(1) as f32;
+        let offset = self.mean[p] / blocks;
+        let noise = dsp_core::fmath::sqrt(self.var[p] / blocks) / NOISE_COUNTS;
+        out.offset_counts[p] = offset;
+        out.noise[p] = noise;
+        if self.rails & 1 << p != 0 || !within(offset, limits.offset_counts) {
+            out.failed |= 1 << p;
+        }
+        if !within(noise, limits.noise) {
+            out.noisy |= 1 << p;
+        }
     }
 
     /// Each excitation tone's amplitude against the design, relative.
     fn excitation_error(&self) -> [f32; TONES] {
+        // In f32 (no f64 arithmetic in the image): counts a volt.
+        const COUNTS_PER_VOLT: f32 = (HALF_SCALE as f64 / crate::design::ADC_HALF_SCALE_VOLT) as f32;
         let volts = self.layout.tone_volts();
         let per_block = self.layout.instants() as f32 * self.blocks.max(1) as f32;
         core::array::from_fn(|k| {
             let counts = dsp_core::fmath::hypot(self.v[k].re, self.v[k].im) * 2.0 / (Q31 * per_block);
-            let want = (volts[k] / crate::design::ADC_HALF_SCALE_VOLT * HALF_SCALE as f64) as f32;
-            counts / want - 1.0
+            counts / (volts[k] as f32 * COUNTS_PER_VOLT) - 1.0
         })
     }
 
     /// The reference's impedance against R + 1/(jωC) at each tone: |Z|'s
     /// relative error and the phase's, rad.
-    fn reference_error(&self, front_end: &FrontEnd) -> ([f32; TONES], [f32; TONES]) {
-        let rotation = self.layout.input_rotation(REFERENCE_INPUT);
+    fn reference_error(
+        &self,
+        front_end: &FrontEnd,
+        rotation: &[Complex32; TONES],
+    ) -> ([f32; TONES], [f32; TONES]) {
         let mut gain = [f32::NAN; TONES];
         let mut phase = [f32::NAN; TONES];
         for k in 0..TONES {

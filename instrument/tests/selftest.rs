@@ -40,7 +40,7 @@ fn run(fe: &ArrayFrontEnd, seed: u64) -> Outcome {
         let block = reader.demodulate(rows);
         test.add(&block, &reader.reference(rows), |i| rails[i]);
     }
-    test.outcome(&firmware_k(), &Limits::DEFAULT)
+    test.outcome(&firmware_k(), reader.reference_rotation(), &Limits::DEFAULT)
 }
 
 /// The reference's impedance as assembled over the nominal, in f64: the

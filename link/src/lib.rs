@@ -668,11 +668,39 @@ const _: () = assert!(1 + MAX_BODY + 4 < 255);
 
 /// Decode one frame from its COBS bytes (without the closing zero).
 pub fn decode(cobs_bytes: &[u8]) -> Result<Frame, Error> {
+    let mut raw = [0u8; MAX_FRAME];
+    match postcard::take_from_bytes::<Frame>(unseal(cobs_bytes, &mut raw)?) {
+        Ok((frame, [])) => Ok(frame),
+        _ => Err(Error::Body),
+    }
+}
+
+/// [`decode`] for a device, which reads only requests: a frame's
+/// sequence number, and its request if it is one (None: a frame of
+/// another body, not decoded). Its image holds the deserialiser of a
+/// request alone.
+pub fn decode_request(cobs_bytes: &[u8]) -> Result<(u32, Option<Request>), Error> {
+    /// [`Body::Request`]'s index among the bodies (postcard's tag).
+    const REQUEST: u32 = 3;
+    let mut raw = [0u8; MAX_FRAME];
+    let body = unseal(cobs_bytes, &mut raw)?;
+    let ((seq, variant), rest) = postcard::take_from_bytes::<(u32, u32)>(body).map_err(|_| Error::Body)?;
+    if variant != REQUEST {
+        return Ok((seq, None));
+    }
+    match postcard::take_from_bytes::<Request>(rest) {
+        Ok((request, [])) => Ok((seq, Some(request))),
+        _ => Err(Error::Body),
+    }
+}
+
+/// A frame's COBS bytes undone into `raw`, its CRC checked: the body's
+/// bytes.
+fn unseal<'a>(cobs_bytes: &[u8], raw: &'a mut [u8; MAX_FRAME]) -> Result<&'a [u8], Error> {
     if cobs_bytes.len() > MAX_FRAME {
         return Err(Error::TooLong);
     }
-    let mut raw = [0u8; MAX_FRAME];
-    let n = cobs::decode(cobs_bytes, &mut raw).map_err(|_| Error::Cobs)?;
+    let n = cobs::decode(cobs_bytes, raw).map_err(|_| Error::Cobs)?;
     if n < 5 {
         return Err(Error::TooShort);
     }
@@ -681,10 +709,7 @@ pub fn decode(cobs_bytes: &[u8]) -> Result<Frame, Error> {
     if CRC.checksum(body) != crc {
         return Err(Error::Crc);
     }
-    match postcard::take_from_bytes::<Frame>(body) {
-        Ok((frame, [])) => Ok(frame),
-        _ => Err(Error::Body),
-    }
+    Ok(body)
 }
 
 /// What a [`Decoder`] has seen.
@@ -746,6 +771,29 @@ impl Decoder {
     /// on at the next frame); nothing otherwise. A frame whose sequence
     /// number repeats the last one's is dropped as a duplicate.
     pub fn push(&mut self, byte: u8) -> Option<Result<Frame, Error>> {
+        self.push_as(byte, decode, |f| f.seq)
+    }
+
+    /// [`Decoder::push`] for a device: a request when the byte closes a
+    /// frame that holds one ([`decode_request`]); a frame of another body
+    /// is counted and its sequence number followed, as `push` does, but
+    /// not decoded.
+    pub fn push_request(&mut self, byte: u8) -> Option<Result<(u32, Request), Error>> {
+        match self.push_as(byte, decode_request, |r| r.0)? {
+            Ok((seq, Some(request))) => Some(Ok((seq, request))),
+            Ok((_, None)) => None,
+            Err(e) => Some(Err(e)),
+        }
+    }
+
+    /// One byte, a frame it closes decoded by `decode`; `seq` its
+    /// sequence number.
+    fn push_as<T>(
+        &mut self,
+        byte: u8,
+        decode: impl Fn(&[u8]) -> Result<T, Error>,
+        seq: impl Fn(&T) -> u32,
+    ) -> Option<Result<T, Error>> {
         if byte != 0 {
             self.take(&[byte]);
             return None;
@@ -764,7 +812,7 @@ impl Decoder {
             decode(&self.buf[..len])
         };
         match result {
-            Ok(frame) => self.sequence(frame).map(Ok),
+            Ok(frame) => self.sequence(seq(&frame)).then_some(Ok(frame)),
             Err(e) => {
                 self.stats.bad += 1;
                 Some(Err(e))
@@ -805,21 +853,22 @@ impl Decoder {
         self.len += n;
     }
 
-    /// Account for `frame`'s sequence number; None for a duplicate.
-    fn sequence(&mut self, frame: Frame) -> Option<Frame> {
+    /// Account for a frame's sequence number `seq`; false for a
+    /// duplicate.
+    fn sequence(&mut self, seq: u32) -> bool {
         if let Some(next) = self.next_seq {
-            if frame.seq == next.wrapping_sub(1) {
+            if seq == next.wrapping_sub(1) {
                 self.stats.repeated += 1;
-                return None;
+                return false;
             }
-            let gap = frame.seq.wrapping_sub(next);
+            let gap = seq.wrapping_sub(next);
             if gap < u32::MAX / 2 {
                 self.stats.lost += u64::from(gap);
             }
         }
-        self.next_seq = Some(frame.seq.wrapping_add(1));
+        self.next_seq = Some(seq.wrapping_add(1));
         self.stats.frames += 1;
-        Some(frame)
+        true
     }
 }
 

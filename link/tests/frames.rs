@@ -539,3 +539,54 @@ fn the_devices_encoders_write_the_same_bytes_as_the_generic_one() {
     }
     assert_eq!(a.next_seq(), 1000);
 }
+
+/// A device's decoder (`push_request`) hands back exactly the requests a
+/// full decoder finds, with their sequence numbers, and counts every
+/// other frame alike, on clean and corrupted streams.
+#[test]
+fn a_devices_decoder_finds_the_requests_a_full_one_does() {
+    let mut enc = Encoder::new();
+    let mut out = [0u8; MAX_FRAME];
+    let mut clean = vec![];
+    for k in 0..60u32 {
+        let body = match k % 4 {
+            0 => Body::Request(link::Request::ReadSettings),
+            1 => Body::Request(link::Request::Sweep {
+                blocks_per_pair: k as u16,
+            }),
+            2 => Body::Record(Record::default()),
+            _ => Body::End(End {
+                records: k,
+                dropped: 0,
+            }),
+        };
+        clean.extend_from_slice(enc.frame(body, &mut out).unwrap());
+    }
+    let mut rng = Xs(0x5EED);
+    for case in 0..200 {
+        let bytes = if case == 0 {
+            clean.clone()
+        } else {
+            corrupt(&clean, &mut rng)
+        };
+        let (mut full, mut device) = (Decoder::new(), Decoder::new());
+        let want: Vec<_> = bytes
+            .iter()
+            .filter_map(|&b| full.push(b))
+            .filter_map(|r| match r {
+                Ok(Frame {
+                    seq,
+                    body: Body::Request(q),
+                }) => Some(Ok((seq, q))),
+                Ok(_) => None,
+                Err(e) => Some(Err(e)),
+            })
+            .collect();
+        let got: Vec<_> = bytes.iter().filter_map(|&b| device.push_request(b)).collect();
+        assert_eq!(got, want, "case {case}");
+        assert_eq!(device.stats(), full.stats(), "case {case}");
+        if case == 0 {
+            assert_eq!(got.len(), 30);
+        }
+    }
+}

@@ -459,20 +459,35 @@ mod app {
 
 /// A block of the power-up self-test ([`PowerUp::block`]) from the ADCs'
 /// rows of it: the rows to two's complement in place, the comb on every
-/// input and on the reference's. Not in CCM SRAM: it runs for the first
-/// 100 ms only.
+/// input ([`demodulate`], the records' own) and on the reference's.
+/// Not in CCM SRAM: it runs for the first 100 ms only.
 fn self_test_block(
     power_up: &mut PowerUp,
     reader: &mut ArrayReader,
-    mut rows: [&mut [[i16; SCAN]]; ADCS],
+    rows: [&mut [[i16; SCAN]]; ADCS],
     k: &FrontEnd,
 ) -> Option<::link::SelfTest> {
-    let rails = to_signed_all(&mut rows);
-    let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
     let mut block = Demodulated::EMPTY;
-    reader.demodulate_into(|a| rows[a], &mut block);
+    let (rows, rails) = demodulate(reader, rows, &mut block);
     let reference = reader.reference(|a| rows[a]);
     power_up.block(reader, &block, &reference, |i| rails[i], k)
+}
+
+/// A block's rows to two's complement in place, noting the inputs on a
+/// rail, and the comb on every input into `block`: the one instance of
+/// it in the image, which the self-test shares. In CCM SRAM.
+#[inline(never)]
+#[allow(unsafe_code)]
+#[link_section = ".hot_ram"]
+fn demodulate<'a>(
+    reader: &ArrayReader,
+    mut rows: [&'a mut [[i16; SCAN]]; ADCS],
+    block: &mut Demodulated,
+) -> ([&'a [[i16; SCAN]]; ADCS], [bool; instrument::array::INPUTS]) {
+    let rails = to_signed_all(&mut rows);
+    let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
+    reader.demodulate_into(|a| rows[a], block);
+    (rows, rails)
 }
 
 /// A block's records from the ADCs' rows of it (the half the DMA
@@ -487,14 +502,12 @@ fn self_test_block(
 fn read_block(
     reader: &mut ArrayReader,
     settings: &ToneSettings<'_, POINTS>,
-    mut rows: [&mut [[i16; SCAN]]; ADCS],
+    rows: [&mut [[i16; SCAN]]; ADCS],
     t_us: u64,
 ) -> Vec<ToneRecord, SENSORS> {
-    let rails = to_signed_all(&mut rows);
-    let rows: [&[[i16; SCAN]]; ADCS] = rows.map(|r| &*r);
     let mut demodulated = Demodulated::EMPTY;
     let block = &mut demodulated;
-    reader.demodulate_into(|a| rows[a], block);
+    let (_, rails) = demodulate(reader, rows, block);
     let mut recs = Vec::new();
     reader.solve(
         settings,

@@ -90,12 +90,8 @@ where
         let decoder = &mut self.decoder;
         let mut request = None;
         self.rx.take(remaining, byte, |b| {
-            if let Some(Ok(::link::Frame {
-                seq,
-                body: ::link::Body::Request(r),
-            })) = decoder.push(b)
-            {
-                request = Some((seq, r));
+            if let Some(Ok(r)) = decoder.push_request(b) {
+                request = Some(r);
             }
         });
         let (seq, req) = request?;
