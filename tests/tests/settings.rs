@@ -529,10 +529,21 @@ fn the_array_applies_a_set_stored_while_it_runs() {
     set.sensors[2].table = instrument::calib::REFERENCE.points;
     set.sensors[2].calibrated = true;
     set.record_every = 2;
+    // A host speaks once the device has announced itself: the array
+    // reads no request before its start frame, which follows its 100 ms
+    // self-test.
+    let start = loop {
+        let f = host
+            .rx
+            .recv_timeout(Duration::from_secs(120))
+            .expect("the start frame");
+        if let link::Body::Start(s) = f.body {
+            break s;
+        }
+    };
     host.upload(&set);
-    let (before, _, applied, start) = until_applied(&host.rx);
+    let (before, _, applied, _) = until_applied(&host.rx);
     // The start frame: the device's id, nothing stored.
-    let start = start.expect("the start frame");
     assert_eq!((start.device_id, start.generation), (0x1A2B_3C4D, 0));
     assert_eq!(applied.generation, 1);
     assert!(before.iter().any(|r| r.sensor == 5));

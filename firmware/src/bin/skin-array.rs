@@ -276,9 +276,10 @@ mod app {
                 skin,
                 block: 0,
                 block_us: layout.block_us(),
-                // The self-test's blocks first, then the run's.
+                // The self-test's blocks first, then the run's (saturating:
+                // `until-stop` runs to u64::MAX).
                 end_block: PowerUp::blocks(layout)
-                    + flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us()),
+                    .saturating_add(flash.end_step((duration_s as f64 * 1e6) as u64 / layout.block_us())),
                 reader,
                 records: RecordSink::new(records),
                 clock,
