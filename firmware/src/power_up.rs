@@ -90,11 +90,12 @@ fn log_path(out: &Outcome, p: usize) {
     );
 }
 
-/// Tone `k`'s line.
+/// The comb's tone `k`'s line (the word "tone" would read as a record's
+/// keyword to the log's decoder).
 #[inline(never)]
 fn log_tone(out: &Outcome, k: usize) {
     defmt::println!(
-        "self-test tone {=usize}: excitation {=f32} %, reference |Z| {=f32} %, phase {=f32} mrad",
+        "self-test comb {=usize}: excitation {=f32} %, reference |Z| {=f32} %, phase {=f32} mrad",
         k,
         out.excitation[k] * 100.0,
         out.gain[k] * 100.0,
