@@ -189,9 +189,11 @@ impl ArraySkin {
         }
     }
 
-    /// Assemble the board with `fault`.
-    pub fn set_fault(&mut self, fault: BoardFault) {
-        fault.apply(&mut self.front_end);
+    /// Assemble the board with `fault` (None: as designed).
+    pub fn set_fault(&mut self, fault: Option<BoardFault>) {
+        if let Some(f) = fault {
+            f.apply(&mut self.front_end);
+        }
     }
 
     /// The front end (for the transimpedance the firmware divides by).

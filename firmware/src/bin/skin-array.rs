@@ -224,9 +224,7 @@ mod app {
             fault,
         } = arguments();
         let skin = qemu::place(cx.local.skin_slot, || ArraySkin::new(scenario, layout));
-        if let Some(f) = fault {
-            skin.set_fault(f);
-        }
+        skin.set_fault(fault);
         let Ok(rig) = scenario.rig() else { qemu::exit(3) };
         let (store, (generation, set)) = flash.set_in_force(&rig);
         let Ok(sensors) = firmware::settings_log::sensors_in(cx.local.sensors, &set) else {
