@@ -298,12 +298,12 @@ impl Outcome {
     /// excitation's path or the reference's failed, else those whose
     /// own path did.
     pub fn refused(&self) -> u16 {
-        let chain = 1 << VOLTAGE_INPUT | 1 << REFERENCE_INPUT;
-        if self.failed & chain != 0 {
-            return u16::MAX;
-        }
-        (0..SENSORS)
-            .filter(|s| self.failed & 1 << crate::array::input_of(*s) != 0)
+        let test = link::SelfTest {
+            failed: self.failed,
+            ..link::SelfTest::default()
+        };
+        (0..SENSORS as u8)
+            .filter(|&s| test.refuses(s))
             .fold(0, |m, s| m | 1 << s)
     }
 

@@ -194,6 +194,19 @@ pub struct SelfTest {
     pub noise_permille: u16,
 }
 
+impl SelfTest {
+    /// The reference network's path (bit 17 of a path mask).
+    pub const REFERENCE_PATH: u32 = 17;
+
+    /// Does it refuse sensor `sensor`'s records? Every sensor's if the
+    /// excitation's path (bit 0) or the reference's failed, else those
+    /// whose own stage (bit `sensor` + 1) did.
+    pub fn refuses(&self, sensor: u8) -> bool {
+        let chain = self.failed & (1 | 1 << Self::REFERENCE_PATH) != 0;
+        chain || self.failed >> (u32::from(sensor) + 1) & 1 != 0
+    }
+}
+
 /// A self-test's verdict.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Verdict {

@@ -5,15 +5,12 @@
 use link::{SelfTest, Verdict};
 use serde_json::{json, Value};
 
-/// The ADC input of the reference network (bit 17 of a path mask).
-const REFERENCE_PATH: u32 = 17;
-
 /// A path's name: bit 0 the excitation, 1–16 the sensors' stages, 17 the
 /// reference network's.
 pub fn path_name(path: u32) -> String {
     match path {
         0 => "excitation".to_string(),
-        REFERENCE_PATH => "reference".to_string(),
+        SelfTest::REFERENCE_PATH => "reference".to_string(),
         p => format!("sensor {}", p - 1),
     }
 }
@@ -27,13 +24,7 @@ pub fn paths(mask: u32) -> Vec<String> {
 /// every one if the excitation's or the reference's path failed, else
 /// those whose own stage did.
 pub fn refused_sensors(t: &SelfTest, sensors: u8) -> Vec<u8> {
-    if t.verdict != Verdict::Failed {
-        return vec![];
-    }
-    let chain = t.failed & (1 | 1 << REFERENCE_PATH) != 0;
-    (0..sensors)
-        .filter(|&s| chain || t.failed >> (u32::from(s) + 1) & 1 != 0)
-        .collect()
+    (0..sensors).filter(|&s| t.refuses(s)).collect()
 }
 
 /// The figures of a test that ran: the reference's worst |Z| and phase
