@@ -41,3 +41,13 @@ pub fn system(dir: &Path, program: &str, args: &[&str], envs: &[(&str, &str)]) -
 pub fn run(dir: &Path, args: &[&str]) -> Result<()> {
     run_env(dir, args, &[])
 }
+
+/// Whether cargo has the subcommand `name` (an installed `cargo-NAME`).
+pub fn has_subcommand(name: &str) -> bool {
+    Command::new(bin())
+        .args([name, "--version"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}

@@ -30,10 +30,14 @@ pub enum Pass {
     /// sweep and QEMU scenario at its smoke size, each fuzz target at
     /// [`FAST_CASES`] cases.
     Fast,
-    /// `cargo xtask test --full`: the same checks, then the long tests
-    /// (`#[ignore = "long: …"]`) and every fuzz target at its full count
-    /// (10⁵ cases).
+    /// `cargo xtask test --full`: the fast pass, then [`Pass::Long`].
     Full,
+    /// `cargo xtask test --long`: what the full pass adds to the fast
+    /// one, alone (CI runs it after the test command, so that no check
+    /// runs twice): the lints of the firmware's library tests, the link
+    /// with the table-less CRC, the long tests (`#[ignore = "long: …"]`)
+    /// and every fuzz target at its full count (10⁵ cases).
+    Long,
 }
 
 /// Cases per fuzz target in the fast pass (fixed seed [`PROPTEST_SEED`]).
@@ -47,16 +51,32 @@ pub const TEST_PROFILE: &str = "quick";
 /// builds, the board images and the QEMU tests (which run with the host
 /// tests, once `packages`, the system packages being installed, are).
 pub fn all(root: &Path, pass: Pass, packages: JoinHandle<Result<()>>) -> Result<()> {
+    if pass != Pass::Long {
+        fast(root, packages)?;
+        if pass == Pass::Fast {
+            return Ok(());
+        }
+    } else {
+        packages
+            .join()
+            .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
+    }
+    long(root)
+}
+
+/// The fast pass: every check, the tests at their smoke sizes, a minute
+/// of the soak.
+fn fast(root: &Path, packages: JoinHandle<Result<()>>) -> Result<()> {
     format(root)?;
     // The firmware's workspace (its own target folder) is linted, documented
     // and built beside the host's lints and docs: its fat-LTO links leave
     // a core idle that the host's builds take. The QEMU tests run the
     // images it builds, so the host tests wait for it.
     let (firmware, host) = std::thread::scope(|s| {
-        let fw = s.spawn(|| firmware(root, pass));
+        let fw = s.spawn(|| firmware(root));
         let host = lint(root)
             .and_then(|()| docs(root))
-            .and_then(|()| host_extras(root, pass));
+            .and_then(|()| host_extras(root));
         (fw.join(), host)
     });
     host?;
@@ -64,28 +84,55 @@ pub fn all(root: &Path, pass: Pass, packages: JoinHandle<Result<()>>) -> Result<
     packages
         .join()
         .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
-    host_tests(root, pass)?;
-    if pass == Pass::Fast {
-        // A minute of `cargo xtask soak`.
-        print!("{}", crate::soak::run(root, &crate::soak::Soak::minute())?);
-    }
+    host_tests(root)?;
+    // A minute of `cargo xtask soak`.
+    print!("{}", crate::soak::run(root, &crate::soak::Soak::minute())?);
     Ok(())
+}
+
+/// What the full pass adds: the firmware library's lints with its
+/// tests for each feature set, the link's encoder with the table-less
+/// CRC (the single-channel board's store image's, held to the crates'
+/// CRC and COBS at every length), the long tests, every fuzz target at
+/// its full count.
+fn long(root: &Path) -> Result<()> {
+    let fw = root.join("firmware");
+    for feature in ["qemu", "board", "board,store"] {
+        clippy(&fw, &["--lib", "--tests", "--features", feature])?;
+    }
+    let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
+    cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
+    long_tests(root)?;
+    crate::fuzz::run_all(root, None, &[("PROPTEST_RNG_SEED", PROPTEST_SEED)])
+}
+
+/// The long tests (the surveys are `cargo xtask survey`'s), side by side
+/// across test binaries with cargo-nextest where the machine has it (a
+/// binary of one long QEMU test would leave a core idle), else with
+/// `cargo test`, binary after binary.
+fn long_tests(root: &Path) -> Result<()> {
+    let env = [("PROPTEST_RNG_SEED", PROPTEST_SEED)];
+    let profile = ["--workspace", "--no-fail-fast"];
+    if cargo::has_subcommand("nextest") {
+        let mut args = vec!["nextest", "run", "--cargo-profile", TEST_PROFILE];
+        args.extend(profile);
+        args.extend(["--run-ignored", "only", "-E", "not test(=survey)"]);
+        cargo::run_env(root, &args, &env)
+    } else {
+        let mut args = vec!["test", "--profile", TEST_PROFILE];
+        args.extend(profile);
+        args.extend(["--", "--ignored", "--exact", "--skip", "survey"]);
+        cargo::run_env(root, &args, &env)
+    }
 }
 
 /// The host's checks beside the workspace's tests, and those tests
 /// built: the feature sets the workspace run does not build (dsp-core
-/// without its ladder kernels, the boards'; in the full pass also the
-/// link's encoder with the table-less CRC, the single-channel board's
-/// store image, held to the crates' CRC and COBS at every length);
-/// dsp-core built for every core we support, M4F (DSP + FPU) and M3.
-fn host_extras(root: &Path, pass: Pass) -> Result<()> {
+/// without its ladder kernels, the boards'); dsp-core built for every core we support, M4F (DSP + FPU) and M3.
+fn host_extras(root: &Path) -> Result<()> {
     clippy(root, &["-p", "dsp-core", "--no-default-features"])?;
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {
         cargo::run(root, &["build", "--release", "-p", "dsp-core", "--target", t])?;
-    }
-    if pass == Pass::Full {
-        let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
-        cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
     }
     // The workspace's tests built while the firmware's images still are.
     cargo::run(
@@ -97,8 +144,8 @@ fn host_extras(root: &Path, pass: Pass) -> Result<()> {
 /// The firmware's workspace: clippy and rustdoc on its images and
 /// library, its images built once, the board's register tests on the
 /// host.
-fn firmware(root: &Path, pass: Pass) -> Result<()> {
-    firmware_lint(root, pass)?;
+fn firmware(root: &Path) -> Result<()> {
+    firmware_lint(root)?;
     firmware_docs(root)?;
     images(root)?;
     cargo::run(&root.join("firmware"), &["test", "--lib", "--features", "board"])
@@ -109,14 +156,10 @@ fn firmware(root: &Path, pass: Pass) -> Result<()> {
 /// reproducible and a red one is the code's, not the draw's: `cargo
 /// xtask fuzz` draws fresh seeds, 10⁶ cases each. dsp-core runs with
 /// overflow checks and debug assertions on (the profile's override).
-fn host_tests(root: &Path, pass: Pass) -> Result<()> {
-    let mut args = vec!["test", "--profile", TEST_PROFILE, "--workspace"];
+fn host_tests(root: &Path) -> Result<()> {
+    let args = ["test", "--profile", TEST_PROFILE, "--workspace"];
     let mut env = vec![("PROPTEST_RNG_SEED", PROPTEST_SEED)];
-    match pass {
-        Pass::Fast => env.extend(FAST_COUNTS.map(|var| (var, FAST_CASES))),
-        // The long tests too; the surveys are `cargo xtask survey`'s.
-        Pass::Full => args.extend(["--", "--include-ignored", "--exact", "--skip", "survey"]),
-    }
+    env.extend(FAST_COUNTS.map(|var| (var, FAST_CASES)));
     cargo::run_env(root, &args, &env)?;
     python_tests(root)
 }
@@ -137,7 +180,7 @@ fn python_tests(root: &Path) -> Result<()> {
 
 /// The variables that set a fuzz target's count of cases (each test's
 /// default is the full pass's).
-const FAST_COUNTS: [&str; 3] = ["FUZZ_CASES", "LINK_CASES", "COMMAND_CASES"];
+pub const FAST_COUNTS: [&str; 3] = ["FUZZ_CASES", "LINK_CASES", "COMMAND_CASES"];
 
 /// `cargo fmt --check` on both workspaces.
 fn format(root: &Path) -> Result<()> {
@@ -153,20 +196,15 @@ fn lint(root: &Path) -> Result<()> {
 
 /// clippy with warnings as errors on the firmware's images for the
 /// target, for each feature set (`bench` holds the QEMU images, `qemu`
-/// with the benchmarks); in the full pass also on its library with its
-/// tests on the host (the board's register tests), for each feature set
-/// (the fast pass builds those tests, with `board`).
-fn firmware_lint(root: &Path, pass: Pass) -> Result<()> {
+/// with the benchmarks). The long pass lints its library with its tests
+/// on the host (the board's register tests) for each feature set; the
+/// fast pass builds those tests, with `board`.
+fn firmware_lint(root: &Path) -> Result<()> {
     let fw = root.join("firmware");
     let t = qemu_tests::TARGET;
     for feature in FIRMWARE_FEATURES {
         let args = ["--release", "--target", t, "--bins", "--features", feature];
         clippy(&fw, &args)?;
-    }
-    if pass == Pass::Full {
-        for feature in ["qemu", "board", "board,store"] {
-            clippy(&fw, &["--lib", "--tests", "--features", feature])?;
-        }
     }
     Ok(())
 }

@@ -6,7 +6,8 @@
 //! * `test` ([`checks`]): set-up, then formatting, clippy, rustdoc, every
 //!   host and QEMU test, the cross builds and the board images: the fast
 //!   pass (smoke sizes, 10³ cases a fuzz target), or with `--full` the
-//!   long tests and 10⁵ cases a fuzz target as well.
+//!   long tests and 10⁵ cases a fuzz target as well; `--long` is what
+//!   `--full` adds alone (CI runs it after the test command).
 //! * `run` ([`main_job`]): the main job (see the README).
 //! * `bench` ([`mod@bench`]): instruction counts on Cortex-M4 in QEMU
 //!   (`-icount`), image sizes, and with `--host` the criterion benchmarks.
@@ -18,10 +19,8 @@
 //!   TCP with the dashboard open, killed at random moments and
 //!   restarted; resident memory and records lost reported (the test
 //!   command runs a minute of it).
-//! * `fuzz`: the fuzz targets (proptest) with 1 000 000 cases each, the
-//!   record link's corrupted streams as many, the device's fuzzed command
-//!   streams a hundredth as many (each a whole stream); the test command
-//!   runs them with fewer.
+//! * `fuzz` ([`fuzz`]): every fuzz target with 1 000 000 cases, fresh
+//!   seeds (the test command runs them with 10³, the long pass 10⁵).
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -30,6 +29,7 @@ mod bench;
 mod cargo;
 mod checks;
 mod docs;
+mod fuzz;
 mod main_job;
 mod main_skin;
 mod setup;
@@ -51,9 +51,13 @@ enum Cmd {
     /// full fuzz counts too).
     Test {
         /// Also the long sweeps, every QEMU scenario and 10⁵ cases per
-        /// fuzz target: what CI runs after the test command.
-        #[arg(long)]
+        /// fuzz target.
+        #[arg(long, conflicts_with = "long")]
         full: bool,
+        /// Only what --full adds to the test command (CI runs it after
+        /// the test command).
+        #[arg(long)]
+        long: bool,
     },
     /// Instruction counts on Cortex-M4 (QEMU -icount) and image sizes; --host adds criterion.
     Bench {
@@ -127,12 +131,12 @@ fn main() -> Result<()> {
     std::env::set_current_dir(&root)?;
     match Cli::parse().cmd {
         Cmd::Setup => setup::run(),
-        Cmd::Test { full } => {
+        Cmd::Test { full, long } => {
             let packages = setup::packages_in_background()?;
-            let pass = if full {
-                checks::Pass::Full
-            } else {
-                checks::Pass::Fast
+            let pass = match (full, long) {
+                (true, _) => checks::Pass::Full,
+                (_, true) => checks::Pass::Long,
+                _ => checks::Pass::Fast,
             };
             checks::all(&root, pass, packages)
         }
@@ -184,7 +188,7 @@ fn main() -> Result<()> {
             eprintln!("wrote {}", out.display());
             Ok(())
         }
-        Cmd::Fuzz { cases } => fuzz(&root, cases),
+        Cmd::Fuzz { cases } => fuzz::run_all(&root, Some(cases), &[]),
     }
 }
 
@@ -211,43 +215,4 @@ fn survey(root: &std::path::Path, seeds: u64, first: u64) -> Result<()> {
         ],
         &[("SEEDS", &seeds.to_string()), ("FIRST", &first.to_string())],
     )
-}
-
-/// The fuzz targets with `cases` cases each (fresh seeds): dsp-core's
-/// API, the channel logic, the wire format and the readers; the array
-/// under interferers; the record link's corrupted streams; the device's
-/// fuzzed command streams.
-fn fuzz(root: &std::path::Path, cases: u64) -> Result<()> {
-    let n = cases.to_string();
-    // `cargo test --profile quick <selection> -- --nocapture` with `env`.
-    let run = |selection: &[&str], env: (&str, &str)| {
-        let mut args = vec!["test", "--profile", checks::TEST_PROFILE];
-        args.extend_from_slice(selection);
-        args.extend(["--", "--nocapture"]);
-        cargo::run_env(root, &args, &[env])
-    };
-    run(
-        &[
-            "-p",
-            "dsp-core",
-            "-p",
-            "instrument",
-            "-p",
-            "host-sim",
-            "--test",
-            "fuzz",
-        ],
-        ("FUZZ_CASES", &n),
-    )?;
-    // The array under interferers of any frequency and amplitude
-    // (beside the array's own tests: it runs their simulated skin).
-    run(
-        &["-p", "instrument", "--test", "tones", "interferers"],
-        ("FUZZ_CASES", &n),
-    )?;
-    // The record link: corrupted streams.
-    run(&["-p", "link", "--test", "frames"], ("LINK_CASES", &n))?;
-    // The device's requests: fuzzed command streams against a
-    // store (each case a whole stream of uploads and damage).
-    run(&["-p", "instrument", "--lib", "commands"], ("COMMAND_CASES", &n))
 }
