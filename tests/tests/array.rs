@@ -49,15 +49,6 @@ fn each_sensor(recs: &[LoggedToneRecord], seconds: f64, per_s: f64, valid_share:
     }
 }
 
-/// The `paper` run, shared by the tests of this file.
-fn paper() -> &'static (qemu_tests::Run, Vec<LoggedToneRecord>) {
-    static RUN: std::sync::OnceLock<(qemu_tests::Run, Vec<LoggedToneRecord>)> = std::sync::OnceLock::new();
-    RUN.get_or_init(|| {
-        let (run, recs) = run_array("paper").unwrap();
-        (run.ok().unwrap(), recs)
-    })
-}
-
 /// The fast pass's run of the array image: the first two seconds of
 /// `paper`, every check of the whole run but its figures.
 fn paper_2s() -> &'static (qemu_tests::Run, Vec<LoggedToneRecord>) {
@@ -105,10 +96,12 @@ fn a_run_shorter_than_its_scenario_is_asked_for_in_seconds() {
 #[test]
 #[ignore = "long: cargo xtask test --full"]
 fn sixteen_sensors_250_times_a_second_within_a_thousandth() {
-    let (run, recs) = paper();
-    at_250(run, recs, 10.0);
+    let (run, recs) = run_array("paper").unwrap();
+    let run = run.ok().unwrap();
+    at_250(&run, &recs, 10.0);
+    link_carries(&run, &recs);
     // The README's headline and the accuracy page show this run's figures.
-    let sensors = qemu_tests::summary::sensors(recs).unwrap();
+    let sensors = qemu_tests::summary::sensors(&recs).unwrap();
     figures::check(
         "docs/figures.md",
         "headline-array",
@@ -271,18 +264,8 @@ fn identify_reads_an_array_recording_and_finds_the_hidden_parasitic() {
     assert!((pf - 12.0).abs() < 0.5, "{pf} pF");
 }
 
-/// The record link: the frames on UART0 carry every record the defmt log
-/// does, value for value, and a corrupted copy of the stream yields only
-/// records that were sent.
-#[test]
-#[ignore = "long: cargo xtask test --full"]
-fn the_link_carries_every_record_and_survives_corruption() {
-    let (run, recs) = paper();
-    link_carries(run, recs);
-}
-
-/// [`the_link_carries_every_record_and_survives_corruption`] on the fast
-/// pass's run.
+/// [`link_carries`] on the fast pass's run (the whole run's is checked
+/// with its accuracy: one run of it, whatever runs the tests).
 #[test]
 fn the_link_carries_every_record_of_two_seconds_and_survives_corruption() {
     let (run, recs) = paper_2s();

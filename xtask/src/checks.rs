@@ -96,34 +96,44 @@ fn fast(root: &Path, packages: JoinHandle<Result<()>>) -> Result<()> {
 /// CRC and COBS at every length), the long tests, every fuzz target at
 /// its full count.
 fn long(root: &Path) -> Result<()> {
-    let fw = root.join("firmware");
-    for feature in ["qemu", "board", "board,store"] {
-        clippy(&fw, &["--lib", "--tests", "--features", feature])?;
-    }
-    let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
-    cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat())?;
-    long_tests(root)?;
-    crate::fuzz::run_all(root, None, &[("PROPTEST_RNG_SEED", PROPTEST_SEED)])
+    // The firmware's workspace beside the host's, as in the fast pass.
+    let (firmware, host) = std::thread::scope(|s| {
+        let fw = s.spawn(|| {
+            let fw = root.join("firmware");
+            ["qemu", "board", "board,store"]
+                .into_iter()
+                .try_for_each(|f| clippy(&fw, &["--lib", "--tests", "--features", f]))
+        });
+        let link = ["test", "--profile", TEST_PROFILE, "-p", "link", "--lib"];
+        let host = cargo::run(root, &[&link[..], &["--features", "small-crc"]].concat());
+        (fw.join(), host)
+    });
+    host?;
+    firmware.map_err(|_| anyhow::anyhow!("the firmware's lints panicked"))??;
+    long_tests(root)
 }
 
-/// The long tests (the surveys are `cargo xtask survey`'s), side by side
-/// across test binaries with cargo-nextest where the machine has it (a
-/// binary of one long QEMU test would leave a core idle), else with
-/// `cargo test`, binary after binary.
+/// The long tests (the surveys are `cargo xtask survey`'s), then every
+/// fuzz target at its full count: side by side across test binaries with
+/// cargo-nextest where the machine has it (a binary of one long QEMU
+/// test would leave a core idle; `.config/nextest.toml` starts the
+/// slowest first), else with `cargo test`, binary after binary.
 fn long_tests(root: &Path) -> Result<()> {
     let env = [("PROPTEST_RNG_SEED", PROPTEST_SEED)];
-    let profile = ["--workspace", "--no-fail-fast"];
-    if cargo::has_subcommand("nextest") {
-        let mut args = vec!["nextest", "run", "--cargo-profile", TEST_PROFILE];
-        args.extend(profile);
-        args.extend(["--run-ignored", "only", "-E", "not test(=survey)"]);
-        cargo::run_env(root, &args, &env)
-    } else {
-        let mut args = vec!["test", "--profile", TEST_PROFILE];
-        args.extend(profile);
+    if !cargo::has_subcommand("nextest") {
+        let mut args = vec!["test", "--profile", TEST_PROFILE, "--workspace"];
         args.extend(["--", "--ignored", "--exact", "--skip", "survey"]);
-        cargo::run_env(root, &args, &env)
+        cargo::run_env(root, &args, &env)?;
+        return crate::fuzz::run_all(root, None, &env);
     }
+    let nextest = |selection: &[&str]| {
+        let mut args = vec!["nextest", "run", "--cargo-profile", TEST_PROFILE];
+        args.extend(["--workspace", "--no-fail-fast"]);
+        args.extend_from_slice(selection);
+        cargo::run_env(root, &args, &env)
+    };
+    nextest(&["--run-ignored", "only", "-E", "not test(=survey)"])?;
+    nextest(&["-E", &crate::fuzz::filterset()])
 }
 
 /// The host's checks beside the workspace's tests, and those tests

@@ -112,6 +112,22 @@ impl Target {
     }
 }
 
+/// The nextest filterset of every target (for a run of the workspace,
+/// whose features are the fast pass's: nothing is built again).
+pub fn filterset() -> String {
+    let one = |t: &Target| {
+        let id = match t.test {
+            Some(test) => format!("binary_id(={}::{test})", t.package),
+            None => format!("binary_id(={})", t.package),
+        };
+        match t.filter {
+            Some(f) => format!("({id} & test(~{f}))"),
+            None => id,
+        }
+    };
+    TARGETS.iter().map(one).collect::<Vec<_>>().join(" | ")
+}
+
 /// Every target with `cases` cases (`None`: each test's default), the
 /// variables `env` beside: `cargo xtask fuzz` draws fresh seeds, the
 /// long pass sets [`checks::PROPTEST_SEED`].
