@@ -184,6 +184,19 @@ mod tests {
         }
     }
 
+    /// The filterset names each target once, by its binary, with its
+    /// name filter where it has one.
+    #[test]
+    fn the_filterset_names_every_target() {
+        let fs = filterset();
+        assert_eq!(fs.split(" | ").count(), TARGETS.len(), "{fs}");
+        assert!(fs.contains("(binary_id(=instrument::tones) & test(~interferers_never"));
+        assert!(
+            fs.contains("(binary_id(=instrument) & test(~commands::))"),
+            "{fs}"
+        );
+    }
+
     fn walk(dir: &Path, f: &mut dyn FnMut(&Path, &str)) {
         for e in std::fs::read_dir(dir).unwrap().flatten() {
             let p = e.path();
