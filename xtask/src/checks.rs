@@ -51,17 +51,18 @@ pub const TEST_PROFILE: &str = "quick";
 /// builds, the board images and the QEMU tests (which run with the host
 /// tests, once `packages`, the system packages being installed, are).
 pub fn all(root: &Path, pass: Pass, packages: JoinHandle<Result<()>>) -> Result<()> {
-    if pass != Pass::Long {
-        fast(root, packages)?;
-        if pass == Pass::Fast {
-            return Ok(());
-        }
-    } else {
-        packages
-            .join()
-            .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
+    match pass {
+        Pass::Fast => fast(root, packages),
+        Pass::Full => fast(root, packages).and_then(|()| long(root)),
+        Pass::Long => installed(packages).and_then(|()| long(root)),
     }
-    long(root)
+}
+
+/// Once the set-up's system packages are installed.
+fn installed(packages: JoinHandle<Result<()>>) -> Result<()> {
+    packages
+        .join()
+        .map_err(|_| anyhow::anyhow!("the set-up panicked"))?
 }
 
 /// The fast pass: every check, the tests at their smoke sizes, a minute
@@ -81,9 +82,7 @@ fn fast(root: &Path, packages: JoinHandle<Result<()>>) -> Result<()> {
     });
     host?;
     firmware.map_err(|_| anyhow::anyhow!("the firmware's checks panicked"))??;
-    packages
-        .join()
-        .map_err(|_| anyhow::anyhow!("the set-up panicked"))??;
+    installed(packages)?;
     host_tests(root)?;
     // A minute of `cargo xtask soak`.
     print!("{}", crate::soak::run(root, &crate::soak::Soak::minute())?);
@@ -138,7 +137,8 @@ fn long_tests(root: &Path) -> Result<()> {
 
 /// The host's checks beside the workspace's tests, and those tests
 /// built: the feature sets the workspace run does not build (dsp-core
-/// without its ladder kernels, the boards'); dsp-core built for every core we support, M4F (DSP + FPU) and M3.
+/// without its ladder kernels, the boards'); dsp-core built for every
+/// core we support, M4F (DSP + FPU) and M3.
 fn host_extras(root: &Path) -> Result<()> {
     clippy(root, &["-p", "dsp-core", "--no-default-features"])?;
     for t in [qemu_tests::TARGET, "thumbv7m-none-eabi"] {

@@ -76,8 +76,9 @@ pub const TARGETS: [Target; 7] = [
     ),
 ];
 
-/// Files that read a count's variable in tests that are long ones
-/// (`#[ignore = "long: …"]`), run by the long pass with the others.
+/// Files whose tests read a count's variable inside a long test
+/// (`#[ignore = "long: …"]`, at the count's default there) as well as a
+/// fast one: the long pass runs them with the other long tests.
 #[cfg(test)]
 const IN_LONG_TESTS: [&str; 1] = ["tests/tests/array.rs"];
 
