@@ -307,6 +307,7 @@ impl Channel {
             rescue: Rescue::NONE,
             policy: &s.policy,
             set_hz: &FREQS_HZ,
+            quiet: true,
         };
         // What the energy near the policy's tone could have shifted its
         // V/I by, in units of its noise (`decide` bounds ln C by σ_lnC

@@ -17,18 +17,21 @@
 //!    [`Flags::TONE_LEFT_OUT`]); else MODEL, and the line is not tracked.
 //! 5. The error bound: five σ of the block's noise, what a disturbance
 //!    the reader sees could have moved C by, and what an error at one
-//!    tone nothing sees could hide behind χ² ([`crate::joint::hidden`]).
-//!    Beyond the tolerance, or NaN: UNCERTAIN.
+//!    tone nothing sees could hide behind χ² ([`crate::joint::hidden`]),
+//!    as large as the block's own χ² or, where the last blocks at these
+//!    tones were calm, their mean allows ([`Quiet`]). Beyond the
+//!    tolerance, or NaN: UNCERTAIN.
 //! 6. R beyond the electrodes' range, or not positive: RANGE, the line is
 //!    lost and a free channel falls back.
 //! 7. Otherwise the line is tracked (when χ² passed) and the policy
 //!    moves on it.
 
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{hidden, rescue, Joint, Rescue, Unsolved};
+use crate::joint::{hidden, rescue, Joint, Quiet, Rescue, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
+use dsp_core::fmath;
 use dsp_core::twotone::{Solution, Tone};
 
 /// What a channel's decisions read: its sensor and the settings every
@@ -50,6 +53,10 @@ pub struct Rules<'a, const N: usize> {
     pub policy: &'a Policy,
     /// The frequencies the policy moves on, Hz, ascending.
     pub set_hz: &'a [f32],
+    /// What an error at one tone that nothing sees may hide in a record
+    /// is bounded by the calm blocks before it ([`Quiet`]); false: by the
+    /// block's own χ² alone.
+    pub quiet: bool,
 }
 
 /// The line a record reports.
@@ -73,6 +80,8 @@ pub struct Reading {
 #[derive(Clone, Copy, Debug)]
 pub struct Course {
     joint: Joint,
+    /// The model check's χ² over the last blocks at these tones.
+    quiet: Quiet,
     prior_farad: f32,
     last_t_us: Option<u64>,
     pinned: bool,
@@ -90,6 +99,7 @@ impl Course {
     pub const fn new(prior_farad: f32, pinned: bool) -> Self {
         Self {
             joint: Joint::new(),
+            quiet: Quiet::new(),
             prior_farad,
             last_t_us: None,
             pinned,
@@ -140,12 +150,14 @@ impl Course {
         }
         let th = rules.thresholds;
         let sensor = rules.sensor;
+        let set_hz = tones.iter().fold(0.0, |a, t| a + t.f_hz);
         let solved =
             self.joint
                 .solve_behind(sensor, rules.dielectric, tones, self.prior_farad, rules.chi2_flag);
         let sol = match solved {
             Ok(sol) => sol,
             Err(why) => {
+                self.quiet.forget();
                 if why == Unsolved::Range {
                     self.fall_back(rules.policy, policy);
                 }
@@ -169,15 +181,19 @@ impl Course {
                 &mut self.suspect,
             );
         }
-        let (sol, chi2_flag) = match &pair {
+        // A rescued pair's share is its own: the history is of three tones.
+        let history = rules.quiet && pair.is_none();
+        let share = self.quiet.share(&sol, rules.chi2_flag, set_hz, history);
+        self.quiet.take(sol.chi2, rules.chi2_flag, set_hz);
+        let (sol, chi2_flag, share) = match &pair {
             Some(p) => {
                 flags.set(Flags::TONE_LEFT_OUT);
-                (p, rules.rescue.pair_flag)
+                (p, rules.rescue.pair_flag, fmath::sqrt(fmath::max(p.chi2, p.dof)))
             }
-            None => (&sol, rules.chi2_flag),
+            None => (&sol, rules.chi2_flag, share),
         };
         let line = sol.line;
-        let (stretch_mm, consistent) = check(sensor, th, sol, chi2_flag, disturbance, flags);
+        let (stretch_mm, consistent) = check(sensor, th, sol, chi2_flag, share, disturbance, flags);
         let reading = Reading {
             c_farad: line.c_farad,
             r_ohm: line.r_ohm,
@@ -190,6 +206,7 @@ impl Course {
         if !(line.r_ohm > 0.0 && line.r_ohm <= th.r_max_ohm) {
             flags.set(Flags::RANGE);
             self.joint.lose();
+            self.quiet.forget();
             self.fall_back(rules.policy, policy);
             return Some(reading);
         }
@@ -215,15 +232,17 @@ impl Course {
 /// Steps 3–5 of the module's docs on the line `sol` reports (rescued,
 /// where it was): its stretch (the calibration's status into `flags`),
 /// MODEL where its χ² exceeds `chi2_flag`, UNCERTAIN where its error
-/// bound exceeds the tolerance. Returns the stretch and whether χ²
-/// passed. (Inlined: the record's path is one function in the boards'
-/// fast RAM.)
+/// bound, with `share` the share of its residual an error at one tone
+/// may have ([`hidden`]), exceeds the tolerance. Returns the stretch and
+/// whether χ² passed. (Inlined: the record's path is one function in the
+/// boards' fast RAM.)
 #[inline(always)]
 fn check<const N: usize>(
     sensor: &Sensor<N>,
     th: &Thresholds,
     sol: &Solution,
     chi2_flag: f32,
+    share: f32,
     disturbance: impl Fn(Option<usize>) -> f32,
     flags: &mut Flags,
 ) -> (f32, bool) {
@@ -233,7 +252,7 @@ fn check<const N: usize>(
     if !consistent {
         flags.set(Flags::MODEL);
     }
-    let bound = 5.0 * sol.sigma_ln_c + sol.sigma_ln_c * disturbance(None) + hidden(sol, chi2_flag);
+    let bound = 5.0 * sol.sigma_ln_c + sol.sigma_ln_c * disturbance(None) + hidden(sol, chi2_flag, share);
     if bound.is_nan() || bound > th.c_tolerance {
         flags.set(Flags::UNCERTAIN);
     }

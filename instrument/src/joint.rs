@@ -12,6 +12,7 @@
 
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
+use dsp_core::fmath;
 use dsp_core::invert::{InvertError, Inverter};
 use dsp_core::twotone::{self, Solution, Tone};
 
@@ -264,19 +265,219 @@ fn pair_line<const K: usize>(
 /// What an error at one tone that nothing else sees (an interferer at
 /// its frequency, an alias of it) could hide behind the χ² of `sol`,
 /// relative to C: `hidden_ln_c` per unit of that error's share of the
-/// residual; 0 where the check failed (χ² > `chi2_flag`: the record is
-/// flagged MODEL and this bound says nothing more).
-///
-/// The residual is the error's share plus the noise's, which can cancel
-/// part of it: a χ² of 0.34 hid a one-tone error whose own share was 1.1
-/// (an interferer next to the multiplexed channel's second tone, 1 % off
-/// with √χ² alone). So the share is taken as √χ², but never below the
-/// noise's own rms share, √dof (2 for two tones, 4 for three:
-/// [`Solution::dof`]).
-pub fn hidden(sol: &Solution, chi2_flag: f32) -> f32 {
+/// residual, `share` ([`Quiet::share`]); 0 where the check failed
+/// (χ² > `chi2_flag`: the record is flagged MODEL and this bound says
+/// nothing more).
+pub fn hidden(sol: &Solution, chi2_flag: f32, share: f32) -> f32 {
     if sol.chi2 > chi2_flag {
         0.0
     } else {
-        sol.hidden_ln_c * dsp_core::fmath::sqrt(dsp_core::fmath::max(sol.chi2, sol.dof))
+        sol.hidden_ln_c * share
+    }
+}
+
+/// Blocks the model check's history spans ([`Quiet`]): about a second
+/// of 4 ms blocks, a quarter second of 1 ms ones.
+pub const QUIET_BLOCKS: u16 = 256;
+
+/// How many standard errors of the history's mean χ² its bound adds
+/// ([`Quiet::share`]).
+pub const QUIET_Z: f32 = 3.0;
+
+/// The model check's χ² over the last blocks a channel read at one set of
+/// tones: how large an error at one tone that nothing sees can be, where
+/// it persists.
+///
+/// One block alone cannot tell such an error from its noise: the residual
+/// holds the error's share plus the noise's, which can cancel part of
+/// it (a χ² of 0.34 hid a one-tone error whose own share was 1.1, an
+/// interferer next to the multiplexed channel's second tone, 1 % off with
+/// √χ² alone). So a block's own share is taken as √χ², but never below
+/// the noise's own rms share, √dof (√2 for two tones, 2 for three:
+/// [`Solution::dof`]).
+///
+/// Over many blocks the noise averages out and the error does not: an
+/// error of share s in every block raises the mean χ² to dof + s². After
+/// [`QUIET_BLOCKS`] blocks at one set of tones, the share is bounded by
+/// the mean (an exponential average over that many blocks, each block's
+/// χ² taken at most at the flag) less dof, plus three standard
+/// errors of the mean (√(2·dof/[`QUIET_BLOCKS`]) each), doubled in
+/// square: an error a few hertz off its tone turns its phase from block
+/// to block, and its share in one block can be up to twice its mean. A
+/// block whose own χ² passes half the flag (for three tones' 26.6, 13.3:
+/// the 1 % point of χ² with four degrees of freedom; for two tones'
+/// 18.4, 9.2, that of two) is evidence of something new: its own share
+/// stands. So does it until the history is full, and again after the
+/// channel's tones change (a history of other tones says nothing of the
+/// new one's bin; one kept from the last time the channel read these
+/// tones, seconds ago, says nothing of now).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Quiet {
+    /// Mean χ² of the blocks taken (exponential over [`QUIET_BLOCKS`]).
+    mean: f32,
+    /// Blocks taken at these tones (up to [`QUIET_BLOCKS`]).
+    blocks: u16,
+    /// The tones' key: their frequencies summed, Hz.
+    set_hz: f32,
+}
+
+impl Quiet {
+    /// No history.
+    pub const fn new() -> Self {
+        Self {
+            mean: 0.0,
+            blocks: 0,
+            set_hz: 0.0,
+        }
+    }
+
+    /// The share of the residual an error at one tone that nothing sees
+    /// may have in the block `sol` was fitted to (flagged above
+    /// `chi2_flag`), at tones whose frequencies sum to `set_hz`: with
+    /// `history`, by this history where it is full and the block calm,
+    /// else the block's own. Before [`Quiet::take`] takes the block: a
+    /// block never vouches for itself.
+    pub fn share(&self, sol: &Solution, chi2_flag: f32, set_hz: f32, history: bool) -> f32 {
+        let (chi2, dof) = (sol.chi2, sol.dof);
+        let own = fmath::sqrt(fmath::max(chi2, dof));
+        let full = self.set_hz == set_hz && self.blocks >= QUIET_BLOCKS;
+        if !(history && full && chi2 <= 0.5 * chi2_flag) {
+            return own;
+        }
+        let se = fmath::sqrt(2.0 * dof / f32::from(QUIET_BLOCKS));
+        let excess = fmath::max(self.mean - dof, 0.0) + QUIET_Z * se;
+        fmath::min(own, fmath::sqrt(2.0 * excess))
+    }
+
+    /// Take a block's `chi2` (at most `chi2_flag`), at tones whose
+    /// frequencies sum to `set_hz`; other tones than the last start the
+    /// history anew.
+    pub fn take(&mut self, chi2: f32, chi2_flag: f32, set_hz: f32) {
+        if self.set_hz != set_hz {
+            *self = Self {
+                set_hz,
+                ..Self::new()
+            };
+        }
+        // NaN counts as the flag.
+        let x = if chi2 <= chi2_flag { chi2 } else { chi2_flag };
+        self.blocks = if self.blocks < QUIET_BLOCKS {
+            self.blocks + 1
+        } else {
+            QUIET_BLOCKS
+        };
+        // The running mean until the history is full, exponential after.
+        self.mean += (x - self.mean) / f32::from(self.blocks);
+    }
+
+    /// Forget the history (the line is lost).
+    pub fn forget(&mut self) {
+        *self = Self::new();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three tones: 4 degrees of freedom, the array's 4 ms flag.
+    const DOF: f32 = 4.0;
+    const FLAG: f32 = 26.6;
+    const SET: f32 = 250.0 + 500.0 + 1000.0;
+
+    fn sol(chi2: f32, dof: f32) -> Solution {
+        Solution {
+            line: dsp_core::invert::Line {
+                r_ohm: 7e5,
+                c_farad: 2e-10,
+                x: 1.0,
+                kappa: f32::NAN,
+            },
+            chi2,
+            sigma_ln_c: 1e-3,
+            sigma_ln_r: 1e-3,
+            loss_tangent: 0.0,
+            hidden_ln_c: 1e-3,
+            dof,
+        }
+    }
+
+    fn filled(chi2: f32, set_hz: f32) -> Quiet {
+        let mut q = Quiet::new();
+        for _ in 0..QUIET_BLOCKS {
+            q.take(chi2, FLAG, set_hz);
+        }
+        q
+    }
+
+    #[test]
+    fn a_block_counts_only_its_own_share_until_the_history_is_full() {
+        let mut q = Quiet::new();
+        for _ in 0..QUIET_BLOCKS - 1 {
+            q.take(DOF, FLAG, SET);
+            assert_eq!(q.share(&sol(1.0, DOF), FLAG, SET, true), 2.0);
+            assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET, true), 3.0);
+        }
+        q.take(DOF, FLAG, SET);
+        assert!(q.share(&sol(9.0, DOF), FLAG, SET, true) < 1.2);
+    }
+
+    /// Calm blocks (χ² at its mean) bound the share by 3 standard errors
+    /// of their mean, doubled: √(2·3·√(8/256)) = 1.03, half the block's
+    /// own least (√dof = 2).
+    #[test]
+    fn calm_blocks_bound_the_share_by_their_mean() {
+        let q = filled(DOF, SET);
+        let share = q.share(&sol(9.0, DOF), FLAG, SET, true);
+        assert!((share - 1.0299).abs() < 1e-3, "{share}");
+        // Without the history, the block's own.
+        assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET, false), 3.0);
+        // Never above the block's own.
+        assert_eq!(filled(0.0, SET).share(&sol(0.1, 0.25), FLAG, SET, true), 0.5);
+    }
+
+    /// An error of share s in every block raises the mean to dof + s²:
+    /// the bound holds it, and twice its square for a phase that turns.
+    #[test]
+    fn a_persistent_error_raises_the_bound_past_its_share() {
+        for s in [0.5f32, 1.0, 2.0, 3.0] {
+            let q = filled(DOF + s * s, SET);
+            let share = q.share(&sol(DOF, DOF), FLAG, SET, true);
+            assert!(
+                share >= s * core::f32::consts::SQRT_2 || share == 2.0,
+                "{s}: {share}"
+            );
+        }
+    }
+
+    /// A block whose χ² passes half the flag is something new: its own
+    /// share stands, however calm the blocks before.
+    #[test]
+    fn a_block_past_half_the_flag_keeps_its_own_share() {
+        let q = filled(DOF, SET);
+        assert_eq!(q.share(&sol(14.0, DOF), FLAG, SET, true), fmath::sqrt(14.0));
+        assert!(q.share(&sol(13.0, DOF), FLAG, SET, true) < 1.1);
+    }
+
+    /// Other tones start the history anew, and going back to the last
+    /// ones too; a block beyond the flag counts at it, NaN too.
+    #[test]
+    fn other_tones_start_the_history_anew() {
+        let other = 500.0 + 1000.0 + 2000.0;
+        let mut q = filled(DOF, SET);
+        for _ in 0..10 {
+            q.take(DOF, FLAG, other);
+        }
+        assert_eq!(q.share(&sol(4.0, DOF), FLAG, other, true), 2.0);
+        q.take(DOF, FLAG, SET);
+        assert_eq!(q.share(&sol(4.0, DOF), FLAG, SET, true), 2.0);
+        let mut loud = filled(DOF, SET);
+        loud.take(1e9, FLAG, SET);
+        loud.take(f32::NAN, FLAG, SET);
+        let excess = loud.mean - DOF;
+        let want = 2.0 * (FLAG - DOF) / QUIET_BLOCKS as f32;
+        assert!((excess - want).abs() < 1e-3 * want.max(1.0), "{excess} {want}");
+        q.forget();
+        assert_eq!(q, Quiet::new());
     }
 }
