@@ -336,7 +336,9 @@ impl Quiet {
     /// `chi2_flag`), at tones whose frequencies sum to `set_hz`: with
     /// `history`, by this history where it is full and the block calm,
     /// else the block's own. Before [`Quiet::take`] takes the block: a
-    /// block never vouches for itself.
+    /// block never vouches for itself. (Out of line, as [`Quiet::take`]:
+    /// one copy for every kind of channel, in the boards' fast RAM.)
+    #[inline(never)]
     pub fn share(&self, sol: &Solution, chi2_flag: f32, set_hz: f32, history: bool) -> f32 {
         let (chi2, dof) = (sol.chi2, sol.dof);
         let own = fmath::sqrt(fmath::max(chi2, dof));
@@ -352,6 +354,7 @@ impl Quiet {
     /// Take a block's `chi2` (at most `chi2_flag`), at tones whose
     /// frequencies sum to `set_hz`; other tones than the last start the
     /// history anew.
+    #[inline(never)]
     pub fn take(&mut self, chi2: f32, chi2_flag: f32, set_hz: f32) {
         if self.set_hz != set_hz {
             *self = Self {
@@ -371,6 +374,7 @@ impl Quiet {
     }
 
     /// Forget the history (the line is lost).
+    #[inline(never)]
     pub fn forget(&mut self) {
         *self = Self::new();
     }
