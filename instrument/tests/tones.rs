@@ -42,27 +42,14 @@ fn run(
         profile,
         seconds,
         seed,
-        &Disturbance::NONE,
+        (&Disturbance::NONE, 0.0),
     )
 }
 
 /// [`run`] in blocks of `layout`, sensor s on table `tables[s]` (with
 /// the paper's leads), an interferer `hum` (its hum fields) on every
-/// sensor's current input.
+/// sensor's current input from `onset_s` on (nothing added before).
 fn run_with<'a>(
-    layout: Layout,
-    tables: &[CalTable<POINTS>; SENSORS],
-    params: impl Fn(usize) -> SensorParams,
-    profile: impl Fn(usize) -> Profile<'a>,
-    seconds: f64,
-    seed: u64,
-    hum: &Disturbance,
-) -> Run {
-    run_from(layout, tables, params, profile, seconds, seed, (hum, 0.0))
-}
-
-/// [`run_with`], `hum` on from `onset_s` on (nothing added before).
-fn run_from<'a>(
     layout: Layout,
     tables: &[CalTable<POINTS>; SENSORS],
     params: impl Fn(usize) -> SensorParams,
@@ -168,7 +155,7 @@ fn sixteen_sensors_under_the_papers_stretching(layout: Layout, bounds: &Bounds, 
         |s| Profile::Table(leaked_delay(s as f64 * 0.6)),
         seconds,
         seed,
-        &Disturbance::NONE,
+        (&Disturbance::NONE, 0.0),
     );
     let (mut false_flags, mut records) = (0, 0);
     for (s, recs) in out.iter().enumerate() {
@@ -337,7 +324,7 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
         profile,
         10.0,
         3,
-        &Disturbance::NONE,
+        (&Disturbance::NONE, 0.0),
     );
     // The stretch each record gives against the stretch its sensor's C
     // means, and the same with one table for all.
@@ -662,7 +649,8 @@ proptest::proptest! {
     /// of it, or of its alias about the 25 kHz sample rate), long enough
     /// for the channels to move off it (0.6 s, `instrument::avoid`),
     /// while the sensors stretch: no record flagged valid is more than
-    /// 1 % off, before the move or after it. (`FUZZ_CASES` / 20 cases.)
+    /// 1 % off, before the move or after it. (`FUZZ_CASES` / 20 cases, as
+    /// the next.)
     #[test]
     fn moved_channels_never_leave_a_wrong_valid_record(
         tone in 0usize..TONES,
@@ -674,20 +662,11 @@ proptest::proptest! {
         r_scale in 0.5f64..1.5,
         seed in proptest::prelude::any::<u64>(),
     ) {
-        let at = Layout::BLOCK_4MS.tone_hz(tone) + off_hz;
-        let hz = if alias { RATE_HZ as f32 - at } else { at };
+        let hz = near_tone(tone, off_hz, alias);
         if let Err(e) = interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.6) {
             proptest::prop_assert!(false, "{e}");
         }
     }
-}
-
-proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig {
-        cases: (interferer_cases() / 20).max(4),
-        failure_persistence: None,
-        ..proptest::prelude::ProptestConfig::default()
-    })]
 
     /// An interferer in a tone's bin (within 125 Hz of it, or of its
     /// alias) that starts after the model check's history of calm blocks
@@ -695,7 +674,7 @@ proptest::proptest! {
     /// from 0.1 counts (a quarter of a tone's noise σ) to 3000, the electrodes
     /// 0.5–2 times the paper's and stretching: the records that history
     /// vouches for before it has seen the interferer are never 1 % off.
-    /// (`FUZZ_CASES` / 20 cases, each 1.4 s of sixteen sensors.)
+    /// (Each case is up to 1.4 s of sixteen sensors.)
     #[test]
     fn late_interferers_never_leave_a_wrong_valid_record(
         tone in 0usize..TONES,
@@ -708,12 +687,22 @@ proptest::proptest! {
         r_scale in 0.5f64..2.0,
         seed in proptest::prelude::any::<u64>(),
     ) {
-        let at = Layout::BLOCK_4MS.tone_hz(tone) + off_hz;
-        let hz = if alias { RATE_HZ as f32 - at } else { at };
+        let hz = near_tone(tone, off_hz, alias);
         let during = (onset_s, onset_s + 0.2);
         if let Err(e) = interfered_from(hz, log_counts, phase, start, r_scale, seed, during) {
             proptest::prop_assert!(false, "{e}");
         }
+    }
+}
+
+/// `off_hz` from the 4 ms comb's tone `tone`, or (`alias`) from its alias
+/// about the inputs' sample rate, Hz.
+fn near_tone(tone: usize, off_hz: f32, alias: bool) -> f32 {
+    let at = Layout::BLOCK_4MS.tone_hz(tone) + off_hz;
+    if alias {
+        RATE_HZ as f32 - at
+    } else {
+        at
     }
 }
 
@@ -777,7 +766,7 @@ fn interfered_from(
         p
     };
     let table = at_phase(start);
-    let out = run_from(
+    let out = run_with(
         Layout::BLOCK_4MS,
         &[*paper_cal(); SENSORS],
         params,
@@ -874,7 +863,7 @@ fn records_lost_while_stretching_are_read_at_the_lowest_pair() {
             profile,
             4.0,
             7,
-            &Disturbance::NONE,
+            (&Disturbance::NONE, 0.0),
         );
         let lost: Vec<&ToneRecord> = out
             .iter()
