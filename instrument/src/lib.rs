@@ -15,7 +15,7 @@
 //! | [`busy`] | how the CPU keeps up: each block's time from acquisition to last record, late and missed blocks, a status frame a second |
 //! | [`mux`] | the analog multiplexer's address lines (embedded-hal `OutputPin`) |
 //! | [`sensor`] | each sensor as measured: its line (tab leads), its wiring, its rest capacitance, its stretch table if it has one |
-//! | [`joint`] | the line of a block's two tones, tracked, and what its model check vouches for (both front ends) |
+//! | [`joint`] | the line of a block's two tones, tracked, and what its model check vouches for, alone and over the calm blocks before it (both front ends) |
 //! | [`decide`] | what every channel decides once its tones are read: the line, its flags, the policy's next step (both front ends) |
 //! | [`channel`] | one sensor channel of the multiplexer: a block's two tones → a line-corrected record with its model check |
 //! | [`commands`] | the device's side of the link's requests: read and write the stored settings, start, stop, sweep; each acknowledged or refused |
