@@ -27,11 +27,10 @@
 //!    moves on it.
 
 use crate::faults::{Flags, Thresholds};
-use crate::joint::{hidden, rescue, Joint, Quiet, Rescue, Unsolved};
+use crate::joint::{hidden, own_share, rescue, Joint, Quiet, Rescue, Unsolved};
 use crate::policy::{Policy, PolicyState};
 use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
-use dsp_core::fmath;
 use dsp_core::twotone::{Solution, Tone};
 
 /// What a channel's decisions read: its sensor and the settings every
@@ -150,17 +149,13 @@ impl Course {
         }
         let th = rules.thresholds;
         let sensor = rules.sensor;
-        let set_hz = tones.iter().fold(0.0, |a, t| a + t.f_hz);
         let solved =
             self.joint
                 .solve_behind(sensor, rules.dielectric, tones, self.prior_farad, rules.chi2_flag);
         let sol = match solved {
             Ok(sol) => sol,
             Err(why) => {
-                self.quiet.forget();
-                if why == Unsolved::Range {
-                    self.fall_back(rules.policy, policy);
-                }
+                self.lose(rules.policy, policy, why == Unsolved::Range);
                 flags.set(why.flag());
                 return None;
             }
@@ -181,16 +176,13 @@ impl Course {
                 &mut self.suspect,
             );
         }
-        // A rescued pair's share is its own: the history is of three tones.
-        let history = rules.quiet && pair.is_none();
-        let share = self.quiet.share(&sol, rules.chi2_flag, set_hz, history);
-        self.quiet.take(sol.chi2, rules.chi2_flag, set_hz);
-        let (sol, chi2_flag, share) = match &pair {
+        let share = self.share(rules, &tones, &sol, pair.as_ref());
+        let (sol, chi2_flag) = match &pair {
             Some(p) => {
                 flags.set(Flags::TONE_LEFT_OUT);
-                (p, rules.rescue.pair_flag, fmath::sqrt(fmath::max(p.chi2, p.dof)))
+                (p, rules.rescue.pair_flag)
             }
-            None => (&sol, rules.chi2_flag, share),
+            None => (&sol, rules.chi2_flag),
         };
         let line = sol.line;
         let (stretch_mm, consistent) = check(sensor, th, sol, chi2_flag, share, disturbance, flags);
@@ -205,9 +197,7 @@ impl Course {
         // below what the inversion resolves): no sensor of this kind.
         if !(line.r_ohm > 0.0 && line.r_ohm <= th.r_max_ohm) {
             flags.set(Flags::RANGE);
-            self.joint.lose();
-            self.quiet.forget();
-            self.fall_back(rules.policy, policy);
+            self.lose(rules.policy, policy, true);
             return Some(reading);
         }
         if consistent {
@@ -221,9 +211,33 @@ impl Course {
         Some(reading)
     }
 
-    /// Out of range: a free channel falls back to its lowest frequency.
-    fn fall_back(&self, rules: &Policy, policy: &mut PolicyState) {
-        if !self.pinned {
+    /// The share of the record's residual an error at one tone may have
+    /// ([`crate::joint::hidden`]): a rescued `pair`'s own (the history is
+    /// of the three tones), else, where the rules keep one, by the model
+    /// check's history ([`Quiet`]), which then takes the block `sol`
+    /// (of `tones`) fitted.
+    fn share<const N: usize, const K: usize>(
+        &mut self,
+        rules: &Rules<'_, N>,
+        tones: &[Tone; K],
+        sol: &Solution,
+        pair: Option<&Solution>,
+    ) -> f32 {
+        if !rules.quiet {
+            return own_share(pair.unwrap_or(sol));
+        }
+        let set_hz = tones.iter().fold(0.0, |a, t| a + t.f_hz);
+        let share = self.quiet.share(sol, rules.chi2_flag, set_hz);
+        self.quiet.take(sol.chi2, rules.chi2_flag, set_hz);
+        pair.map_or(share, own_share)
+    }
+
+    /// The line is lost: nothing tracked, no history of the model check;
+    /// `out_of_range`, a free channel falls back to its lowest frequency.
+    fn lose(&mut self, rules: &Policy, policy: &mut PolicyState, out_of_range: bool) {
+        self.joint.lose();
+        self.quiet.forget();
+        if out_of_range && !self.pinned {
             rules.fallback(policy);
         }
     }

@@ -276,6 +276,13 @@ pub fn hidden(sol: &Solution, chi2_flag: f32, share: f32) -> f32 {
     }
 }
 
+/// The share of the residual an error at one tone that nothing sees may
+/// have in the block `sol` was fitted to, by that block alone: √χ², but
+/// never below the noise's own rms share, √dof ([`Quiet`] says why).
+pub fn own_share(sol: &Solution) -> f32 {
+    fmath::sqrt(fmath::max(sol.chi2, sol.dof))
+}
+
 /// Blocks the model check's history spans ([`Quiet`]): about a second
 /// of 4 ms blocks, a quarter second of 1 ms ones.
 pub const QUIET_BLOCKS: u16 = 256;
@@ -333,17 +340,17 @@ impl Quiet {
 
     /// The share of the residual an error at one tone that nothing sees
     /// may have in the block `sol` was fitted to (flagged above
-    /// `chi2_flag`), at tones whose frequencies sum to `set_hz`: with
-    /// `history`, by this history where it is full and the block calm,
-    /// else the block's own. Before [`Quiet::take`] takes the block: a
-    /// block never vouches for itself. (Out of line, as [`Quiet::take`]:
-    /// one copy for every kind of channel, in the boards' fast RAM.)
+    /// `chi2_flag`), at tones whose frequencies sum to `set_hz`: by this
+    /// history where it is full and the block calm, else the block's own
+    /// ([`own_share`]). Before [`Quiet::take`] takes the block: a block
+    /// never vouches for itself. (Out of line, as [`Quiet::take`]: one
+    /// copy for every kind of channel, in the boards' fast RAM.)
     #[inline(never)]
-    pub fn share(&self, sol: &Solution, chi2_flag: f32, set_hz: f32, history: bool) -> f32 {
+    pub fn share(&self, sol: &Solution, chi2_flag: f32, set_hz: f32) -> f32 {
         let (chi2, dof) = (sol.chi2, sol.dof);
-        let own = fmath::sqrt(fmath::max(chi2, dof));
+        let own = own_share(sol);
         let full = self.set_hz == set_hz && self.blocks >= QUIET_BLOCKS;
-        if !(history && full && chi2 <= 0.5 * chi2_flag) {
+        if !(full && chi2 <= 0.5 * chi2_flag) {
             return own;
         }
         let se = fmath::sqrt(2.0 * dof / f32::from(QUIET_BLOCKS));
@@ -419,11 +426,11 @@ mod tests {
         let mut q = Quiet::new();
         for _ in 0..QUIET_BLOCKS - 1 {
             q.take(DOF, FLAG, SET);
-            assert_eq!(q.share(&sol(1.0, DOF), FLAG, SET, true), 2.0);
-            assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET, true), 3.0);
+            assert_eq!(q.share(&sol(1.0, DOF), FLAG, SET), 2.0);
+            assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET), 3.0);
         }
         q.take(DOF, FLAG, SET);
-        assert!(q.share(&sol(9.0, DOF), FLAG, SET, true) < 1.2);
+        assert!(q.share(&sol(9.0, DOF), FLAG, SET) < 1.2);
     }
 
     /// Calm blocks (χ² at its mean) bound the share by 3 standard errors
@@ -432,12 +439,12 @@ mod tests {
     #[test]
     fn calm_blocks_bound_the_share_by_their_mean() {
         let q = filled(DOF, SET);
-        let share = q.share(&sol(9.0, DOF), FLAG, SET, true);
+        let share = q.share(&sol(9.0, DOF), FLAG, SET);
         assert!((share - 1.0299).abs() < 1e-3, "{share}");
-        // Without the history, the block's own.
-        assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET, false), 3.0);
+        // The block's own alone.
+        assert_eq!(own_share(&sol(9.0, DOF)), 3.0);
         // Never above the block's own.
-        assert_eq!(filled(0.0, SET).share(&sol(0.1, 0.25), FLAG, SET, true), 0.5);
+        assert_eq!(filled(0.0, SET).share(&sol(0.1, 0.25), FLAG, SET), 0.5);
     }
 
     /// An error of share s in every block raises the mean to dof + s²:
@@ -446,7 +453,7 @@ mod tests {
     fn a_persistent_error_raises_the_bound_past_its_share() {
         for s in [0.5f32, 1.0, 2.0, 3.0] {
             let q = filled(DOF + s * s, SET);
-            let share = q.share(&sol(DOF, DOF), FLAG, SET, true);
+            let share = q.share(&sol(DOF, DOF), FLAG, SET);
             assert!(
                 share >= s * core::f32::consts::SQRT_2 || share == 2.0,
                 "{s}: {share}"
@@ -459,8 +466,8 @@ mod tests {
     #[test]
     fn a_block_past_half_the_flag_keeps_its_own_share() {
         let q = filled(DOF, SET);
-        assert_eq!(q.share(&sol(14.0, DOF), FLAG, SET, true), fmath::sqrt(14.0));
-        assert!(q.share(&sol(13.0, DOF), FLAG, SET, true) < 1.1);
+        assert_eq!(q.share(&sol(14.0, DOF), FLAG, SET), fmath::sqrt(14.0));
+        assert!(q.share(&sol(13.0, DOF), FLAG, SET) < 1.1);
     }
 
     /// Other tones start the history anew, and going back to the last
@@ -472,9 +479,9 @@ mod tests {
         for _ in 0..10 {
             q.take(DOF, FLAG, other);
         }
-        assert_eq!(q.share(&sol(4.0, DOF), FLAG, other, true), 2.0);
+        assert_eq!(q.share(&sol(4.0, DOF), FLAG, other), 2.0);
         q.take(DOF, FLAG, SET);
-        assert_eq!(q.share(&sol(4.0, DOF), FLAG, SET, true), 2.0);
+        assert_eq!(q.share(&sol(4.0, DOF), FLAG, SET), 2.0);
         let mut loud = filled(DOF, SET);
         loud.take(1e9, FLAG, SET);
         loud.take(f32::NAN, FLAG, SET);

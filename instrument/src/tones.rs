@@ -33,7 +33,7 @@ use crate::decide::{Course, Rules};
 use crate::faults::{Flags, Thresholds};
 use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
-use crate::sensor::Sensors;
+use crate::sensor::{Sensor, Sensors};
 use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::Dielectric;
@@ -308,23 +308,7 @@ impl ToneChannel {
             rec.flags.set(Flags::DISTURBED);
         }
         let set_hz = s.layout.tones_hz();
-        let rules = Rules {
-            sensor,
-            dielectric: &s.dielectric,
-            thresholds: th,
-            chi2_flag: s.chi2_flag,
-            rescue: Rescue {
-                pair_flag: s.chi2_pair_flag,
-                leak_ratio: s.layout.leak_ratio(),
-            },
-            policy: &s.policy,
-            set_hz: &set_hz,
-            // 1 ms blocks are vouched for within 1.6 % (twice the noise),
-            // and their records stay within 1 % by each block's own share
-            // of the model check; bounded by the calm blocks before, a
-            // record 1.03 % off passed 1.6 %.
-            quiet: s.layout.block_us() >= 4000,
-        };
+        let rules = rules_of(s, sensor, &set_hz);
         // What the MODEL check does not see of a disturbance: the shift
         // it could give a tone (of `tones`, or the worst of them), in
         // units of the tone's noise (`decide` bounds ln C by σ_lnC times
@@ -351,6 +335,31 @@ impl ToneChannel {
             rec.stretch_mm = line.stretch_mm;
         }
         rec
+    }
+}
+
+/// What `decide` reads for `sensor` of settings `s`, the policy moving on
+/// `set_hz`. 1 ms blocks keep no history of the model check: they are
+/// vouched for within 1.6 % (twice the noise), and their records stay
+/// within 1 % by each block's own share of it; bounded by the calm
+/// blocks before, a record 1.03 % off passed 1.6 %.
+fn rules_of<'a, const N: usize>(
+    s: &'a ToneSettings<'_, N>,
+    sensor: &'a Sensor<N>,
+    set_hz: &'a [f32],
+) -> Rules<'a, N> {
+    Rules {
+        sensor,
+        dielectric: &s.dielectric,
+        thresholds: &s.thresholds,
+        chi2_flag: s.chi2_flag,
+        rescue: Rescue {
+            pair_flag: s.chi2_pair_flag,
+            leak_ratio: s.layout.leak_ratio(),
+        },
+        policy: &s.policy,
+        set_hz,
+        quiet: s.layout.block_us() >= 4000,
     }
 }
 
