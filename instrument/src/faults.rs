@@ -226,10 +226,10 @@ impl Thresholds {
     };
 
     /// Thresholds for the array ([`crate::array`]: 16-bit oversampled
-    /// results, tones of 0.83 V at 250 Hz falling as 1/√f to 0.21 V at
-    /// 4 kHz, 330 kΩ transimpedance). The smallest real current, the
-    /// paper's cycled sensor (≈ 1.9 MΩ) at 250 Hz, gives ≈ 1400 counts and
-    /// the excitation's smallest tone ≈ 4100; a clean block's residual is
+    /// results, tones of 0.974 V at 250 Hz falling as f^−0.75 to 0.122 V
+    /// at 4 kHz, 330 kΩ transimpedance). The smallest real current, the
+    /// paper's cycled sensor (≈ 1.9 MΩ) at 250 Hz, gives ≈ 1650 counts and
+    /// the excitation's smallest tone ≈ 2400; a clean block's residual is
     /// the ADC's ≈ 3.05 counts. Open below 60 counts, no excitation below a
     /// sixth of the smallest tone; disturbed above 6.4 counts (2.1× the
     /// noise, as the board's 1.5 against 0.76) or 2 % of the largest tone.
