@@ -121,22 +121,25 @@ fn sixteen_sensors_at_once_within_a_thousandth_under_the_papers_stretching() {
 }
 
 /// The same at 1000 records/s: 1 ms blocks, a quarter of the conversions
-/// a record, twice the noise (0.06–0.08 % RMS, within a thousandth
+/// a record, twice the noise (0.05 % RMS, within a thousandth
 /// still). The noise's σ is estimated from the block's 14 residual
-/// degrees of freedom, so the error over it has Student's heavier tails
-/// (the largest 7.2 in 150 000). Each record's bound doubles with the
+/// degrees of freedom, so the error over it has Student's heavier tails:
+/// t with 14 degrees of freedom puts 77 of 150 000 records beyond 4.5
+/// (62 here), the largest beyond 8 one run in five and beyond 12 one in
+/// 700 (8.7 here, 7.2 with the flatter comb before). A σ understated
+/// twofold would fail the RMS. Each record's bound doubles with the
 /// noise, and so does the tolerance it is vouched for within (1.6 %,
 /// [`instrument::faults::Thresholds::ARRAY_1MS`]); where the stretched
 /// sensor's resistance peaks and the policy sits at 1 and 2 kHz (a pair
 /// a factor of 2 apart, the 4 ms comb's 500 Hz and 2 kHz are 4), the
-/// bound still passes it: 65–88 % of each sensor's records are valid,
-/// their largest error 0.85 %.
+/// bound still passes it: 68–89 % of each sensor's records are valid,
+/// their largest error 0.65 %.
 #[test]
 fn sixteen_sensors_at_a_thousand_records_a_second_within_a_thousandth() {
     let bounds = Bounds {
         rms: 1e-3,
         valid: 0.6,
-        z_max: 8.0,
+        z_max: 12.0,
     };
     sixteen_sensors_under_the_papers_stretching(Layout::BLOCK_1MS, &bounds, 2);
 }
