@@ -13,9 +13,9 @@ use skin_sim::profile::Profile;
 /// The array in 1 ms blocks (twice the noise, 14 residual degrees of
 /// freedom, 1 kHz between bins) under every class: no valid record
 /// beyond the tolerance it is vouched for within (1.6 %; the worst, an
-/// interferer near the tone, 1.4 %), whatever flags a whole record set
-/// flags it, and at least half of a clean skin's records are kept (on
-/// this moving reference sensor 58 %: the rest are uncertain, their
+/// undeclared dispersion of the film, 1.3 %), whatever flags a whole
+/// record set flags it, and at least half of a clean skin's records are
+/// kept (on this moving reference sensor 62 %: the rest are uncertain, their
 /// bound past 1.6 %).
 #[test]
 #[ignore = "long: cargo xtask test --full"]
@@ -130,8 +130,9 @@ fn neither_path_vouches_for_a_wrong_record_under_any_disturbance() {
         assert!(rescued == 0 && a.moved == 0, "{name}: {a:?}");
         // Two tabs' 60 kΩ are small beside the line's 3 MΩ at the 250 Hz
         // tone: the records a stretching sensor reads there are right
-        // (valid_off is 0 above), 9 % of them.
-        let share = if name == "contact resistance" { 90 } else { 99 };
+        // (valid_off is 0 above): 18 % of them (9 % with the flatter
+        // comb before, whose 250 Hz tone was 0.83 V, not 0.97 V).
+        let share = if name == "contact resistance" { 75 } else { 99 };
         assert!(a.flagged() * 100 >= a.records() * share, "{name}: {a:?}");
     }
     // The clean skin: ≥ 99 % of the records vouched for on both paths.
@@ -154,7 +155,7 @@ fn a_clean_skin_keeps_its_records_across_the_documented_sensors() {
     for k in &rows {
         assert_eq!(k.all.valid_off, 0, "{k:?}");
         // The values interpolated for the others, never measurements,
-        // stay within the tolerance here too (0.70 % at worst).
+        // stay within the tolerance here too (0.42 % at worst).
         assert!(k.interpolated.2 < 0.01, "{k:?}");
         // The paper's sensors held are read whole at 250 records/s.
         if k.case.rate_mm_s == 0.0 && k.case.r_scale <= 1.0 && k.case.layout == Layout::BLOCK_4MS {
