@@ -158,8 +158,8 @@ pub fn skew_of_input(input: usize) -> f32 {
 /// records across the documented sensors (docs/accuracy.md); each is
 /// scaled to what holds it: the 4 ms comb the buffer's swing, the 1 ms
 /// comb [`TIA_PEAK_VOLT`] at the output of the documented range's
-/// lowest-impedance sensor (0.35 MΩ, 290 pF, 20 pF of cable), with every tone in its
-/// phase (`the_comb_keeps_the_adc_headroom`).
+/// lowest-impedance sensor (0.35 MΩ, 290 pF, 20 pF of cable), with
+/// every tone in its phase (`the_comb_keeps_the_adc_headroom`).
 ///
 /// **Phases.** Each comb's phases are the lowest peak a random search
 /// (40 000 sets) and a local refinement found for its amplitudes;
