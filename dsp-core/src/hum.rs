@@ -140,21 +140,32 @@ impl<const N: usize, const K: usize> Mains<N, K> {
     /// `comb`'s tones, followed over [`TAU_S`].
     pub fn new(mains_hz: u32, rate_hz: u32, comb: &Comb<N, K>) -> Self {
         let mut reference = [[0i16; 2]; N];
-        let mut words = [[0i32; 2]; N];
-        for ((w, q31), n) in reference.iter_mut().zip(words.iter_mut()).zip(0u64..) {
+        for (w, n) in reference.iter_mut().zip(0u64..) {
             let (c, s) = cossin(turns(mains_hz as u64 * n, rate_hz));
             *w = [q15(c), q15(s)];
-            *q31 = w.map(|v| (v as i32) << 16);
         }
+        let (c, s) = cossin(turns(mains_hz as u64 * N as u64, rate_hz));
+        let turn = [c as f32 / Q31 as f32, s as f32 / Q31 as f32];
+        let forget = 1.0 - N as f32 / rate_hz as f32 / TAU_S;
+        Self::from_words(reference, comb, turn, forget)
+    }
+
+    /// A basis of Q15 `reference` words (instant by instant) beside
+    /// `comb`'s tones, turning by `turn` (cos ψ, sin ψ) a block and
+    /// followed with λ = `forget` a block (0: each block alone).
+    pub(crate) fn from_words(
+        reference: [[i16; 2]; N],
+        comb: &Comb<N, K>,
+        turn: [f32; 2],
+        forget: f32,
+    ) -> Self {
+        let words = reference.map(|w| w.map(|v| (v as i32) << 16));
         let mut packed = [[0u32; 2]; N];
         for (m, pair) in packed.iter_mut().take(N / 2).enumerate() {
             let (a, b) = (reference[2 * m], reference[2 * m + 1]);
             *pair = [0, 1].map(|j| a[j] as u16 as u32 | (b[j] as u16 as u32) << 16);
         }
         let tones: [&[[i32; 2]]; K] = core::array::from_fn(|k| comb.reference(k).map_or(&[][..], |r| &r[..]));
-        let (c, s) = cossin(turns(mains_hz as u64 * N as u64, rate_hz));
-        let turn = [c as f32 / Q31 as f32, s as f32 / Q31 as f32];
-        let forget = 1.0 - N as f32 / rate_hz as f32 / TAU_S;
         Self {
             reference,
             packed,
@@ -555,7 +566,7 @@ fn q62_to_f32(v: i128) -> f32 {
 }
 
 /// A Q31 word to Q15, rounded (±32767: symmetric, as the comb's).
-fn q15(v: i32) -> i16 {
+pub(crate) fn q15(v: i32) -> i16 {
     ((v as i64 + (1 << 15)) >> 16).clamp(-32767, 32767) as i16
 }
 

@@ -14,6 +14,7 @@
 //! | [`demod`] | synchronous I/Q demodulation of (voltage, current) sample pairs, i64 sums |
 //! | [`comb`] | demodulation of a comb of tones from one input of a scanned block |
 //! | [`hum`] | mains hum followed across blocks and taken out of a comb's sums |
+//! | [`sideband`] | a tone's sideband fitted beside a comb: an interferer a fraction of a bin off the tone taken out of the others |
 //! | [`lockin`] | one tone through Nuttall's window, with a guard bin either side: far energy rejected, near energy seen |
 //! | [`lumped`] | the series Cs–Rs reading an LCR meter reports |
 //! | [`tline`] | fixed-point R-C ladder and continuous transmission-line model |
@@ -74,6 +75,7 @@ pub mod lockin;
 pub mod lumped;
 pub mod osc;
 pub mod scan;
+pub mod sideband;
 pub mod tline;
 pub mod track;
 pub mod twotone;
