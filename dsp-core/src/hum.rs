@@ -473,6 +473,23 @@ impl<const K: usize> Fit<K> {
         Some((p, self.gains(&a, &state.m2)))
     }
 
+    /// The most one block's p can be off by, per unit of the block's
+    /// noise σ (counts): p = Q⁻¹·u has covariance σ²·Q⁻¹, whose largest
+    /// eigenvalue is 1/λ_min(Q); so √(1/λ_min(Q)) (instants^−½). For a
+    /// fit of each block alone (λ = 0; [`crate::sideband`]); ∞ where Q
+    /// is singular.
+    pub fn spread(&self) -> f32 {
+        let q = &self.q;
+        let (tr, det) = (q[0][0] + q[1][1], q[0][0] * q[1][1] - q[0][1] * q[1][0]);
+        let gap = fmath::sqrt(fmath::max(tr * tr - 4.0 * det, 0.0));
+        let least = 0.5 * (tr - gap);
+        if fmath::positive_finite(least) {
+            fmath::sqrt(1.0 / least)
+        } else {
+            f32::INFINITY
+        }
+    }
+
     /// The window moved on by one block: M ← λ·T·M·Tᵀ + Q, M₂ with λ²,
     /// r ← λ·T·r + u, the energies and weights with λ.
     fn advance(&self, state: &mut HumState, u: [f32; 2], energy: f32) {

@@ -73,6 +73,12 @@ impl<const N: usize, const K: usize> Sideband<N, K> {
             .cancel(&mut state, sums, tones, levels, clean_counts)
     }
 
+    /// The most one block's sideband p can be off by, per unit of the
+    /// block's noise σ ([`crate::hum::Fit::spread`]).
+    pub fn spread(&self) -> f32 {
+        self.basis.fit().spread()
+    }
+
     /// The basis words, instant by instant: [tₙ·cos θₖn, tₙ·sin θₖn], Q15.
     pub fn reference(&self) -> &[[i16; 2]; N] {
         self.basis.reference()

@@ -214,3 +214,23 @@ fn the_sideband_takes_the_leak_out_of_the_neighbours() {
     }
     assert!(before > 95.0 && after < 18.5, "{before} → {after}");
 }
+
+/// Each tone's sideband's spread against the f64 fit's covariance of p,
+/// (BᵀB)⁻¹ for its two columns: its square lies between their larger
+/// variance and their sum (the larger eigenvalue of a 2 × 2 covariance
+/// does), within 1 %.
+#[test]
+fn the_spread_is_the_worst_direction_of_the_sidebands_noise() {
+    let comb = Comb::<N, 5>::new(PERIODS).unwrap();
+    for k in 0..5 {
+        let sideband = Sideband::new(k, &comb).unwrap();
+        let (_, diag) = least_squares::<13>(&basis(k), &[0.0; N]);
+        let s2 = (sideband.spread() as f64).powi(2);
+        assert!(
+            s2 >= 0.99 * diag[11].max(diag[12]) && s2 <= 1.01 * (diag[11] + diag[12]),
+            "tone {k}: {s2} against {} and {}",
+            diag[11],
+            diag[12]
+        );
+    }
+}
