@@ -313,7 +313,7 @@ impl Channel {
         // V/I by, in units of its noise (`decide` bounds ln C by σ_lnC
         // times that: a weighted least-squares fit's sensitivity); the
         // second tone's share is the model check's.
-        let near = |_: Option<usize>| th.near_shift(&ph.tone) / noise;
+        let near = |_: Option<usize>, _: Option<usize>| th.near_shift(&ph.tone) / noise;
         let decided = self
             .course
             .decide(&rules, &mut self.policy, pair, near, dt, &mut rec.flags);

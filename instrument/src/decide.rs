@@ -130,15 +130,17 @@ impl Course {
     /// The decisions of the module's docs on a block's `tones` (as
     /// measured, Ω, each with its noise), `dt_s` seconds after the
     /// previous block: the line with `flags` set, or None where there is
-    /// none (`flags` says why). `disturbance` gives what a disturbance
-    /// the reader sees could have shifted tone `k` of `tones` by (None:
-    /// the worst of them), in units of the tone's noise σ.
+    /// none (`flags` says why). `disturbance(k, out)` gives what a
+    /// disturbance the reader sees could have shifted tone `k` of `tones`
+    /// by (None: the worst of them), in units of the tone's noise σ,
+    /// where tone `out` was left out of the record (a rescue: an
+    /// interferer near it may leak more into its neighbours).
     pub fn decide<const N: usize, const K: usize>(
         &mut self,
         rules: &Rules<'_, N>,
         policy: &mut PolicyState,
         tones: [Tone; K],
-        disturbance: impl Fn(Option<usize>) -> f32,
+        disturbance: impl Fn(Option<usize>, Option<usize>) -> f32,
         dt_s: f32,
         flags: &mut Flags,
     ) -> Option<Reading> {
@@ -172,7 +174,7 @@ impl Course {
                 &tones,
                 start,
                 rules.rescue,
-                &disturbance,
+                &|k| disturbance(k, None),
                 &mut self.suspect,
             );
         }
@@ -185,7 +187,9 @@ impl Course {
             None => (&sol, rules.chi2_flag),
         };
         let line = sol.line;
-        let (stretch_mm, consistent) = check(sensor, th, sol, chi2_flag, share, disturbance, flags);
+        let out = pair.as_ref().and(self.suspect());
+        let (stretch_mm, consistent) =
+            check(sensor, th, sol, chi2_flag, share, |k| disturbance(k, out), flags);
         let reading = Reading {
             c_farad: line.c_farad,
             r_ohm: line.r_ohm,

@@ -323,8 +323,17 @@ impl ToneChannel {
         // it could give a tone (of `tones`, or the worst of them), in
         // units of the tone's noise (`decide` bounds ln C by σ_lnC times
         // that: the fit's sensitivity).
-        let disturbance = |j: Option<usize>| {
-            let shift = |k: usize| disturbance_shift(th, v, i, k, n);
+        // An interferer within half a bin of a tone the record left out
+        // (rescued without it) or the channel avoids (moved, and its
+        // sideband not taken out) leaks into an adjacent tone more than
+        // the residual shows ([`Layout::near_leak`]).
+        let avoided = (moved && i.leak.iter().all(|&l| l == 0.0))
+            .then(|| self.avoidance.tone())
+            .flatten();
+        let disturbance = |j: Option<usize>, out: Option<usize>| {
+            let near_to = out.and_then(|o| fitted.get(o).copied()).or(avoided);
+            let near = |k: usize| near_to.map_or(1.0, |t| s.layout.near_leak(t, k));
+            let shift = |k: usize| disturbance_shift(th, v, i, k, n, near(k));
             match j {
                 Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
                 None => fitted.iter().fold(0.0, |w, &k| fmath::max(w, shift(k))),
@@ -438,10 +447,12 @@ fn read_tones<const N: usize>(
 /// an interferer near a tone (or at an alias of one) leaks into its bin up
 /// to its whole amplitude √2·δ. So the tone's phasor may be off by
 /// √2·(δ_v/A_v + δ_i/A_i), relative, against its noise's
-/// √(2/N)·√((r_v/A_v)² + (r_i/A_i)²); plus what a sideband taken out
-/// still leaks (`leak`, counts: [`crate::sideband`]) over A. 0 without a
-/// disturbance, unbounded without a tone.
-fn disturbance_shift(th: &Thresholds, v: &Input<'_>, i: &Input<'_>, k: usize, n: u32) -> f32 {
+/// √(2/N)·√((r_v/A_v)² + (r_i/A_i)²); `near` times that where an
+/// interferer may sit near an adjacent tone ([`Layout::near_leak`]);
+/// plus what a sideband taken out still leaks (`leak`, counts:
+/// [`crate::sideband`]) over A. 0 without a disturbance, unbounded
+/// without a tone.
+fn disturbance_shift(th: &Thresholds, v: &Input<'_>, i: &Input<'_>, k: usize, n: u32, near: f32) -> f32 {
     let sigma = th.noise_counts;
     let (v_levels, i_levels) = (&v.levels, &i.levels);
     let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
@@ -452,7 +463,7 @@ fn disturbance_shift(th: &Thresholds, v: &Input<'_>, i: &Input<'_>, k: usize, n:
     }
     let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
     let (av, ai) = (v_levels.amplitude[k], i_levels.amplitude[k]);
-    let shift = core::f32::consts::SQRT_2 * (dv / av + di / ai) + lv / av + li / ai;
+    let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + lv / av + li / ai;
     let (ev, ei) = (v_levels.residual / av, i_levels.residual / ai);
     let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
     let s = shift / noise;
