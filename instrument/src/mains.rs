@@ -74,7 +74,6 @@ pub(crate) fn forget(hum: &mut Option<Hum>, input: usize) {
 /// Input `input`'s hum (`sums`: every input's [`Mains::sums`]) into its
 /// state, and out of `into`'s levels where the window vouches for it,
 /// its tones' noise gains then the window's; nothing without `hum`.
-/// True where a hum was taken out.
 #[inline(never)]
 pub(crate) fn take_out(
     hum: &mut Option<Hum>,
@@ -82,8 +81,8 @@ pub(crate) fn take_out(
     sums: &[[i64; 2]; INPUTS],
     into: &mut Input<'_>,
     clean: f32,
-) -> bool {
-    let Some(h) = hum.as_mut() else { return false };
+) {
+    let Some(h) = hum.as_mut() else { return };
     let state = &mut h.inputs[input];
     if let Some((_, gains)) = h
         .mains
@@ -91,7 +90,5 @@ pub(crate) fn take_out(
         .cancel(state, sums[input], into.tones, &mut into.levels, clean)
     {
         into.gains = gains;
-        return true;
     }
-    false
 }

@@ -24,7 +24,6 @@ use crate::faults::Flags;
 use crate::mains::{BlockMains, Hum, MAINS_HZ};
 use crate::sensor::Sensors;
 use crate::sequencer::{Plan, Slot};
-use crate::sideband::{Sidebands, Track};
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
 use dsp_core::hum::Mains;
@@ -109,13 +108,7 @@ pub struct Demodulated {
     /// Each input's hum sums ([`Mains::sums`]), by input: [`VOLTAGE_INPUT`]
     /// and [`input_of`]`(s)` (zero where the reader follows no hum).
     pub hum: [[i64; 2]; INPUTS],
-    /// Sensor s's sums against the sideband of the tone its channel
-    /// avoids, and that tone ([`NO_TONE`]: none; [`crate::sideband`]).
-    pub sideband: [([i64; 2], u8); SENSORS],
 }
-
-/// [`Demodulated::sideband`]'s "no tone".
-pub const NO_TONE: u8 = u8::MAX;
 
 /// The array's inputs: the excitation and every sensor's current.
 pub const INPUTS: usize = SENSORS + 1;
@@ -126,7 +119,6 @@ impl Demodulated {
         v: Tones::EMPTY,
         i: [Tones::EMPTY; SENSORS],
         hum: [[0; 2]; INPUTS],
-        sideband: [([0; 2], NO_TONE); SENSORS],
     };
 }
 
@@ -205,9 +197,6 @@ fn demodulate_with<'a, const N: usize>(
 pub struct ArrayReader {
     comb: BlockComb,
     hum: Option<Hum>,
-    sidebands: Option<Sidebands>,
-    /// Each sensor's sideband from block to block.
-    tracks: [Track; SENSORS],
     layout: Layout,
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
@@ -254,8 +243,6 @@ impl ArrayReader {
         let comb = BlockComb::new(&layout)?;
         Ok(Self {
             hum: mains_hz.map(|hz| Hum::new(&comb, hz)),
-            sidebands: Sidebands::new(&comb, layout),
-            tracks: [Track::NEW; SENSORS],
             comb,
             layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
@@ -328,26 +315,10 @@ impl ArrayReader {
         // One match a block, the comb's length known in each arm.
         let mains = self.hum.as_ref().map(|h| &h.mains);
         match (&self.comb, mains) {
-            (BlockComb::Long(c), Some(BlockMains::Long(m))) => demodulate_with(c, Some(m), &rows, out),
-            (BlockComb::Short(c), Some(BlockMains::Short(m))) => demodulate_with(c, Some(m), &rows, out),
-            (BlockComb::Long(c), _) => demodulate_with(c, None, &rows, out),
-            (BlockComb::Short(c), _) => demodulate_with(c, None, &rows, out),
-        }
-        self.sideband_sums(rows, out);
-    }
-
-    /// Each sensor's sums against the sideband of the tone its channel
-    /// avoids, into `out` (4 ms blocks; none where no tone is avoided).
-    fn sideband_sums<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]], out: &mut Demodulated) {
-        for (s, slot) in out.sideband.iter_mut().enumerate() {
-            *slot = ([0; 2], NO_TONE);
-            let (Some(sidebands), Some(k)) = (self.sidebands.as_ref(), self.channels[s].avoided()) else {
-                continue;
-            };
-            let (a, j) = adc_position(input_of(s));
-            if let Some(r) = rows(a).first_chunk() {
-                *slot = (sidebands.sums(k, r, j), k as u8);
-            }
+            (BlockComb::Long(c), Some(BlockMains::Long(m))) => demodulate_with(c, Some(m), rows, out),
+            (BlockComb::Short(c), Some(BlockMains::Short(m))) => demodulate_with(c, Some(m), rows, out),
+            (BlockComb::Long(c), _) => demodulate_with(c, None, rows, out),
+            (BlockComb::Short(c), _) => demodulate_with(c, None, rows, out),
         }
     }
 
@@ -377,17 +348,7 @@ impl ArrayReader {
                 continue;
             }
             let mut i = Input::of(&block.i[s]);
-            let hummed = crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
-            // The sideband of the tone the channel avoids, where no hum
-            // was taken out (the two fits are not one: a block with
-            // both is left to the residual's bound).
-            let (sums, tone) = block.sideband[s];
-            match self.sidebands.as_ref() {
-                Some(sb) if tone != NO_TONE && !hummed => {
-                    sb.take_out(sums, usize::from(tone), &mut self.tracks[s], &mut i, clean)
-                }
-                _ => self.tracks[s].lose(),
-            }
+            crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
             let mut rec = ch.process(
                 settings,
                 s as u8,
