@@ -318,8 +318,13 @@ impl ToneChannel {
         // residual shows ([`Layout::near_leak`]).
         let disturbance = |j: Option<usize>, out: Option<usize>| {
             let near_to = out.and_then(|o| fitted.get(o).copied());
-            let near = |k: usize| near_to.map_or(1.0, |t| s.layout.near_leak(t, k));
-            let shift = |k: usize| disturbance_shift(th, &v.levels, &i.levels, k, n, near(k));
+            let shift = |k: usize| {
+                let near = match near_to {
+                    Some(t) => s.layout.near_leak(t, k),
+                    None => 1.0,
+                };
+                disturbance_shift(th, &v.levels, &i.levels, k, n, near)
+            };
             match j {
                 Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
                 None => fitted.iter().fold(0.0, |w, &k| fmath::max(w, shift(k))),

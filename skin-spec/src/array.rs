@@ -333,7 +333,10 @@ impl Layout {
     /// large and its residual small); 1 for 1 ms blocks (they neither
     /// rescue nor move) and for k = j.
     /// `the_near_leak_bounds_every_sinusoid_in_the_bin` recomputes it in
-    /// f64.
+    /// f64. (Out of line and cold: the record's path calls it only for a
+    /// rescued record.)
+    #[cold]
+    #[inline(never)]
     pub fn near_leak(&self, k: usize, j: usize) -> f32 {
         match NEAR_LEAK.get(k).and_then(|r| r.get(j)) {
             Some(&c) if self.instants == BLOCK_INSTANTS => fmath_max1(c),
