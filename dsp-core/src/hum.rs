@@ -618,4 +618,4 @@ fn inverse2(a: &[[f32; 2]; 2]) -> Option<[[f32; 2]; 2]> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

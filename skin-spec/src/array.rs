@@ -549,6 +549,37 @@ mod tests {
         assert!(SCAN as u32 * OVERSAMPLING * RATE_HZ <= 4_000_000);
     }
 
+    /// A unit sinusoid of `nu` bins at `phase` over `n` instants, projected
+    /// on the block's mean and on each of `comb`'s tones (orthogonal over
+    /// the block): each tone's amplitude, and the mean square the
+    /// projections leave (the residual's).
+    fn projected(n: usize, comb: &[u32; TONES], nu: f64, phase: f64) -> ([f64; TONES], f64) {
+        use core::f64::consts::PI;
+        let x: std::vec::Vec<f64> = (0..n)
+            .map(|t| libm::cos(2.0 * PI * nu * t as f64 / n as f64 + phase))
+            .collect();
+        let mean = x.iter().sum::<f64>() / n as f64;
+        let mut energy = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n as f64;
+        let mut amplitude = [0f64; TONES];
+        for (a, &k) in amplitude.iter_mut().zip(comb) {
+            let w = 2.0 * PI * k as f64 / n as f64;
+            let c: f64 = x
+                .iter()
+                .enumerate()
+                .map(|(t, v)| v * libm::cos(w * t as f64))
+                .sum();
+            let s: f64 = x
+                .iter()
+                .enumerate()
+                .map(|(t, v)| v * libm::sin(w * t as f64))
+                .sum();
+            *a = 2.0 / n as f64 * libm::sqrt(c * c + s * s);
+            // Each tone takes a²/2 of the mean square.
+            energy -= *a * *a / 2.0;
+        }
+        (amplitude, energy)
+    }
+
     /// Each layout's [`Layout::leak_ratio`], against the f64 projection of
     /// a unit sinusoid at every 1/200 of a bin from 0 to Nyquist at least
     /// half a bin from the mean and every tone, at 24 phases: none leaks
@@ -567,30 +598,8 @@ mod tests {
                     continue;
                 }
                 for p in 0..24 {
-                    let phase = p as f64 * PI / 24.0;
-                    let x: std::vec::Vec<f64> = (0..n)
-                        .map(|t| libm::cos(2.0 * PI * nu * t as f64 / n as f64 + phase))
-                        .collect();
-                    let mean = x.iter().sum::<f64>() / n as f64;
-                    let mut energy = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n as f64;
-                    let mut leak = 0f64;
-                    for &k in &comb {
-                        let w = 2.0 * PI * k as f64 / n as f64;
-                        let c: f64 = x
-                            .iter()
-                            .enumerate()
-                            .map(|(t, v)| v * libm::cos(w * t as f64))
-                            .sum();
-                        let s: f64 = x
-                            .iter()
-                            .enumerate()
-                            .map(|(t, v)| v * libm::sin(w * t as f64))
-                            .sum();
-                        let a = 2.0 / n as f64 * libm::sqrt(c * c + s * s);
-                        // Each tone takes a²/2 of the mean square.
-                        energy -= a * a / 2.0;
-                        leak = leak.max(a);
-                    }
+                    let (amplitude, energy) = projected(n, &comb, nu, p as f64 * PI / 24.0);
+                    let leak = amplitude.iter().fold(0f64, |w, &a| w.max(a));
                     let residual = libm::sqrt(energy.max(0.0));
                     worst = worst.max(leak / (core::f64::consts::SQRT_2 * residual));
                 }
@@ -619,28 +628,7 @@ mod tests {
                 }
                 let nu = mk as f64 + step as f64 / 400.0;
                 for p in 0..24 {
-                    let phase = p as f64 * PI / 24.0;
-                    let x: std::vec::Vec<f64> = (0..n)
-                        .map(|t| libm::cos(2.0 * PI * nu * t as f64 / n as f64 + phase))
-                        .collect();
-                    let mean = x.iter().sum::<f64>() / n as f64;
-                    let mut energy = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n as f64;
-                    let mut amplitude = [0f64; TONES];
-                    for (j, &mj) in comb.iter().enumerate() {
-                        let w = 2.0 * PI * mj as f64 / n as f64;
-                        let c: f64 = x
-                            .iter()
-                            .enumerate()
-                            .map(|(t, v)| v * libm::cos(w * t as f64))
-                            .sum();
-                        let s: f64 = x
-                            .iter()
-                            .enumerate()
-                            .map(|(t, v)| v * libm::sin(w * t as f64))
-                            .sum();
-                        amplitude[j] = 2.0 / n as f64 * libm::sqrt(c * c + s * s);
-                        energy -= amplitude[j] * amplitude[j] / 2.0;
-                    }
+                    let (amplitude, energy) = projected(n, &comb, nu, p as f64 * PI / 24.0);
                     let residual = core::f64::consts::SQRT_2 * libm::sqrt(energy.max(1e-30));
                     for j in 0..TONES {
                         if j != k {

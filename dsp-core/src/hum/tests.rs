@@ -16,7 +16,7 @@ const TAU: f64 = core::f64::consts::TAU;
 
 /// The comb's tones as the array lays them out: amplitude (counts) and
 /// phase (rad) of each.
-const LEVELS: [(f64, f64); 5] = [
+pub(crate) const LEVELS: [(f64, f64); 5] = [
     (3000.0, 0.3),
     (2000.0, 1.1),
     (1500.0, -2.0),

@@ -6,6 +6,7 @@
 //! counts.
 
 use super::*;
+use crate::hum::tests::LEVELS;
 use crate::hum::SIGNIFICANT;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -15,16 +16,6 @@ const TAU: f64 = core::f64::consts::TAU;
 const N: usize = 100;
 const PERIODS: [u32; 5] = [1, 2, 4, 8, 16];
 const Q31: f64 = 2_147_483_648.0;
-
-/// The comb's tones as the array lays them out: amplitude (counts) and
-/// phase (rad) of each.
-const LEVELS: [(f64, f64); 5] = [
-    (3000.0, 0.3),
-    (2000.0, 1.1),
-    (1500.0, -2.0),
-    (900.0, 0.7),
-    (500.0, 2.9),
-];
 
 /// One block: DC, the tones, an interferer `off` bins from tone `k` of
 /// `amplitude` and `phase`, noise of σ `sigma`, rounded to codes.
