@@ -71,16 +71,56 @@ const Q31: f64 = 2_147_483_648.0;
 /// fixed per layout).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mains<const N: usize, const K: usize> {
-    /// Instant n: [cos φₙ, sin φₙ], Q15 (±32767): the hum's basis is
-    /// these words exactly (its overlaps are computed from them), 3·10⁻⁵
-    /// of a sinusoid.
-    reference: [[i16; 2]; N],
-    /// Instants 2m and 2m + 1 packed, for the Cortex-M4's dual products:
-    /// [cos, sin] each as (instant 2m) | (instant 2m + 1) << 16; the first
-    /// N/2 used.
-    packed: [[u32; 2]; N],
+    /// The basis, Q15 (±32767), laid out for the Cortex-M4's dual
+    /// products ([`Words`]): its overlaps are computed from these words
+    /// exactly, 3·10⁻⁵ of a sinusoid.
+    words: Words<N>,
     /// What every block's fit reads.
     fit: Fit<K>,
+}
+
+/// A basis of two sequences (b₀ₙ, b₁ₙ: [cos φₙ, sin φₙ] for a hum),
+/// Q15, two instants a pair: entry 2m is [b₀ at 2m, b₀ at 2m + 1] and
+/// entry 2m + 1 is [b₁ at 2m, b₁ at 2m + 1], so that one 8-byte load
+/// gives the Cortex-M4 both packed halfword pairs of instants 2m and
+/// 2m + 1; an odd N's last entry is [b₀, b₁] of its last instant. One
+/// copy of the words (4 bytes an instant), aligned for that load.
+#[derive(Clone, Debug, PartialEq)]
+#[repr(C, align(8))]
+pub struct Words<const N: usize>([[i16; 2]; N]);
+
+impl<const N: usize> Words<N> {
+    /// Laid out from `basis`, instant by instant ([b₀ₙ, b₁ₙ]).
+    fn new(basis: &[[i16; 2]; N]) -> Self {
+        let mut words = [[0i16; 2]; N];
+        for (m, pair) in words.chunks_exact_mut(2).enumerate() {
+            let (a, b) = (basis[2 * m], basis[2 * m + 1]);
+            pair[0] = [a[0], b[0]];
+            pair[1] = [a[1], b[1]];
+        }
+        if N % 2 == 1 {
+            words[N - 1] = basis[N - 1];
+        }
+        Self(words)
+    }
+
+    /// Instant `n`'s [b₀ₙ, b₁ₙ] ([0, 0] past the block).
+    pub fn at(&self, n: usize) -> [i16; 2] {
+        let pairs = N / 2 * 2;
+        match self.0.get(n) {
+            Some(&w) if n >= pairs => w,
+            Some(_) => {
+                let (m, r) = (n / 2 * 2, n % 2);
+                [self.0[m][r], self.0[m + 1][r]]
+            }
+            None => [0, 0],
+        }
+    }
+
+    /// Every instant's [b₀ₙ, b₁ₙ], in order.
+    pub fn iter(&self) -> impl Iterator<Item = [i16; 2]> + '_ {
+        (0..N).map(|n| self.at(n))
+    }
 }
 
 /// The hum's overlap with a comb of K tones, and how it turns from
@@ -159,17 +199,11 @@ impl<const N: usize, const K: usize> Mains<N, K> {
         turn: [f32; 2],
         forget: f32,
     ) -> Self {
-        let words = reference.map(|w| w.map(|v| (v as i32) << 16));
-        let mut packed = [[0u32; 2]; N];
-        for (m, pair) in packed.iter_mut().take(N / 2).enumerate() {
-            let (a, b) = (reference[2 * m], reference[2 * m + 1]);
-            *pair = [0, 1].map(|j| a[j] as u16 as u32 | (b[j] as u16 as u32) << 16);
-        }
+        let q31 = reference.map(|w| w.map(|v| (v as i32) << 16));
         let tones: [&[[i32; 2]]; K] = core::array::from_fn(|k| comb.reference(k).map_or(&[][..], |r| &r[..]));
         Self {
-            reference,
-            packed,
-            fit: Fit::new(&words, &tones, turn, forget),
+            words: Words::new(&reference),
+            fit: Fit::new(&q31, &tones, turn, forget),
         }
     }
 
@@ -178,9 +212,9 @@ impl<const N: usize, const K: usize> Mains<N, K> {
         &self.fit
     }
 
-    /// The hum's words, instant by instant: [cos φₙ, sin φₙ], Q15.
-    pub fn reference(&self) -> &[[i16; 2]; N] {
-        &self.reference
+    /// The basis's words ([cos φₙ, sin φₙ] for a hum), Q15.
+    pub fn words(&self) -> &Words<N> {
+        &self.words
     }
 
     /// Σₙ xₙ·b₀ₙ and Σₙ xₙ·b₁ₙ of input `col` of a block's rows (Q31 ·
@@ -193,9 +227,9 @@ impl<const N: usize, const K: usize> Mains<N, K> {
             return [0, 0];
         }
         #[cfg(arm_dsp)]
-        let [c, s] = arm::sums(&self.packed, &self.reference, rows, col);
+        let [c, s] = arm::sums(&self.words, rows, col);
         #[cfg(not(arm_dsp))]
-        let [c, s] = portable(&self.reference, rows, col, 0);
+        let [c, s] = portable(self.words.iter(), rows, col, 0);
         [c << 16, s << 16]
     }
 }
@@ -203,7 +237,7 @@ impl<const N: usize, const K: usize> Mains<N, K> {
 /// Σₙ xₙ·bₙ from instant `from` on, one instant at a time (Q15 · counts):
 /// the definition the Cortex-M4's dual products are held to.
 pub fn portable<const S: usize>(
-    reference: &[[i16; 2]],
+    reference: impl IntoIterator<Item = [i16; 2]>,
     rows: &[[i16; S]],
     col: usize,
     from: usize,
@@ -240,8 +274,7 @@ mod arm {
     /// two in assembly, the rest one by one.
     #[inline(always)]
     pub fn sums<const N: usize, const S: usize>(
-        packed: &[[u32; 2]; N],
-        reference: &[[i16; 2]; N],
+        words: &super::Words<N>,
         rows: &[[i16; S]; N],
         col: usize,
     ) -> [i64; 2] {
@@ -249,14 +282,15 @@ mod arm {
         let (mut cl, mut ch, mut sl, mut sh) = (0u32, 0u32, 0u32, 0u32);
         if quads > 0 {
             let mut p = rows[0][col..].as_ptr();
-            let mut q = packed.as_ptr();
+            let mut q = words.0.as_ptr();
             // SAFETY: `p` walks input `col` of the first 4·quads rows (S
-            // samples of 2 bytes apart) and `q` the first 2·quads packed
-            // pairs (8 bytes each), both inside their arrays; the loop
-            // reads exactly those and stops when `q` reaches `end`. Only
-            // registers and the two arrays are touched.
+            // samples of 2 bytes apart) and `q` the first 4·quads words
+            // (two entries of 4 bytes an instant pair, 8-aligned: `Words`),
+            // both inside their arrays; the loop reads exactly those and
+            // stops when `q` reaches `end`. Only registers and the two
+            // arrays are touched.
             unsafe {
-                let end = q.add(2 * quads);
+                let end = q.add(4 * quads);
                 core::arch::asm!(
                     "2:",
                     pair!(),
@@ -284,7 +318,7 @@ mod arm {
             ((ch as u64) << 32 | cl as u64) as i64,
             ((sh as u64) << 32 | sl as u64) as i64,
         ];
-        let rest = super::portable(reference, rows, col, 4 * quads);
+        let rest = super::portable(words.iter(), rows, col, 4 * quads);
         [done[0] + rest[0], done[1] + rest[1]]
     }
 }

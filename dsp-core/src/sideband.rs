@@ -79,11 +79,6 @@ impl<const N: usize, const K: usize> Sideband<N, K> {
         self.basis.fit().spread()
     }
 
-    /// The basis words, instant by instant: [tₙ·cos θₖn, tₙ·sin θₖn], Q15.
-    pub fn reference(&self) -> &[[i16; 2]; N] {
-        self.basis.reference()
-    }
-
     /// Σₙ xₙ·b₀ₙ and Σₙ xₙ·b₁ₙ of input `col` of a block's rows (Q31 ·
     /// counts), as [`Mains::sums`] (the same dual products on the
     /// Cortex-M4).

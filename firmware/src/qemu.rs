@@ -248,11 +248,12 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
 
 defmt::timestamp!("");
 
-/// `make()` written into `slot`, a static, from a frame of its own: the
-/// value (several KiB, a simulated skin or a reader) is built there and
-/// not kept on the stack of the caller (an RTIC `init`, whose frame
-/// stays allocated while it runs).
+/// `make()` written into `slot` (a static, or a caller's local) from a
+/// frame of its own: the value (several KiB, a simulated skin or a
+/// reader) is built there and its temporaries are not kept on the stack
+/// of the caller (an RTIC `init`, whose frame stays allocated while it
+/// runs).
 #[inline(never)]
-pub fn place<T>(slot: &'static mut core::mem::MaybeUninit<T>, make: impl FnOnce() -> T) -> &'static mut T {
+pub fn place<T>(slot: &mut core::mem::MaybeUninit<T>, make: impl FnOnce() -> T) -> &mut T {
     slot.write(make())
 }

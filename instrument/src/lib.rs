@@ -28,6 +28,7 @@
 //! | [`tones`] | one sensor of the array: two tones of a block → a line-corrected record with its model check |
 //! | [`avoid`] | an array channel moving its tones off one an interferer occupies, and back |
 //! | [`mains`] | the array's reader following mains hum, taken out of every input |
+//! | [`sideband`] | the sideband of the tone an array channel avoids, fitted beside the comb, and what it still leaks, bounded |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //! | [`selftest`] | the array's power-up self-test: the reference network and every path held to the firmware's constants; the records of a failing path refused |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
@@ -65,6 +66,7 @@ pub mod reader;
 pub mod selftest;
 pub mod sensor;
 pub mod sequencer;
+pub mod sideband;
 pub mod store;
 pub mod stored;
 pub mod sweep;

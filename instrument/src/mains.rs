@@ -62,6 +62,13 @@ impl Hum {
     }
 }
 
+/// Hum at `mains_hz` beside `comb`'s tones where `on`, else none. (Out
+/// of line and off the per-block code: a reader calls it once.)
+#[inline(never)]
+pub(crate) fn following(on: bool, comb: &BlockComb, mains_hz: u32) -> Option<Hum> {
+    on.then(|| Hum::new(comb, mains_hz))
+}
+
 /// Input `input`'s window emptied (its sensor not in use: nothing it
 /// held would be this block's once the sensor is back).
 #[inline(never)]
@@ -74,6 +81,7 @@ pub(crate) fn forget(hum: &mut Option<Hum>, input: usize) {
 /// Input `input`'s hum (`sums`: every input's [`Mains::sums`]) into its
 /// state, and out of `into`'s levels where the window vouches for it,
 /// its tones' noise gains then the window's; nothing without `hum`.
+/// True where a hum was taken out.
 #[inline(never)]
 pub(crate) fn take_out(
     hum: &mut Option<Hum>,
@@ -81,8 +89,8 @@ pub(crate) fn take_out(
     sums: &[[i64; 2]; INPUTS],
     into: &mut Input<'_>,
     clean: f32,
-) {
-    let Some(h) = hum.as_mut() else { return };
+) -> bool {
+    let Some(h) = hum.as_mut() else { return false };
     let state = &mut h.inputs[input];
     if let Some((_, gains)) = h
         .mains
@@ -90,5 +98,7 @@ pub(crate) fn take_out(
         .cancel(state, sums[input], into.tones, &mut into.levels, clean)
     {
         into.gains = gains;
+        return true;
     }
+    false
 }

@@ -24,6 +24,7 @@ use crate::faults::Flags;
 use crate::mains::{BlockMains, Hum, MAINS_HZ};
 use crate::sensor::Sensors;
 use crate::sequencer::{Plan, Slot};
+use crate::sideband::{Sidebands, Track};
 use crate::tones::{Input, ToneChannel, ToneRecord, ToneSettings};
 use dsp_core::comb::{Comb, CombError, Tones};
 use dsp_core::hum::Mains;
@@ -108,7 +109,13 @@ pub struct Demodulated {
     /// Each input's hum sums ([`Mains::sums`]), by input: [`VOLTAGE_INPUT`]
     /// and [`input_of`]`(s)` (zero where the reader follows no hum).
     pub hum: [[i64; 2]; INPUTS],
+    /// Sensor s's sums against the sideband of the tone its channel
+    /// avoids, and that tone ([`NO_TONE`]: none; [`crate::sideband`]).
+    pub sideband: [([i64; 2], u8); SENSORS],
 }
+
+/// [`Demodulated::sideband`]'s "no tone".
+pub const NO_TONE: u8 = u8::MAX;
 
 /// The array's inputs: the excitation and every sensor's current.
 pub const INPUTS: usize = SENSORS + 1;
@@ -119,6 +126,7 @@ impl Demodulated {
         v: Tones::EMPTY,
         i: [Tones::EMPTY; SENSORS],
         hum: [[0; 2]; INPUTS],
+        sideband: [([0; 2], NO_TONE); SENSORS],
     };
 }
 
@@ -197,6 +205,9 @@ fn demodulate_with<'a, const N: usize>(
 pub struct ArrayReader {
     comb: BlockComb,
     hum: Option<Hum>,
+    sidebands: Sidebands,
+    /// Each sensor's sideband from block to block.
+    tracks: [Track; SENSORS],
     layout: Layout,
     /// Each sensor's channel.
     pub channels: [ToneChannel; SENSORS],
@@ -229,8 +240,21 @@ impl ArrayReader {
         sensors: &Sensors<N, SENSORS>,
         mains_hz: u32,
     ) -> Result<Self, CombError> {
-        let mains = (layout.instants() == BLOCK_INSTANTS).then_some(mains_hz);
-        Self::with_mains(layout, sensors, mains)
+        let mut reader = Self::with_mains(layout, sensors, None);
+        if let Ok(r) = reader.as_mut() {
+            r.follow_mains(mains_hz);
+        }
+        reader
+    }
+
+    /// Follow mains hum at `mains_hz` (50 or 60) from the next block, in
+    /// 4 ms blocks (none in 1 ms blocks: [`ArrayReader::new`]). For a
+    /// reader built where it stays: the hum's constants are laid out in
+    /// this call's frame, not beside a reader being built.
+    #[inline]
+    pub fn follow_mains(&mut self, mains_hz: u32) {
+        let on = self.layout.instants() == BLOCK_INSTANTS;
+        self.hum = crate::mains::following(on, &self.comb, mains_hz);
     }
 
     /// [`ArrayReader::new`] following mains hum at `mains_hz` (None:
@@ -243,6 +267,8 @@ impl ArrayReader {
         let comb = BlockComb::new(&layout)?;
         Ok(Self {
             hum: mains_hz.map(|hz| Hum::new(&comb, hz)),
+            sidebands: Sidebands::new(layout),
+            tracks: [Track::NEW; SENSORS],
             comb,
             layout,
             channels: core::array::from_fn(|s| ToneChannel::new(sensors.of(s as u8).rest_farad)),
@@ -315,10 +341,29 @@ impl ArrayReader {
         // One match a block, the comb's length known in each arm.
         let mains = self.hum.as_ref().map(|h| &h.mains);
         match (&self.comb, mains) {
-            (BlockComb::Long(c), Some(BlockMains::Long(m))) => demodulate_with(c, Some(m), rows, out),
-            (BlockComb::Short(c), Some(BlockMains::Short(m))) => demodulate_with(c, Some(m), rows, out),
-            (BlockComb::Long(c), _) => demodulate_with(c, None, rows, out),
-            (BlockComb::Short(c), _) => demodulate_with(c, None, rows, out),
+            (BlockComb::Long(c), Some(BlockMains::Long(m))) => demodulate_with(c, Some(m), &rows, out),
+            (BlockComb::Short(c), Some(BlockMains::Short(m))) => demodulate_with(c, Some(m), &rows, out),
+            (BlockComb::Long(c), _) => demodulate_with(c, None, &rows, out),
+            (BlockComb::Short(c), _) => demodulate_with(c, None, &rows, out),
+        }
+        self.sideband_sums(rows, out);
+    }
+
+    /// Each sensor's sums against the sideband of the tone its channel
+    /// avoids, into `out` (4 ms blocks; none where no tone is avoided).
+    fn sideband_sums<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]], out: &mut Demodulated) {
+        for (s, slot) in out.sideband.iter_mut().enumerate() {
+            *slot = ([0; 2], NO_TONE);
+            let Some(k) = self.channels[s]
+                .avoided()
+                .filter(|&k| self.sidebands.tone() == Some(k))
+            else {
+                continue;
+            };
+            let (a, j) = adc_position(input_of(s));
+            if let Some(sums) = rows(a).first_chunk().and_then(|r| self.sidebands.sums(k, r, j)) {
+                *slot = (sums, k as u8);
+            }
         }
     }
 
@@ -348,7 +393,17 @@ impl ArrayReader {
                 continue;
             }
             let mut i = Input::of(&block.i[s]);
-            crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
+            let hummed = crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
+            // The sideband of the tone the channel avoids, where no hum
+            // was taken out (the two fits are not one: a block with
+            // both is left to the residual's bound).
+            let (sums, tone) = block.sideband[s];
+            if tone != NO_TONE && !hummed {
+                self.sidebands
+                    .take_out(sums, usize::from(tone), &mut self.tracks[s], &mut i, clean);
+            } else {
+                self.tracks[s].lose();
+            }
             let mut rec = ch.process(
                 settings,
                 s as u8,
@@ -365,6 +420,11 @@ impl ArrayReader {
                 record(rec);
             }
         }
+        // The sideband the next block fits: the tone the channels now
+        // avoid.
+        let channels = &self.channels;
+        self.sidebands
+            .follow(&self.comb, channels.iter().map(ToneChannel::avoided));
     }
 
     /// [`ArrayReader::demodulate`] then [`ArrayReader::solve`], for a

@@ -203,6 +203,10 @@ pub struct Input<'a> {
     /// Each tone's noise, times what the residual gives: above 1 where
     /// a hum was taken out of the levels ([`dsp_core::hum`]).
     pub gains: [f32; TONES],
+    /// What an interferer whose sideband was taken out may still have
+    /// moved each tone's phasor by, counts (0: none taken out;
+    /// [`crate::sideband`]).
+    pub leak: [f32; TONES],
 }
 
 impl<'a> Input<'a> {
@@ -213,6 +217,7 @@ impl<'a> Input<'a> {
             levels: tones.levels(),
             tones,
             gains: [1.0; TONES],
+            leak: [0.0; TONES],
         }
     }
 }
@@ -236,6 +241,11 @@ impl ToneChannel {
             course: Course::new(prior_farad, false),
             avoidance: Avoidance::new(),
         }
+    }
+
+    /// The comb tone this channel avoids, if any ([`crate::avoid`]).
+    pub fn avoided(&self) -> Option<usize> {
+        self.avoidance.tone()
     }
 
     /// The pair whose upper tone index is `hi` (clamped to 1 … TONES −
@@ -314,16 +324,20 @@ impl ToneChannel {
         // units of the tone's noise (`decide` bounds ln C by σ_lnC times
         // that: the fit's sensitivity).
         // An interferer within half a bin of a tone the record left out
-        // (rescued without it) leaks into an adjacent tone more than the
-        // residual shows ([`Layout::near_leak`]).
+        // (rescued without it) or the channel avoids (moved, and its
+        // sideband not taken out) leaks into an adjacent tone more than
+        // the residual shows ([`Layout::near_leak`]).
+        let avoided = (moved && i.leak.iter().all(|&l| l == 0.0))
+            .then(|| self.avoidance.tone())
+            .flatten();
         let disturbance = |j: Option<usize>, out: Option<usize>| {
-            let near_to = out.and_then(|o| fitted.get(o).copied());
+            let near_to = out.and_then(|o| fitted.get(o).copied()).or(avoided);
             let shift = |k: usize| {
                 let near = match near_to {
                     Some(t) => s.layout.near_leak(t, k),
                     None => 1.0,
                 };
-                disturbance_shift(th, &v.levels, &i.levels, k, n, near)
+                disturbance_shift(th, v, i, k, n, near)
             };
             match j {
                 Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
@@ -439,26 +453,23 @@ fn read_tones<const N: usize>(
 /// to its whole amplitude √2·δ. So the tone's phasor may be off by
 /// √2·(δ_v/A_v + δ_i/A_i), relative, against its noise's
 /// √(2/N)·√((r_v/A_v)² + (r_i/A_i)²); `near` times that where an
-/// interferer may sit near an adjacent tone ([`Layout::near_leak`]). 0
-/// without a disturbance, unbounded without a tone.
-fn disturbance_shift(
-    th: &Thresholds,
-    v: &dsp_core::comb::Levels<TONES>,
-    i: &dsp_core::comb::Levels<TONES>,
-    k: usize,
-    n: u32,
-    near: f32,
-) -> f32 {
+/// interferer may sit near an adjacent tone ([`Layout::near_leak`]);
+/// plus what a sideband taken out still leaks (`leak`, counts:
+/// [`crate::sideband`]) over A. 0 without a disturbance, unbounded
+/// without a tone.
+fn disturbance_shift(th: &Thresholds, v: &Input<'_>, i: &Input<'_>, k: usize, n: u32, near: f32) -> f32 {
     let sigma = th.noise_counts;
+    let (v_levels, i_levels) = (&v.levels, &i.levels);
     let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
-    let (dv, di) = (excess(v.residual), excess(i.residual));
-    if dv == 0.0 && di == 0.0 {
+    let (dv, di) = (excess(v_levels.residual), excess(i_levels.residual));
+    let (lv, li) = (v.leak[k], i.leak[k]);
+    if dv == 0.0 && di == 0.0 && lv == 0.0 && li == 0.0 {
         return 0.0;
     }
     let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
-    let (av, ai) = (v.amplitude[k], i.amplitude[k]);
-    let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai);
-    let (ev, ei) = (v.residual / av, i.residual / ai);
+    let (av, ai) = (v_levels.amplitude[k], i_levels.amplitude[k]);
+    let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + lv / av + li / ai;
+    let (ev, ei) = (v_levels.residual / av, i_levels.residual / ai);
     let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
     let s = shift / noise;
     // NaN (no tone) is no bound.

@@ -409,3 +409,25 @@ fn a_strong_hum_leaves_the_tones_as_they_are_without_it() {
         );
     }
 }
+
+/// The words' pair layout gives back every instant's basis, for even
+/// and odd blocks, and the portable sums are the plain ones.
+#[test]
+fn the_words_keep_every_instant() {
+    fn check<const N: usize>() {
+        let basis: [[i16; 2]; N] = core::array::from_fn(|n| [n as i16 * 3 - 7, -(n as i16) * 5 + 11]);
+        let words = Words::new(&basis);
+        assert!(words.iter().eq(basis.iter().copied()), "N = {N}");
+        assert_eq!(words.at(N), [0, 0]);
+        let rows: [[i16; 2]; N] = core::array::from_fn(|n| [0, (n as i16 - 3) * 101]);
+        let plain = basis.iter().zip(&rows).fold([0i64; 2], |[c, s], (w, r)| {
+            [c + r[1] as i64 * w[0] as i64, s + r[1] as i64 * w[1] as i64]
+        });
+        assert_eq!(portable(words.iter(), &rows, 1, 0), plain);
+        assert_eq!(core::mem::align_of::<Words<N>>(), 8);
+    }
+    check::<1>();
+    check::<24>();
+    check::<25>();
+    check::<100>();
+}

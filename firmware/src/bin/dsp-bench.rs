@@ -10,6 +10,7 @@
 #![no_main]
 
 use core::hint::black_box;
+use core::mem::MaybeUninit;
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::entry;
 use dsp_core::demod::Demodulator;
@@ -753,11 +754,18 @@ fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::a
     else {
         qemu::exit(5)
     };
-    let sensors = instrument::sensor::Sensors::all(paper);
-    let settings = ToneSettings::new(layout, fe.dsp_front_end(), &sensors);
-    let Ok(mut reader) = ArrayReader::new(layout, &sensors) else {
+    // The sixteen sensors' tables and the reader (10 KiB each) built
+    // where they stay, each from a frame of its own: with the
+    // temporaries that build them, this frame would take the stack past
+    // QEMU's 64 KiB of RAM.
+    let mut sensors = MaybeUninit::uninit();
+    let sensors = &*qemu::place(&mut sensors, || instrument::sensor::Sensors::all(paper));
+    let settings = ToneSettings::new(layout, fe.dsp_front_end(), sensors);
+    let mut reader = MaybeUninit::uninit();
+    let Ok(reader) = qemu::place(&mut reader, || ArrayReader::with_mains(layout, sensors, None)) else {
         qemu::exit(5)
     };
+    reader.follow_mains(instrument::mains::MAINS_HZ);
     let hz = layout.tones_hz().map(|f| f as f64);
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);
@@ -777,7 +785,7 @@ fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::a
         }
         let mut recs = [instrument::tones::ToneRecord::default(); SENSORS];
         let t_us = b * block_us + block_us / 2;
-        let cost = array_block(syst, insns, &mut reader, &settings, &mut frame, t_us, &mut recs);
+        let cost = array_block(syst, insns, reader, &settings, &mut frame, t_us, &mut recs);
         // The first block starts every channel from the inversions.
         if b > 0 {
             comb_t += cost.to_signed + cost.comb;
@@ -936,7 +944,7 @@ fn hum_column_matches<const B: usize, const K: usize>(
     rows: &[[i16; 4]; B],
     col: usize,
 ) -> bool {
-    let [c, s] = dsp_core::hum::portable(mains.reference(), rows, col, 0);
+    let [c, s] = dsp_core::hum::portable(mains.words().iter(), rows, col, 0);
     mains.sums(rows, col) == [c << 16, s << 16]
 }
 

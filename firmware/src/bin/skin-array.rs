@@ -205,7 +205,7 @@ mod app {
         queue: Queue<ToneRecord, QUEUE> = Queue::new(),
         // Sixteen sensors' lines and tables (10 KiB), built in place.
         sensors: MaybeUninit<Sensors<POINTS, SENSORS>> = MaybeUninit::uninit(),
-        // The simulated skin (6.5 KiB), the reader (5.6 KiB) and the
+        // The simulated skin (6.5 KiB), the reader (10 KiB) and the
         // block (4 KiB) where they stay, off `init`'s stack.
         skin_slot: MaybeUninit<ArraySkin> = MaybeUninit::uninit(),
         reader_slot: MaybeUninit<Result<ArrayReader, CombError>> = MaybeUninit::uninit(),
@@ -231,11 +231,12 @@ mod app {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = qemu::place(cx.local.reader_slot, || {
-            ArrayReader::for_mains(layout, sensors, firmware::MAINS_HZ)
-        }) else {
+        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::with_mains(layout, sensors, None)) else {
             qemu::exit(3)
         };
+        // Off the frame that built the reader: the two together would
+        // take the stack past its margin.
+        reader.follow_mains(firmware::MAINS_HZ);
         let common = ToneCommon {
             policy: set.policy,
             record_every: set.record_every,
