@@ -109,9 +109,11 @@ pub struct Demodulated {
     /// Each input's hum sums ([`Mains::sums`]), by input: [`VOLTAGE_INPUT`]
     /// and [`input_of`]`(s)` (zero where the reader follows no hum).
     pub hum: [[i64; 2]; INPUTS],
-    /// Sensor s's sums against the sideband of the tone its channel
-    /// avoids, and that tone ([`NO_TONE`]: none; [`crate::sideband`]).
-    pub sideband: [([i64; 2], u8); SENSORS],
+    /// Sensor s's sums against the sideband the reader fits, where its
+    /// channel avoids that tone ([`crate::sideband`]; zero elsewhere).
+    pub sideband: [[i64; 2]; SENSORS],
+    /// The tone of that sideband ([`NO_TONE`]: none this block).
+    pub sideband_tone: u8,
 }
 
 /// [`Demodulated::sideband`]'s "no tone".
@@ -126,7 +128,8 @@ impl Demodulated {
         v: Tones::EMPTY,
         i: [Tones::EMPTY; SENSORS],
         hum: [[0; 2]; INPUTS],
-        sideband: [([0; 2], NO_TONE); SENSORS],
+        sideband: [[0; 2]; SENSORS],
+        sideband_tone: NO_TONE,
     };
 }
 
@@ -349,21 +352,16 @@ impl ArrayReader {
         self.sideband_sums(rows, out);
     }
 
-    /// Each sensor's sums against the sideband of the tone its channel
-    /// avoids, into `out` (4 ms blocks; none where no tone is avoided).
+    /// Each sensor's sums against the sideband the reader fits, where
+    /// its channel avoids that tone, into `out` (4 ms blocks; where none
+    /// is fitted, the common case, one test in the per-block code and
+    /// the rest out of it).
     fn sideband_sums<'a>(&self, rows: impl Fn(usize) -> &'a [[i16; SCAN]], out: &mut Demodulated) {
-        for (s, slot) in out.sideband.iter_mut().enumerate() {
-            *slot = ([0; 2], NO_TONE);
-            let Some(k) = self.channels[s]
-                .avoided()
-                .filter(|&k| self.sidebands.tone() == Some(k))
-            else {
-                continue;
-            };
-            let (a, j) = adc_position(input_of(s));
-            if let Some(sums) = rows(a).first_chunk().and_then(|r| self.sidebands.sums(k, r, j)) {
-                *slot = (sums, k as u8);
-            }
+        out.sideband_tone = NO_TONE;
+        if let Some(k) = self.sidebands.tone() {
+            out.sideband_tone = k as u8;
+            let avoided = |s: usize| self.channels.get(s).and_then(ToneChannel::avoided);
+            self.sidebands.sums_into(k, avoided, rows, &mut out.sideband);
         }
     }
 
@@ -395,14 +393,13 @@ impl ArrayReader {
             let mut i = Input::of(&block.i[s]);
             let hummed = crate::mains::take_out(&mut self.hum, input_of(s), &block.hum, &mut i, clean);
             // The sideband of the tone the channel avoids, where no hum
-            // was taken out (the two fits are not one: a block with
-            // both is left to the residual's bound).
-            let (sums, tone) = block.sideband[s];
-            if tone != NO_TONE && !hummed {
+            // was taken out. Without a sideband fitted, one test
+            // (`follow` emptied every history when it dropped the last).
+            if block.sideband_tone != NO_TONE {
+                let fitted = (ch.avoided() == Some(usize::from(block.sideband_tone)) && !hummed)
+                    .then_some(block.sideband[s]);
                 self.sidebands
-                    .take_out(sums, usize::from(tone), &mut self.tracks[s], &mut i, clean);
-            } else {
-                self.tracks[s].lose();
+                    .take_out(fitted, block.sideband_tone, &mut self.tracks[s], &mut i, clean);
             }
             let mut rec = ch.process(
                 settings,
@@ -421,10 +418,16 @@ impl ArrayReader {
             }
         }
         // The sideband the next block fits: the tone the channels now
-        // avoid.
+        // avoid (a call only where one is fitted or a channel avoids a
+        // tone: never in 1 ms blocks, whose channels do not move).
         let channels = &self.channels;
-        self.sidebands
-            .follow(&self.comb, channels.iter().map(ToneChannel::avoided));
+        if self.sidebands.tone().is_some() || channels.iter().any(|c| c.avoided().is_some()) {
+            self.sidebands.follow(
+                &self.comb,
+                channels.iter().map(ToneChannel::avoided),
+                &mut self.tracks,
+            );
+        }
     }
 
     /// [`ArrayReader::demodulate`] then [`ArrayReader::solve`], for a

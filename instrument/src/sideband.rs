@@ -32,7 +32,7 @@
 //!
 //! The 1 ms layout never moves off a tone, and fits no sideband.
 
-use crate::array::{Layout, BLOCK_INSTANTS, SCAN, TONES};
+use crate::array::{adc_position, input_of, Layout, BLOCK_INSTANTS, SCAN, SENSORS, TONES};
 use crate::reader::BlockComb;
 use crate::tones::Input;
 use dsp_core::fmath;
@@ -87,9 +87,17 @@ impl Sidebands {
     /// Follow the tones the channels avoid (`avoided`, one per channel):
     /// the sideband in force stays while a channel avoids its tone; else
     /// the first avoided tone's is built from `comb` (4 ms blocks), or
-    /// none. (Out of line, in flash: it runs when a channel moves.)
+    /// none; every sensor's history (`tracks`) emptied where the
+    /// sideband changes. (Out of line, in flash: the reader calls it only
+    /// while a sideband is fitted or a channel avoids a tone.)
     #[inline(never)]
-    pub fn follow(&mut self, comb: &BlockComb, avoided: impl Iterator<Item = Option<usize>> + Clone) {
+    pub fn follow(
+        &mut self,
+        comb: &BlockComb,
+        avoided: impl Iterator<Item = Option<usize>> + Clone,
+        tracks: &mut [Track; SENSORS],
+    ) {
+        let BlockComb::Long(c) = comb else { return };
         let k = self.tone();
         if k.is_some() && avoided.clone().any(|a| a == k) {
             return;
@@ -100,7 +108,8 @@ impl Sidebands {
         }
         self.current = None;
         self.tone = NONE;
-        if let (Some(k), BlockComb::Long(c)) = (next, comb) {
+        tracks.iter_mut().for_each(Track::lose);
+        if let Some(k) = next {
             self.current = Sideband::new(k, c);
             self.tone = k.min(usize::from(NONE) - 1) as u8;
         }
@@ -114,15 +123,50 @@ impl Sidebands {
         Some(s.sums(rows, col))
     }
 
-    /// Tone `k`'s sideband (`sums`) out of `into` where it stands out of
-    /// the block's noise, into `track`; then every tone's leak bound,
-    /// counts, into `into.leak` (0 where none was taken out: the
+    /// Every sensor's sums against tone `k`'s sideband where its channel
+    /// avoids `k` (`avoided`, by sensor), else zero, from each ADC's rows
+    /// (`rows(adc)`); nothing where `k` is not the one fitted.
+    #[inline(never)]
+    pub fn sums_into<'a>(
+        &self,
+        k: usize,
+        avoided: impl Fn(usize) -> Option<usize>,
+        rows: impl Fn(usize) -> &'a [[i16; SCAN]],
+        out: &mut [[i64; 2]; SENSORS],
+    ) {
+        for (s, slot) in out.iter_mut().enumerate() {
+            *slot = [0; 2];
+            if avoided(s) != Some(k) {
+                continue;
+            }
+            let (a, j) = adc_position(input_of(s));
+            if let Some(sums) = rows(a).first_chunk().and_then(|r| self.sums(k, r, j)) {
+                *slot = sums;
+            }
+        }
+    }
+
+    /// Tone `tone`'s sideband (`sums`: None where the sensor's channel
+    /// does not avoid it, or a hum was taken out: the two fits are not
+    /// one, and a block with both is left to the residual's bound) out
+    /// of `into` where it stands out of the block's noise, into `track`
+    /// (emptied where there is none); then every tone's leak bound,
+    /// counts, into `into.leak` (None where none was taken out: the
     /// residual's bound covers a sideband left in): the interferer's own
     /// sideband is taken as its recent peak plus three of its standard
     /// deviations ([`Track::update`]).
     #[inline(never)]
-    pub fn take_out(&self, sums: [i64; 2], k: usize, track: &mut Track, into: &mut Input<'_>, clean: f32) {
-        let Some(sideband) = self.current.as_ref().filter(|_| self.tone() == Some(k)) else {
+    pub fn take_out(
+        &self,
+        sums: Option<[i64; 2]>,
+        tone: u8,
+        track: &mut Track,
+        into: &mut Input<'_>,
+        clean: f32,
+    ) {
+        let k = usize::from(tone);
+        let (Some(sideband), Some(sums)) = (self.current.as_ref().filter(|_| self.tone() == Some(k)), sums)
+        else {
             track.lose();
             return;
         };
@@ -140,13 +184,13 @@ impl Sidebands {
         let dof = fmath::max(n - (2 * TONES + 3) as f32, 1.0);
         let sigma = into.levels.residual * fmath::sqrt(n / dof);
         let size = peak + 3.0 * sigma * sideband.spread();
-        for (j, leak) in into.leak.iter_mut().enumerate() {
-            *leak = if j == k {
+        into.leak = Some(core::array::from_fn(|j| {
+            if j == k {
                 0.0
             } else {
                 self.layout.sideband_leak(k, j, delta) * size
-            };
-        }
+            }
+        }));
     }
 }
 
@@ -254,7 +298,11 @@ impl Track {
     /// No sideband at all (the channel avoids no tone, or a hum was
     /// taken out): no history.
     pub fn lose(&mut self) {
-        *self = Self::NEW;
+        // Every block of every clean sensor comes here: a test, not a
+        // 96-byte store (only `update` gives a history a tone).
+        if self.tone != NONE {
+            *self = Self::NEW;
+        }
     }
 
     /// Tone `k`'s sideband was not taken out of this block (it did not

@@ -204,9 +204,9 @@ pub struct Input<'a> {
     /// a hum was taken out of the levels ([`dsp_core::hum`]).
     pub gains: [f32; TONES],
     /// What an interferer whose sideband was taken out may still have
-    /// moved each tone's phasor by, counts (0: none taken out;
+    /// moved each tone's phasor by, counts (None: none taken out;
     /// [`crate::sideband`]).
-    pub leak: [f32; TONES],
+    pub leak: Option<[f32; TONES]>,
 }
 
 impl<'a> Input<'a> {
@@ -217,7 +217,7 @@ impl<'a> Input<'a> {
             levels: tones.levels(),
             tones,
             gains: [1.0; TONES],
-            leak: [0.0; TONES],
+            leak: None,
         }
     }
 }
@@ -327,17 +327,21 @@ impl ToneChannel {
         // (rescued without it) or the channel avoids (moved, and its
         // sideband not taken out) leaks into an adjacent tone more than
         // the residual shows ([`Layout::near_leak`]).
-        let avoided = (moved && i.leak.iter().all(|&l| l == 0.0))
+        let avoided = (moved && i.leak.is_none())
             .then(|| self.avoidance.tone())
             .flatten();
+        let seen = Seen::of(th, v, i, n);
         let disturbance = |j: Option<usize>, out: Option<usize>| {
             let near_to = out.and_then(|o| fitted.get(o).copied()).or(avoided);
             let shift = |k: usize| {
+                if seen.quiet {
+                    return 0.0;
+                }
                 let near = match near_to {
                     Some(t) => s.layout.near_leak(t, k),
                     None => 1.0,
                 };
-                disturbance_shift(th, v, i, k, n, near)
+                seen.shift(k, near)
             };
             match j {
                 Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
@@ -444,38 +448,68 @@ fn read_tones<const N: usize>(
     (!biased).then_some(tones)
 }
 
-/// What a disturbance could have moved tone `k`'s phasor by, in units of
-/// its noise σ: the block's residual r beyond the ADC's white noise σ
-/// ([`Thresholds::noise_counts`]) is a disturbance of rms δ = √(r² − σ²).
-/// White noise averages over the block's N instants (each tone's σ of
-/// phase r·√(2/N)/A, which `sigma_ln_c` carries); a disturbance need not:
-/// an interferer near a tone (or at an alias of one) leaks into its bin up
-/// to its whole amplitude √2·δ. So the tone's phasor may be off by
-/// √2·(δ_v/A_v + δ_i/A_i), relative, against its noise's
-/// √(2/N)·√((r_v/A_v)² + (r_i/A_i)²); `near` times that where an
-/// interferer may sit near an adjacent tone ([`Layout::near_leak`]);
-/// plus what a sideband taken out still leaks (`leak`, counts:
-/// [`crate::sideband`]) over A. 0 without a disturbance, unbounded
-/// without a tone.
-fn disturbance_shift(th: &Thresholds, v: &Input<'_>, i: &Input<'_>, k: usize, n: u32, near: f32) -> f32 {
-    let sigma = th.noise_counts;
-    let (v_levels, i_levels) = (&v.levels, &i.levels);
-    let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
-    let (dv, di) = (excess(v_levels.residual), excess(i_levels.residual));
-    let (lv, li) = (v.leak[k], i.leak[k]);
-    if dv == 0.0 && di == 0.0 && lv == 0.0 && li == 0.0 {
-        return 0.0;
+/// The disturbance a record's two inputs show, once a record: what
+/// [`Seen::shift`] reads for each tone.
+struct Seen<'a> {
+    v: &'a dsp_core::comb::Levels<TONES>,
+    i: &'a dsp_core::comb::Levels<TONES>,
+    /// What a sideband taken out of the current input still leaks into
+    /// each tone, counts ([`Input::leak`]).
+    leak: Option<&'a [f32; TONES]>,
+    /// δ_v, δ_i: each residual's rms beyond the ADC's white noise, counts.
+    excess: [f32; 2],
+    /// √(2/N).
+    root_2_over_n: f32,
+    /// No disturbance at all: every tone's shift is 0.
+    quiet: bool,
+}
+
+impl<'a> Seen<'a> {
+    fn of(th: &Thresholds, v: &'a Input<'_>, i: &'a Input<'_>, n: u32) -> Self {
+        let sigma = th.noise_counts;
+        let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
+        let excess = [excess(v.levels.residual), excess(i.levels.residual)];
+        Self {
+            v: &v.levels,
+            i: &i.levels,
+            leak: i.leak.as_ref(),
+            excess,
+            root_2_over_n: dsp_core::fmath::sqrt(2.0 / n.max(1) as f32),
+            quiet: excess == [0.0; 2] && i.leak.is_none(),
+        }
     }
-    let root_n = dsp_core::fmath::sqrt(n.max(1) as f32);
-    let (av, ai) = (v_levels.amplitude[k], i_levels.amplitude[k]);
-    let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + lv / av + li / ai;
-    let (ev, ei) = (v_levels.residual / av, i_levels.residual / ai);
-    let noise = core::f32::consts::SQRT_2 / root_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
-    let s = shift / noise;
-    // NaN (no tone) is no bound.
-    if s.is_nan() {
-        f32::INFINITY
-    } else {
-        s
+
+    /// What a disturbance could have moved tone `k`'s phasor by, in
+    /// units of its noise σ: the block's residual r beyond the ADC's
+    /// white noise σ ([`Thresholds::noise_counts`]) is a disturbance of
+    /// rms δ = √(r² − σ²). White noise averages over the block's N
+    /// instants (each tone's σ of phase r·√(2/N)/A, which `sigma_ln_c`
+    /// carries); a disturbance need not: an interferer near a tone (or at
+    /// an alias of one) leaks into its bin up to its whole amplitude
+    /// √2·δ. So the tone's phasor may be off by √2·(δ_v/A_v + δ_i/A_i),
+    /// relative, against its noise's √(2/N)·√((r_v/A_v)² + (r_i/A_i)²);
+    /// `near` times that where an interferer may sit near an adjacent
+    /// tone ([`Layout::near_leak`]); plus what a sideband taken out of
+    /// the current input still leaks into the tone over A_i
+    /// ([`crate::sideband`]). 0 without a disturbance, unbounded without
+    /// a tone. (Out of line: inlined at each of `decide`'s calls it
+    /// would not fit the board's fast RAM.)
+    #[inline(never)]
+    fn shift(&self, k: usize, near: f32) -> f32 {
+        let (Some(&av), Some(&ai)) = (self.v.amplitude.get(k), self.i.amplitude.get(k)) else {
+            return f32::INFINITY;
+        };
+        let [dv, di] = self.excess;
+        let leak = self.leak.and_then(|l| l.get(k).copied()).unwrap_or(0.0);
+        let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + leak / ai;
+        let (ev, ei) = (self.v.residual / av, self.i.residual / ai);
+        let noise = self.root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
+        let s = shift / noise;
+        // NaN (no tone) is no bound.
+        if s.is_nan() {
+            f32::INFINITY
+        } else {
+            s
+        }
     }
 }

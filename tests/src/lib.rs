@@ -369,8 +369,9 @@ pub const CYCLE_BUDGETS: [(&str, f64, f64); 8] = [
     ("array_share_16x1000_permille", 850.0, 500.0),
     // 16 × 250 records/s, mains hum followed on every input (the hum's
     // sums and each input's window: 6 points of the core, where it was
-    // 245 ‰ without).
-    ("array_share_16x250_permille", 310.0, 150.0),
+    // 245 ‰ without; 310 until the channels fitted the sideband of a
+    // tone they avoid: its checks on a clean block, 2 ‰).
+    ("array_share_16x250_permille", 315.0, 150.0),
     // A multiplexed slot.
     ("block_load_permille", 150.0, 150.0),
     // The continuous line's inversion, mean and worst.
