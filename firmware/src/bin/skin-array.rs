@@ -231,7 +231,9 @@ mod app {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = qemu::place(cx.local.reader_slot, || ArrayReader::with_mains(layout, sensors, None)) else {
+        let Ok(reader) = qemu::place(cx.local.reader_slot, || {
+            ArrayReader::with_mains(layout, sensors, None)
+        }) else {
             qemu::exit(3)
         };
         // Off the frame that built the reader: the two together would
