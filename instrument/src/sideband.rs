@@ -296,10 +296,12 @@ impl Track {
     };
 
     /// No sideband at all (the channel avoids no tone, or a hum was
-    /// taken out): no history.
+    /// taken out, or the reader changed the sideband it fits): no
+    /// history.
     pub fn lose(&mut self) {
-        // Every block of every clean sensor comes here: a test, not a
-        // 96-byte store (only `update` gives a history a tone).
+        // `follow` empties all sixteen when the sideband changes, most of
+        // them empty already: a test, not a 96-byte store (only `update`
+        // gives a history a tone).
         if self.tone != NONE {
             *self = Self::NEW;
         }
