@@ -257,3 +257,23 @@ defmt::timestamp!("");
 pub fn place<T>(slot: &mut core::mem::MaybeUninit<T>, make: impl FnOnce() -> T) -> &mut T {
     slot.write(make())
 }
+
+/// The array's reader built in `slot` ([`place`]), then following mains
+/// hum at `mains_hz` from a frame of its own
+/// ([`instrument::reader::ArrayReader::follow_mains`]): built together,
+/// the two would take the array images' stack past its margin. None
+/// where the layout's comb does not lay out.
+pub fn place_reader<'a, const N: usize>(
+    slot: &'a mut core::mem::MaybeUninit<Result<instrument::reader::ArrayReader, dsp_core::comb::CombError>>,
+    layout: instrument::array::Layout,
+    sensors: &instrument::sensor::Sensors<N, { instrument::array::SENSORS }>,
+    mains_hz: u32,
+) -> Option<&'a mut instrument::reader::ArrayReader> {
+    let reader = place(slot, || {
+        instrument::reader::ArrayReader::with_mains(layout, sensors, None)
+    })
+    .as_mut()
+    .ok()?;
+    reader.follow_mains(mains_hz);
+    Some(reader)
+}

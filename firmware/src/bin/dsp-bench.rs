@@ -741,7 +741,6 @@ struct ArrayCost {
 /// bit on every input of the last block.
 fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::array::Layout) -> ArrayCost {
     use instrument::array::{Frame, BLOCK_INSTANTS, SENSORS};
-    use instrument::reader::ArrayReader;
     use instrument::tones::ToneSettings;
     use skin_sim::array::ArrayFrontEnd;
     use skin_sim::frontend::Disturbance;
@@ -762,10 +761,9 @@ fn array_run(syst: &mut Clock, insns: &dyn Fn(u32) -> u32, layout: instrument::a
     let sensors = &*qemu::place(&mut sensors, || instrument::sensor::Sensors::all(paper));
     let settings = ToneSettings::new(layout, fe.dsp_front_end(), sensors);
     let mut reader = MaybeUninit::uninit();
-    let Ok(reader) = qemu::place(&mut reader, || ArrayReader::with_mains(layout, sensors, None)) else {
+    let Some(reader) = qemu::place_reader(&mut reader, layout, sensors, instrument::mains::MAINS_HZ) else {
         qemu::exit(5)
     };
-    reader.follow_mains(instrument::mains::MAINS_HZ);
     let hz = layout.tones_hz().map(|f| f as f64);
     let z = [Sensor::settled(p).impedances(&hz); SENSORS];
     let mut rng = skin_sim::rng::Rng::new(7);

@@ -231,14 +231,10 @@ mod app {
             defmt::println!("settings: a tab-lead ratio beyond the line model's range");
             qemu::exit(2)
         };
-        let Ok(reader) = qemu::place(cx.local.reader_slot, || {
-            ArrayReader::with_mains(layout, sensors, None)
-        }) else {
+        let Some(reader) = qemu::place_reader(cx.local.reader_slot, layout, sensors, firmware::MAINS_HZ)
+        else {
             qemu::exit(3)
         };
-        // Off the frame that built the reader: the two together would
-        // take the stack past its margin.
-        reader.follow_mains(firmware::MAINS_HZ);
         let common = ToneCommon {
             policy: set.policy,
             record_every: set.record_every,
