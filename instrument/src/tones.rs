@@ -333,19 +333,22 @@ impl ToneChannel {
         let seen = Seen::of(th, v, i, n);
         let disturbance = |j: Option<usize>, out: Option<usize>| {
             let near_to = out.and_then(|o| fitted.get(o).copied()).or(avoided);
+            // Quiet inputs show no disturbance, but one near a tone
+            // the record left out may hide in their noise.
+            let quiet = seen.quiet && near_to.is_none();
             let shift = |k: usize| {
-                if seen.quiet {
-                    return 0.0;
-                }
                 let near = match near_to {
                     Some(t) => s.layout.near_leak(t, k),
                     None => 1.0,
                 };
-                seen.shift(k, near)
+                seen.shift(k, near, near_to.is_some())
             };
+            // The worst of them: tones shifted together move C by at
+            // most σ_lnC times the shifts' root sum of squares.
             match j {
+                _ if quiet => 0.0,
                 Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
-                None => fitted.iter().fold(0.0, |w, &k| fmath::max(w, shift(k))),
+                None => dsp_core::fmath::sqrt(fitted.iter().fold(0.0, |w, &k| w + shift(k) * shift(k))),
             }
         };
         let decided = self
@@ -458,6 +461,8 @@ struct Seen<'a> {
     leak: Option<&'a [f32; TONES]>,
     /// δ_v, δ_i: each residual's rms beyond the ADC's white noise, counts.
     excess: [f32; 2],
+    /// The ADC's white noise σ, counts rms, and the block's instants.
+    noise: (f32, u32),
     /// √(2/N).
     root_2_over_n: f32,
     /// No disturbance at all: every tone's shift is 0.
@@ -474,6 +479,7 @@ impl<'a> Seen<'a> {
             i: &i.levels,
             leak: i.leak.as_ref(),
             excess,
+            noise: (sigma, n),
             root_2_over_n: dsp_core::fmath::sqrt(2.0 / n.max(1) as f32),
             quiet: excess == [0.0; 2] && i.leak.is_none(),
         }
@@ -489,17 +495,18 @@ impl<'a> Seen<'a> {
     /// √2·δ. So the tone's phasor may be off by √2·(δ_v/A_v + δ_i/A_i),
     /// relative, against its noise's √(2/N)·√((r_v/A_v)² + (r_i/A_i)²);
     /// `near` times that where an interferer may sit near an adjacent
-    /// tone ([`Layout::near_leak`]); plus what a sideband taken out of
+    /// tone ([`Layout::near_leak`]), and then (`hidden`) with δ as large
+    /// as the noise may hide ([`Seen::hidden_excess`]); plus what a sideband taken out of
     /// the current input still leaks into the tone over A_i
     /// ([`crate::sideband`]). 0 without a disturbance, unbounded without
     /// a tone. (Out of line: inlined at each of `decide`'s calls it
     /// would not fit the board's fast RAM.)
     #[inline(never)]
-    fn shift(&self, k: usize, near: f32) -> f32 {
+    fn shift(&self, k: usize, near: f32, hidden: bool) -> f32 {
         let (Some(&av), Some(&ai)) = (self.v.amplitude.get(k), self.i.amplitude.get(k)) else {
             return f32::INFINITY;
         };
-        let [dv, di] = self.excess;
+        let [dv, di] = if hidden { self.hidden_excess() } else { self.excess };
         let leak = self.leak.and_then(|l| l.get(k).copied()).unwrap_or(0.0);
         let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + leak / ai;
         let (ev, ei) = (self.v.residual / av, self.i.residual / ai);
@@ -511,5 +518,24 @@ impl<'a> Seen<'a> {
         } else {
             s
         }
+    }
+
+    /// δ_v, δ_i as large as the residuals allow: the white noise's
+    /// share of r², σ²·(N − 11)/N for the mean and five tones fitted,
+    /// taken 3 of its standard deviations, σ²·√(2·(N − 11))/N, low. An
+    /// interferer half a bin from a tone leaves as little as a tenth of
+    /// itself in the residual ([`Layout::near_leak`]): near a tone a
+    /// record left out, one the noise hides may still shift its
+    /// neighbour by 5 times the residual's. (Cold: only a rescued or
+    /// moved record asks.)
+    #[cold]
+    #[inline(never)]
+    fn hidden_excess(&self) -> [f32; 2] {
+        let (sigma, n) = self.noise;
+        let dof = n.saturating_sub(1 + 2 * TONES as u32) as f32;
+        let share = (dof - 3.0 * dsp_core::fmath::sqrt(2.0 * dof)) / n.max(1) as f32;
+        let floor = sigma * sigma * fmath::max(share, 0.0);
+        let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - floor, 0.0));
+        [excess(self.v.residual), excess(self.i.residual)]
     }
 }
