@@ -149,6 +149,13 @@ pub struct Solution {
     /// its share too: `instrument::joint::hidden` takes
     /// √max(χ², [`Solution::dof`]).
     pub hidden_ln_c: f32,
+    /// How far each tone's own error moves C, squared: |∂ln C/∂z_k|²·σ_k²
+    /// (relative, per unit of the tone's noise), lowest tone first (the
+    /// first three; ∞ for all with more). A disturbance that shifts tone
+    /// k by s_k σ moves ln C by at most Σ_k √(this)·s_k, which
+    /// [`Solution::sigma_ln_c`] (their root sum of squares, the prior's
+    /// share with them) bounds only for a shift of one tone.
+    pub tone_ln_c2: [f32; 3],
     /// Degrees of freedom of χ² on a uniform line: 2·K − 2 for K tones
     /// (2·K measured numbers, and the film's prior when its loss is
     /// fitted, less the parameters).
@@ -326,7 +333,8 @@ fn refine<const K: usize>(
     let x = TAU * hi.f_hz * r * c;
     let ai = inverse(&fit.jtj, fitted);
     let (var_r, var_c) = ai.map_or((f32::INFINITY, f32::INFINITY), |m| (m[0][0], m[1][1]));
-    let hidden_ln_c = ai.map_or(f32::INFINITY, |m| hidden(&fit, &m, fitted));
+    let (hidden_ln_c, tone_ln_c2) =
+        ai.map_or((f32::INFINITY, [f32::INFINITY; 3]), |m| hidden(&fit, &m, fitted));
     Ok(Solution {
         line: Line {
             r_ohm: r,
@@ -339,6 +347,7 @@ fn refine<const K: usize>(
         sigma_ln_r: fmath::sqrt(var_r),
         loss_tangent: p[2],
         hidden_ln_c,
+        tone_ln_c2,
         dof: (2 * K - 2) as f32,
     })
 }
@@ -445,10 +454,12 @@ fn exp_step(d: f32) -> f32 {
 /// a perturbation ε of tone k moves ln C by g·ε, g = J_k·A⁻¹·e_C, and
 /// leaves εᵀ(I − J_k·A⁻¹·J_kᵀ)·ε in χ², so at most √(gᵀ·M⁻¹·g) per √χ²
 /// (M = I − J_k·A⁻¹·J_kᵀ); the worse tone. ∞ where A or M is singular
-/// (a tone that the fit can follow whatever it reads).
-fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) -> f32 {
+/// (a tone that the fit can follow whatever it reads). With it, each
+/// tone's |g|² ([`Solution::tone_ln_c2`]).
+fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) -> (f32, [f32; 3]) {
     let mut worst = 0.0f32;
-    for cols in &fit.cols {
+    let mut each = [if K > 3 { f32::INFINITY } else { 0.0 }; 3];
+    for (k, cols) in fit.cols.iter().enumerate() {
         // J_k's two real rows.
         let mut rows = [
             [cols[0].re, cols[1].re, cols[2].re],
@@ -465,6 +476,11 @@ fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) 
         // g = J_k·A⁻¹·e_C: A⁻¹'s column for ln C.
         let col_c = [ai[0][1], ai[1][1], ai[2][1]];
         let g = [dot(&rows[0], &col_c), dot(&rows[1], &col_c)];
+        if K <= 3 {
+            if let Some(e) = each.get_mut(k) {
+                *e = g[0] * g[0] + g[1] * g[1];
+            }
+        }
         // M = I − J_k·A⁻¹·J_kᵀ.
         let w = [times(ai, &rows[0]), times(ai, &rows[1])];
         let m = [
@@ -473,14 +489,14 @@ fn hidden<const K: usize>(fit: &Evaluated<K>, ai: &[[f32; 3]; 3], fitted: bool) 
         ];
         let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
         if !positive_finite(det) {
-            return f32::INFINITY;
+            return (f32::INFINITY, [f32::INFINITY; 3]);
         }
         // gᵀ·M⁻¹·g.
         let q = (m[1][1] * g[0] * g[0] - (m[0][1] + m[1][0]) * g[0] * g[1] + m[0][0] * g[1] * g[1]) / det;
         // (A NaN q is passed over.)
         worst = fmath::max(worst, q);
     }
-    fmath::sqrt(worst)
+    (fmath::sqrt(worst), each)
 }
 
 /// The inverse of a 3×3 matrix by its cofactors; `None` when singular.

@@ -310,10 +310,18 @@ impl Channel {
             quiet: true,
         };
         // What the energy near the policy's tone could have shifted its
-        // V/I by, in units of its noise (`decide` bounds ln C by σ_lnC
-        // times that: a weighted least-squares fit's sensitivity); the
-        // second tone's share is the model check's.
-        let near = |_: Option<usize>, _: Option<usize>| th.near_shift(&ph.tone) / noise;
+        // V/I by, in units of its noise (`decide` bounds ln C by the
+        // tone's reach times that: a weighted least-squares fit's
+        // sensitivity); the second tone's share is the model check's.
+        // (`decide` counts the tones lowest first.)
+        let policy_tone = usize::from(f[0] > f[1]);
+        let near = |k: usize, _: Option<usize>| {
+            if k == policy_tone {
+                th.near_shift(&ph.tone) / noise
+            } else {
+                0.0
+            }
+        };
         let decided = self
             .course
             .decide(&rules, &mut self.policy, pair, near, dt, &mut rec.flags);

@@ -128,19 +128,19 @@ impl Course {
     }
 
     /// The decisions of the module's docs on a block's `tones` (as
-    /// measured, Ω, each with its noise), `dt_s` seconds after the
-    /// previous block: the line with `flags` set, or None where there is
-    /// none (`flags` says why). `disturbance(k, out)` gives what a
-    /// disturbance the reader sees could have shifted tone `k` of `tones`
-    /// by (None: the worst of them), in units of the tone's noise σ,
-    /// where tone `out` was left out of the record (a rescue: an
-    /// interferer near it may leak more into its neighbours).
+    /// measured, Ω, each with its noise; lowest first), `dt_s` seconds
+    /// after the previous block: the line with `flags` set, or None where
+    /// there is none (`flags` says why). `disturbance(k, out)` gives what
+    /// a disturbance the reader sees could have shifted tone `k` of
+    /// `tones` by, in units of the tone's noise σ, where tone `out` was
+    /// left out of the record (a rescue: an interferer near it may leak
+    /// more into its neighbours).
     pub fn decide<const N: usize, const K: usize>(
         &mut self,
         rules: &Rules<'_, N>,
         policy: &mut PolicyState,
         tones: [Tone; K],
-        disturbance: impl Fn(Option<usize>, Option<usize>) -> f32,
+        disturbance: impl Fn(usize, Option<usize>) -> f32,
         dt_s: f32,
         flags: &mut Flags,
     ) -> Option<Reading> {
@@ -261,7 +261,7 @@ fn check<const N: usize>(
     sol: &Solution,
     chi2_flag: f32,
     share: f32,
-    disturbance: impl Fn(Option<usize>) -> f32,
+    disturbance: impl Fn(usize) -> f32,
     flags: &mut Flags,
 ) -> (f32, bool) {
     let (stretch_mm, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
@@ -270,9 +270,25 @@ fn check<const N: usize>(
     if !consistent {
         flags.set(Flags::MODEL);
     }
-    let bound = 5.0 * sol.sigma_ln_c + sol.sigma_ln_c * disturbance(None) + hidden(sol, chi2_flag, share);
+    let bound = 5.0 * sol.sigma_ln_c + disturbed(sol, disturbance) + hidden(sol, chi2_flag, share);
     if bound.is_nan() || bound > th.c_tolerance {
         flags.set(Flags::UNCERTAIN);
     }
     (stretch_mm, consistent)
+}
+
+/// What a disturbance could have moved ln C of `sol` by: each tone's
+/// shift (`disturbance(k)`, in units of its noise) through that
+/// tone's own reach ([`Solution::tone_ln_c2`]), summed: one interferer
+/// can shift every tone at once. (A tone unshifted costs no root.)
+#[inline(always)]
+fn disturbed(sol: &Solution, disturbance: impl Fn(usize) -> f32) -> f32 {
+    let mut moved = 0.0;
+    for (k, &g2) in sol.tone_ln_c2.iter().enumerate() {
+        let s = disturbance(k);
+        if s != 0.0 {
+            moved += dsp_core::fmath::sqrt(g2) * s;
+        }
+    }
+    moved
 }

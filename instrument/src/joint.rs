@@ -159,7 +159,7 @@ const UNWEIGHTED_SIGMA_OHM: f32 = 1e20;
 /// `start` the three tones' line (R Ω, C F, tan δ), where each pair's fit
 /// starts.
 ///
-/// The last test: `disturbance(Some(k))` is the shift, in units of tone
+/// The last test: `disturbance(k)` is the shift, in units of tone
 /// k's noise, of a disturbance whose leak into the tone is the residual's
 /// √2·rms; one half a bin or more from every fitted frequency leaks at
 /// most [`Rescue::leak_ratio`] times that. A left-out tone no further off than
@@ -185,7 +185,7 @@ pub fn rescue<const N: usize, const K: usize>(
     tones: &[Tone; K],
     start: (f32, f32, f32),
     by: Rescue,
-    disturbance: &impl Fn(Option<usize>) -> f32,
+    disturbance: &impl Fn(usize) -> f32,
     suspect: &mut u8,
 ) -> Option<Solution> {
     let Rescue {
@@ -233,7 +233,7 @@ pub fn rescue<const N: usize, const K: usize>(
     }
     let misfit = dsp_core::twotone::misfits(inv, d, &behind, &sol).ok()?[out];
     // (NaN never passes.)
-    (misfit >= leak_ratio * disturbance(Some(out))).then_some(())?;
+    (misfit >= leak_ratio * disturbance(out)).then_some(())?;
     *suspect = out as u8;
     Some(sol)
 }
@@ -409,6 +409,7 @@ mod tests {
             sigma_ln_r: 1e-3,
             loss_tangent: 0.0,
             hidden_ln_c: 1e-3,
+            tone_ln_c2: [1e-6; 3],
             dof,
         }
     }

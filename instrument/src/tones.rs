@@ -320,9 +320,9 @@ impl ToneChannel {
         let set_hz = s.layout.tones_hz();
         let rules = rules_of(s, sensor, &set_hz);
         // What the MODEL check does not see of a disturbance: the shift
-        // it could give a tone (of `tones`, or the worst of them), in
-        // units of the tone's noise (`decide` bounds ln C by σ_lnC times
-        // that: the fit's sensitivity).
+        // it could give each tone of `tones`, in units of the tone's
+        // noise (`decide` bounds ln C by each tone's reach times that:
+        // the fit's sensitivity).
         // An interferer within half a bin of a tone the record left out
         // (rescued without it) or the channel avoids (moved, and its
         // sideband not taken out) leaks into an adjacent tone more than
@@ -331,25 +331,24 @@ impl ToneChannel {
             .then(|| self.avoidance.tone())
             .flatten();
         let seen = Seen::of(th, v, i, n);
-        let disturbance = |j: Option<usize>, out: Option<usize>| {
-            let near_to = out.and_then(|o| fitted.get(o).copied()).or(avoided);
-            // Quiet inputs show no disturbance, but one near a tone
-            // the record left out may hide in their noise.
-            let quiet = seen.quiet && near_to.is_none();
-            let shift = |k: usize| {
-                let near = match near_to {
-                    Some(t) => s.layout.near_leak(t, k),
-                    None => 1.0,
-                };
-                seen.shift(k, near, near_to.is_some())
-            };
-            // The worst of them: tones shifted together move C by at
-            // most σ_lnC times the shifts' root sum of squares.
-            match j {
-                _ if quiet => 0.0,
-                Some(j) => fitted.get(j).map_or(f32::INFINITY, |&k| shift(k)),
-                None => dsp_core::fmath::sqrt(fitted.iter().fold(0.0, |w, &k| w + shift(k) * shift(k))),
+        let disturbance = |k: usize, out: Option<usize>| {
+            let left_out = out.and_then(|o| fitted.get(o).copied());
+            let near_to = left_out.or(avoided);
+            // Quiet inputs show no disturbance, but one near a tone the
+            // record left out may hide in their noise. (A moved
+            // channel's interferer near its tone is its sideband's to
+            // show.)
+            if seen.quiet && left_out.is_none() {
+                return 0.0;
             }
+            let Some(&k) = fitted.get(k) else {
+                return f32::INFINITY;
+            };
+            let near = match near_to {
+                Some(t) => s.layout.near_leak(t, k),
+                None => 1.0,
+            };
+            seen.shift(k, near, left_out.is_some())
         };
         let decided = self
             .course
