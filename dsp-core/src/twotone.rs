@@ -137,8 +137,6 @@ pub struct Solution {
     pub chi2: f32,
     /// 1σ relative error of C from the fit's covariance.
     pub sigma_ln_c: f32,
-    /// 1σ relative error of R from the fit's covariance.
-    pub sigma_ln_r: f32,
     /// The film's loss tangent the fit found (its prior's mean when the
     /// prior's σ is 0).
     pub loss_tangent: f32,
@@ -332,7 +330,7 @@ fn refine<const K: usize>(
     let (r, c) = (p[0], p[1]);
     let x = TAU * hi.f_hz * r * c;
     let ai = inverse(&fit.jtj, fitted);
-    let (var_r, var_c) = ai.map_or((f32::INFINITY, f32::INFINITY), |m| (m[0][0], m[1][1]));
+    let var_c = ai.map_or(f32::INFINITY, |m| m[1][1]);
     let (hidden_ln_c, tone_ln_c2) =
         ai.map_or((f32::INFINITY, [f32::INFINITY; 3]), |m| hidden(&fit, &m, fitted));
     Ok(Solution {
@@ -344,7 +342,6 @@ fn refine<const K: usize>(
         },
         chi2: fit.chi2,
         sigma_ln_c: fmath::sqrt(var_c),
-        sigma_ln_r: fmath::sqrt(var_r),
         loss_tangent: p[2],
         hidden_ln_c,
         tone_ln_c2,

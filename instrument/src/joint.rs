@@ -406,7 +406,6 @@ mod tests {
             },
             chi2,
             sigma_ln_c: 1e-3,
-            sigma_ln_r: 1e-3,
             loss_tangent: 0.0,
             hidden_ln_c: 1e-3,
             tone_ln_c2: [1e-6; 3],

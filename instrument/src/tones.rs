@@ -331,24 +331,15 @@ impl ToneChannel {
             .then(|| self.avoidance.tone())
             .flatten();
         let seen = Seen::of(th, v, i, n);
+        // Quiet inputs show no disturbance, but one near a tone the
+        // record left out may hide in their noise. (A moved channel's
+        // interferer near its tone is its sideband's to show.)
         let disturbance = |k: usize, out: Option<usize>| {
-            let left_out = out.and_then(|o| fitted.get(o).copied());
-            let near_to = left_out.or(avoided);
-            // Quiet inputs show no disturbance, but one near a tone the
-            // record left out may hide in their noise. (A moved
-            // channel's interferer near its tone is its sideband's to
-            // show.)
-            if seen.quiet && left_out.is_none() {
-                return 0.0;
+            if seen.quiet && out.is_none() {
+                0.0
+            } else {
+                seen.shift_of(&s.layout, &fitted, k, out, avoided)
             }
-            let Some(&k) = fitted.get(k) else {
-                return f32::INFINITY;
-            };
-            let near = match near_to {
-                Some(t) => s.layout.near_leak(t, k),
-                None => 1.0,
-            };
-            seen.shift(k, near, left_out.is_some())
         };
         let decided = self
             .course
@@ -458,30 +449,33 @@ struct Seen<'a> {
     /// What a sideband taken out of the current input still leaks into
     /// each tone, counts ([`Input::leak`]).
     leak: Option<&'a [f32; TONES]>,
-    /// δ_v, δ_i: each residual's rms beyond the ADC's white noise, counts.
-    excess: [f32; 2],
     /// The ADC's white noise σ, counts rms, and the block's instants.
     noise: (f32, u32),
-    /// √(2/N).
+    /// δ_v, δ_i ([`Seen::excess`]) and √(2/N); 0 where `quiet`.
+    excess: [f32; 2],
     root_2_over_n: f32,
     /// No disturbance at all: every tone's shift is 0.
     quiet: bool,
 }
 
 impl<'a> Seen<'a> {
+    /// (Quiet, a record pays two comparisons.)
     fn of(th: &Thresholds, v: &'a Input<'_>, i: &'a Input<'_>, n: u32) -> Self {
         let sigma = th.noise_counts;
-        let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
-        let excess = [excess(v.levels.residual), excess(i.levels.residual)];
-        Self {
+        let mut seen = Self {
             v: &v.levels,
             i: &i.levels,
             leak: i.leak.as_ref(),
-            excess,
             noise: (sigma, n),
-            root_2_over_n: dsp_core::fmath::sqrt(2.0 / n.max(1) as f32),
-            quiet: excess == [0.0; 2] && i.leak.is_none(),
+            excess: [0.0; 2],
+            root_2_over_n: 0.0,
+            quiet: v.levels.residual <= sigma && i.levels.residual <= sigma && i.leak.is_none(),
+        };
+        if !seen.quiet {
+            seen.excess = seen.excess(false);
+            seen.root_2_over_n = dsp_core::fmath::sqrt(2.0 / n.max(1) as f32);
         }
+        seen
     }
 
     /// What a disturbance could have moved tone `k`'s phasor by, in
@@ -495,21 +489,24 @@ impl<'a> Seen<'a> {
     /// relative, against its noise's √(2/N)·√((r_v/A_v)² + (r_i/A_i)²);
     /// `near` times that where an interferer may sit near an adjacent
     /// tone ([`Layout::near_leak`]), and then (`hidden`) with δ as large
-    /// as the noise may hide ([`Seen::hidden_excess`]); plus what a sideband taken out of
-    /// the current input still leaks into the tone over A_i
-    /// ([`crate::sideband`]). 0 without a disturbance, unbounded without
-    /// a tone. (Out of line: inlined at each of `decide`'s calls it
-    /// would not fit the board's fast RAM.)
-    #[inline(never)]
+    /// as the noise may hide ([`Seen::excess`]); plus what a sideband
+    /// taken out of the current input still leaks into the tone over
+    /// A_i ([`crate::sideband`]). 0 without a disturbance, unbounded
+    /// without a tone.
     fn shift(&self, k: usize, near: f32, hidden: bool) -> f32 {
         let (Some(&av), Some(&ai)) = (self.v.amplitude.get(k), self.i.amplitude.get(k)) else {
             return f32::INFINITY;
         };
-        let [dv, di] = if hidden { self.hidden_excess() } else { self.excess };
+        let [dv, di] = if hidden { self.excess(true) } else { self.excess };
         let leak = self.leak.and_then(|l| l.get(k).copied()).unwrap_or(0.0);
         let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + leak / ai;
         let (ev, ei) = (self.v.residual / av, self.i.residual / ai);
-        let noise = self.root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
+        let root_2_over_n = if self.quiet {
+            dsp_core::fmath::sqrt(2.0 / self.noise.1.max(1) as f32)
+        } else {
+            self.root_2_over_n
+        };
+        let noise = root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
         let s = shift / noise;
         // NaN (no tone) is no bound.
         if s.is_nan() {
@@ -519,21 +516,56 @@ impl<'a> Seen<'a> {
         }
     }
 
-    /// δ_v, δ_i as large as the residuals allow: the white noise's
-    /// share of r², σ²·(N − 11)/N for the mean and five tones fitted,
-    /// taken 3 of its standard deviations, σ²·√(2·(N − 11))/N, low. An
-    /// interferer half a bin from a tone leaves as little as a tenth of
-    /// itself in the residual ([`Layout::near_leak`]): near a tone a
-    /// record left out, one the noise hides may still shift its
-    /// neighbour by 5 times the residual's. (Cold: only a rescued or
-    /// moved record asks.)
+    /// [`Seen::shift`] of tone `k` of `fitted` (comb tones), where the
+    /// record left tone `out` of them out, or the channel avoids comb
+    /// tone `avoided` without its sideband: an interferer near either
+    /// leaks into their neighbours ([`Layout::near_leak`]), and near a
+    /// tone left out, δ is as large as the noise may hide. (Cold, in
+    /// flash: a record asks only where its inputs show a disturbance or
+    /// it was rescued.)
     #[cold]
     #[inline(never)]
-    fn hidden_excess(&self) -> [f32; 2] {
+    fn shift_of(
+        &self,
+        layout: &Layout,
+        fitted: &[usize; 3],
+        k: usize,
+        out: Option<usize>,
+        avoided: Option<usize>,
+    ) -> f32 {
+        let left_out = out.and_then(|o| fitted.get(o).copied());
+        let Some(&k) = fitted.get(k) else {
+            return f32::INFINITY;
+        };
+        let near = match left_out.or(avoided) {
+            Some(t) => layout.near_leak(t, k),
+            None => 1.0,
+        };
+        self.shift(k, near, left_out.is_some())
+    }
+
+    /// δ_v, δ_i: each residual's rms beyond the ADC's white noise σ,
+    /// √(r² − σ²), counts; `hidden`, as large as the residuals allow:
+    /// the white noise's share of r², σ²·(N − 11)/N for the mean and five
+    /// tones fitted, taken 3 of its standard deviations,
+    /// σ²·√(2·(N − 11))/N, low. An interferer half a bin from a tone
+    /// leaves as little as a tenth of itself in the residual
+    /// ([`Layout::near_leak`]): near a tone a record left out, one the
+    /// noise hides may still shift its neighbour by 5 times the
+    /// residual's.
+    #[inline(never)]
+    fn excess(&self, hidden: bool) -> [f32; 2] {
         let (sigma, n) = self.noise;
-        let dof = n.saturating_sub(1 + 2 * TONES as u32) as f32;
-        let share = (dof - 3.0 * dsp_core::fmath::sqrt(2.0 * dof)) / n.max(1) as f32;
-        let floor = sigma * sigma * fmath::max(share, 0.0);
+        let share = if hidden {
+            let dof = n.saturating_sub(1 + 2 * TONES as u32) as f32;
+            fmath::max(
+                (dof - 3.0 * dsp_core::fmath::sqrt(2.0 * dof)) / n.max(1) as f32,
+                0.0,
+            )
+        } else {
+            1.0
+        };
+        let floor = sigma * sigma * share;
         let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - floor, 0.0));
         [excess(self.v.residual), excess(self.i.residual)]
     }
