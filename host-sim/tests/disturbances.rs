@@ -216,8 +216,8 @@ proptest::proptest! {
 /// the paper's sensors read): within a second every channel has moved
 /// its three tones off it and says so on every record from then on
 /// (`TONE_MOVED`), and none is 1 % off. On a mains harmonic exactly in
-/// the tone's bin, a skin held keeps 99.7 % of its records, stretching
-/// 98.2 %: the three it moves to (250 Hz, 1 and 2 kHz) stay in the
+/// the tone's bin, a skin held keeps 99.6 % of its records, stretching
+/// 98.1 %: the three it moves to (250 Hz, 1 and 2 kHz) stay in the
 /// line's sensitive range while the electrodes' resistance peaks. (With
 /// 500 Hz the lowest tone a stretching skin kept 76 %, and 46 %
 /// unmoved.) The rest are UNCERTAIN: an interferer near the 500 Hz tone
@@ -228,11 +228,12 @@ proptest::proptest! {
 /// avoided tone's sideband beside the comb (`instrument::sideband`),
 /// which takes the leak out to first order and bounds what is left by
 /// how fast the sideband turns. 5 Hz off, a held skin keeps 98.2 % of
-/// its records and a stretching one 95.5 % (85 % before the sideband);
-/// an alias 20 Hz off, 91.3 % held and 75 % stretching (none before),
+/// its records and a stretching one 95.2 % (85 % before the sideband);
+/// an alias 20 Hz off, 92.0 % held and 75.6 % stretching (none before),
 /// the rest UNCERTAIN where the electrodes' resistance peaks: 20 Hz off,
 /// the leak left into 250 Hz is 1.8 % of the interferer, and the bound
-/// holds it, not yet the 90 % asked. A clean skin never moves.
+/// holds it, not yet the 90 % asked. (Measured over 4 s; the test runs
+/// 3.) A clean skin never moves.
 #[test]
 fn the_array_moves_off_a_tone_an_interferer_occupies() {
     let class = |name: &str| *CLASSES.iter().find(|c| c.name == name).expect(name);
@@ -246,7 +247,7 @@ fn the_array_moves_off_a_tone_an_interferer_occupies() {
         ("mains harmonic at the tone", &moving, 97, true),
         ("interferer in the tone's bin", &held, 96, true),
         ("interferer in the tone's bin", &moving, 93, true),
-        ("alias of the tone", &held, 88, true),
+        ("alias of the tone", &held, 90, true),
         ("alias of the tone", &moving, 70, true),
         ("clean", &moving, 99, false),
     ];
