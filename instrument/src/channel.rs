@@ -317,9 +317,9 @@ impl Channel {
         let policy_tone = usize::from(f[0] > f[1]);
         let near = |k: usize, _: Option<usize>| {
             if k == policy_tone {
-                th.near_shift(&ph.tone) / noise
+                [0.0, th.near_shift(&ph.tone) / noise]
             } else {
-                0.0
+                [0.0; 2]
             }
         };
         let decided = self

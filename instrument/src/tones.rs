@@ -318,7 +318,6 @@ impl ToneChannel {
             rec.flags.set(Flags::DISTURBED);
         }
         let set_hz = s.layout.tones_hz();
-        let rules = rules_of(s, sensor, &set_hz);
         // What the MODEL check does not see of a disturbance: the shift
         // it could give each tone of `tones`, in units of the tone's
         // noise (`decide` bounds ln C by each tone's reach times that:
@@ -330,13 +329,14 @@ impl ToneChannel {
         let avoided = (moved && i.leak.is_none())
             .then(|| self.avoidance.tone())
             .flatten();
+        let rules = rules_of(s, sensor, &set_hz);
         let seen = Seen::of(th, v, i, n);
         // Quiet inputs show no disturbance, but one near a tone the
         // record left out may hide in their noise. (A moved channel's
         // interferer near its tone is its sideband's to show.)
         let disturbance = |k: usize, out: Option<usize>| {
             if seen.quiet && out.is_none() {
-                0.0
+                [0.0; 2]
             } else {
                 seen.shift_of(&s.layout, &fitted, k, out, avoided)
             }
@@ -491,15 +491,19 @@ impl<'a> Seen<'a> {
     /// tone ([`Layout::near_leak`]), and then (`hidden`) with δ as large
     /// as the noise may hide ([`Seen::excess`]); plus what a sideband
     /// taken out of the current input still leaks into the tone over
-    /// A_i ([`crate::sideband`]). 0 without a disturbance, unbounded
+    /// A_i ([`crate::sideband`]). As [by tone, shared]: the sideband's
+    /// leak, and the residual's share where an interferer may sit near a
+    /// tone (`by_tone`), are bounded tone by tone; the residual's share
+    /// otherwise is one disturbance's, shared among the tones
+    /// (`decide`'s `disturbed`). 0 without a disturbance, unbounded
     /// without a tone.
-    fn shift(&self, k: usize, near: f32, hidden: bool) -> f32 {
+    fn shift(&self, k: usize, near: f32, hidden: bool, by_tone: bool) -> [f32; 2] {
         let (Some(&av), Some(&ai)) = (self.v.amplitude.get(k), self.i.amplitude.get(k)) else {
-            return f32::INFINITY;
+            return [f32::INFINITY, 0.0];
         };
         let [dv, di] = if hidden { self.excess(true) } else { self.excess };
         let leak = self.leak.and_then(|l| l.get(k).copied()).unwrap_or(0.0);
-        let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai) + leak / ai;
+        let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai);
         let (ev, ei) = (self.v.residual / av, self.i.residual / ai);
         let root_2_over_n = if self.quiet {
             dsp_core::fmath::sqrt(2.0 / self.noise.1.max(1) as f32)
@@ -507,12 +511,14 @@ impl<'a> Seen<'a> {
             self.root_2_over_n
         };
         let noise = root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
-        let s = shift / noise;
+        let (s, leak) = (shift / noise, leak / ai / noise);
         // NaN (no tone) is no bound.
-        if s.is_nan() {
-            f32::INFINITY
+        if s.is_nan() || leak.is_nan() {
+            [f32::INFINITY, 0.0]
+        } else if by_tone {
+            [s + leak, 0.0]
         } else {
-            s
+            [leak, s]
         }
     }
 
@@ -532,16 +538,17 @@ impl<'a> Seen<'a> {
         k: usize,
         out: Option<usize>,
         avoided: Option<usize>,
-    ) -> f32 {
+    ) -> [f32; 2] {
         let left_out = out.and_then(|o| fitted.get(o).copied());
         let Some(&k) = fitted.get(k) else {
-            return f32::INFINITY;
+            return [f32::INFINITY, 0.0];
         };
-        let near = match left_out.or(avoided) {
+        let near_to = left_out.or(avoided);
+        let near = match near_to {
             Some(t) => layout.near_leak(t, k),
             None => 1.0,
         };
-        self.shift(k, near, left_out.is_some())
+        self.shift(k, near, left_out.is_some(), near_to.is_some())
     }
 
     /// δ_v, δ_i: each residual's rms beyond the ADC's white noise σ,
