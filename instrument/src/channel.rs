@@ -308,6 +308,7 @@ impl Channel {
             policy: &s.policy,
             set_hz: &FREQS_HZ,
             quiet: true,
+            seen: true,
         };
         // What the energy near the policy's tone could have shifted its
         // V/I by, in units of its noise (`decide` bounds ln C by the

@@ -56,6 +56,10 @@ pub struct Rules<'a, const N: usize> {
     /// is bounded by the calm blocks before it ([`Quiet`]); false: by the
     /// block's own χ² alone.
     pub quiet: bool,
+    /// The block's inputs show a disturbance the bound must take
+    /// (`disturbance` of [`Course::decide`] is asked only then, or for a
+    /// record rescued without a tone).
+    pub seen: bool,
 }
 
 /// The line a record reports.
@@ -192,8 +196,16 @@ impl Course {
         };
         let line = sol.line;
         let out = pair.as_ref().and(self.suspect());
-        let (stretch_mm, consistent) =
-            check(sensor, th, sol, chi2_flag, share, |k| disturbance(k, out), flags);
+        let seen = rules.seen || out.is_some();
+        let (stretch_mm, consistent) = check(
+            sensor,
+            th,
+            sol,
+            chi2_flag,
+            share,
+            seen.then_some(|k| disturbance(k, out)),
+            flags,
+        );
         let reading = Reading {
             c_farad: line.c_farad,
             r_ohm: line.r_ohm,
@@ -255,9 +267,10 @@ impl Course {
 /// where it was): its stretch (the calibration's status into `flags`),
 /// MODEL where its χ² exceeds `chi2_flag`, UNCERTAIN where its error
 /// bound, with `share` the share of its residual an error at one tone
-/// may have ([`hidden`]), exceeds the tolerance. Returns the stretch and
-/// whether χ² passed. (Inlined: the record's path is one function in the
-/// boards' fast RAM.)
+/// may have ([`hidden`]), and what a disturbance moved it by
+/// ([`disturbed`]; None: the inputs show none), exceeds the tolerance.
+/// Returns the stretch and whether χ² passed. (Inlined: the record's
+/// path is one function in the boards' fast RAM.)
 #[inline(always)]
 fn check<const N: usize>(
     sensor: &Sensor<N>,
@@ -265,7 +278,7 @@ fn check<const N: usize>(
     sol: &Solution,
     chi2_flag: f32,
     share: f32,
-    disturbance: impl Fn(usize) -> [f32; 2],
+    disturbance: Option<impl Fn(usize) -> [f32; 2]>,
     flags: &mut Flags,
 ) -> (f32, bool) {
     let (stretch_mm, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
@@ -274,7 +287,8 @@ fn check<const N: usize>(
     if !consistent {
         flags.set(Flags::MODEL);
     }
-    let bound = 5.0 * sol.sigma_ln_c + disturbed(sol, disturbance) + hidden(sol, chi2_flag, share);
+    let moved = disturbance.map_or(0.0, |d| disturbed(sol, d));
+    let bound = 5.0 * sol.sigma_ln_c + moved + hidden(sol, chi2_flag, share);
     if bound.is_nan() || bound > th.c_tolerance {
         flags.set(Flags::UNCERTAIN);
     }

@@ -329,18 +329,16 @@ impl ToneChannel {
         let avoided = (moved && i.leak.is_none())
             .then(|| self.avoidance.tone())
             .flatten();
-        let rules = rules_of(s, sensor, &set_hz);
         let seen = Seen::of(th, v, i, n);
-        // Quiet inputs show no disturbance, but one near a tone the
-        // record left out may hide in their noise. (A moved channel's
-        // interferer near its tone is its sideband's to show.)
-        let disturbance = |k: usize, out: Option<usize>| {
-            if seen.quiet && out.is_none() {
-                [0.0; 2]
-            } else {
-                seen.shift_of(&s.layout, &fitted, k, out, avoided)
-            }
+        let rules = Rules {
+            seen: !seen.quiet,
+            ..rules_of(s, sensor, &set_hz)
         };
+        // Asked only where the inputs are not quiet (`rules.seen`), or
+        // of a record left without a tone: one near it may hide in the
+        // noise. (A moved channel's interferer near its tone is its
+        // sideband's to show.)
+        let disturbance = |k: usize, out: Option<usize>| seen.shift_of(&s.layout, &fitted, k, out, avoided);
         let decided = self
             .course
             .decide(&rules, &mut self.policy, tones, disturbance, dt, &mut rec.flags);
@@ -381,6 +379,7 @@ fn rules_of<'a, const N: usize>(
         policy: &s.policy,
         set_hz,
         quiet: s.layout.block_us() >= 4000,
+        seen: true,
     }
 }
 
@@ -451,7 +450,8 @@ struct Seen<'a> {
     leak: Option<&'a [f32; TONES]>,
     /// The ADC's white noise σ, counts rms, and the block's instants.
     noise: (f32, u32),
-    /// δ_v, δ_i ([`Seen::excess`]) and √(2/N); 0 where `quiet`.
+    /// δ_v, δ_i: each residual's rms beyond the ADC's white noise σ,
+    /// √(r² − σ²), counts; and √(2/N); 0 where `quiet`.
     excess: [f32; 2],
     root_2_over_n: f32,
     /// No disturbance at all: every tone's shift is 0.
@@ -472,7 +472,8 @@ impl<'a> Seen<'a> {
             quiet: v.levels.residual <= sigma && i.levels.residual <= sigma && i.leak.is_none(),
         };
         if !seen.quiet {
-            seen.excess = seen.excess(false);
+            let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - sigma * sigma, 0.0));
+            seen.excess = [excess(v.levels.residual), excess(i.levels.residual)];
             seen.root_2_over_n = dsp_core::fmath::sqrt(2.0 / n.max(1) as f32);
         }
         seen
@@ -489,7 +490,7 @@ impl<'a> Seen<'a> {
     /// relative, against its noise's √(2/N)·√((r_v/A_v)² + (r_i/A_i)²);
     /// `near` times that where an interferer may sit near an adjacent
     /// tone ([`Layout::near_leak`]), and then (`hidden`) with δ as large
-    /// as the noise may hide ([`Seen::excess`]); plus what a sideband
+    /// as the noise may hide ([`Seen::hidden_excess`]); plus what a sideband
     /// taken out of the current input still leaks into the tone over
     /// A_i ([`crate::sideband`]). As [by tone, shared]: the sideband's
     /// leak, and the residual's share where an interferer may sit near a
@@ -501,17 +502,21 @@ impl<'a> Seen<'a> {
         let (Some(&av), Some(&ai)) = (self.v.amplitude.get(k), self.i.amplitude.get(k)) else {
             return [f32::INFINITY, 0.0];
         };
-        let [dv, di] = if hidden { self.excess(true) } else { self.excess };
+        if !(av > 0.0 && ai > 0.0) {
+            return [f32::INFINITY, 0.0];
+        }
+        let [dv, di] = if hidden { self.hidden_excess() } else { self.excess };
         let leak = self.leak.and_then(|l| l.get(k).copied()).unwrap_or(0.0);
-        let shift = near * core::f32::consts::SQRT_2 * (dv / av + di / ai);
-        let (ev, ei) = (self.v.residual / av, self.i.residual / ai);
         let root_2_over_n = if self.quiet {
             dsp_core::fmath::sqrt(2.0 / self.noise.1.max(1) as f32)
         } else {
             self.root_2_over_n
         };
-        let noise = root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei);
-        let (s, leak) = (shift / noise, leak / ai / noise);
+        // Every term over A_v·A_i: one division.
+        let (ev, ei) = (self.v.residual * ai, self.i.residual * av);
+        let per_noise = 1.0 / (root_2_over_n * dsp_core::fmath::sqrt(ev * ev + ei * ei));
+        let s = near * core::f32::consts::SQRT_2 * (dv * ai + di * av) * per_noise;
+        let leak = leak * av * per_noise;
         // NaN (no tone) is no bound.
         if s.is_nan() || leak.is_nan() {
             [f32::INFINITY, 0.0]
@@ -551,27 +556,23 @@ impl<'a> Seen<'a> {
         self.shift(k, near, left_out.is_some(), near_to.is_some())
     }
 
-    /// δ_v, δ_i: each residual's rms beyond the ADC's white noise σ,
-    /// √(r² − σ²), counts; `hidden`, as large as the residuals allow:
-    /// the white noise's share of r², σ²·(N − 11)/N for the mean and five
-    /// tones fitted, taken 3 of its standard deviations,
-    /// σ²·√(2·(N − 11))/N, low. An interferer half a bin from a tone
-    /// leaves as little as a tenth of itself in the residual
+    /// δ_v, δ_i as large as the residuals allow: the white noise's
+    /// share of r², σ²·(N − 11)/N for the mean and five tones fitted,
+    /// taken 3 of its standard deviations, σ²·√(2·(N − 11))/N, low (where
+    /// `excess` takes all of σ²). An interferer half a bin from a
+    /// tone leaves as little as a tenth of itself in the residual
     /// ([`Layout::near_leak`]): near a tone a record left out, one the
     /// noise hides may still shift its neighbour by 5 times the
-    /// residual's.
+    /// residual's. (Cold, in flash: only a rescued record asks.)
+    #[cold]
     #[inline(never)]
-    fn excess(&self, hidden: bool) -> [f32; 2] {
+    fn hidden_excess(&self) -> [f32; 2] {
         let (sigma, n) = self.noise;
-        let share = if hidden {
-            let dof = n.saturating_sub(1 + 2 * TONES as u32) as f32;
-            fmath::max(
-                (dof - 3.0 * dsp_core::fmath::sqrt(2.0 * dof)) / n.max(1) as f32,
-                0.0,
-            )
-        } else {
-            1.0
-        };
+        let dof = n.saturating_sub(1 + 2 * TONES as u32) as f32;
+        let share = fmath::max(
+            (dof - 3.0 * dsp_core::fmath::sqrt(2.0 * dof)) / n.max(1) as f32,
+            0.0,
+        );
         let floor = sigma * sigma * share;
         let excess = |r: f32| dsp_core::fmath::sqrt(fmath::max(r * r - floor, 0.0));
         [excess(self.v.residual), excess(self.i.residual)]
