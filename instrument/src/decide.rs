@@ -139,7 +139,7 @@ impl Course {
     /// `tones` by, in units of the tone's noise σ, where tone `out` was
     /// left out of the record (a rescue: an interferer near it may leak
     /// more into its neighbours): the part bounded tone by tone, and the
-    /// part one disturbance shares among the tones ([`disturbed`]).
+    /// part one disturbance shares among the tones (`disturbed`).
     pub fn decide<const N: usize, const K: usize>(
         &mut self,
         rules: &Rules<'_, N>,
