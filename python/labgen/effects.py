@@ -27,6 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+# numpy 2 renamed trapz to trapezoid (and dropped trapz); 1.x has only trapz.
+_trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
 from .line import input_impedance
 
 EPS0 = 8.854e-12
@@ -158,9 +161,9 @@ def read(film, fx, stretch_mm, damage, freq_hz):
     y = 1.0 / z + 1j * omega * (fx.cable_m * COAX_F_PER_M + fx.fixture_f)
     # The film's own end-to-end resistance: the mean of its profile, 1.
     xs = np.linspace(0.0, 1.0, 401)
-    film_share = np.trapz(np.stack([film.r_factor(local(x)) for x in xs]) * w(xs)[:, None], xs, axis=0)
+    film_share = _trapezoid(np.stack([film.r_factor(local(x)) for x in xs]) * w(xs)[:, None], xs, axis=0)
     film_share = film_share * (1.0 + dmg)
-    c_true = np.trapz(np.stack([film.c_per_length(local(x)) for x in xs]), xs, axis=0)
+    c_true = _trapezoid(np.stack([film.c_per_length(local(x)) for x in xs]), xs, axis=0)
     return Reading(
         z_ohm=1.0 / y,
         r_top_ohm=film.r0_top_ohm * film_share + 2 * lead_top + ct + ft,
