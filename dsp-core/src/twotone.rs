@@ -367,6 +367,120 @@ pub fn misfits<const K: usize>(
     Ok(fit.res.map(|r| fmath::sqrt(r.norm_sqr())))
 }
 
+/// What one disturbance does to every tone of a fit at once, for the two
+/// quadratures of its phasor: `[k][0]` the change of tone k's Z for a
+/// unit in-phase disturbance, `[k][1]` for a unit quadrature one, Ω per
+/// unit (its scale is free: [`hidden_along`] is a ratio). An interferer
+/// at a given frequency leaks into every tone of a comb so, by the
+/// leak of its sinusoid into each tone's bin.
+pub type Spread<const K: usize> = [[Complex32; 2]; K];
+
+/// The most C can be off (relative) per unit of the residual's share
+/// (√χ² without noise), as [`Solution::hidden_ln_c`] for one tone, where
+/// one disturbance spreads over every tone along one of `family` (each
+/// a [`Spread`]): for a spread B (2K×2 real, weighted by the tones'
+/// noise), a disturbance B·a moves ln C by bᵀ·a (b = Bᵀ·g, g = J·A⁻¹·e_C)
+/// and leaves aᵀ·Q·a in χ² (Q = Bᵀ·(I − J·A⁻¹·Jᵀ)·B), so by at most
+/// √(bᵀ·Q⁻¹·b) per √χ²; the family's worst. The tones' Jacobian is taken
+/// afresh at `sol`'s line on the film `d` (`tones` in the order the
+/// spreads give them). 0 for an empty family (or spreads of nothing),
+/// ∞ where a spread is one the fit can follow whatever it reads (Q
+/// singular), or the line is out of the model's range.
+///
+/// A one-tone error is a spread on one tone; an interferer near a tone
+/// also leaks into its neighbours, and together they can hide several
+/// times more behind χ² than either alone (an interferer between the
+/// block's mean and the lowest tone: up to 4 times, docs/accuracy.md).
+pub fn hidden_along<const K: usize>(
+    inv: &Inverter,
+    d: &Dielectric,
+    tones: &[Tone; K],
+    sol: &Solution,
+    family: impl IntoIterator<Item = Spread<K>>,
+) -> f32 {
+    let p = [sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent];
+    let fitted = d.spread > 0.0;
+    // (A tone left out, σ unbounded, weighs nothing.)
+    let Ok(fit) = evaluate(inv, d, tones, p) else {
+        return f32::INFINITY;
+    };
+    let Some(ai) = inverse(&fit.jtj, fitted) else {
+        return f32::INFINITY;
+    };
+    let mut worst = 0.0f32;
+    for spread in family {
+        let h2 = spread_h2(&fit, &ai, fitted, tones, &spread);
+        if h2.is_nan() {
+            return f32::INFINITY;
+        }
+        worst = fmath::max(worst, h2);
+    }
+    fmath::sqrt(worst)
+}
+
+/// [`hidden_along`]'s bᵀ·Q⁻¹·b for one spread; 0 for a spread of
+/// nothing, ∞ where Q is singular (or NaN).
+fn spread_h2<const K: usize>(
+    fit: &Evaluated<K>,
+    ai: &[[f32; 3]; 3],
+    fitted: bool,
+    tones: &[Tone; K],
+    spread: &Spread<K>,
+) -> f32 {
+    // Jᵀ·B (3×2) and Bᵀ·B (2×2), B weighted by each tone's noise.
+    let mut jb = [[0.0f32; 2]; 3];
+    let mut bb = [0.0f32; 3];
+    for ((cols, tone), quad) in fit.cols.iter().zip(tones).zip(spread) {
+        let w = 1.0 / tone.sigma_ohm;
+        let e = [quad[0] * w, quad[1] * w];
+        for (i, row) in jb.iter_mut().enumerate() {
+            if i == 2 && !fitted {
+                continue;
+            }
+            for (q, eq) in row.iter_mut().zip(&e) {
+                *q += cols[i].re * eq.re + cols[i].im * eq.im;
+            }
+        }
+        bb[0] += e[0].norm_sqr();
+        bb[1] += e[0].re * e[1].re + e[0].im * e[1].im;
+        bb[2] += e[1].norm_sqr();
+    }
+    if bb[0] + bb[2] == 0.0 {
+        return 0.0;
+    }
+    // A⁻¹·Jᵀ·B, then Q = BᵀB − (JᵀB)ᵀ·A⁻¹·JᵀB and b = (JᵀB)ᵀ·A⁻¹·e_C.
+    let u: [[f32; 2]; 3] = core::array::from_fn(|i| {
+        core::array::from_fn(|q| ai[i][0] * jb[0][q] + ai[i][1] * jb[1][q] + ai[i][2] * jb[2][q])
+    });
+    let proj = |p: usize, q: usize| jb[0][p] * u[0][q] + jb[1][p] * u[1][q] + jb[2][p] * u[2][q];
+    let q = [bb[0] - proj(0, 0), bb[1] - proj(0, 1), bb[2] - proj(1, 1)];
+    let b = [u[1][0], u[1][1]];
+    let unbounded = if b[0] == 0.0 && b[1] == 0.0 {
+        0.0
+    } else {
+        f32::INFINITY
+    };
+    // Quadratures along one line (a disturbance of one phase): the
+    // larger one alone.
+    let gram = bb[0] * bb[2] - bb[1] * bb[1];
+    if !positive_finite(gram - 1e-6 * bb[0] * bb[2]) {
+        let i = usize::from(bb[2] > bb[0]);
+        let qi = q[2 * i];
+        return if positive_finite(qi - 1e-6 * bb[2 * i]) {
+            b[i] * b[i] / qi
+        } else {
+            unbounded
+        };
+    }
+    // A spread the fit can follow leaves (next to) nothing in χ²: Q's
+    // determinant at f32's rounding of BᵀB's.
+    let det = q[0] * q[2] - q[1] * q[1];
+    if !positive_finite(det - 1e-6 * gram) {
+        return unbounded;
+    }
+    (q[2] * b[0] * b[0] - 2.0 * q[1] * b[0] * b[1] + q[0] * b[1] * b[1]) / det
+}
+
 /// Largest second-order term (in units of the noise, over all tones) of
 /// a step taken without evaluating the model again: the point it reaches
 /// is then within this many σ (in the parameters' joint, Mahalanobis,
