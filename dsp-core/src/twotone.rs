@@ -398,6 +398,34 @@ pub fn hidden_along<const K: usize>(
     sol: &Solution,
     family: impl IntoIterator<Item = Spread<K>>,
 ) -> f32 {
+    bound_along(
+        inv,
+        d,
+        tones,
+        sol,
+        1.0,
+        family.into_iter().map(|s| (s, f32::INFINITY)),
+    )
+}
+
+/// The most ln C can be off where one disturbance spreads over the tones
+/// along one of `family`, each a spread and the most its amplitude |a|
+/// can be (in the spread's units; ∞: unbounded), and leaves at most
+/// `share` of the residual (√χ²): for each spread the lesser of
+/// [`hidden_along`]'s √(bᵀ·Q⁻¹·b)·`share` and |b|·most (b = Bᵀ·g: what
+/// a unit amplitude moves ln C by, at most), the family's worst. An
+/// amplitude bound comes from what else sees the disturbance: a
+/// sinusoid that leaves part of itself in the residual is no larger
+/// than that part allows. 0 for an empty family; ∞ as
+/// [`hidden_along`].
+pub fn bound_along<const K: usize>(
+    inv: &Inverter,
+    d: &Dielectric,
+    tones: &[Tone; K],
+    sol: &Solution,
+    share: f32,
+    family: impl IntoIterator<Item = (Spread<K>, f32)>,
+) -> f32 {
     let p = [sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent];
     let fitted = d.spread > 0.0;
     // (A tone left out, σ unbounded, weighs nothing.)
@@ -408,25 +436,29 @@ pub fn hidden_along<const K: usize>(
         return f32::INFINITY;
     };
     let mut worst = 0.0f32;
-    for spread in family {
-        let h2 = spread_h2(&fit, &ai, fitted, tones, &spread);
-        if h2.is_nan() {
+    for (spread, most) in family {
+        let (h2, b2) = spread_h2(&fit, &ai, fitted, tones, &spread);
+        // (A spread that moves nothing, or shows nothing, bounds by 0.)
+        let by_chi2 = if h2 == 0.0 { 0.0 } else { fmath::sqrt(h2) * share };
+        let by_size = if b2 == 0.0 { 0.0 } else { fmath::sqrt(b2) * most };
+        let bound = if by_size < by_chi2 { by_size } else { by_chi2 };
+        if bound.is_nan() {
             return f32::INFINITY;
         }
-        worst = fmath::max(worst, h2);
+        worst = fmath::max(worst, bound);
     }
-    fmath::sqrt(worst)
+    worst
 }
 
-/// [`hidden_along`]'s bᵀ·Q⁻¹·b for one spread; 0 for a spread of
-/// nothing, ∞ where Q is singular (or NaN).
+/// [`bound_along`]'s bᵀ·Q⁻¹·b for one spread (0 for a spread of
+/// nothing, ∞ where Q is singular, or NaN), and |b|².
 fn spread_h2<const K: usize>(
     fit: &Evaluated<K>,
     ai: &[[f32; 3]; 3],
     fitted: bool,
     tones: &[Tone; K],
     spread: &Spread<K>,
-) -> f32 {
+) -> (f32, f32) {
     // Jᵀ·B (3×2) and Bᵀ·B (2×2), B weighted by each tone's noise.
     let mut jb = [[0.0f32; 2]; 3];
     let mut bb = [0.0f32; 3];
@@ -446,7 +478,7 @@ fn spread_h2<const K: usize>(
         bb[2] += e[1].norm_sqr();
     }
     if bb[0] + bb[2] == 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     // A⁻¹·Jᵀ·B, then Q = BᵀB − (JᵀB)ᵀ·A⁻¹·JᵀB and b = (JᵀB)ᵀ·A⁻¹·e_C.
     let u: [[f32; 2]; 3] = core::array::from_fn(|i| {
@@ -455,11 +487,8 @@ fn spread_h2<const K: usize>(
     let proj = |p: usize, q: usize| jb[0][p] * u[0][q] + jb[1][p] * u[1][q] + jb[2][p] * u[2][q];
     let q = [bb[0] - proj(0, 0), bb[1] - proj(0, 1), bb[2] - proj(1, 1)];
     let b = [u[1][0], u[1][1]];
-    let unbounded = if b[0] == 0.0 && b[1] == 0.0 {
-        0.0
-    } else {
-        f32::INFINITY
-    };
+    let b2 = b[0] * b[0] + b[1] * b[1];
+    let unbounded = (if b2 == 0.0 { 0.0 } else { f32::INFINITY }, b2);
     // Quadratures along one line (a disturbance of one phase): the
     // larger one alone.
     let gram = bb[0] * bb[2] - bb[1] * bb[1];
@@ -467,7 +496,7 @@ fn spread_h2<const K: usize>(
         let i = usize::from(bb[2] > bb[0]);
         let qi = q[2 * i];
         return if positive_finite(qi - 1e-6 * bb[2 * i]) {
-            b[i] * b[i] / qi
+            (b[i] * b[i] / qi, b2)
         } else {
             unbounded
         };
@@ -478,7 +507,10 @@ fn spread_h2<const K: usize>(
     if !positive_finite(det - 1e-6 * gram) {
         return unbounded;
     }
-    (q[2] * b[0] * b[0] - 2.0 * q[1] * b[0] * b[1] + q[0] * b[1] * b[1]) / det
+    (
+        (q[2] * b[0] * b[0] - 2.0 * q[1] * b[0] * b[1] + q[0] * b[1] * b[1]) / det,
+        b2,
+    )
 }
 
 /// Largest second-order term (in units of the noise, over all tones) of

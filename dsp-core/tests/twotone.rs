@@ -8,7 +8,9 @@ use common::{log_grid, rms_max, z_lossy, zeta_ref};
 use dsp_core::dielectric::Dielectric;
 use dsp_core::invert::Inverter;
 use dsp_core::tline::LineModel;
-use dsp_core::twotone::{chi2_flag_of, hidden_along, solve, solve_from, z_sigma, Spread, Tone, CHI2_FLAG};
+use dsp_core::twotone::{
+    bound_along, chi2_flag_of, hidden_along, solve, solve_from, z_sigma, Spread, Tone, CHI2_FLAG,
+};
 use dsp_core::Complex32;
 use num_complex::Complex64;
 use rand::{Rng, SeedableRng};
@@ -404,7 +406,9 @@ fn one_tone_pushes<const K: usize>(below: [f64; K]) -> f64 {
 /// and 10⁻⁶: the fit's nonlinearity), and for the median spread the best
 /// of them by at least 95 % of it (the bound is not loose; two tones and
 /// the film's loss leave some spreads the fit can follow: an unbounded
-/// spread). Across the declared range of x
+/// spread); a push of unit amplitude moves C by |b| (`bound_along`'s
+/// bound by the amplitude: at most, to 5 %, and at least 95 % of it in
+/// the best direction). Across the declared range of x
 /// and leads, two tones and three, the silicone film's loss fitted; and
 /// somewhere a spread over the tones hides more than any one tone can.
 #[test]
@@ -507,7 +511,14 @@ fn spread_pushes<const K: usize>(below: [f64; K]) -> f64 {
                 if h.is_finite() {
                     beyond = beyond.max(h as f64 / worst_one as f64);
                 }
-                let mut best = 0f64;
+                // Its amplitude at most 1 (a unit push): C moves by at
+                // most |b|, bound_along's other bound.
+                let by_size = bound_along(&inv, &film, &tones, &at, f32::INFINITY, [(*b, 1.0)]) as f64;
+                assert_eq!(
+                    bound_along(&inv, &film, &tones, &at, 2.0, [(*b, f32::INFINITY)]),
+                    2.0 * h
+                );
+                let (mut best, mut most) = (0f64, 0f64);
                 for d in 0..DIRECTIONS {
                     let angle = TAU * d as f64 / DIRECTIONS as f64;
                     let (ca, sa) = (angle.cos() as f32, angle.sin() as f32);
@@ -525,7 +536,12 @@ fn spread_pushes<const K: usize>(below: [f64; K]) -> f64 {
                     if bound > 0.0 {
                         best = best.max(e / bound);
                     }
+                    most = most.max(e);
                 }
+                assert!(
+                    most <= 1.05 * by_size + 1e-6 && most >= 0.95 * by_size,
+                    "ℓ {lead} x {x_hi:.2} {below:?}: a unit push moved C by {most:.3e}, |b| {by_size:.3e}"
+                );
                 if h.is_finite() {
                     bests.push(best);
                 }

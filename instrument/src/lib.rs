@@ -29,6 +29,7 @@
 //! | [`avoid`] | an array channel moving its tones off one an interferer occupies, and back |
 //! | [`mains`] | the array's reader following mains hum, taken out of every input |
 //! | [`sideband`] | the sideband of the tone an array channel avoids, fitted beside the comb, and what it still leaks, bounded |
+//! | [`spread`] | what an interferer near a tone of the comb does to every tone a record fits at once |
 //! | [`reader`] | every sensor of the array from one block: the comb on each input, then each sensor's record |
 //! | [`selftest`] | the array's power-up self-test: the reference network and every path held to the firmware's constants; the records of a failing path refused |
 //! | [`sweep`] | a calibration step's sweep: every sensor's records step through each tone pair, then the policy again |
@@ -67,6 +68,7 @@ pub mod selftest;
 pub mod sensor;
 pub mod sequencer;
 pub mod sideband;
+pub mod spread;
 pub mod store;
 pub mod stored;
 pub mod sweep;

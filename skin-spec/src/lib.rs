@@ -10,6 +10,7 @@
 //! | [`calib`] | stretch from capacitance through a calibration table |
 //! | [`effects`] | the catalogue of non-ideal effects of a sensor, its wiring and its recording: ids, units, ranges, how each enters the physics |
 //! | [`array`](mod@array) | the simultaneous front end's layout: one comb excitation, a transimpedance stage per sensor, five scanning ADCs |
+//! | [`leak`] | how a sinusoid near a tone of the 4 ms comb leaks into every tone's bin at once |
 //! | [`truth`] | what the simulated skin truly was during a block |
 //!
 //! `no_std`, allocation-free and free of hardware. Units SI (Ω, F, S, Hz,
@@ -26,5 +27,6 @@ pub mod calib;
 pub mod config;
 pub mod design;
 pub mod effects;
+pub mod leak;
 pub mod ranging;
 pub mod truth;
