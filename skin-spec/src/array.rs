@@ -506,7 +506,7 @@ pub fn to_signed_all(rows: &mut [&mut [[i16; SCAN]]; ADCS]) -> [bool; INPUTS] {
 pub const DAC_MID: u16 = 1 << (crate::design::DAC_BITS - 1);
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -553,7 +553,7 @@ mod tests {
     /// on the block's mean and on each of `comb`'s tones (orthogonal over
     /// the block): each tone's amplitude, and the mean square the
     /// projections leave (the residual's).
-    fn projected(n: usize, comb: &[u32; TONES], nu: f64, phase: f64) -> ([f64; TONES], f64) {
+    pub(crate) fn projected(n: usize, comb: &[u32; TONES], nu: f64, phase: f64) -> ([f64; TONES], f64) {
         use core::f64::consts::PI;
         let x: std::vec::Vec<f64> = (0..n)
             .map(|t| libm::cos(2.0 * PI * nu * t as f64 / n as f64 + phase))

@@ -234,25 +234,7 @@ mod tests {
             let mut least = f64::INFINITY;
             for q in 0..3600 {
                 let phi = PI * q as f64 / 3600.0;
-                let x: std::vec::Vec<f64> = (0..n)
-                    .map(|t| libm::cos(2.0 * PI * nu as f64 * t as f64 / n as f64 + phi))
-                    .collect();
-                let mean = x.iter().sum::<f64>() / n as f64;
-                let mut kept = x.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / n as f64;
-                for p in PERIODS {
-                    let w = 2.0 * PI * p as f64 / n as f64;
-                    let c: f64 = x
-                        .iter()
-                        .enumerate()
-                        .map(|(t, v)| v * libm::cos(w * t as f64))
-                        .sum();
-                    let s: f64 = x
-                        .iter()
-                        .enumerate()
-                        .map(|(t, v)| v * libm::sin(w * t as f64))
-                        .sum();
-                    kept -= 2.0 * (c * c + s * s) / (n * n) as f64;
-                }
+                let (_, kept) = crate::array::tests::projected(n, &PERIODS, nu as f64, phi);
                 least = least.min(libm::sqrt(kept.max(0.0) / 0.5));
             }
             let got = SEEN[i] as f64;
