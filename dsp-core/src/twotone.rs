@@ -388,9 +388,10 @@ pub type Spread<const K: usize> = [[Complex32; 2]; K];
 /// singular), or the line is out of the model's range.
 ///
 /// A one-tone error is a spread on one tone; an interferer near a tone
-/// also leaks into its neighbours, and together they can hide several
-/// times more behind χ² than either alone (an interferer between the
-/// block's mean and the lowest tone: up to 4 times, docs/accuracy.md).
+/// also leaks into its neighbours, and together they can hide more
+/// behind χ² than either alone (an interferer a quarter bin below the
+/// lowest tone: twice; any error shared by the two lowest tones: four
+/// times; docs/accuracy.md).
 pub fn hidden_along<const K: usize>(
     inv: &Inverter,
     d: &Dielectric,
