@@ -19,15 +19,17 @@
 //! where a slow drift sits), the tones' own bins left out (a sinusoid
 //! there is one tone's error). A scan's skew only turns a.
 
-use crate::array::{BLOCK_INSTANTS, TONES};
+use crate::array::{Layout, TONES};
 use dsp_core::Complex32;
 
 /// How many frequencies [`NU`] holds.
 pub const POINTS: usize = 22;
 
-/// The comb's periods a block, the 4 ms layout's
-/// (`crate::array::Layout::BLOCK_4MS`; `tests` checks they agree).
-const PERIODS: [u32; TONES] = [1, 2, 4, 8, 16];
+/// The 4 ms layout's comb: each tone's periods a block.
+const PERIODS: [u32; TONES] = Layout::BLOCK_4MS.comb();
+
+/// The 4 ms layout's instants a block.
+const INSTANTS: usize = Layout::BLOCK_4MS.instants();
 
 /// The sinusoids' frequencies, bins of a 4 ms block (250 Hz a bin):
 /// within half a bin of the mean and of each tone of the comb, a
@@ -87,7 +89,7 @@ const fn seen() -> [f32; POINTS] {
 /// fitted out.
 const fn kept(nu: f64, half_turns: f64) -> f64 {
     const PI: f64 = core::f64::consts::PI;
-    let n = BLOCK_INSTANTS as f64;
+    let n = INSTANTS as f64;
     let phi = PI * half_turns;
     let (c, s) = (cos(phi), sin(phi));
     // Σx²/N = ½ + ½·Re(e^(2jφ)·S(2ν))/N; the mean Re(e^(jφ)·S(ν))/N.
@@ -141,7 +143,7 @@ const fn kernels() -> [[[Complex32; 2]; TONES]; POINTS] {
             let p = PERIODS[k] as f64;
             let (a_re, a_im) = sum(nu - p);
             let (b_re, b_im) = sum(-nu - p);
-            let n = BLOCK_INSTANTS as f64;
+            let n = INSTANTS as f64;
             out[i][k] = [
                 Complex32::new(((a_re + b_re) / n) as f32, ((a_im + b_im) / n) as f32),
                 Complex32::new((-(a_im - b_im) / n) as f32, ((a_re - b_re) / n) as f32),
@@ -157,7 +159,7 @@ const fn kernels() -> [[[Complex32; 2]; TONES]; POINTS] {
 /// of N.
 const fn sum(f: f64) -> (f64, f64) {
     const PI: f64 = core::f64::consts::PI;
-    let n = BLOCK_INSTANTS as f64;
+    let n = INSTANTS as f64;
     let magnitude = sin(PI * f) / sin(PI * f / n);
     let phase = PI * f * (n - 1.0) / n;
     (magnitude * cos(phase), magnitude * sin(phase))
@@ -192,16 +194,13 @@ const fn cos(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::array::Layout;
     use core::f64::consts::PI;
 
     /// The kernels against the sums themselves, in f64: within 10⁻⁶ of
-    /// N per component; the comb the 4 ms layout's.
+    /// N per component.
     #[test]
     fn the_kernels_are_the_sums() {
-        assert_eq!(Layout::BLOCK_4MS.comb(), PERIODS);
-        assert_eq!(Layout::BLOCK_4MS.instants(), BLOCK_INSTANTS);
-        let n = BLOCK_INSTANTS;
+        let n = INSTANTS;
         for (i, &nu) in NU.iter().enumerate() {
             for (k, &p) in PERIODS.iter().enumerate() {
                 // Phase 0 and phase 90°: x = cos(θ), x = −sin(θ).
@@ -229,7 +228,7 @@ mod tests {
     /// phases: never below [`SEEN`], and within 10⁻⁴ of it at the least.
     #[test]
     fn the_residual_keeps_what_seen_says() {
-        let n = BLOCK_INSTANTS;
+        let n = INSTANTS;
         for (i, &nu) in NU.iter().enumerate() {
             let mut least = f64::INFINITY;
             for q in 0..3600 {
