@@ -76,6 +76,7 @@ pub mod lumped;
 pub mod osc;
 pub mod scan;
 pub mod sideband;
+pub mod spread;
 pub mod tline;
 pub mod track;
 pub mod twotone;

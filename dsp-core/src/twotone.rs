@@ -427,91 +427,22 @@ pub fn bound_along<const K: usize>(
     share: f32,
     family: impl IntoIterator<Item = (Spread<K>, f32)>,
 ) -> f32 {
-    let p = [sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent];
-    let fitted = d.spread > 0.0;
-    // (A tone left out, σ unbounded, weighs nothing.)
-    let Ok(fit) = evaluate(inv, d, tones, p) else {
-        return f32::INFINITY;
-    };
-    let Some(ai) = inverse(&fit.jtj, fitted) else {
-        return f32::INFINITY;
-    };
+    let weights: [Complex32; 3] = core::array::from_fn(|k| {
+        // (A tone left out, σ unbounded, weighs nothing.)
+        let w = tones.get(k).map_or(0.0, |t| 1.0 / t.sigma_ohm);
+        Complex32::new(w, 0.0)
+    });
+    let along = crate::spread::reach(inv, d, tones, sol).along(&weights);
     let mut worst = 0.0f32;
     for (spread, most) in family {
-        let (h2, b2) = spread_h2(&fit, &ai, fitted, tones, &spread);
-        // (A spread that moves nothing, or shows nothing, bounds by 0.)
-        let by_chi2 = if h2 == 0.0 { 0.0 } else { fmath::sqrt(h2) * share };
-        let by_size = if b2 == 0.0 { 0.0 } else { fmath::sqrt(b2) * most };
-        let bound = if by_size < by_chi2 { by_size } else { by_chi2 };
-        if bound.is_nan() {
+        let kernel: [[Complex32; 2]; 3] =
+            core::array::from_fn(|k| spread.get(k).copied().unwrap_or_default());
+        worst = fmath::max(worst, along.bound(&kernel, share, most));
+        if worst == f32::INFINITY || worst.is_nan() {
             return f32::INFINITY;
         }
-        worst = fmath::max(worst, bound);
     }
     worst
-}
-
-/// [`bound_along`]'s bᵀ·Q⁻¹·b for one spread (0 for a spread of
-/// nothing, ∞ where Q is singular, or NaN), and |b|².
-fn spread_h2<const K: usize>(
-    fit: &Evaluated<K>,
-    ai: &[[f32; 3]; 3],
-    fitted: bool,
-    tones: &[Tone; K],
-    spread: &Spread<K>,
-) -> (f32, f32) {
-    // Jᵀ·B (3×2) and Bᵀ·B (2×2), B weighted by each tone's noise.
-    let mut jb = [[0.0f32; 2]; 3];
-    let mut bb = [0.0f32; 3];
-    for ((cols, tone), quad) in fit.cols.iter().zip(tones).zip(spread) {
-        let w = 1.0 / tone.sigma_ohm;
-        let e = [quad[0] * w, quad[1] * w];
-        for (i, row) in jb.iter_mut().enumerate() {
-            if i == 2 && !fitted {
-                continue;
-            }
-            for (q, eq) in row.iter_mut().zip(&e) {
-                *q += cols[i].re * eq.re + cols[i].im * eq.im;
-            }
-        }
-        bb[0] += e[0].norm_sqr();
-        bb[1] += e[0].re * e[1].re + e[0].im * e[1].im;
-        bb[2] += e[1].norm_sqr();
-    }
-    if bb[0] + bb[2] == 0.0 {
-        return (0.0, 0.0);
-    }
-    // A⁻¹·Jᵀ·B, then Q = BᵀB − (JᵀB)ᵀ·A⁻¹·JᵀB and b = (JᵀB)ᵀ·A⁻¹·e_C.
-    let u: [[f32; 2]; 3] = core::array::from_fn(|i| {
-        core::array::from_fn(|q| ai[i][0] * jb[0][q] + ai[i][1] * jb[1][q] + ai[i][2] * jb[2][q])
-    });
-    let proj = |p: usize, q: usize| jb[0][p] * u[0][q] + jb[1][p] * u[1][q] + jb[2][p] * u[2][q];
-    let q = [bb[0] - proj(0, 0), bb[1] - proj(0, 1), bb[2] - proj(1, 1)];
-    let b = [u[1][0], u[1][1]];
-    let b2 = b[0] * b[0] + b[1] * b[1];
-    let unbounded = (if b2 == 0.0 { 0.0 } else { f32::INFINITY }, b2);
-    // Quadratures along one line (a disturbance of one phase): the
-    // larger one alone.
-    let gram = bb[0] * bb[2] - bb[1] * bb[1];
-    if !positive_finite(gram - 1e-6 * bb[0] * bb[2]) {
-        let i = usize::from(bb[2] > bb[0]);
-        let qi = q[2 * i];
-        return if positive_finite(qi - 1e-6 * bb[2 * i]) {
-            (b[i] * b[i] / qi, b2)
-        } else {
-            unbounded
-        };
-    }
-    // A spread the fit can follow leaves (next to) nothing in χ²: Q's
-    // determinant at f32's rounding of BᵀB's.
-    let det = q[0] * q[2] - q[1] * q[1];
-    if !positive_finite(det - 1e-6 * gram) {
-        return unbounded;
-    }
-    (
-        (q[2] * b[0] * b[0] - 2.0 * q[1] * b[0] * b[1] + q[0] * b[1] * b[1]) / det,
-        b2,
-    )
 }
 
 /// Largest second-order term (in units of the noise, over all tones) of
@@ -692,7 +623,7 @@ fn step<const K: usize>(fit: &Evaluated<K>, fitted: bool) -> Option<[f32; 3]> {
 
 /// A⁻¹ over the fitted parameters (tan δ held: its row and column out,
 /// 1 on the diagonal); `None` when A is singular.
-fn inverse(a: &[f32; 6], fitted: bool) -> Option<[[f32; 3]; 3]> {
+pub(crate) fn inverse(a: &[f32; 6], fitted: bool) -> Option<[[f32; 3]; 3]> {
     let mut m = full(a);
     if !fitted {
         m[0][2] = 0.0;
@@ -706,7 +637,7 @@ fn inverse(a: &[f32; 6], fitted: bool) -> Option<[[f32; 3]; 3]> {
 
 /// The symmetric 3×3 matrix of its upper triangle [a₀₀, a₀₁, a₀₂, a₁₁,
 /// a₁₂, a₂₂].
-fn full(a: &[f32; 6]) -> [[f32; 3]; 3] {
+pub(crate) fn full(a: &[f32; 6]) -> [[f32; 3]; 3] {
     [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]
 }
 
@@ -723,12 +654,12 @@ fn det3(m: &[[f32; 3]; 3]) -> f32 {
 /// and the film's prior as a fifth residual. (`evaluate` takes
 /// p = (R Ω, C F, tan δ).)
 #[derive(Clone, Copy)]
-struct Evaluated<const K: usize> {
+pub(crate) struct Evaluated<const K: usize> {
     chi2: f32,
-    jtj: [f32; 6],
+    pub(crate) jtj: [f32; 6],
     jtr: [f32; 3],
     /// Each tone's weighted derivatives in (ln R, ln C, tan δ).
-    cols: [[Complex32; 3]; K],
+    pub(crate) cols: [[Complex32; 3]; K],
     /// Each tone's weighted residual r.
     res: [Complex32; K],
     /// Each tone's x and 1/weight (ωCσ: ζ = model·ωCσ), for ζ''
@@ -739,7 +670,7 @@ struct Evaluated<const K: usize> {
 }
 
 #[inline(always)]
-fn evaluate<const K: usize>(
+pub(crate) fn evaluate<const K: usize>(
     inv: &Inverter,
     film: &Dielectric,
     tones: &[Tone; K],
