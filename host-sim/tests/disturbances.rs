@@ -251,8 +251,11 @@ fn the_array_moves_off_a_tone_an_interferer_occupies() {
         ("alias of the tone", &moving, 70, true),
         ("clean", &moving, 99, false),
     ];
-    for (name, p, share, moves) in cases {
-        let o = run(name, p);
+    let outcomes: Vec<_> = cases.iter().map(|&(name, p, _, _)| run(name, p)).collect();
+    for ((name, p, _, _), o) in cases.iter().zip(&outcomes) {
+        println!("{name}, {p:?}: {} ({})", o.availability, o.availability.why());
+    }
+    for ((name, p, share, moves), o) in cases.into_iter().zip(&outcomes) {
         let a = &o.availability;
         assert_eq!(o.valid_off, 0, "{name}: {o:?}");
         assert!(

@@ -323,9 +323,16 @@ impl Channel {
                 [0.0; 2]
             }
         };
-        let decided = self
-            .course
-            .decide(&rules, &mut self.policy, pair, near, dt, &mut rec.flags);
+        let decided = self.course.decide(
+            &rules,
+            &mut self.policy,
+            pair,
+            near,
+            // (Two tones: one interferer spreads over none.)
+            None::<fn(&dsp_core::twotone::Solution, f32, f32) -> f32>,
+            dt,
+            &mut rec.flags,
+        );
         if let Some(line) = decided {
             rec.c_farad = line.c_farad;
             rec.r_ohm = line.r_ohm;

@@ -19,7 +19,10 @@
 //!    the reader sees could have moved C by, and what an error at one
 //!    tone nothing sees could hide behind χ² ([`crate::joint::hidden`]),
 //!    as large as the block's own χ² or, where the last blocks at these
-//!    tones were calm, their mean allows ([`Quiet`]). Beyond the
+//!    tones were calm, their mean allows ([`Quiet`]); where one
+//!    interferer spread over all the tones hides more (a record of the
+//!    4 ms comb neither rescued nor moved off a tone: [`crate::spread`]),
+//!    that. Beyond the
 //!    tolerance, or NaN: UNCERTAIN.
 //! 6. R beyond the electrodes' range, or not positive: RANGE, the line is
 //!    lost and a free channel falls back.
@@ -140,12 +143,20 @@ impl Course {
     /// left out of the record (a rescue: an interferer near it may leak
     /// more into its neighbours): the part bounded tone by tone, and the
     /// part one disturbance shares among the tones (`disturbed`).
+    /// `spread(sol, share, room)`, where the channel has one, gives what
+    /// one interferer spread over the tones could hide behind the χ² of
+    /// a record `sol` of all of them that passed ([`crate::spread`]),
+    /// `share` the residual's share it may have, as
+    /// [`crate::joint::hidden`]'s: ln C, relative; any value beyond
+    /// `room` (what the tolerance leaves) may stand for all beyond it.
+    #[allow(clippy::too_many_arguments)]
     pub fn decide<const N: usize, const K: usize>(
         &mut self,
         rules: &Rules<'_, N>,
         policy: &mut PolicyState,
         tones: [Tone; K],
         disturbance: impl Fn(usize, Option<usize>) -> [f32; 2],
+        spread: Option<impl Fn(&Solution, f32, f32) -> f32>,
         dt_s: f32,
         flags: &mut Flags,
     ) -> Option<Reading> {
@@ -204,6 +215,7 @@ impl Course {
             chi2_flag,
             share,
             seen.then_some(|k| disturbance(k, out)),
+            spread.as_ref().filter(|_| pair.is_none()),
             flags,
         );
         let reading = Reading {
@@ -268,9 +280,13 @@ impl Course {
 /// MODEL where its χ² exceeds `chi2_flag`, UNCERTAIN where its error
 /// bound, with `share` the share of its residual an error at one tone
 /// may have ([`hidden`]), and what a disturbance moved it by
-/// ([`disturbed`]; None: the inputs show none), exceeds the tolerance.
-/// Returns the stretch and whether χ² passed. (Inlined: the record's
-/// path is one function in the boards' fast RAM.)
+/// ([`disturbed`]; None: the inputs show none), and what one interferer
+/// spread over the tones hides where it hides more than an error at one
+/// tone (`spread`, of a record not rescued: [`Course::decide`]'s),
+/// exceeds the tolerance. Returns the stretch and whether χ² passed.
+/// (Inlined: the record's path is one function in the boards' fast
+/// RAM.)
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn check<const N: usize>(
     sensor: &Sensor<N>,
@@ -279,6 +295,7 @@ fn check<const N: usize>(
     chi2_flag: f32,
     share: f32,
     disturbance: Option<impl Fn(usize) -> [f32; 2]>,
+    spread: Option<&impl Fn(&Solution, f32, f32) -> f32>,
     flags: &mut Flags,
 ) -> (f32, bool) {
     let (stretch_mm, status) = sensor.read(sol.line.c_farad, th.c_tolerance);
@@ -288,11 +305,36 @@ fn check<const N: usize>(
         flags.set(Flags::MODEL);
     }
     let moved = disturbance.map_or(0.0, |d| disturbed(sol, d));
-    let bound = 5.0 * sol.sigma_ln_c + moved + hidden(sol, chi2_flag, share);
+    let noise = 5.0 * sol.sigma_ln_c + moved;
+    let one_tone = hidden(sol, chi2_flag, share);
+    let mut bound = noise + one_tone;
+    // (A record already beyond the tolerance asks no more.)
+    if let Some(spread) = spread.filter(|_| consistent && bound <= th.c_tolerance) {
+        bound = noise + spread_beyond(spread, sol, share, one_tone, th.c_tolerance - noise);
+    }
     if bound.is_nan() || bound > th.c_tolerance {
         flags.set(Flags::UNCERTAIN);
     }
     (stretch_mm, consistent)
+}
+
+/// The larger of `one_tone` and what one interferer spread over the
+/// tones hides (`spread(sol, share, room)`); NaN where that is (no
+/// bound). (Out of line, in flash on a board, as the spread's bound.)
+#[inline(never)]
+fn spread_beyond(
+    spread: &impl Fn(&Solution, f32, f32) -> f32,
+    sol: &Solution,
+    share: f32,
+    one_tone: f32,
+    room: f32,
+) -> f32 {
+    let along = spread(sol, share, room);
+    if one_tone >= along {
+        one_tone
+    } else {
+        along
+    }
 }
 
 /// What a disturbance could have moved ln C of `sol` by, from each

@@ -1,9 +1,11 @@
 //! What an interferer near a tone of the comb does to every tone a
 //! record fits at once: its spread ([`dsp_core::twotone::Spread`]),
 //! what a bound on one disturbance takes
-//! ([`dsp_core::twotone::bound_along`]). Not yet in the channels: taken
-//! in every record it closes the hole of docs/accuracy.md, but costs
-//! five times a record's cycles.
+//! ([`dsp_core::twotone::bound_along`]), taken in every record of the
+//! 4 ms comb that fits three tones, but those rescued from two or moved
+//! off a tone ([`of_record`]; a moved channel's interferer is a known
+//! one, bounded by its sideband's leak, and its residual would pass for
+//! an unknown one besides).
 //!
 //! A sinusoid on an input adds δXₖ to each tone's phasor Xₖ by its bin's
 //! kernel ([`skin_spec::leak`]); to first order tone k's impedance
@@ -15,11 +17,21 @@
 //! hide more behind χ² than an error at one (docs/accuracy.md). Only
 //! for the 4 ms comb, whose kernels these are.
 
+use crate::sensor::Sensor;
 use dsp_core::comb::Levels;
-use dsp_core::twotone::Spread;
+use dsp_core::dielectric::Dielectric;
+use dsp_core::fixture::Fixture;
+use dsp_core::spread::{Along, Reach};
+use dsp_core::twotone::{Solution, Spread, Tone};
 use dsp_core::Complex32;
 use skin_spec::array::TONES;
-use skin_spec::leak::{KERNEL, NEAR, POINTS, SEEN};
+use skin_spec::leak::{self, POINTS};
+
+// In memory once, read where they lie (a `const` may be built again
+// where it is used).
+static KERNEL: [[[Complex32; 2]; TONES]; POINTS] = leak::KERNEL;
+static NEAR: [u8; POINTS] = leak::NEAR;
+static SEEN: [f32; POINTS] = leak::SEEN;
 
 /// One input's factors of a record's spreads: ±Zₖ·2³¹·N/(2·Xₖ) for each
 /// of the `fitted` comb tones (impedances `z`, Ω; phasors Xₖ of
@@ -52,25 +64,114 @@ pub fn spread_at(factors: &[Complex32; 3], fitted: &[usize; 3], point: usize) ->
     })
 }
 
-/// Every spread of a record, each with the most its amplitude can be
-/// (counts): for each frequency of [`skin_spec::leak::NU`] within half a
-/// bin of one of the `fitted` tones, on the voltage's input `v`, then on
-/// the current's `i`; `excess` each input's residual beyond its noise
-/// (counts rms, as large as the noise may hide), of which a sinusoid
-/// there keeps at least [`SEEN`]: √2·excess/`SEEN`.
-pub fn spreads<'a>(
-    v: &'a Levels<TONES>,
-    i: &'a Levels<TONES>,
+/// What one sinusoid near a record's `fitted` tones could hide in its
+/// line `sol` beyond what an error at one tone hides ([`bound`]):
+/// `inputs` the voltage's and the current's levels, `excess` their
+/// residuals beyond the noise (counts rms), `tones` as measured, on
+/// `sensor` (its wiring and line model) and the film `film`; `share`
+/// and `room` as [`bound`]'s. The line's reach is taken afresh at its
+/// line behind the wiring (one evaluation of the model). (Out of line,
+/// in flash on a board: the fast RAM holds the record's own path.)
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+pub fn of_record<const N: usize>(
+    inputs: &[&Levels<TONES>; 2],
     excess: [f32; 2],
-    z: [Complex32; 3],
+    tones: &[Tone; 3],
+    sensor: &Sensor<N>,
+    film: &Dielectric,
     fitted: [usize; 3],
-) -> impl Iterator<Item = (Spread<3>, f32)> + 'a {
-    let inputs = [factors(v, false, &z, &fitted), factors(i, true, &z, &fitted)];
+    sol: &Solution,
+    share: f32,
+    room: f32,
+) -> f32 {
+    // The tones behind the wiring, as the line was fitted to them.
+    let fixture = &sensor.fixture;
+    let mut behind = *tones;
+    for t in behind.iter_mut() {
+        t.z = fixture
+            .remove(t.z, t.f_hz)
+            .unwrap_or(Complex32::new(f32::NAN, f32::NAN));
+    }
+    let reach = dsp_core::spread::reach(sensor.tracker.inverter(), film, &behind, sol);
+    let one_tone = sol.hidden_ln_c * share;
+    let [v, i] = *inputs;
+    bound(
+        v, i, excess, tones, fixture, fitted, &reach, share, one_tone, room,
+    )
+}
+
+/// The most ln C of a record's line can be off where one sinusoid
+/// within half a bin of one of its `fitted` comb tones, on the voltage's
+/// input `v` or on the current's `i`, spreads over them: for each
+/// frequency of [`skin_spec::leak::NU`] near one and each input, the
+/// spread's bound by the line's `reach` ([`Along::bound_above`]) with `share`
+/// of the residual (√χ², as [`crate::joint::hidden`]'s) and an
+/// amplitude of at most √2·`excess`/[`leak::SEEN`] (`excess` each input's
+/// residual beyond its noise, counts rms, as large as the noise may
+/// hide); the worst. `tones` are the fitted tones as measured (Ω, with
+/// their σ), before the sensor's `fixture` is taken out, whose slope
+/// carries each tone's change to the line behind it. The search keeps
+/// to spreads beyond `floor` (a bound known already: where none is, the
+/// result is at most `floor`), and the first beyond `room` ends it (its
+/// bound is returned).
+#[allow(clippy::too_many_arguments)]
+pub fn bound(
+    v: &Levels<TONES>,
+    i: &Levels<TONES>,
+    excess: [f32; 2],
+    tones: &[Tone; 3],
+    fixture: &Fixture,
+    fitted: [usize; 3],
+    reach: &Reach,
+    share: f32,
+    floor: f32,
+    room: f32,
+) -> f32 {
+    let z = tones.map(|t| t.z);
+    let per_sigma = tones.map(|t| slope(fixture, &t) / t.sigma_ohm);
+    let weigh = |f: [Complex32; 3]| -> [Complex32; 3] { core::array::from_fn(|k| f[k] * per_sigma[k]) };
+    let along: [Along; 2] = [
+        reach.along(&weigh(factors(v, false, &z, &fitted))),
+        reach.along(&weigh(factors(i, true, &z, &fitted))),
+    ];
     let mask = fitted.iter().fold(0u8, |m, &k| m | (1u8 << k.min(7)));
-    (0..POINTS)
-        .filter(move |&p| NEAR[p] & mask != 0)
-        .flat_map(move |p| {
-            let most = excess.map(|e| core::f32::consts::SQRT_2 * e / SEEN[p]);
-            [0, 1].map(|input| (spread_at(&inputs[input], &fitted, p), most[input]))
-        })
+    let mut worst = floor;
+    for p in 0..POINTS {
+        if NEAR[p] & mask == 0 {
+            continue;
+        }
+        let kernel: [[Complex32; 2]; 3] = core::array::from_fn(|j| {
+            KERNEL
+                .get(p)
+                .and_then(|k| k.get(fitted[j]))
+                .copied()
+                .unwrap_or_default()
+        });
+        for (along, e) in along.iter().zip(excess) {
+            let most = core::f32::consts::SQRT_2 * e / SEEN[p];
+            let b = along.bound_above(&kernel, share, most, worst);
+            // (NaN stays, and ends the search.)
+            if b > worst || b.is_nan() {
+                worst = b;
+                if worst > room || worst.is_nan() {
+                    return worst;
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// How a change of the measured impedance moves the line's behind the
+/// `fixture`: d(Z_line)/d(Z) = 1/(Z·Y)², Y = 1/Z − jωC_p
+/// ([`Fixture::remove`]); 1 without one.
+fn slope(fixture: &Fixture, tone: &Tone) -> Complex32 {
+    if *fixture == Fixture::NONE {
+        return Complex32::new(1.0, 0.0);
+    }
+    let y = Complex32::new(1.0, 0.0) / tone.z
+        - Complex32::new(0.0, core::f32::consts::TAU * tone.f_hz * fixture.parallel_farad);
+    let zy = tone.z * y;
+    Complex32::new(1.0, 0.0) / (zy * zy)
 }

@@ -38,7 +38,7 @@ use dsp_core::comb::{Levels, Tones};
 use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::Dielectric;
 use dsp_core::fmath;
-use dsp_core::twotone::{self, Tone};
+use dsp_core::twotone::{self, Solution, Tone};
 use dsp_core::Complex32;
 
 /// What every sensor of the array shares, and each sensor.
@@ -339,9 +339,39 @@ impl ToneChannel {
         // noise. (A moved channel's interferer near its tone is its
         // sideband's to show.)
         let disturbance = |k: usize, out: Option<usize>| seen.shift_of(&s.layout, &fitted, k, out, avoided);
-        let decided = self
-            .course
-            .decide(&rules, &mut self.policy, tones, disturbance, dt, &mut rec.flags);
+        // One interferer spread over the three tones, where the leak's
+        // kernels are the layout's (the 4 ms comb's); not where the
+        // channel moved off a tone: the interferer it avoids is a known
+        // one, bounded by its sideband's leak and by the residual's share
+        // on the neighbours tone by tone, and its residual would let the
+        // spread bound take it for an unknown one besides. (Out of line,
+        // in flash on a board: `crate::spread::of_record`.)
+        let spread = (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
+            |sol: &Solution, share: f32, room: f32| {
+                let inputs = [seen.v, seen.i];
+                let excess = seen.hidden_excess();
+                crate::spread::of_record(
+                    &inputs,
+                    excess,
+                    &tones,
+                    sensor,
+                    &s.dielectric,
+                    fitted,
+                    sol,
+                    share,
+                    room,
+                )
+            },
+        );
+        let decided = self.course.decide(
+            &rules,
+            &mut self.policy,
+            tones,
+            disturbance,
+            spread,
+            dt,
+            &mut rec.flags,
+        );
         let suspect = self.course.suspect();
         if s.sweep.is_none() && (suspect.is_some() || !self.avoidance.idle()) {
             self.avoidance.update(suspect, &fitted, dt);
@@ -563,7 +593,8 @@ impl<'a> Seen<'a> {
     /// tone leaves as little as a tenth of itself in the residual
     /// ([`Layout::near_leak`]): near a tone a record left out, one the
     /// noise hides may still shift its neighbour by 5 times the
-    /// residual's. (Cold, in flash: only a rescued record asks.)
+    /// residual's. (Cold, in flash: a rescued record asks, and a record
+    /// of the 4 ms comb for the spread bound once its line passed.)
     #[cold]
     #[inline(never)]
     fn hidden_excess(&self) -> [f32; 2] {

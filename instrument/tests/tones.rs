@@ -348,11 +348,13 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
             c_rest(s) * 1e12,
             rms * 100.0
         );
-        // Every sensor ≥ 98 % vouched for (the share falls with C: at
-        // 290 pF the lowest pair leaves the third tone at x ≈ 6.5, where
-        // what a one-tone error could hide behind χ² grows,
-        // `instrument::joint::hidden`).
-        assert!(valid * 1000 >= recs.len() * 980, "sensor {s}: {valid} valid");
+        // Every sensor ≥ 97 % vouched for (at 290 pF the lowest pair
+        // leaves the third tone at x ≈ 6.5, where what a one-tone error
+        // could hide behind χ² grows, `instrument::joint::hidden`; the
+        // 150 pF one keeps 97.3 %, where it kept 99.8 % until the records
+        // bounded what one interferer spread over their three tones
+        // hides, `instrument::spread`).
+        assert!(valid * 1000 >= recs.len() * 970, "sensor {s}: {valid} valid");
         assert!(rms < 1e-3, "sensor {s}: C rms {rms}");
         // 0.1 % of C is 0.1–0.13 mm of a 100 mm sensor stretched 0–30 mm
         // (the largest errors: 4σ, 0.4 % of C, at 30 mm).
@@ -648,20 +650,20 @@ proptest::proptest! {
         ..proptest::prelude::ProptestConfig::default()
     })]
 
-    /// A persistent interferer on one of the comb's tones (within 40 Hz
-    /// of it, or of its alias about the 25 kHz sample rate), long enough
-    /// for the channels to move off it (0.6 s, `instrument::avoid`) and
-    /// fit its sideband (`instrument::sideband`), while the sensors
-    /// stretch: no record flagged valid is more than 1 % off, before the
-    /// move or after it. (`FUZZ_CASES` / 20 cases, as the next. Tried to
-    /// 125 Hz, it found [`a_rescued_pair_beside_an_alias_is_not_vouched_for`]
-    /// and [`a_shift_shared_by_the_pair_is_bounded_as_shared`], now
-    /// bounded, and records vouched for 1.02–1.06 % off under an
-    /// interferer 46–66 Hz below the 250 Hz tone, not yet: docs/accuracy.md.)
+    /// A persistent interferer on one of the comb's tones (within 125 Hz,
+    /// half a bin, of it, or of its alias about the 25 kHz sample rate),
+    /// long enough for the channels to move off it (0.6 s,
+    /// `instrument::avoid`) and fit its sideband (`instrument::sideband`),
+    /// while the sensors stretch: no record flagged valid is more than
+    /// 1 % off, before the move or after it. (`FUZZ_CASES` / 20 cases, as
+    /// the next. It found [`a_rescued_pair_beside_an_alias_is_not_vouched_for`],
+    /// [`a_shift_shared_by_the_pair_is_bounded_as_shared`] and
+    /// [`an_interferer_spread_over_two_tones_is_bounded_as_spread`]:
+    /// docs/accuracy.md.)
     #[test]
     fn moved_channels_never_leave_a_wrong_valid_record(
         tone in 0usize..TONES,
-        off_hz in -40.0f32..40.0,
+        off_hz in -125.0f32..125.0,
         alias in proptest::prelude::any::<bool>(),
         log_counts in 0.0f32..3.5,
         phase in 0.0f32..1.0,
@@ -740,6 +742,28 @@ fn a_shift_shared_by_the_pair_is_bounded_as_shared() {
         0.940_157_405_638_630_7,
         1.327_724_798_406_766_2,
         14_070_057_087_953_212_397,
+        0.6,
+    )
+    .unwrap();
+}
+
+/// A case the moved-channel target found tried to 125 Hz: an interferer
+/// 66 Hz below the 250 Hz tone (0.26 of a bin), of 12.7 counts, on
+/// electrodes 1.49 times the paper's: sensor 12's record at 326 ms was
+/// vouched for 1.02 % off behind quiet inputs. The interferer puts a
+/// fifth of its error into 500 Hz, nearly in phase, which hides twice
+/// as much behind χ² as an error at one tone; the record's bound takes
+/// every such spread (`instrument::spread`).
+#[test]
+fn an_interferer_spread_over_two_tones_is_bounded_as_spread() {
+    let hz = near_tone(0, -65.996_02, false);
+    interfered_for(
+        hz,
+        1.104_828,
+        0.251_562_86,
+        0.0,
+        1.489_338_459_897_335_6,
+        8_840_742_424_399_232_566,
         0.6,
     )
     .unwrap();
@@ -919,7 +943,9 @@ fn records_lost_while_stretching_are_read_at_the_lowest_pair() {
             .iter()
             .flatten()
             .map(|(r, _)| r)
-            .filter(|r| !r.flags.valid())
+            // (Past the first 0.1 s, where the policy steps down from
+            // its start.)
+            .filter(|r| !r.flags.valid() && r.t_us >= 100_000)
             .collect();
         assert!(!lost.is_empty(), "{rate} mm/s, {r_scale}×: none lost");
         for r in lost {

@@ -31,6 +31,19 @@ const PERIODS: [u32; TONES] = Layout::BLOCK_4MS.comb();
 /// The 4 ms layout's instants a block.
 const INSTANTS: usize = Layout::BLOCK_4MS.instants();
 
+/// Whether `layout`'s blocks are those the kernels are of: the 4 ms
+/// layout's instants and comb (its amplitudes and phases aside: a
+/// spread is taken relative to each tone's phasor).
+pub fn of_layout(layout: &Layout) -> bool {
+    let comb = layout.comb();
+    let mut same = layout.instants() == INSTANTS;
+    // (Tone by tone: a slice's comparison is a library call.)
+    for k in 0..TONES {
+        same &= comb[k] == PERIODS[k];
+    }
+    same
+}
+
 /// The sinusoids' frequencies, bins of a 4 ms block (250 Hz a bin):
 /// within half a bin of the mean and of each tone of the comb, a
 /// quarter bin apart (an eighth by the mean), not on a tone.
