@@ -17,6 +17,7 @@
 //! 1·10⁻⁵ relative of an f64 reference wherever the line keeps at least
 //! 10 % of the measured admittance (tests in `tests/fixture.rs`).
 
+use crate::twotone::Tone;
 use crate::Complex32;
 use core::f32::consts::TAU;
 
@@ -69,5 +70,37 @@ impl Fixture {
             return Err(FixtureError::NothingLeft);
         }
         Ok(Complex32::new(y.re / m - self.series_ohm, -y.im / m))
+    }
+
+    /// `tones` as measured, each impedance taken behind the wiring
+    /// ([`Fixture::remove`]; their σ as measured).
+    pub fn behind<const K: usize>(&self, tones: &[Tone; K]) -> Result<[Tone; K], FixtureError> {
+        let mut out = *tones;
+        self.take_out(&mut out)?;
+        Ok(out)
+    }
+
+    /// [`Fixture::behind`] in place: on an error, the tones before the
+    /// one that failed are taken behind the wiring, the rest not.
+    pub fn take_out<const K: usize>(&self, tones: &mut [Tone; K]) -> Result<(), FixtureError> {
+        for t in tones.iter_mut() {
+            t.z = self.remove(t.z, t.f_hz)?;
+        }
+        Ok(())
+    }
+
+    /// How a small change of the measured impedance `z` (Ω) at `f_hz`
+    /// moves the line's behind the wiring: d(Z_line)/d(Z_meas) =
+    /// 1/(1 − jωC_p·Z_meas)² (the series resistance only shifts it); 1
+    /// without a parasitic capacitance.
+    pub fn slope(&self, z: Complex32, f_hz: f32) -> Complex32 {
+        let one = Complex32::new(1.0, 0.0);
+        if self.parallel_farad == 0.0 {
+            return one;
+        }
+        let wc = TAU * f_hz * self.parallel_farad;
+        // 1 − jωC_p·Z.
+        let zy = Complex32::new(1.0 + wc * z.im, -wc * z.re);
+        one / (zy * zy)
     }
 }

@@ -1,6 +1,8 @@
 //! `fixture::Fixture::remove` against an f64 reference across its declared
 //! range: the line behind a parasitic capacitance and contact resistance
-//! comes back within 1e-5 relative (max) and 1e-6 (RMS).
+//! comes back within 1e-5 relative (max) and 1e-6 (RMS); its slope
+//! (`Fixture::slope`) within 1e-5 (max) and 2e-6 (RMS) of the f64
+//! derivative.
 
 mod common;
 use common::continuous_ref;
@@ -11,7 +13,32 @@ use std::f64::consts::TAU;
 
 #[test]
 fn removes_parasitic_capacitance_and_contacts_across_the_range() {
-    let (mut worst, mut ss, mut n) = (0.0f64, 0.0f64, 0usize);
+    let (mut worst, mut ss) = (0.0f64, 0.0f64);
+    let points = declared_range();
+    for &(f, zl, cp, rs, zm) in &points {
+        let fx = Fixture {
+            parallel_farad: cp as f32,
+            series_ohm: rs as f32,
+        };
+        let got = fx
+            .remove(Complex32::new(zm.re as f32, zm.im as f32), f as f32)
+            .unwrap();
+        let e = (Complex64::new(got.re as f64, got.im as f64) - zl).norm() / zl.norm();
+        worst = worst.max(e);
+        ss += e * e;
+    }
+    let rms = (ss / points.len() as f64).sqrt();
+    println!("{} points: max {worst:.2e}, RMS {rms:.2e}", points.len());
+    assert!(points.len() > 3000, "{}", points.len());
+    assert!(worst < 1e-5, "max {worst}");
+    assert!(rms < 1e-6, "RMS {rms}");
+}
+
+/// Every point of the declared range where the line keeps at least 10 %
+/// of the measured admittance: (f Hz, the line's Z, C_p F, R_s Ω, the
+/// measured Z).
+fn declared_range() -> Vec<(f64, Complex64, f64, f64, Complex64)> {
+    let mut out = vec![];
     let logs = |a: f64, b: f64, k: usize, i: usize| a * (b / a).powf(i as f64 / (k - 1) as f64);
     for ir in 0..9 {
         let r = logs(1e3, 10e6, 9, ir);
@@ -23,35 +50,82 @@ fn removes_parasitic_capacitance_and_contacts_across_the_range() {
                 let zl = continuous_ref(w * r * c) / (w * c);
                 for cp in [0.0, 1e-12, 10e-12, 100e-12] {
                     for rs in [0.0, 1e3, 50e3, 1e6] {
-                        if rs > zl.norm() {
-                            continue; // outside the declared range
-                        }
                         let y = (zl + rs).inv() + Complex64::new(0.0, w * cp);
-                        if (zl + rs).inv().norm() < 0.1 * y.norm() {
-                            continue; // the line under 10 % of the admittance
+                        if rs > zl.norm() || (zl + rs).inv().norm() < 0.1 * y.norm() {
+                            continue;
                         }
-                        let zm = y.inv();
-                        let fx = Fixture {
-                            parallel_farad: cp as f32,
-                            series_ohm: rs as f32,
-                        };
-                        let got = fx
-                            .remove(Complex32::new(zm.re as f32, zm.im as f32), f as f32)
-                            .unwrap();
-                        let e = (Complex64::new(got.re as f64, got.im as f64) - zl).norm() / zl.norm();
-                        worst = worst.max(e);
-                        ss += e * e;
-                        n += 1;
+                        out.push((f, zl, cp, rs, y.inv()));
                     }
                 }
             }
         }
     }
-    let rms = (ss / n as f64).sqrt();
-    println!("{n} points: max {worst:.2e}, RMS {rms:.2e}");
-    assert!(n > 3000, "{n}");
+    out
+}
+
+#[test]
+fn the_slope_behind_the_wiring_is_the_f64_derivative() {
+    let (mut worst, mut ss) = (0.0f64, 0.0f64);
+    let points = declared_range();
+    for &(f, _, cp, rs, zm) in &points {
+        let w = TAU * f;
+        // The f64 reference: d/dZ of 1/(1/Z − jωC_p) − R_s, by its
+        // central difference (checked against the closed form).
+        let behind = |z: Complex64| (z.inv() - Complex64::new(0.0, w * cp)).inv() - rs;
+        let h = zm * 1e-6;
+        let numeric = (behind(zm + h) - behind(zm - h)) / (h * 2.0);
+        let zy = zm * (zm.inv() - Complex64::new(0.0, w * cp));
+        let exact = (zy * zy).inv();
+        assert!(
+            (numeric - exact).norm() < 1e-6 * exact.norm(),
+            "{numeric} {exact}"
+        );
+        let fx = Fixture {
+            parallel_farad: cp as f32,
+            series_ohm: rs as f32,
+        };
+        let got = fx.slope(Complex32::new(zm.re as f32, zm.im as f32), f as f32);
+        let e = (Complex64::new(got.re as f64, got.im as f64) - exact).norm() / exact.norm();
+        worst = worst.max(e);
+        ss += e * e;
+    }
+    let rms = (ss / points.len() as f64).sqrt();
+    println!("{} points: max {worst:.2e}, RMS {rms:.2e}", points.len());
+    assert!(points.len() > 3000);
     assert!(worst < 1e-5, "max {worst}");
-    assert!(rms < 1e-6, "RMS {rms}");
+    assert!(rms < 2e-6, "RMS {rms}");
+}
+
+#[test]
+fn tones_behind_the_wiring_are_each_removed_or_none() {
+    use dsp_core::twotone::Tone;
+    let fx = Fixture {
+        parallel_farad: 10e-12,
+        series_ohm: 2e3,
+    };
+    let tone = |z: Complex32, f_hz: f32| Tone {
+        z,
+        f_hz,
+        sigma_ohm: 7.0,
+    };
+    let tones = [
+        tone(Complex32::new(3e5, -4e5), 250.0),
+        tone(Complex32::new(2e5, -1e5), 1e3),
+    ];
+    let behind = fx.behind(&tones).unwrap();
+    for (b, t) in behind.iter().zip(&tones) {
+        assert_eq!(
+            (b.z, b.f_hz, b.sigma_ohm),
+            (fx.remove(t.z, t.f_hz).unwrap(), t.f_hz, 7.0)
+        );
+    }
+    // A tone the parasitic capacitance explains leaves none.
+    let open = tone(Complex32::new(0.0, (-1.0 / (TAU * 1e3 * 5e-12)) as f32), 1e3);
+    assert_eq!(fx.behind(&[tones[0], open]), Err(FixtureError::NothingLeft));
+    // In place, the tones before the one that failed are taken out.
+    let mut partly = [tones[0], open, tones[1]];
+    assert_eq!(fx.take_out(&mut partly), Err(FixtureError::NothingLeft));
+    assert_eq!([partly[0], partly[1], partly[2]], [behind[0], open, tones[1]]);
 }
 
 #[test]

@@ -329,7 +329,7 @@ impl Channel {
             pair,
             near,
             // (Two tones: one interferer spreads over none.)
-            None::<fn(&dsp_core::twotone::Solution, f32, f32) -> f32>,
+            crate::decide::NO_SPREAD,
             dt,
             &mut rec.flags,
         );

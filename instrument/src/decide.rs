@@ -36,6 +36,12 @@ use crate::sensor::Sensor;
 use dsp_core::dielectric::Dielectric;
 use dsp_core::twotone::{Solution, Tone};
 
+/// The bound of a spread over the tones ([`Course::decide`]'s `spread`)
+/// a channel without one passes: a record of two tones has none (one
+/// interferer spread over two tones is what the model check and the
+/// one-tone bound see).
+pub const NO_SPREAD: Option<fn(&Solution, f32, f32) -> f32> = None;
+
 /// What a channel's decisions read: its sensor and the settings every
 /// channel of its front end shares.
 #[derive(Clone, Copy, Debug)]

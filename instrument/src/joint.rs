@@ -92,9 +92,7 @@ impl Joint {
         prior_farad: f32,
         chi2_flag: f32,
     ) -> Result<Solution, Unsolved> {
-        for t in tones.iter_mut() {
-            t.z = sensor.fixture.remove(t.z, t.f_hz).map_err(|_| Unsolved::Open)?;
-        }
+        sensor.fixture.take_out(&mut tones).map_err(|_| Unsolved::Open)?;
         let solved = self.solve(sensor.tracker.inverter(), d, &tones, prior_farad, chi2_flag);
         if solved.is_err() {
             self.lose();

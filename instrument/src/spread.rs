@@ -54,13 +54,19 @@ pub fn factors(
 /// The spread over the `fitted` tones of a sinusoid at
 /// [`skin_spec::leak::NU`]`[point]` on the input of `factors`.
 pub fn spread_at(factors: &[Complex32; 3], fitted: &[usize; 3], point: usize) -> Spread<3> {
+    let kernel = kernel_at(point, fitted);
+    core::array::from_fn(|j| [factors[j] * kernel[j][0], factors[j] * kernel[j][1]])
+}
+
+/// The kernels of a sinusoid at [`skin_spec::leak::NU`]`[point]` in each
+/// of the `fitted` tones' bins (0 past the table's ends).
+fn kernel_at(point: usize, fitted: &[usize; 3]) -> [[Complex32; 2]; 3] {
     core::array::from_fn(|j| {
-        let kernel = KERNEL
+        KERNEL
             .get(point)
             .and_then(|k| k.get(fitted[j]))
             .copied()
-            .unwrap_or_default();
-        [factors[j] * kernel[0], factors[j] * kernel[1]]
+            .unwrap_or_default()
     })
 }
 
@@ -85,14 +91,16 @@ pub fn of_record<const N: usize>(
     share: f32,
     room: f32,
 ) -> f32 {
-    // The tones behind the wiring, as the line was fitted to them.
+    // The tones behind the wiring, as the line was fitted to them (the
+    // line was solved from them, so none fails; one that did would give
+    // NaN, which no bound vouches for).
     let fixture = &sensor.fixture;
-    let mut behind = *tones;
-    for t in behind.iter_mut() {
-        t.z = fixture
-            .remove(t.z, t.f_hz)
-            .unwrap_or(Complex32::new(f32::NAN, f32::NAN));
-    }
+    let behind = fixture.behind(tones).unwrap_or_else(|_| {
+        tones.map(|t| Tone {
+            z: Complex32::new(f32::NAN, f32::NAN),
+            ..t
+        })
+    });
     let reach = dsp_core::spread::reach(sensor.tracker.inverter(), film, &behind, sol);
     let one_tone = sol.hidden_ln_c * share;
     let [v, i] = *inputs;
@@ -111,6 +119,7 @@ pub fn of_record<const N: usize>(
 /// residual beyond its noise, counts rms, as large as the noise may
 /// hide); the worst. `tones` are the fitted tones as measured (Ω, with
 /// their σ), before the sensor's `fixture` is taken out, whose slope
+/// ([`Fixture::slope`])
 /// carries each tone's change to the line behind it. The search keeps
 /// to spreads beyond `floor` (a bound known already: where none is, the
 /// result is at most `floor`), and the first beyond `room` ends it (its
@@ -129,7 +138,7 @@ pub fn bound(
     room: f32,
 ) -> f32 {
     let z = tones.map(|t| t.z);
-    let per_sigma = tones.map(|t| slope(fixture, &t) / t.sigma_ohm);
+    let per_sigma = tones.map(|t| fixture.slope(t.z, t.f_hz) / t.sigma_ohm);
     let weigh = |f: [Complex32; 3]| -> [Complex32; 3] { core::array::from_fn(|k| f[k] * per_sigma[k]) };
     let along: [Along; 2] = [
         reach.along(&weigh(factors(v, false, &z, &fitted))),
@@ -141,13 +150,7 @@ pub fn bound(
         if NEAR[p] & mask == 0 {
             continue;
         }
-        let kernel: [[Complex32; 2]; 3] = core::array::from_fn(|j| {
-            KERNEL
-                .get(p)
-                .and_then(|k| k.get(fitted[j]))
-                .copied()
-                .unwrap_or_default()
-        });
+        let kernel = kernel_at(p, &fitted);
         for (along, e) in along.iter().zip(excess) {
             let most = core::f32::consts::SQRT_2 * e / SEEN[p];
             let b = along.bound_above(&kernel, share, most, worst);
@@ -161,17 +164,4 @@ pub fn bound(
         }
     }
     worst
-}
-
-/// How a change of the measured impedance moves the line's behind the
-/// `fixture`: d(Z_line)/d(Z) = 1/(Z·Y)², Y = 1/Z − jωC_p
-/// ([`Fixture::remove`]); 1 without one.
-fn slope(fixture: &Fixture, tone: &Tone) -> Complex32 {
-    if *fixture == Fixture::NONE {
-        return Complex32::new(1.0, 0.0);
-    }
-    let y = Complex32::new(1.0, 0.0) / tone.z
-        - Complex32::new(0.0, core::f32::consts::TAU * tone.f_hz * fixture.parallel_farad);
-    let zy = tone.z * y;
-    Complex32::new(1.0, 0.0) / (zy * zy)
 }

@@ -348,19 +348,7 @@ impl ToneChannel {
         // in flash on a board: `crate::spread::of_record`.)
         let spread = (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
             |sol: &Solution, share: f32, room: f32| {
-                let inputs = [seen.v, seen.i];
-                let excess = seen.hidden_excess();
-                crate::spread::of_record(
-                    &inputs,
-                    excess,
-                    &tones,
-                    sensor,
-                    &s.dielectric,
-                    fitted,
-                    sol,
-                    share,
-                    room,
-                )
+                seen.spread(&tones, sensor, &s.dielectric, fitted, sol, share, room)
             },
         );
         let decided = self.course.decide(
@@ -584,6 +572,37 @@ impl<'a> Seen<'a> {
             None => 1.0,
         };
         self.shift(k, near, left_out.is_some(), near_to.is_some())
+    }
+
+    /// What one interferer spread over the `fitted` comb tones could hide
+    /// in the line `sol` fitted to `tones` on `sensor` and the film `film`
+    /// ([`crate::spread::of_record`], with `share` and `room`), δ as
+    /// large as the noise may hide ([`Seen::hidden_excess`]). (Inlined
+    /// where the bound asks, in flash.)
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn spread<const N: usize>(
+        &self,
+        tones: &[Tone; 3],
+        sensor: &Sensor<N>,
+        film: &Dielectric,
+        fitted: [usize; 3],
+        sol: &Solution,
+        share: f32,
+        room: f32,
+    ) -> f32 {
+        let inputs = [self.v, self.i];
+        crate::spread::of_record(
+            &inputs,
+            self.hidden_excess(),
+            tones,
+            sensor,
+            film,
+            fitted,
+            sol,
+            share,
+            room,
+        )
     }
 
     /// δ_v, δ_i as large as the residuals allow: the white noise's
