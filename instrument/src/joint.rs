@@ -285,6 +285,10 @@ pub fn own_share(sol: &Solution) -> f32 {
 /// of 4 ms blocks, a quarter second of 1 ms ones.
 pub const QUIET_BLOCKS: u16 = 256;
 
+/// Blocks the model check's history must hold before it bounds a block
+/// ([`Quiet`]): an eighth of a second of 4 ms blocks.
+pub const QUIET_MIN_BLOCKS: u16 = 32;
+
 /// How many standard errors of the history's mean χ² its bound adds
 /// ([`Quiet::share`]).
 pub const QUIET_Z: f32 = 3.0;
@@ -303,23 +307,38 @@ pub const QUIET_Z: f32 = 3.0;
 ///
 /// Over many blocks the noise averages out and the error does not: an
 /// error of share s in every block raises the mean χ² to dof + s². After
-/// [`QUIET_BLOCKS`] blocks at one set of tones, the share is bounded by
-/// the mean (an exponential average over that many blocks, each block's
-/// χ² taken at most at the flag) less dof, plus three standard
-/// errors of the mean (√(2·dof/[`QUIET_BLOCKS`]) each), doubled in
-/// square: an error a few hertz off its tone turns its phase from block
-/// to block, and its share in one block can be up to twice its mean. A
-/// block whose own χ² passes half the flag (for three tones' 26.6, 13.3:
-/// the 1 % point of χ² with four degrees of freedom; for two tones'
-/// 18.4, 9.2, that of two) is evidence of something new: its own share
-/// stands. So does it until the history is full, and again after the
+/// n ≥ [`QUIET_MIN_BLOCKS`] blocks at one set of tones, the share is
+/// bounded by the mean (of the n blocks, up to [`QUIET_BLOCKS`];
+/// exponential over that many after, each block's χ² taken at most at
+/// the flag) less dof, plus [`QUIET_Z`] standard errors of the mean,
+/// doubled in square: an error a few hertz off its tone turns its phase
+/// from block to block, and its share in one block can be up to twice
+/// its mean. The standard error is √(v·Σw²), v the blocks' own variance
+/// of χ² where it exceeds white noise's 2·dof (an error's share adds
+/// 4·s² to it, and one that turns adds its own spread), Σw² the sum of
+/// the squares of the mean's weights (1/n for the running mean, down to
+/// 1/511 for the exponential one). A block whose own χ²
+/// passes half the flag (for three tones' 26.6, 13.3: the 1 % point of
+/// χ² with four degrees of freedom; for two tones' 18.4, 9.2, that of
+/// two) is evidence of something new: its own share stands. So does it
+/// until the history holds [`QUIET_MIN_BLOCKS`], and again after the
 /// channel's tones change (a history of other tones says nothing of the
 /// new one's bin; one kept from the last time the channel read these
-/// tones, seconds ago, says nothing of now).
+/// tones, seconds ago, says nothing of now): a channel whose policy
+/// moves its tones as the electrodes' resistance peaks would read its
+/// peak by its own share for a second if it waited for a full history,
+/// and keeps its records after an eighth of one.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Quiet {
     /// Mean χ² of the blocks taken (exponential over [`QUIET_BLOCKS`]).
     mean: f32,
+    /// Their mean χ⁴, as the mean.
+    mean_square: f32,
+    /// The sum of the squares of the mean's weights, the mean's variance
+    /// per unit of the blocks': 1/n for n blocks, falling to
+    /// 1/(2·[`QUIET_BLOCKS`] − 1) as the exponential mean forgets the
+    /// first.
+    weight2: f32,
     /// Blocks taken at these tones (up to [`QUIET_BLOCKS`]).
     blocks: u16,
     /// The tones' key: their frequencies summed, Hz.
@@ -331,6 +350,8 @@ impl Quiet {
     pub const fn new() -> Self {
         Self {
             mean: 0.0,
+            mean_square: 0.0,
+            weight2: 0.0,
             blocks: 0,
             set_hz: 0.0,
         }
@@ -347,11 +368,12 @@ impl Quiet {
     pub fn share(&self, sol: &Solution, chi2_flag: f32, set_hz: f32) -> f32 {
         let (chi2, dof) = (sol.chi2, sol.dof);
         let own = own_share(sol);
-        let full = self.set_hz == set_hz && self.blocks >= QUIET_BLOCKS;
-        if !(full && chi2 <= 0.5 * chi2_flag) {
+        let held = self.set_hz == set_hz && self.blocks >= QUIET_MIN_BLOCKS;
+        if !(held && chi2 <= 0.5 * chi2_flag) {
             return own;
         }
-        let se = fmath::sqrt(2.0 * dof / f32::from(QUIET_BLOCKS));
+        let spread = self.mean_square - self.mean * self.mean;
+        let se = fmath::sqrt(fmath::max(spread, 2.0 * dof) * self.weight2);
         let excess = fmath::max(self.mean - dof, 0.0) + QUIET_Z * se;
         fmath::min(own, fmath::sqrt(2.0 * excess))
     }
@@ -374,8 +396,11 @@ impl Quiet {
         } else {
             QUIET_BLOCKS
         };
-        // The running mean until the history is full, exponential after.
-        self.mean += (x - self.mean) / f32::from(self.blocks);
+        // The running means until the history is full, exponential after.
+        let w = 1.0 / f32::from(self.blocks);
+        self.mean += (x - self.mean) * w;
+        self.mean_square += (x * x - self.mean_square) * w;
+        self.weight2 = (1.0 - w) * (1.0 - w) * self.weight2 + w * w;
     }
 
     /// Forget the history (the line is lost).
@@ -419,16 +444,49 @@ mod tests {
         q
     }
 
+    /// Below [`QUIET_MIN_BLOCKS`] a block's own share stands; from there
+    /// on calm blocks bound it by 3 standard errors of their n, doubled:
+    /// √(2·3·√(8/32)) = √3 at 32 blocks, falling as they fill.
     #[test]
-    fn a_block_counts_only_its_own_share_until_the_history_is_full() {
+    fn a_block_counts_only_its_own_share_until_the_history_holds_enough() {
         let mut q = Quiet::new();
-        for _ in 0..QUIET_BLOCKS - 1 {
+        for _ in 0..QUIET_MIN_BLOCKS - 1 {
             q.take(DOF, FLAG, SET);
             assert_eq!(q.share(&sol(1.0, DOF), FLAG, SET), 2.0);
             assert_eq!(q.share(&sol(9.0, DOF), FLAG, SET), 3.0);
         }
         q.take(DOF, FLAG, SET);
-        assert!(q.share(&sol(9.0, DOF), FLAG, SET) < 1.2);
+        let first = q.share(&sol(9.0, DOF), FLAG, SET);
+        assert!((first - fmath::sqrt(3.0)).abs() < 1e-3, "{first}");
+        let mut last = first;
+        for _ in QUIET_MIN_BLOCKS..QUIET_BLOCKS {
+            q.take(DOF, FLAG, SET);
+            let share = q.share(&sol(9.0, DOF), FLAG, SET);
+            assert!(share <= last, "{share} > {last}");
+            last = share;
+        }
+        assert!(last < 1.04, "{last}");
+    }
+
+    /// Blocks whose χ² spreads more than white noise's (an error that
+    /// turns: half the blocks hold twice its mean share, half none) bound
+    /// by their own spread: the share of the blocks that hold it.
+    #[test]
+    fn a_history_that_spreads_bounds_by_its_own_spread() {
+        // (A block of χ² 13.2, just calm: its own share is 3.63.)
+        for s2 in [1.0f32, 2.0, 3.0, 4.0] {
+            let mut q = Quiet::new();
+            for b in 0..QUIET_MIN_BLOCKS {
+                q.take(DOF + if b % 2 == 0 { 2.0 * s2 } else { 0.0 }, FLAG, SET);
+            }
+            let share = q.share(&sol(13.2, DOF), FLAG, SET);
+            assert!(share >= fmath::sqrt(2.0 * s2), "{s2}: {share}");
+            // Where the blocks spread more than white noise (s⁴ > 2·dof),
+            // more than white noise's spread would give, √(2·(s² + 1.5)).
+            if s2 * s2 > 2.0 * DOF {
+                assert!(share > fmath::sqrt(2.0 * (s2 + 1.5)), "{s2}: {share}");
+            }
+        }
     }
 
     /// Calm blocks (χ² at its mean) bound the share by 3 standard errors
