@@ -348,7 +348,9 @@ impl ToneChannel {
         // in flash on a board: `crate::spread::of_record`.)
         let spread = (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
             |sol: &Solution, share: f32, room: f32| {
-                seen.spread(&tones, sensor, &s.dielectric, fitted, sol, share, room)
+                let (inputs, excess) = seen.hidden();
+                let film = &s.dielectric;
+                crate::spread::of_record(&inputs, excess, &tones, sensor, film, fitted, sol, share, room)
             },
         );
         let decided = self.course.decide(
@@ -574,35 +576,12 @@ impl<'a> Seen<'a> {
         self.shift(k, near, left_out.is_some(), near_to.is_some())
     }
 
-    /// What one interferer spread over the `fitted` comb tones could hide
-    /// in the line `sol` fitted to `tones` on `sensor` and the film `film`
-    /// ([`crate::spread::of_record`], with `share` and `room`), δ as
-    /// large as the noise may hide ([`Seen::hidden_excess`]). (Inlined
-    /// where the bound asks, in flash.)
-    #[allow(clippy::too_many_arguments)]
+    /// Both inputs' levels, and δ_v, δ_i as large as the noise may hide
+    /// ([`Seen::hidden_excess`]): what the bound of one interferer spread
+    /// over the tones reads ([`crate::spread::of_record`]).
     #[inline(always)]
-    fn spread<const N: usize>(
-        &self,
-        tones: &[Tone; 3],
-        sensor: &Sensor<N>,
-        film: &Dielectric,
-        fitted: [usize; 3],
-        sol: &Solution,
-        share: f32,
-        room: f32,
-    ) -> f32 {
-        let inputs = [self.v, self.i];
-        crate::spread::of_record(
-            &inputs,
-            self.hidden_excess(),
-            tones,
-            sensor,
-            film,
-            fitted,
-            sol,
-            share,
-            room,
-        )
+    fn hidden(&self) -> ([&'a Levels<TONES>; 2], [f32; 2]) {
+        ([self.v, self.i], self.hidden_excess())
     }
 
     /// δ_v, δ_i as large as the residuals allow: the white noise's
