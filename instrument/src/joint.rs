@@ -317,10 +317,10 @@ pub const QUIET_Z: f32 = 3.0;
 /// of χ² where it exceeds white noise's 2·dof (an error's share adds
 /// 4·s² to it, and one that turns adds its own spread), Σw² the sum of
 /// the squares of the mean's weights (1/n for the running mean, down to
-/// 1/511 for the exponential one). A block whose own χ²
-/// passes half the flag (for three tones' 26.6, 13.3: the 1 % point of
-/// χ² with four degrees of freedom; for two tones' 18.4, 9.2, that of
-/// two) is evidence of something new: its own share stands. So does it
+/// 1/511 for the exponential one). A block whose own χ² passes half the
+/// flag (for three tones' 26.6, 13.3: the 1 % point of χ² with four
+/// degrees of freedom; for two tones' 18.4, 9.2, that of two) is
+/// evidence of something new: its own share stands. So does it
 /// until the history holds [`QUIET_MIN_BLOCKS`], and again after the
 /// channel's tones change (a history of other tones says nothing of the
 /// new one's bin; one kept from the last time the channel read these

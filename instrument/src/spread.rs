@@ -119,11 +119,10 @@ pub fn of_record<const N: usize>(
 /// residual beyond its noise, counts rms, as large as the noise may
 /// hide); the worst. `tones` are the fitted tones as measured (Ω, with
 /// their σ), before the sensor's `fixture` is taken out, whose slope
-/// ([`Fixture::slope`])
-/// carries each tone's change to the line behind it. The search keeps
-/// to spreads beyond `floor` (a bound known already: where none is, the
-/// result is at most `floor`), and the first beyond `room` ends it (its
-/// bound is returned).
+/// ([`Fixture::slope`]) carries each tone's change to the line behind
+/// it. The search keeps to spreads beyond `floor` (a bound known
+/// already: where none is, the result is at most `floor`), and the first
+/// beyond `room` ends it (its bound is returned).
 #[allow(clippy::too_many_arguments)]
 pub fn bound(
     v: &Levels<TONES>,
