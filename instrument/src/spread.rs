@@ -105,7 +105,7 @@ pub fn of_record<const N: usize>(
     let one_tone = sol.hidden_ln_c * share;
     let [v, i] = *inputs;
     bound(
-        v, i, excess, tones, fixture, fitted, &reach, share, one_tone, room,
+        v, i, excess, tones, &behind, fixture, fitted, &reach, share, one_tone, room,
     )
 }
 
@@ -117,10 +117,11 @@ pub fn of_record<const N: usize>(
 /// of the residual (√χ², as [`crate::joint::hidden`]'s) and an
 /// amplitude of at most √2·`excess`/[`leak::SEEN`] (`excess` each input's
 /// residual beyond its noise, counts rms, as large as the noise may
-/// hide); the worst. `tones` are the fitted tones as measured (Ω, with
-/// their σ), before the sensor's `fixture` is taken out, whose slope
+/// hide); the worst. `tones` are the fitted tones as measured (Ω),
+/// before the sensor's `fixture` is taken out, whose slope
 /// ([`Fixture::slope`]) carries each tone's change to the line behind
-/// it. The search keeps to spreads beyond `floor` (a bound known
+/// it, in units of the σ it has there (`behind`'s, the tones the line
+/// was fitted to). The search keeps to spreads beyond `floor` (a bound known
 /// already: where none is, the result is at most `floor`), and the first
 /// beyond `room` ends it (its bound is returned).
 #[allow(clippy::too_many_arguments)]
@@ -129,6 +130,7 @@ pub fn bound(
     i: &Levels<TONES>,
     excess: [f32; 2],
     tones: &[Tone; 3],
+    behind: &[Tone; 3],
     fixture: &Fixture,
     fitted: [usize; 3],
     reach: &Reach,
@@ -137,7 +139,8 @@ pub fn bound(
     room: f32,
 ) -> f32 {
     let z = tones.map(|t| t.z);
-    let per_sigma = tones.map(|t| fixture.slope(t.z, t.f_hz) / t.sigma_ohm);
+    let per_sigma: [Complex32; 3] =
+        core::array::from_fn(|k| fixture.slope(z[k], tones[k].f_hz) / behind[k].sigma_ohm);
     let weigh = |f: [Complex32; 3]| -> [Complex32; 3] { core::array::from_fn(|k| f[k] * per_sigma[k]) };
     let along: [Along; 2] = [
         reach.along(&weigh(factors(v, false, &z, &fitted))),
