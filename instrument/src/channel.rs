@@ -35,7 +35,8 @@ pub struct Settings<'a, const N: usize, const S: usize> {
     pub thresholds: Thresholds,
     /// The film between the electrodes: its loss tangent, fitted within
     /// its spread with the line, and the model's error floor
-    /// ([`dsp_core::dielectric::Dielectric`]).
+    /// ([`dsp_core::dielectric::Dielectric`]); the material's, for each
+    /// sensor whose own was not measured ([`crate::sensor::Sensor::film`]).
     pub dielectric: Dielectric,
     /// Front end (transimpedance) for Z = k·V/I, one per range.
     pub front_ends: [FrontEnd; RANGES],
@@ -300,7 +301,7 @@ impl Channel {
         }
         let rules = Rules {
             sensor,
-            dielectric: &s.dielectric,
+            dielectric: sensor.film(&s.dielectric),
             thresholds: th,
             chi2_flag: twotone::CHI2_FLAG,
             // Two tones: no pair to rescue a record from.

@@ -48,7 +48,8 @@ pub const NO_SPREAD: Option<fn(&Solution, f32, f32) -> f32> = None;
 pub struct Rules<'a, const N: usize> {
     /// The sensor: its wiring, its line's inversion, its stretch table.
     pub sensor: &'a Sensor<N>,
-    /// The film between the electrodes.
+    /// The film between the electrodes: the sensor's where it was
+    /// measured, else the material's ([`Sensor::film`]).
     pub dielectric: &'a Dielectric,
     /// Fault thresholds (the tolerance and the electrodes' range).
     pub thresholds: &'a Thresholds,

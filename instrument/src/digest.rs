@@ -72,6 +72,19 @@ impl Digestible for u8 {
     }
 }
 
+/// A tag (0: none, 1: some), then the value.
+impl<T: Digestible> Digestible for Option<T> {
+    fn feed(&self, d: &mut Digest) {
+        match self {
+            None => d.bytes(&[0]),
+            Some(v) => {
+                d.bytes(&[1]);
+                v.feed(d);
+            }
+        }
+    }
+}
+
 impl Digestible for bool {
     fn feed(&self, d: &mut Digest) {
         d.bytes(&[u8::from(*self)]);
@@ -210,6 +223,8 @@ impl<const N: usize> Digestible for Sensor<N> {
             self.rest_farad,
             self.calibrated,
             self.table,
+            self.film.map(|f| f.loss_tangent),
+            self.film.map(|f| f.spread),
         );
     }
 }
@@ -274,6 +289,7 @@ impl Digestible for SensorSettings {
             self.parasitic_farad,
             self.table,
             self.calibrated,
+            self.loss_tangent,
         );
     }
 }

@@ -1,6 +1,7 @@
 //! Each sensor as the instrument measures it: its line model (with its
-//! tab leads), the wiring in front of it, the capacitance it rests at, and
-//! its stretch calibration if it has one. Built from a stored set
+//! tab leads), the wiring in front of it, the capacitance it rests at, its
+//! film's loss where it was measured, and its stretch calibration if it
+//! has one. Built from a stored set
 //! ([`crate::stored::Stored`]) or, for the simulators and benches, in
 //! code.
 //!
@@ -15,6 +16,7 @@ use crate::config::PERIODS;
 use crate::faults::Flags;
 use crate::policy::Policy;
 use crate::stored::{SensorSettings, Stored, FORMAT_VERSION, SENSORS_MAX};
+use dsp_core::dielectric::Dielectric;
 use dsp_core::fixture::Fixture;
 use dsp_core::tline::{LineModel, ModelError};
 use dsp_core::track::Tracker;
@@ -54,9 +56,41 @@ pub struct Sensor<const N: usize> {
     pub table: CalTable<N>,
     /// The table was measured on this sensor.
     pub calibrated: bool,
+    /// This sensor's film as measured: its loss tangent
+    /// ([`SensorSettings::loss_tangent`]) with [`FILM_DRIFT`] for its
+    /// spread; None: the material's, as the settings give it.
+    pub film: Option<Dielectric>,
 }
 
+/// How far a film's tan δ may move from what its calibration measured
+/// (1σ): temperature and stretch move a silicone's by about as much as
+/// its material spreads from film to film (`Dielectric::SILICONE`'s
+/// spread), so a measured film keeps that spread and only its mean moves.
+pub const FILM_DRIFT: f32 = Dielectric::SILICONE.spread;
+
 impl<const N: usize> Sensor<N> {
+    /// The film the line is fitted on: this sensor's where it was
+    /// measured, else `material`. A film's tan δ spreads over 1–5·10⁻³
+    /// from sensor to sensor; a fit whose prior sits away from it pays
+    /// the distance in χ² (2.6 at 1.6σ), which the model check's history
+    /// then takes for an error it must bound.
+    #[inline(always)]
+    pub fn film<'a>(&'a self, material: &'a Dielectric) -> &'a Dielectric {
+        self.film.as_ref().unwrap_or(material)
+    }
+
+    /// A sensor whose film was measured at loss tangent `t` (None: its
+    /// material's): the fit's prior centred there, [`FILM_DRIFT`] wide.
+    pub fn with_loss_tangent(self, t: Option<f32>) -> Self {
+        Self {
+            film: t.map(|loss_tangent| Dielectric {
+                loss_tangent,
+                spread: FILM_DRIFT,
+            }),
+            ..self
+        }
+    }
+
     /// Stretch (mm) for capacitance `c` (F): None while the sensor has no
     /// calibration of its own.
     pub fn stretch(&self, c: f32) -> Option<f32> {
@@ -93,6 +127,7 @@ impl Sensor<POINTS> {
             rest_farad: table.rest_capacitance(),
             table,
             calibrated: true,
+            film: None,
         })
     }
 
@@ -108,6 +143,7 @@ impl Sensor<POINTS> {
                 points: SensorSettings::unknown(nominal_farad, 1e6).table,
             },
             calibrated: false,
+            film: None,
         }
     }
 
@@ -125,7 +161,9 @@ impl Sensor<POINTS> {
             rest_farad: s.nominal_c_farad,
             table: CalTable { points: s.table },
             calibrated: s.calibrated,
-        })
+            film: None,
+        }
+        .with_loss_tangent(s.loss_tangent))
     }
 
     /// This sensor as a stored setting, its electrode resistance at rest
@@ -140,6 +178,7 @@ impl Sensor<POINTS> {
             parasitic_farad: self.fixture.parallel_farad,
             table: self.table.points,
             calibrated: self.calibrated,
+            loss_tangent: self.film.map(|f| f.loss_tangent),
         }
     }
 }

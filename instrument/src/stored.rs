@@ -16,8 +16,10 @@ use crate::policy::Policy;
 use dsp_core::invert::LEAD_MAX;
 use serde::{Deserialize, Serialize};
 
-/// The version of the stored layout; a device refuses a set of another.
-pub const FORMAT_VERSION: u16 = 1;
+/// The version of the stored layout; a device reads a set of version 1
+/// as this one (each sensor's film as its material's: [`SensorSettings::loss_tangent`]
+/// None) and refuses any other.
+pub const FORMAT_VERSION: u16 = 2;
 
 /// Sensors a set describes (the array's sixteen; the multiplexed board
 /// uses the first eight).
@@ -50,6 +52,41 @@ pub struct SensorSettings {
     /// The table was measured on this sensor; false: stretch is not
     /// calibrated (records say so) and the table is not used.
     pub calibrated: bool,
+    /// The loss tangent tan δ of this sensor's film as its calibration
+    /// measured it (0 … 0.1), the line's fit's prior mean in place of its
+    /// material's (`dsp_core::dielectric::Dielectric`, whose spread it
+    /// keeps); None: the material's.
+    pub loss_tangent: Option<f32>,
+}
+
+/// [`SensorSettings`] as version 1 stored it: without
+/// [`SensorSettings::loss_tangent`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct SensorSettingsV1 {
+    in_use: bool,
+    nominal_c_farad: f32,
+    nominal_r_ohm: f32,
+    lead_ratio: f32,
+    contact_ohm: f32,
+    parasitic_farad: f32,
+    table: [(f32, f32); POINTS],
+    calibrated: bool,
+}
+
+impl From<SensorSettingsV1> for SensorSettings {
+    fn from(s: SensorSettingsV1) -> Self {
+        Self {
+            in_use: s.in_use,
+            nominal_c_farad: s.nominal_c_farad,
+            nominal_r_ohm: s.nominal_r_ohm,
+            lead_ratio: s.lead_ratio,
+            contact_ohm: s.contact_ohm,
+            parasitic_farad: s.parasitic_farad,
+            table: s.table,
+            calibrated: s.calibrated,
+            loss_tangent: None,
+        }
+    }
 }
 
 /// Everything a device keeps.
@@ -101,11 +138,13 @@ pub enum Rule {
     TableRange,
     /// A sensor's table: its order.
     TableOrder,
+    /// A sensor's `loss_tangent`.
+    LossTangent,
 }
 
 impl Rule {
     /// Every rule, by code.
-    pub const ALL: [Rule; 15] = [
+    pub const ALL: [Rule; 16] = [
         Rule::Version,
         Rule::RecordEvery,
         Rule::XLimit,
@@ -121,6 +160,7 @@ impl Rule {
         Rule::ParasiticFarad,
         Rule::TableRange,
         Rule::TableOrder,
+        Rule::LossTangent,
     ];
 
     /// Its number on the link.
@@ -150,6 +190,7 @@ impl Rule {
             Rule::ContactOhm => "contact_ohm",
             Rule::ParasiticFarad => "parasitic_farad",
             Rule::TableRange | Rule::TableOrder => "table",
+            Rule::LossTangent => "loss_tangent",
         }
     }
 
@@ -171,6 +212,7 @@ impl Rule {
             Rule::ParasiticFarad => "must be 0 … 1 nF",
             Rule::TableRange => "C must be 1 pF … 100 nF and stretch within ±1 m",
             Rule::TableOrder => "must ascend in C and in stretch",
+            Rule::LossTangent => "must be 0 … 0.1, or none (the material's)",
         }
     }
 }
@@ -209,9 +251,10 @@ fn refused(rule: Rule) -> Refused {
 
 impl SensorSettings {
     /// A sensor nothing is known of: in use, the reference sensor's
-    /// nominal values, no leads, no wiring, stretch not calibrated (the
-    /// table a placeholder: C over its plausible span, stretch zero…one
-    /// millimetre, never used while `calibrated` is false).
+    /// nominal values, no leads, no wiring, its film its material's,
+    /// stretch not calibrated (the table a placeholder: C over its
+    /// plausible span, stretch zero…one millimetre, never used while
+    /// `calibrated` is false).
     pub const fn unknown(nominal_c_farad: f32, nominal_r_ohm: f32) -> Self {
         let mut table = [(0.0, 0.0); POINTS];
         let mut k = 0;
@@ -229,6 +272,7 @@ impl SensorSettings {
             parasitic_farad: 0.0,
             table,
             calibrated: false,
+            loss_tangent: None,
         }
     }
 
@@ -240,6 +284,9 @@ impl SensorSettings {
         within(self.lead_ratio, 0.0, LEAD_MAX, at, Rule::LeadRatio)?;
         within(self.contact_ohm, 0.0, 1e7, at, Rule::ContactOhm)?;
         within(self.parasitic_farad, 0.0, 1e-9, at, Rule::ParasiticFarad)?;
+        if let Some(t) = self.loss_tangent {
+            within(t, 0.0, 0.1, at, Rule::LossTangent)?;
+        }
         for &(c, mm) in &self.table {
             within(c, 1e-12, 1e-7, at, Rule::TableRange)?;
             within(mm, -1e3, 1e3, at, Rule::TableRange)?;
@@ -340,15 +387,24 @@ impl Stored {
     /// layout postcard gives the whole: the fields in order, a fixed
     /// array as its elements), so that a device parses it with one set on
     /// its stack rather than serde's copies of sixteen sensors (7 KiB).
-    /// Bytes after the set are no set: None.
+    /// Bytes after the set are no set: None. A set of version 1 is read
+    /// as this version's ([`FORMAT_VERSION`]).
     fn parse(&mut self, bytes: &[u8]) -> Option<()> {
         let ((version, record_every, policy), mut rest) =
             postcard::take_from_bytes::<(u16, u8, Policy)>(bytes).ok()?;
         (self.version, self.record_every, self.policy) = (version, record_every, policy);
         for sensor in self.sensors.iter_mut() {
-            let (s, r) = postcard::take_from_bytes::<SensorSettings>(rest).ok()?;
+            let (s, r) = if version == 1 {
+                let (s, r) = postcard::take_from_bytes::<SensorSettingsV1>(rest).ok()?;
+                (s.into(), r)
+            } else {
+                postcard::take_from_bytes::<SensorSettings>(rest).ok()?
+            };
             *sensor = s;
             rest = r;
+        }
+        if version == 1 {
+            self.version = FORMAT_VERSION;
         }
         rest.is_empty().then_some(())
     }
@@ -366,6 +422,7 @@ mod tests {
             sensor.lead_ratio = 0.64;
             sensor.contact_ohm = 1234.5;
             sensor.parasitic_farad = 12e-12 + k as f32 * 1e-13;
+            sensor.loss_tangent = Some(1.5e-3 + k as f32 * 1e-4);
         }
         s.record_every = 250;
         s
@@ -401,7 +458,7 @@ mod tests {
         assert_eq!(base.check(), Ok(()));
         let mut cases: std::vec::Vec<(Stored, &str)> = std::vec::Vec::new();
         let mut s = base;
-        s.version = 2;
+        s.version = 3;
         cases.push((s, "version: a layout"));
         let mut s = base;
         s.record_every = 0;
@@ -430,6 +487,11 @@ mod tests {
         let mut s = base;
         s.sensors[3].parasitic_farad = 2e-9;
         cases.push((s, "sensor 3 parasitic_farad:"));
+        for t in [-1e-4, 0.2, f32::NAN] {
+            let mut s = base;
+            s.sensors[4].loss_tangent = Some(t);
+            cases.push((s, "sensor 4 loss_tangent:"));
+        }
         let mut s = base;
         s.sensors[7].table.swap(3, 4);
         cases.push((s, "sensor 7 table: must ascend"));
@@ -444,6 +506,49 @@ mod tests {
             let n = s.to_bytes(&mut buf).unwrap().len();
             assert!(matches!(Stored::from_bytes(&buf[..n]), Some(Err(_))));
         }
+    }
+
+    /// A set version 1 wrote (before each sensor's film was stored) is
+    /// read as this version's, every sensor's film its material's; a
+    /// set of an unknown version is refused.
+    #[test]
+    fn a_set_of_version_1_reads_with_the_materials_film() {
+        let now = longest();
+        let old = (
+            1u16,
+            now.record_every,
+            now.policy,
+            now.sensors.map(|s| SensorSettingsV1 {
+                in_use: s.in_use,
+                nominal_c_farad: s.nominal_c_farad,
+                nominal_r_ohm: s.nominal_r_ohm,
+                lead_ratio: s.lead_ratio,
+                contact_ohm: s.contact_ohm,
+                parasitic_farad: s.parasitic_farad,
+                table: s.table,
+                calibrated: s.calibrated,
+            }),
+        );
+        let mut buf = [0u8; MAX_BYTES];
+        let n = postcard::to_slice(&old, &mut buf).unwrap().len();
+        let mut want = now;
+        for s in want.sensors.iter_mut() {
+            s.loss_tangent = None;
+        }
+        assert_eq!(Stored::from_bytes(&buf[..n]), Some(Ok(want)));
+        assert_eq!(Stored::from_bytes(&buf[..n - 1]), None, "cut short");
+        buf[0] = 3;
+        let read = Stored::from_bytes(&buf[..n]);
+        assert!(
+            matches!(
+                read,
+                None | Some(Err(Refused {
+                    rule: Rule::Version,
+                    ..
+                }))
+            ),
+            "version 3 is no layout this firmware reads: {read:?}"
+        );
     }
 
     #[test]

@@ -58,7 +58,8 @@ pub struct ToneSettings<'a, const N: usize> {
     pub sensors: &'a Sensors<N, SENSORS>,
     /// The film between the electrodes: its loss tangent, taken into the
     /// line, and the model's error floor added to each tone's noise
-    /// ([`dsp_core::dielectric::Dielectric`]).
+    /// ([`dsp_core::dielectric::Dielectric`]); the material's, for each
+    /// sensor whose own was not measured ([`Sensor::film`]).
     pub dielectric: Dielectric,
     /// χ² above which a record is flagged [`Flags::MODEL`].
     pub chi2_flag: f32,
@@ -349,7 +350,7 @@ impl ToneChannel {
         let spread = (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
             |sol: &Solution, share: f32, room: f32| {
                 let (inputs, excess) = seen.hidden();
-                let film = &s.dielectric;
+                let film = sensor.film(&s.dielectric);
                 crate::spread::of_record(&inputs, excess, &tones, sensor, film, fitted, sol, share, room)
             },
         );
@@ -389,7 +390,7 @@ fn rules_of<'a, const N: usize>(
 ) -> Rules<'a, N> {
     Rules {
         sensor,
-        dielectric: &s.dielectric,
+        dielectric: sensor.film(&s.dielectric),
         thresholds: &s.thresholds,
         chi2_flag: s.chi2_flag,
         rescue: Rescue {

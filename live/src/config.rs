@@ -13,7 +13,7 @@ use std::path::Path;
 
 /// Every setting: its name (`N` a sensor, 0 … 15), unit and range, as
 /// `--help` lists them.
-pub const SETTINGS: [(&str, &str, &str); 16] = [
+pub const SETTINGS: [(&str, &str, &str); 17] = [
     ("record_every", "blocks per record", "1 … 250"),
     (
         "policy.x_limit",
@@ -56,6 +56,11 @@ pub const SETTINGS: [(&str, &str, &str); 16] = [
         "sensor.N.calibrated",
         "the table was measured on this sensor",
         "true, false",
+    ),
+    (
+        "sensor.N.loss_tangent",
+        "tan δ of the sensor's film as calibrated; none: its material's",
+        "0 … 0.1, none",
     ),
     ("(N)", "a sensor", "0 … 15"),
 ];
@@ -107,6 +112,7 @@ pub fn entries(set: &Stored) -> Vec<(String, String)> {
             (at("parasitic_farad"), number(s.parasitic_farad)),
             (at("table"), table.join(" ")),
             (at("calibrated"), s.calibrated.to_string()),
+            (at("loss_tangent"), s.loss_tangent.map_or("none".into(), number)),
         ]);
     }
     out
@@ -176,6 +182,12 @@ fn sensor(s: &mut SensorSettings, name: &str, field: &str, value: &str) -> Resul
         "contact_ohm" => s.contact_ohm = float(name, value)?,
         "parasitic_farad" => s.parasitic_farad = float(name, value)?,
         "calibrated" => s.calibrated = boolean(name, value)?,
+        "loss_tangent" => {
+            s.loss_tangent = match value.trim() {
+                "none" => None,
+                v => Some(float(name, v)?),
+            }
+        }
         "table" => {
             let points: Vec<&str> = value.split_whitespace().collect();
             if points.len() != s.table.len() {
@@ -573,13 +585,14 @@ mod tests {
         let mut set = Stored::uncalibrated();
         set.sensors[3].parasitic_farad = 4.7e-12;
         set.sensors[3].lead_ratio = 0.6415;
+        set.sensors[3].loss_tangent = Some(1.37e-3);
         set.policy.tones = (1, 3);
         let mut again = Stored::uncalibrated();
         for (name, value) in entries(&set) {
             assign(&mut again, &name, &value).unwrap();
         }
         assert_eq!(again, set);
-        assert_eq!(entries(&set).len(), 7 + 8 * SENSORS_MAX);
+        assert_eq!(entries(&set).len(), 7 + 9 * SENSORS_MAX);
     }
 
     #[test]

@@ -16,6 +16,7 @@ fn settings_set_are_read_back_and_a_refused_value_changes_nothing() {
         "--flash",
         f,
         "sensor.3.parasitic_farad=5e-12",
+        "sensor.4.loss_tangent=1.4e-3",
         "policy.tones=1,3",
     ]);
     assert_eq!(code, Some(0), "{err}");
@@ -27,13 +28,24 @@ fn settings_set_are_read_back_and_a_refused_value_changes_nothing() {
         "{out}"
     );
     assert!(out.lines().any(|l| l == "policy.tones = 1,3"), "{out}");
-    assert_eq!(out.lines().filter(|l| l.contains(" = ")).count(), 7 + 8 * 16);
+    assert!(
+        out.lines().any(|l| l == "sensor.4.loss_tangent = 0.0014"),
+        "{out}"
+    );
+    assert!(out.lines().any(|l| l == "sensor.5.loss_tangent = none"), "{out}");
+    assert_eq!(out.lines().filter(|l| l.contains(" = ")).count(), 7 + 9 * 16);
     // Refused: the file does not change.
     let before = std::fs::read(&image).unwrap();
     let (code, _, err) = live(&["config", "set", "--flash", f, "sensor.7.nominal_c_farad=1"]);
     assert_eq!(code, Some(1));
     assert!(
         err.contains("refused: sensor 7 nominal_c_farad: must be 1 pF … 10 nF"),
+        "{err}"
+    );
+    let (code, _, err) = live(&["config", "set", "--flash", f, "sensor.7.loss_tangent=0.5"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("refused: sensor 7 loss_tangent: must be 0 … 0.1, or none"),
         "{err}"
     );
     let (code, _, err) = live(&["config", "set", "--flash", f, "sensor.7.colour=red"]);

@@ -48,6 +48,16 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
             cp * 1e12
         );
         assert!(w.set.sensors[s].calibrated);
+        // And its film, stored for the device to fit each record's line
+        // on (`SensorSettings::loss_tangent`).
+        let loss = truth.effects.get(instrument::effects::Effect::DielectricLoss);
+        let stored = w.set.sensors[s].loss_tangent;
+        assert!(
+            stored.is_some_and(|t| (t as f64 - loss).abs() < 1e-4 + 3.0 * f.sigma[3]),
+            "sensor {s}: tan δ {stored:?} (fit {:.2e} ± {:.1e}), truth {loss:.2e}",
+            f.values[3],
+            f.sigma[3]
+        );
     }
     for s in &w.sensors {
         // What the calibration controls: the table and the line's C,
@@ -73,18 +83,16 @@ fn a_skin_of_hand_made_sensors_is_calibrated_over_the_link() {
             "sensor {}: valid records > 1 % off in C after",
             s.sensor
         );
-        // Every sensor keeps its records while the skin moves (the goal:
-        // 95 %, met by all but the slowest electrodes, 3.3 MΩ at rest,
-        // sensors 5 and 11: 88.0 % and 91.4 %, where they kept 98.4 % and
-        // 98.8 % until every record bounded what one interferer spread
-        // over its three tones could hide, `instrument::spread`, which at
-        // the lowest tones while the electrodes' resistance peaks is more
-        // than one tone's error hides; 14.6–16.8 % while the electrodes'
-        // range ended at 5 MΩ, which they pass as they peak); all of a
-        // sensor's records, still and moving, 95 %.
+        // Every sensor keeps 95 % of its records while the skin moves
+        // (the goal). The slowest electrodes, 3.3 MΩ at rest, sensors 5
+        // and 11, kept 89.2 % and 91.0 % while each record's noise behind
+        // the cable was taken as measured (sensor 11's 19.9 pF grow it
+        // 1.3-fold) and every film was fitted on its material's tan δ
+        // (sensor 5's is 1.4·10⁻³, 1.6σ from it): both read as misfit at
+        // the resistance's peak.
         let moving = &s.moving;
         assert!(
-            moving.valid * 100 >= moving.records * 85 && s.after_valid.0 * 100 >= s.after_valid.1 * 95,
+            moving.valid * 100 >= moving.records * 95 && s.after_valid.0 * 100 >= s.after_valid.1 * 95,
             "sensor {}: {} of {} valid, moving {moving} ({})",
             s.sensor,
             s.after_valid.0,

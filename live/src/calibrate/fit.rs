@@ -20,6 +20,13 @@ pub const SIGMA_FLOOR: f64 = 1e-4;
 /// not explain the data and the sensor is refused.
 pub const CHI2_MAX: f64 = 4.0;
 
+/// The largest 1σ of a sensor's fitted tan δ that is stored as its film's
+/// (`SensorSettings::loss_tangent`): half the material's spread
+/// (`dsp_core::dielectric::Dielectric::SILICONE`, 1·10⁻³), so that what
+/// is stored knows the film better than its material does. A sensor
+/// whose fit knows less keeps the material's.
+pub const LOSS_SIGMA_MAX: f64 = 0.5e-3;
+
 /// Correlation beyond which two fitted values are reported as trading
 /// against each other.
 pub const DEGENERATE: f64 = 0.95;
@@ -113,8 +120,9 @@ pub(crate) fn model(f_hz: f64, r: f64, c: f64, lead: f64, rs: f64, cp: f64, tan_
 
 /// The global unknowns of a sensor's fit: ℓ, R_s, C_p, and the film's
 /// loss tangent tan δ (each tone's sweep at every hold tells a loss,
-/// a resistance ∝ 1/f, from a contact, flat in f; the device takes its
-/// film's loss from the settings, `dsp_core::dielectric`, not from here).
+/// a resistance ∝ 1/f, from a contact, flat in f; the device fits each
+/// record's line with its film's tan δ as the prior's mean: this
+/// sensor's where the fit measured it, [`LOSS_SIGMA_MAX`]).
 pub(crate) const GLOBALS: usize = 4;
 /// Scale of the global unknowns in the fit's vector: ℓ, R_s/100 kΩ,
 /// C_p/pF, tan δ/10⁻³.
@@ -609,7 +617,17 @@ impl SensorFit {
             parasitic_farad: self.values[2] as f32,
             table,
             calibrated: true,
+            loss_tangent: self.loss_tangent(),
         }
+    }
+
+    /// The film's tan δ to store: the fitted one where it is free (not
+    /// at a bound) and known within [`LOSS_SIGMA_MAX`]; else None, the
+    /// material's.
+    pub fn loss_tangent(&self) -> Option<f32> {
+        let (t, sigma) = (self.values[3], self.sigma[3]);
+        let (lo, hi) = BOUNDS[3];
+        (sigma <= LOSS_SIGMA_MAX && t > lo && t <= hi).then_some(t as f32)
     }
 
     /// What the data cannot tell apart, in words (empty: every value
