@@ -513,32 +513,25 @@ mod tests {
     /// set of an unknown version is refused.
     #[test]
     fn a_set_of_version_1_reads_with_the_materials_film() {
-        let now = longest();
-        let old = (
-            1u16,
-            now.record_every,
-            now.policy,
-            now.sensors.map(|s| SensorSettingsV1 {
-                in_use: s.in_use,
-                nominal_c_farad: s.nominal_c_farad,
-                nominal_r_ohm: s.nominal_r_ohm,
-                lead_ratio: s.lead_ratio,
-                contact_ohm: s.contact_ohm,
-                parasitic_farad: s.parasitic_farad,
-                table: s.table,
-                calibrated: s.calibrated,
-            }),
-        );
-        let mut buf = [0u8; MAX_BYTES];
-        let n = postcard::to_slice(&old, &mut buf).unwrap().len();
-        let mut want = now;
+        let mut want = longest();
         for s in want.sensors.iter_mut() {
             s.loss_tangent = None;
         }
-        assert_eq!(Stored::from_bytes(&buf[..n]), Some(Ok(want)));
-        assert_eq!(Stored::from_bytes(&buf[..n - 1]), None, "cut short");
-        buf[0] = 3;
-        let read = Stored::from_bytes(&buf[..n]);
+        // Version 1's bytes: each sensor's as now but for its last field,
+        // a film of none (one byte, 0).
+        let mut old = std::vec::Vec::new();
+        let mut buf = [0u8; MAX_BYTES];
+        let head = (1u16, want.record_every, want.policy);
+        old.extend_from_slice(postcard::to_slice(&head, &mut buf).unwrap());
+        for s in &want.sensors {
+            let b = postcard::to_slice(s, &mut buf).unwrap();
+            assert_eq!(b.last(), Some(&0));
+            old.extend_from_slice(&b[..b.len() - 1]);
+        }
+        assert_eq!(Stored::from_bytes(&old), Some(Ok(want)));
+        assert_eq!(Stored::from_bytes(&old[..old.len() - 1]), None, "cut short");
+        old[0] = 3;
+        let read = Stored::from_bytes(&old);
         assert!(
             matches!(
                 read,

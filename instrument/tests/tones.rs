@@ -739,7 +739,7 @@ proptest::proptest! {
     /// `instrument::avoid`) and fit its sideband (`instrument::sideband`),
     /// while the sensors stretch: no record flagged valid is more than
     /// 1 % off, before the move or after it. (`FUZZ_CASES` / 20 cases, as
-    /// the next. It found [`a_rescued_pair_beside_an_alias_is_not_vouched_for`],
+    /// the two after it. It found [`a_rescued_pair_beside_an_alias_is_not_vouched_for`],
     /// [`a_shift_shared_by_the_pair_is_bounded_as_shared`] and
     /// [`an_interferer_spread_over_two_tones_is_bounded_as_spread`]:
     /// docs/accuracy.md.)
@@ -785,14 +785,6 @@ proptest::proptest! {
             proptest::prop_assert!(false, "{e}");
         }
     }
-}
-
-proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig {
-        cases: (interferer_cases() / 20).max(8),
-        failure_persistence: None,
-        ..proptest::prelude::ProptestConfig::default()
-    })]
 
     /// Sensors as a calibration leaves them: 0–20 pF of cable, tab leads
     /// from none to the paper's, films of tan δ 1–5·10⁻³, each known to

@@ -47,9 +47,10 @@ pub const TARGETS: [Target; 7] = [
         "FUZZ_CASES",
     ),
     // The array under interferers of any frequency and amplitude: from
-    // the start, late, and long enough for the channels to move off one
-    // (the three `…never_leave_a_wrong_valid_record` tests; the last two
-    // take FUZZ_CASES / 20).
+    // the start, late, long enough for the channels to move off one, and
+    // on sensors of drawn cable, leads and film (the four
+    // `…never_leave_a_wrong_valid_record` tests; the last three take
+    // FUZZ_CASES / 20).
     target(
         "instrument/tests/tones.rs",
         "instrument",
