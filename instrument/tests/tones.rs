@@ -850,12 +850,7 @@ fn wired_for(
     r_scale: f64,
     seed: u64,
 ) -> Result<(), String> {
-    let hum = Disturbance {
-        hum_hz: hz,
-        hum_i: 10f32.powf(log_counts),
-        hum_phase_turns: phase,
-        ..Disturbance::NONE
-    };
+    let hum = interferer(hz, log_counts, phase);
     let params = |s: usize| {
         let w = wiring[s];
         let mut p = SensorParams::PAPER;
@@ -887,21 +882,9 @@ fn wired_for(
         seed,
         (&hum, 0.0),
     );
-    for (s, recs) in out.iter().enumerate() {
-        for (r, c) in recs.iter().filter(|(r, _)| r.flags.valid()) {
-            let e = (r.c_farad as f64 / c - 1.0).abs();
-            if e >= 0.01 {
-                return Err(format!(
-                    "sensor {s} ({:?}), {hz} Hz of {} counts: C {:.2} pF vs {:.2} pF ({r:?})",
-                    wiring[s],
-                    hum.hum_i,
-                    r.c_farad * 1e12,
-                    c * 1e12
-                ));
-            }
-        }
-    }
-    Ok(())
+    none_off(&out, |s| {
+        format!("sensor {s} ({:?}), {hz} Hz of {} counts", wiring[s], hum.hum_i)
+    })
 }
 
 /// A case the fuzz target found once it tried interferers to 125 Hz
@@ -1027,12 +1010,7 @@ fn interfered_from(
     seed: u64,
     (onset_s, duration_s): (f64, f64),
 ) -> Result<(), String> {
-    let hum = Disturbance {
-        hum_hz: hz,
-        hum_i: 10f32.powf(log_counts),
-        hum_phase_turns: phase,
-        ..Disturbance::NONE
-    };
+    let hum = interferer(hz, log_counts, phase);
     let params = |_| {
         let mut p = SensorParams::PAPER;
         p.top.r_rest_ohm *= r_scale;
@@ -1049,13 +1027,29 @@ fn interfered_from(
         seed,
         (&hum, onset_s),
     );
+    none_off(&out, |s| format!("sensor {s}, {hz} Hz of {} counts", hum.hum_i))
+}
+
+/// An interferer of `hz` and 10^`log_counts` counts at `phase` (turns)
+/// on a sensor's current input.
+fn interferer(hz: f32, log_counts: f32, phase: f32) -> Disturbance {
+    Disturbance {
+        hum_hz: hz,
+        hum_i: 10f32.powf(log_counts),
+        hum_phase_turns: phase,
+        ..Disturbance::NONE
+    }
+}
+
+/// Every valid record of `out` within 1 % of its truth, or the first that
+/// is not, named by `what(sensor)`.
+fn none_off(out: &Run, what: impl Fn(usize) -> String) -> Result<(), String> {
     for (s, recs) in out.iter().enumerate() {
         for (r, c) in recs.iter().filter(|(r, _)| r.flags.valid()) {
-            let e = (r.c_farad as f64 / c - 1.0).abs();
-            if e >= 0.01 {
+            if (r.c_farad as f64 / c - 1.0).abs() >= 0.01 {
                 return Err(format!(
-                    "sensor {s}, {hz} Hz of {} counts: C {:.2} pF vs {:.2} pF ({r:?})",
-                    hum.hum_i,
+                    "{}: C {:.2} pF vs {:.2} pF ({r:?})",
+                    what(s),
                     r.c_farad * 1e12,
                     c * 1e12
                 ));
