@@ -59,35 +59,64 @@ const SECONDS: f64 = 2.0;
 /// Seconds run first and not counted: the tone policy finds its pair,
 /// and the model check's history fills (`instrument::joint::Quiet`:
 /// 256 blocks, 1 s of 4 ms blocks), as on a skin that has run a while.
-const SETTLE_S: f64 = 1.2;
+pub(crate) const SETTLE_S: f64 = 1.2;
+
+/// Blocks a case of `layout` runs, [`SETTLE_S`] included.
+pub(crate) fn blocks_of(layout: &Layout) -> u64 {
+    ((SETTLE_S + SECONDS) / (layout.block_us() as f64 * 1e-6)) as u64
+}
+
+/// A case's sixteen sensors, each 0.4 s later in the cycle than the last.
+pub(crate) struct Skin {
+    /// The sensors' parameters (the paper's, electrodes scaled).
+    pub(crate) params: SensorParams,
+    sensors: Vec<Sensor>,
+    profile: Profile<'static>,
+    phase_s: f64,
+}
+
+impl Skin {
+    /// The sensors of `case`, settled at their start.
+    pub(crate) fn new(case: &Case) -> Self {
+        let mut params = SensorParams::PAPER;
+        params.top.r_rest_ohm *= case.r_scale;
+        params.bottom.r_rest_ohm *= case.r_scale;
+        let profile = if case.rate_mm_s > 0.0 {
+            Profile::paper(case.rate_mm_s)
+        } else {
+            Profile::Constant(15.0)
+        };
+        let mut skin = Self {
+            params,
+            sensors: vec![Sensor::settled(params); SENSORS],
+            profile,
+            phase_s: case.phase_s,
+        };
+        skin.at(0.0);
+        skin
+    }
+
+    /// Every sensor `t_s` after the case's start.
+    pub(crate) fn at(&mut self, t_s: f64) -> &[Sensor] {
+        for (s, sensor) in self.sensors.iter_mut().enumerate() {
+            sensor.advance(&self.profile, self.phase_s + 0.4 * s as f64 + t_s);
+        }
+        &self.sensors
+    }
+}
 
 /// The array on `case`.
 pub fn run(case: Case) -> Kept {
     let layout = case.layout;
     let fe = ArrayFrontEnd::reference(layout);
-    let mut params = SensorParams::PAPER;
-    params.top.r_rest_ohm *= case.r_scale;
-    params.bottom.r_rest_ohm *= case.r_scale;
     let each = crate::disturbances::paper_sensors();
     let settings = ToneSettings::new(layout, fe.dsp_front_end(), &each);
     let mut reader = ArrayReader::new(layout, &each).expect("the array's comb lays out");
-    let profile = if case.rate_mm_s > 0.0 {
-        Profile::paper(case.rate_mm_s)
-    } else {
-        Profile::Constant(15.0)
-    };
-    let offset = |s: usize| case.phase_s + 0.4 * s as f64;
-    let mut sensors: Vec<Sensor> = (0..SENSORS)
-        .map(|s| {
-            let mut sensor = Sensor::settled(params);
-            sensor.advance(&profile, offset(s));
-            sensor
-        })
-        .collect();
+    let mut skin = Skin::new(&case);
     let mut rng = Rng::new(case.seed);
     let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);
     let block_s = layout.block_us() as f64 * 1e-6;
-    let blocks = ((SETTLE_S + SECONDS) / block_s) as u64;
+    let blocks = blocks_of(&layout);
     let hz = layout.tones_hz().map(|f| f as f64);
     let mut all = Outcome::new();
     let mut each_sensor = [Availability::new(); SENSORS];
@@ -99,8 +128,7 @@ pub fn run(case: Case) -> Kept {
         let t_us = (t * 1e6) as u64 + (block_s * 5e5) as u64;
         let mut z = [[num_complex::Complex64::new(0.0, 0.0); TONES]; SENSORS];
         let mut truth = [0.0; SENSORS];
-        for (s, sensor) in sensors.iter_mut().enumerate() {
-            sensor.advance(&profile, offset(s) + t + 0.5 * block_s);
+        for (s, sensor) in skin.at(t + 0.5 * block_s).iter().enumerate() {
             z[s] = sensor.impedances(&hz);
             truth[s] = sensor.truth().c_farad;
         }
@@ -173,11 +201,7 @@ pub fn markdown(rows: &[Kept]) -> String {
             "| {} | {}× the paper's | {} | {:.1} % of {} | {:.1} % | {} | {} | {:.2} % | {} | {} |\n",
             1_000_000 / c.layout.block_us(),
             c.r_scale,
-            if c.rate_mm_s > 0.0 {
-                format!("trapezoid, {} mm/s", c.rate_mm_s)
-            } else {
-                "held at 15 mm".to_string()
-            },
+            stretching(c.rate_mm_s),
             100.0 * a.share().unwrap_or(0.0),
             a.records,
             100.0 * k.least,
@@ -189,6 +213,15 @@ pub fn markdown(rows: &[Kept]) -> String {
         );
     }
     md
+}
+
+/// A case's stretching, as the tables say it.
+pub(crate) fn stretching(rate_mm_s: f64) -> String {
+    if rate_mm_s > 0.0 {
+        format!("trapezoid, {rate_mm_s} mm/s")
+    } else {
+        "held at 15 mm".to_string()
+    }
 }
 
 /// How many of the `invalid` records were given a value.

@@ -8,6 +8,7 @@
 //! * [`dataset`]: reading measured data sets, with the format's checks.
 //! * [`disturbances`]: the disturbance table: each class on both firmware paths.
 //! * [`availability`]: the share of a clean skin's records the array keeps valid, across the documented sensors.
+//! * [`ceiling`]: the most records any reader of the array could keep valid (the Cramér–Rao bound of C).
 //! * [`model`]: the forward model with the candidate effects (f64).
 //! * [`numerics`]: the shared numerical helpers (solve, fits, interpolation, statistics).
 //! * [`identify`]: trace a residual to an effect by model selection.
@@ -19,6 +20,7 @@
 
 pub mod availability;
 pub mod baseline;
+pub mod ceiling;
 pub mod chain;
 pub mod dataset;
 pub mod disturbances;

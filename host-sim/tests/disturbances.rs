@@ -5,6 +5,7 @@
 //! channel's records valid and right, both paths keep a clean skin's
 //! records, and the page shows what the code measures.
 
+use host_sim::ceiling::Probe;
 use host_sim::disturbances::{array_for, array_for_mains, array_in, markdown, rows, CLASSES};
 use instrument::array::Layout;
 use instrument::faults::{Flags, Thresholds};
@@ -161,6 +162,15 @@ fn a_clean_skin_keeps_its_records_across_the_documented_sensors() {
         if k.case.rate_mm_s == 0.0 && k.case.r_scale <= 1.0 && k.case.layout == Layout::BLOCK_4MS {
             assert!(k.least >= 0.99, "{k:?}");
         }
+        // Never more than the block can tell: a reader past the noise
+        // ceiling vouches for records whose σ of C leaves one in 10⁵ past
+        // 1 % by noise alone (`host_sim::ceiling`).
+        let ceiling = host_sim::ceiling::run(k.case, Probe::of(k.case.layout));
+        let share = k.all.availability.share().unwrap_or(0.0);
+        assert!(
+            share <= ceiling.noise.all && k.least <= ceiling.noise.least,
+            "{k:?} {ceiling:?}"
+        );
     }
     figures::check("docs/accuracy.md", "array-availability", &markdown(&rows)).unwrap();
 }

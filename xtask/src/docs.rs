@@ -17,7 +17,7 @@ const PLOTS: [(&str, &str); 4] = [
 ];
 
 /// The test files that hold figure tests: (crate, test file).
-const FILES: [(&str, &str); 9] = [
+const FILES: [(&str, &str); 10] = [
     ("qemu-tests", "decode"),
     ("qemu-tests", "array"),
     ("qemu-tests", "dsp_bench"),
@@ -26,11 +26,12 @@ const FILES: [(&str, &str); 9] = [
     ("host-sim", "residual"),
     ("host-sim", "cli"),
     ("host-sim", "disturbances"),
+    ("host-sim", "ceiling"),
     ("front-end", "files"),
 ];
 
 /// The tests that measure the figures (each checks its blocks).
-const TESTS: [&str; 12] = [
+const TESTS: [&str; 13] = [
     "the_main_jobs_recording_decodes",
     "sixteen_sensors_250_times_a_second_within",
     "sixteen_sensors_1000_times_a_second_within",
@@ -41,6 +42,7 @@ const TESTS: [&str; 12] = [
     "the_docs_show_the_example_data_sets_verdicts",
     "the_docs_show_what_model_and_invert_print",
     "neither_path_vouches_for_a_wrong_record_under_any_disturbance",
+    "the_ceilings_are_tabulated",
     "the_array_boards_files_are_its_circuits",
     "the_multiplexed_boards_files_are_its_circuits",
 ];

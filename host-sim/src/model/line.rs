@@ -4,7 +4,7 @@ use num_complex::Complex64;
 
 /// Continuous uniform line: Z = z / (γ·tanh γ), γ = √(z·y), z = R (Ω,
 /// complex where the film's conductivity relaxes), y = G + jωC (S).
-pub(super) fn continuous(r: impl Into<Complex64>, y: Complex64) -> Complex64 {
+pub(crate) fn continuous(r: impl Into<Complex64>, y: Complex64) -> Complex64 {
     let r: Complex64 = r.into();
     let g = (y * r).sqrt();
     if g.norm() < 1e-6 {

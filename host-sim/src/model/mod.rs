@@ -57,7 +57,8 @@ pub use shape::Shape;
 pub use timed::Averaging;
 
 use crate::numerics::series_cs;
-use line::{continuous, piece};
+pub(crate) use line::continuous;
+use line::piece;
 use num_complex::Complex64;
 use std::f64::consts::TAU;
 
