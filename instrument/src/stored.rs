@@ -61,7 +61,7 @@ pub struct SensorSettings {
 
 /// [`SensorSettings`] as version 1 stored it: without
 /// [`SensorSettings::loss_tangent`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 struct SensorSettingsV1 {
     in_use: bool,
     nominal_c_farad: f32,
