@@ -327,17 +327,25 @@ fn refine<const K: usize>(
             break;
         }
     }
+    Ok(solution::<K>(hi.f_hz, p, &fit, fitted))
+}
+
+/// The [`Solution`] at parameters `p` (R, C, tan δ) with the fit `fit`
+/// there, its x at the highest tone `hi_hz`: the covariance's σ of ln C
+/// and the one-tone bounds from JᵀJ (tan δ among the parameters where it
+/// is `fitted`). (Inlined: one function with [`refine`].)
+#[inline(always)]
+fn solution<const K: usize>(hi_hz: f32, p: [f32; 3], fit: &Evaluated<K>, fitted: bool) -> Solution {
     let (r, c) = (p[0], p[1]);
-    let x = TAU * hi.f_hz * r * c;
     let ai = inverse(&fit.jtj, fitted);
     let var_c = ai.map_or(f32::INFINITY, |m| m[1][1]);
     let (hidden_ln_c, tone_ln_c2) =
-        ai.map_or((f32::INFINITY, [f32::INFINITY; 3]), |m| hidden(&fit, &m, fitted));
-    Ok(Solution {
+        ai.map_or((f32::INFINITY, [f32::INFINITY; 3]), |m| hidden(fit, &m, fitted));
+    Solution {
         line: Line {
             r_ohm: r,
             c_farad: c,
-            x,
+            x: TAU * hi_hz * r * c,
             kappa: f32::NAN,
         },
         chi2: fit.chi2,
@@ -346,7 +354,7 @@ fn refine<const K: usize>(
         hidden_ln_c,
         tone_ln_c2,
         dof: (2 * K - 2) as f32,
-    })
+    }
 }
 
 /// Each tone's misfit to `sol`'s line, in units of its noise: |Z − Z(line)|/σ

@@ -12,13 +12,13 @@
 //! could still hide joins the record's error bound.
 
 use crate::config::{freq_hz, tones, tones_hz, Readings, FREQS_HZ};
-use crate::decide::{Course, Rules};
+use crate::decide::{Course, Reading, Rules};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
 use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
 use crate::ranging::Ranging;
-use crate::sensor::Sensors;
+use crate::sensor::{Sensor, Sensors};
 use crate::sequencer::Plan;
 use dsp_core::demod::FrontEnd;
 use dsp_core::dielectric::Dielectric;
@@ -177,6 +177,19 @@ pub struct Record {
     pub sigma_ln_c: f32,
 }
 
+impl Record {
+    /// Report `line`: its C, R, χ², σ and stretch. (Inlined: the
+    /// record's path stays one function.)
+    #[inline(always)]
+    fn report(&mut self, line: &Reading) {
+        self.c_farad = line.c_farad;
+        self.r_ohm = line.r_ohm;
+        self.chi2 = line.chi2;
+        self.sigma_ln_c = line.sigma_ln_c;
+        self.stretch_mm = line.stretch_mm;
+    }
+}
+
 /// State of one channel.
 #[derive(Clone, Copy, Debug)]
 pub struct Channel {
@@ -299,18 +312,7 @@ impl Channel {
         if th.disturbed(&ph.tone) {
             rec.flags.set(Flags::DISTURBED);
         }
-        let rules = Rules {
-            sensor,
-            dielectric: sensor.film(&s.dielectric),
-            thresholds: th,
-            chi2_flag: twotone::CHI2_FLAG,
-            // Two tones: no pair to rescue a record from.
-            rescue: Rescue::NONE,
-            policy: &s.policy,
-            set_hz: &FREQS_HZ,
-            quiet: true,
-            seen: true,
-        };
+        let rules = rules_of(s, sensor);
         // What the energy near the policy's tone could have shifted its
         // V/I by, in units of its noise (`decide` bounds ln C by the
         // tone's reach times that: a weighted least-squares fit's
@@ -335,13 +337,31 @@ impl Channel {
             &mut rec.flags,
         );
         if let Some(line) = decided {
-            rec.c_farad = line.c_farad;
-            rec.r_ohm = line.r_ohm;
-            rec.chi2 = line.chi2;
-            rec.sigma_ln_c = line.sigma_ln_c;
-            rec.stretch_mm = line.stretch_mm;
+            rec.report(&line);
         }
         rec
+    }
+}
+
+/// What `decide` reads for `sensor` of settings `s`: the multiplexed
+/// channel's two tones of [`FREQS_HZ`], judged by the two-tone flag, no
+/// pair to rescue a record from (two tones), the model check's history
+/// kept, and the energy near the tones always asked.
+#[inline(always)]
+fn rules_of<'a, const N: usize, const S: usize>(
+    s: &'a Settings<'_, N, S>,
+    sensor: &'a Sensor<N>,
+) -> Rules<'a, N> {
+    Rules {
+        sensor,
+        dielectric: sensor.film(&s.dielectric),
+        thresholds: &s.thresholds,
+        chi2_flag: twotone::CHI2_FLAG,
+        rescue: Rescue::NONE,
+        policy: &s.policy,
+        set_hz: &FREQS_HZ,
+        quiet: true,
+        seen: true,
     }
 }
 

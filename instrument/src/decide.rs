@@ -185,25 +185,7 @@ impl Course {
                 return None;
             }
         };
-        // (The rescue reads the line's three numbers, not the solution:
-        // its address kept from calls, the channels' own path copies
-        // nothing.)
-        let mut pair = None;
-        if sol.chi2 > rules.chi2_flag {
-            let start = (sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent);
-            pair = rescue(
-                sensor,
-                rules.dielectric,
-                &tones,
-                start,
-                rules.rescue,
-                &|k| {
-                    let [by_tone, shared] = disturbance(k, None);
-                    by_tone + shared
-                },
-                &mut self.suspect,
-            );
-        }
+        let pair = self.rescued(rules, &tones, &sol, &disturbance);
         let share = self.share(rules, &tones, &sol, pair.as_ref());
         let (sol, chi2_flag) = match &pair {
             Some(p) => {
@@ -232,12 +214,62 @@ impl Course {
             sigma_ln_c: sol.sigma_ln_c,
             stretch_mm,
         };
-        // Beyond the electrodes' range, or a line without resistance (x
-        // below what the inversion resolves): no sensor of this kind.
-        if !(line.r_ohm > 0.0 && line.r_ohm <= th.r_max_ohm) {
+        self.follow(rules, policy, sol, consistent, dt_s, flags);
+        Some(reading)
+    }
+
+    /// Where the three `tones`' line `sol` fails the model check, the line
+    /// of the two that agree ([`rescue`], each tone's shift by what
+    /// `disturbance` says, the suspect tone kept). (Inlined, as the rest
+    /// of the record's path. The rescue reads the line's three numbers,
+    /// not the solution: its address kept from calls, the channels' own
+    /// path copies nothing.)
+    #[inline(always)]
+    fn rescued<const N: usize, const K: usize>(
+        &mut self,
+        rules: &Rules<'_, N>,
+        tones: &[Tone; K],
+        sol: &Solution,
+        disturbance: &impl Fn(usize, Option<usize>) -> [f32; 2],
+    ) -> Option<Solution> {
+        if sol.chi2 <= rules.chi2_flag {
+            return None;
+        }
+        let start = (sol.line.r_ohm, sol.line.c_farad, sol.loss_tangent);
+        let shift = |k| {
+            let [by_tone, shared] = disturbance(k, None);
+            by_tone + shared
+        };
+        rescue(
+            rules.sensor,
+            rules.dielectric,
+            tones,
+            start,
+            rules.rescue,
+            &shift,
+            &mut self.suspect,
+        )
+    }
+
+    /// Steps 6 and 7 on the line `sol` reports: beyond the electrodes'
+    /// range, or without resistance (x below what the inversion
+    /// resolves), RANGE and the line is lost; otherwise it is tracked
+    /// where χ² passed (`consistent`) and the policy moves on it.
+    #[inline(always)]
+    fn follow<const N: usize>(
+        &mut self,
+        rules: &Rules<'_, N>,
+        policy: &mut PolicyState,
+        sol: &Solution,
+        consistent: bool,
+        dt_s: f32,
+        flags: &mut Flags,
+    ) {
+        let line = sol.line;
+        if !(line.r_ohm > 0.0 && line.r_ohm <= rules.thresholds.r_max_ohm) {
             flags.set(Flags::RANGE);
             self.lose(rules.policy, policy, true);
-            return Some(reading);
+            return;
         }
         if consistent {
             self.joint.keep(sol);
@@ -247,7 +279,6 @@ impl Course {
                 .policy
                 .update_on(rules.set_hz, policy, line.r_ohm, line.c_farad, dt_s);
         }
-        Some(reading)
     }
 
     /// The share of the record's residual an error at one tone may have

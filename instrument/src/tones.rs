@@ -29,7 +29,7 @@
 use crate::array::SENSORS;
 use crate::array::{Layout, TONES};
 use crate::avoid::Avoidance;
-use crate::decide::{Course, Rules};
+use crate::decide::{Course, Reading, Rules};
 use crate::faults::{Flags, Thresholds};
 use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
@@ -193,6 +193,19 @@ pub struct ToneRecord {
     pub flags: Flags,
 }
 
+impl ToneRecord {
+    /// Report `line`: its C, R, χ², σ and stretch. (Inlined, as the rest
+    /// of the record's path.)
+    #[inline(always)]
+    fn report(&mut self, line: &Reading) {
+        self.c_farad = line.c_farad;
+        self.r_ohm = line.r_ohm;
+        self.chi2 = line.chi2;
+        self.sigma_ln_c = line.sigma_ln_c;
+        self.stretch_mm = line.stretch_mm;
+    }
+}
+
 /// One input of a block: the comb's sums (borrowed: they are 104 bytes)
 /// and, computed once from them, every tone's amplitude and the residual.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -284,38 +297,29 @@ impl ToneChannel {
         rotation: &[Complex32; TONES],
     ) -> ToneRecord {
         let dt = self.course.elapsed(t_us);
-        let hi = s.sweep.unwrap_or(self.policy.fidx as u8);
-        let (pair, fitted, moved) = if s.sweep.is_none() && self.avoidance.tone().is_some() {
-            self.avoidance.read_at(hi)
-        } else {
-            let pair = Self::pair_of(hi);
-            (pair, Self::fitted_of(pair), false)
-        };
+        let (pair, fitted, moved) = self.tones_now(s);
+        let sensor = s.sensors.of(channel);
         let mut rec = ToneRecord {
             t_us,
             sensor: channel,
             f_hz: pair.map(|k| s.layout.tone_hz(k)),
             ..ToneRecord::default()
         };
-        let sensor = s.sensors.of(channel);
         if !sensor.calibrated {
             rec.flags.set(Flags::UNCALIBRATED);
         }
         if moved {
             rec.flags.set(Flags::TONE_MOVED);
         }
-        let th = &s.thresholds;
         if clipped {
             rec.flags.set(Flags::CLIPPED);
         }
+        let th = &s.thresholds;
         let n = v.tones.n.min(i.tones.n);
         let Some(tones) = read_tones(s, v, i, rotation, pair, fitted, &mut rec) else {
             return rec;
         };
-        // What no tone of the comb explains, against the largest tone.
-        let limit = |a: f32| fmath::max(th.residual_counts, th.residual_rel * a);
-        let (raw_v, raw_i) = (v.levels.residual, i.levels.residual);
-        if !(raw_v <= limit(v.levels.largest) && raw_i <= limit(i.levels.largest)) {
+        if !residuals_within(th, v, i) {
             rec.flags.set(Flags::DISTURBED);
         }
         let set_hz = s.layout.tones_hz();
@@ -340,20 +344,7 @@ impl ToneChannel {
         // noise. (A moved channel's interferer near its tone is its
         // sideband's to show.)
         let disturbance = |k: usize, out: Option<usize>| seen.shift_of(&s.layout, &fitted, k, out, avoided);
-        // One interferer spread over the three tones, where the leak's
-        // kernels are the layout's (the 4 ms comb's); not where the
-        // channel moved off a tone: the interferer it avoids is a known
-        // one, bounded by its sideband's leak and by the residual's share
-        // on the neighbours tone by tone, and its residual would let the
-        // spread bound take it for an unknown one besides. (Out of line,
-        // in flash on a board: `crate::spread::of_record`.)
-        let spread = (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
-            |sol: &Solution, share: f32, room: f32| {
-                let (inputs, excess) = seen.hidden();
-                let film = sensor.film(&s.dielectric);
-                crate::spread::of_record(&inputs, excess, &tones, sensor, film, fitted, sol, share, room)
-            },
-        );
+        let spread = spread_of(s, &seen, sensor, &tones, fitted, moved);
         let decided = self.course.decide(
             &rules,
             &mut self.policy,
@@ -368,14 +359,60 @@ impl ToneChannel {
             self.avoidance.update(suspect, &fitted, dt);
         }
         if let Some(line) = decided {
-            rec.c_farad = line.c_farad;
-            rec.r_ohm = line.r_ohm;
-            rec.chi2 = line.chi2;
-            rec.sigma_ln_c = line.sigma_ln_c;
-            rec.stretch_mm = line.stretch_mm;
+            rec.report(&line);
         }
         rec
     }
+
+    /// The pair a record reports, the three tones it fits and whether
+    /// they were moved off an avoided tone: the sweep's or the policy's,
+    /// unless the channel avoids a tone. (Inlined: the record's path is
+    /// one function in the boards' fast RAM.)
+    #[inline(always)]
+    fn tones_now<const N: usize>(&self, s: &ToneSettings<'_, N>) -> ([usize; 2], [usize; 3], bool) {
+        let hi = s.sweep.unwrap_or(self.policy.fidx as u8);
+        if s.sweep.is_none() && self.avoidance.tone().is_some() {
+            self.avoidance.read_at(hi)
+        } else {
+            let pair = Self::pair_of(hi);
+            (pair, Self::fitted_of(pair), false)
+        }
+    }
+}
+
+/// The bound of one interferer spread over the three `tones` (comb
+/// tones `fitted`) of `sensor`, where the leak's kernels are the
+/// layout's (the 4 ms comb's); not where the channel `moved` off a tone:
+/// the interferer it avoids is a known one, bounded by its sideband's
+/// leak and by the residual's share on the neighbours tone by tone, and
+/// its residual would let the spread bound take it for an unknown one
+/// besides. (The bound itself out of line, in flash on a board:
+/// [`crate::spread::of_record`].)
+#[inline(always)]
+fn spread_of<'b, const N: usize>(
+    s: &'b ToneSettings<'_, N>,
+    seen: &'b Seen<'_>,
+    sensor: &'b Sensor<N>,
+    tones: &'b [Tone; 3],
+    fitted: [usize; 3],
+    moved: bool,
+) -> Option<impl Fn(&Solution, f32, f32) -> f32 + 'b> {
+    (skin_spec::leak::of_layout(&s.layout) && !moved).then_some(
+        move |sol: &Solution, share: f32, room: f32| {
+            let (inputs, excess) = seen.hidden();
+            let film = sensor.film(&s.dielectric);
+            crate::spread::of_record(&inputs, excess, tones, sensor, film, fitted, sol, share, room)
+        },
+    )
+}
+
+/// What no tone of the comb explains stays within the thresholds on both
+/// inputs, against each input's largest tone. (Inlined, as
+/// [`ToneChannel::process`]'s other steps.)
+#[inline(always)]
+fn residuals_within(th: &Thresholds, v: &Input<'_>, i: &Input<'_>) -> bool {
+    let limit = |a: f32| fmath::max(th.residual_counts, th.residual_rel * a);
+    v.levels.residual <= limit(v.levels.largest) && i.levels.residual <= limit(i.levels.largest)
 }
 
 /// What `decide` reads for `sensor` of settings `s`, the policy moving on
