@@ -12,7 +12,7 @@
 //! could still hide joins the record's error bound.
 
 use crate::config::{freq_hz, tones, tones_hz, Readings, FREQS_HZ};
-use crate::decide::{Course, Reading, Rules};
+use crate::decide::{Course, Rules};
 use crate::design::RANGES;
 use crate::faults::{Flags, Thresholds};
 use crate::joint::Rescue;
@@ -177,19 +177,6 @@ pub struct Record {
     pub sigma_ln_c: f32,
 }
 
-impl Record {
-    /// Report `line`: its C, R, χ², σ and stretch. (Inlined: the
-    /// record's path stays one function.)
-    #[inline(always)]
-    fn report(&mut self, line: &Reading) {
-        self.c_farad = line.c_farad;
-        self.r_ohm = line.r_ohm;
-        self.chi2 = line.chi2;
-        self.sigma_ln_c = line.sigma_ln_c;
-        self.stretch_mm = line.stretch_mm;
-    }
-}
-
 /// State of one channel.
 #[derive(Clone, Copy, Debug)]
 pub struct Channel {
@@ -337,7 +324,7 @@ impl Channel {
             &mut rec.flags,
         );
         if let Some(line) = decided {
-            rec.report(&line);
+            (rec.c_farad, rec.r_ohm, rec.chi2, rec.sigma_ln_c, rec.stretch_mm) = line.fields();
         }
         rec
     }

@@ -87,6 +87,20 @@ pub struct Reading {
     pub stretch_mm: f32,
 }
 
+impl Reading {
+    /// (C, R, χ², σ of ln C, stretch): what a record reports of the line.
+    #[inline(always)]
+    pub fn fields(&self) -> (f32, f32, f32, f32, f32) {
+        (
+            self.c_farad,
+            self.r_ohm,
+            self.chi2,
+            self.sigma_ln_c,
+            self.stretch_mm,
+        )
+    }
+}
+
 /// A channel's line from block to block: the last one vouched for, where
 /// a fresh one starts, when the last block was, and whether the policy
 /// may move the frequency.

@@ -29,7 +29,7 @@
 use crate::array::SENSORS;
 use crate::array::{Layout, TONES};
 use crate::avoid::Avoidance;
-use crate::decide::{Course, Reading, Rules};
+use crate::decide::{Course, Rules};
 use crate::faults::{Flags, Thresholds};
 use crate::joint::Rescue;
 use crate::policy::{Policy, PolicyState};
@@ -193,19 +193,6 @@ pub struct ToneRecord {
     pub flags: Flags,
 }
 
-impl ToneRecord {
-    /// Report `line`: its C, R, χ², σ and stretch. (Inlined, as the rest
-    /// of the record's path.)
-    #[inline(always)]
-    fn report(&mut self, line: &Reading) {
-        self.c_farad = line.c_farad;
-        self.r_ohm = line.r_ohm;
-        self.chi2 = line.chi2;
-        self.sigma_ln_c = line.sigma_ln_c;
-        self.stretch_mm = line.stretch_mm;
-    }
-}
-
 /// One input of a block: the comb's sums (borrowed: they are 104 bytes)
 /// and, computed once from them, every tone's amplitude and the residual.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -359,7 +346,7 @@ impl ToneChannel {
             self.avoidance.update(suspect, &fitted, dt);
         }
         if let Some(line) = decided {
-            rec.report(&line);
+            (rec.c_farad, rec.r_ohm, rec.chi2, rec.sigma_ln_c, rec.stretch_mm) = line.fields();
         }
         rec
     }
