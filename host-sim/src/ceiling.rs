@@ -44,7 +44,10 @@
 //! asks what the same comb an octave lower, each record read over its
 //! block and the one before, would allow (not built): the same waveform
 //! stretched in time, so the same peak at the buffer and, at half the
-//! frequency, at most the same current through each stage.
+//! frequency, at most the same current through each stage. And
+//! [`Probe::ranged`] asks what stages that switch their transimpedance
+//! per sensor would allow (not built; [`RANGED_OHM`]): where a sensor's
+//! current is small, the ADC's noise weighs less against it.
 
 use crate::availability::{blocks_of, Case, Skin, SETTLE_S};
 use crate::model::{continuous, Effect};
@@ -69,26 +72,53 @@ pub const CHECK_SHARE: f64 = 1.0;
 /// (`dsp_core::dielectric::Dielectric::SILICONE`).
 pub const FILM_SPREAD: f64 = 1e-3;
 
+/// Transimpedances a ranged stage could switch between, Ω
+/// ([`Probe::ranged`]): the array's 330 kΩ, and 3 and 10 times it.
+pub const RANGED_OHM: [f64; 3] = [330e3, 1e6, 3.3e6];
+
 /// What a record reads: a layout's comb, over one block or (an octave
-/// lower) over two.
+/// lower) over two, through the array's stages or ranged ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
     /// The layout whose blocks (and records) it follows.
     pub layout: Layout,
     /// Blocks a record reads (1: the layout's comb; 2: an octave lower).
     pub blocks: u32,
+    /// Each record's stage takes the largest of [`RANGED_OHM`] whose
+    /// output stays within the stage's swing (false: the array's).
+    pub ranged: bool,
 }
 
 impl Probe {
     /// The comb `layout` plays, each record read over its block.
     pub fn of(layout: Layout) -> Self {
-        Self { layout, blocks: 1 }
+        Self {
+            layout,
+            blocks: 1,
+            ranged: false,
+        }
     }
 
     /// The comb of `layout` an octave lower, each record read over its
     /// block and the one before (not built).
     pub fn over_two_blocks(layout: Layout) -> Self {
-        Self { layout, blocks: 2 }
+        Self {
+            blocks: 2,
+            ..Self::of(layout)
+        }
+    }
+
+    /// The comb of `layout` through stages that each record ranges
+    /// (not built): the largest transimpedance of [`RANGED_OHM`] whose
+    /// output, every tone's amplitude summed, stays within
+    /// [`instrument::array::TIA_PEAK_VOLT`]. Chosen per record with the
+    /// truth, an upper bound on what a stage ranged from its last
+    /// records keeps.
+    pub fn ranged(layout: Layout) -> Self {
+        Self {
+            ranged: true,
+            ..Self::of(layout)
+        }
     }
 
     /// The tones, Hz.
@@ -104,6 +134,22 @@ impl Probe {
     /// Instants a record reads.
     pub fn instants(&self) -> usize {
         self.layout.instants() * self.blocks as usize
+    }
+
+    /// The front end `fe` as it reads a sensor of impedances `z` (Ω, at
+    /// [`Probe::tones_hz`]): its stage ranged where this probe ranges.
+    pub fn front_end(&self, fe: &ArrayFrontEnd, z: &[Complex64; TONES]) -> ArrayFrontEnd {
+        if !self.ranged {
+            return *fe;
+        }
+        let volts = self.volts();
+        let peak = |ohm: f64| (0..TONES).map(|k| volts[k] / z[k].norm() * ohm).sum::<f64>();
+        let tia_ohm = RANGED_OHM
+            .iter()
+            .copied()
+            .filter(|&ohm| peak(ohm) <= instrument::array::TIA_PEAK_VOLT)
+            .fold(fe.tia_ohm, f64::max);
+        ArrayFrontEnd { tia_ohm, ..*fe }
     }
 }
 
@@ -302,8 +348,10 @@ pub fn run(case: Case, probe: Probe) -> Ceiling {
                 lead_ratio,
                 loss_tangent,
             };
+            let z = hz.map(|f| line.impedance(f));
+            let read = probe.front_end(&fe, &z);
             let tones: Vec<(f64, f64)> = (0..TONES)
-                .map(|k| (hz[k], z_sigma(&fe, line.impedance(hz[k]), volts[k], instants)))
+                .map(|k| (hz[k], z_sigma(&read, z[k], volts[k], instants)))
                 .collect();
             let info = information(&line, &tones, FILM_SPREAD);
             let (sigma, hidden) =
@@ -324,44 +372,50 @@ pub fn run(case: Case, probe: Probe) -> Ceiling {
     }
 }
 
-/// [`crate::availability::cases`], each read by its layout's comb and by
-/// that comb an octave lower over two blocks.
-pub fn rows() -> Vec<Ceiling> {
+/// The probes of the table: the layout's comb, an octave lower over two
+/// blocks, and through ranged stages.
+pub fn probes(layout: Layout) -> [Probe; 3] {
+    [
+        Probe::of(layout),
+        Probe::over_two_blocks(layout),
+        Probe::ranged(layout),
+    ]
+}
+
+/// [`crate::availability::cases`], each read by every one of [`probes`].
+pub fn rows() -> Vec<[Ceiling; 3]> {
     crate::availability::cases()
         .into_iter()
-        .flat_map(|case| [Probe::of(case.layout), Probe::over_two_blocks(case.layout)].map(|p| run(case, p)))
+        .map(|case| probes(case.layout).map(|p| run(case, p)))
         .collect()
 }
 
-/// The ceilings as a Markdown table.
-pub fn markdown(rows: &[Ceiling]) -> String {
+/// The ceilings as a Markdown table, a row a case.
+pub fn markdown(rows: &[[Ceiling; 3]]) -> String {
     let mut md = String::from(
-        "| records/s | electrodes | stretching | comb | largest σ of C | noise ceiling: all, least sensor | checked ceiling: all, least sensor |\n\
-         |---:|---:|---|---|---:|---:|---:|\n",
+        "| records/s | electrodes | stretching | largest σ of C | noise ceiling | checked ceiling | an octave lower over two blocks: noise, checked | ranged stages: noise, checked |\n\
+         |---:|---:|---|---:|---:|---:|---:|---:|\n",
     );
-    for c in rows {
-        let hz = c.probe.tones_hz();
+    for [own, lower, ranged] in rows {
+        let c = own.case;
         md += &format!(
-            "| {} | {}× the paper's | {} | {} – {} Hz, over {} | {:.3} % | {} | {} |\n",
-            c.case.layout.records_per_s(),
-            c.case.r_scale,
-            crate::availability::stretching(c.case.rate_mm_s),
-            hz[0],
-            hz[TONES - 1],
-            if c.probe.blocks == 1 {
-                "its block"
-            } else {
-                "two blocks"
-            },
-            100.0 * c.sigma_max,
-            share_cell(c.noise),
-            share_cell(c.checked),
+            "| {} | {}× the paper's | {} | {:.3} % | {} | {} | {}; {} | {}; {} |\n",
+            c.layout.records_per_s(),
+            c.r_scale,
+            crate::availability::stretching(c.rate_mm_s),
+            100.0 * own.sigma_max,
+            share_cell(own.noise),
+            share_cell(own.checked),
+            share_cell(lower.noise),
+            share_cell(lower.checked),
+            share_cell(ranged.noise),
+            share_cell(ranged.checked),
         );
     }
     md
 }
 
-/// "all %, least %".
+/// "all % (least sensor %)".
 fn share_cell(s: Share) -> String {
-    format!("{:.1} %, {:.1} %", 100.0 * s.all, 100.0 * s.least)
+    format!("{:.1} % ({:.1} %)", 100.0 * s.all, 100.0 * s.least)
 }
