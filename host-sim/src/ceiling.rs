@@ -40,12 +40,12 @@
 //!
 //! Each case is [`crate::availability`]'s, its sensors and their
 //! trajectories the same, each record's σ at the truth of its block's
-//! middle. Besides the comb a layout plays, [`Probe::over_two_blocks`]
+//! middle. Besides the comb a layout plays, [`Probe::OVER_TWO_BLOCKS`]
 //! asks what the same comb an octave lower, each record read over its
 //! block and the one before, would allow (not built): the same waveform
 //! stretched in time, so the same peak at the buffer and, at half the
 //! frequency, at most the same current through each stage. And
-//! [`Probe::ranged`] asks what stages that switch their transimpedance
+//! [`Probe::RANGED`] asks what stages that switch their transimpedance
 //! per sensor would allow (not built; [`RANGED_OHM`]): where a sensor's
 //! current is small, the ADC's noise weighs less against it.
 
@@ -73,15 +73,13 @@ pub const CHECK_SHARE: f64 = 1.0;
 pub const FILM_SPREAD: f64 = 1e-3;
 
 /// Transimpedances a ranged stage could switch between, Ω
-/// ([`Probe::ranged`]): the array's 330 kΩ, and 3 and 10 times it.
+/// ([`Probe::RANGED`]): the array's 330 kΩ, and 3 and 10 times it.
 pub const RANGED_OHM: [f64; 3] = [330e3, 1e6, 3.3e6];
 
-/// What a record reads: a layout's comb, over one block or (an octave
-/// lower) over two, through the array's stages or ranged ones.
+/// What a record of a layout reads: its comb, over one block or (an
+/// octave lower) over two, through the array's stages or ranged ones.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
-    /// The layout whose blocks (and records) it follows.
-    pub layout: Layout,
     /// Blocks a record reads (1: the layout's comb; 2: an octave lower).
     pub blocks: u32,
     /// Each record's stage takes the largest of [`RANGED_OHM`] whose
@@ -90,52 +88,46 @@ pub struct Probe {
 }
 
 impl Probe {
-    /// The comb `layout` plays, each record read over its block.
-    pub fn of(layout: Layout) -> Self {
-        Self {
-            layout,
-            blocks: 1,
-            ranged: false,
-        }
-    }
+    /// The comb the layout plays, each record read over its block.
+    pub const COMB: Self = Self {
+        blocks: 1,
+        ranged: false,
+    };
 
-    /// The comb of `layout` an octave lower, each record read over its
+    /// The layout's comb an octave lower, each record read over its
     /// block and the one before (not built).
-    pub fn over_two_blocks(layout: Layout) -> Self {
-        Self {
-            blocks: 2,
-            ..Self::of(layout)
-        }
-    }
+    pub const OVER_TWO_BLOCKS: Self = Self {
+        blocks: 2,
+        ranged: false,
+    };
 
-    /// The comb of `layout` through stages that each record ranges
-    /// (not built): the largest transimpedance of [`RANGED_OHM`] whose
-    /// output, every tone's amplitude summed, stays within
+    /// The layout's comb through stages that each record ranges (not
+    /// built): the largest transimpedance of [`RANGED_OHM`] whose output,
+    /// every tone's amplitude summed, stays within
     /// [`instrument::array::TIA_PEAK_VOLT`]. Chosen per record with the
     /// truth, an upper bound on what a stage ranged from its last
     /// records keeps; the noise is the ADC's alone, as for the array's
     /// stages (a 3.3 MΩ resistor's own, over the 12.5 kHz the results
     /// span, is half a count).
-    pub fn ranged(layout: Layout) -> Self {
-        Self {
-            ranged: true,
-            ..Self::of(layout)
-        }
+    pub const RANGED: Self = Self {
+        blocks: 1,
+        ranged: true,
+    };
+
+    /// Both: ranged stages and the comb an octave lower over two blocks.
+    pub const BOTH: Self = Self {
+        blocks: 2,
+        ranged: true,
+    };
+
+    /// The tones a record of `layout` reads, Hz.
+    pub fn tones_hz(&self, layout: &Layout) -> [f64; TONES] {
+        layout.tones_hz().map(|f| f as f64 / self.blocks as f64)
     }
 
-    /// The tones, Hz.
-    pub fn tones_hz(&self) -> [f64; TONES] {
-        self.layout.tones_hz().map(|f| f as f64 / self.blocks as f64)
-    }
-
-    /// Each tone's amplitude at the sensors, V.
-    pub fn volts(&self) -> [f64; TONES] {
-        self.layout.tone_volts()
-    }
-
-    /// Instants a record reads.
-    pub fn instants(&self) -> usize {
-        self.layout.instants() * self.blocks as usize
+    /// Instants a record of `layout` reads.
+    pub fn instants(&self, layout: &Layout) -> usize {
+        layout.instants() * self.blocks as usize
     }
 
     /// The front end `fe` as it reads a sensor of impedances `z` (Ω, at
@@ -144,7 +136,7 @@ impl Probe {
         if !self.ranged {
             return *fe;
         }
-        let volts = self.volts();
+        let volts = fe.layout.tone_volts();
         let peak = |ohm: f64| (0..TONES).map(|k| volts[k] / z[k].norm() * ohm).sum::<f64>();
         let tia_ohm = RANGED_OHM
             .iter()
@@ -244,7 +236,7 @@ pub fn information(line: &Line, tones: &[(f64, f64)], film_spread: f64) -> Optio
                 .collect()
         })
         .collect();
-    let cov = inverse(&fisher)?;
+    let cov = crate::lsq::covariance(&fisher, 1.0)?;
     let sigma_ln_c = cov[1][1].sqrt();
     // g: ∂ln C/∂(whitened data), F⁻¹·Aᵀ's row of ln C.
     let g: Vec<f64> = a
@@ -274,17 +266,6 @@ pub fn information(line: &Line, tones: &[(f64, f64)], film_spread: f64) -> Optio
     })
 }
 
-/// The inverse of a small symmetric positive definite matrix, column by
-/// column; None where it is singular.
-fn inverse(m: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
-    let n = m.len();
-    let cols: Option<Vec<Vec<f64>>> = (0..n)
-        .map(|j| crate::numerics::solve(m.to_vec(), (0..n).map(|i| f64::from(i == j)).collect()))
-        .collect();
-    let cols = cols?;
-    Some((0..n).map(|i| (0..n).map(|j| cols[j][i]).collect()).collect())
-}
-
 /// A share of records, over every sensor and of the least.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Share {
@@ -295,16 +276,13 @@ pub struct Share {
 }
 
 impl Share {
-    /// From each sensor's count of records that pass and of all.
-    fn of(counts: &[(u64, u64)]) -> Self {
-        let (pass, all) = counts.iter().fold((0, 0), |(p, a), &(q, b)| (p + q, a + b));
-        let least = counts
-            .iter()
-            .map(|&(q, b)| q as f64 / b.max(1) as f64)
-            .fold(1.0, f64::min);
+    /// From each sensor's count of records that pass, of `records` each.
+    fn of(pass: &[u64], records: u64) -> Self {
+        let least = pass.iter().copied().min().unwrap_or(0);
+        let all = pass.iter().sum::<u64>() as f64 / (records * pass.len() as u64).max(1) as f64;
         Self {
-            all: pass as f64 / all.max(1) as f64,
-            least,
+            all,
+            least: least as f64 / records.max(1) as f64,
         }
     }
 }
@@ -324,7 +302,7 @@ pub struct Ceiling {
     pub sigma_max: f64,
 }
 
-/// The ceilings of `case` read by `probe` (its layout's blocks: `case`'s).
+/// The ceilings of `case` read by `probe`.
 pub fn run(case: Case, probe: Probe) -> Ceiling {
     let layout = case.layout;
     let fe = ArrayFrontEnd::reference(layout);
@@ -332,9 +310,12 @@ pub fn run(case: Case, probe: Probe) -> Ceiling {
     let lead_ratio = f64::from(skin.params.effects.lead_ratio());
     let loss_tangent = skin.params.effects.get(Effect::DielectricLoss);
     let block_s = layout.block_us() as f64 * 1e-6;
-    let (hz, volts, instants) = (probe.tones_hz(), probe.volts(), probe.instants());
-    let mut noise = [(0u64, 0u64); SENSORS];
-    let mut checked = [(0u64, 0u64); SENSORS];
+    let (hz, volts, instants) = (
+        probe.tones_hz(&layout),
+        layout.tone_volts(),
+        probe.instants(&layout),
+    );
+    let (mut noise, mut checked, mut records) = ([0u64; SENSORS], [0u64; SENSORS], 0);
     let mut sigma_max: f64 = 0.0;
     for b in 0..blocks_of(&layout) {
         let t = b as f64 * block_s;
@@ -342,6 +323,7 @@ pub fn run(case: Case, probe: Probe) -> Ceiling {
         if t < SETTLE_S {
             continue;
         }
+        records += 1;
         for (s, sensor) in sensors.iter().enumerate() {
             let truth = sensor.truth();
             let line = Line {
@@ -359,38 +341,28 @@ pub fn run(case: Case, probe: Probe) -> Ceiling {
             let (sigma, hidden) =
                 info.map_or((f64::INFINITY, f64::INFINITY), |i| (i.sigma_ln_c, i.hidden_ln_c));
             sigma_max = sigma_max.max(sigma);
-            noise[s].1 += 1;
-            checked[s].1 += 1;
-            noise[s].0 += u64::from(NOISE_SIGMAS * sigma <= 0.01);
-            checked[s].0 += u64::from(5.0 * sigma + CHECK_SHARE * hidden <= 0.01);
+            noise[s] += u64::from(NOISE_SIGMAS * sigma <= 0.01);
+            checked[s] += u64::from(5.0 * sigma + CHECK_SHARE * hidden <= 0.01);
         }
     }
     Ceiling {
         case,
         probe,
-        noise: Share::of(&noise),
-        checked: Share::of(&checked),
+        noise: Share::of(&noise, records),
+        checked: Share::of(&checked, records),
         sigma_max,
     }
 }
 
 /// The probes of the table: the layout's comb, an octave lower over two
 /// blocks, through ranged stages, and both.
-pub fn probes(layout: Layout) -> [Probe; 4] {
-    let ranged = Probe::ranged(layout);
-    [
-        Probe::of(layout),
-        Probe::over_two_blocks(layout),
-        ranged,
-        Probe { blocks: 2, ..ranged },
-    ]
-}
+pub const PROBES: [Probe; 4] = [Probe::COMB, Probe::OVER_TWO_BLOCKS, Probe::RANGED, Probe::BOTH];
 
-/// [`crate::availability::cases`], each read by every one of [`probes`].
+/// [`crate::availability::cases`], each read by every one of [`PROBES`].
 pub fn rows() -> Vec<[Ceiling; 4]> {
     crate::availability::cases()
         .into_iter()
-        .map(|case| probes(case.layout).map(|p| run(case, p)))
+        .map(|case| PROBES.map(|p| run(case, p)))
         .collect()
 }
 

@@ -165,7 +165,7 @@ fn a_clean_skin_keeps_its_records_across_the_documented_sensors() {
         // Never more than the block can tell: a reader past the noise
         // ceiling vouches for records whose σ of C leaves one in 10⁵ past
         // 1 % by noise alone (`host_sim::ceiling`).
-        let ceiling = host_sim::ceiling::run(k.case, Probe::of(k.case.layout));
+        let ceiling = host_sim::ceiling::run(k.case, Probe::COMB);
         let share = k.all.availability.share().unwrap_or(0.0);
         assert!(
             share <= ceiling.noise.all && k.least <= ceiling.noise.least,
@@ -223,7 +223,7 @@ proptest::proptest! {
             proptest::prop_assert!(k.least >= 0.99, "{:?}", k);
         }
         // Never more than the blocks can tell (`host_sim::ceiling`).
-        let ceiling = host_sim::ceiling::run(case, Probe::of(case.layout));
+        let ceiling = host_sim::ceiling::run(case, Probe::COMB);
         let share = k.all.availability.share().unwrap_or(0.0);
         proptest::prop_assert!(
             share <= ceiling.noise.all && k.least <= ceiling.noise.least,
