@@ -78,9 +78,7 @@ pub(crate) struct Skin {
 impl Skin {
     /// The sensors of `case`, settled at their start.
     pub(crate) fn new(case: &Case) -> Self {
-        let mut params = SensorParams::PAPER;
-        params.top.r_rest_ohm *= case.r_scale;
-        params.bottom.r_rest_ohm *= case.r_scale;
+        let params = SensorParams::PAPER.with_electrodes_scaled(case.r_scale);
         let profile = if case.rate_mm_s > 0.0 {
             Profile::paper(case.rate_mm_s)
         } else {

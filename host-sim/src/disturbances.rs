@@ -372,15 +372,8 @@ fn sensor_params(base: SensorParams, change: &SensorChange, t: f64, duration: f6
     let mut p = base;
     match *change {
         SensorChange::Effect(e, v) => p.effects = p.effects.with(e, v),
-        SensorChange::Jump(k) if t >= 0.5 * duration => {
-            p.top.r_rest_ohm *= k;
-            p.bottom.r_rest_ohm *= k;
-        }
-        SensorChange::Drift(k) => {
-            let g = 1.0 + k * t / duration;
-            p.top.r_rest_ohm *= g;
-            p.bottom.r_rest_ohm *= g;
-        }
+        SensorChange::Jump(k) if t >= 0.5 * duration => p = p.with_electrodes_scaled(k),
+        SensorChange::Drift(k) => p = p.with_electrodes_scaled(1.0 + k * t / duration),
         SensorChange::DriftC(k) => p.c_rest_farad *= 1.0 + k * t / duration,
         _ => {}
     }

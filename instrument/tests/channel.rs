@@ -448,10 +448,7 @@ fn the_range_follows_the_sensor() {
 
     // Low impedance at 5859 Hz: never clipped after the first block, never
     // on the top range.
-    let mut low = SensorParams::REFERENCE;
-    low.top.r_rest_ohm *= 0.5;
-    low.bottom.r_rest_ohm *= 0.5;
-    let low = Sensor::settled(low);
+    let low = Sensor::settled(SensorParams::REFERENCE.with_electrodes_scaled(0.5));
     let s = settings(&fe);
     let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), 4);
     let recs = blocks(&s, &fe, &mut ch, |f| low.impedance(f), &mut Rng::new(4), 30);

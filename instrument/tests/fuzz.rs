@@ -144,10 +144,7 @@ proptest! {
 /// The reference sensor with its electrodes at `r_scale` times their
 /// resistance.
 fn scaled(r_scale: f64) -> SensorParams {
-    let mut p = SensorParams::REFERENCE;
-    p.top.r_rest_ohm *= r_scale;
-    p.bottom.r_rest_ohm *= r_scale;
-    p
+    SensorParams::REFERENCE.with_electrodes_scaled(r_scale)
 }
 
 /// One block of `sensor` read by channel `ch` at its frequency through the
@@ -228,11 +225,10 @@ proptest! {
         let p = scaled(r_scale);
         let mut sensor = Sensor::settled(p);
         sensor.advance(&Profile::Constant(stretch), 0.0);
-        let mut stepped = p;
-        if let Attack::Resistance(k) = attack {
-            stepped.top.r_rest_ohm *= k;
-            stepped.bottom.r_rest_ohm *= k;
-        }
+        let stepped = match attack {
+            Attack::Resistance(k) => p.with_electrodes_scaled(k),
+            _ => p,
+        };
         let mut stepped = Sensor::settled(stepped);
         stepped.advance(&Profile::Constant(stretch), 0.0);
         let mut ch = Channel::pinned(REFERENCE.rest_capacitance(), index);

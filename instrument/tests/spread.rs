@@ -45,9 +45,7 @@ fn a_sinusoid_on_the_current_moves_the_tones_along_its_spread() {
     let hz = layout.tones_hz().map(|f| f as f64);
     let mut worst = 0f64;
     for (r_scale, highest) in [(1.0, 4), (4.0, 3)] {
-        let mut params = paper;
-        params.top.r_rest_ohm *= r_scale;
-        params.bottom.r_rest_ohm *= r_scale;
+        let params = paper.with_electrodes_scaled(r_scale);
         let z = [Sensor::settled(params).impedances(&hz); SENSORS];
         let levels_of = |hum: &Disturbance, seed: u64| -> (Levels<5>, Levels<5>) {
             let mut frame: Box<Frame> = Box::new([[[0; 4]; BLOCK_INSTANTS]; 5]);

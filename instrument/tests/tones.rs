@@ -397,9 +397,7 @@ fn a_skin_of_different_sensors_reads_each_on_its_own_table() {
 fn each_sensor_is_read_on_its_own_film() {
     let film = |s: usize| 1e-3 + 4e-3 * s as f64 / 15.0;
     let params = |s: usize| {
-        let mut p = SensorParams::PAPER;
-        p.top.r_rest_ohm *= 1.35;
-        p.bottom.r_rest_ohm *= 1.35;
+        let mut p = SensorParams::PAPER.with_electrodes_scaled(1.35);
         p.effects = p
             .effects
             .with(Effect::LeadResistance, 0.1)
@@ -853,9 +851,7 @@ fn wired_for(
     let hum = interferer(hz, log_counts, phase);
     let params = |s: usize| {
         let w = wiring[s];
-        let mut p = SensorParams::PAPER;
-        p.top.r_rest_ohm *= r_scale;
-        p.bottom.r_rest_ohm *= r_scale;
+        let mut p = SensorParams::PAPER.with_electrodes_scaled(r_scale);
         p.effects = instrument::effects::EffectSet::NONE
             .with(Effect::LeadResistance, w.leads)
             .with(Effect::ParasiticCapacitance, w.cable_farad)
@@ -1011,12 +1007,7 @@ fn interfered_from(
     (onset_s, duration_s): (f64, f64),
 ) -> Result<(), String> {
     let hum = interferer(hz, log_counts, phase);
-    let params = |_| {
-        let mut p = SensorParams::PAPER;
-        p.top.r_rest_ohm *= r_scale;
-        p.bottom.r_rest_ohm *= r_scale;
-        p
-    };
+    let params = |_| SensorParams::PAPER.with_electrodes_scaled(r_scale);
     let table = at_phase(start);
     let out = run_with(
         Layout::BLOCK_4MS,
@@ -1117,12 +1108,7 @@ fn records_lost_while_stretching_are_read_at_the_lowest_pair() {
     // The pair's lower tone and the third tone's highest.
     let (lowest, third) = (layout.tone_hz(0), layout.tone_hz(2));
     for (rate, r_scale) in [(50.0, 1.0), (20.0, 2.0)] {
-        let params = |_| {
-            let mut p = SensorParams::PAPER;
-            p.top.r_rest_ohm *= r_scale;
-            p.bottom.r_rest_ohm *= r_scale;
-            p
-        };
+        let params = |_| SensorParams::PAPER.with_electrodes_scaled(r_scale);
         let profile = |_| Profile::paper(rate);
         let out = run_with(
             Layout::BLOCK_4MS,

@@ -102,6 +102,15 @@ impl SensorParams {
         p
     }
 
+    /// This sensor with both electrodes `k` times as resistive (their
+    /// rest resistance scaled; their dynamics unchanged).
+    pub fn with_electrodes_scaled(self, k: f64) -> Self {
+        let mut p = self;
+        p.top.r_rest_ohm *= k;
+        p.bottom.r_rest_ohm *= k;
+        p
+    }
+
     /// True capacitance at a uniform stretch `s` (mm), F.
     pub fn capacitance(&self, s: f64) -> f64 {
         self.c_rest_farad * (1.0 + s / self.rest_length_mm)
