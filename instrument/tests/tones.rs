@@ -718,7 +718,8 @@ proptest::proptest! {
         r_scale in 0.5f64..1.5,
         seed in proptest::prelude::any::<u64>(),
     ) {
-        if let Err(e) = interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.06) {
+        let case = Interfered { hz, log_counts, phase, start, r_scale, seed };
+        if let Err(e) = interfered_for(&case, 0.06) {
             proptest::prop_assert!(false, "{e}");
         }
     }
@@ -753,7 +754,8 @@ proptest::proptest! {
         seed in proptest::prelude::any::<u64>(),
     ) {
         let hz = near_tone(tone, off_hz, alias);
-        if let Err(e) = interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.6) {
+        let case = Interfered { hz, log_counts, phase, start, r_scale, seed };
+        if let Err(e) = interfered_for(&case, 0.6) {
             proptest::prop_assert!(false, "{e}");
         }
     }
@@ -779,7 +781,8 @@ proptest::proptest! {
     ) {
         let hz = near_tone(tone, off_hz, alias);
         let during = (onset_s, onset_s + 0.2);
-        if let Err(e) = interfered_from(hz, log_counts, phase, start, r_scale, seed, during) {
+        let case = Interfered { hz, log_counts, phase, start, r_scale, seed };
+        if let Err(e) = interfered_from(&case, during) {
             proptest::prop_assert!(false, "{e}");
         }
     }
@@ -805,7 +808,8 @@ proptest::proptest! {
     ) {
         let mut rng = Rng::new(seed ^ 0x5eed);
         let wiring: [Wiring; SENSORS] = core::array::from_fn(|_| Wiring::draw(&mut rng));
-        if let Err(e) = wired_for(&wiring, hz, log_counts, phase, start, r_scale, seed) {
+        let case = Interfered { hz, log_counts, phase, start, r_scale, seed };
+        if let Err(e) = wired_for(&wiring, &case) {
             proptest::prop_assert!(false, "{e}");
         }
     }
@@ -839,16 +843,8 @@ impl Wiring {
 /// A case of [`wired_sensors_never_leave_a_wrong_valid_record`]: 0.3 s,
 /// long enough for the model check's history to bound the last records
 /// (`instrument::joint::QUIET_MIN_BLOCKS`).
-fn wired_for(
-    wiring: &[Wiring; SENSORS],
-    hz: f32,
-    log_counts: f32,
-    phase: f32,
-    start: f64,
-    r_scale: f64,
-    seed: u64,
-) -> Result<(), String> {
-    let hum = interferer(hz, log_counts, phase);
+fn wired_for(wiring: &[Wiring; SENSORS], case: &Interfered) -> Result<(), String> {
+    let (hum, r_scale) = (case.interferer(), case.r_scale);
     let params = |s: usize| {
         let w = wiring[s];
         let mut p = SensorParams::PAPER.with_electrodes_scaled(r_scale);
@@ -868,18 +864,21 @@ fn wired_for(
             .unwrap()
             .with_loss_tangent(w.known_loss)
     });
-    let table = at_phase(start);
+    let table = at_phase(case.start);
     let out = run_on(
         Layout::BLOCK_4MS,
         &each,
         params,
         |_| Profile::Table(&table),
         0.3,
-        seed,
+        case.seed,
         (&hum, 0.0),
     );
     none_off(&out, |s| {
-        format!("sensor {s} ({:?}), {hz} Hz of {} counts", wiring[s], hum.hum_i)
+        format!(
+            "sensor {s} ({:?}), {} Hz of {} counts",
+            wiring[s], case.hz, hum.hum_i
+        )
     })
 }
 
@@ -895,12 +894,14 @@ fn wired_for(
 fn a_rescued_pair_beside_an_alias_is_not_vouched_for() {
     let hz = near_tone(1, -103.033_226, true);
     interfered_for(
-        hz,
-        1.330_690_5,
-        0.506_403_86,
-        0.137_238_927_957_033_02,
-        1.380_016_162_183_304,
-        5_371_320_281_391_996_586,
+        &Interfered {
+            hz,
+            log_counts: 1.330_690_5,
+            phase: 0.506_403_86,
+            start: 0.137_238_927_957_033_02,
+            r_scale: 1.380_016_162_183_304,
+            seed: 5_371_320_281_391_996_586,
+        },
         0.6,
     )
     .unwrap();
@@ -915,12 +916,14 @@ fn a_rescued_pair_beside_an_alias_is_not_vouched_for() {
 fn a_shift_shared_by_the_pair_is_bounded_as_shared() {
     let hz = near_tone(1, -119.703_964, false);
     interfered_for(
-        hz,
-        1.277_844_1,
-        0.434_864_67,
-        0.940_157_405_638_630_7,
-        1.327_724_798_406_766_2,
-        14_070_057_087_953_212_397,
+        &Interfered {
+            hz,
+            log_counts: 1.277_844_1,
+            phase: 0.434_864_67,
+            start: 0.940_157_405_638_630_7,
+            r_scale: 1.327_724_798_406_766_2,
+            seed: 14_070_057_087_953_212_397,
+        },
         0.6,
     )
     .unwrap();
@@ -937,12 +940,14 @@ fn a_shift_shared_by_the_pair_is_bounded_as_shared() {
 fn an_interferer_spread_over_two_tones_is_bounded_as_spread() {
     let hz = near_tone(0, -65.996_02, false);
     interfered_for(
-        hz,
-        1.104_828,
-        0.251_562_86,
-        0.0,
-        1.489_338_459_897_335_6,
-        8_840_742_424_399_232_566,
+        &Interfered {
+            hz,
+            log_counts: 1.104_828,
+            phase: 0.251_562_86,
+            start: 0.0,
+            r_scale: 1.489_338_459_897_335_6,
+            seed: 8_840_742_424_399_232_566,
+        },
         0.6,
     )
     .unwrap();
@@ -968,67 +973,68 @@ fn near_tone(tone: usize, off_hz: f32, alias: bool) -> f32 {
 /// too: it sees what the pair hides.
 #[test]
 fn an_alias_next_to_the_lower_tone_is_not_vouched_for() {
-    let (hz, log_counts, phase, start, r_scale, seed) = (
-        24_495.941f32,
-        1.0869603f32,
-        0.87565297f32,
-        6.889701292577919f64,
-        1.480042810892388f64,
-        10068520996498014150u64,
-    );
-    interfered_for(hz, log_counts, phase, start, r_scale, seed, 0.06).unwrap();
+    let case = Interfered {
+        hz: 24_495.941,
+        log_counts: 1.0869603,
+        phase: 0.87565297,
+        start: 6.889701292577919,
+        r_scale: 1.480042810892388,
+        seed: 10068520996498014150,
+    };
+    interfered_for(&case, 0.06).unwrap();
 }
 
 /// One case of [`interferers_never_leave_a_wrong_valid_record`] (0.06 s)
 /// or of [`moved_channels_never_leave_a_wrong_valid_record`], over
 /// `duration_s`: every valid record within 1 % of its truth, or the first
 /// that is not.
-fn interfered_for(
-    hz: f32,
-    log_counts: f32,
-    phase: f32,
-    start: f64,
-    r_scale: f64,
-    seed: u64,
-    duration_s: f64,
-) -> Result<(), String> {
-    interfered_from(hz, log_counts, phase, start, r_scale, seed, (0.0, duration_s))
+fn interfered_for(case: &Interfered, duration_s: f64) -> Result<(), String> {
+    interfered_from(case, (0.0, duration_s))
 }
 
 /// [`interfered_for`] with the interferer on from `onset_s` to the end of
 /// the run, `until_s`: a clean skin before it.
-fn interfered_from(
-    hz: f32,
-    log_counts: f32,
-    phase: f32,
-    start: f64,
-    r_scale: f64,
-    seed: u64,
-    (onset_s, duration_s): (f64, f64),
-) -> Result<(), String> {
-    let hum = interferer(hz, log_counts, phase);
+fn interfered_from(case: &Interfered, (onset_s, duration_s): (f64, f64)) -> Result<(), String> {
+    let (hum, r_scale) = (case.interferer(), case.r_scale);
     let params = |_| SensorParams::PAPER.with_electrodes_scaled(r_scale);
-    let table = at_phase(start);
+    let table = at_phase(case.start);
     let out = run_with(
         Layout::BLOCK_4MS,
         &[*paper_cal(); SENSORS],
         params,
         |_| Profile::Table(&table),
         duration_s,
-        seed,
+        case.seed,
         (&hum, onset_s),
     );
-    none_off(&out, |s| format!("sensor {s}, {hz} Hz of {} counts", hum.hum_i))
+    none_off(&out, |s| {
+        format!("sensor {s}, {} Hz of {} counts", case.hz, hum.hum_i)
+    })
 }
 
-/// An interferer of `hz` and 10^`log_counts` counts at `phase` (turns)
-/// on a sensor's current input.
-fn interferer(hz: f32, log_counts: f32, phase: f32) -> Disturbance {
-    Disturbance {
-        hum_hz: hz,
-        hum_i: 10f32.powf(log_counts),
-        hum_phase_turns: phase,
-        ..Disturbance::NONE
+/// A case of the interferer targets: an interferer of `hz` and
+/// 10^`log_counts` counts at `phase` (turns) on every sensor's current
+/// input, the sensors `start` s into the paper's cycle, their electrodes
+/// `r_scale` times the paper's, the front end's noise drawn from `seed`.
+#[derive(Clone, Copy, Debug)]
+struct Interfered {
+    hz: f32,
+    log_counts: f32,
+    phase: f32,
+    start: f64,
+    r_scale: f64,
+    seed: u64,
+}
+
+impl Interfered {
+    /// The interferer on a sensor's current input.
+    fn interferer(&self) -> Disturbance {
+        Disturbance {
+            hum_hz: self.hz,
+            hum_i: 10f32.powf(self.log_counts),
+            hum_phase_turns: self.phase,
+            ..Disturbance::NONE
+        }
     }
 }
 
@@ -1144,12 +1150,14 @@ fn records_lost_while_stretching_are_read_at_the_lowest_pair() {
 #[test]
 fn an_alias_between_the_lowest_tones_is_never_rescued() {
     interfered_for(
-        24595.617,
-        1.4140357,
-        0.046236068,
-        0.0,
-        1.336_518_655_006_492,
-        796_531_775_277_614_506,
+        &Interfered {
+            hz: 24595.617,
+            log_counts: 1.4140357,
+            phase: 0.046236068,
+            start: 0.0,
+            r_scale: 1.336_518_655_006_492,
+            seed: 796_531_775_277_614_506,
+        },
         0.06,
     )
     .unwrap();
